@@ -1,0 +1,111 @@
+// Peaks of an A-line envelope and the choice of the bone (or sphere) echo among them.
+//
+// A peak is the maximum of a contiguous run of envelope samples above the threshold (Mozes 2008,
+// Fig. 4.10); the threshold is a factor of the envelope's mean (1.5 in the dissertation) or a
+// fraction of its maximum. The policy then picks one peak or rejects the record with a reason.
+#pragma once
+
+#include <optional>
+#include <string_view>
+#include <vector>
+
+namespace echoreg {
+
+/// Why a frame gave no point. None means accepted.
+enum class RejectReason {
+  None,
+  NoPeak,         ///< nothing above the threshold
+  TooManyPeaks,   ///< more peaks than the policy allows (single, double)
+  TooFewPeaks,    ///< fewer peaks than the policy needs (double)
+  OutsideWindow,  ///< peaks exist, but none inside the processing window
+  NotBone,        ///< bone policy: peaks exist, none has the bone's signature
+  Inconsistent,   ///< temporal filter: not yet `history` frames agreeing
+  TooClose,       ///< spatial filter: closer than the minimum spread to an accepted point
+  InvalidPose,    ///< a pose needed for the point is missing or not OK
+};
+
+/// "", "no-peak", "too-many-peaks", "too-few-peaks", "outside-window", "not-bone",
+/// "inconsistent", "too-close", "invalid-pose".
+std::string_view rejectReasonName(RejectReason reason);
+
+enum class ThresholdMode {
+  FactorOfMean,  ///< threshold = thresholdFactor * mean(envelope)
+  FractionOfMax  ///< threshold = thresholdOfMax * max(envelope)
+};
+
+enum class PeakPolicy {
+  Single,     ///< exactly one peak (phantom in water)
+  Double,     ///< exactly two; the second is bone (standoff/skin, then bone)
+  WindowMax,  ///< the largest value inside the window, if above the threshold (calibration)
+  First,      ///< the shallowest peak
+  Max,        ///< the strongest peak
+  Bone,       ///< the deepest peak with a bone's signature (see BoneEchoParams)
+};
+
+/// "single", "double", "window-max", "first", "max", "bone".
+std::string_view peakPolicyName(PeakPolicy policy);
+/// Parses a name of peakPolicyName; throws std::invalid_argument listing the valid names.
+PeakPolicy parsePeakPolicy(std::string_view name);
+
+/// The bone echo's signature, used by PeakPolicy::Bone. Bone reflects almost all the energy that
+/// reaches it, so it casts an acoustic shadow: behind a bone echo the envelope falls to the
+/// electronic noise floor, while behind skin, fascia or a reverberation the tissue's speckle goes
+/// on. Oblique incidence sends the echo away from the transducer, so a bone echo barely above the
+/// speckle before it is not trusted. Electrical noise bursts last microseconds, an echo a pulse.
+struct BoneEchoParams {
+  /// Length of the tissue region before and the shadow region after a peak, mm (> 0).
+  double regionMm = 3.0;
+  /// Gap left between the peak and each region, mm (>= 0), so the echo's own tails are excluded.
+  double gapMm = 0.3;
+  /// Minimum ratio of the median envelope before the peak to the median after it (> 1).
+  double minShadowRatio = 1.6;
+  /// Minimum ratio of the peak value to the median envelope before it (> 1).
+  double minContrast = 3.5;
+  /// Maximum full width at half maximum of the peak, mm (> 0).
+  double maxWidthMm = 1.0;
+  /// Deep in tissue the speckle fades to the electronic noise: a median after the peak within
+  /// this factor of the noise floor (10th percentile of the envelope) also counts as a shadow.
+  double noiseFloorFactor = 1.5;
+  /// Minimum ratio of the median envelope before the peak (the tissue's speckle) to the noise
+  /// floor (>= 0): skin and standoff-wall echoes have water, not tissue, in front of them.
+  double minTissueOverNoise = 1.5;
+};
+
+struct PeakParams {
+  ThresholdMode thresholdMode = ThresholdMode::FactorOfMean;
+  double thresholdFactor = 1.5;  ///< FactorOfMean: multiple of the mean (> 0)
+  double thresholdOfMax = 0.5;   ///< FractionOfMax: fraction of the maximum, (0, 1]
+  /// Processing window in sample indices [begin, end) (from --window-mm through DepthConversion).
+  std::optional<int> windowBegin;
+  std::optional<int> windowEnd;
+  PeakPolicy policy = PeakPolicy::Bone;
+  BoneEchoParams bone;
+  /// Refine the chosen peak to a fraction of a sample with a parabola through its neighbours.
+  bool subsample = true;
+  /// Millimetres per sample, for the bone policy's lengths (DepthConversion::mmPerSample()).
+  double mmPerSample = 0.0154;
+};
+
+/// Checks the parameters; throws std::invalid_argument naming the first bad one.
+void validate(const PeakParams& params);
+
+struct Peak {
+  int index = 0;      ///< sample index of the maximum of the run
+  float value = 0.F;  ///< envelope value there
+  int runBegin = 0;   ///< first sample of the run above the threshold
+  int runEnd = 0;     ///< one past the last sample of the run
+};
+
+struct PeakResult {
+  double threshold = 0.0;
+  std::vector<Peak> peaks;  ///< every peak above the threshold (inside the window when one is set)
+  RejectReason reason = RejectReason::NoPeak;
+  int selected = -1;                ///< index into peaks of the chosen peak, -1 when rejected
+  double sampleIndex = 0.0;         ///< chosen peak's (fractional) sample index
+  bool accepted() const { return reason == RejectReason::None; }
+};
+
+/// Finds the peaks of `envelope` (count samples) and applies the policy.
+PeakResult findPeaks(const PeakParams& params, const float* envelope, int count);
+
+}  // namespace echoreg

@@ -1,0 +1,57 @@
+// The A-line chain over a whole capture: single-signal detection of every frame, then the points
+// (in Beam, or through tracked poses in Tracker or a reference frame) and the inter-signal
+// filters in frame order.
+#pragma once
+
+#include "echoreg/core/detection.hpp"
+#include "echoreg/core/sequence.hpp"
+
+#include <Eigen/Core>
+
+#include <functional>
+#include <map>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace echoreg {
+
+/// Where a frame's point lives. Without a pose transform the point is (0, 0, depth) in Beam.
+/// With `poseTransform` (e.g. "ProbeToTracker"): p = ProbeToTracker * beamToProbe * (0, 0, d, 1);
+/// with `referenceTransform` too (e.g. "FemurToTracker"): p = inv(FemurToTracker) * that.
+struct PointFrameOptions {
+  std::string poseTransform;
+  std::string referenceTransform;
+  Eigen::Matrix4d beamToProbe = Eigen::Matrix4d::Identity();
+};
+
+/// One frame's verdict.
+struct FrameDetection {
+  int frame = 0;
+  std::optional<double> timestampS;
+  RejectReason reason = RejectReason::NoPeak;
+  int peakCount = 0;
+  std::optional<double> sampleIndex;      ///< the chosen peak, also when a later filter rejected it
+  std::optional<double> depthMm;          ///< only when accepted
+  std::optional<Eigen::Vector3d> pointMm; ///< only when accepted
+  bool accepted() const { return reason == RejectReason::None; }
+};
+
+struct SequenceDetection {
+  std::vector<FrameDetection> frames;
+  int accepted = 0;
+  std::map<std::string, int> rejectedByReason;  ///< reason name -> count
+};
+
+/// The depth conversion a capture implies: echoreg's acquisition header keys where present,
+/// `fallback` otherwise.
+DepthConversion depthFromSequence(const Sequence& sequence, const DepthConversion& fallback);
+
+/// Runs the chain on every frame of an A-line sequence. `progress(done, total)` is called now and
+/// then when given. Throws std::invalid_argument for bad parameters, for a sequence without
+/// pixels, or for a pose/reference transform the sequence does not have (listing those it has).
+SequenceDetection detectSequence(const Sequence& sequence, const DetectionParams& params,
+                                 const PointFrameOptions& points = {},
+                                 const std::function<void(int, int)>& progress = {});
+
+}  // namespace echoreg

@@ -1,0 +1,237 @@
+#include "echoreg/core/envelope.hpp"
+
+#include <unsupported/Eigen/FFT>
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <stdexcept>
+#include <string>
+
+namespace echoreg {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+void require(bool condition, const std::string& message) {
+  if (!condition) throw std::invalid_argument(message);
+}
+
+}  // namespace
+
+std::string_view envelopeMethodName(EnvelopeMethod method) {
+  switch (method) {
+    case EnvelopeMethod::Mozes: return "mozes";
+    case EnvelopeMethod::Hann: return "hann";
+    case EnvelopeMethod::StdDev: return "stddev";
+    case EnvelopeMethod::Hilbert: return "hilbert";
+  }
+  return "?";
+}
+
+EnvelopeMethod parseEnvelopeMethod(std::string_view name) {
+  for (auto method : {EnvelopeMethod::Mozes, EnvelopeMethod::Hann, EnvelopeMethod::StdDev,
+                      EnvelopeMethod::Hilbert}) {
+    if (name == envelopeMethodName(method)) return method;
+  }
+  throw std::invalid_argument("unknown envelope '" + std::string(name) +
+                              "' (expected mozes, hann, stddev or hilbert)");
+}
+
+void validate(const EnvelopeParams& p) {
+  require(p.ringDownSamples >= 0, "ring-down samples must be >= 0");
+  require(p.butterworthOrder >= 1 && p.butterworthOrder <= 12, "Butterworth order must be 1..12");
+  require(p.cutoffNormalized > 0.0 && p.cutoffNormalized < 1.0,
+          "cutoff must be in (0, 1) of Nyquist");
+  require(p.windowSamples >= 1, "envelope window must be >= 1 sample");
+  require(p.samplingFrequencyHz > 0.0 && std::isfinite(p.samplingFrequencyHz),
+          "sampling frequency must be > 0");
+  require(p.transducerFrequencyHz > 0.0 && p.transducerFrequencyHz < p.samplingFrequencyHz / 2.0,
+          "transducer frequency must be in (0, Nyquist)");
+  require(p.relativeBandwidth > 0.0 && p.relativeBandwidth <= 2.0,
+          "relative bandwidth must be in (0, 2]");
+  require(p.smoothingSamples >= 1, "smoothing must be >= 1 sample");
+}
+
+struct EnvelopeDetector::Impl {
+  EnvelopeParams params;
+  IirCoefficients butterworth;
+  std::vector<float> centred;       // demeaned, ring-down zeroed record
+  std::vector<double> prefixA;      // prefix sums for the O(1) moving windows
+  std::vector<double> prefixB;
+  std::vector<double> prefixC;
+  std::vector<double> cosTable;     // Hann: cos/sin(theta * m) for the sample index m
+  std::vector<double> sinTable;
+  Eigen::FFT<float> fft;
+  std::vector<std::complex<float>> spectrum;
+  std::vector<std::complex<float>> analytic;
+  std::vector<float> magnitude;
+  std::vector<float> bandGain;      // Hilbert: one-sided band weights per FFT bin
+  int bandSize = 0;
+
+  void centre(const float* samples, int count) {
+    centred.resize(static_cast<std::size_t>(count));
+    double sum = 0.0;
+    for (int i = 0; i < count; ++i) sum += samples[i];
+    const auto mean = static_cast<float>(sum / count);
+    const int ringDown = std::min(params.ringDownSamples, count);
+    for (int i = 0; i < ringDown; ++i) centred[static_cast<std::size_t>(i)] = 0.F;
+    for (int i = ringDown; i < count; ++i) centred[static_cast<std::size_t>(i)] = samples[i] - mean;
+  }
+
+  void mozes(int count, float* out) {
+    for (int i = 0; i < count; ++i) out[i] = std::fabs(centred[static_cast<std::size_t>(i)]);
+    if (params.zeroPhase) {
+      filterZeroPhase(butterworth, out, count, out);
+    } else {
+      filterCausal(butterworth, out, count, out);
+    }
+  }
+
+  // Centred window [n - half, n - half + W) clipped to the record.
+  int half() const { return (params.windowSamples - 1) / 2; }
+
+  void hann(int count, float* out) {
+    const int window = params.windowSamples;
+    const int period = window + 1;
+    const auto n = static_cast<std::size_t>(count);
+    if (cosTable.size() != static_cast<std::size_t>(period)) {
+      // w[k] = 0.5 - 0.5 cos(theta (k + 1)), k = 0..W-1, theta = 2 pi / (W + 1): MATLAB's
+      // hanning(W), with no zero end points. cos(theta j) has period W + 1 in j.
+      const double theta = 2.0 * kPi / period;
+      cosTable.resize(static_cast<std::size_t>(period));
+      sinTable.resize(static_cast<std::size_t>(period));
+      for (int j = 0; j < period; ++j) {
+        cosTable[static_cast<std::size_t>(j)] = std::cos(theta * j);
+        sinTable[static_cast<std::size_t>(j)] = std::sin(theta * j);
+      }
+    }
+    const auto phase = [period](int j) {
+      const int r = j % period;
+      return static_cast<std::size_t>(r < 0 ? r + period : r);
+    };
+    prefixA.assign(n + 1, 0.0);
+    prefixB.assign(n + 1, 0.0);
+    prefixC.assign(n + 1, 0.0);
+    std::size_t m = 0;
+    for (std::size_t j = 0; m < n; ++m, j = (j + 1 == static_cast<std::size_t>(period) ? 0 : j + 1)) {
+      const double a = std::fabs(centred[m]);
+      prefixA[m + 1] = prefixA[m] + a;
+      prefixB[m + 1] = prefixB[m] + a * cosTable[j];
+      prefixC[m + 1] = prefixC[m] + a * sinTable[j];
+    }
+    // Sum_k w[k] a[m] over m = i - h + k: with s = i - h - 1, cos(theta (m - s)) expands into the
+    // cos/sin prefix sums, so each output costs O(1) whatever the window.
+    const double norm = 2.0 / period;  // 1 / sum(w)
+    const int h = half();
+    for (int i = 0; i < count; ++i) {
+      const int begin = std::max(0, i - h);
+      const int end = std::min(count, i - h + window);
+      const auto b = static_cast<std::size_t>(begin), e = static_cast<std::size_t>(end);
+      const double s0 = prefixA[e] - prefixA[b];
+      const double sc = prefixB[e] - prefixB[b];
+      const double ss = prefixC[e] - prefixC[b];
+      const std::size_t shift = phase(i - h - 1);
+      const double weighted = 0.5 * s0 - 0.5 * (cosTable[shift] * sc + sinTable[shift] * ss);
+      out[i] = static_cast<float>(std::max(0.0, weighted) * norm);
+    }
+  }
+
+  void stddev(int count, float* out) {
+    const auto n = static_cast<std::size_t>(count);
+    prefixA.assign(n + 1, 0.0);
+    prefixB.assign(n + 1, 0.0);
+    for (std::size_t m = 0; m < n; ++m) {
+      const double x = centred[m];
+      prefixA[m + 1] = prefixA[m] + x;
+      prefixB[m + 1] = prefixB[m] + x * x;
+    }
+    const int h = half();
+    for (int i = 0; i < count; ++i) {
+      const int begin = std::max(0, i - h);
+      const int end = std::min(count, i - h + params.windowSamples);
+      const auto b = static_cast<std::size_t>(begin), e = static_cast<std::size_t>(end);
+      const double samples = end - begin;
+      const double mean = (prefixA[e] - prefixA[b]) / samples;
+      const double variance = (prefixB[e] - prefixB[b]) / samples - mean * mean;
+      out[i] = static_cast<float>(std::sqrt(std::max(0.0, variance)));
+    }
+  }
+
+  void prepareBand(int fftSize) {
+    if (bandSize == fftSize) return;
+    bandSize = fftSize;
+    bandGain.assign(static_cast<std::size_t>(fftSize), 0.F);
+    const double centreHz = params.transducerFrequencyHz;
+    const double bandwidthHz = params.relativeBandwidth * centreHz;  // -6 dB full width
+    // Raised-cosine band: flat within B/4 of the centre, 0.5 at B/2, zero beyond 3B/4.
+    for (int k = 1; k < fftSize / 2; ++k) {
+      const double frequencyHz = params.samplingFrequencyHz * k / fftSize;
+      const double offset = std::fabs(frequencyHz - centreHz);
+      double gain = 0.0;
+      if (offset <= bandwidthHz / 4.0) {
+        gain = 1.0;
+      } else if (offset < 3.0 * bandwidthHz / 4.0) {
+        gain = 0.5 * (1.0 + std::cos(kPi * (offset - bandwidthHz / 4.0) / (bandwidthHz / 2.0)));
+      }
+      bandGain[static_cast<std::size_t>(k)] = static_cast<float>(2.0 * gain);  // one-sided
+    }
+  }
+
+  void hilbert(int count, float* out) {
+    int fftSize = 1;
+    while (fftSize < count) fftSize *= 2;
+    prepareBand(fftSize);
+    const auto size = static_cast<std::size_t>(fftSize);
+    analytic.assign(size, {0.F, 0.F});
+    for (int i = 0; i < count; ++i) analytic[static_cast<std::size_t>(i)] = centred[static_cast<std::size_t>(i)];
+    fft.fwd(spectrum, analytic);
+    for (std::size_t k = 0; k < size; ++k) spectrum[k] *= bandGain[k];
+    fft.inv(analytic, spectrum);
+    magnitude.resize(static_cast<std::size_t>(count));
+    for (int i = 0; i < count; ++i) magnitude[static_cast<std::size_t>(i)] = std::abs(analytic[static_cast<std::size_t>(i)]);
+    boxAverage(magnitude.data(), count, params.smoothingSamples, out);
+  }
+
+  void boxAverage(const float* in, int count, int window, float* out) {
+    const auto n = static_cast<std::size_t>(count);
+    prefixA.assign(n + 1, 0.0);
+    for (std::size_t m = 0; m < n; ++m) prefixA[m + 1] = prefixA[m] + in[m];
+    const int h = (window - 1) / 2;
+    for (int i = 0; i < count; ++i) {
+      const int begin = std::max(0, i - h);
+      const int end = std::min(count, i - h + window);
+      out[i] = static_cast<float>((prefixA[static_cast<std::size_t>(end)] -
+                                   prefixA[static_cast<std::size_t>(begin)]) /
+                                  (end - begin));
+    }
+  }
+};
+
+EnvelopeDetector::EnvelopeDetector(const EnvelopeParams& params) : impl_(std::make_unique<Impl>()) {
+  validate(params);
+  impl_->params = params;
+  if (params.method == EnvelopeMethod::Mozes) {
+    impl_->butterworth = designButterworthLowPass(params.butterworthOrder, params.cutoffNormalized);
+  }
+}
+
+EnvelopeDetector::~EnvelopeDetector() = default;
+EnvelopeDetector::EnvelopeDetector(EnvelopeDetector&&) noexcept = default;
+EnvelopeDetector& EnvelopeDetector::operator=(EnvelopeDetector&&) noexcept = default;
+
+const EnvelopeParams& EnvelopeDetector::params() const { return impl_->params; }
+
+void EnvelopeDetector::compute(const float* samples, int count, float* envelope) {
+  if (count <= 0) return;
+  impl_->centre(samples, count);
+  switch (impl_->params.method) {
+    case EnvelopeMethod::Mozes: impl_->mozes(count, envelope); break;
+    case EnvelopeMethod::Hann: impl_->hann(count, envelope); break;
+    case EnvelopeMethod::StdDev: impl_->stddev(count, envelope); break;
+    case EnvelopeMethod::Hilbert: impl_->hilbert(count, envelope); break;
+  }
+}
+
+}  // namespace echoreg

@@ -1,0 +1,169 @@
+#include "aline_generator.hpp"
+
+#include "echoreg/core/detection.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <stdexcept>
+#include <vector>
+
+namespace echoreg {
+namespace {
+
+std::vector<float> echoes(const std::vector<test::EchoSpec>& specs, std::uint64_t seed = 1) {
+  return test::makeEchoRecord(4096, specs, test::PulseModel{}, 128.0, 0.7, seed);
+}
+
+DetectionParams chain(EnvelopeMethod method, PeakPolicy policy) {
+  DetectionParams params;
+  params.envelope.method = method;
+  params.envelope.windowSamples = 9;
+  params.envelope.zeroPhase = true;
+  params.envelope.cutoffNormalized = 0.05;
+  params.peaks.policy = policy;
+  params.peaks.thresholdMode = ThresholdMode::FractionOfMax;
+  params.peaks.thresholdOfMax = 0.3;
+  return params;
+}
+
+TEST(Depth, ConversionFollowsEquation41) {
+  DepthConversion depth;  // 50 MHz, no delay, 1540 m/s
+  EXPECT_NEAR(depth.depthMm(1000.0), 1000.0 / 50e6 * 1540.0 * 1000.0 / 2.0, 1e-12);  // 15.4 mm
+  EXPECT_NEAR(depth.mmPerSample(), 0.0154, 1e-12);
+  depth.samplingFrequencyHz = 420e6;
+  depth.delayS = 2e-6;
+  depth.speedOfSoundMps = 1480.0;
+  EXPECT_NEAR(depth.depthMm(2364.0), 5.645142857142858, 1e-9);  // PLUS's Agilent frame 0
+  EXPECT_NEAR(depth.sampleIndex(depth.depthMm(1234.5)), 1234.5, 1e-9);
+}
+
+TEST(Detection, SyntheticEchoesGiveTheirDepthWithinOneSample) {
+  const std::vector<double> truths{700.0, 1333.3, 2500.75, 3900.2};
+  for (auto method : {EnvelopeMethod::Mozes, EnvelopeMethod::Hann, EnvelopeMethod::StdDev,
+                      EnvelopeMethod::Hilbert}) {
+    for (double truth : truths) {
+      SignalDetector detector(chain(method, PeakPolicy::Single));
+      const auto x = echoes({{truth, 80.0}});
+      const SignalDetection d = detector.detect(x.data(), 4096);
+      ASSERT_TRUE(d.accepted()) << envelopeMethodName(method) << " at " << truth << ": "
+                                << rejectReasonName(d.peaks.reason);
+      EXPECT_NEAR(d.peaks.sampleIndex, truth, 1.0) << envelopeMethodName(method);
+      EXPECT_NEAR(d.depthMm, DepthConversion{}.depthMm(truth), DepthConversion{}.mmPerSample());
+    }
+  }
+}
+
+TEST(Detection, PoliciesPickTheRightEcho) {
+  const auto x = echoes({{800.0, 40.0}, {1600.0, 90.0}, {2400.0, 60.0}});
+  const auto pick = [&](PeakPolicy policy) {
+    SignalDetector detector(chain(EnvelopeMethod::Hann, policy));
+    return detector.detect(x.data(), 4096);
+  };
+  EXPECT_NEAR(pick(PeakPolicy::First).peaks.sampleIndex, 800.0, 1.0);
+  EXPECT_NEAR(pick(PeakPolicy::Max).peaks.sampleIndex, 1600.0, 1.0);
+  EXPECT_EQ(pick(PeakPolicy::Max).peaks.peaks.size(), 3U);
+
+  DetectionParams windowed = chain(EnvelopeMethod::Hann, PeakPolicy::WindowMax);
+  DepthConversion depth;
+  windowed.windowMinMm = depth.depthMm(2000.0);
+  windowed.windowMaxMm = depth.depthMm(3000.0);
+  SignalDetector detector(windowed);
+  EXPECT_NEAR(detector.detect(x.data(), 4096).peaks.sampleIndex, 2400.0, 1.0);
+
+  const auto two = echoes({{900.0, 40.0}, {1900.0, 90.0}});
+  SignalDetector doubleDetector(chain(EnvelopeMethod::Hann, PeakPolicy::Double));
+  const SignalDetection d = doubleDetector.detect(two.data(), 4096);
+  ASSERT_TRUE(d.accepted());
+  EXPECT_NEAR(d.peaks.sampleIndex, 1900.0, 1.0);  // the second is bone
+}
+
+TEST(Detection, EverySingleSignalRejectionReason) {
+  const auto reasonOf = [](const DetectionParams& params, const std::vector<float>& x) {
+    SignalDetector detector(params);
+    return detector.detect(x.data(), static_cast<int>(x.size())).peaks.reason;
+  };
+  // no-peak: a constant record has nothing above any threshold.
+  const std::vector<float> flat(4096, 128.F);
+  EXPECT_EQ(reasonOf(chain(EnvelopeMethod::Hann, PeakPolicy::Max), flat), RejectReason::NoPeak);
+  // too-many-peaks / too-few-peaks.
+  const auto two = echoes({{900.0, 60.0}, {1900.0, 60.0}});
+  const auto one = echoes({{1900.0, 60.0}});
+  EXPECT_EQ(reasonOf(chain(EnvelopeMethod::Hann, PeakPolicy::Single), two), RejectReason::TooManyPeaks);
+  EXPECT_EQ(reasonOf(chain(EnvelopeMethod::Hann, PeakPolicy::Double), one), RejectReason::TooFewPeaks);
+  // outside-window: the only echo lies beyond the window.
+  DetectionParams windowed = chain(EnvelopeMethod::Hann, PeakPolicy::Single);
+  windowed.windowMinMm = 1.0;
+  windowed.windowMaxMm = 10.0;  // 650 samples; the echo is at 1900
+  EXPECT_EQ(reasonOf(windowed, one), RejectReason::OutsideWindow);
+  windowed.peaks.policy = PeakPolicy::WindowMax;
+  EXPECT_EQ(reasonOf(windowed, one), RejectReason::OutsideWindow);
+  // not-bone: an echo in water (no tissue speckle before it) is not bone.
+  DetectionParams bone = detectionPreset("default");
+  EXPECT_EQ(reasonOf(bone, one), RejectReason::NotBone);
+}
+
+TEST(Detection, BonePolicyFindsBoneBehindAStrongerFascia) {
+  // Speckle from the skin (600) to the bone (1700), a fascia twice as strong as the bone at 1100,
+  // then the bone's shadow.
+  test::PulseModel pulse;
+  std::vector<test::EchoSpec> specs{{600.0, 30.0}, {1100.0, 120.0}, {1700.0, 60.0}};
+  std::mt19937_64 rng(5);
+  std::normal_distribution<double> amplitude(0.0, 8.0);
+  for (double s = 610.0; s < 1690.0; s += 3.0) specs.push_back({s, amplitude(rng)});
+  const auto x = test::makeEchoRecord(4096, specs, pulse, 128.0, 0.5, 3);
+  SignalDetector detector(detectionPreset("default"));
+  const SignalDetection d = detector.detect(x.data(), 4096);
+  ASSERT_TRUE(d.accepted()) << rejectReasonName(d.peaks.reason);
+  EXPECT_NEAR(d.peaks.sampleIndex, 1700.0, 1.0);
+  // The dissertation's policy cannot: it needs exactly two peaks.
+  SignalDetector mozes(detectionPreset("mozes2008"));
+  const SignalDetection m = mozes.detect(x.data(), 4096);
+  EXPECT_FALSE(m.accepted() && std::fabs(m.peaks.sampleIndex - 1700.0) < 5.0);
+}
+
+TEST(InterSignal, TemporalConsistencyNeedsHistoryAgreeingFrames) {
+  InterSignalParams params;
+  params.history = 3;
+  params.consistencyMm = 0.5;
+  params.minSpreadMm = 0.0;
+  InterSignalFilter filter(params);
+  const Eigen::Vector3d a(0, 0, 10.0), b(0, 0, 10.2), c(0, 0, 10.3), far(0, 0, 14.0);
+  EXPECT_EQ(filter.judge(a), RejectReason::Inconsistent);
+  EXPECT_EQ(filter.judge(b), RejectReason::Inconsistent);
+  EXPECT_EQ(filter.judge(c), RejectReason::None);
+  EXPECT_EQ(filter.judge(far), RejectReason::Inconsistent);  // the run restarts
+  EXPECT_EQ(filter.judge(far), RejectReason::Inconsistent);
+  EXPECT_EQ(filter.judge(far), RejectReason::None);
+  filter.breakRun();  // a rejected frame in between
+  EXPECT_EQ(filter.judge(far), RejectReason::Inconsistent);
+}
+
+TEST(InterSignal, SpatialSpreadDropsPointsTooCloseToAnAcceptedOne) {
+  InterSignalParams params;
+  params.history = 1;
+  params.minSpreadMm = 1.0;
+  InterSignalFilter filter(params);
+  EXPECT_EQ(filter.judge({0, 0, 10}), RejectReason::None);
+  EXPECT_EQ(filter.judge({0.5, 0.5, 10}), RejectReason::TooClose);
+  EXPECT_EQ(filter.judge({1.0, 0.5, 10}), RejectReason::None);  // 1.12 mm away
+  EXPECT_EQ(filter.acceptedPoints().size(), 2U);
+  EXPECT_THROW(InterSignalFilter(InterSignalParams{0, 0.5, 1.0}), std::invalid_argument);
+}
+
+TEST(Detection, PresetsAndValidation) {
+  for (const auto& name : detectionPresetNames()) EXPECT_NO_THROW(validate(detectionPreset(name)));
+  EXPECT_THROW(detectionPreset("fastest"), std::invalid_argument);
+  DetectionParams params = detectionPreset("default");
+  params.windowMinMm = 20.0;
+  params.windowMaxMm = 10.0;
+  EXPECT_THROW(validate(params), std::invalid_argument);
+  params = detectionPreset("default");
+  params.depth.speedOfSoundMps = 0.0;
+  EXPECT_THROW(SignalDetector{params}, std::invalid_argument);
+  EXPECT_EQ(parsePeakPolicy("window-max"), PeakPolicy::WindowMax);
+  EXPECT_THROW(parsePeakPolicy("triple"), std::invalid_argument);
+}
+
+}  // namespace
+}  // namespace echoreg
