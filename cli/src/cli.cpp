@@ -1,0 +1,60 @@
+#include "echoreg/cli/cli.hpp"
+
+#include "commands.hpp"
+
+#include "echoreg/core/error.hpp"
+
+#include <unistd.h>
+
+#include <iostream>
+#include <map>
+#include <stdexcept>
+
+namespace echoreg::cli {
+
+int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  CLI::App app{
+      "echoreg: register bones to CT with tracked A-mode ultrasound (Mozes 2008).\n"
+      "Commands available in this build: info, detect. simulate, calibrate, segment, register,\n"
+      "evaluate, figure and study arrive with their issues.",
+      "echoreg"};
+  app.require_subcommand(1);
+  app.set_version_flag("--version", "echoreg 0.1.0");
+  app.footer("Exit codes: 0 success, 1 the work failed (the message names the file), 2 wrong usage.");
+
+  std::map<std::string, CommandAction> actions;
+  actions["info"] = addInfoCommand(app);
+  actions["detect"] = addDetectCommand(app);
+
+  std::vector<std::string> reversed(args.rbegin(), args.rend());
+  try {
+    app.parse(reversed);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e, out, err);
+    return code == 0 ? 0 : 2;
+  }
+
+  const Streams streams{out, err, &err == &std::cerr && ::isatty(STDERR_FILENO) != 0};
+  for (CLI::App* sub : app.get_subcommands()) {
+    try {
+      return actions.at(sub->get_name())(streams);
+    } catch (const FileError& e) {
+      err << "echoreg " << sub->get_name() << ": " << e.what() << "\n";
+      return 1;
+    } catch (const std::invalid_argument& e) {
+      err << "echoreg " << sub->get_name() << ": " << e.what() << "\n";
+      return 1;
+    } catch (const std::exception& e) {
+      err << "echoreg " << sub->get_name() << ": " << e.what() << "\n";
+      return 1;
+    }
+  }
+  return 2;
+}
+
+int run(int argc, char** argv) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  return run(args, std::cout, std::cerr);
+}
+
+}  // namespace echoreg::cli

@@ -1,0 +1,24 @@
+// The subcommands, each registering its options on the CLI11 app and running its work.
+#pragma once
+
+#include <CLI/CLI.hpp>
+
+#include <functional>
+#include <iosfwd>
+
+namespace echoreg::cli {
+
+/// Where a command writes: results to `out`, messages and progress to `err`.
+struct Streams {
+  std::ostream& out;
+  std::ostream& err;
+  bool errIsTerminal = false;
+};
+
+/// A registered command's work, called after parsing; returns the exit code.
+using CommandAction = std::function<int(const Streams&)>;
+
+CommandAction addInfoCommand(CLI::App& app);
+CommandAction addDetectCommand(CLI::App& app);
+
+}  // namespace echoreg::cli

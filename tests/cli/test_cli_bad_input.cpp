@@ -1,0 +1,149 @@
+// Every broken capture gets a clear error naming the file, exit code 1, and no output file.
+#include "cli_test_support.hpp"
+#include "demo_capture.hpp"
+#include "test_support.hpp"
+
+#include "echoreg/core/sequence.hpp"
+
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <regex>
+
+namespace echoreg {
+namespace {
+
+using test::runEchoreg;
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+void spill(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+class CliBadInput : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    good_ = dir_.file("good.igs.mha");
+    SequenceWriteOptions raw;
+    raw.compress = false;
+    writeSequence(test::makeDemoSweep({8}), good_, raw);
+    SequenceWriteOptions zipped;
+    writeSequence(test::makeDemoSweep({8}), dir_.file("zipped.igs.mha"), zipped);
+    text_ = slurp(good_);
+  }
+
+  // Writes a variant of the good file with `from` replaced by `to` in the header.
+  std::string variant(const std::string& name, const std::string& from, const std::string& to) {
+    std::string bytes = text_;
+    const std::size_t at = bytes.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) bytes.replace(at, from.size(), to);
+    const std::string path = dir_.file(name);
+    spill(path, bytes);
+    return path;
+  }
+
+  void expectRefused(const std::string& capture, const std::string& phrase) {
+    const std::string csv = dir_.file("out.csv");
+    for (const std::string& command : {std::string("detect"), std::string("info")}) {
+      std::vector<std::string> args{command, capture};
+      if (command == "detect") args.insert(args.end(), {"--out", csv});
+      const auto result = runEchoreg(args);
+      EXPECT_EQ(result.exitCode, 1) << command << " " << capture << "\n" << result.err;
+      EXPECT_NE(result.err.find(capture), std::string::npos) << result.err;
+      EXPECT_NE(result.err.find(phrase), std::string::npos)
+          << "expected \"" << phrase << "\" in: " << result.err;
+      EXPECT_FALSE(std::filesystem::exists(csv));
+    }
+  }
+
+  test::TempDir dir_;
+  std::string good_;
+  std::string text_;
+};
+
+TEST_F(CliBadInput, GoodFileIsAccepted) {
+  EXPECT_EQ(runEchoreg({"detect", good_, "--out", dir_.file("ok.csv")}).exitCode, 0);
+  EXPECT_TRUE(std::filesystem::exists(dir_.file("ok.csv")));
+}
+
+TEST_F(CliBadInput, TruncatedData) {
+  const std::string path = dir_.file("truncated.igs.mha");
+  spill(path, text_.substr(0, text_.size() - 5000));
+  expectRefused(path, "truncated");
+}
+
+TEST_F(CliBadInput, TruncatedHeader) {
+  const std::string path = dir_.file("header.igs.mha");
+  spill(path, text_.substr(0, 300));
+  expectRefused(path, "ElementDataFile");
+}
+
+TEST_F(CliBadInput, WrongDimSize) {
+  expectRefused(variant("dims.igs.mha", "DimSize = 4096 1 8", "DimSize = 4096 1"), "DimSize");
+  expectRefused(variant("dims2.igs.mha", "DimSize = 4096 1 8", "DimSize = 4096 1 9"), "DimSize");
+}
+
+TEST_F(CliBadInput, UnknownElementType) {
+  expectRefused(variant("type.igs.mha", "ElementType = MET_UCHAR", "ElementType = MET_QUATERNION"),
+                "MET_QUATERNION");
+}
+
+TEST_F(CliBadInput, NoElementDataFile) {
+  expectRefused(variant("nodata.igs.mha", "ElementDataFile = LOCAL", "ElementDataFiel = LOCAL"),
+                "ElementDataFile");
+}
+
+TEST_F(CliBadInput, CompressedDataThatDoesNotInflate) {
+  std::string bytes = slurp(dir_.file("zipped.igs.mha"));
+  const std::size_t data = bytes.find("ElementDataFile = LOCAL\n") + 24;
+  for (std::size_t i = data + 10; i < bytes.size() && i < data + 200; ++i) bytes[i] = static_cast<char>(bytes[i] ^ 0x5A);
+  const std::string path = dir_.file("corrupt.igs.mha");
+  spill(path, bytes);
+  expectRefused(path, "inflate");
+}
+
+TEST_F(CliBadInput, NanInATransform) {
+  const std::regex firstMatrix("(Seq_Frame0000_ProbeToTrackerTransform = )\\S+");
+  const std::string path = dir_.file("nan.igs.mha");
+  spill(path, std::regex_replace(text_, firstMatrix, "$1nan", std::regex_constants::format_first_only));
+  expectRefused(path, "Seq_Frame0000_ProbeToTrackerTransform");
+}
+
+TEST_F(CliBadInput, TransformWithFifteenNumbers) {
+  const std::regex lastNumber("(Seq_Frame0001_ProbeToTrackerTransform = [^\\n]*) 1\\n");
+  const std::string path = dir_.file("fifteen.igs.mha");
+  spill(path, std::regex_replace(text_, lastNumber, "$1\n", std::regex_constants::format_first_only));
+  expectRefused(path, "Seq_Frame0001_ProbeToTrackerTransform");
+}
+
+TEST_F(CliBadInput, EmptySequence) {
+  std::string header = text_.substr(0, text_.find("ElementDataFile = LOCAL\n") + 24);
+  header = std::regex_replace(header, std::regex("Seq_Frame[^\\n]*\\n"), "");
+  header = std::regex_replace(header, std::regex("DimSize = 4096 1 8"), "DimSize = 4096 1 0");
+  const std::string path = dir_.file("empty.igs.mha");
+  spill(path, header);
+  expectRefused(path, "no frames");
+}
+
+TEST_F(CliBadInput, DirectoryAndMissingFile) {
+  expectRefused(dir_.path(), "directory");
+  expectRefused(dir_.file("absent.igs.mha"), "absent.igs.mha");
+}
+
+TEST_F(CliBadInput, TrackerOnlyCaptureHasNoALinesToDetect) {
+  ECHOREG_REQUIRE_SHARED_FILE(capture, "plus/EightLandmarkPointsTrackedForPhantomRegistration.igs.mha");
+  const auto result = runEchoreg({"detect", capture, "--out", dir_.file("t.csv")});
+  EXPECT_EQ(result.exitCode, 1);
+  EXPECT_NE(result.err.find("no A-lines"), std::string::npos) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(dir_.file("t.csv")));
+}
+
+}  // namespace
+}  // namespace echoreg

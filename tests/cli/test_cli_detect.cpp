@@ -1,0 +1,194 @@
+#include "cli_test_support.hpp"
+#include "demo_capture.hpp"
+#include "test_support.hpp"
+
+#include "echoreg/core/sequence.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <regex>
+#include <sstream>
+
+namespace echoreg {
+namespace {
+
+using test::runEchoreg;
+
+struct CsvRow {
+  std::map<std::string, std::string> cells;
+  const std::string& operator[](const std::string& key) const { return cells.at(key); }
+};
+
+std::vector<CsvRow> readCsv(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> header;
+  std::stringstream hs(line);
+  for (std::string cell; std::getline(hs, cell, ',');) header.push_back(cell);
+  std::vector<CsvRow> rows;
+  while (std::getline(in, line)) {
+    CsvRow row;
+    std::size_t start = 0;
+    for (const auto& name : header) {
+      const std::size_t comma = line.find(',', start);
+      row.cells[name] = line.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+      start = comma == std::string::npos ? line.size() : comma + 1;
+    }
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+TEST(CliDetect, AgilentDepthsAgreeWithPlus) {
+  ECHOREG_REQUIRE_SHARED_FILE(capture, "plus/Agilent_Scope_Recording_DP310.igs.nrrd");
+  test::TempDir dir;
+  const std::string csv = dir.file("agilent.csv");
+  // The device file PlusDeviceSet_Server_Agilent.xml: 420 MHz, 2 us delay, 1480 m/s.
+  const auto result = runEchoreg({"detect", capture, "--envelope", "hann", "--envelope-window", "153",
+                                  "--peaks", "max", "--ring-down", "0", "--sampling-frequency",
+                                  "420e6", "--delay", "2e-6", "--speed-of-sound", "1480",
+                                  "--history", "1", "--min-spread-mm", "0", "--out", csv});
+  ASSERT_EQ(result.exitCode, 0) << result.err;
+  const Sequence plus = readSequence(capture);
+  const auto rows = readCsv(csv);
+  ASSERT_EQ(rows.size(), 150U);
+  const double mmPerSample = 1480.0 * 1000.0 / (2.0 * 420e6);
+  int withinThreeSamples = 0;
+  double worstMm = 0.0;
+  for (int f = 0; f < 130; ++f) {
+    const auto& row = rows[static_cast<std::size_t>(f)];
+    ASSERT_EQ(row["status"], "accepted") << "frame " << f;
+    const double ours = std::stod(row["depth_mm"]);
+    const double theirs = plus.frames[static_cast<std::size_t>(f)].transforms.at("ZOffsetToTracker").matrix(2, 3);
+    EXPECT_NEAR(ours, theirs, 0.05) << "frame " << f;
+    worstMm = std::max(worstMm, std::fabs(ours - theirs));
+    if (std::fabs(ours - theirs) <= 3.0 * mmPerSample) ++withinThreeSamples;
+  }
+  std::cout << "Agilent frames 0-129: worst " << worstMm << " mm, " << withinThreeSamples
+            << " of 130 within 3 samples\n";
+  EXPECT_GE(withinThreeSamples, 80);
+}
+
+TEST(CliDetect, DemoSweepGivesSpreadConsistentPointsAndSaysWhyFramesWereRejected) {
+  test::TempDir dir;
+  const std::string capture = dir.file("sweep.igs.mha");
+  std::vector<double> truthMm;
+  writeSequence(test::makeDemoSweep({}, &truthMm), capture);
+  const std::string csv = dir.file("depths.csv");
+  const auto result = runEchoreg({"detect", capture, "--pose", "ProbeToTracker", "--out", csv, "--json"});
+  ASSERT_EQ(result.exitCode, 0) << result.err;
+  const auto summary = nlohmann::json::parse(result.out);
+  EXPECT_EQ(summary["frames"], 600);
+  EXPECT_EQ(summary["rejected_by_reason"]["invalid-pose"], 20);  // frames 300-319
+  EXPECT_GT(summary["accepted"].get<int>(), 60);
+  EXPECT_GT(summary["rejected_by_reason"]["too-close"].get<int>(), 100);
+  EXPECT_GT(summary["rejected_by_reason"]["not-bone"].get<int>(), 30);  // the oblique stretch
+
+  const auto rows = readCsv(csv);
+  ASSERT_EQ(rows.size(), 600U);
+  std::vector<std::array<double, 3>> points;
+  for (const auto& row : rows) {
+    const int frame = std::stoi(row["frame"]);
+    if (frame >= 300 && frame < 320 && !row["sample_index"].empty()) {
+      EXPECT_EQ(row["reason"], "invalid-pose");
+    }
+    if (row["status"] != "accepted") {
+      EXPECT_TRUE(row["depth_mm"].empty());
+      EXPECT_FALSE(row["reason"].empty());
+      continue;
+    }
+    const double truth = truthMm[static_cast<std::size_t>(frame)];
+    ASSERT_GT(truth, 0.0) << "frame " << frame << " accepted where the echo was lost";
+    EXPECT_NEAR(std::stod(row["depth_mm"]), truth, 0.2) << "frame " << frame;
+    points.push_back({std::stod(row["x_mm"]), std::stod(row["y_mm"]), std::stod(row["z_mm"])});
+  }
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    for (std::size_t j = i + 1; j < points.size(); ++j) {
+      const double d = std::hypot(points[i][0] - points[j][0], points[i][1] - points[j][1],
+                                  points[i][2] - points[j][2]);
+      EXPECT_GE(d, 1.0);
+    }
+  }
+}
+
+TEST(CliDetect, SameInputSameBytes) {
+  test::TempDir dir;
+  const std::string capture = dir.file("sweep.igs.mha");
+  writeSequence(test::makeDemoSweep({120}), capture);
+  ASSERT_EQ(runEchoreg({"detect", capture, "--out", dir.file("a.csv")}).exitCode, 0);
+  ASSERT_EQ(runEchoreg({"detect", capture, "--out", dir.file("b.csv")}).exitCode, 0);
+  EXPECT_EQ(slurp(dir.file("a.csv")), slurp(dir.file("b.csv")));
+}
+
+TEST(CliDetect, ParamsFileIsOverriddenByFlags) {
+  test::TempDir dir;
+  const std::string capture = dir.file("sweep.igs.mha");
+  writeSequence(test::makeDemoSweep({60}), capture);
+  std::ofstream(dir.file("params.json")) << R"({"preset": "mozes2008", "speed-of-sound": 1600, "history": 1})";
+  auto result = runEchoreg({"detect", capture, "--params", dir.file("params.json"), "--out",
+                            dir.file("d.csv"), "--json", "--speed-of-sound", "1500"});
+  ASSERT_EQ(result.exitCode, 0) << result.err;
+  auto summary = nlohmann::json::parse(result.out);
+  EXPECT_EQ(summary["preset"], "mozes2008");
+  EXPECT_EQ(summary["envelope"], "mozes");
+  EXPECT_EQ(summary["speed_of_sound_mps"], 1500.0);  // the flag beats the file
+  result = runEchoreg({"detect", capture, "--params", dir.file("params.json"), "--out",
+                       dir.file("d.csv"), "--json"});
+  EXPECT_EQ(nlohmann::json::parse(result.out)["speed_of_sound_mps"], 1600.0);  // the file beats the header
+  result = runEchoreg({"detect", capture, "--out", dir.file("d.csv"), "--json"});
+  EXPECT_EQ(nlohmann::json::parse(result.out)["speed_of_sound_mps"], 1540.0);  // the header
+}
+
+TEST(CliDetect, BadParametersFailWithoutOutput) {
+  test::TempDir dir;
+  const std::string capture = dir.file("sweep.igs.mha");
+  writeSequence(test::makeDemoSweep({30}), capture);
+  const std::string csv = dir.file("d.csv");
+  std::ofstream(dir.file("typo.json")) << R"({"envelope-widnow": 9})";
+  std::ofstream(dir.file("broken.json")) << R"({"envelope": )";
+  const std::vector<std::vector<std::string>> cases{
+      {"detect", capture, "--out", csv, "--envelope", "gauss"},
+      {"detect", capture, "--out", csv, "--peaks", "triple"},
+      {"detect", capture, "--out", csv, "--window-mm", "20", "10"},
+      {"detect", capture, "--out", csv, "--speed-of-sound", "-1"},
+      {"detect", capture, "--out", csv, "--params", dir.file("typo.json")},
+      {"detect", capture, "--out", csv, "--params", dir.file("broken.json")},
+      {"detect", capture, "--out", csv, "--pose", "StylusToTracker"},
+      {"detect", capture, "--out", dir.path() + "/missing-folder/d.csv"},
+  };
+  for (const auto& args : cases) {
+    const auto result = runEchoreg(args);
+    EXPECT_EQ(result.exitCode, 1) << args.back() << ": " << result.err;
+    EXPECT_FALSE(result.err.empty());
+    EXPECT_FALSE(std::filesystem::exists(csv)) << args.back();
+  }
+  const auto typo = runEchoreg({"detect", capture, "--out", csv, "--params", dir.file("typo.json")});
+  EXPECT_NE(typo.err.find("typo.json"), std::string::npos);
+  EXPECT_NE(typo.err.find("envelope-widnow"), std::string::npos);
+}
+
+TEST(CliDetect, UsageErrorsExitTwo) {
+  EXPECT_EQ(runEchoreg({}).exitCode, 2);
+  EXPECT_EQ(runEchoreg({"detect"}).exitCode, 2);                       // no capture, no --out
+  EXPECT_EQ(runEchoreg({"detect", "x.mha"}).exitCode, 2);              // no --out
+  EXPECT_EQ(runEchoreg({"register", "--model", "m.vtp"}).exitCode, 2);  // not in this build
+  const auto help = runEchoreg({"detect", "--help"});
+  EXPECT_EQ(help.exitCode, 0);
+  EXPECT_NE(help.out.find("--envelope-window"), std::string::npos);
+  EXPECT_NE(help.out.find("--min-spread-mm"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace echoreg
