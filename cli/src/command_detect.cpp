@@ -314,10 +314,10 @@ CommandAction addDetectCommand(CLI::App& app) {
       ->group("Peaks");
   cmd->add_option("--bone-region-mm", f.boneRegionMm, "bone: tissue/shadow region length, mm (3)")->group("Bone policy");
   cmd->add_option("--bone-gap-mm", f.boneGapMm, "bone: gap between the echo and the regions, mm (0.3)")->group("Bone policy");
-  cmd->add_option("--bone-shadow-ratio", f.boneShadowRatio, "bone: min tissue/shadow median ratio (1.6)")->group("Bone policy");
+  cmd->add_option("--bone-shadow-ratio", f.boneShadowRatio, "bone: min tissue/shadow median ratio (2)")->group("Bone policy");
   cmd->add_option("--bone-contrast", f.boneContrast, "bone: min peak/tissue median ratio (3.5)")->group("Bone policy");
   cmd->add_option("--bone-max-width-mm", f.boneMaxWidthMm, "bone: max echo width at half maximum, mm (1)")->group("Bone policy");
-  cmd->add_option("--bone-noise-factor", f.boneNoiseFactor, "bone: shadow within this x noise floor counts (1.5)")->group("Bone policy");
+  cmd->add_option("--bone-noise-factor", f.boneNoiseFactor, "bone: shadow within this x noise floor counts (1.2)")->group("Bone policy");
   cmd->add_option("--bone-tissue-over-noise", f.boneTissueOverNoise, "bone: min tissue median / noise floor (1.5)")->group("Bone policy");
 
   cmd->add_option("--sampling-frequency", f.samplingFrequencyHz, "Hz; default: capture header, else 50e6")->group("Depth");

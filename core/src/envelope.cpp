@@ -1,5 +1,7 @@
 #include "echoreg/core/envelope.hpp"
 
+#include "sample_sum.hpp"
+
 #include <unsupported/Eigen/FFT>
 
 #include <algorithm>
@@ -63,6 +65,8 @@ struct EnvelopeDetector::Impl {
   std::vector<double> prefixC;
   std::vector<double> cosTable;     // Hann: cos/sin(theta * m) for the sample index m
   std::vector<double> sinTable;
+  std::vector<float> hannWeights;   // Hann, short windows: normalised weights
+  std::vector<float> padded;        // Hann, short windows: zero-padded |x|
   Eigen::FFT<float> fft;
   std::vector<std::complex<float>> spectrum;
   std::vector<std::complex<float>> analytic;
@@ -72,9 +76,7 @@ struct EnvelopeDetector::Impl {
 
   void centre(const float* samples, int count) {
     centred.resize(static_cast<std::size_t>(count));
-    double sum = 0.0;
-    for (int i = 0; i < count; ++i) sum += samples[i];
-    const auto mean = static_cast<float>(sum / count);
+    const auto mean = static_cast<float>(detail::sumOfSamples(samples, count) / count);
     const int ringDown = std::min(params.ringDownSamples, count);
     for (int i = 0; i < ringDown; ++i) centred[static_cast<std::size_t>(i)] = 0.F;
     for (int i = ringDown; i < count; ++i) centred[static_cast<std::size_t>(i)] = samples[i] - mean;
@@ -92,6 +94,55 @@ struct EnvelopeDetector::Impl {
   // Centred window [n - half, n - half + W) clipped to the record.
   int half() const { return (params.windowSamples - 1) / 2; }
 
+  // Short windows: a direct weighted sum over a zero-padded copy, which vectorises; long windows:
+  // the O(1) prefix-sum form below. Both compute the same definition.
+  static constexpr int kDirectHannMaxWindow = 32;
+
+  void hannDirect(const float* samples, int count, float mean, float* out) {
+    const int window = params.windowSamples;
+    const int h = half();
+    if (hannWeights.size() != static_cast<std::size_t>(window)) {
+      hannWeights.resize(static_cast<std::size_t>(window));
+      double sum = 0.0;
+      for (int k = 0; k < window; ++k) sum += 0.5 - 0.5 * std::cos(2.0 * kPi * (k + 1) / (window + 1));
+      for (int k = 0; k < window; ++k) {
+        hannWeights[static_cast<std::size_t>(k)] =
+            static_cast<float>((0.5 - 0.5 * std::cos(2.0 * kPi * (k + 1) / (window + 1))) / sum);
+      }
+    }
+    // padded[j] = |x[j - h] - mean|, zero in the ring-down and outside the record; the block
+    // loop below reads up to kBlock samples past the last output, so pad that too.
+    constexpr int kBlock = 8;
+    padded.resize(static_cast<std::size_t>(count + window + kBlock));
+    const int ringDown = std::min(params.ringDownSamples, count);
+    float* rectified = padded.data() + h;
+    std::fill(padded.begin(), padded.begin() + h + ringDown, 0.F);
+    for (int i = ringDown; i < count; ++i) rectified[i] = std::fabs(samples[i] - mean);
+    std::fill(padded.begin() + h + count, padded.end(), 0.F);
+    hannBlocks(padded.data(), hannWeights.data(), window, count, out);
+  }
+
+  // out[i] = sum_k weights[k] * source[i + k], eight outputs at a time held in registers.
+  static void hannBlocks(const float* source, const float* weights, int window, int count,
+                         float* out) {
+    constexpr int kBlock = 8;
+    int i = 0;
+    for (; i + kBlock <= count; i += kBlock) {
+      float acc[kBlock] = {0, 0, 0, 0, 0, 0, 0, 0};
+      for (int k = 0; k < window; ++k) {
+        const float weight = weights[k];
+        const float* s = source + i + k;
+        for (int j = 0; j < kBlock; ++j) acc[j] += weight * s[j];
+      }
+      for (int j = 0; j < kBlock; ++j) out[i + j] = acc[j];
+    }
+    for (; i < count; ++i) {
+      float acc = 0.F;
+      for (int k = 0; k < window; ++k) acc += weights[k] * source[i + k];
+      out[i] = acc;
+    }
+  }
+
   void hann(int count, float* out) {
     const int window = params.windowSamples;
     const int period = window + 1;
@@ -107,10 +158,6 @@ struct EnvelopeDetector::Impl {
         sinTable[static_cast<std::size_t>(j)] = std::sin(theta * j);
       }
     }
-    const auto phase = [period](int j) {
-      const int r = j % period;
-      return static_cast<std::size_t>(r < 0 ? r + period : r);
-    };
     prefixA.assign(n + 1, 0.0);
     prefixB.assign(n + 1, 0.0);
     prefixC.assign(n + 1, 0.0);
@@ -125,6 +172,8 @@ struct EnvelopeDetector::Impl {
     // cos/sin prefix sums, so each output costs O(1) whatever the window.
     const double norm = 2.0 / period;  // 1 / sum(w)
     const int h = half();
+    // Phase of sample i - h - 1 modulo the period, advanced by one per output.
+    int shift = ((-h - 1) % period + period) % period;
     for (int i = 0; i < count; ++i) {
       const int begin = std::max(0, i - h);
       const int end = std::min(count, i - h + window);
@@ -132,9 +181,10 @@ struct EnvelopeDetector::Impl {
       const double s0 = prefixA[e] - prefixA[b];
       const double sc = prefixB[e] - prefixB[b];
       const double ss = prefixC[e] - prefixC[b];
-      const std::size_t shift = phase(i - h - 1);
-      const double weighted = 0.5 * s0 - 0.5 * (cosTable[shift] * sc + sinTable[shift] * ss);
+      const auto phase = static_cast<std::size_t>(shift);
+      const double weighted = 0.5 * s0 - 0.5 * (cosTable[phase] * sc + sinTable[phase] * ss);
       out[i] = static_cast<float>(std::max(0.0, weighted) * norm);
+      if (++shift == period) shift = 0;
     }
   }
 
@@ -225,6 +275,12 @@ const EnvelopeParams& EnvelopeDetector::params() const { return impl_->params; }
 
 void EnvelopeDetector::compute(const float* samples, int count, float* envelope) {
   if (count <= 0) return;
+  if (impl_->params.method == EnvelopeMethod::Hann &&
+      impl_->params.windowSamples <= Impl::kDirectHannMaxWindow) {
+    const auto mean = static_cast<float>(detail::sumOfSamples(samples, count) / count);
+    impl_->hannDirect(samples, count, mean, envelope);
+    return;
+  }
   impl_->centre(samples, count);
   switch (impl_->params.method) {
     case EnvelopeMethod::Mozes: impl_->mozes(count, envelope); break;

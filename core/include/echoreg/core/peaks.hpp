@@ -58,14 +58,14 @@ struct BoneEchoParams {
   /// Gap left between the peak and each region, mm (>= 0), so the echo's own tails are excluded.
   double gapMm = 0.3;
   /// Minimum ratio of the median envelope before the peak to the median after it (> 1).
-  double minShadowRatio = 1.6;
+  double minShadowRatio = 2.0;
   /// Minimum ratio of the peak value to the median envelope before it (> 1).
   double minContrast = 3.5;
   /// Maximum full width at half maximum of the peak, mm (> 0).
   double maxWidthMm = 1.0;
   /// Deep in tissue the speckle fades to the electronic noise: a median after the peak within
   /// this factor of the noise floor (10th percentile of the envelope) also counts as a shadow.
-  double noiseFloorFactor = 1.5;
+  double noiseFloorFactor = 1.2;
   /// Minimum ratio of the median envelope before the peak (the tissue's speckle) to the noise
   /// floor (>= 0): skin and standoff-wall echoes have water, not tissue, in front of them.
   double minTissueOverNoise = 1.5;
