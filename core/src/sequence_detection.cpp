@@ -20,14 +20,26 @@ void requireTransform(const Sequence& sequence, const std::string& name) {
                               (known.empty() ? "none" : known) + ")");
 }
 
-// The frame's transform when present and valid.
+// The frame's transform when named, present and valid.
 const Eigen::Matrix4d* validTransform(const SequenceFrame& frame, const std::string& name) {
+  if (name.empty()) return nullptr;
   const auto it = frame.transforms.find(name);
   if (it == frame.transforms.end() || !it->second.valid()) return nullptr;
   return &it->second.matrix;
 }
 
 }  // namespace
+
+std::optional<Eigen::Vector3d> beamPoint(double depthMm, const PointFrameOptions& points,
+                                         const Eigen::Matrix4d* pose,
+                                         const Eigen::Matrix4d* reference) {
+  Eigen::Vector4d point(0.0, 0.0, depthMm, 1.0);
+  if (points.poseTransform.empty()) return point.head<3>();
+  if (!pose || (!points.referenceTransform.empty() && !reference)) return std::nullopt;
+  point = *pose * points.beamToProbe * point;
+  if (!points.referenceTransform.empty()) point = reference->inverse() * point;
+  return point.head<3>();
+}
 
 DepthConversion depthFromSequence(const Sequence& sequence, const DepthConversion& fallback) {
   DepthConversion depth = fallback;
@@ -70,26 +82,17 @@ SequenceDetection detectSequence(const Sequence& sequence, const DetectionParams
 
     if (detection.accepted()) {
       out.sampleIndex = detection.peaks.sampleIndex;
-      Eigen::Vector4d point(0.0, 0.0, detection.depthMm, 1.0);
-      if (!points.poseTransform.empty()) {
-        const Eigen::Matrix4d* probeToTracker = validTransform(frame, points.poseTransform);
-        const Eigen::Matrix4d* reference =
-            points.referenceTransform.empty() ? nullptr
-                                              : validTransform(frame, points.referenceTransform);
-        if (!probeToTracker || (!points.referenceTransform.empty() && !reference)) {
-          out.reason = RejectReason::InvalidPose;
-        } else {
-          point = *probeToTracker * points.beamToProbe * point;
-          if (reference) point = reference->inverse() * point;
-        }
-      }
-      if (out.reason == RejectReason::None) {
-        out.reason = interSignal.judge(point.head<3>());
+      const std::optional<Eigen::Vector3d> point =
+          beamPoint(detection.depthMm, points, validTransform(frame, points.poseTransform),
+                    validTransform(frame, points.referenceTransform));
+      if (point) {
+        out.reason = interSignal.judge(*point);
         if (out.reason == RejectReason::None) {
           out.depthMm = detection.depthMm;
-          out.pointMm = point.head<3>();
+          out.pointMm = point;
         }
       } else {
+        out.reason = RejectReason::InvalidPose;
         interSignal.breakRun();
       }
     } else {

@@ -91,7 +91,9 @@ TEST(CliDetect, DemoSweepGivesSpreadConsistentPointsAndSaysWhyFramesWereRejected
   ASSERT_EQ(result.exitCode, 0) << result.err;
   const auto summary = nlohmann::json::parse(result.out);
   EXPECT_EQ(summary["frames"], 600);
-  EXPECT_EQ(summary["rejected_by_reason"]["invalid-pose"], 20);  // frames 300-319
+  // Frames 300-319 lost the probe's markers: those whose echo was found are invalid-pose.
+  EXPECT_GE(summary["rejected_by_reason"]["invalid-pose"].get<int>(), 15);
+  EXPECT_LE(summary["rejected_by_reason"]["invalid-pose"].get<int>(), 20);
   EXPECT_GT(summary["accepted"].get<int>(), 60);
   EXPECT_GT(summary["rejected_by_reason"]["too-close"].get<int>(), 100);
   EXPECT_GT(summary["rejected_by_reason"]["not-bone"].get<int>(), 30);  // the oblique stretch
@@ -101,8 +103,13 @@ TEST(CliDetect, DemoSweepGivesSpreadConsistentPointsAndSaysWhyFramesWereRejected
   std::vector<std::array<double, 3>> points;
   for (const auto& row : rows) {
     const int frame = std::stoi(row["frame"]);
-    if (frame >= 300 && frame < 320 && !row["sample_index"].empty()) {
-      EXPECT_EQ(row["reason"], "invalid-pose");
+    if (frame >= 300 && frame < 320) {
+      EXPECT_EQ(row["status"], "rejected");
+      if (!row["sample_index"].empty()) {
+        EXPECT_EQ(row["reason"], "invalid-pose");
+      }
+    } else {
+      EXPECT_NE(row["reason"], "invalid-pose");
     }
     if (row["status"] != "accepted") {
       EXPECT_TRUE(row["depth_mm"].empty());

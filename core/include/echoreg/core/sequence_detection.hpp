@@ -25,6 +25,14 @@ struct PointFrameOptions {
   Eigen::Matrix4d beamToProbe = Eigen::Matrix4d::Identity();
 };
 
+/// The point at `depthMm` on the beam, in the frame `points` names: (0, 0, depth) in Beam without
+/// a pose transform; ProbeToTracker * beamToProbe * (0, 0, depth, 1) with one, and inv(reference)
+/// times that with a reference. `pose` and `reference` are this frame's valid matrices or null;
+/// nullopt when a transform `points` needs is null (the frame is invalid-pose).
+std::optional<Eigen::Vector3d> beamPoint(double depthMm, const PointFrameOptions& points,
+                                         const Eigen::Matrix4d* pose,
+                                         const Eigen::Matrix4d* reference);
+
 /// One frame's verdict.
 struct FrameDetection {
   int frame = 0;

@@ -1,0 +1,143 @@
+/**
+ * @class   vtkEchoregPeakFilter
+ * @brief   Peaks of every A-line envelope, the chosen echo and its depth: one table row per frame.
+ *
+ * For each row of the envelope image (one frame) echoreg::findPeaks finds the peaks, the maxima
+ * of contiguous runs above a threshold (a factor of the envelope's mean or a fraction of its
+ * maximum; Mozes 2008, Fig. 4.10, used 1.5 x mean), restricted to the processing window, and the
+ * policy (single, double, window-max, first, max, bone) chooses one or rejects the frame with a
+ * reason. The chosen (sub-sample) index i becomes a depth along the beam with
+ * d = (i / fs + delay) * c / 2 (echoreg::DepthConversion; Mozes 2008, Eq. 3.2). The window is
+ * given in mm (WindowMinMm, WindowMaxMm) and converted to sample indices as
+ * echoreg::resolvePeakParams does; when set, it replaces the window of the PeakParams, and the
+ * PeakParams' mmPerSample is always taken from the DepthConversion.
+ *
+ * Input (port 0): vtkImageData of envelopes, as vtkEchoregEnvelopeFilter makes it (one slice,
+ * x = sample, y = frame, one-component scalars of any numeric type); the whole input is requested.
+ * Output (port 0): vtkTable, one row per frame, columns
+ *   "frame" (int, the y index), "timestamp_s" (double, from the field data "Timestamp", NaN
+ *   when absent), "peaks" (int, number of peaks found), "sample_index" (double, NaN when
+ *   rejected), "depth_mm" (double, NaN when rejected), "reason" (string, "" when accepted, else
+ *   echoreg::rejectReasonName), "threshold" (double, in envelope units).
+ * The input's field data (timestamps, poses, acquisition settings) is passed through to the
+ * table's field data. An input without samples gives a table without rows, with a warning.
+ *
+ * Defaults: those of echoreg::PeakParams (1.5 x mean, bone policy, sub-sample refinement) and
+ * echoreg::DepthConversion (50 MHz, no delay, 1540 m/s); no window.
+ */
+#pragma once
+
+#include "echoreg/core/depth.hpp"
+#include "echoreg/core/peaks.hpp"
+
+#include <vtkTableAlgorithm.h>
+
+#include <string>
+
+class vtkEchoregPeakFilter : public vtkTableAlgorithm {
+ public:
+  static vtkEchoregPeakFilter* New();
+  // vtkTypeMacro ends in an access specifier, so a ';' after it is an empty declaration
+  // (-Wpedantic), and without one clang-format joins it to the next line.
+  // clang-format off
+  vtkTypeMacro(vtkEchoregPeakFilter, vtkTableAlgorithm)
+  void PrintSelf(ostream& os, vtkIndent indent) override;
+  // clang-format on
+
+  ///@{
+  /**
+   * Threshold, window in samples, policy, bone signature and sub-sample refinement. Modified()
+   * only when something differs.
+   */
+  void SetPeakParams(const echoreg::PeakParams& params);
+  const echoreg::PeakParams& GetPeakParams() const { return this->PeakParams; }
+  ///@}
+
+  ///@{
+  /**
+   * Threshold as a multiple of the envelope's mean (> 0, default 1.5), used by the FactorOfMean
+   * threshold mode.
+   */
+  void SetThresholdFactor(double factor) {
+    this->SetField(this->PeakParams.thresholdFactor, factor);
+  }
+  double GetThresholdFactor() const { return this->PeakParams.thresholdFactor; }
+  ///@}
+
+  ///@{
+  /**
+   * Refine the chosen peak to a fraction of a sample with a parabola (default on).
+   */
+  void SetSubsample(bool subsample) { this->SetField(this->PeakParams.subsample, subsample); }
+  bool GetSubsample() const { return this->PeakParams.subsample; }
+  void SubsampleOn() { this->SetSubsample(true); }
+  void SubsampleOff() { this->SetSubsample(false); }
+  ///@}
+
+  ///@{
+  /**
+   * Sample index to depth: sampling frequency (Hz, default 50e6), acquisition delay (s, default
+   * 0) and speed of sound (m/s, default 1540). Modified() only when something differs.
+   */
+  void SetDepthConversion(const echoreg::DepthConversion& conversion);
+  const echoreg::DepthConversion& GetDepthConversion() const { return this->Depth; }
+  void SetSamplingFrequencyHz(double hz) { this->SetField(this->Depth.samplingFrequencyHz, hz); }
+  double GetSamplingFrequencyHz() const { return this->Depth.samplingFrequencyHz; }
+  void SetDelayS(double seconds) { this->SetField(this->Depth.delayS, seconds); }
+  double GetDelayS() const { return this->Depth.delayS; }
+  void SetSpeedOfSoundMps(double mps) { this->SetField(this->Depth.speedOfSoundMps, mps); }
+  double GetSpeedOfSoundMps() const { return this->Depth.speedOfSoundMps; }
+  ///@}
+
+  ///@{
+  /**
+   * Processing window along the beam in mm: peaks shallower than WindowMinMm or deeper than
+   * WindowMaxMm are ignored. NaN (the default) leaves that side open; min must be below max.
+   */
+  void SetWindowMinMm(double depthMm);
+  double GetWindowMinMm() const { return this->WindowMinMm; }
+  void SetWindowMaxMm(double depthMm);
+  double GetWindowMaxMm() const { return this->WindowMaxMm; }
+  ///@}
+
+  /**
+   * Message of the last failure, empty after a success.
+   */
+  const std::string& GetLastError() const { return this->LastError; }
+
+  /**
+   * Number of times RequestData ran.
+   */
+  int GetExecutionCount() const { return this->ExecutionCount; }
+
+ protected:
+  vtkEchoregPeakFilter();
+  ~vtkEchoregPeakFilter() override;
+
+  int FillInputPortInformation(int port, vtkInformation* info) override;
+  int RequestUpdateExtent(vtkInformation* request, vtkInformationVector** inputVector,
+                          vtkInformationVector* outputVector) override;
+  int RequestData(vtkInformation* request, vtkInformationVector** inputVector,
+                  vtkInformationVector* outputVector) override;
+
+ private:
+  vtkEchoregPeakFilter(const vtkEchoregPeakFilter&) = delete;
+  void operator=(const vtkEchoregPeakFilter&) = delete;
+
+  template <typename T>
+  void SetField(T& field, T value) {
+    if (field != value) {
+      field = value;
+      this->Modified();
+    }
+  }
+  void SetWindowLimit(double& limit, double depthMm);
+  void Fail(const std::string& message);
+
+  echoreg::PeakParams PeakParams;
+  echoreg::DepthConversion Depth;
+  double WindowMinMm;
+  double WindowMaxMm;
+  std::string LastError;
+  int ExecutionCount = 0;
+};

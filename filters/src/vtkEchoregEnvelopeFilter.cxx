@@ -1,0 +1,229 @@
+#include "echoreg/filters/vtkEchoregEnvelopeFilter.h"
+
+#include <vtkDataArray.h>
+#include <vtkFieldData.h>
+#include <vtkFloatArray.h>
+#include <vtkImageData.h>
+#include <vtkInformation.h>
+#include <vtkInformationVector.h>
+#include <vtkNew.h>
+#include <vtkObjectFactory.h>
+#include <vtkPointData.h>
+#include <vtkSMPTools.h>
+#include <vtkSmartPointer.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
+
+#include <algorithm>
+#include <exception>
+#include <mutex>
+#include <tuple>
+
+vtkStandardNewMacro(vtkEchoregEnvelopeFilter);
+
+namespace {
+
+echoreg::EnvelopeMethod methodOf(int method) {
+  switch (method) {
+    case vtkEchoregEnvelopeFilter::METHOD_MOZES:
+      return echoreg::EnvelopeMethod::Mozes;
+    case vtkEchoregEnvelopeFilter::METHOD_STDDEV:
+      return echoreg::EnvelopeMethod::StdDev;
+    case vtkEchoregEnvelopeFilter::METHOD_HILBERT:
+      return echoreg::EnvelopeMethod::Hilbert;
+    default:
+      return echoreg::EnvelopeMethod::Hann;
+  }
+}
+
+int methodId(echoreg::EnvelopeMethod method) {
+  switch (method) {
+    case echoreg::EnvelopeMethod::Mozes:
+      return vtkEchoregEnvelopeFilter::METHOD_MOZES;
+    case echoreg::EnvelopeMethod::Hann:
+      return vtkEchoregEnvelopeFilter::METHOD_HANN;
+    case echoreg::EnvelopeMethod::StdDev:
+      return vtkEchoregEnvelopeFilter::METHOD_STDDEV;
+    case echoreg::EnvelopeMethod::Hilbert:
+      return vtkEchoregEnvelopeFilter::METHOD_HILBERT;
+  }
+  return vtkEchoregEnvelopeFilter::METHOD_HANN;
+}
+
+// Structured bindings name every field, so adding one to EnvelopeParams stops this from compiling
+// instead of silently ignoring the new field.
+bool sameParams(const echoreg::EnvelopeParams& a, const echoreg::EnvelopeParams& b) {
+  const auto& [methodA, ringDownA, orderA, cutoffA, zeroPhaseA, windowA, transducerA, bandwidthA,
+               samplingA, smoothingA] = a;
+  const auto& [methodB, ringDownB, orderB, cutoffB, zeroPhaseB, windowB, transducerB, bandwidthB,
+               samplingB, smoothingB] = b;
+  return std::tie(methodA, ringDownA, orderA, cutoffA, zeroPhaseA, windowA, transducerA, bandwidthA,
+                  samplingA, smoothingA) == std::tie(methodB, ringDownB, orderB, cutoffB,
+                                                     zeroPhaseB, windowB, transducerB, bandwidthB,
+                                                     samplingB, smoothingB);
+}
+
+// Envelopes of rows [begin, end) of a row-major float image; one detector per chunk, since a
+// detector keeps scratch buffers. The first failure of any chunk is kept for the caller.
+class EnvelopeRows {
+ public:
+  EnvelopeRows(const echoreg::EnvelopeParams& params, const float* samples, float* envelopes,
+               int samplesPerRow)
+      : params_(params), samples_(samples), envelopes_(envelopes), samplesPerRow_(samplesPerRow) {}
+
+  void operator()(vtkIdType beginRow, vtkIdType endRow) {
+    try {
+      echoreg::EnvelopeDetector detector(params_);
+      for (vtkIdType row = beginRow; row < endRow; ++row) {
+        const vtkIdType offset = row * samplesPerRow_;
+        detector.compute(samples_ + offset, samplesPerRow_, envelopes_ + offset);
+      }
+    } catch (const std::exception& exception) {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      if (error_.empty())
+        error_ = exception.what();
+    }
+  }
+
+  const std::string& error() const { return error_; }
+
+ private:
+  const echoreg::EnvelopeParams& params_;
+  const float* samples_;
+  float* envelopes_;
+  int samplesPerRow_;
+  std::mutex mutex_;
+  std::string error_;
+};
+
+}  // namespace
+
+vtkEchoregEnvelopeFilter::vtkEchoregEnvelopeFilter() = default;
+
+vtkEchoregEnvelopeFilter::~vtkEchoregEnvelopeFilter() = default;
+
+void vtkEchoregEnvelopeFilter::SetParams(const echoreg::EnvelopeParams& params) {
+  if (sameParams(this->Params, params))
+    return;
+  this->Params = params;
+  this->Modified();
+}
+
+void vtkEchoregEnvelopeFilter::SetMethod(int method) {
+  this->SetField(this->Params.method, methodOf(std::clamp(method, static_cast<int>(METHOD_MOZES),
+                                                          static_cast<int>(METHOD_HILBERT))));
+}
+
+int vtkEchoregEnvelopeFilter::GetMethod() const {
+  return methodId(this->Params.method);
+}
+
+const char* vtkEchoregEnvelopeFilter::GetMethodAsString() const {
+  switch (this->Params.method) {
+    case echoreg::EnvelopeMethod::Mozes:
+      return "mozes";
+    case echoreg::EnvelopeMethod::Hann:
+      return "hann";
+    case echoreg::EnvelopeMethod::StdDev:
+      return "stddev";
+    case echoreg::EnvelopeMethod::Hilbert:
+      return "hilbert";
+  }
+  return "hann";
+}
+
+void vtkEchoregEnvelopeFilter::Fail(const std::string& message) {
+  this->LastError = message;
+  vtkErrorMacro(<< message);
+}
+
+int vtkEchoregEnvelopeFilter::RequestInformation(vtkInformation* /*request*/,
+                                                 vtkInformationVector** /*inputVector*/,
+                                                 vtkInformationVector* outputVector) {
+  vtkDataObject::SetPointDataActiveScalarInfo(outputVector->GetInformationObject(0), VTK_FLOAT, 1);
+  return 1;
+}
+
+int vtkEchoregEnvelopeFilter::RequestUpdateExtent(vtkInformation* /*request*/,
+                                                  vtkInformationVector** inputVector,
+                                                  vtkInformationVector* /*outputVector*/) {
+  // An envelope needs whole records, so ask for everything.
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  int wholeExtent[6];
+  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), wholeExtent);
+  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), wholeExtent, 6);
+  return 1;
+}
+
+int vtkEchoregEnvelopeFilter::RequestData(vtkInformation* /*request*/,
+                                          vtkInformationVector** inputVector,
+                                          vtkInformationVector* outputVector) {
+  ++this->ExecutionCount;
+  vtkImageData* input = vtkImageData::GetData(inputVector[0]);
+  vtkImageData* output = vtkImageData::GetData(outputVector);
+  if (input == nullptr || output == nullptr) {
+    this->Fail("the input and the output must be vtkImageData");
+    return 0;
+  }
+
+  int dimensions[3];
+  input->GetDimensions(dimensions);
+  output->CopyStructure(input);
+  output->GetFieldData()->ShallowCopy(input->GetFieldData());
+  if (dimensions[0] <= 0 || dimensions[1] <= 0) {
+    vtkWarningMacro(<< "the input has no samples; passing its field data through");
+    this->LastError.clear();
+    return 1;
+  }
+  if (dimensions[2] != 1) {
+    this->Fail("the input must be one slice of A-lines (x = sample, y = frame), got " +
+               std::to_string(dimensions[2]) + " slices");
+    return 0;
+  }
+  vtkDataArray* scalars = input->GetPointData()->GetScalars();
+  if (scalars == nullptr || scalars->GetNumberOfComponents() != 1) {
+    this->Fail("the input needs one-component point scalars (the A-lines)");
+    return 0;
+  }
+  try {
+    echoreg::validate(this->Params);
+  } catch (const std::exception& exception) {
+    this->Fail(std::string("invalid envelope parameters: ") + exception.what());
+    return 0;
+  }
+
+  vtkSmartPointer<vtkFloatArray> samples = vtkFloatArray::SafeDownCast(scalars);
+  if (samples == nullptr) {
+    samples = vtkSmartPointer<vtkFloatArray>::New();
+    samples->DeepCopy(scalars);
+  }
+  vtkNew<vtkFloatArray> envelopes;
+  envelopes->SetName("Envelope");
+  envelopes->SetNumberOfValues(samples->GetNumberOfValues());
+
+  EnvelopeRows rows(this->Params, samples->GetPointer(0), envelopes->GetPointer(0), dimensions[0]);
+  vtkSMPTools::For(0, dimensions[1], rows);
+  if (!rows.error().empty()) {
+    this->Fail("envelope failed: " + rows.error());
+    output->Initialize();
+    return 0;
+  }
+  output->GetPointData()->SetScalars(envelopes);
+  this->LastError.clear();
+  return 1;
+}
+
+void vtkEchoregEnvelopeFilter::PrintSelf(ostream& os, vtkIndent indent) {
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "Method: " << this->GetMethodAsString() << "\n";
+  os << indent << "RingDownSamples: " << this->Params.ringDownSamples << "\n";
+  os << indent << "ButterworthOrder: " << this->Params.butterworthOrder << "\n";
+  os << indent << "CutoffNormalized: " << this->Params.cutoffNormalized << "\n";
+  os << indent << "ZeroPhase: " << (this->Params.zeroPhase ? "On" : "Off") << "\n";
+  os << indent << "WindowSamples: " << this->Params.windowSamples << "\n";
+  os << indent << "TransducerFrequencyHz: " << this->Params.transducerFrequencyHz << "\n";
+  os << indent << "RelativeBandwidth: " << this->Params.relativeBandwidth << "\n";
+  os << indent << "SamplingFrequencyHz: " << this->Params.samplingFrequencyHz << "\n";
+  os << indent << "SmoothingSamples: " << this->Params.smoothingSamples << "\n";
+  os << indent << "LastError: " << (this->LastError.empty() ? "(none)" : this->LastError) << "\n";
+  os << indent << "ExecutionCount: " << this->ExecutionCount << "\n";
+}

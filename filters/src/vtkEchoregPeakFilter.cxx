@@ -1,0 +1,246 @@
+#include "echoreg/filters/vtkEchoregPeakFilter.h"
+
+#include "echoreg/core/detection.hpp"
+#include "echoreg/filters/SequenceFieldData.h"
+
+#include <vtkDataArray.h>
+#include <vtkDoubleArray.h>
+#include <vtkFieldData.h>
+#include <vtkFloatArray.h>
+#include <vtkImageData.h>
+#include <vtkInformation.h>
+#include <vtkInformationVector.h>
+#include <vtkIntArray.h>
+#include <vtkNew.h>
+#include <vtkObjectFactory.h>
+#include <vtkPointData.h>
+#include <vtkSmartPointer.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
+#include <vtkStringArray.h>
+#include <vtkTable.h>
+
+#include <cmath>
+#include <exception>
+#include <limits>
+#include <tuple>
+
+vtkStandardNewMacro(vtkEchoregPeakFilter);
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// Structured bindings name every field, so adding one to these structs stops this from compiling
+// instead of silently ignoring the new field.
+bool sameBone(const echoreg::BoneEchoParams& a, const echoreg::BoneEchoParams& b) {
+  const auto& [regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA] = a;
+  const auto& [regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB] = b;
+  return std::tie(regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA) ==
+         std::tie(regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB);
+}
+
+bool samePeakParams(const echoreg::PeakParams& a, const echoreg::PeakParams& b) {
+  const auto& [modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, subsampleA, mmA] = a;
+  const auto& [modeB, factorB, ofMaxB, beginB, endB, policyB, boneB, subsampleB, mmB] = b;
+  return std::tie(modeA, factorA, ofMaxA, beginA, endA, policyA, subsampleA, mmA) ==
+             std::tie(modeB, factorB, ofMaxB, beginB, endB, policyB, subsampleB, mmB) &&
+         sameBone(boneA, boneB);
+}
+
+bool sameDepth(const echoreg::DepthConversion& a, const echoreg::DepthConversion& b) {
+  const auto& [samplingA, delayA, speedA] = a;
+  const auto& [samplingB, delayB, speedB] = b;
+  return std::tie(samplingA, delayA, speedA) == std::tie(samplingB, delayB, speedB);
+}
+
+template <typename Array>
+vtkSmartPointer<Array> column(const char* name, vtkIdType rows) {
+  auto array = vtkSmartPointer<Array>::New();
+  array->SetName(name);
+  array->SetNumberOfValues(rows);
+  return array;
+}
+
+}  // namespace
+
+vtkEchoregPeakFilter::vtkEchoregPeakFilter() : WindowMinMm(kNaN), WindowMaxMm(kNaN) {}
+
+vtkEchoregPeakFilter::~vtkEchoregPeakFilter() = default;
+
+void vtkEchoregPeakFilter::SetPeakParams(const echoreg::PeakParams& params) {
+  if (samePeakParams(this->PeakParams, params))
+    return;
+  this->PeakParams = params;
+  this->Modified();
+}
+
+void vtkEchoregPeakFilter::SetDepthConversion(const echoreg::DepthConversion& conversion) {
+  if (sameDepth(this->Depth, conversion))
+    return;
+  this->Depth = conversion;
+  this->Modified();
+}
+
+void vtkEchoregPeakFilter::SetWindowLimit(double& limit, double depthMm) {
+  // NaN means "no limit"; NaN != NaN, so compare the states, not the values.
+  const bool unchanged = std::isnan(limit) ? std::isnan(depthMm) : limit == depthMm;
+  if (unchanged)
+    return;
+  limit = depthMm;
+  this->Modified();
+}
+
+void vtkEchoregPeakFilter::SetWindowMinMm(double depthMm) {
+  this->SetWindowLimit(this->WindowMinMm, depthMm);
+}
+
+void vtkEchoregPeakFilter::SetWindowMaxMm(double depthMm) {
+  this->SetWindowLimit(this->WindowMaxMm, depthMm);
+}
+
+void vtkEchoregPeakFilter::Fail(const std::string& message) {
+  this->LastError = message;
+  vtkErrorMacro(<< message);
+}
+
+int vtkEchoregPeakFilter::FillInputPortInformation(int /*port*/, vtkInformation* info) {
+  info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkImageData");
+  return 1;
+}
+
+int vtkEchoregPeakFilter::RequestUpdateExtent(vtkInformation* /*request*/,
+                                              vtkInformationVector** inputVector,
+                                              vtkInformationVector* /*outputVector*/) {
+  // Every frame becomes a row, and a peak needs its whole record.
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  int wholeExtent[6];
+  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), wholeExtent);
+  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), wholeExtent, 6);
+  return 1;
+}
+
+int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
+                                      vtkInformationVector** inputVector,
+                                      vtkInformationVector* outputVector) {
+  ++this->ExecutionCount;
+  vtkImageData* input = vtkImageData::GetData(inputVector[0]);
+  vtkTable* output = vtkTable::GetData(outputVector);
+  if (input == nullptr || output == nullptr) {
+    this->Fail("the input must be a vtkImageData and the output a vtkTable");
+    return 0;
+  }
+
+  echoreg::DetectionParams detection;
+  detection.peaks = this->PeakParams;
+  detection.depth = this->Depth;
+  if (!std::isnan(this->WindowMinMm))
+    detection.windowMinMm = this->WindowMinMm;
+  if (!std::isnan(this->WindowMaxMm))
+    detection.windowMaxMm = this->WindowMaxMm;
+  echoreg::PeakParams peakParams;
+  try {
+    echoreg::validate(detection);
+    peakParams = echoreg::resolvePeakParams(detection);
+  } catch (const std::exception& exception) {
+    this->Fail(std::string("invalid peak parameters: ") + exception.what());
+    return 0;
+  }
+
+  int dimensions[3];
+  input->GetDimensions(dimensions);
+  const bool empty = dimensions[0] <= 0 || dimensions[1] <= 0;
+  if (!empty && dimensions[2] != 1) {
+    this->Fail("the input must be one slice of envelopes (x = sample, y = frame), got " +
+               std::to_string(dimensions[2]) + " slices");
+    return 0;
+  }
+  vtkDataArray* scalars = empty ? nullptr : input->GetPointData()->GetScalars();
+  if (!empty && (scalars == nullptr || scalars->GetNumberOfComponents() != 1)) {
+    this->Fail("the input needs one-component point scalars (the envelopes)");
+    return 0;
+  }
+  if (empty)
+    vtkWarningMacro(<< "the input has no samples; the table has no rows");
+
+  const vtkIdType rows = empty ? 0 : dimensions[1];
+  const int samplesPerRow = dimensions[0];
+  auto frameColumn = column<vtkIntArray>("frame", rows);
+  auto timestampColumn = column<vtkDoubleArray>("timestamp_s", rows);
+  auto peaksColumn = column<vtkIntArray>("peaks", rows);
+  auto sampleColumn = column<vtkDoubleArray>("sample_index", rows);
+  auto depthColumn = column<vtkDoubleArray>("depth_mm", rows);
+  auto reasonColumn = column<vtkStringArray>("reason", rows);
+  auto thresholdColumn = column<vtkDoubleArray>("threshold", rows);
+
+  if (rows > 0) {
+    vtkSmartPointer<vtkFloatArray> envelopes = vtkFloatArray::SafeDownCast(scalars);
+    if (envelopes == nullptr) {
+      envelopes = vtkSmartPointer<vtkFloatArray>::New();
+      envelopes->DeepCopy(scalars);
+    }
+    const echoreg::filters::SequenceFieldData sequenceData(input->GetFieldData());
+    const int firstFrame = input->GetExtent()[2];
+    try {
+      for (vtkIdType row = 0; row < rows; ++row) {
+        const auto frame = static_cast<int>(firstFrame + row);
+        const echoreg::PeakResult result = echoreg::findPeaks(
+            peakParams, envelopes->GetPointer(row * samplesPerRow), samplesPerRow);
+        frameColumn->SetValue(row, frame);
+        timestampColumn->SetValue(row, sequenceData.timestampS(frame));
+        peaksColumn->SetValue(row, static_cast<int>(result.peaks.size()));
+        sampleColumn->SetValue(row, result.accepted() ? result.sampleIndex : kNaN);
+        depthColumn->SetValue(row,
+                              result.accepted() ? this->Depth.depthMm(result.sampleIndex) : kNaN);
+        reasonColumn->SetValue(row, std::string(echoreg::rejectReasonName(result.reason)));
+        thresholdColumn->SetValue(row, result.threshold);
+      }
+    } catch (const std::exception& exception) {
+      this->Fail(std::string("peak detection failed: ") + exception.what());
+      return 0;
+    }
+  }
+
+  output->Initialize();
+  output->AddColumn(frameColumn);
+  output->AddColumn(timestampColumn);
+  output->AddColumn(peaksColumn);
+  output->AddColumn(sampleColumn);
+  output->AddColumn(depthColumn);
+  output->AddColumn(reasonColumn);
+  output->AddColumn(thresholdColumn);
+  output->GetFieldData()->ShallowCopy(input->GetFieldData());
+  this->LastError.clear();
+  return 1;
+}
+
+void vtkEchoregPeakFilter::PrintSelf(ostream& os, vtkIndent indent) {
+  this->Superclass::PrintSelf(os, indent);
+  const echoreg::PeakParams& peaks = this->PeakParams;
+  os << indent << "ThresholdMode: "
+     << (peaks.thresholdMode == echoreg::ThresholdMode::FactorOfMean ? "factor-of-mean"
+                                                                     : "fraction-of-max")
+     << "\n";
+  os << indent << "ThresholdFactor: " << peaks.thresholdFactor << "\n";
+  os << indent << "ThresholdOfMax: " << peaks.thresholdOfMax << "\n";
+  os << indent << "WindowBegin (samples): "
+     << (peaks.windowBegin ? std::to_string(*peaks.windowBegin) : "(none)") << "\n";
+  os << indent
+     << "WindowEnd (samples): " << (peaks.windowEnd ? std::to_string(*peaks.windowEnd) : "(none)")
+     << "\n";
+  os << indent << "Policy: " << echoreg::peakPolicyName(peaks.policy) << "\n";
+  os << indent << "BoneRegionMm: " << peaks.bone.regionMm << "\n";
+  os << indent << "BoneGapMm: " << peaks.bone.gapMm << "\n";
+  os << indent << "BoneMinShadowRatio: " << peaks.bone.minShadowRatio << "\n";
+  os << indent << "BoneMinContrast: " << peaks.bone.minContrast << "\n";
+  os << indent << "BoneMaxWidthMm: " << peaks.bone.maxWidthMm << "\n";
+  os << indent << "BoneNoiseFloorFactor: " << peaks.bone.noiseFloorFactor << "\n";
+  os << indent << "BoneMinTissueOverNoise: " << peaks.bone.minTissueOverNoise << "\n";
+  os << indent << "Subsample: " << (peaks.subsample ? "On" : "Off") << "\n";
+  os << indent << "SamplingFrequencyHz: " << this->Depth.samplingFrequencyHz << "\n";
+  os << indent << "DelayS: " << this->Depth.delayS << "\n";
+  os << indent << "SpeedOfSoundMps: " << this->Depth.speedOfSoundMps << "\n";
+  os << indent << "WindowMinMm: " << this->WindowMinMm << "\n";
+  os << indent << "WindowMaxMm: " << this->WindowMaxMm << "\n";
+  os << indent << "LastError: " << (this->LastError.empty() ? "(none)" : this->LastError) << "\n";
+  os << indent << "ExecutionCount: " << this->ExecutionCount << "\n";
+}

@@ -1,0 +1,190 @@
+#include "echoreg/filters/vtkEchoregSequenceReader.h"
+
+#include "echoreg/core/error.hpp"
+#include "echoreg/filters/SequenceFieldData.h"
+
+#include <vtkDataArray.h>
+#include <vtkImageData.h>
+#include <vtkInformation.h>
+#include <vtkInformationVector.h>
+#include <vtkObjectFactory.h>
+#include <vtkPointData.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
+
+#include <cstring>
+#include <exception>
+#include <system_error>
+
+vtkStandardNewMacro(vtkEchoregSequenceReader);
+
+namespace {
+
+int vtkScalarType(echoreg::ElementType type) {
+  switch (type) {
+    case echoreg::ElementType::UInt8:
+      return VTK_UNSIGNED_CHAR;
+    case echoreg::ElementType::Int8:
+      return VTK_SIGNED_CHAR;
+    case echoreg::ElementType::Int16:
+      return VTK_SHORT;
+    case echoreg::ElementType::Float32:
+      return VTK_FLOAT;
+    case echoreg::ElementType::None:
+      break;
+  }
+  return VTK_VOID;
+}
+
+// Extent of the output image: samples along x, frames along y; no samples gives an empty x range.
+void sequenceExtent(const echoreg::Sequence& sequence, int extent[6]) {
+  const int samples = sequence.hasPixels() ? sequence.frameSize[0] : 0;
+  const int frames = static_cast<int>(sequence.frameCount());
+  extent[0] = 0;
+  extent[1] = samples - 1;
+  extent[2] = 0;
+  extent[3] = frames - 1;
+  extent[4] = 0;
+  extent[5] = 0;
+}
+
+}  // namespace
+
+vtkEchoregSequenceReader::vtkEchoregSequenceReader() {
+  this->SetNumberOfInputPorts(0);
+}
+
+vtkEchoregSequenceReader::~vtkEchoregSequenceReader() = default;
+
+void vtkEchoregSequenceReader::SetFileName(const std::string& fileName) {
+  if (this->FileName == fileName)
+    return;
+  this->FileName = fileName;
+  this->Modified();
+}
+
+void vtkEchoregSequenceReader::Fail(const std::string& message) {
+  this->LastError = message;
+  vtkErrorMacro(<< message);
+}
+
+bool vtkEchoregSequenceReader::ReadIfNeeded() {
+  if (this->FileName.empty()) {
+    this->CacheValid = false;
+    this->Fail("no file name set");
+    return false;
+  }
+  std::error_code error;
+  const std::filesystem::path path(this->FileName);
+  const auto fileTime = std::filesystem::last_write_time(path, error);
+  const bool haveTime = !error;
+  const std::uintmax_t fileSize =
+      std::filesystem::is_regular_file(path, error) ? std::filesystem::file_size(path, error) : 0;
+  if (this->CacheValid && haveTime && this->CachedFileName == this->FileName &&
+      this->CachedFileTime == fileTime && this->CachedFileSize == fileSize &&
+      this->CacheTime.GetMTime() > this->GetMTime()) {
+    return true;
+  }
+
+  this->CacheValid = false;
+  this->Sequence = echoreg::Sequence();
+  try {
+    ++this->ReadCount;
+    echoreg::Sequence sequence = echoreg::readSequence(this->FileName);
+    if (sequence.hasPixels() && sequence.frameSize[1] != 1) {
+      throw echoreg::FileError(this->FileName, "frames of " +
+                                                   std::to_string(sequence.frameSize[0]) + " x " +
+                                                   std::to_string(sequence.frameSize[1]) +
+                                                   " samples are images, not A-lines (N x 1)");
+    }
+    if (sequence.hasPixels() && vtkScalarType(sequence.elementType) == VTK_VOID) {
+      throw echoreg::FileError(this->FileName, "unsupported element type");
+    }
+    this->Sequence = std::move(sequence);
+  } catch (const std::exception& exception) {
+    this->Fail(exception.what());
+    return false;
+  }
+  this->CacheValid = true;
+  this->CachedFileName = this->FileName;
+  this->CachedFileTime = fileTime;
+  this->CachedFileSize = fileSize;
+  this->CacheTime.Modified();
+  this->LastError.clear();
+  return true;
+}
+
+int vtkEchoregSequenceReader::RequestInformation(vtkInformation* /*request*/,
+                                                 vtkInformationVector** /*inputVector*/,
+                                                 vtkInformationVector* outputVector) {
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  if (!this->ReadIfNeeded()) {
+    // Leave no stale image behind a failed read.
+    if (vtkDataObject* output = outInfo->Get(vtkDataObject::DATA_OBJECT()))
+      output->Initialize();
+    return 0;
+  }
+
+  int extent[6];
+  sequenceExtent(this->Sequence, extent);
+  const double spacing[3] = {1.0, 1.0, 1.0};
+  const double origin[3] = {0.0, 0.0, 0.0};
+  outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent, 6);
+  outInfo->Set(vtkDataObject::SPACING(), spacing, 3);
+  outInfo->Set(vtkDataObject::ORIGIN(), origin, 3);
+  if (this->Sequence.hasPixels()) {
+    vtkDataObject::SetPointDataActiveScalarInfo(outInfo, vtkScalarType(this->Sequence.elementType),
+                                                1);
+  }
+  return 1;
+}
+
+int vtkEchoregSequenceReader::RequestData(vtkInformation* /*request*/,
+                                          vtkInformationVector** /*inputVector*/,
+                                          vtkInformationVector* outputVector) {
+  ++this->ExecutionCount;
+  vtkInformation* outInfo = outputVector->GetInformationObject(0);
+  vtkImageData* output = vtkImageData::GetData(outInfo);
+  if (output == nullptr) {
+    this->Fail("the output is not a vtkImageData");
+    return 0;
+  }
+  if (!this->CacheValid) {
+    this->Fail(this->LastError.empty() ? "no sequence read" : this->LastError);
+    return 0;
+  }
+
+  int extent[6];
+  sequenceExtent(this->Sequence, extent);
+  output->SetExtent(extent);
+  output->SetSpacing(1.0, 1.0, 1.0);
+  output->SetOrigin(0.0, 0.0, 0.0);
+  if (this->Sequence.hasPixels()) {
+    output->AllocateScalars(vtkScalarType(this->Sequence.elementType), 1);
+    vtkDataArray* scalars = output->GetPointData()->GetScalars();
+    scalars->SetName("ALines");
+    const std::size_t bytes = this->Sequence.frameCount() * this->Sequence.samplesPerFrame() *
+                              echoreg::elementSize(this->Sequence.elementType);
+    if (bytes != this->Sequence.pixels.size()) {
+      this->Fail(this->FileName + ": pixel data holds " +
+                 std::to_string(this->Sequence.pixels.size()) + " bytes, expected " +
+                 std::to_string(bytes));
+      output->Initialize();
+      return 0;
+    }
+    if (bytes > 0)
+      std::memcpy(scalars->GetVoidPointer(0), this->Sequence.pixels.data(), bytes);
+  }
+  echoreg::filters::SequenceFieldData::write(this->Sequence, output->GetFieldData());
+  return 1;
+}
+
+void vtkEchoregSequenceReader::PrintSelf(ostream& os, vtkIndent indent) {
+  this->Superclass::PrintSelf(os, indent);
+  os << indent << "FileName: " << (this->FileName.empty() ? "(none)" : this->FileName) << "\n";
+  os << indent << "Frames: " << this->Sequence.frameCount() << "\n";
+  os << indent << "ElementType: " << echoreg::elementTypeName(this->Sequence.elementType) << "\n";
+  os << indent << "SamplesPerFrame: " << this->Sequence.samplesPerFrame() << "\n";
+  os << indent << "LastError: " << (this->LastError.empty() ? "(none)" : this->LastError) << "\n";
+  os << indent << "ExecutionCount: " << this->ExecutionCount << "\n";
+  os << indent << "ReadCount: " << this->ReadCount << "\n";
+}
