@@ -110,36 +110,25 @@ struct EnvelopeDetector::Impl {
             static_cast<float>((0.5 - 0.5 * std::cos(2.0 * kPi * (k + 1) / (window + 1))) / sum);
       }
     }
-    // padded[j] = |x[j - h] - mean|, zero in the ring-down and outside the record; the block
-    // loop below reads up to kBlock samples past the last output, so pad that too.
-    constexpr int kBlock = 8;
-    padded.resize(static_cast<std::size_t>(count + window + kBlock));
+    // padded[j] = |x[j - h] - mean|, zero in the ring-down and outside the record.
+    padded.resize(static_cast<std::size_t>(count + window));
     const int ringDown = std::min(params.ringDownSamples, count);
     float* rectified = padded.data() + h;
     std::fill(padded.begin(), padded.begin() + h + ringDown, 0.F);
     for (int i = ringDown; i < count; ++i) rectified[i] = std::fabs(samples[i] - mean);
     std::fill(padded.begin() + h + count, padded.end(), 0.F);
-    hannBlocks(padded.data(), hannWeights.data(), window, count, out);
+    hannPasses(padded.data(), hannWeights.data(), window, count, out);
   }
 
-  // out[i] = sum_k weights[k] * source[i + k], eight outputs at a time held in registers.
-  static void hannBlocks(const float* source, const float* weights, int window, int count,
+  // out[i] = sum_k weights[k] * source[i + k]: one vectorised pass over the record per weight
+  // (faster than holding blocks of outputs in registers, which compiles to shuffles).
+  static void hannPasses(const float* source, const float* weights, int window, int count,
                          float* out) {
-    constexpr int kBlock = 8;
-    int i = 0;
-    for (; i + kBlock <= count; i += kBlock) {
-      float acc[kBlock] = {0, 0, 0, 0, 0, 0, 0, 0};
-      for (int k = 0; k < window; ++k) {
-        const float weight = weights[k];
-        const float* s = source + i + k;
-        for (int j = 0; j < kBlock; ++j) acc[j] += weight * s[j];
-      }
-      for (int j = 0; j < kBlock; ++j) out[i + j] = acc[j];
-    }
-    for (; i < count; ++i) {
-      float acc = 0.F;
-      for (int k = 0; k < window; ++k) acc += weights[k] * source[i + k];
-      out[i] = acc;
+    std::fill(out, out + count, 0.F);
+    for (int k = 0; k < window; ++k) {
+      const float weight = weights[k];
+      const float* shifted = source + k;
+      for (int i = 0; i < count; ++i) out[i] += weight * shifted[i];
     }
   }
 
