@@ -9,45 +9,120 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <functional>
+#include <map>
 #include <filesystem>
 #include <fstream>
 #include <memory>
 #include <optional>
 #include <ostream>
+#include <type_traits>
+#include <variant>
+#include <vector>
 
 namespace echoreg::cli {
 
 namespace {
 
-// Every tunable of the chain as it appears on the command line and in --params files (the JSON
-// keys are the flag names without the leading dashes). Unset values keep the preset's, then the
-// capture header's (acquisition), then the params file's.
-struct DetectFlags {
-  std::optional<std::string> preset;
-  std::optional<std::string> envelope;
-  std::optional<int> ringDownSamples;
-  std::optional<int> butterworthOrder;
-  std::optional<double> cutoff;
-  bool causal = false;
-  std::optional<int> envelopeWindow;
-  std::optional<double> transducerFrequencyHz;
-  std::optional<double> relativeBandwidth;
-  std::optional<int> smoothing;
-  std::optional<double> thresholdFactor;
-  std::optional<double> thresholdOfMax;
-  std::vector<double> windowMm;
-  std::optional<std::string> peaks;
-  bool noSubsample = false;
-  std::optional<double> boneRegionMm, boneGapMm, boneShadowRatio, boneContrast, boneMaxWidthMm,
-      boneNoiseFactor, boneTissueOverNoise;
-  std::optional<double> samplingFrequencyHz;
-  std::optional<double> delayS;
-  std::optional<double> speedOfSoundMps;
-  std::optional<int> history;
-  std::optional<double> consistencyMm;
-  std::optional<double> minSpreadMm;
+// A value of one tunable, as typed on the command line or in a --params file.
+using TunableValue = std::variant<int, double, std::string, bool, std::vector<double>>;
+
+// One tunable of the chain: its flag (and, without the dashes, its key in --params files), its
+// help group and text, its type (the alternative held by `type`), and where it lands.
+struct Tunable {
+  const char* name;
+  const char* group;
+  const char* help;
+  TunableValue type;
+  std::function<void(DetectionParams&, const TunableValue&)> apply;
 };
+
+template <typename T>
+const T& as(const TunableValue& value) {
+  return std::get<T>(value);
+}
+
+// Every tunable, in the order they are applied. "preset" is applied before all of them (it sets
+// the starting point), then the capture header, then these.
+const std::vector<Tunable>& tunables() {
+  using P = DetectionParams;
+  using V = TunableValue;
+  static const std::vector<Tunable> list{
+      {"envelope", "Envelope", "Envelope: mozes | hann | stddev | hilbert (default hann)", std::string(),
+       [](P& p, const V& v) { p.envelope.method = parseEnvelopeMethod(as<std::string>(v)); }},
+      {"ring-down", "Envelope", "Samples zeroed at the start (ring-down), default 200", 0,
+       [](P& p, const V& v) { p.envelope.ringDownSamples = as<int>(v); }},
+      {"butterworth-order", "Envelope", "mozes: Butterworth order 1..12, default 2", 0,
+       [](P& p, const V& v) { p.envelope.butterworthOrder = as<int>(v); }},
+      {"cutoff", "Envelope", "mozes: cutoff as a fraction of Nyquist, default 0.01", 0.0,
+       [](P& p, const V& v) { p.envelope.cutoffNormalized = as<double>(v); }},
+      {"causal", "Envelope",
+       "mozes: one causal pass as the dissertation (delays peaks by 45 samples, 0.69 mm at "
+       "50 MHz/1540 m/s, for order 2 at 0.01); default zero-phase",
+       false, [](P& p, const V& v) { p.envelope.zeroPhase = !as<bool>(v); }},
+      {"envelope-window", "Envelope",
+       "hann/stddev: window in samples (default preset: 7; PLUS uses 153 at 420 MHz)", 0,
+       [](P& p, const V& v) { p.envelope.windowSamples = as<int>(v); }},
+      {"transducer-frequency", "Envelope", "hilbert: band centre, Hz, default 9e6", 0.0,
+       [](P& p, const V& v) { p.envelope.transducerFrequencyHz = as<double>(v); }},
+      {"relative-bandwidth", "Envelope", "hilbert: -6 dB band / centre, default 0.8", 0.0,
+       [](P& p, const V& v) { p.envelope.relativeBandwidth = as<double>(v); }},
+      {"smoothing", "Envelope", "hilbert: box smoothing in samples, default 5", 0,
+       [](P& p, const V& v) { p.envelope.smoothingSamples = as<int>(v); }},
+      {"threshold-factor", "Peaks", "Threshold = factor x mean envelope (default 1.5)", 0.0,
+       [](P& p, const V& v) {
+         p.peaks.thresholdMode = ThresholdMode::FactorOfMean;
+         p.peaks.thresholdFactor = as<double>(v);
+       }},
+      {"threshold-of-max", "Peaks", "Threshold = fraction x max envelope, (0, 1]", 0.0,
+       [](P& p, const V& v) {
+         p.peaks.thresholdMode = ThresholdMode::FractionOfMax;
+         p.peaks.thresholdOfMax = as<double>(v);
+       }},
+      {"window-mm", "Peaks", "Processing window MIN MAX in mm", std::vector<double>(),
+       [](P& p, const V& v) {
+         p.windowMinMm = as<std::vector<double>>(v).at(0);
+         p.windowMaxMm = as<std::vector<double>>(v).at(1);
+       }},
+      {"peaks", "Peaks", "Policy: bone (default) | single | double | window-max | first | max",
+       std::string(), [](P& p, const V& v) { p.peaks.policy = parsePeakPolicy(as<std::string>(v)); }},
+      {"no-subsample", "Peaks", "Report the integer sample of the peak (no parabola)", false,
+       [](P& p, const V& v) { p.peaks.subsample = !as<bool>(v); }},
+      {"bone-region-mm", "Bone policy", "bone: tissue/shadow region length, mm (3)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.regionMm = as<double>(v); }},
+      {"bone-gap-mm", "Bone policy", "bone: gap between the echo and the regions, mm (0.3)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.gapMm = as<double>(v); }},
+      {"bone-shadow-ratio", "Bone policy", "bone: min tissue/shadow median ratio (2)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.minShadowRatio = as<double>(v); }},
+      {"bone-contrast", "Bone policy", "bone: min peak/tissue median ratio (3.5)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.minContrast = as<double>(v); }},
+      {"bone-max-width-mm", "Bone policy", "bone: max echo width at half maximum, mm (1)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.maxWidthMm = as<double>(v); }},
+      {"bone-noise-factor", "Bone policy", "bone: shadow within this x noise floor counts (1.2)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.noiseFloorFactor = as<double>(v); }},
+      {"bone-tissue-over-noise", "Bone policy", "bone: min tissue median / noise floor (1.5)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.minTissueOverNoise = as<double>(v); }},
+      {"sampling-frequency", "Depth", "Hz; default: capture header, else 50e6", 0.0,
+       [](P& p, const V& v) { p.depth.samplingFrequencyHz = as<double>(v); }},
+      {"delay", "Depth", "Acquisition delay, s; default: capture header, else 0", 0.0,
+       [](P& p, const V& v) { p.depth.delayS = as<double>(v); }},
+      {"speed-of-sound", "Depth", "m/s; default: capture header, else 1540", 0.0,
+       [](P& p, const V& v) { p.depth.speedOfSoundMps = as<double>(v); }},
+      {"history", "Inter-signal", "Temporal filter: consecutive agreeing frames, default 3 (1 = off)", 0,
+       [](P& p, const V& v) { p.interSignal.history = as<int>(v); }},
+      {"consistency-mm", "Inter-signal", "Temporal filter: agreement, mm, default 0.5", 0.0,
+       [](P& p, const V& v) { p.interSignal.consistencyMm = as<double>(v); }},
+      {"min-spread-mm", "Inter-signal",
+       "Spatial filter: min distance between points, mm, default 1 (0 = off)", 0.0,
+       [](P& p, const V& v) { p.interSignal.minSpreadMm = as<double>(v); }},
+  };
+  return list;
+}
+
+// The tunables given so far, by name; flags first, then a --params file fills the rest.
+using TunableSettings = std::map<std::string, TunableValue>;
 
 struct DetectOptions {
   std::string capture;
@@ -56,23 +131,35 @@ struct DetectOptions {
   std::string pose;
   std::string reference;
   std::string beamToProbeFile;
+  std::string preset;
   bool json = false;
-  DetectFlags flags;
+  TunableSettings settings;
 };
 
-template <typename T>
-void take(const nlohmann::json& params, const char* key, std::optional<T>& slot,
-          const std::string& file) {
-  if (!params.contains(key)) return;
-  try {
-    slot = params.at(key).get<T>();
-  } catch (const nlohmann::json::exception&) {
-    throw FileError(file, fmt::format("parameter \"{}\" has the wrong type", key));
+// Registers every tunable as a flag of `cmd`, storing what is given into `settings`.
+void addTunableFlags(CLI::App* cmd, TunableSettings& settings) {
+  for (const Tunable& tunable : tunables()) {
+    const std::string flag = std::string("--") + tunable.name;
+    const std::string name = tunable.name;
+    CLI::Option* option = std::visit(
+        [&](const auto& type) -> CLI::Option* {
+          using T = std::decay_t<decltype(type)>;
+          if constexpr (std::is_same_v<T, bool>) {
+            return cmd->add_flag_callback(flag, [&settings, name] { settings[name] = true; },
+                                          tunable.help);
+          } else {
+            return cmd->add_option_function<T>(
+                flag, [&settings, name](const T& value) { settings[name] = value; }, tunable.help);
+          }
+        },
+        tunable.type);
+    if (std::holds_alternative<std::vector<double>>(tunable.type)) option->expected(2);
+    option->group(tunable.group);
   }
 }
 
-// Fills unset flags from a --params file; flags given on the command line win.
-void mergeParamsFile(const std::string& file, DetectFlags& flags) {
+// Fills the tunables not given as flags from a --params file; unknown keys are errors.
+void mergeParamsFile(const std::string& file, std::string& preset, TunableSettings& settings) {
   if (std::filesystem::is_directory(file)) throw FileError(file, "is a directory, expected a JSON file");
   std::ifstream in(file);
   if (!in) throw FileError(file, "cannot be opened");
@@ -83,106 +170,50 @@ void mergeParamsFile(const std::string& file, DetectFlags& flags) {
     throw FileError(file, std::string("is not valid JSON: ") + e.what());
   }
   if (!params.is_object()) throw FileError(file, "must hold a JSON object of parameters");
-  static const std::vector<std::string> known{
-      "preset", "envelope", "ring-down", "butterworth-order", "cutoff", "causal",
-      "envelope-window", "transducer-frequency", "relative-bandwidth", "smoothing",
-      "threshold-factor", "threshold-of-max", "window-mm", "peaks", "no-subsample",
-      "bone-region-mm", "bone-gap-mm", "bone-shadow-ratio", "bone-contrast",
-      "bone-max-width-mm", "bone-noise-factor", "bone-tissue-over-noise",
-      "sampling-frequency", "delay", "speed-of-sound", "history", "consistency-mm",
-      "min-spread-mm"};
   for (const auto& [key, value] : params.items()) {
-    if (std::find(known.begin(), known.end(), key) == known.end()) {
+    if (key == "preset") {
+      if (!value.is_string()) throw FileError(file, "parameter \"preset\" must be a string");
+      if (preset.empty()) preset = value.get<std::string>();
+      continue;
+    }
+    const auto& list = tunables();
+    const auto tunable = std::find_if(list.begin(), list.end(),
+                                      [&key = key](const Tunable& t) { return key == t.name; });
+    if (tunable == list.end()) {
       throw FileError(file, fmt::format("unknown parameter \"{}\" (see echoreg detect --help)", key));
     }
-  }
-  const auto fill = [&](const char* key, auto& slot) {
-    if (!slot) take(params, key, slot, file);
-  };
-  fill("preset", flags.preset);
-  fill("envelope", flags.envelope);
-  fill("ring-down", flags.ringDownSamples);
-  fill("butterworth-order", flags.butterworthOrder);
-  fill("cutoff", flags.cutoff);
-  fill("envelope-window", flags.envelopeWindow);
-  fill("transducer-frequency", flags.transducerFrequencyHz);
-  fill("relative-bandwidth", flags.relativeBandwidth);
-  fill("smoothing", flags.smoothing);
-  fill("threshold-factor", flags.thresholdFactor);
-  fill("threshold-of-max", flags.thresholdOfMax);
-  fill("peaks", flags.peaks);
-  fill("bone-region-mm", flags.boneRegionMm);
-  fill("bone-gap-mm", flags.boneGapMm);
-  fill("bone-shadow-ratio", flags.boneShadowRatio);
-  fill("bone-contrast", flags.boneContrast);
-  fill("bone-max-width-mm", flags.boneMaxWidthMm);
-  fill("bone-noise-factor", flags.boneNoiseFactor);
-  fill("bone-tissue-over-noise", flags.boneTissueOverNoise);
-  fill("sampling-frequency", flags.samplingFrequencyHz);
-  fill("delay", flags.delayS);
-  fill("speed-of-sound", flags.speedOfSoundMps);
-  fill("history", flags.history);
-  fill("consistency-mm", flags.consistencyMm);
-  fill("min-spread-mm", flags.minSpreadMm);
-  if (!flags.causal && params.contains("causal")) flags.causal = params["causal"].get<bool>();
-  if (!flags.noSubsample && params.contains("no-subsample")) {
-    flags.noSubsample = params["no-subsample"].get<bool>();
-  }
-  if (flags.windowMm.empty() && params.contains("window-mm")) {
+    if (settings.count(key) != 0) continue;  // the flag wins
     try {
-      flags.windowMm = params["window-mm"].get<std::vector<double>>();
+      settings[key] = std::visit(
+          [&value = value](const auto& type) -> TunableValue {
+            using T = std::decay_t<decltype(type)>;
+            if constexpr (std::is_same_v<T, int>) {
+              if (!value.is_number_integer()) throw nlohmann::json::type_error::create(302, "", nullptr);
+            }
+            return value.get<T>();
+          },
+          tunable->type);
     } catch (const nlohmann::json::exception&) {
+      throw FileError(file, fmt::format("parameter \"{}\" has the wrong type", key));
+    }
+    if (key == "window-mm" && as<std::vector<double>>(settings[key]).size() != 2) {
       throw FileError(file, "parameter \"window-mm\" must be [min, max] in mm");
     }
-    if (flags.windowMm.size() != 2) throw FileError(file, "parameter \"window-mm\" must be [min, max] in mm");
   }
 }
 
-DetectionParams resolveParams(const DetectFlags& flags, const Sequence& sequence) {
-  DetectionParams params = detectionPreset(flags.preset.value_or("default"));
+DetectionParams resolveParams(const std::string& preset, const TunableSettings& settings,
+                              const Sequence& sequence) {
+  if (settings.count("threshold-factor") != 0 && settings.count("threshold-of-max") != 0) {
+    throw std::invalid_argument("give threshold-factor or threshold-of-max, not both");
+  }
+  DetectionParams params = detectionPreset(preset.empty() ? "default" : preset);
   params.depth = depthFromSequence(sequence, params.depth);
-  EnvelopeParams& e = params.envelope;
-  if (flags.envelope) e.method = parseEnvelopeMethod(*flags.envelope);
-  if (flags.ringDownSamples) e.ringDownSamples = *flags.ringDownSamples;
-  if (flags.butterworthOrder) e.butterworthOrder = *flags.butterworthOrder;
-  if (flags.cutoff) e.cutoffNormalized = *flags.cutoff;
-  if (flags.causal) e.zeroPhase = false;
-  if (flags.envelopeWindow) e.windowSamples = *flags.envelopeWindow;
-  if (flags.transducerFrequencyHz) e.transducerFrequencyHz = *flags.transducerFrequencyHz;
-  if (flags.relativeBandwidth) e.relativeBandwidth = *flags.relativeBandwidth;
-  if (flags.smoothing) e.smoothingSamples = *flags.smoothing;
-  PeakParams& p = params.peaks;
-  if (flags.thresholdFactor && flags.thresholdOfMax) {
-    throw std::invalid_argument("give --threshold-factor or --threshold-of-max, not both");
+  for (const Tunable& tunable : tunables()) {
+    const auto given = settings.find(tunable.name);
+    if (given != settings.end()) tunable.apply(params, given->second);
   }
-  if (flags.thresholdFactor) {
-    p.thresholdMode = ThresholdMode::FactorOfMean;
-    p.thresholdFactor = *flags.thresholdFactor;
-  }
-  if (flags.thresholdOfMax) {
-    p.thresholdMode = ThresholdMode::FractionOfMax;
-    p.thresholdOfMax = *flags.thresholdOfMax;
-  }
-  if (flags.peaks) p.policy = parsePeakPolicy(*flags.peaks);
-  if (flags.noSubsample) p.subsample = false;
-  if (flags.boneRegionMm) p.bone.regionMm = *flags.boneRegionMm;
-  if (flags.boneGapMm) p.bone.gapMm = *flags.boneGapMm;
-  if (flags.boneShadowRatio) p.bone.minShadowRatio = *flags.boneShadowRatio;
-  if (flags.boneContrast) p.bone.minContrast = *flags.boneContrast;
-  if (flags.boneMaxWidthMm) p.bone.maxWidthMm = *flags.boneMaxWidthMm;
-  if (flags.boneNoiseFactor) p.bone.noiseFloorFactor = *flags.boneNoiseFactor;
-  if (flags.boneTissueOverNoise) p.bone.minTissueOverNoise = *flags.boneTissueOverNoise;
-  if (flags.samplingFrequencyHz) params.depth.samplingFrequencyHz = *flags.samplingFrequencyHz;
-  if (flags.delayS) params.depth.delayS = *flags.delayS;
-  if (flags.speedOfSoundMps) params.depth.speedOfSoundMps = *flags.speedOfSoundMps;
-  e.samplingFrequencyHz = params.depth.samplingFrequencyHz;
-  if (flags.windowMm.size() == 2) {
-    params.windowMinMm = flags.windowMm[0];
-    params.windowMaxMm = flags.windowMm[1];
-  }
-  if (flags.history) params.interSignal.history = *flags.history;
-  if (flags.consistencyMm) params.interSignal.consistencyMm = *flags.consistencyMm;
-  if (flags.minSpreadMm) params.interSignal.minSpreadMm = *flags.minSpreadMm;
+  params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
   validate(params);
   return params;
 }
@@ -245,12 +276,12 @@ void writeCsv(const SequenceDetection& detection, bool withPoints, const std::st
 }
 
 nlohmann::json summary(const SequenceDetection& detection, const DetectionParams& params,
-                       const DetectOptions& options, const DetectFlags& flags) {
+                       const DetectOptions& options, const std::string& preset) {
   nlohmann::json rejected = nlohmann::json::object();
   for (const auto& [reason, count] : detection.rejectedByReason) rejected[reason] = count;
   return {{"capture", options.capture},
           {"out", options.out},
-          {"preset", flags.preset.value_or("default")},
+          {"preset", preset.empty() ? "default" : preset},
           {"frames", detection.frames.size()},
           {"accepted", detection.accepted},
           {"rejected", detection.frames.size() - static_cast<std::size_t>(detection.accepted)},
@@ -266,7 +297,6 @@ nlohmann::json summary(const SequenceDetection& detection, const DetectionParams
 
 CommandAction addDetectCommand(CLI::App& app) {
   auto o = std::make_shared<DetectOptions>();
-  DetectFlags& f = o->flags;
   CLI::App* cmd = app.add_subcommand(
       "detect",
       "Find the bone (or sphere) echo in every A-line of a capture: envelope, peaks, depth,\n"
@@ -278,58 +308,10 @@ CommandAction addDetectCommand(CLI::App& app) {
   cmd->add_option("--out", o->out, "CSV to write (written whole or not at all)")->required();
   cmd->add_option("--params", o->paramsFile, "JSON object of parameters named as the flags, without dashes");
   cmd->add_flag("--json", o->json, "Print a JSON summary: frames, accepted, rejected by reason");
-  cmd->add_option("--preset", f.preset, "default (specimens: hann + bone policy), mozes2008 (the dissertation's chain as it was), calibration (window-max in water)");
-
-  cmd->add_option("--envelope", f.envelope, "Envelope: mozes | hann | stddev | hilbert (default hann)")
-      ->group("Envelope");
-  cmd->add_option("--ring-down", f.ringDownSamples, "Samples zeroed at the start (ring-down), default 200")
-      ->group("Envelope");
-  cmd->add_option("--butterworth-order", f.butterworthOrder, "mozes: Butterworth order 1..12, default 2")
-      ->group("Envelope");
-  cmd->add_option("--cutoff", f.cutoff, "mozes: cutoff as a fraction of Nyquist, default 0.01")
-      ->group("Envelope");
-  cmd->add_flag("--causal", f.causal,
-                "mozes: one causal pass as the dissertation (delays peaks by 45 samples, 0.69 mm at "
-                "50 MHz/1540 m/s, for order 2 at 0.01); default zero-phase")
-      ->group("Envelope");
-  cmd->add_option("--envelope-window", f.envelopeWindow,
-                  "hann/stddev: window in samples (default preset: 7; PLUS uses 153 at 420 MHz)")
-      ->group("Envelope");
-  cmd->add_option("--transducer-frequency", f.transducerFrequencyHz, "hilbert: band centre, Hz, default 9e6")
-      ->group("Envelope");
-  cmd->add_option("--relative-bandwidth", f.relativeBandwidth, "hilbert: -6 dB band / centre, default 0.8")
-      ->group("Envelope");
-  cmd->add_option("--smoothing", f.smoothing, "hilbert: box smoothing in samples, default 5")
-      ->group("Envelope");
-
-  cmd->add_option("--threshold-factor", f.thresholdFactor, "Threshold = factor x mean envelope (default 1.5)")
-      ->group("Peaks");
-  cmd->add_option("--threshold-of-max", f.thresholdOfMax, "Threshold = fraction x max envelope, (0, 1]")
-      ->group("Peaks");
-  cmd->add_option("--window-mm", f.windowMm, "Processing window MIN MAX in mm")->expected(2)->group("Peaks");
-  cmd->add_option("--peaks", f.peaks,
-                  "Policy: bone (default) | single | double | window-max | first | max")
-      ->group("Peaks");
-  cmd->add_flag("--no-subsample", f.noSubsample, "Report the integer sample of the peak (no parabola)")
-      ->group("Peaks");
-  cmd->add_option("--bone-region-mm", f.boneRegionMm, "bone: tissue/shadow region length, mm (3)")->group("Bone policy");
-  cmd->add_option("--bone-gap-mm", f.boneGapMm, "bone: gap between the echo and the regions, mm (0.3)")->group("Bone policy");
-  cmd->add_option("--bone-shadow-ratio", f.boneShadowRatio, "bone: min tissue/shadow median ratio (2)")->group("Bone policy");
-  cmd->add_option("--bone-contrast", f.boneContrast, "bone: min peak/tissue median ratio (3.5)")->group("Bone policy");
-  cmd->add_option("--bone-max-width-mm", f.boneMaxWidthMm, "bone: max echo width at half maximum, mm (1)")->group("Bone policy");
-  cmd->add_option("--bone-noise-factor", f.boneNoiseFactor, "bone: shadow within this x noise floor counts (1.2)")->group("Bone policy");
-  cmd->add_option("--bone-tissue-over-noise", f.boneTissueOverNoise, "bone: min tissue median / noise floor (1.5)")->group("Bone policy");
-
-  cmd->add_option("--sampling-frequency", f.samplingFrequencyHz, "Hz; default: capture header, else 50e6")->group("Depth");
-  cmd->add_option("--delay", f.delayS, "Acquisition delay, s; default: capture header, else 0")->group("Depth");
-  cmd->add_option("--speed-of-sound", f.speedOfSoundMps, "m/s; default: capture header, else 1540")->group("Depth");
-
-  cmd->add_option("--history", f.history, "Temporal filter: consecutive agreeing frames, default 3 (1 = off)")
-      ->group("Inter-signal");
-  cmd->add_option("--consistency-mm", f.consistencyMm, "Temporal filter: agreement, mm, default 0.5")
-      ->group("Inter-signal");
-  cmd->add_option("--min-spread-mm", f.minSpreadMm, "Spatial filter: min distance between points, mm, default 1 (0 = off)")
-      ->group("Inter-signal");
+  cmd->add_option("--preset", o->preset,
+                  "default (specimens: hann + bone policy), mozes2008 (the dissertation's chain as it "
+                  "was), calibration (window-max in water)");
+  addTunableFlags(cmd, o->settings);
   cmd->add_option("--pose", o->pose, "Transform giving 3D points, e.g. ProbeToTracker")->group("Points");
   cmd->add_option("--reference", o->reference, "Express points in this frame, e.g. FemurToTracker")->group("Points");
   cmd->add_option("--beam-to-probe", o->beamToProbeFile, "BeamToProbe transform JSON (default identity)")
@@ -339,12 +321,13 @@ CommandAction addDetectCommand(CLI::App& app) {
     if (std::filesystem::is_directory(o->capture)) {
       throw FileError(o->capture, "is a directory, expected a capture file");
     }
-    DetectFlags flags = o->flags;
-    if (!o->paramsFile.empty()) mergeParamsFile(o->paramsFile, flags);
+    std::string preset = o->preset;
+    TunableSettings settings = o->settings;
+    if (!o->paramsFile.empty()) mergeParamsFile(o->paramsFile, preset, settings);
     const Sequence sequence = readSequence(o->capture);
     const DetectionParams params = [&] {
       try {
-        return resolveParams(flags, sequence);
+        return resolveParams(preset, settings, sequence);
       } catch (const std::invalid_argument& e) {
         throw std::invalid_argument(std::string("bad parameter: ") + e.what());
       }
@@ -365,7 +348,7 @@ CommandAction addDetectCommand(CLI::App& app) {
     }
     writeCsv(detection, !points.poseTransform.empty(), o->out);
     if (o->json) {
-      io.out << summary(detection, params, *o, flags).dump(2) << "\n";
+      io.out << summary(detection, params, *o, preset).dump(2) << "\n";
     } else {
       io.out << fmt::format("{}: {} of {} frames accepted", o->out, detection.accepted,
                             detection.frames.size());

@@ -1,5 +1,7 @@
 #include "echoreg/filters/vtkEchoregEnvelopeFilter.h"
 
+#include "PipelineRequests.h"
+
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>
 #include <vtkFloatArray.h>
@@ -146,11 +148,7 @@ int vtkEchoregEnvelopeFilter::RequestInformation(vtkInformation* /*request*/,
 int vtkEchoregEnvelopeFilter::RequestUpdateExtent(vtkInformation* /*request*/,
                                                   vtkInformationVector** inputVector,
                                                   vtkInformationVector* /*outputVector*/) {
-  // An envelope needs whole records, so ask for everything.
-  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
-  int wholeExtent[6];
-  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), wholeExtent);
-  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), wholeExtent, 6);
+  echoreg::filters::requestWholeInput(inputVector);
   return 1;
 }
 

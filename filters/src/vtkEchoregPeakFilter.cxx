@@ -1,5 +1,7 @@
 #include "echoreg/filters/vtkEchoregPeakFilter.h"
 
+#include "PipelineRequests.h"
+
 #include "echoreg/core/detection.hpp"
 #include "echoreg/filters/SequenceFieldData.h"
 
@@ -111,11 +113,7 @@ int vtkEchoregPeakFilter::FillInputPortInformation(int /*port*/, vtkInformation*
 int vtkEchoregPeakFilter::RequestUpdateExtent(vtkInformation* /*request*/,
                                               vtkInformationVector** inputVector,
                                               vtkInformationVector* /*outputVector*/) {
-  // Every frame becomes a row, and a peak needs its whole record.
-  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
-  int wholeExtent[6];
-  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), wholeExtent);
-  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), wholeExtent, 6);
+  echoreg::filters::requestWholeInput(inputVector);
   return 1;
 }
 

@@ -164,6 +164,8 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
   const std::string csv = dir.file("d.csv");
   std::ofstream(dir.file("typo.json")) << R"({"envelope-widnow": 9})";
   std::ofstream(dir.file("broken.json")) << R"({"envelope": )";
+  std::ofstream(dir.file("type.json")) << R"({"envelope-window": 7.5})";
+  std::ofstream(dir.file("window.json")) << R"({"window-mm": [5]})";
   const std::vector<std::vector<std::string>> cases{
       {"detect", capture, "--out", csv, "--envelope", "gauss"},
       {"detect", capture, "--out", csv, "--peaks", "triple"},
@@ -171,6 +173,9 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
       {"detect", capture, "--out", csv, "--speed-of-sound", "-1"},
       {"detect", capture, "--out", csv, "--params", dir.file("typo.json")},
       {"detect", capture, "--out", csv, "--params", dir.file("broken.json")},
+      {"detect", capture, "--out", csv, "--params", dir.file("type.json")},
+      {"detect", capture, "--out", csv, "--params", dir.file("window.json")},
+      {"detect", capture, "--out", csv, "--threshold-factor", "2", "--threshold-of-max", "0.5"},
       {"detect", capture, "--out", csv, "--pose", "StylusToTracker"},
       {"detect", capture, "--out", dir.path() + "/missing-folder/d.csv"},
   };
