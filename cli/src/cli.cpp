@@ -38,13 +38,7 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   for (CLI::App* sub : app.get_subcommands()) {
     try {
       return actions.at(sub->get_name())(streams);
-    } catch (const FileError& e) {
-      err << "echoreg " << sub->get_name() << ": " << e.what() << "\n";
-      return 1;
-    } catch (const std::invalid_argument& e) {
-      err << "echoreg " << sub->get_name() << ": " << e.what() << "\n";
-      return 1;
-    } catch (const std::exception& e) {
+    } catch (const std::exception& e) {  // FileError names the file; the rest name the value
       err << "echoreg " << sub->get_name() << ": " << e.what() << "\n";
       return 1;
     }

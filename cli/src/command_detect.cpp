@@ -318,9 +318,6 @@ CommandAction addDetectCommand(CLI::App& app) {
       ->group("Points");
 
   return [o](const Streams& io) {
-    if (std::filesystem::is_directory(o->capture)) {
-      throw FileError(o->capture, "is a directory, expected a capture file");
-    }
     std::string preset = o->preset;
     TunableSettings settings = o->settings;
     if (!o->paramsFile.empty()) mergeParamsFile(o->paramsFile, preset, settings);

@@ -18,7 +18,6 @@
 #include <algorithm>
 #include <exception>
 #include <mutex>
-#include <tuple>
 
 vtkStandardNewMacro(vtkEchoregEnvelopeFilter);
 
@@ -49,19 +48,6 @@ int methodId(echoreg::EnvelopeMethod method) {
       return vtkEchoregEnvelopeFilter::METHOD_HILBERT;
   }
   return vtkEchoregEnvelopeFilter::METHOD_HANN;
-}
-
-// Structured bindings name every field, so adding one to EnvelopeParams stops this from compiling
-// instead of silently ignoring the new field.
-bool sameParams(const echoreg::EnvelopeParams& a, const echoreg::EnvelopeParams& b) {
-  const auto& [methodA, ringDownA, orderA, cutoffA, zeroPhaseA, windowA, transducerA, bandwidthA,
-               samplingA, smoothingA] = a;
-  const auto& [methodB, ringDownB, orderB, cutoffB, zeroPhaseB, windowB, transducerB, bandwidthB,
-               samplingB, smoothingB] = b;
-  return std::tie(methodA, ringDownA, orderA, cutoffA, zeroPhaseA, windowA, transducerA, bandwidthA,
-                  samplingA, smoothingA) == std::tie(methodB, ringDownB, orderB, cutoffB,
-                                                     zeroPhaseB, windowB, transducerB, bandwidthB,
-                                                     samplingB, smoothingB);
 }
 
 // Envelopes of rows [begin, end) of a row-major float image; one detector per chunk, since a
@@ -104,7 +90,7 @@ vtkEchoregEnvelopeFilter::vtkEchoregEnvelopeFilter() = default;
 vtkEchoregEnvelopeFilter::~vtkEchoregEnvelopeFilter() = default;
 
 void vtkEchoregEnvelopeFilter::SetParams(const echoreg::EnvelopeParams& params) {
-  if (sameParams(this->Params, params))
+  if (this->Params == params)
     return;
   this->Params = params;
   this->Modified();

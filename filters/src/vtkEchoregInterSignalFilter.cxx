@@ -24,7 +24,6 @@
 #include <exception>
 #include <limits>
 #include <optional>
-#include <tuple>
 
 vtkStandardNewMacro(vtkEchoregInterSignalFilter);
 
@@ -41,14 +40,6 @@ constexpr echoreg::RejectReason kReasons[] = {
     echoreg::RejectReason::NotBone,     echoreg::RejectReason::Inconsistent,
     echoreg::RejectReason::TooClose,    echoreg::RejectReason::InvalidPose,
 };
-
-// Structured bindings name every field, so adding one to InterSignalParams stops this from
-// compiling instead of silently ignoring the new field.
-bool sameParams(const echoreg::InterSignalParams& a, const echoreg::InterSignalParams& b) {
-  const auto& [historyA, consistencyA, spreadA] = a;
-  const auto& [historyB, consistencyB, spreadB] = b;
-  return std::tie(historyA, consistencyA, spreadA) == std::tie(historyB, consistencyB, spreadB);
-}
 
 vtkSmartPointer<vtkDoubleArray> coordinateColumn(const char* name, vtkIdType rows) {
   auto array = vtkSmartPointer<vtkDoubleArray>::New();
@@ -67,7 +58,7 @@ vtkEchoregInterSignalFilter::vtkEchoregInterSignalFilter() {
 vtkEchoregInterSignalFilter::~vtkEchoregInterSignalFilter() = default;
 
 void vtkEchoregInterSignalFilter::SetInterSignalParams(const echoreg::InterSignalParams& params) {
-  if (sameParams(this->Params, params))
+  if (this->Params == params)
     return;
   this->Params = params;
   this->Modified();

@@ -24,36 +24,12 @@
 #include <cmath>
 #include <exception>
 #include <limits>
-#include <tuple>
 
 vtkStandardNewMacro(vtkEchoregPeakFilter);
 
 namespace {
 
 constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
-
-// Structured bindings name every field, so adding one to these structs stops this from compiling
-// instead of silently ignoring the new field.
-bool sameBone(const echoreg::BoneEchoParams& a, const echoreg::BoneEchoParams& b) {
-  const auto& [regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA] = a;
-  const auto& [regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB] = b;
-  return std::tie(regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA) ==
-         std::tie(regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB);
-}
-
-bool samePeakParams(const echoreg::PeakParams& a, const echoreg::PeakParams& b) {
-  const auto& [modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, subsampleA, mmA] = a;
-  const auto& [modeB, factorB, ofMaxB, beginB, endB, policyB, boneB, subsampleB, mmB] = b;
-  return std::tie(modeA, factorA, ofMaxA, beginA, endA, policyA, subsampleA, mmA) ==
-             std::tie(modeB, factorB, ofMaxB, beginB, endB, policyB, subsampleB, mmB) &&
-         sameBone(boneA, boneB);
-}
-
-bool sameDepth(const echoreg::DepthConversion& a, const echoreg::DepthConversion& b) {
-  const auto& [samplingA, delayA, speedA] = a;
-  const auto& [samplingB, delayB, speedB] = b;
-  return std::tie(samplingA, delayA, speedA) == std::tie(samplingB, delayB, speedB);
-}
 
 template <typename Array>
 vtkSmartPointer<Array> column(const char* name, vtkIdType rows) {
@@ -70,14 +46,14 @@ vtkEchoregPeakFilter::vtkEchoregPeakFilter() : WindowMinMm(kNaN), WindowMaxMm(kN
 vtkEchoregPeakFilter::~vtkEchoregPeakFilter() = default;
 
 void vtkEchoregPeakFilter::SetPeakParams(const echoreg::PeakParams& params) {
-  if (samePeakParams(this->PeakParams, params))
+  if (this->PeakParams == params)
     return;
   this->PeakParams = params;
   this->Modified();
 }
 
 void vtkEchoregPeakFilter::SetDepthConversion(const echoreg::DepthConversion& conversion) {
-  if (sameDepth(this->Depth, conversion))
+  if (this->Depth == conversion)
     return;
   this->Depth = conversion;
   this->Modified();

@@ -1,6 +1,8 @@
 // Sample index to depth along the beam: d = (i / fs + delay) * c / 2 (Eq. 3.2 and 4.1).
 #pragma once
 
+#include <tuple>
+
 namespace echoreg {
 
 /// Converts between A-line sample indices and depths in the Beam frame (mm along +z).
@@ -20,5 +22,13 @@ struct DepthConversion {
   /// Millimetres per sample.
   double mmPerSample() const { return speedOfSoundMps * 1000.0 / (2.0 * samplingFrequencyHz); }
 };
+
+/// Field-by-field equality (a new field must be added here, or this stops compiling).
+inline bool operator==(const DepthConversion& a, const DepthConversion& b) {
+  const auto& [samplingA, delayA, speedA] = a;
+  const auto& [samplingB, delayB, speedB] = b;
+  return std::tie(samplingA, delayA, speedA) == std::tie(samplingB, delayB, speedB);
+}
+inline bool operator!=(const DepthConversion& a, const DepthConversion& b) { return !(a == b); }
 
 }  // namespace echoreg

@@ -11,6 +11,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <tuple>
 #include <vector>
 
 namespace echoreg {
@@ -25,6 +26,14 @@ struct InterSignalParams {
   double consistencyMm = 0.5;  ///< > 0
   double minSpreadMm = 1.0;    ///< >= 0; 0 switches the spatial filter off
 };
+
+/// Field-by-field equality (a new field must be added here, or this stops compiling).
+inline bool operator==(const InterSignalParams& a, const InterSignalParams& b) {
+  const auto& [historyA, consistencyA, spreadA] = a;
+  const auto& [historyB, consistencyB, spreadB] = b;
+  return std::tie(historyA, consistencyA, spreadA) == std::tie(historyB, consistencyB, spreadB);
+}
+inline bool operator!=(const InterSignalParams& a, const InterSignalParams& b) { return !(a == b); }
 
 /// Every parameter of the chain. Window limits are depths (mm) and become sample indices through
 /// `depth` when the chain is built.

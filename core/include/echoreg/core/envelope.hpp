@@ -19,6 +19,7 @@
 #include <memory>
 #include <string>
 #include <string_view>
+#include <tuple>
 #include <vector>
 
 namespace echoreg {
@@ -51,6 +52,19 @@ struct EnvelopeParams {
 
 /// Checks the parameters; throws std::invalid_argument naming the first bad one.
 void validate(const EnvelopeParams& params);
+
+/// Field-by-field equality (a new field must be added here, or this stops compiling).
+inline bool operator==(const EnvelopeParams& a, const EnvelopeParams& b) {
+  const auto& [methodA, ringDownA, orderA, cutoffA, zeroPhaseA, windowA, transducerA, bandwidthA,
+               samplingA, smoothingA] = a;
+  const auto& [methodB, ringDownB, orderB, cutoffB, zeroPhaseB, windowB, transducerB, bandwidthB,
+               samplingB, smoothingB] = b;
+  return std::tie(methodA, ringDownA, orderA, cutoffA, zeroPhaseA, windowA, transducerA,
+                  bandwidthA, samplingA, smoothingA) ==
+         std::tie(methodB, ringDownB, orderB, cutoffB, zeroPhaseB, windowB, transducerB,
+                  bandwidthB, samplingB, smoothingB);
+}
+inline bool operator!=(const EnvelopeParams& a, const EnvelopeParams& b) { return !(a == b); }
 
 /// Computes envelopes of records of one length with one parameter set. Construction designs the
 /// filters and windows once; compute() reuses scratch buffers, so one detector per thread.

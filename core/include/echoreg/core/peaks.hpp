@@ -7,6 +7,7 @@
 
 #include <optional>
 #include <string_view>
+#include <tuple>
 #include <vector>
 
 namespace echoreg {
@@ -88,6 +89,21 @@ struct PeakParams {
 
 /// Checks the parameters; throws std::invalid_argument naming the first bad one.
 void validate(const PeakParams& params);
+
+/// Field-by-field equality (a new field must be added here, or this stops compiling).
+inline bool operator==(const BoneEchoParams& a, const BoneEchoParams& b) {
+  const auto& [regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA] = a;
+  const auto& [regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB] = b;
+  return std::tie(regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA) ==
+         std::tie(regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB);
+}
+inline bool operator==(const PeakParams& a, const PeakParams& b) {
+  const auto& [modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, subsampleA, mmA] = a;
+  const auto& [modeB, factorB, ofMaxB, beginB, endB, policyB, boneB, subsampleB, mmB] = b;
+  return std::tie(modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, subsampleA, mmA) ==
+         std::tie(modeB, factorB, ofMaxB, beginB, endB, policyB, boneB, subsampleB, mmB);
+}
+inline bool operator!=(const PeakParams& a, const PeakParams& b) { return !(a == b); }
 
 struct Peak {
   int index = 0;      ///< sample index of the maximum of the run
