@@ -263,6 +263,7 @@ void writeSlice(const fs::path& file, const CtVolume& volume, const DicomSeriesI
   setString(ds, 0x0020, 0x1040, gdcm::VR::LO, "");  // position reference indicator
   setString(ds, 0x0020, 0x1041, gdcm::VR::DS, decimalString(first.z()));
   setString(ds, 0x0020, 0x4000, gdcm::VR::LT, "slice group " + groupName);
+  setString(ds, 0x0028, 0x0004, gdcm::VR::CS, "MONOCHROME2");
   setString(ds, 0x0028, 0x1050, gdcm::VR::DS, std::to_string(kBoneWindowCentre));
   setString(ds, 0x0028, 0x1051, gdcm::VR::DS, std::to_string(kBoneWindowWidth));
   setString(ds, 0x0028, 0x1054, gdcm::VR::LO, "HU");
