@@ -193,8 +193,8 @@ void BM_FirstHit_vtkStaticCellLocator(benchmark::State& state) {
   int subId = 0;
   auto intersect = [&](const Ray& ray) {
     const Eigen::Vector3d end = ray.origin + s.lineLengthMm * ray.direction;
-    return s.vtkLocator->IntersectWithLine(ray.origin.data(), end.data(), 0.0, t, x, pcoords,
-                                           subId, cellId, cell);
+    return s.vtkLocator->IntersectWithLine(ray.origin.data(), end.data(), 0.0, t, x, pcoords, subId,
+                                           cellId, cell);
   };
   std::size_t i = 0;
   for (auto _ : state) {

@@ -14,12 +14,13 @@ namespace echoreg::core {
 
 namespace {
 
-constexpr int kLeafSize = 4;          // triangles per leaf (at most)
-constexpr int kBins = 16;             // SAH bins per axis
-constexpr int kMaxSahDepth = 40;      // deeper nodes split at the median, so depth stays bounded
-constexpr int kStackSize = 128;       // > kMaxSahDepth + log2(2^31 / kLeafSize) + 1
-constexpr double kBaryTolerance = 1e-12;  // edges widened by this (relative) so no ray slips through
-constexpr double kSameHitMm = 1e-9;       // hits this close on adjacent triangles are one crossing
+constexpr int kLeafSize = 4;      // triangles per leaf (at most)
+constexpr int kBins = 16;         // SAH bins per axis
+constexpr int kMaxSahDepth = 40;  // deeper nodes split at the median, so depth stays bounded
+constexpr int kStackSize = 128;   // > kMaxSahDepth + log2(2^31 / kLeafSize) + 1
+constexpr double kBaryTolerance =
+    1e-12;                           // edges widened by this (relative) so no ray slips through
+constexpr double kSameHitMm = 1e-9;  // hits this close on adjacent triangles are one crossing
 constexpr double kFirstHitWindowMm = 1e-6;  // firstHit gathers hits this far past the nearest
 
 constexpr double kInfinity = std::numeric_limits<double>::infinity();
@@ -208,8 +209,10 @@ inline bool intersect(const Triangle& tri, const Eigen::Vector3d& origin,
   return true;
 }
 
-void require(bool condition, const std::string& message) {
-  if (!condition) throw std::invalid_argument(message);
+// Throws std::invalid_argument with message() (built only on failure: queries call this).
+template <typename Message>
+void require(bool condition, Message&& message) {
+  if (!condition) throw std::invalid_argument(message());
 }
 
 std::string text(double value) {
@@ -224,11 +227,14 @@ std::string text(const Eigen::Vector3d& v) {
 
 void requireRay(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double tMax,
                 double tMin) {
-  require(origin.allFinite(), "MeshLocator: ray origin " + text(origin) + " is not finite");
-  require(direction.allFinite() && std::abs(direction.squaredNorm() - 1.0) <= 1e-6,
-          "MeshLocator: ray direction " + text(direction) + " is not of unit length");
-  require(!std::isnan(tMax) && !std::isnan(tMin),
-          "MeshLocator: ray interval (" + text(tMin) + ", " + text(tMax) + "] is not a number");
+  require(origin.allFinite(),
+          [&] { return "MeshLocator: ray origin " + text(origin) + " is not finite"; });
+  require(direction.allFinite() && std::abs(direction.squaredNorm() - 1.0) <= 1e-6, [&] {
+    return "MeshLocator: ray direction " + text(direction) + " is not of unit length";
+  });
+  require(!std::isnan(tMax) && !std::isnan(tMin), [&] {
+    return "MeshLocator: ray interval (" + text(tMin) + ", " + text(tMax) + "] is not a number";
+  });
 }
 
 }  // namespace
@@ -239,27 +245,28 @@ struct MeshLocator::Impl {
   std::vector<Triangle> triangles;       // leaf order
   std::vector<Node> nodes;               // depth-first; nodes[0] is the root
 
-  // Build scratch.
-  std::vector<int> order;
-  std::vector<Box> triangleBoxes;
-  std::vector<Eigen::Vector3d> centroids;
+  // Build scratch: one record per triangle, moved around as the tree splits (so each split
+  // reads its triangles contiguously).
+  struct Item {
+    Box box;
+    Eigen::Vector3d centroid;
+    int index;
+  };
+  std::vector<Item> items;
 
   explicit Impl(TriangleMesh input) : mesh(std::move(input)) {
     validate();
     const std::size_t count = mesh.triangles.size();
     normals.resize(count, Eigen::Vector3d::Zero());
-    triangleBoxes.resize(count);
-    centroids.resize(count);
-    order.resize(count);
+    items.resize(count);
     double scale = 1.0;
     for (const Eigen::Vector3d& v : mesh.vertices) scale = std::max(scale, v.cwiseAbs().maxCoeff());
     for (std::size_t i = 0; i < count; ++i) {
       const auto& tri = mesh.triangles[i];
-      Box box;
-      for (int k = 0; k < 3; ++k) box.grow(vertex(tri, k));
-      triangleBoxes[i] = box;
-      centroids[i] = (vertex(tri, 0) + vertex(tri, 1) + vertex(tri, 2)) / 3.0;
-      order[i] = static_cast<int>(i);
+      Item& item = items[i];
+      for (int k = 0; k < 3; ++k) item.box.grow(vertex(tri, k));
+      item.centroid = (vertex(tri, 0) + vertex(tri, 1) + vertex(tri, 2)) / 3.0;
+      item.index = static_cast<int>(i);
     }
     if (count > 0) {
       nodes.reserve(2 * count / kLeafSize + 1);
@@ -276,7 +283,7 @@ struct MeshLocator::Impl {
     }
     triangles.resize(count);
     for (std::size_t i = 0; i < count; ++i) {
-      const int index = order[i];
+      const int index = items[i].index;
       const auto& tri = mesh.triangles[static_cast<std::size_t>(index)];
       Triangle& out = triangles[i];
       out.a = vertex(tri, 0);
@@ -285,13 +292,11 @@ struct MeshLocator::Impl {
       const Eigen::Vector3d cross = (out.b - out.a).cross(out.c - out.a);
       out.doubleAreaMm2 = cross.norm();
       out.index = index;
-      out.degenerate = !(out.doubleAreaMm2 > 0.0) || tri[0] == tri[1] || tri[1] == tri[2] ||
-                       tri[0] == tri[2];
+      out.degenerate =
+          !(out.doubleAreaMm2 > 0.0) || tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2];
       if (!out.degenerate) normals[static_cast<std::size_t>(index)] = cross / out.doubleAreaMm2;
     }
-    order = {};
-    triangleBoxes = {};
-    centroids = {};
+    items = {};
   }
 
   const Eigen::Vector3d& vertex(const std::array<int, 3>& tri, int k) const {
@@ -301,103 +306,113 @@ struct MeshLocator::Impl {
   void validate() const {
     const std::size_t vertexCount = mesh.vertices.size();
     for (std::size_t v = 0; v < vertexCount; ++v) {
-      require(mesh.vertices[v].allFinite(), "MeshLocator: vertex " + std::to_string(v) + " " +
-                                                text(mesh.vertices[v]) + " is not finite");
+      require(mesh.vertices[v].allFinite(), [&] {
+        return "MeshLocator: vertex " + std::to_string(v) + " " + text(mesh.vertices[v]) +
+               " is not finite";
+      });
     }
-    require(mesh.triangles.size() < static_cast<std::size_t>(INT_MAX / 2),
-            "MeshLocator: " + std::to_string(mesh.triangles.size()) + " triangles are too many");
+    require(mesh.triangles.size() < static_cast<std::size_t>(INT_MAX / 2), [&] {
+      return "MeshLocator: " + std::to_string(mesh.triangles.size()) + " triangles are too many";
+    });
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
       for (int index : mesh.triangles[t]) {
-        require(index >= 0 && static_cast<std::size_t>(index) < vertexCount,
-                "MeshLocator: triangle " + std::to_string(t) + " has vertex index " +
-                    std::to_string(index) + " outside 0.." + std::to_string(vertexCount) +
-                    " (exclusive)");
+        require(index >= 0 && static_cast<std::size_t>(index) < vertexCount, [&] {
+          return "MeshLocator: triangle " + std::to_string(t) + " has vertex index " +
+                 std::to_string(index) + " outside 0.." + std::to_string(vertexCount) +
+                 " (exclusive)";
+        });
       }
     }
   }
 
-  // Builds the subtree of order[begin, end) and returns its node index.
+  // Builds the subtree of items[begin, end) and returns its node index.
   int build(int begin, int end, int depth) {
     const int nodeIndex = static_cast<int>(nodes.size());
     nodes.emplace_back();
     Box box, centroidBox;
     for (int i = begin; i < end; ++i) {
-      const auto id = static_cast<std::size_t>(order[static_cast<std::size_t>(i)]);
-      box.grow(triangleBoxes[id]);
-      centroidBox.grow(centroids[id]);
+      const Item& item = items[static_cast<std::size_t>(i)];
+      box.grow(item.box);
+      centroidBox.grow(item.centroid);
     }
+    Node& node = nodes.back();
     for (int k = 0; k < 3; ++k) {
-      nodes[static_cast<std::size_t>(nodeIndex)].low[k] = box.low[k];
-      nodes[static_cast<std::size_t>(nodeIndex)].high[k] = box.high[k];
+      node.low[k] = box.low[k];
+      node.high[k] = box.high[k];
     }
     if (end - begin <= kLeafSize) {
-      nodes[static_cast<std::size_t>(nodeIndex)].first = begin;
-      nodes[static_cast<std::size_t>(nodeIndex)].count = end - begin;
+      node.first = begin;
+      node.count = end - begin;
       return nodeIndex;
     }
     int middle = depth < kMaxSahDepth ? sahSplit(begin, end, centroidBox) : begin;
     if (middle <= begin || middle >= end) middle = medianSplit(begin, end, centroidBox);
     build(begin, middle, depth + 1);
     const int right = build(middle, end, depth + 1);
-    nodes[static_cast<std::size_t>(nodeIndex)].first = right;
+    nodes[static_cast<std::size_t>(nodeIndex)].first = right;  // `node` may have moved
     nodes[static_cast<std::size_t>(nodeIndex)].count = 0;
     return nodeIndex;
   }
 
-  // Binned surface area heuristic over the three axes; returns the partition point, or `begin`
-  // when the centroids cannot be separated.
+  // Binned surface area heuristic over the three axes (one pass bins all three); returns the
+  // partition point, or `begin` when the centroids cannot be separated.
   int sahSplit(int begin, int end, const Box& centroidBox) {
+    const Eigen::Vector3d low = centroidBox.low;
+    const Eigen::Vector3d extent = centroidBox.high - centroidBox.low;
+    Eigen::Vector3d scale;
+    for (int axis = 0; axis < 3; ++axis)
+      scale[axis] = extent[axis] > 0.0 ? kBins / extent[axis] : 0.0;
+    std::array<std::array<Box, kBins>, 3> boxes;
+    std::array<std::array<int, kBins>, 3> counts{};
+    for (int i = begin; i < end; ++i) {
+      const Item& item = items[static_cast<std::size_t>(i)];
+      for (std::size_t axis = 0; axis < 3; ++axis) {
+        const auto bin =
+            static_cast<std::size_t>(binOf(item.centroid, low, scale, static_cast<int>(axis)));
+        ++counts[axis][bin];
+        boxes[axis][bin].grow(item.box);
+      }
+    }
     double bestCost = kInfinity;
     int bestAxis = -1, bestBin = 0;
-    for (int axis = 0; axis < 3; ++axis) {
-      const double low = centroidBox.low[axis];
-      const double extent = centroidBox.high[axis] - low;
-      if (!(extent > 0.0)) continue;
-      std::array<Box, kBins> boxes;
-      std::array<int, kBins> counts{};
-      for (int i = begin; i < end; ++i) {
-        const auto id = static_cast<std::size_t>(order[static_cast<std::size_t>(i)]);
-        const auto bin = static_cast<std::size_t>(binOf(centroids[id][axis], low, extent));
-        ++counts[bin];
-        boxes[bin].grow(triangleBoxes[id]);
-      }
+    for (std::size_t axis = 0; axis < 3; ++axis) {
+      if (!(extent[static_cast<int>(axis)] > 0.0)) continue;
       // Areas and counts to the right of each split plane.
       std::array<double, kBins> rightArea{};
       std::array<int, kBins> rightCount{};
       Box right;
       int rightSum = 0;
       for (std::size_t b = kBins - 1; b > 0; --b) {
-        right.grow(boxes[b]);
-        rightSum += counts[b];
+        right.grow(boxes[axis][b]);
+        rightSum += counts[axis][b];
         rightArea[b] = right.halfArea();
         rightCount[b] = rightSum;
       }
       Box left;
       int leftSum = 0;
       for (std::size_t b = 1; b < kBins; ++b) {  // split between bin b - 1 and bin b
-        left.grow(boxes[b - 1]);
-        leftSum += counts[b - 1];
+        left.grow(boxes[axis][b - 1]);
+        leftSum += counts[axis][b - 1];
         if (leftSum == 0 || rightCount[b] == 0) continue;
         const double cost = left.halfArea() * leftSum + rightArea[b] * rightCount[b];
         if (cost < bestCost) {
           bestCost = cost;
-          bestAxis = axis;
+          bestAxis = static_cast<int>(axis);
           bestBin = static_cast<int>(b);
         }
       }
     }
     if (bestAxis < 0) return begin;
-    const double low = centroidBox.low[bestAxis];
-    const double extent = centroidBox.high[bestAxis] - low;
-    const auto first = order.begin() + begin, last = order.begin() + end;
-    const auto split = std::partition(first, last, [&](int id) {
-      return binOf(centroids[static_cast<std::size_t>(id)][bestAxis], low, extent) < bestBin;
+    const auto first = items.begin() + begin, last = items.begin() + end;
+    const auto split = std::partition(first, last, [&](const Item& item) {
+      return binOf(item.centroid, low, scale, bestAxis) < bestBin;
     });
     return begin + static_cast<int>(split - first);
   }
 
-  static int binOf(double value, double low, double extent) {
-    const auto bin = static_cast<int>(kBins * ((value - low) / extent));
+  static int binOf(const Eigen::Vector3d& centroid, const Eigen::Vector3d& low,
+                   const Eigen::Vector3d& scale, int axis) {
+    const auto bin = static_cast<int>((centroid[axis] - low[axis]) * scale[axis]);
     return std::clamp(bin, 0, kBins - 1);
   }
 
@@ -408,11 +423,10 @@ struct MeshLocator::Impl {
     if (extent.y() > extent[axis]) axis = 1;
     if (extent.z() > extent[axis]) axis = 2;
     const int middle = begin + (end - begin) / 2;
-    std::nth_element(order.begin() + begin, order.begin() + middle, order.begin() + end,
-                     [&](int x, int y) {
-                       const double cx = centroids[static_cast<std::size_t>(x)][axis];
-                       const double cy = centroids[static_cast<std::size_t>(y)][axis];
-                       return cx < cy || (cx == cy && x < y);
+    std::nth_element(items.begin() + begin, items.begin() + middle, items.begin() + end,
+                     [axis](const Item& x, const Item& y) {
+                       const double cx = x.centroid[axis], cy = y.centroid[axis];
+                       return cx < cy || (cx == cy && x.index < y.index);
                      });
     return middle;
   }
@@ -557,7 +571,9 @@ MeshLocator::~MeshLocator() = default;
 MeshLocator::MeshLocator(MeshLocator&&) noexcept = default;
 MeshLocator& MeshLocator::operator=(MeshLocator&&) noexcept = default;
 
-const TriangleMesh& MeshLocator::mesh() const { return impl_->mesh; }
+const TriangleMesh& MeshLocator::mesh() const {
+  return impl_->mesh;
+}
 
 std::optional<RayHit> MeshLocator::firstHit(const Eigen::Vector3d& origin,
                                             const Eigen::Vector3d& direction, double tMax,
@@ -595,16 +611,17 @@ std::vector<RayHit> MeshLocator::allHits(const Eigen::Vector3d& origin,
   std::sort(raw.begin(), raw.end(), rawLess);
   std::vector<RayHit> hits;
   hits.reserve(raw.size());
-  impl_->merge(raw.data(), raw.size(), [&](const RawHit& hit) {
-    hits.push_back(impl_->toHit(hit, origin, direction));
-  });
+  impl_->merge(raw.data(), raw.size(),
+               [&](const RawHit& hit) { hits.push_back(impl_->toHit(hit, origin, direction)); });
   return hits;
 }
 
 ClosestPoint MeshLocator::closest(const Eigen::Vector3d& point, double maxDistance) const {
-  require(point.allFinite(), "MeshLocator::closest: point " + text(point) + " is not finite");
-  require(maxDistance >= 0.0,
-          "MeshLocator::closest: maxDistance " + text(maxDistance) + " is not >= 0");
+  require(point.allFinite(),
+          [&] { return "MeshLocator::closest: point " + text(point) + " is not finite"; });
+  require(maxDistance >= 0.0, [&] {
+    return "MeshLocator::closest: maxDistance " + text(maxDistance) + " is not >= 0";
+  });
   ClosestPoint result;
   result.distance = maxDistance;
   result.point = point;
@@ -615,57 +632,66 @@ ClosestPoint MeshLocator::closest(const Eigen::Vector3d& point, double maxDistan
   int bestIndex = INT_MAX;
   int bestSlot = -1;  // position of the best triangle in leaf order
 
+  // Best-first: a heap of boxes by distance; from each box taken off it, walk down to the nearer
+  // child and leave the farther one on the heap. The search ends when the nearest box left is
+  // farther than the best triangle so far.
   struct Entry {
-    int node;
     double distance2;
+    int node;
+    bool operator<(const Entry& other) const { return distance2 > other.distance2; }
   };
-  std::array<Entry, kStackSize> stack;
-  int top = 0;
+  thread_local std::vector<Entry> heap;
+  heap.clear();
   Eigen::Vector3d weights;
   const double rootDistance2 = boxDistance2(nodes[0], point);
   if (rootDistance2 > best2) return result;
-  stack[0] = {0, rootDistance2};
-  top = 1;
-  while (top > 0) {
-    const Entry entry = stack[static_cast<std::size_t>(--top)];
-    if (entry.distance2 > best2) continue;
-    const Node& node = nodes[static_cast<std::size_t>(entry.node)];
-    if (node.count > 0) {
-      for (int i = node.first; i < node.first + node.count; ++i) {
-        const Triangle& tri = impl_->triangles[static_cast<std::size_t>(i)];
-        const double d2 = (closestOn(tri, point, weights) - point).squaredNorm();
-        // Ties go to the lowest triangle index, so the answer does not depend on the tree.
-        if (d2 < best2 || (d2 == best2 && tri.index < bestIndex)) {
-          best2 = d2;
-          bestIndex = tri.index;
-          bestSlot = i;
+  heap.push_back({rootDistance2, 0});
+  while (!heap.empty()) {
+    std::pop_heap(heap.begin(), heap.end());
+    const Entry entry = heap.back();
+    heap.pop_back();
+    if (entry.distance2 > best2) break;
+    int index = entry.node;
+    for (;;) {
+      const Node& node = nodes[static_cast<std::size_t>(index)];
+      if (node.count > 0) {
+        for (int i = node.first; i < node.first + node.count; ++i) {
+          const Triangle& tri = impl_->triangles[static_cast<std::size_t>(i)];
+          const double d2 = (closestOn(tri, point, weights) - point).squaredNorm();
+          // Ties go to the lowest triangle index, so the answer does not depend on the tree.
+          if (d2 < best2 || (d2 == best2 && tri.index < bestIndex)) {
+            best2 = d2;
+            bestIndex = tri.index;
+            bestSlot = i;
+          }
         }
+        break;
       }
-      continue;
-    }
-    const int leftIndex = entry.node + 1;
-    const int rightIndex = node.first;
-    const double left2 = boxDistance2(nodes[static_cast<std::size_t>(leftIndex)], point);
-    const double right2 = boxDistance2(nodes[static_cast<std::size_t>(rightIndex)], point);
-    // Nearer child on top of the stack: searched first, so the bound tightens early.
-    if (left2 <= right2) {
-      if (right2 <= best2) stack[static_cast<std::size_t>(top++)] = {rightIndex, right2};
-      if (left2 <= best2) stack[static_cast<std::size_t>(top++)] = {leftIndex, left2};
-    } else {
-      if (left2 <= best2) stack[static_cast<std::size_t>(top++)] = {leftIndex, left2};
-      if (right2 <= best2) stack[static_cast<std::size_t>(top++)] = {rightIndex, right2};
+      const int leftIndex = index + 1;
+      const int rightIndex = node.first;
+      const double left2 = boxDistance2(nodes[static_cast<std::size_t>(leftIndex)], point);
+      const double right2 = boxDistance2(nodes[static_cast<std::size_t>(rightIndex)], point);
+      const bool leftFirst = left2 <= right2;
+      const double near2 = leftFirst ? left2 : right2, far2 = leftFirst ? right2 : left2;
+      if (far2 <= best2) {
+        heap.push_back({far2, leftFirst ? rightIndex : leftIndex});
+        std::push_heap(heap.begin(), heap.end());
+      }
+      if (near2 > best2) break;
+      index = leftFirst ? leftIndex : rightIndex;
     }
   }
   if (bestSlot < 0) return result;
-  result.point = closestOn(impl_->triangles[static_cast<std::size_t>(bestSlot)], point,
-                           result.barycentric);
+  result.point =
+      closestOn(impl_->triangles[static_cast<std::size_t>(bestSlot)], point, result.barycentric);
   result.distance = std::sqrt(best2);
   result.triangle = bestIndex;
   return result;
 }
 
 bool MeshLocator::inside(const Eigen::Vector3d& point) const {
-  require(point.allFinite(), "MeshLocator::inside: point " + text(point) + " is not finite");
+  require(point.allFinite(),
+          [&] { return "MeshLocator::inside: point " + text(point) + " is not finite"; });
   const auto& nodes = impl_->nodes;
   if (nodes.empty()) return false;
   for (int k = 0; k < 3; ++k) {

@@ -58,7 +58,8 @@ TEST(MeshLocator, SphereClosestPointEqualsBruteForce) {
     Eigen::Vector3d rebuilt = Eigen::Vector3d::Zero();
     for (int k = 0; k < 3; ++k) {
       EXPECT_GE(found.barycentric[k], -1e-12);
-      rebuilt += found.barycentric[k] * sphere.vertices[static_cast<std::size_t>(tri[static_cast<std::size_t>(k)])];
+      rebuilt += found.barycentric[k] *
+                 sphere.vertices[static_cast<std::size_t>(tri[static_cast<std::size_t>(k)])];
     }
     EXPECT_NEAR(found.barycentric.sum(), 1.0, 1e-12);
     EXPECT_LT((rebuilt - found.point).norm(), 1e-9);

@@ -41,9 +41,10 @@ TEST(MeshLocatorFemur, ClosestPointEqualsBruteForce) {
   for (int i = 0; i < 2000; ++i) {
     // Half in the grown bounds, half within 2 mm of a random vertex (near the surface).
     const Eigen::Vector3d p =
-        i % 2 == 0 ? randomPoint(rng, femur, 20.0)
-                   : femur.mesh.vertices[rng.below(femur.mesh.vertices.size())] +
-                         Eigen::Vector3d(rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-2, 2));
+        i % 2 == 0
+            ? randomPoint(rng, femur, 20.0)
+            : femur.mesh.vertices[rng.below(femur.mesh.vertices.size())] +
+                  Eigen::Vector3d(rng.uniform(-2, 2), rng.uniform(-2, 2), rng.uniform(-2, 2));
     const ClosestPoint found = locator.closest(p);
     ASSERT_NEAR(found.distance, test::bruteClosestDistance(femur.mesh, p), 1e-9) << i;
     EXPECT_NEAR((found.point - p).norm(), found.distance, 1e-9);
@@ -59,9 +60,9 @@ TEST(MeshLocatorFemur, FirstHitEqualsBruteForce) {
   for (int i = 0; i < 2000; ++i) {
     // From around the bone toward a random surface vertex's neighbourhood, like a beam.
     const Eigen::Vector3d origin = randomPoint(rng, femur, 30.0);
-    const Eigen::Vector3d target = femur.mesh.vertices[rng.below(femur.mesh.vertices.size())] +
-                                   Eigen::Vector3d(rng.uniform(-1, 1), rng.uniform(-1, 1),
-                                                   rng.uniform(-1, 1));
+    const Eigen::Vector3d target =
+        femur.mesh.vertices[rng.below(femur.mesh.vertices.size())] +
+        Eigen::Vector3d(rng.uniform(-1, 1), rng.uniform(-1, 1), rng.uniform(-1, 1));
     const Eigen::Vector3d direction = (target - origin).normalized();
     const auto expected = test::bruteFirstHit(femur.mesh, origin, direction);
     const auto found = locator.firstHit(origin, direction);
@@ -94,9 +95,10 @@ TEST(MeshLocatorFemur, InsideAgreesWithTheWindingNumber) {
   for (int i = 0; i < 600; ++i) {
     // Points within 3 mm of the surface half of the time, so both answers are common.
     const Eigen::Vector3d p =
-        i % 2 == 0 ? randomPoint(rng, femur, 5.0)
-                   : femur.mesh.vertices[rng.below(femur.mesh.vertices.size())] +
-                         Eigen::Vector3d(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
+        i % 2 == 0
+            ? randomPoint(rng, femur, 5.0)
+            : femur.mesh.vertices[rng.below(femur.mesh.vertices.size())] +
+                  Eigen::Vector3d(rng.uniform(-3, 3), rng.uniform(-3, 3), rng.uniform(-3, 3));
     const double winding = test::windingNumber(femur.mesh, p);
     ASSERT_TRUE(std::abs(winding) < 1e-6 || std::abs(winding - 1.0) < 1e-6) << winding;
     const bool expected = winding > 0.5;

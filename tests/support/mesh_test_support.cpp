@@ -27,14 +27,14 @@ double segmentDistance(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
 
 core::TriangleMesh icosphere(double radiusMm, int subdivisions, const Eigen::Vector3d& centre) {
   const double phi = (1.0 + std::sqrt(5.0)) / 2.0;
-  std::vector<Eigen::Vector3d> unit = {
-      {-1, phi, 0}, {1, phi, 0}, {-1, -phi, 0}, {1, -phi, 0}, {0, -1, phi}, {0, 1, phi},
-      {0, -1, -phi}, {0, 1, -phi}, {phi, 0, -1}, {phi, 0, 1}, {-phi, 0, -1}, {-phi, 0, 1}};
+  std::vector<Eigen::Vector3d> unit = {{-1, phi, 0}, {1, phi, 0}, {-1, -phi, 0}, {1, -phi, 0},
+                                       {0, -1, phi}, {0, 1, phi}, {0, -1, -phi}, {0, 1, -phi},
+                                       {phi, 0, -1}, {phi, 0, 1}, {-phi, 0, -1}, {-phi, 0, 1}};
   for (auto& v : unit) v.normalize();
   std::vector<std::array<int, 3>> faces = {
-      {0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
+      {0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
       {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
-      {3, 8, 9},  {4, 9, 5},  {2, 4, 11},  {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
+      {3, 8, 9},   {4, 9, 5},  {2, 4, 11}, {6, 2, 10}, {8, 6, 7},   {9, 8, 1}};
   for (int level = 0; level < subdivisions; ++level) {
     std::map<std::pair<int, int>, int> midpoints;
     auto midpoint = [&](int a, int b) {
@@ -42,8 +42,8 @@ core::TriangleMesh icosphere(double radiusMm, int subdivisions, const Eigen::Vec
       const auto found = midpoints.find(key);
       if (found != midpoints.end()) return found->second;
       // Normalising a + b keeps antipodal symmetry exact: the mirror edge gives -(a + b).
-      unit.push_back((unit[static_cast<std::size_t>(a)] + unit[static_cast<std::size_t>(b)])
-                         .normalized());
+      unit.push_back(
+          (unit[static_cast<std::size_t>(a)] + unit[static_cast<std::size_t>(b)]).normalized());
       const int index = static_cast<int>(unit.size()) - 1;
       midpoints.emplace(key, index);
       return index;
