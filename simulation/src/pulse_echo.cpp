@@ -21,7 +21,8 @@ constexpr double kGaussianApertureOverRadius = 1.04;
 constexpr double kNegligibleLossNp = 25.0;
 
 void require(bool condition, const std::string& message) {
-  if (!condition) throw std::invalid_argument(message);
+  if (!condition)
+    throw std::invalid_argument(message);
 }
 
 std::string number(double value) {
@@ -36,21 +37,27 @@ bool isTarget(Tissue tissue) {
          tissue == Tissue::Steel;
 }
 
-bool endsBeam(Tissue tissue) { return isTarget(tissue) || tissue == Tissue::Air; }
+bool endsBeam(Tissue tissue) {
+  return isTarget(tissue) || tissue == Tissue::Air;
+}
 
 bool holdsFascia(Tissue tissue) {
   return tissue == Tissue::Skin || tissue == Tissue::Fat || tissue == Tissue::Muscle;
 }
 
-double waterSpeedMps() { return properties(Tissue::Water).speedMps; }
+double waterSpeedMps() {
+  return properties(Tissue::Water).speedMps;
+}
 
-double degToRad(double degrees) { return degrees * kPi / 180.0; }
+double degToRad(double degrees) {
+  return degrees * kPi / 180.0;
+}
 
 // Two-way frequency-dependent attenuation, linearised around the centre frequency:
 // alpha(f) ~ alpha0 + alpha1 (f - fc). A Gaussian spectrum times exp(-alpha(f)) stays Gaussian
 // with the same width, its centre moved down by sigma_f^2 alpha1 (Narayana & Ophir 1983).
 struct Loss {
-  double alpha0Np = 0.0;       // at the centre frequency
+  double alpha0Np = 0.0;        // at the centre frequency
   double alpha1NpPerMHz = 0.0;  // slope
 
   void add(Tissue tissue, double twoWayMm, double centreMHz) {
@@ -129,10 +136,10 @@ std::complex<double> faceBeamParameter(const Transducer& transducer, double freq
 
 // One specular reflector along the beam.
 struct Reflector {
-  double roundTripS;        // primary echo's arrival
-  double waterDepthMm;      // water-equivalent depth (for the beam)
-  double reflection;        // signed: interface echo x transmission both ways to it
-  Loss loss;                // two-way attenuation to it
+  double roundTripS;    // primary echo's arrival
+  double waterDepthMm;  // water-equivalent depth (for the beam)
+  double reflection;    // signed: interface echo x transmission both ways to it
+  Loss loss;            // two-way attenuation to it
   bool target;
 };
 
@@ -158,12 +165,16 @@ EchoInstance echoOf(const Reflector& reflector, int k, const Transducer& transdu
 
 SurfaceScatter surfaceScatter(Tissue tissue) {
   switch (tissue) {
-    case Tissue::Steel: return {0.5, 0.01};            // polished sphere
-    case Tissue::SawbonesShell:                        // moulded, smooth
-    case Tissue::SawbonesFoam: return {3.0, 0.03};
-    case Tissue::CorticalBone:                         // periosteum, curvature over the spot
-    case Tissue::CancellousBone: return {6.0, 0.05};
-    default: return {10.0, 0.1};                       // skin, fat, muscle, gel, air: soft, rough
+    case Tissue::Steel:
+      return {0.5, 0.01};        // polished sphere
+    case Tissue::SawbonesShell:  // moulded, smooth
+    case Tissue::SawbonesFoam:
+      return {3.0, 0.03};
+    case Tissue::CorticalBone:  // periosteum, curvature over the spot
+    case Tissue::CancellousBone:
+      return {6.0, 0.05};
+    default:
+      return {10.0, 0.1};  // skin, fat, muscle, gel, air: soft, rough
   }
 }
 
@@ -172,7 +183,8 @@ double obliqueReflectionCoefficient(Tissue from, Tissue to, double incidenceDeg)
   const TissueProperties& b = properties(to);
   const double theta = degToRad(incidenceDeg);
   const double sinTransmitted = std::sin(theta) * b.speedMps / a.speedMps;
-  if (sinTransmitted >= 1.0) return 1.0;  // total reflection past the critical angle
+  if (sinTransmitted >= 1.0)
+    return 1.0;  // total reflection past the critical angle
   const double cosTransmitted = std::sqrt(1.0 - sinTransmitted * sinTransmitted);
   const double z1 = a.impedanceMRayl();
   const double z2 = b.impedanceMRayl();
@@ -210,7 +222,8 @@ std::complex<double> focusingResponse(const Transducer& transducer, double water
   std::complex<double> q = q0;
   std::complex<double> a = 1.0;
   for (int trip = 0; trip < roundTrips; ++trip) {
-    if (trip > 0) q = 1.0 / (1.0 / q - 2.0 / transducer.focalLengthMm);
+    if (trip > 0)
+      q = 1.0 / (1.0 / q - 2.0 / transducer.focalLengthMm);
     a *= q / (q + 2.0 * waterDepthMm);
     q += 2.0 * waterDepthMm;
   }
@@ -227,13 +240,14 @@ void validate(const BeamPath& path, const Transducer& transducer, const Receiver
     require(static_cast<std::size_t>(layer.tissue) < static_cast<std::size_t>(Tissue::Count),
             name + " has an unknown tissue");
     const bool last = i + 1 == path.layers.size();
-    require(layer.lengthMm > 0.0 && (std::isfinite(layer.lengthMm) ||
-                                     (last && layer.lengthMm == std::numeric_limits<double>::infinity())),
+    require(layer.lengthMm > 0.0 &&
+                (std::isfinite(layer.lengthMm) ||
+                 (last && layer.lengthMm == std::numeric_limits<double>::infinity())),
             name + " length must be > 0 mm and finite (only the last may be infinite), got " +
                 number(layer.lengthMm));
-    require(layer.exitIncidenceDeg >= 0.0 && layer.exitIncidenceDeg <= 90.0,
-            name + " exit incidence must be in [0, 90] degrees, got " +
-                number(layer.exitIncidenceDeg));
+    require(
+        layer.exitIncidenceDeg >= 0.0 && layer.exitIncidenceDeg <= 90.0,
+        name + " exit incidence must be in [0, 90] degrees, got " + number(layer.exitIncidenceDeg));
   }
   for (std::size_t i = 0; i < path.fasciaDepthsMm.size(); ++i) {
     require(std::isfinite(path.fasciaDepthsMm[i]) && path.fasciaDepthsMm[i] >= 0.0,
@@ -280,7 +294,8 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
   const double fs = receiver.samplingFrequencyHz;
   const double fc = transducer.centreFrequencyHz;
   const double fcMHz = fc * 1e-6;
-  const double sigmaHz = transducer.fractionalBandwidth * fc / (2.0 * std::sqrt(2.0 * std::log(2.0)));
+  const double sigmaHz =
+      transducer.fractionalBandwidth * fc / (2.0 * std::sqrt(2.0 * std::log(2.0)));
   const Pulse pulse(fs, sigmaHz);
   const double counts = receiver.unitEchoCountsAt0Db * std::pow(10.0, receiver.gainDb / 20.0);
   const double recordEndS = receiver.delayS + receiver.samples / fs;
@@ -316,7 +331,8 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
       const double stop = start + layers[layer].lengthMm;
       if (holdsFascia(layers[layer].tissue)) {
         for (std::size_t i = 0; i < depths.size(); ++i) {
-          if (depths[i] > start && depths[i] < stop) sheets.push_back({depths[i], layer, strengths[i]});
+          if (depths[i] > start && depths[i] < stop)
+            sheets.push_back({depths[i], layer, strengths[i]});
         }
       }
       start = stop;
@@ -354,7 +370,8 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
                                         applyLoss(next.loss, fc, sigmaHz).frequencyHz);
       double sheetTransmission = 1.0;
       for (const Sheet& sheet : sheets) {
-        if (sheet.layer <= i) sheetTransmission *= 1.0 - sheet.reflection * sheet.reflection;
+        if (sheet.layer <= i)
+          sheetTransmission *= 1.0 - sheet.reflection * sheet.reflection;
       }
       reflectors.push_back({2.0 * next.oneWayS, next.waterDepthMm,
                             echo * next.transmission * sheetTransmission, next.loss,
@@ -372,7 +389,8 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
     loss.add(tissue, 2.0 * into, fcMHz);
     double sheetTransmission = 1.0;
     for (const Sheet& other : sheets) {
-      if (other.depthMm < sheet.depthMm) sheetTransmission *= 1.0 - other.reflection * other.reflection;
+      if (other.depthMm < sheet.depthMm)
+        sheetTransmission *= 1.0 - other.reflection * other.reflection;
     }
     reflectors.push_back({2.0 * (s.oneWayS + into * 1e-3 / speed),
                           s.waterDepthMm + into * speed / waterSpeed,
@@ -395,11 +413,14 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
   // Specular echoes and their multiples between face and reflector.
   for (const Reflector& reflector : reflectors) {
     for (int k = 1; k <= 64; ++k) {
-      if (k * reflector.roundTripS > recordEndS + pulse.halfLength() / fs) break;
-      if (reflector.loss.alpha0Np * k > kNegligibleLossNp) break;
+      if (k * reflector.roundTripS > recordEndS + pulse.halfLength() / fs)
+        break;
+      if (reflector.loss.alpha0Np * k > kNegligibleLossNp)
+        break;
       const EchoInstance echo = echoOf(reflector, k, transducer, receiver, sigmaHz);
       const double amplitude = std::abs(echo.amplitude) * counts;
-      if (amplitude < 1e-3) break;
+      if (amplitude < 1e-3)
+        break;
       pulse.add(record, echo.sample, amplitude, echo.frequencyHz, std::arg(echo.amplitude));
       if (reflector.target && k == 1) {
         pulse.add(targetEcho, echo.sample, amplitude, echo.frequencyHz, std::arg(echo.amplitude));
@@ -413,7 +434,8 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
   for (std::size_t i = 0; i < end; ++i) {
     const Tissue tissue = layers[i].tissue;
     const double backscatter = properties(tissue).backscatter;
-    if (backscatter <= 0.0 || transducer.muscleSpeckle <= 0.0) continue;
+    if (backscatter <= 0.0 || transducer.muscleSpeckle <= 0.0)
+      continue;
     const LayerStart& s = starts[i];
     const double speed = properties(tissue).speedMps;
     const double beginS = 2.0 * s.oneWayS;
@@ -426,16 +448,18 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
       const double into = (0.5 * t - s.oneWayS) * speed * 1e3;  // mm into the layer
       Loss loss = s.loss;
       loss.add(tissue, 2.0 * into, fcMHz);
-      if (loss.alpha0Np > kNegligibleLossNp) break;
+      if (loss.alpha0Np > kNegligibleLossNp)
+        break;
       double transmission = s.transmission;
       for (const Sheet& sheet : sheets) {
-        if (sheet.depthMm < s.depthMm + into) transmission *= 1.0 - sheet.reflection * sheet.reflection;
+        if (sheet.depthMm < s.depthMm + into)
+          transmission *= 1.0 - sheet.reflection * sheet.reflection;
       }
       const Shifted shifted = applyLoss(loss, fc, sigmaHz);
-      const double focus = std::abs(
-          focusingResponse(transducer, s.waterDepthMm + into * speed / waterSpeed, shifted.frequencyHz));
-      const double rms =
-          transducer.muscleSpeckle * backscatter * shifted.amplitude * transmission * focus * counts;
+      const double focus = std::abs(focusingResponse(
+          transducer, s.waterDepthMm + into * speed / waterSpeed, shifted.frequencyHz));
+      const double rms = transducer.muscleSpeckle * backscatter * shifted.amplitude * transmission *
+                         focus * counts;
       const double scatterer = rng.normal() * rms / std::sqrt(pulse.energy(shifted.frequencyHz));
       pulse.add(record, sample, scatterer, shifted.frequencyHz, 0.0);
     }
@@ -447,7 +471,8 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
   for (std::size_t i = 0; i < samples; ++i) {
     const double t = static_cast<double>(i) / fs + receiver.delayS;
     const double envelope = ringPeak * std::exp(-t / tau);
-    if (envelope < 1e-3) break;
+    if (envelope < 1e-3)
+      break;
     record[i] += envelope * std::cos(2.0 * kPi * fc * t);
   }
   {
@@ -459,11 +484,13 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
 
   // Electronic noise, then the card: 8 bits around mid-scale, clipped.
   if (receiver.electronicNoiseCounts > 0.0) {
-    for (double& v : record) v += rng.normal() * receiver.electronicNoiseCounts;
+    for (double& v : record)
+      v += rng.normal() * receiver.electronicNoiseCounts;
   }
   line.samples.resize(samples);
   for (std::size_t i = 0; i < samples; ++i) {
-    line.samples[i] = static_cast<std::uint8_t>(std::clamp(128L + std::lround(record[i]), 0L, 255L));
+    line.samples[i] =
+        static_cast<std::uint8_t>(std::clamp(128L + std::lround(record[i]), 0L, 255L));
   }
 
   // Clutter around the target echo: RMS of everything else in the 2 us before and after the
@@ -485,8 +512,8 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
       }
       return n > 0 ? std::sqrt(sum / static_cast<double>(n)) : receiver.electronicNoiseCounts;
     };
-    line.clutterRmsAtTarget = std::max(rmsOver(t0 - half - window, t0 - half),
-                                       rmsOver(t0 + half, t0 + half + window));
+    line.clutterRmsAtTarget =
+        std::max(rmsOver(t0 - half - window, t0 - half), rmsOver(t0 + half, t0 + half + window));
     const bool afterRingDown = t0 - half >= line.ringDownEndSample;
     const bool insideRecord = t0 + half + kClearShadowRoomS * fs <= receiver.samples;
     line.targetClear = afterRingDown && insideRecord &&

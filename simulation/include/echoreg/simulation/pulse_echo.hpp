@@ -40,7 +40,7 @@ struct Transducer {
 struct Receiver {
   double samplingFrequencyHz = 50e6;
   int samples = 4096;
-  double delayS = 0.0;                 ///< time from the pulse to sample 0 (>= 0)
+  double delayS = 0.0;  ///< time from the pulse to sample 0 (>= 0)
   double gainDb = 40.0;
   double electronicNoiseCounts = 0.7;  ///< RMS in ADC counts after gain
   /// ADC counts of the unit echo (a perfect plane reflector at the focus in water, no
