@@ -51,12 +51,17 @@ constexpr double kNeckShaftDeg = 128.0;
 constexpr double kAnteversionDeg = 12.0;
 constexpr double kValgusDeg = 6.0;  // femoral shaft to the mechanical axis
 constexpr double kShaftRadiusMm = 14.0;
+constexpr double kShaftAnteriorMm = 12.0;  // femoral shaft axis in front of the notch at the joint
 constexpr double kTibiaPlateauToPlafondMm = 362.0;
 constexpr double kCondyleAboveKneeMm = 1.0;   // distal condyles above the knee centre
 constexpr double kPlateauBelowKneeMm = 2.0;   // tibial plateau below the knee centre
 constexpr double kTibiofibularGapMm = 0.8;    // cartilage gap of both tibiofibular joints
 constexpr double kPatellofemoralGapMm = 4.0;  // cartilage of patella and trochlea
 constexpr double kFemurCorticalMm = 5.5;
+// The tibia turns about the transepicondylar axis without rolling back; past ~95 degrees its
+// posterior plateau would run into the posterior condyles, and in hyperextension the rigidly
+// following patella into the femur.
+constexpr double kMaxFlexionDeg = 90.0;
 constexpr double kTibiaCorticalMm = 4.5;
 constexpr double kFibulaCorticalMm = 2.0;
 
@@ -96,12 +101,9 @@ Eigen::Matrix3d rotationZTo(const Vector3d& zAxis, const Vector3d& xHint) {
 struct FemurModel {
   sdf::Field field;
   Vector3d hip;                 // head centre
+  Vector3d shaftFoot;           // where the shaft axis meets the joint level
   Vector3d shaftDirection;      // proximal, unit
-  Vector3d greaterTrochanter;   // inside points from which landmark rays start
-  Vector3d lesserTrochanter;
-  Vector3d lesserDirection;
-  Vector3d medialEpicondyle, lateralEpicondyle;
-  Vector3d medialCondyle, lateralCondyle;
+  Vector3d medialEpicondyle, lateralEpicondyle;  // inside points from which landmark rays start
   Eigen::AlignedBox3d searchBox;
 };
 
@@ -110,12 +112,19 @@ FemurModel femurModel(const Specimen& s) {
   const double length = kHipKneeMm * s.femurLength;
   const double beta = (180.0 - kNeckShaftDeg) * kDeg;  // neck to the proximal shaft direction
   const double anteversion = kAnteversionDeg * kDeg;
-  // Shaft frame F: z along the shaft, x medial, y posterior. The head centre sits at the femoral
-  // offset from the shaft axis, on a neck at the neck-shaft angle, turned anteriorly by the
-  // anteversion; the offset is chosen so that the shaft is at the valgus angle to the hip-knee line.
-  const double offset = length * std::sin(kValgusDeg * kDeg);
+  // The shaft axis meets the joint level in front of the notch, so that the condyles bulge
+  // behind the shaft and the trochlea lines up with the anterior cortex.
+  const Vector3d shaftFoot(0.0, -kShaftAnteriorMm * w, 0.0);
+  const Vector3d hip(0.0, 0.0, length);
+  const double footToHip = (hip - shaftFoot).norm();
+  // Shaft frame F (origin at shaftFoot): z along the shaft, x medial, y posterior. The head
+  // centre sits at the femoral offset from the shaft axis, on a neck at the neck-shaft angle,
+  // turned anteriorly by the anteversion; the offset is chosen so that the shaft is at the valgus
+  // angle to the line to the hip.
+  const double offset = footToHip * std::sin(kValgusDeg * kDeg);
   const double neckLength = offset / std::sin(beta);
-  const double neckBaseZ = std::sqrt(length * length - offset * offset) - neckLength * std::cos(beta);
+  const double neckBaseZ =
+      std::sqrt(footToHip * footToHip - offset * offset) - neckLength * std::cos(beta);
   const Vector3d neckDirF =
       (std::cos(beta) * Vector3d::UnitZ() +
        std::sin(beta) * (std::cos(anteversion) * Vector3d::UnitX() -
@@ -123,8 +132,10 @@ FemurModel femurModel(const Specimen& s) {
           .normalized();
   const Vector3d neckBaseF(0.0, 0.0, neckBaseZ);
   const Vector3d hipF = neckBaseF + neckLength * neckDirF;
-  // Rotation from F to the knee frame: the hip-knee line becomes +z, F's x stays in the x-z plane.
-  const Eigen::Matrix3d toKnee = rotationZTo(hipF, Vector3d::UnitX()).transpose();
+  // Rotation from F to the knee frame: F's hip direction onto the foot-to-hip line, F's x kept in
+  // the plane of that line and the knee's x.
+  const Eigen::Matrix3d toKnee = rotationZTo(hip - shaftFoot, Vector3d::UnitX()) *
+                                 rotationZTo(hipF, Vector3d::UnitX()).transpose();
   const Eigen::Matrix3d toShaft = toKnee.transpose();
 
   const double headRadius = kHeadRadiusMm * w;
@@ -163,7 +174,7 @@ FemurModel femurModel(const Specimen& s) {
     distal = sdf::smoothSubtraction(distal, sdf::capsule(p, grooveA, grooveB, 10.0 * w), 4.0 * w);
 
     // Shaft and proximal femur in the shaft frame.
-    const Vector3d q = toShaft * p;
+    const Vector3d q = toShaft * (p - shaftFoot);
     const double z1 = 0.30 * length;
     const double z2 = 0.70 * length;
     double shaft = sdf::roundCone(q, Vector3d(0, 0, 50.0 * w), Vector3d(0, 0, z1), 16.0 * w, r);
@@ -183,15 +194,11 @@ FemurModel femurModel(const Specimen& s) {
     shaft = sdf::smoothUnion(shaft, sdf::sphere(q, ltCentreF, 7.0 * w), 5.0 * w);
     return sdf::smoothUnion(distal, shaft, 15.0 * w);
   };
-  model.hip = toKnee * hipF;
+  model.hip = shaftFoot + toKnee * hipF;
+  model.shaftFoot = shaftFoot;
   model.shaftDirection = toKnee * Vector3d::UnitZ();
-  model.greaterTrochanter = toKnee * gtCentreF;
-  model.lesserTrochanter = toKnee * ltCentreF;
-  model.lesserDirection = toKnee * Vector3d(ltCentreF.x(), ltCentreF.y(), 0.0).normalized();
   model.medialEpicondyle = medialEpi;
   model.lateralEpicondyle = lateralEpi;
-  model.medialCondyle = medialCondyle;
-  model.lateralCondyle = lateralCondyle;
   model.searchBox = Eigen::AlignedBox3d(Vector3d(-110, -90, -30), Vector3d(110, 90, length + 80));
   return model;
 }
@@ -220,7 +227,7 @@ TibiaModel tibiaModel(const Specimen& s) {
   const Vector3d medialDish(22.0 * w, -2.0 * w, plateauZ(-2.0 * w) - kDishDepth + kDishRadius);
   const Vector3d lateralDish(-22.0 * w, -2.0 * w, plateauZ(-2.0 * w) - kDishDepth + kDishRadius);
   const Vector3d eminence(0.0, 1.0 * w, top - 5.0 * w);
-  const Vector3d tubercle(-4.0 * w, -17.0 * w, top - 28.0 * w);
+  const Vector3d tubercle(-4.0 * w, -19.0 * w, top - 28.0 * w);
   const Vector3d medialMalleolus(18.0 * w, 3.0 * w, ankleZ + 2.0 * w);
   const Vector3d ankle(0.0, 0.0, ankleZ);
 
@@ -233,7 +240,7 @@ TibiaModel tibiaModel(const Specimen& s) {
     head = sdf::smoothSubtraction(head, sdf::sphere(p, lateralDish, kDishRadius), 2.0);
     head = sdf::smoothUnion(head, sdf::ellipsoid(p, eminence, Vector3d(8.0, 12.0, 6.0) * w),
                             3.0 * w);
-    head = sdf::smoothUnion(head, sdf::ellipsoid(p, tubercle, Vector3d(10.0, 6.0, 14.0) * w),
+    head = sdf::smoothUnion(head, sdf::ellipsoid(p, tubercle, Vector3d(10.0, 7.0, 14.0) * w),
                             6.0 * w);
     // Proximal metaphysis tapering into a triangular shaft: a core with the anterior crest, the
     // medial border and the interosseous (lateral) border.
@@ -402,9 +409,9 @@ Bone patellaBone(const Specimen& s, const core::TriangleMesh& femurLocal, double
 }
 
 void validate(const KneeOptions& options) {
-  if (!std::isfinite(options.flexionDeg) || options.flexionDeg < -10.0 ||
-      options.flexionDeg > 150.0) {
-    throw std::invalid_argument("flexionDeg must be within -10 to 150 degrees, got " +
+  if (!std::isfinite(options.flexionDeg) || options.flexionDeg < 0.0 ||
+      options.flexionDeg > kMaxFlexionDeg) {
+    throw std::invalid_argument("flexionDeg must be within 0 to 90 degrees, got " +
                                 std::to_string(options.flexionDeg));
   }
   if (!std::isfinite(options.meshResolutionMm) || options.meshResolutionMm < 0.2 ||
@@ -507,7 +514,7 @@ double Bone::medullaryRadiusMm(const Vector3d& pointCt) const {
   double room = inscribedRadiusMm[bin];
   if (bin > 0) room = std::min(room, inscribedRadiusMm[bin - 1]);
   if (bin + 1 < n) room = std::min(room, inscribedRadiusMm[bin + 1]);
-  return presence * std::max(0.0, room - corticalThicknessMm(pointCt) - 0.5);
+  return presence * std::max(0.0, room - corticalThicknessMm(pointCt) - 1.0);
 }
 
 const Bone& Knee::bone(BoneId id) const {
@@ -537,20 +544,21 @@ Knee buildKnee(const KneeOptions& options) {
     femur = meshedBone(BoneId::Femur, model.field, model.searchBox, resolution);
     femur.landmarks["hip_centre"] = model.hip;
     femur.landmarks["knee_centre"] = Vector3d::Zero();
-    femur.landmarks["greater_trochanter"] =
-        sdf::rayExit(model.field, model.greaterTrochanter, -Vector3d::UnitX());
-    femur.landmarks["lesser_trochanter"] =
-        sdf::rayExit(model.field, model.lesserTrochanter, model.lesserDirection);
     femur.landmarks["medial_epicondyle"] =
         sdf::rayExit(model.field, model.medialEpicondyle, Vector3d::UnitX());
     femur.landmarks["lateral_epicondyle"] =
         sdf::rayExit(model.field, model.lateralEpicondyle, -Vector3d::UnitX());
-    femur.landmarks["medial_condyle_distal"] =
-        sdf::rayExit(model.field, model.medialCondyle, -Vector3d::UnitZ());
-    femur.landmarks["lateral_condyle_distal"] =
-        sdf::rayExit(model.field, model.lateralCondyle, -Vector3d::UnitZ());
+    detail::FemurAxes axes;
+    axes.axisPoint = model.shaftFoot;
+    axes.proximal = model.shaftDirection;
+    axes.hip = model.hip;
+    axes.medial = Vector3d::UnitX();
+    axes.down = -Vector3d::UnitZ();
+    axes.epicondyleMiddle =
+        0.5 * (femur.landmarks["medial_epicondyle"] + femur.landmarks["lateral_epicondyle"]);
+    detail::addFemurMeshLandmarks(femur.mesh, axes, femur.landmarks);
     femur.diaphysisCorticalMm = kFemurCorticalMm;
-    detail::setAxisProfile(femur, Vector3d::Zero(), model.shaftDirection);
+    detail::setAxisProfile(femur, model.shaftFoot, model.shaftDirection);
     hipKneeLength = model.hip.norm();
     translate(femur, knee);
   }

@@ -5,6 +5,7 @@
 
 #include <Eigen/Core>
 
+#include <map>
 #include <string>
 
 namespace echoreg::simulation::detail {
@@ -13,6 +14,22 @@ namespace echoreg::simulation::detail {
 /// direction pointing proximally) along its shaft.
 void setAxisProfile(Bone& bone, const Eigen::Vector3d& axisPoint,
                     const Eigen::Vector3d& proximalDirection);
+
+/// Directions of a femur in its mesh's coordinates, for the landmarks found on the mesh.
+struct FemurAxes {
+  Eigen::Vector3d axisPoint, proximal;  ///< shaft axis line, unit proximal direction
+  Eigen::Vector3d hip;                  ///< head centre
+  Eigen::Vector3d medial;               ///< unit medial direction (epicondylar)
+  Eigen::Vector3d down;                 ///< unit distal direction of the mechanical axis
+  Eigen::Vector3d epicondyleMiddle;
+};
+
+/// Landmarks defined as extreme vertices, the same way for procedural and user femurs:
+/// greater_trochanter (most lateral point above 40 mm below the hip centre), lesser_trochanter
+/// (most posteromedial point 50-95 mm below the hip centre, near the shaft),
+/// medial/lateral_condyle_distal (most distal point on each side of the epicondyles' middle).
+void addFemurMeshLandmarks(const core::TriangleMesh& mesh, const FemurAxes& axes,
+                           std::map<std::string, Eigen::Vector3d>& landmarks);
 
 /// A user's femur mesh analysed and placed in the knee.
 struct PlacedFemur {

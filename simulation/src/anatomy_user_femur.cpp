@@ -219,6 +219,32 @@ Vector3d extreme(const std::vector<Vector3d>& points, const Vector3d& direction,
 
 }  // namespace
 
+void addFemurMeshLandmarks(const core::TriangleMesh& mesh, const FemurAxes& axes,
+                           std::map<std::string, Vector3d>& landmarks) {
+  const std::vector<Vector3d>& v = mesh.vertices;
+  const Vector3d p = axes.proximal.normalized();
+  const Vector3d medial = (axes.medial - axes.medial.dot(p) * p).normalized();
+  const Vector3d posterior = p.cross(medial);  // LPS, right femur
+  const double hipLevel = (axes.hip - axes.axisPoint).dot(p);
+  auto level = [&](const Vector3d& q) { return (q - axes.axisPoint).dot(p); };
+  auto fromAxis = [&](const Vector3d& q) {
+    const Vector3d r = q - axes.axisPoint;
+    return (r - r.dot(p) * p).norm();
+  };
+  landmarks["greater_trochanter"] =
+      extreme(v, -medial, [&](const Vector3d& q) { return level(q) > hipLevel - 40.0; });
+  landmarks["lesser_trochanter"] =
+      extreme(v, (medial + posterior).normalized(), [&](const Vector3d& q) {
+        return level(q) > hipLevel - 95.0 && level(q) < hipLevel - 50.0 && fromAxis(q) < 35.0;
+      });
+  landmarks["medial_condyle_distal"] = extreme(v, axes.down, [&](const Vector3d& q) {
+    return (q - axes.epicondyleMiddle).dot(axes.medial) > 5.0;
+  });
+  landmarks["lateral_condyle_distal"] = extreme(v, axes.down, [&](const Vector3d& q) {
+    return (q - axes.epicondyleMiddle).dot(axes.medial) < -5.0;
+  });
+}
+
 PlacedFemur placeUserFemur(const std::string& path, const Vector3d& kneeCentreCt) {
   core::TriangleMesh mesh = filters::readMesh(path);
   core::MeshCheck check = core::checkMesh(mesh);
@@ -240,50 +266,50 @@ PlacedFemur placeUserFemur(const std::string& path, const Vector3d& kneeCentreCt
     }
   }
   const std::vector<Vector3d>& v = mesh.vertices;
-  const Vector3d epicondyleMiddle = 0.5 * (frame.medialEpicondyle + frame.lateralEpicondyle);
   // Knee centre: below the epicondyles' middle, along the mechanical axis (hip to knee), at the
-  // level of the distal condyles less kCondyleAboveKneeMm. The axis depends on the knee centre;
-  // a few rounds settle it.
-  Vector3d knee = epicondyleMiddle - 25.0 * frame.proximal;
-  for (int round = 0; round < 5; ++round) {
-    const Vector3d down = (knee - frame.hip).normalized();
+  // level of the distal condyles less kCondyleAboveKneeMm. The axis depends on the knee centre,
+  // and the epicondyles (extremes square to that axis) on the axis; a few rounds settle them.
+  Vector3d medialEpicondyle = frame.medialEpicondyle;
+  Vector3d lateralEpicondyle = frame.lateralEpicondyle;
+  Vector3d knee = 0.5 * (medialEpicondyle + lateralEpicondyle) - 25.0 * frame.proximal;
+  const double distalEnd = [&] {
+    double lowest = std::numeric_limits<double>::infinity();
+    for (const Vector3d& q : v) lowest = std::min(lowest, (q - frame.axisPoint).dot(frame.proximal));
+    return lowest;
+  }();
+  for (int round = 0; round < 6; ++round) {
+    const Vector3d up = (frame.hip - knee).normalized();
+    const Vector3d medial = (frame.medial - frame.medial.dot(up) * up).normalized();
+    auto distal = [&](const Vector3d& q) {
+      return (q - frame.axisPoint).dot(frame.proximal) < distalEnd + 60.0;
+    };
+    medialEpicondyle = extreme(v, medial, distal);
+    lateralEpicondyle = extreme(v, -medial, distal);
+    const Vector3d middle = 0.5 * (medialEpicondyle + lateralEpicondyle);
     double deepest = -std::numeric_limits<double>::infinity();
-    for (const Vector3d& q : v) deepest = std::max(deepest, (q - epicondyleMiddle).dot(down));
-    knee = epicondyleMiddle + (deepest + kCondyleAboveKneeMm) * down;
+    for (const Vector3d& q : v) deepest = std::max(deepest, (middle - q).dot(up));
+    knee = middle - (deepest + kCondyleAboveKneeMm) * up;
   }
-  const Vector3d down = (knee - frame.hip).normalized();
-  const Vector3d medial = frame.medial;
-  const Vector3d posterior = frame.proximal.cross(medial);
-  const double hipLevel = (frame.hip - frame.axisPoint).dot(frame.proximal);
-  auto level = [&](const Vector3d& q) { return (q - frame.axisPoint).dot(frame.proximal); };
-  auto fromAxis = [&](const Vector3d& q) {
-    const Vector3d r = q - frame.axisPoint;
-    return (r - r.dot(frame.proximal) * frame.proximal).norm();
-  };
+  const Vector3d up = (frame.hip - knee).normalized();
 
   Bone bone;
   bone.id = BoneId::Femur;
   bone.landmarks["hip_centre"] = frame.hip;
   bone.landmarks["knee_centre"] = knee;
-  bone.landmarks["medial_epicondyle"] = frame.medialEpicondyle;
-  bone.landmarks["lateral_epicondyle"] = frame.lateralEpicondyle;
-  bone.landmarks["medial_condyle_distal"] = extreme(v, down, [&](const Vector3d& q) {
-    return (q - epicondyleMiddle).dot(medial) > 5.0;
-  });
-  bone.landmarks["lateral_condyle_distal"] = extreme(v, down, [&](const Vector3d& q) {
-    return (q - epicondyleMiddle).dot(medial) < -5.0;
-  });
-  bone.landmarks["greater_trochanter"] = extreme(v, -medial, [&](const Vector3d& q) {
-    return level(q) > hipLevel - 40.0;
-  });
-  bone.landmarks["lesser_trochanter"] =
-      extreme(v, (medial + posterior).normalized(), [&](const Vector3d& q) {
-        return level(q) > hipLevel - 75.0 && level(q) < hipLevel - 35.0 && fromAxis(q) < 35.0;
-      });
+  bone.landmarks["medial_epicondyle"] = medialEpicondyle;
+  bone.landmarks["lateral_epicondyle"] = lateralEpicondyle;
+  FemurAxes axes;
+  axes.axisPoint = frame.axisPoint;
+  axes.proximal = frame.proximal;
+  axes.hip = frame.hip;
+  axes.medial = (medialEpicondyle - lateralEpicondyle).normalized();
+  axes.down = -up;
+  axes.epicondyleMiddle = 0.5 * (medialEpicondyle + lateralEpicondyle);
+  addFemurMeshLandmarks(mesh, axes, bone.landmarks);
 
   // Place: knee centre at kneeCentreCt, the hip straight above, the epicondylar axis along +x.
   const Vector3d z = (frame.hip - knee).normalized();
-  const Vector3d epicondylar = frame.medialEpicondyle - frame.lateralEpicondyle;
+  const Vector3d epicondylar = medialEpicondyle - lateralEpicondyle;
   const Vector3d x = (epicondylar - epicondylar.dot(z) * z).normalized();
   Eigen::Matrix3d rows;
   rows.row(0) = x.transpose();

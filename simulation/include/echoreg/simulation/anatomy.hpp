@@ -47,7 +47,7 @@ struct Bone {
   double corticalThicknessMm(const Eigen::Vector3d& pointCt) const;
   /// Radius of the fatty medullary canal at the point's axial position, 0 in the metaphyses and
   /// epiphyses (cancellous bone there). Always leaves at least the cortical thickness (plus
-  /// 0.5 mm) between the canal and the surface.
+  /// 1 mm) between the canal and the surface.
   double medullaryRadiusMm(const Eigen::Vector3d& pointCt) const;
   /// Distance of the point from the axis line (for comparing with medullaryRadiusMm).
   double distanceFromAxisMm(const Eigen::Vector3d& pointCt) const;
@@ -57,7 +57,8 @@ struct Bone {
 
 struct KneeOptions {
   /// Tibia, fibula (and patella, following rigidly) rotated about the transepicondylar axis;
-  /// 0 = straight leg, positive = flexion (the ankle moves posterior). Allowed -10 to 150.
+  /// 0 = straight leg, positive = flexion (the ankle moves posterior). Allowed 0 to 90 (a
+  /// rotation without roll-back: beyond ~95 degrees the plateau would meet the condyles).
   double flexionDeg = 0.0;
   double meshResolutionMm = 1.0;  ///< marching grid spacing for procedural bones, 0.2 to 5 mm
   /// Small shape variation (lengths and widths within +-4 %), so that another seed gives another
