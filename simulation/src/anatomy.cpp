@@ -75,11 +75,14 @@ struct Specimen {
 
 Specimen drawSpecimen(std::uint64_t seed) {
   Specimen s;
-  if (seed == 0) return s;
+  if (seed == 0)
+    return s;
   core::Rng rng = core::Rng::derive(seed, "anatomy/specimen");
   // A common size and a small independent part, together within +-4 %.
   const double size = rng.uniform(-0.025, 0.025);
-  auto factor = [&rng, size] { return 1.0 + std::clamp(size + rng.uniform(-0.015, 0.015), -0.04, 0.04); };
+  auto factor = [&rng, size] {
+    return 1.0 + std::clamp(size + rng.uniform(-0.015, 0.015), -0.04, 0.04);
+  };
   s.femurLength = factor();
   s.femurWidth = factor();
   s.tibiaLength = factor();
@@ -100,9 +103,9 @@ Eigen::Matrix3d rotationZTo(const Vector3d& zAxis, const Vector3d& xHint) {
 /// The femur in knee-local coordinates (origin at the knee centre, CT axes).
 struct FemurModel {
   sdf::Field field;
-  Vector3d hip;                 // head centre
-  Vector3d shaftFoot;           // where the shaft axis meets the joint level
-  Vector3d shaftDirection;      // proximal, unit
+  Vector3d hip;                                  // head centre
+  Vector3d shaftFoot;                            // where the shaft axis meets the joint level
+  Vector3d shaftDirection;                       // proximal, unit
   Vector3d medialEpicondyle, lateralEpicondyle;  // inside points from which landmark rays start
   Eigen::AlignedBox3d searchBox;
 };
@@ -125,11 +128,10 @@ FemurModel femurModel(const Specimen& s) {
   const double neckLength = offset / std::sin(beta);
   const double neckBaseZ =
       std::sqrt(footToHip * footToHip - offset * offset) - neckLength * std::cos(beta);
-  const Vector3d neckDirF =
-      (std::cos(beta) * Vector3d::UnitZ() +
-       std::sin(beta) * (std::cos(anteversion) * Vector3d::UnitX() -
-                         std::sin(anteversion) * Vector3d::UnitY()))
-          .normalized();
+  const Vector3d neckDirF = (std::cos(beta) * Vector3d::UnitZ() +
+                             std::sin(beta) * (std::cos(anteversion) * Vector3d::UnitX() -
+                                               std::sin(anteversion) * Vector3d::UnitY()))
+                                .normalized();
   const Vector3d neckBaseF(0.0, 0.0, neckBaseZ);
   const Vector3d hipF = neckBaseF + neckLength * neckDirF;
   // Rotation from F to the knee frame: F's hip direction onto the foot-to-hip line, F's x kept in
@@ -168,8 +170,8 @@ FemurModel femurModel(const Specimen& s) {
     distal = sdf::smoothUnion(distal, facets, 6.0 * w);
     distal = sdf::smoothUnion(distal, sdf::ellipsoid(p, metaphysis, Vector3d(33.0, 24.0, 42.0) * w),
                               10.0 * w);
-    const double epicondyles = std::min(sdf::sphere(p, medialEpi, 8.5 * w),
-                                        sdf::sphere(p, lateralEpi, 8.0 * w));
+    const double epicondyles =
+        std::min(sdf::sphere(p, medialEpi, 8.5 * w), sdf::sphere(p, lateralEpi, 8.0 * w));
     distal = sdf::smoothUnion(distal, epicondyles, 6.0 * w);
     distal = sdf::smoothSubtraction(distal, sdf::capsule(p, grooveA, grooveB, 10.0 * w), 4.0 * w);
 
@@ -233,25 +235,25 @@ TibiaModel tibiaModel(const Specimen& s) {
 
   TibiaModel model;
   model.field = [=](const Vector3d& p) {
-    double head = sdf::smoothIntersection(
-        sdf::ellipsoid(p, condyles, Vector3d(39.0, 25.0, 42.0) * w),
-        sdf::halfSpace(p, plateauCentre, plateauNormal), 3.0 * w);
+    double head =
+        sdf::smoothIntersection(sdf::ellipsoid(p, condyles, Vector3d(39.0, 25.0, 42.0) * w),
+                                sdf::halfSpace(p, plateauCentre, plateauNormal), 3.0 * w);
     head = sdf::smoothSubtraction(head, sdf::sphere(p, medialDish, kDishRadius), 2.0);
     head = sdf::smoothSubtraction(head, sdf::sphere(p, lateralDish, kDishRadius), 2.0);
-    head = sdf::smoothUnion(head, sdf::ellipsoid(p, eminence, Vector3d(8.0, 12.0, 6.0) * w),
-                            3.0 * w);
-    head = sdf::smoothUnion(head, sdf::ellipsoid(p, tubercle, Vector3d(10.0, 7.0, 14.0) * w),
-                            6.0 * w);
+    head =
+        sdf::smoothUnion(head, sdf::ellipsoid(p, eminence, Vector3d(8.0, 12.0, 6.0) * w), 3.0 * w);
+    head =
+        sdf::smoothUnion(head, sdf::ellipsoid(p, tubercle, Vector3d(10.0, 7.0, 14.0) * w), 6.0 * w);
     // Proximal metaphysis tapering into a triangular shaft: a core with the anterior crest, the
     // medial border and the interosseous (lateral) border.
     const double taper = sdf::roundCone(p, Vector3d(0, 3.0 * w, top - 23.0 * w),
                                         Vector3d(0, 1.0 * w, at(0.30)), 22.0 * w, 11.0 * w);
     double shaft = sdf::roundCone(p, Vector3d(0, 1.0 * w, at(0.18)), Vector3d(0, 1.0 * w, at(0.86)),
                                   10.0 * w, 9.5 * w);
-    shaft = sdf::smoothUnion(shaft,
-                             sdf::capsule(p, Vector3d(0, -11.5 * w, at(0.13)),
-                                          Vector3d(0, -8.0 * w, at(0.80)), 2.5 * w),
-                             8.0 * w);
+    shaft = sdf::smoothUnion(
+        shaft,
+        sdf::capsule(p, Vector3d(0, -11.5 * w, at(0.13)), Vector3d(0, -8.0 * w, at(0.80)), 2.5 * w),
+        8.0 * w);
     shaft = sdf::smoothUnion(shaft,
                              sdf::capsule(p, Vector3d(10.0 * w, 6.0 * w, at(0.18)),
                                           Vector3d(9.0 * w, 5.0 * w, at(0.85)), 3.0 * w),
@@ -295,7 +297,8 @@ Vector3d placeAtDistance(const sdf::Field& field, const Vector3d& start, const V
     }
     low = t;
   }
-  if (high < 0.0) throw std::logic_error("anatomy: could not place a bone beside the tibia");
+  if (high < 0.0)
+    throw std::logic_error("anatomy: could not place a bone beside the tibia");
   for (int i = 0; i < 60; ++i) {
     const double mid = 0.5 * (low + high);
     (field(start + mid * d) < distanceMm ? low : high) = mid;
@@ -332,8 +335,8 @@ FibulaModel fibulaModel(const Specimen& s, const TibiaModel& tibia) {
   model.field = [=](const Vector3d& p) {
     double bone = sdf::ellipsoid(p, head, Vector3d(headRadius, headRadius, 13.0 * w));
     bone = sdf::smoothUnion(bone, sdf::roundCone(p, head, middle, 8.0 * w, 6.5 * w), 6.0 * w);
-    bone = sdf::smoothUnion(bone, sdf::roundCone(p, middle, distal, 6.5 * w, shaftEndRadius),
-                            4.0 * w);
+    bone =
+        sdf::smoothUnion(bone, sdf::roundCone(p, middle, distal, 6.5 * w, shaftEndRadius), 4.0 * w);
     return sdf::smoothUnion(bone, sdf::ellipsoid(p, malleolus, malleolusRadii), 5.0 * w);
   };
   model.head = head;
@@ -355,15 +358,18 @@ Bone meshedBone(BoneId id, const sdf::Field& field, const Eigen::AlignedBox3d& s
 }
 
 void translate(Bone& bone, const Vector3d& offset) {
-  for (Vector3d& v : bone.mesh.vertices) v += offset;
-  for (auto& entry : bone.landmarks) entry.second += offset;
+  for (Vector3d& v : bone.mesh.vertices)
+    v += offset;
+  for (auto& entry : bone.landmarks)
+    entry.second += offset;
   bone.axisProximal += offset;
   bone.axisDistal += offset;
 }
 
 void transformBone(Bone& bone, const Eigen::Isometry3d& motion) {
   bone.mesh = core::transformed(bone.mesh, motion);
-  for (auto& entry : bone.landmarks) entry.second = motion * entry.second;
+  for (auto& entry : bone.landmarks)
+    entry.second = motion * entry.second;
   bone.axisProximal = motion * bone.axisProximal;
   bone.axisDistal = motion * bone.axisDistal;
 }
@@ -383,7 +389,8 @@ Bone patellaBone(const Specimen& s, const core::TriangleMesh& femurLocal, double
   }
   auto gap = [&](double y) {
     double best = std::numeric_limits<double>::infinity();
-    for (const Vector3d& v : near) best = std::min(best, sdf::ellipsoid(v, Vector3d(x, y, z), radii));
+    for (const Vector3d& v : near)
+      best = std::min(best, sdf::ellipsoid(v, Vector3d(x, y, z), radii));
     return best;
   };
   double anterior = -150.0;  // far in front: large gap
@@ -425,7 +432,8 @@ void validate(const KneeOptions& options) {
                                   " mesh cannot replace the procedural bone (only a femur mesh "
                                   "is supported)");
     }
-    if (path.empty()) throw std::invalid_argument("meshFiles: the femur mesh path is empty");
+    if (path.empty())
+      throw std::invalid_argument("meshFiles: the femur mesh path is empty");
   }
 }
 
@@ -454,13 +462,14 @@ void setAxisProfile(Bone& bone, const Vector3d& axisPoint, const Vector3d& proxi
   for (const Vector3d& v : bone.mesh.vertices) {
     const double t = (v - axisPoint).dot(d);
     const double u = (t - low) / (high - low);
-    const std::size_t bin =
-        std::min(kBins - 1, static_cast<std::size_t>(std::max(0.0, u) * static_cast<double>(kBins)));
+    const std::size_t bin = std::min(
+        kBins - 1, static_cast<std::size_t>(std::max(0.0, u) * static_cast<double>(kBins)));
     const double radial = (v - axisPoint - t * d).norm();
     bone.inscribedRadiusMm[bin] = std::min(bone.inscribedRadiusMm[bin], radial);
   }
   for (double& r : bone.inscribedRadiusMm) {
-    if (!std::isfinite(r)) r = 0.0;
+    if (!std::isfinite(r))
+      r = 0.0;
   }
 }
 
@@ -483,14 +492,16 @@ std::string_view boneName(BoneId id) {
 double Bone::axialFraction(const Vector3d& pointCt) const {
   const Vector3d axis = axisProximal - axisDistal;
   const double length2 = axis.squaredNorm();
-  if (length2 == 0.0) return 0.5;
+  if (length2 == 0.0)
+    return 0.5;
   return (pointCt - axisDistal).dot(axis) / length2;
 }
 
 double Bone::distanceFromAxisMm(const Vector3d& pointCt) const {
   const Vector3d axis = axisProximal - axisDistal;
   const double length = axis.norm();
-  if (length == 0.0) return (pointCt - axisDistal).norm();
+  if (length == 0.0)
+    return (pointCt - axisDistal).norm();
   const Vector3d d = axis / length;
   const Vector3d r = pointCt - axisDistal;
   return (r - r.dot(d) * d).norm();
@@ -504,22 +515,28 @@ double Bone::corticalThicknessMm(const Vector3d& pointCt) const {
 }
 
 double Bone::medullaryRadiusMm(const Vector3d& pointCt) const {
-  if (inscribedRadiusMm.empty()) return 0.0;
+  if (inscribedRadiusMm.empty())
+    return 0.0;
   const double u = axialFraction(pointCt);
-  if (u <= 0.0 || u >= 1.0) return 0.0;
+  if (u <= 0.0 || u >= 1.0)
+    return 0.0;
   const double presence = detail::smoothstep(0.15, 0.25, std::min(u, 1.0 - u));
-  if (presence == 0.0) return 0.0;
+  if (presence == 0.0)
+    return 0.0;
   const std::size_t n = inscribedRadiusMm.size();
   const std::size_t bin = std::min(n - 1, static_cast<std::size_t>(u * static_cast<double>(n)));
   double room = inscribedRadiusMm[bin];
-  if (bin > 0) room = std::min(room, inscribedRadiusMm[bin - 1]);
-  if (bin + 1 < n) room = std::min(room, inscribedRadiusMm[bin + 1]);
+  if (bin > 0)
+    room = std::min(room, inscribedRadiusMm[bin - 1]);
+  if (bin + 1 < n)
+    room = std::min(room, inscribedRadiusMm[bin + 1]);
   return presence * std::max(0.0, room - corticalThicknessMm(pointCt) - 1.0);
 }
 
 const Bone& Knee::bone(BoneId id) const {
   for (const Bone& b : bones) {
-    if (b.id == id) return b;
+    if (b.id == id)
+      return b;
   }
   throw std::out_of_range("Knee::bone: no " + std::string(boneName(id)));
 }
@@ -585,9 +602,9 @@ Knee buildKnee(const KneeOptions& options) {
   detail::setAxisProfile(fibula, fibulaShape.distal, fibulaShape.head - fibulaShape.distal);
   translate(fibula, knee);
 
-  Bone patella = patellaBone(specimen, core::transformed(femur.mesh, Eigen::Isometry3d(
-                                                                          Eigen::Translation3d(-knee))),
-                             resolution);
+  Bone patella = patellaBone(
+      specimen, core::transformed(femur.mesh, Eigen::Isometry3d(Eigen::Translation3d(-knee))),
+      resolution);
   translate(patella, knee);
 
   Knee result;
@@ -606,7 +623,8 @@ Knee buildKnee(const KneeOptions& options) {
     const Eigen::Isometry3d motion = Eigen::Translation3d(pivot) *
                                      Eigen::AngleAxisd(options.flexionDeg * kDeg, epicondylarAxis) *
                                      Eigen::Translation3d(-pivot);
-    for (Bone* bone : {&tibia, &fibula, &patella}) transformBone(*bone, motion);
+    for (Bone* bone : {&tibia, &fibula, &patella})
+      transformBone(*bone, motion);
     result.ankleCentre = motion * result.ankleCentre;
     const Vector3d tibiaAnterior = motion.linear() * -Vector3d::UnitY();
     result.anteriorCt = (-Vector3d::UnitY() + tibiaAnterior).normalized();

@@ -33,7 +33,7 @@ void addFemurMeshLandmarks(const core::TriangleMesh& mesh, const FemurAxes& axes
 
 /// A user's femur mesh analysed and placed in the knee.
 struct PlacedFemur {
-  Bone bone;                 ///< CT coordinates, right femur, landmarks filled
+  Bone bone;  ///< CT coordinates, right femur, landmarks filled
   double hipKneeLengthMm = 0.0;
 };
 

@@ -34,7 +34,8 @@ std::string mm(double value) {
 
 /// Least-squares sphere through `points` (algebraic fit): centre and radius.
 bool fitSphere(const std::vector<Vector3d>& points, Vector3d& centre, double& radius) {
-  if (points.size() < 10) return false;
+  if (points.size() < 10)
+    return false;
   Eigen::MatrixXd a(static_cast<Eigen::Index>(points.size()), 4);
   Eigen::VectorXd b(static_cast<Eigen::Index>(points.size()));
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -48,7 +49,8 @@ bool fitSphere(const std::vector<Vector3d>& points, Vector3d& centre, double& ra
   const Eigen::Vector4d x = a.colPivHouseholderQr().solve(b);
   centre = x.head<3>();
   const double r2 = x(3) + centre.squaredNorm();
-  if (!(r2 > 0.0)) return false;
+  if (!(r2 > 0.0))
+    return false;
   radius = std::sqrt(r2);
   return true;
 }
@@ -58,7 +60,7 @@ struct FemurFrame {
   Vector3d axisPoint, proximal;  // shaft axis line, unit proximal direction
   Vector3d hip;
   double headRadius = 0.0;
-  Vector3d medial;     // unit, perpendicular to the shaft axis
+  Vector3d medial;                 // unit, perpendicular to the shaft axis
   double posteriorOffsetMm = 0.0;  // distal end's centroid behind the shaft axis (> 0: right femur)
   Vector3d medialEpicondyle, lateralEpicondyle;
 };
@@ -68,10 +70,12 @@ FemurFrame analyse(const core::TriangleMesh& mesh, const std::string& path) {
   FemurFrame frame;
   // Long axis by PCA of the vertices.
   Vector3d centroid = Vector3d::Zero();
-  for (const Vector3d& p : v) centroid += p;
+  for (const Vector3d& p : v)
+    centroid += p;
   centroid /= static_cast<double>(v.size());
   Eigen::Matrix3d covariance = Eigen::Matrix3d::Zero();
-  for (const Vector3d& p : v) covariance += (p - centroid) * (p - centroid).transpose();
+  for (const Vector3d& p : v)
+    covariance += (p - centroid) * (p - centroid).transpose();
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eigen(covariance);
   Vector3d axis = eigen.eigenvectors().col(2);
   const Eigen::Vector3d values = eigen.eigenvalues();
@@ -100,17 +104,22 @@ FemurFrame analyse(const core::TriangleMesh& mesh, const std::string& path) {
         ++count;
       }
     }
-    if (count >= 6) centres.push_back(sum / static_cast<double>(count));
+    if (count >= 6)
+      centres.push_back(sum / static_cast<double>(count));
   }
-  if (centres.size() < 4) throw FileError(path, "does not look like a long bone (no shaft)");
+  if (centres.size() < 4)
+    throw FileError(path, "does not look like a long bone (no shaft)");
   Vector3d mean = Vector3d::Zero();
-  for (const Vector3d& c : centres) mean += c;
+  for (const Vector3d& c : centres)
+    mean += c;
   mean /= static_cast<double>(centres.size());
   Eigen::Matrix3d spread = Eigen::Matrix3d::Zero();
-  for (const Vector3d& c : centres) spread += (c - mean) * (c - mean).transpose();
+  for (const Vector3d& c : centres)
+    spread += (c - mean) * (c - mean).transpose();
   Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> line(spread);
   Vector3d shaft = line.eigenvectors().col(2);
-  if (shaft.dot(axis) < 0.0) shaft = -shaft;
+  if (shaft.dot(axis) < 0.0)
+    shaft = -shaft;
   frame.axisPoint = mean;
   low = std::numeric_limits<double>::infinity();
   high = -low;
@@ -162,11 +171,12 @@ FemurFrame analyse(const core::TriangleMesh& mesh, const std::string& path) {
         shell.push_back(q);
       }
     }
-    if (!fitSphere(shell, centre, radius)) break;
+    if (!fitSphere(shell, centre, radius))
+      break;
   }
   if (!(radius > 15.0 && radius < 35.0)) {
-    throw FileError(path, "no femoral head found (the sphere fit gave a radius of " + mm(radius) +
-                              " mm)");
+    throw FileError(
+        path, "no femoral head found (the sphere fit gave a radius of " + mm(radius) + " mm)");
   }
   frame.hip = centre;
   frame.headRadius = radius;
@@ -182,7 +192,8 @@ FemurFrame analyse(const core::TriangleMesh& mesh, const std::string& path) {
   const double span = proximalEnd - distalEnd;
   for (const Vector3d& q : v) {
     const double t = (q - mean).dot(p);
-    if (t > distalEnd + 0.12 * span) continue;
+    if (t > distalEnd + 0.12 * span)
+      continue;
     const double m = q.dot(frame.medial);
     if (m > medialValue) {
       medialValue = m;
@@ -198,7 +209,8 @@ FemurFrame analyse(const core::TriangleMesh& mesh, const std::string& path) {
   frame.medialEpicondyle = medialMost;
   frame.lateralEpicondyle = lateralMost;
   const Vector3d posteriorIfRight = p.cross(frame.medial);  // LPS: z x x = y (posterior)
-  frame.posteriorOffsetMm = (distalSum / static_cast<double>(std::max(1, distalCount))).dot(posteriorIfRight);
+  frame.posteriorOffsetMm =
+      (distalSum / static_cast<double>(std::max(1, distalCount))).dot(posteriorIfRight);
   return frame;
 }
 
@@ -207,7 +219,8 @@ Vector3d extreme(const std::vector<Vector3d>& points, const Vector3d& direction,
   Vector3d best = Vector3d::Zero();
   double bestValue = -std::numeric_limits<double>::infinity();
   for (const Vector3d& q : points) {
-    if (!keep(q)) continue;
+    if (!keep(q))
+      continue;
     const double value = q.dot(direction);
     if (value > bestValue) {
       bestValue = value;
@@ -249,16 +262,18 @@ PlacedFemur placeUserFemur(const std::string& path, const Vector3d& kneeCentreCt
   core::TriangleMesh mesh = filters::readMesh(path);
   core::MeshCheck check = core::checkMesh(mesh);
   if (!check.closed()) {
-    throw FileError(path, "the femur mesh is " + check.describe() +
-                              "; a bone mesh must be a closed surface");
+    throw FileError(
+        path, "the femur mesh is " + check.describe() + "; a bone mesh must be a closed surface");
   }
-  if (check.volumeMm3 < 0.0) core::flipWinding(mesh);
+  if (check.volumeMm3 < 0.0)
+    core::flipWinding(mesh);
   FemurFrame frame = analyse(mesh, path);
   if (frame.posteriorOffsetMm < 0.0) {
     // A left femur: mirror it across its sagittal plane (through the shaft axis, normal medial)
     // and restore the outward winding.
     const Vector3d n = frame.medial;
-    for (Vector3d& q : mesh.vertices) q -= 2.0 * (q - frame.axisPoint).dot(n) * n;
+    for (Vector3d& q : mesh.vertices)
+      q -= 2.0 * (q - frame.axisPoint).dot(n) * n;
     core::flipWinding(mesh);
     frame = analyse(mesh, path);
     if (frame.posteriorOffsetMm < 0.0) {
@@ -274,7 +289,8 @@ PlacedFemur placeUserFemur(const std::string& path, const Vector3d& kneeCentreCt
   Vector3d knee = 0.5 * (medialEpicondyle + lateralEpicondyle) - 25.0 * frame.proximal;
   const double distalEnd = [&] {
     double lowest = std::numeric_limits<double>::infinity();
-    for (const Vector3d& q : v) lowest = std::min(lowest, (q - frame.axisPoint).dot(frame.proximal));
+    for (const Vector3d& q : v)
+      lowest = std::min(lowest, (q - frame.axisPoint).dot(frame.proximal));
     return lowest;
   }();
   for (int round = 0; round < 6; ++round) {
@@ -287,7 +303,8 @@ PlacedFemur placeUserFemur(const std::string& path, const Vector3d& kneeCentreCt
     lateralEpicondyle = extreme(v, -medial, distal);
     const Vector3d middle = 0.5 * (medialEpicondyle + lateralEpicondyle);
     double deepest = -std::numeric_limits<double>::infinity();
-    for (const Vector3d& q : v) deepest = std::max(deepest, (middle - q).dot(up));
+    for (const Vector3d& q : v)
+      deepest = std::max(deepest, (middle - q).dot(up));
     knee = middle - (deepest + kCondyleAboveKneeMm) * up;
   }
   const Vector3d up = (frame.hip - knee).normalized();
@@ -318,7 +335,8 @@ PlacedFemur placeUserFemur(const std::string& path, const Vector3d& kneeCentreCt
   const Eigen::Isometry3d place =
       Eigen::Translation3d(kneeCentreCt) * Eigen::Isometry3d(rows) * Eigen::Translation3d(-knee);
   bone.mesh = core::transformed(mesh, place);
-  for (auto& entry : bone.landmarks) entry.second = place * entry.second;
+  for (auto& entry : bone.landmarks)
+    entry.second = place * entry.second;
   bone.diaphysisCorticalMm = 5.5;
   setAxisProfile(bone, place * frame.axisPoint, place.linear() * frame.proximal);
 

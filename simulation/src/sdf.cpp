@@ -8,6 +8,7 @@
 #include <vtkNew.h>
 #include <vtkPointData.h>
 #include <vtkPolyData.h>
+#include <vtkQuadricDecimation.h>
 
 #include <algorithm>
 #include <cmath>
@@ -25,7 +26,8 @@ namespace {
 template <typename Body>
 void parallelFor(std::size_t count, const Body& body) {
   const std::size_t hardware = std::max<std::size_t>(1, std::thread::hardware_concurrency());
-  const std::size_t threads = std::min<std::size_t>({hardware, 8, std::max<std::size_t>(1, count / 4096)});
+  const std::size_t threads =
+      std::min<std::size_t>({hardware, 8, std::max<std::size_t>(1, count / 4096)});
   if (threads <= 1) {
     body(std::size_t{0}, count);
     return;
@@ -35,10 +37,12 @@ void parallelFor(std::size_t count, const Body& body) {
   for (std::size_t t = 0; t < threads; ++t) {
     const std::size_t begin = t * chunk;
     const std::size_t end = std::min(count, begin + chunk);
-    if (begin >= end) break;
+    if (begin >= end)
+      break;
     pool.emplace_back([&body, begin, end] { body(begin, end); });
   }
-  for (auto& thread : pool) thread.join();
+  for (auto& thread : pool)
+    thread.join();
 }
 
 }  // namespace
@@ -84,31 +88,35 @@ Eigen::AlignedBox3d solidBounds(const Field& field, const Eigen::AlignedBox3d& s
                                 double stepMm, double padMm) {
   const Eigen::Vector3d size = searchBox.sizes();
   Eigen::Vector3i n;
-  for (int a = 0; a < 3; ++a) n[a] = static_cast<int>(std::ceil(size[a] / stepMm)) + 1;
+  for (int a = 0; a < 3; ++a)
+    n[a] = static_cast<int>(std::ceil(size[a] / stepMm)) + 1;
   Eigen::AlignedBox3d found;  // empty
   for (int k = 0; k < n.z(); ++k) {
     for (int j = 0; j < n.y(); ++j) {
       for (int i = 0; i < n.x(); ++i) {
         const Eigen::Vector3d p = searchBox.min() + stepMm * Eigen::Vector3d(i, j, k);
         // A cell corner within a cell diagonal of the surface may border the solid.
-        if (field(p) < stepMm * std::sqrt(3.0)) found.extend(p);
+        if (field(p) < stepMm * std::sqrt(3.0))
+          found.extend(p);
       }
     }
   }
-  if (found.isEmpty()) throw std::invalid_argument("solidBounds: the field has no inside");
+  if (found.isEmpty())
+    throw std::invalid_argument("solidBounds: the field has no inside");
   const Eigen::Vector3d pad = Eigen::Vector3d::Constant(padMm + stepMm);
   return Eigen::AlignedBox3d(found.min() - pad, found.max() + pad);
 }
 
 core::TriangleMesh meshField(const Field& field, const Eigen::AlignedBox3d& box, double spacingMm,
-                             const std::string& what, int newtonSteps) {
+                             const std::string& what, std::size_t maxTriangles, int newtonSteps) {
   if (!(spacingMm > 0.0) || !std::isfinite(spacingMm)) {
     throw std::invalid_argument("meshField: spacing must be > 0 mm, got " +
                                 std::to_string(spacingMm));
   }
   const Eigen::Vector3d size = box.sizes();
   int dims[3];
-  for (int a = 0; a < 3; ++a) dims[a] = static_cast<int>(std::ceil(size[a] / spacingMm)) + 1;
+  for (int a = 0; a < 3; ++a)
+    dims[a] = static_cast<int>(std::ceil(size[a] / spacingMm)) + 1;
   const std::size_t nx = static_cast<std::size_t>(dims[0]);
   const std::size_t ny = static_cast<std::size_t>(dims[1]);
   const std::size_t nz = static_cast<std::size_t>(dims[2]);
@@ -130,17 +138,19 @@ core::TriangleMesh meshField(const Field& field, const Eigen::AlignedBox3d& box,
                                                    static_cast<double>(k));
           float v = static_cast<float>(field(p));
           // Keep grid values off the iso-level so that no contour vertex sits on a grid node.
-          if (v == 0.0f) v = 1e-6f;
+          if (v == 0.0f)
+            v = 1e-6f;
           data[(k * ny + j) * nx + i] = v;
-          const bool onFace = i == 0 || j == 0 || k == 0 || i + 1 == nx || j + 1 == ny ||
-                              k + 1 == nz;
-          if (onFace && v < 0.0f) boundaryFlags[k] = 1;
+          const bool onFace =
+              i == 0 || j == 0 || k == 0 || i + 1 == nx || j + 1 == ny || k + 1 == nz;
+          if (onFace && v < 0.0f)
+            boundaryFlags[k] = 1;
         }
       }
     }
   });
-  boundaryInside = std::any_of(boundaryFlags.begin(), boundaryFlags.end(),
-                               [](char flag) { return flag != 0; });
+  boundaryInside =
+      std::any_of(boundaryFlags.begin(), boundaryFlags.end(), [](char flag) { return flag != 0; });
   if (boundaryInside) {
     throw std::invalid_argument("meshField: " + what +
                                 " reaches the edge of its sampling box (the mesh would be open)");
@@ -160,23 +170,40 @@ core::TriangleMesh meshField(const Field& field, const Eigen::AlignedBox3d& box,
   contour->ComputeScalarsOff();
   contour->InterpolateAttributesOff();
   contour->Update();
-  core::TriangleMesh mesh = filters::toTriangleMesh(contour->GetOutput());
-  if (mesh.empty()) throw std::runtime_error(what + ": the implicit surface produced no triangles");
+  vtkPolyData* surface = contour->GetOutput();
+  vtkNew<vtkQuadricDecimation> decimate;
+  if (maxTriangles > 0 && surface->GetNumberOfPolys() > static_cast<vtkIdType>(maxTriangles)) {
+    // Too fine a grid: fewer triangles, then back onto the surface below.
+    decimate->SetInputData(surface);
+    decimate->SetTargetReduction(1.0 - static_cast<double>(maxTriangles) /
+                                           static_cast<double>(surface->GetNumberOfPolys()));
+    decimate->VolumePreservationOn();
+    decimate->Update();
+    surface = decimate->GetOutput();
+  }
+  core::TriangleMesh mesh = filters::toTriangleMesh(surface);
+  if (mesh.empty())
+    throw std::runtime_error(what + ": the implicit surface produced no triangles");
 
   // Newton steps onto the zero level: x <- x - f(x) g / |g|^2, each step limited to a grid cell.
   const double step = 0.05 * spacingMm;
+  // Decimated vertices may sit a few grid cells off the surface.
+  const double maxStep = 4.0 * spacingMm;
   parallelFor(mesh.vertices.size(), [&](std::size_t begin, std::size_t end) {
     for (std::size_t v = begin; v < end; ++v) {
       Eigen::Vector3d& x = mesh.vertices[v];
-      for (int s = 0; s < newtonSteps; ++s) {
+      for (int s = 0; s < newtonSteps + (surface == contour->GetOutput() ? 0 : 4); ++s) {
         const double f = field(x);
-        if (std::abs(f) < 1e-9) break;
+        if (std::abs(f) < 1e-9)
+          break;
         const Eigen::Vector3d g = gradient(field, x, step);
         const double g2 = g.squaredNorm();
-        if (!(g2 > 1e-12)) break;
+        if (!(g2 > 1e-12))
+          break;
         Eigen::Vector3d delta = f * g / g2;
         const double length = delta.norm();
-        if (length > spacingMm) delta *= spacingMm / length;
+        if (length > maxStep)
+          delta *= maxStep / length;
         x -= delta;
       }
     }

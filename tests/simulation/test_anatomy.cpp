@@ -4,9 +4,9 @@
 #include "echoreg/filters/MeshIO.h"
 #include "test_support.hpp"
 
+#include <gtest/gtest.h>
 #include <Eigen/Geometry>
 #include <Eigen/QR>
-#include <gtest/gtest.h>
 
 #include <algorithm>
 #include <chrono>
@@ -33,17 +33,22 @@ double pointTriangleDistance(const Vector3d& p, const Vector3d& a, const Vector3
                              const Vector3d& c) {
   const Vector3d ab = b - a, ac = c - a, ap = p - a;
   const double d1 = ab.dot(ap), d2 = ac.dot(ap);
-  if (d1 <= 0 && d2 <= 0) return (p - a).norm();
+  if (d1 <= 0 && d2 <= 0)
+    return (p - a).norm();
   const Vector3d bp = p - b;
   const double d3 = ab.dot(bp), d4 = ac.dot(bp);
-  if (d3 >= 0 && d4 <= d3) return (p - b).norm();
+  if (d3 >= 0 && d4 <= d3)
+    return (p - b).norm();
   const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return (p - (a + d1 / (d1 - d3) * ab)).norm();
+  if (vc <= 0 && d1 >= 0 && d3 <= 0)
+    return (p - (a + d1 / (d1 - d3) * ab)).norm();
   const Vector3d cp = p - c;
   const double d5 = ab.dot(cp), d6 = ac.dot(cp);
-  if (d6 >= 0 && d5 <= d6) return (p - c).norm();
+  if (d6 >= 0 && d5 <= d6)
+    return (p - c).norm();
   const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return (p - (a + d2 / (d2 - d6) * ac)).norm();
+  if (vb <= 0 && d2 >= 0 && d6 <= 0)
+    return (p - (a + d2 / (d2 - d6) * ac)).norm();
   const double va = d3 * d6 - d5 * d4;
   if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0) {
     return (p - (b + (d4 - d3) / ((d4 - d3) + (d5 - d6)) * (c - b))).norm();
@@ -59,11 +64,13 @@ class SurfaceDistance {
   SurfaceDistance(const core::TriangleMesh& mesh, double rangeMm) : mesh_(mesh), cell_(rangeMm) {
     for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
       Eigen::AlignedBox3d box;
-      for (int k : mesh.triangles[t]) box.extend(mesh.vertices[static_cast<std::size_t>(k)]);
+      for (int k : mesh.triangles[t])
+        box.extend(mesh.vertices[static_cast<std::size_t>(k)]);
       const Eigen::Vector3i lo = key(box.min()), hi = key(box.max());
       for (int i = lo.x(); i <= hi.x(); ++i)
         for (int j = lo.y(); j <= hi.y(); ++j)
-          for (int k = lo.z(); k <= hi.z(); ++k) buckets_[{i, j, k}].push_back(t);
+          for (int k = lo.z(); k <= hi.z(); ++k)
+            buckets_[{i, j, k}].push_back(t);
     }
   }
   double operator()(const Vector3d& p) const {
@@ -73,13 +80,14 @@ class SurfaceDistance {
       for (int j = c.y() - 1; j <= c.y() + 1; ++j)
         for (int k = c.z() - 1; k <= c.z() + 1; ++k) {
           const auto it = buckets_.find({i, j, k});
-          if (it == buckets_.end()) continue;
+          if (it == buckets_.end())
+            continue;
           for (std::size_t t : it->second) {
             const auto& tri = mesh_.triangles[t];
-            best = std::min(best, pointTriangleDistance(
-                                      p, mesh_.vertices[static_cast<std::size_t>(tri[0])],
-                                      mesh_.vertices[static_cast<std::size_t>(tri[1])],
-                                      mesh_.vertices[static_cast<std::size_t>(tri[2])]));
+            best = std::min(
+                best, pointTriangleDistance(p, mesh_.vertices[static_cast<std::size_t>(tri[0])],
+                                            mesh_.vertices[static_cast<std::size_t>(tri[1])],
+                                            mesh_.vertices[static_cast<std::size_t>(tri[2])]));
           }
         }
     return best <= cell_ ? best : std::numeric_limits<double>::infinity();
@@ -102,7 +110,8 @@ double minDistance(const core::TriangleMesh& a, const core::TriangleMesh& b,
   const SurfaceDistance distance(b, rangeMm);
   double best = std::numeric_limits<double>::infinity();
   for (const Vector3d& v : a.vertices) {
-    if (keep(v)) best = std::min(best, distance(v));
+    if (keep(v))
+      best = std::min(best, distance(v));
   }
   return best;
 }
@@ -125,7 +134,8 @@ Eigen::AlignedBox3d boundsWhere(const core::TriangleMesh& mesh,
                                 const std::function<bool(const Vector3d&)>& keep) {
   Eigen::AlignedBox3d box;
   for (const Vector3d& v : mesh.vertices) {
-    if (keep(v)) box.extend(v);
+    if (keep(v))
+      box.extend(v);
   }
   return box;
 }
@@ -177,8 +187,8 @@ TEST(Anatomy, BonesAreClosedWithPlausibleVolumes) {
     EXPECT_TRUE(check.closed()) << boneName(bone.id) << ": " << check.describe();
     EXPECT_EQ(check.degenerateTriangles, 0u) << boneName(bone.id);
     const double cm3 = check.volumeMm3 / 1000.0;
-    std::cout << "[ measure  ] " << boneName(bone.id) << ": " << check.triangles
-              << " triangles, " << cm3 << " cm3\n";
+    std::cout << "[ measure  ] " << boneName(bone.id) << ": " << check.triangles << " triangles, "
+              << cm3 << " cm3\n";
     EXPECT_GT(cm3, low[i]) << boneName(bone.id);
     EXPECT_LT(cm3, high[i]) << boneName(bone.id);
     if (bone.id != BoneId::Patella) {
@@ -220,10 +230,12 @@ TEST(Anatomy, HipCentreIsTheCentreOfTheHead) {
   // distally): every vertex there is on the sphere.
   std::vector<Vector3d> head;
   for (const Vector3d& v : knee.bone(BoneId::Femur).mesh.vertices) {
-    if ((v - hip).norm() < 35.0 && (v.x() > hip.x() || v.z() > hip.z())) head.push_back(v);
+    if ((v - hip).norm() < 35.0 && (v.x() > hip.x() || v.z() > hip.z()))
+      head.push_back(v);
   }
   ASSERT_GT(head.size(), 500u);
-  for (const Vector3d& v : head) EXPECT_NEAR((v - hip).norm(), 23.0, 2.0);
+  for (const Vector3d& v : head)
+    EXPECT_NEAR((v - hip).norm(), 23.0, 2.0);
   const auto [centre, radius] = fitSphere(head);
   std::cout << "[ measure  ] femoral head fit: radius " << radius << " mm, centre off by "
             << (centre - hip).norm() << " mm\n";
@@ -246,15 +258,16 @@ TEST(Anatomy, FemurSizesAndAxes) {
   // of the hip-knee line.
   const Vector3d shaft = femur.axisProximal - femur.axisDistal;
   const Vector3d coronal(1.0, 0.0, 1.0);
-  const double valgus = angleDeg(shaft.cwiseProduct(coronal), (knee.hipCentre - k).cwiseProduct(coronal));
+  const double valgus =
+      angleDeg(shaft.cwiseProduct(coronal), (knee.hipCentre - k).cwiseProduct(coronal));
   std::cout << "[ measure  ] femoral anatomical-mechanical angle " << valgus << " deg\n";
   EXPECT_NEAR(valgus, 6.0, 0.5);
   EXPECT_LT(shaft.x(), 0.0);
   // Anteversion: the head lies in front of the shaft, ~12 degrees from the epicondylar axis in the
   // plane square to the shaft.
   const Vector3d s = shaft.normalized();
-  const Vector3d r = (knee.hipCentre - femur.axisDistal) -
-                     (knee.hipCentre - femur.axisDistal).dot(s) * s;
+  const Vector3d r =
+      (knee.hipCentre - femur.axisDistal) - (knee.hipCentre - femur.axisDistal).dot(s) * s;
   const Vector3d x = (Vector3d::UnitX() - s.x() * s).normalized();
   const Vector3d anterior = x.cross(s);  // -y for s ~ z
   const double anteversion = std::atan2(r.dot(anterior), r.dot(x)) * 180.0 / kPi;
@@ -265,15 +278,15 @@ TEST(Anatomy, FemurSizesAndAxes) {
   EXPECT_LT(r.norm(), 50.0);
   // Mid-shaft diameter (slab square to z; the 6 degree tilt stretches it by 0.5 %).
   const double zMid = k.z() + 0.5 * length;
-  const auto mid = boundsWhere(femur.mesh, [&](const Vector3d& v) {
-    return std::abs(v.z() - zMid) < 0.5;
-  });
+  const auto mid =
+      boundsWhere(femur.mesh, [&](const Vector3d& v) { return std::abs(v.z() - zMid) < 0.5; });
   std::cout << "[ measure  ] femoral mid-shaft " << mid.sizes().x() << " x " << mid.sizes().y()
             << " mm\n";
   EXPECT_GE(mid.sizes().x(), 27.0);
   EXPECT_LE(mid.sizes().x(), 30.5);
   // Bicondylar width and prominent epicondyles (proud of the condyles' sides).
-  const auto distal = boundsWhere(femur.mesh, [&](const Vector3d& v) { return v.z() < k.z() + 60; });
+  const auto distal =
+      boundsWhere(femur.mesh, [&](const Vector3d& v) { return v.z() < k.z() + 60; });
   std::cout << "[ measure  ] bicondylar width " << distal.sizes().x() << " mm, AP "
             << distal.sizes().y() << " mm\n";
   EXPECT_NEAR(distal.sizes().x(), 85.0, 2.5);
@@ -298,17 +311,22 @@ TEST(Anatomy, FemurSizesAndAxes) {
   // back between the two facets.
   std::map<int, double> front;  // 2 mm bins of x -> most anterior y
   for (const Vector3d& v : femur.mesh.vertices) {
-    if (std::abs(v.z() - (k.z() + 30.0)) > 1.0) continue;
+    if (std::abs(v.z() - (k.z() + 30.0)) > 1.0)
+      continue;
     const int bin = static_cast<int>(std::floor((v.x() - k.x()) / 2.0));
     auto it = front.find(bin);
-    if (it == front.end() || v.y() < it->second) front[bin] = v.y();
+    if (it == front.end() || v.y() < it->second)
+      front[bin] = v.y();
   }
   double groove = -1e9, lateralFacet = 1e9, medialFacet = 1e9;
   for (const auto& [bin, y] : front) {
     const double xMm = 2.0 * bin + 1.0;
-    if (std::abs(xMm) < 6.0) groove = std::max(groove, y);
-    if (xMm < -8.0 && xMm > -25.0) lateralFacet = std::min(lateralFacet, y);
-    if (xMm > 8.0 && xMm < 25.0) medialFacet = std::min(medialFacet, y);
+    if (std::abs(xMm) < 6.0)
+      groove = std::max(groove, y);
+    if (xMm < -8.0 && xMm > -25.0)
+      lateralFacet = std::min(lateralFacet, y);
+    if (xMm > 8.0 && xMm < 25.0)
+      medialFacet = std::min(medialFacet, y);
   }
   std::cout << "[ measure  ] trochlear groove depth: " << groove - lateralFacet
             << " mm below the lateral facet, " << groove - medialFacet << " below the medial\n";
@@ -321,7 +339,8 @@ TEST(Anatomy, TibiaSizes) {
   const Knee& knee = meanKnee();
   const Bone& tibia = knee.bone(BoneId::Tibia);
   const Vector3d plateau = tibia.landmarks.at("plateau_centre");
-  const auto top = boundsWhere(tibia.mesh, [&](const Vector3d& v) { return v.z() > plateau.z() - 12; });
+  const auto top =
+      boundsWhere(tibia.mesh, [&](const Vector3d& v) { return v.z() > plateau.z() - 12; });
   std::cout << "[ measure  ] tibial plateau " << top.sizes().x() << " x " << top.sizes().y()
             << " mm\n";
   EXPECT_NEAR(top.sizes().x(), 78.0, 3.0);
@@ -334,28 +353,29 @@ TEST(Anatomy, TibiaSizes) {
   EXPECT_GE(knee.ankleCentre.z() - all.min().z(), 10.0);
   EXPECT_LE(knee.ankleCentre.z() - all.min().z(), 15.0);
   const Vector3d medialMalleolus = tibia.landmarks.at("medial_malleolus");
-  EXPECT_NEAR(medialMalleolus.x(), boundsWhere(tibia.mesh, [&](const Vector3d& v) {
-                                     return v.z() < knee.ankleCentre.z() + 30;
-                                   }).max().x(),
-              0.5);
+  EXPECT_NEAR(
+      medialMalleolus.x(),
+      boundsWhere(tibia.mesh, [&](const Vector3d& v) { return v.z() < knee.ankleCentre.z() + 30; })
+          .max()
+          .x(),
+      0.5);
   // Tubercle 25-30 mm below the plateau, proud of the front of the condyles above it.
   const Vector3d tubercle = tibia.landmarks.at("tibial_tubercle");
   EXPECT_GE(plateau.z() - tubercle.z(), 25.0);
   EXPECT_LE(plateau.z() - tubercle.z(), 30.0);
   const auto rim = boundsWhere(tibia.mesh, [&](const Vector3d& v) {
-    return v.z() > plateau.z() - 12 && v.z() < plateau.z() - 8 && std::abs(v.x() - tubercle.x()) < 8;
+    return v.z() > plateau.z() - 12 && v.z() < plateau.z() - 8 &&
+           std::abs(v.x() - tubercle.x()) < 8;
   });
   EXPECT_LT(tubercle.y(), rim.min().y() - 1.5);
   // Triangular shaft with an anterior crest: narrow at the front, wide at the back.
   const double zMid = knee.ankleCentre.z() + 0.55 * (plateau.z() - knee.ankleCentre.z());
   auto slab = [&](const Vector3d& v) { return std::abs(v.z() - zMid) < 0.5; };
   const auto section = boundsWhere(tibia.mesh, slab);
-  const auto crest = boundsWhere(tibia.mesh, [&](const Vector3d& v) {
-    return slab(v) && v.y() < section.min().y() + 4.0;
-  });
-  const auto back = boundsWhere(tibia.mesh, [&](const Vector3d& v) {
-    return slab(v) && v.y() > section.max().y() - 8.0;
-  });
+  const auto crest = boundsWhere(
+      tibia.mesh, [&](const Vector3d& v) { return slab(v) && v.y() < section.min().y() + 4.0; });
+  const auto back = boundsWhere(
+      tibia.mesh, [&](const Vector3d& v) { return slab(v) && v.y() > section.max().y() - 8.0; });
   std::cout << "[ measure  ] tibial mid-shaft " << section.sizes().x() << " x "
             << section.sizes().y() << " mm; width 4 mm behind the crest " << crest.sizes().x()
             << " mm, near the back " << back.sizes().x() << " mm\n";
@@ -375,9 +395,8 @@ TEST(Anatomy, FibulaAndPatellaSizes) {
   EXPECT_LT(head.x(), plateau.x() - 20.0);  // lateral
   EXPECT_GT(head.y(), plateau.y());         // posterior
   const double zMid = 0.5 * (all.min().z() + all.max().z());
-  const auto mid = boundsWhere(fibula.mesh, [&](const Vector3d& v) {
-    return std::abs(v.z() - zMid) < 0.5;
-  });
+  const auto mid =
+      boundsWhere(fibula.mesh, [&](const Vector3d& v) { return std::abs(v.z() - zMid) < 0.5; });
   std::cout << "[ measure  ] fibular mid-shaft " << mid.sizes().x() << " x " << mid.sizes().y()
             << " mm\n";
   EXPECT_GE(mid.sizes().x(), 12.0);
@@ -400,9 +419,8 @@ TEST(Anatomy, FibulaAndPatellaSizes) {
   std::cout << "[ measure  ] patellofemoral gap " << gap << " mm\n";
   EXPECT_GE(gap, 3.0);
   EXPECT_LE(gap, 6.0);
-  const auto front = boundsWhere(femur.mesh, [&](const Vector3d& v) {
-    return std::abs(v.z() - p.center().z()) < 5.0;
-  });
+  const auto front = boundsWhere(
+      femur.mesh, [&](const Vector3d& v) { return std::abs(v.z() - p.center().z()) < 5.0; });
   EXPECT_LT(p.max().y(), front.min().y());  // wholly in front of the femur at its level
 }
 
@@ -477,8 +495,8 @@ TEST(Anatomy, FlexionRotatesTheLegAboutTheEpicondylarAxis) {
     EXPECT_LT(worst, 1e-6) << boneName(id);
   }
   // ... and the tibia turns by the asked angle, about the epicondylar direction, posteriorly.
-  const Vector3d a0 = straight.bone(BoneId::Tibia).axisProximal -
-                      straight.bone(BoneId::Tibia).axisDistal;
+  const Vector3d a0 =
+      straight.bone(BoneId::Tibia).axisProximal - straight.bone(BoneId::Tibia).axisDistal;
   const Vector3d a1 =
       flexed.bone(BoneId::Tibia).axisProximal - flexed.bone(BoneId::Tibia).axisDistal;
   EXPECT_NEAR(angleDeg(a0, a1), 30.0, 1e-6);
@@ -491,9 +509,9 @@ TEST(Anatomy, FlexionRotatesTheLegAboutTheEpicondylarAxis) {
     const Knee knee = buildKnee(options);
     const double gap = minDistance(knee.bone(BoneId::Tibia).mesh, knee.bone(BoneId::Femur).mesh,
                                    [](const Vector3d&) { return true; });
-    const double patella = minDistance(knee.bone(BoneId::Patella).mesh,
-                                       knee.bone(BoneId::Femur).mesh,
-                                       [](const Vector3d&) { return true; }, 30.0);
+    const double patella = minDistance(
+        knee.bone(BoneId::Patella).mesh, knee.bone(BoneId::Femur).mesh,
+        [](const Vector3d&) { return true; }, 30.0);
     std::cout << "[ measure  ] flexion " << degrees << " deg: femur-tibia closest " << gap
               << " mm, patella-femur " << patella << " mm\n";
     EXPECT_GT(gap, 1.5) << degrees;
@@ -534,8 +552,7 @@ TEST(Anatomy, AnotherSeedIsAnotherSpecimenWithinTheRanges) {
     }
     const double joint = minDistance(knee.bone(BoneId::Femur).mesh, knee.bone(BoneId::Tibia).mesh,
                                      [](const Vector3d&) { return true; });
-    const double fibula = minDistance(knee.bone(BoneId::Fibula).mesh,
-                                      knee.bone(BoneId::Tibia).mesh,
+    const double fibula = minDistance(knee.bone(BoneId::Fibula).mesh, knee.bone(BoneId::Tibia).mesh,
                                       [](const Vector3d&) { return true; });
     std::cout << "[ measure  ] seed " << seed << ": hip-knee " << length << " mm, joint space "
               << joint << " mm, fibula-tibia " << fibula << " mm\n";
@@ -552,11 +569,11 @@ TEST(Anatomy, LeftFemurMeshIsMirroredAndPlaced) {
   const Knee mean = buildKnee(meanShape(2.0));
   const Bone& reference = mean.bone(BoneId::Femur);
   core::TriangleMesh left = reference.mesh;
-  for (Vector3d& v : left.vertices) v.x() = -v.x();
+  for (Vector3d& v : left.vertices)
+    v.x() = -v.x();
   core::flipWinding(left);
-  const Eigen::Isometry3d elsewhere =
-      Eigen::Translation3d(40, -300, 900) *
-      Eigen::AngleAxisd(0.7, Vector3d(0.3, -0.5, 0.8).normalized());
+  const Eigen::Isometry3d elsewhere = Eigen::Translation3d(40, -300, 900) *
+                                      Eigen::AngleAxisd(0.7, Vector3d(0.3, -0.5, 0.8).normalized());
   left = core::transformed(left, elsewhere);
   test::TempDir dir;
   const std::string path = dir.file("left_femur.stl");
@@ -614,25 +631,23 @@ TEST(Anatomy, RealFemurIsPlacedAtTheHip) {
   ASSERT_GT(head.size(), 50u);
   const auto [centre, radius] = fitSphere(head);
   std::cout << "[ measure  ] real femur: hip-knee " << (knee.hipCentre - knee.kneeCentre).norm()
-            << " mm, head radius " << radius << " mm, head centre " << (centre - knee.hipCentre).norm()
-            << " mm from the knee's hip centre\n";
+            << " mm, head radius " << radius << " mm, head centre "
+            << (centre - knee.hipCentre).norm() << " mm from the knee's hip centre\n";
   EXPECT_LT((centre - knee.hipCentre).norm(), 2.0);
   EXPECT_GT(radius, 18.0);
   EXPECT_LT(radius, 30.0);
   // A right femur: head medial (+x) of the shaft, condyles behind it (+y).
   const double zMid = 0.5 * (knee.hipCentre.z() + knee.kneeCentre.z());
-  const auto mid = boundsWhere(femur.mesh, [&](const Vector3d& v) {
-    return std::abs(v.z() - zMid) < 2.0;
-  });
+  const auto mid =
+      boundsWhere(femur.mesh, [&](const Vector3d& v) { return std::abs(v.z() - zMid) < 2.0; });
   EXPECT_GT(knee.hipCentre.x(), mid.center().x() + 20.0);
-  const auto condyles = boundsWhere(femur.mesh, [&](const Vector3d& v) {
-    return v.z() < knee.kneeCentre.z() + 25.0;
-  });
+  const auto condyles = boundsWhere(
+      femur.mesh, [&](const Vector3d& v) { return v.z() < knee.kneeCentre.z() + 25.0; });
   EXPECT_GT(condyles.max().y(), mid.max().y() + 10.0);
   EXPECT_GT(femur.landmarks.at("medial_epicondyle").x(),
             femur.landmarks.at("lateral_epicondyle").x() + 60.0);
-  const double joint = minDistance(femur.mesh, knee.bone(BoneId::Tibia).mesh,
-                                   [](const Vector3d&) { return true; });
+  const double joint =
+      minDistance(femur.mesh, knee.bone(BoneId::Tibia).mesh, [](const Vector3d&) { return true; });
   std::cout << "[ measure  ] real femur to procedural tibia: " << joint << " mm\n";
   EXPECT_GT(joint, 1.0);
   const double patella = minDistance(knee.bone(BoneId::Patella).mesh, femur.mesh,
@@ -712,7 +727,8 @@ TEST(Anatomy, CorticalShellAndMedullaryCanal) {
     double worstMargin = std::numeric_limits<double>::infinity();
     for (const Vector3d& v : bone.mesh.vertices) {
       const double u = bone.axialFraction(v);
-      if (u < 0.25 || u > 0.75) continue;
+      if (u < 0.25 || u > 0.75)
+        continue;
       canal = std::max(canal, bone.medullaryRadiusMm(v));
       worstMargin = std::min(worstMargin, bone.distanceFromAxisMm(v) - bone.medullaryRadiusMm(v) -
                                               bone.corticalThicknessMm(v));

@@ -26,10 +26,13 @@ std::string_view boneName(BoneId id);
 struct Bone {
   BoneId id = BoneId::Femur;
   core::TriangleMesh mesh;  ///< CT coordinates, closed, wound outward
-  /// CT coordinates. Femur: hip_centre, greater_trochanter, lesser_trochanter,
-  /// medial_epicondyle, lateral_epicondyle, knee_centre, medial_condyle_distal,
-  /// lateral_condyle_distal. Tibia: plateau_centre, tibial_tubercle, medial_malleolus,
-  /// ankle_centre. Fibula: fibular_head, lateral_malleolus. Patella: patella_centre.
+  /// CT coordinates. Femur: hip_centre (head centre), greater_trochanter (its most lateral
+  /// point), lesser_trochanter (most posteromedial point), medial_epicondyle,
+  /// lateral_epicondyle (most medial/lateral points of the distal femur), knee_centre (notch
+  /// centre at the joint, 1 mm below the condyles), medial_condyle_distal,
+  /// lateral_condyle_distal (lowest points). Tibia: plateau_centre, tibial_tubercle,
+  /// medial_malleolus, ankle_centre. Fibula: fibular_head, lateral_malleolus. Patella:
+  /// patella_centre.
   std::map<std::string, Eigen::Vector3d> landmarks;
   Eigen::Vector3d axisProximal = Eigen::Vector3d::Zero();  ///< proximal end of the long axis (CT)
   Eigen::Vector3d axisDistal = Eigen::Vector3d::Zero();    ///< distal end of the long axis (CT)
@@ -64,8 +67,10 @@ struct KneeOptions {
   /// Small shape variation (lengths and widths within +-4 %), so that another seed gives another
   /// specimen; seed 0 = the mean shape.
   std::uint64_t seed = 1;
-  /// A user mesh replaces the procedural bone (only the femur is supported: .stl, .vtp, .ply,
-  /// .obj in mm, closed; a left femur is mirrored to a right one).
+  /// A user mesh replaces the procedural bone. Only the femur is supported (.stl, .vtp, .ply,
+  /// .obj in mm, closed; a left femur is mirrored to a right one). It is placed rigidly with its
+  /// knee centre on kKneeCentreCt, its hip centre (sphere fit to the head) straight above and its
+  /// epicondylar axis along +x; the knee's hip-knee length is then the mesh's own.
   std::map<BoneId, std::string> meshFiles;
 };
 

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstddef>
 #include <functional>
 #include <string>
 
@@ -47,8 +48,10 @@ inline double roundCone(const Eigen::Vector3d& p, const Eigen::Vector3d& a,
   const double y2 = y * y * l2;
   const double z2 = z * z * l2;
   const double k = (rr > 0.0 ? 1.0 : (rr < 0.0 ? -1.0 : 0.0)) * rr * rr * x2;
-  if ((z > 0.0 ? 1.0 : -1.0) * a2 * z2 > k) return std::sqrt(x2 + z2) * il2 - rb;
-  if ((y > 0.0 ? 1.0 : -1.0) * a2 * y2 < k) return std::sqrt(x2 + y2) * il2 - ra;
+  if ((z > 0.0 ? 1.0 : -1.0) * a2 * z2 > k)
+    return std::sqrt(x2 + z2) * il2 - rb;
+  if ((y > 0.0 ? 1.0 : -1.0) * a2 * y2 < k)
+    return std::sqrt(x2 + y2) * il2 - ra;
   return (std::sqrt(x2 * a2 * il2) + y * rr) * il2 - ra;
 }
 
@@ -59,7 +62,8 @@ inline double ellipsoid(const Eigen::Vector3d& p, const Eigen::Vector3d& centre,
   const Eigen::Vector3d q = axes.transpose() * (p - centre);
   const double k0 = q.cwiseQuotient(radiiMm).norm();
   const double k1 = q.cwiseQuotient(radiiMm.cwiseProduct(radiiMm)).norm();
-  if (k1 == 0.0) return -radiiMm.minCoeff();
+  if (k1 == 0.0)
+    return -radiiMm.minCoeff();
   return k0 * (k0 - 1.0) / k1;
 }
 
@@ -77,7 +81,8 @@ inline double halfSpace(const Eigen::Vector3d& p, const Eigen::Vector3d& point,
 
 /// Polynomial smooth minimum (union) with blend width `k` mm; k <= 0 is the plain minimum.
 inline double smoothUnion(double a, double b, double k) {
-  if (k <= 0.0) return std::min(a, b);
+  if (k <= 0.0)
+    return std::min(a, b);
   const double h = std::max(k - std::abs(a - b), 0.0) / k;
   return std::min(a, b) - h * h * k * 0.25;
 }
@@ -106,10 +111,13 @@ Eigen::Vector3d rayExit(const Field& field, const Eigen::Vector3d& inside,
 /// margin: the field must be positive on the box's faces, else std::invalid_argument):
 /// samples on a grid of `spacingMm`, contours with vtkFlyingEdges3D, then moves every vertex onto
 /// the zero level by `newtonSteps` Newton steps along the gradient so that the surface follows
-/// the field and not the grid. The result is closed, wound outward (positive volume); throws
-/// std::runtime_error naming `what` otherwise. Deterministic: same inputs, same bytes.
+/// the field and not the grid. A surface of more than `maxTriangles` (0: no limit) is first
+/// decimated to about that many (vtkQuadricDecimation) and projected the same way. The result is
+/// closed, wound outward (positive volume); throws std::runtime_error naming `what` otherwise.
+/// Deterministic: same inputs, same bytes.
 core::TriangleMesh meshField(const Field& field, const Eigen::AlignedBox3d& box, double spacingMm,
-                             const std::string& what, int newtonSteps = 4);
+                             const std::string& what, std::size_t maxTriangles = 300000,
+                             int newtonSteps = 4);
 
 /// Tight bounds of {field < 0} inside `searchBox`, from a coarse grid of `stepMm` and padded by
 /// `padMm` (plus a grid cell) so that the result can be given to meshField.
