@@ -15,7 +15,7 @@ namespace echoreg::cli {
 int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   CLI::App app{
       "echoreg: register bones to CT with tracked A-mode ultrasound (Mozes 2008).\n"
-      "Commands available in this build: info, detect. simulate, calibrate, segment, register,\n"
+      "Commands available in this build: info, detect, simulate. calibrate, segment, register,\n"
       "evaluate, figure and study arrive with their issues.",
       "echoreg"};
   app.require_subcommand(1);
@@ -25,6 +25,7 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   std::map<std::string, CommandAction> actions;
   actions["info"] = addInfoCommand(app);
   actions["detect"] = addDetectCommand(app);
+  actions["simulate"] = addSimulateCommand(app);
 
   std::vector<std::string> reversed(args.rbegin(), args.rend());
   try {

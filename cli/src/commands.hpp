@@ -20,5 +20,6 @@ using CommandAction = std::function<int(const Streams&)>;
 
 CommandAction addInfoCommand(CLI::App& app);
 CommandAction addDetectCommand(CLI::App& app);
+CommandAction addSimulateCommand(CLI::App& app);
 
 }  // namespace echoreg::cli

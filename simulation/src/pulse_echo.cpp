@@ -45,6 +45,10 @@ bool holdsFascia(Tissue tissue) {
   return tissue == Tissue::Skin || tissue == Tissue::Fat || tissue == Tissue::Muscle;
 }
 
+double layerSpeed(const PathLayer& layer) {
+  return layer.speedMps > 0.0 ? layer.speedMps : properties(layer.tissue).speedMps;
+}
+
 double waterSpeedMps() {
   return properties(Tissue::Water).speedMps;
 }
@@ -248,6 +252,9 @@ void validate(const BeamPath& path, const Transducer& transducer, const Receiver
     require(
         layer.exitIncidenceDeg >= 0.0 && layer.exitIncidenceDeg <= 90.0,
         name + " exit incidence must be in [0, 90] degrees, got " + number(layer.exitIncidenceDeg));
+    require(std::isfinite(layer.speedMps) && layer.speedMps >= 0.0,
+            name + " speed of sound must be >= 0 m/s (0 = the table's), got " +
+                number(layer.speedMps));
   }
   for (std::size_t i = 0; i < path.fasciaDepthsMm.size(); ++i) {
     require(std::isfinite(path.fasciaDepthsMm[i]) && path.fasciaDepthsMm[i] >= 0.0,
@@ -356,7 +363,7 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
   const std::size_t interfaces = std::min(end, layerCount - 1);
   for (std::size_t i = 0; i < end; ++i) {
     const PathLayer& layer = layers[i];
-    const double speed = properties(layer.tissue).speedMps;
+    const double speed = layerSpeed(layer);
     LayerStart next = starts[i];
     const double length = std::min(layer.lengthMm, 1e6);  // the infinite last layer
     next.depthMm += length;
@@ -383,7 +390,7 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
   for (const Sheet& sheet : sheets) {
     const LayerStart& s = starts[sheet.layer];
     const Tissue tissue = layers[sheet.layer].tissue;
-    const double speed = properties(tissue).speedMps;
+    const double speed = layerSpeed(layers[sheet.layer]);
     const double into = sheet.depthMm - s.depthMm;
     Loss loss = s.loss;
     loss.add(tissue, 2.0 * into, fcMHz);
@@ -437,7 +444,7 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
     if (backscatter <= 0.0 || transducer.muscleSpeckle <= 0.0)
       continue;
     const LayerStart& s = starts[i];
-    const double speed = properties(tissue).speedMps;
+    const double speed = layerSpeed(layers[i]);
     const double beginS = 2.0 * s.oneWayS;
     const double endS = std::min(2.0 * starts[i + 1].oneWayS, recordEndS + pulse.halfLength() / fs);
     const double firstSample = std::ceil((beginS - receiver.delayS) * fs);

@@ -54,6 +54,9 @@ struct PathLayer {
   double lengthMm = 0.0;  ///< > 0; the last layer's may be +infinity
   /// Angle between the beam and the normal of the interface that ends this layer, degrees [0, 90].
   double exitIncidenceDeg = 0.0;
+  /// Speed of sound of this layer, m/s; 0 = the tissue's table value (e.g. bath water warmer
+  /// than the table's 20 C).
+  double speedMps = 0.0;
 };
 
 /// The tissues along one beam.

@@ -1,0 +1,323 @@
+// The whole simulated study, checked from its files only: the truth it writes must agree with
+// the captures, the meshes and the physics, independently of the code paths that made them.
+#include "echoreg/core/error.hpp"
+#include "echoreg/core/mesh_locator.hpp"
+#include "echoreg/core/sequence.hpp"
+#include "echoreg/core/sequence_detection.hpp"
+#include "echoreg/filters/MeshIO.h"
+#include "echoreg/simulation/study.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdlib>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+
+namespace echoreg::simulation {
+namespace {
+
+namespace fs = std::filesystem;
+
+Eigen::Matrix4d matrixFrom(const nlohmann::json& rows) {
+  Eigen::Matrix4d m;
+  for (int r = 0; r < 4; ++r) {
+    for (int c = 0; c < 4; ++c) m(r, c) = rows.at(static_cast<std::size_t>(r)).at(static_cast<std::size_t>(c)).get<double>();
+  }
+  return m;
+}
+
+nlohmann::json readJson(const std::string& path) {
+  std::ifstream in(path);
+  return nlohmann::json::parse(in);
+}
+
+struct ShotRow {
+  std::string capture;
+  int frame = 0;
+  std::string bone;
+  bool shouldAccept = false;
+  double depthMm = 0.0;
+  double speedMps = 0.0;
+};
+
+std::vector<ShotRow> readShots(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  EXPECT_EQ(line, "capture,frame,bone,should_accept,true_depth_mm,true_speed_of_sound_mps");
+  std::vector<ShotRow> rows;
+  while (std::getline(in, line)) {
+    std::vector<std::string> cells;
+    std::stringstream ss(line);
+    std::string cell;
+    while (std::getline(ss, cell, ',')) cells.push_back(cell);
+    while (cells.size() < 6) cells.emplace_back();
+    ShotRow row;
+    row.capture = cells[0];
+    row.frame = std::stoi(cells[1]);
+    row.bone = cells[2];
+    row.shouldAccept = cells[3] == "1";
+    row.depthMm = cells[4].empty() ? std::nan("") : std::stod(cells[4]);
+    row.speedMps = cells[5].empty() ? std::nan("") : std::stod(cells[5]);
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+// One small cadaver study shared by the tests of this suite.
+class SimulatedStudy : public ::testing::Test {
+ protected:
+  // The ctest fixture's study (ECHOREG_TEST_STUDY), or one simulated here when run alone.
+  static void SetUpTestSuite() {
+    const char* fixture = std::getenv("ECHOREG_TEST_STUDY");
+    if (fixture != nullptr && fs::is_regular_file(fs::path(fixture) / "study.json")) {
+      root_ = fixture;
+      return;
+    }
+    dir_ = new test::TempDir();
+    root_ = dir_->file("study");
+    StudyOptions options;
+    options.size = StudySize::Small;
+    options.seed = 7;
+    generateStudy(options, root_);
+  }
+  static void TearDownTestSuite() {
+    delete dir_;
+    dir_ = nullptr;
+  }
+  static std::string path(const std::string& relative) { return root_ + "/" + relative; }
+
+  static test::TempDir* dir_;
+  static std::string root_;
+};
+test::TempDir* SimulatedStudy::dir_ = nullptr;
+std::string SimulatedStudy::root_;
+
+TEST_F(SimulatedStudy, WritesTheDocumentedLayout) {
+  for (const char* file : {"study.json", "truth/transforms.json", "truth/femur.vtp", "truth/tibia.vtp",
+                           "truth/fibula.vtp", "truth/shots.csv", "ct/landmarks.mrk.json",
+                           "captures/femur_ultrasound.igs.mha", "captures/tibia_ultrasound.igs.mha",
+                           "captures/calibration_shots.igs.mha",
+                           "captures/calibration_sphere_stylus.igs.mha",
+                           "captures/stylus_pivot.igs.mha", "captures/femur_mechanical.igs.mha",
+                           "captures/tibia_mechanical_blunt.igs.mha", "captures/landmarks.igs.mha",
+                           "captures/hip_rotation.igs.mha",
+                           "truth/captures/femur_ultrasound.igs.mha"}) {
+    EXPECT_TRUE(fs::is_regular_file(path(file))) << file;
+  }
+  const nlohmann::json transforms = readJson(path("truth/transforms.json"));
+  for (const char* key : {"BeamToProbe", "FemurToCT", "TibiaToCT", "StylusTipToStylus"}) {
+    EXPECT_TRUE(transforms.contains(key)) << key;
+  }
+  const nlohmann::json manifest = readJson(path("study.json"));
+  EXPECT_EQ(manifest.at("format"), "echoreg-study");
+  EXPECT_TRUE(fs::is_regular_file(path(manifest.at("bones").at("femur").at("ultrasound").at(0))));
+  // No temporary folder is left beside the study.
+  for (const auto& entry : fs::directory_iterator(fs::path(root_).parent_path())) {
+    EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos) << entry.path();
+  }
+  // Every frame of an ultrasound capture carries the three transforms; A-lines are uint8 4096.
+  const Sequence femur = readSequence(path("captures/femur_ultrasound.igs.mha"));
+  EXPECT_EQ(femur.elementType, ElementType::UInt8);
+  EXPECT_EQ(femur.frameSize[0], 4096);
+  for (const SequenceFrame& frame : femur.frames) {
+    for (const char* name : {"ProbeToTracker", "FemurToTracker", "TibiaToTracker"}) {
+      ASSERT_EQ(frame.transforms.count(name), 1u) << name;
+    }
+  }
+}
+
+// For every frame that should be accepted, the true depth turned into a point with the true
+// transforms lies on the true bone surface (the contract the detector and registration rely on).
+TEST_F(SimulatedStudy, TrueDepthsLandOnTheTrueSurfaces) {
+  const nlohmann::json transforms = readJson(path("truth/transforms.json"));
+  const Eigen::Matrix4d beamToProbe = matrixFrom(transforms.at("BeamToProbe"));
+  const std::map<std::string, Eigen::Matrix4d> boneToCt{
+      {"femur", matrixFrom(transforms.at("FemurToCT"))},
+      {"tibia", matrixFrom(transforms.at("TibiaToCT"))},
+      {"fibula", matrixFrom(transforms.at("TibiaToCT"))},
+      {"patella", matrixFrom(transforms.at("FemurToCT"))}};
+  std::map<std::string, core::MeshLocator> surfaces;
+  for (const char* bone : {"femur", "tibia", "fibula", "patella"}) {
+    surfaces.emplace(bone, core::MeshLocator(filters::readMesh(path(std::string("truth/") + bone + ".vtp"))));
+  }
+  const std::vector<ShotRow> shots = readShots(path("truth/shots.csv"));
+  std::map<std::string, Sequence> truthCaptures;
+  int checked = 0;
+  double worst = 0.0;
+  for (const ShotRow& shot : shots) {
+    if (!shot.shouldAccept || shot.bone == "sphere") continue;
+    if (!truthCaptures.count(shot.capture)) {
+      truthCaptures[shot.capture] = readSequence(path("truth/captures/" + shot.capture));
+    }
+    const SequenceFrame& frame = truthCaptures[shot.capture].frames.at(static_cast<std::size_t>(shot.frame));
+    const std::string marker = shot.bone == "femur" || shot.bone == "patella" ? "FemurToTracker"
+                                                                              : "TibiaToTracker";
+    const Eigen::Matrix4d probeToTracker = frame.transforms.at("ProbeToTracker").matrix;
+    const Eigen::Matrix4d boneToTracker = frame.transforms.at(marker).matrix;
+    const Eigen::Vector4d p = boneToCt.at(shot.bone) * boneToTracker.inverse() * probeToTracker *
+                              beamToProbe * Eigen::Vector4d(0, 0, shot.depthMm, 1);
+    const double distance = surfaces.at(shot.bone).closest(p.head<3>()).distance;
+    worst = std::max(worst, distance);
+    ++checked;
+  }
+  std::cout << checked << " accepted frames checked, worst distance to the surface " << worst
+            << " mm\n";
+  EXPECT_GT(checked, 200);
+  EXPECT_LT(worst, 0.05);
+}
+
+// The physics and the truth agree: the dissertation's-style detector finds the bone where the
+// truth says, once the true speed of sound replaces the assumed one.
+TEST_F(SimulatedStudy, DetectorFindsTheTrueDepths) {
+  const std::vector<ShotRow> shots = readShots(path("truth/shots.csv"));
+  for (const char* capture : {"femur_ultrasound.igs.mha", "tibia_ultrasound.igs.mha"}) {
+    const Sequence sequence = readSequence(path(std::string("captures/") + capture));
+    DetectionParams params = detectionPreset("default");
+    params.depth = depthFromSequence(sequence, params.depth);
+    // Frame by frame: the inter-signal filters thin a sweep, they do not judge one echo.
+    params.interSignal.history = 1;
+    params.interSignal.minSpreadMm = 0.0;
+    const SequenceDetection detection = detectSequence(sequence, params);
+    int agree = 0, total = 0, truePositive = 0, positives = 0, falsePositive = 0, negatives = 0;
+    std::vector<double> errors;
+    for (const ShotRow& shot : shots) {
+      if (shot.capture != capture) continue;
+      const FrameDetection& f = detection.frames.at(static_cast<std::size_t>(shot.frame));
+      ++total;
+      agree += f.accepted() == shot.shouldAccept ? 1 : 0;
+      if (shot.shouldAccept) {
+        ++positives;
+        if (f.accepted()) {
+          ++truePositive;
+          errors.push_back(std::abs(*f.depthMm * shot.speedMps / params.depth.speedOfSoundMps -
+                                    shot.depthMm));
+        }
+      } else {
+        ++negatives;
+        falsePositive += f.accepted() ? 1 : 0;
+      }
+    }
+    std::sort(errors.begin(), errors.end());
+    const double median = errors.empty() ? 1e9 : errors[errors.size() / 2];
+    std::cout << capture << ": agreement " << 100.0 * agree / total << " %, sensitivity "
+              << 100.0 * truePositive / std::max(1, positives) << " %, false positives "
+              << 100.0 * falsePositive / std::max(1, negatives) << " %, median depth error "
+              << median << " mm\n";
+    EXPECT_GT(static_cast<double>(agree) / total, 0.88) << capture;
+    EXPECT_LT(median, 0.3) << capture;
+  }
+}
+
+TEST_F(SimulatedStudy, AcceptanceSharesPerRegionAreRealistic) {
+  // Regions come from shots_detail.csv, acceptance and bones from shots.csv (same row order).
+  const std::vector<ShotRow> shots = readShots(path("truth/shots.csv"));
+  std::ifstream detail(path("truth/shots_detail.csv"));
+  std::string line;
+  std::getline(detail, line);
+  struct Count {
+    int frames = 0, accept = 0, fibula = 0, patella = 0;
+  };
+  std::map<std::string, Count> regions;
+  for (const ShotRow& shot : shots) {
+    ASSERT_TRUE(std::getline(detail, line));
+    const auto first = line.find(',');
+    const auto second = line.find(',', first + 1);
+    const auto third = line.find(',', second + 1);
+    ASSERT_EQ(line.substr(0, first), shot.capture);
+    const std::string region = line.substr(second + 1, third - second - 1);
+    Count& c = regions[region];
+    ++c.frames;
+    c.accept += shot.shouldAccept ? 1 : 0;
+    c.fibula += shot.bone == "fibula" ? 1 : 0;
+    c.patella += shot.bone == "patella" ? 1 : 0;
+  }
+  std::map<std::string, double> share;
+  for (const auto& [region, c] : regions) {
+    share[region] = static_cast<double>(c.accept) / c.frames;
+    std::cout << region << ": " << c.frames << " frames, " << 100.0 * share[region]
+              << " % should be accepted, " << c.fibula << " on the fibula, " << c.patella
+              << " on the patella\n";
+  }
+  // The dissertation's difficulties: a noisy anterior femur (thick quadriceps, the patella in
+  // the way), clean echoes over the subcutaneous tibia, beams landing on the fibula laterally.
+  EXPECT_LT(share["anterior_distal_femur"], share["anteromedial_tibia"]);
+  EXPECT_LT(share["anterior_distal_femur"], share["lateral_epicondyle"]);
+  EXPECT_GT(share["anteromedial_tibia"], 0.6);
+  for (const char* region : {"anterior_distal_femur", "medial_epicondyle", "lateral_epicondyle",
+                             "tibial_tubercle", "anteromedial_tibia", "medial_proximal_tibia",
+                             "lateral_proximal_tibia"}) {
+    ASSERT_TRUE(share.count(region)) << region;
+    EXPECT_GT(share[region], 0.05) << region;
+    EXPECT_LT(share[region], 0.98) << region;
+  }
+  EXPECT_GT(regions["lateral_proximal_tibia"].fibula, 0) << "no lateral beam landed on the fibula";
+  EXPECT_GT(regions["anterior_distal_femur"].patella, 0) << "no anterior beam met the patella";
+  EXPECT_EQ(share["sphere"] > 0.8, true) << "calibration shots at the sphere are mostly clean";
+}
+
+TEST(SimulateStudy, SameSeedSameBytesAnotherSeedAnotherStudy) {
+  test::TempDir dir;
+  StudyOptions options;
+  options.size = StudySize::Small;
+  options.framesPerBone = 60;
+  options.seed = 3;
+  generateStudy(options, dir.file("a"));
+  generateStudy(options, dir.file("b"));
+  options.seed = 4;
+  generateStudy(options, dir.file("c"));
+  auto bytes = [](const fs::path& p) {
+    std::ifstream in(p, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  int files = 0, differing = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(dir.file("a"))) {
+    if (!entry.is_regular_file()) continue;
+    const fs::path relative = fs::relative(entry.path(), dir.file("a"));
+    ++files;
+    EXPECT_TRUE(bytes(entry.path()) == bytes(fs::path(dir.file("b")) / relative))
+        << relative << " differs between two runs with the same seed";
+    if (bytes(entry.path()) != bytes(fs::path(dir.file("c")) / relative)) ++differing;
+  }
+  EXPECT_GT(files, 20);
+  EXPECT_GT(differing, files / 2) << "another seed must give another study";
+}
+
+TEST(SimulateStudy, RefusesBadOutputsAndMeshesLeavingNothing) {
+  test::TempDir dir;
+  StudyOptions options;
+  options.size = StudySize::Small;
+  options.framesPerBone = 20;
+  fs::create_directories(dir.file("full"));
+  std::ofstream(dir.file("full/keep.txt")) << "mine";
+  EXPECT_THROW(generateStudy(options, dir.file("full")), FileError);
+  EXPECT_TRUE(fs::is_regular_file(dir.file("full/keep.txt")));
+  EXPECT_THROW(generateStudy(options, dir.file("no/such/parent/study")), FileError);
+  // A mesh with a hole.
+  core::TriangleMesh open;
+  open.vertices = {{0, 0, 0}, {10, 0, 0}, {0, 10, 0}, {0, 0, 10}};
+  open.triangles = {{0, 2, 1}, {0, 1, 3}, {0, 3, 2}};
+  filters::writeMesh(dir.file("open.stl"), open);
+  options.meshFiles[BoneId::Femur] = dir.file("open.stl");
+  try {
+    generateStudy(options, dir.file("out"));
+    FAIL() << "an open mesh was accepted";
+  } catch (const FileError& e) {
+    EXPECT_EQ(e.path(), dir.file("open.stl"));
+  }
+  EXPECT_FALSE(fs::exists(dir.file("out")));
+  int leftovers = 0;
+  for (const auto& entry : fs::directory_iterator(dir.path())) {
+    leftovers += entry.path().filename().string().find(".tmp-") != std::string::npos ? 1 : 0;
+  }
+  EXPECT_EQ(leftovers, 0);
+}
+
+}  // namespace
+}  // namespace echoreg::simulation
