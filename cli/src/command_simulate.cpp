@@ -49,8 +49,7 @@ simulation::StudyOptions toStudyOptions(const SimulateOptions& o) {
                                                    : simulation::FemurRegions::All;
   s.tissueScale = o.tissueScale;
   s.framesPerBone = o.framesPerBone;
-  const std::map<std::string, simulation::BoneId> names{{"femur", simulation::BoneId::Femur},
-                                                        {"tibia", simulation::BoneId::Tibia}};
+  const std::map<std::string, simulation::BoneId> names{{"femur", simulation::BoneId::Femur}};
   for (const std::string& spec : o.bones) {
     const auto eq = spec.find('=');
     if (eq == std::string::npos || eq == 0 || eq + 1 == spec.size()) {
@@ -58,8 +57,7 @@ simulation::StudyOptions toStudyOptions(const SimulateOptions& o) {
     }
     const auto it = names.find(spec.substr(0, eq));
     if (it == names.end()) {
-      throw std::invalid_argument("--bone: unknown bone '" + spec.substr(0, eq) +
-                                  "' (femur or tibia)");
+      throw std::invalid_argument("--bone: unknown bone '" + spec.substr(0, eq) + "' (femur)");
     }
     s.meshFiles[it->second] = spec.substr(eq + 1);
   }
@@ -86,7 +84,22 @@ CommandAction addSimulateCommand(CLI::App& app) {
                   "full (the dissertation's CT: 512x512 at 0.48 mm, hip/knee/ankle groups) or small "
                   "(for tests and the demo)")
       ->check(CLI::IsMember({"small", "full"}));
-  cmd->add_option("--bone", o->bones, "Use a mesh for a bone: femur=FILE.stl (closed, mm)");
+  cmd->add_option("--bone", o->bones,
+                  "Use a mesh of your own for the femur: femur=FILE (.stl, .vtp, .ply or .obj; a "
+                  "closed surface in mm, either side; placed by its head, knee and epicondyles)")
+      ->check(CLI::Validator(
+          [](std::string& value) -> std::string {
+            const auto eq = value.find('=');
+            if (eq == std::string::npos || eq + 1 == value.size()) {
+              return "expects NAME=FILE, e.g. femur=femur.stl";
+            }
+            if (value.substr(0, eq) != "femur") {
+              return "only the femur can be given as a mesh (tibia, fibula and patella are "
+                     "procedural), got '" + value.substr(0, eq) + "'";
+            }
+            return "";
+          },
+          "femur=FILE"));
   cmd->add_option("--flexion", o->flexionDeg, "Knee flexion in degrees (0 = straight)")
       ->check(CLI::Range(0.0, 120.0));
   cmd->add_option("--standoff", o->standoff,

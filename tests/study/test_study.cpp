@@ -6,6 +6,7 @@
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/filters/MeshIO.h"
 #include "echoreg/simulation/study.hpp"
+#include "study_checks.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -23,52 +24,6 @@ namespace echoreg::simulation {
 namespace {
 
 namespace fs = std::filesystem;
-
-Eigen::Matrix4d matrixFrom(const nlohmann::json& rows) {
-  Eigen::Matrix4d m;
-  for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) m(r, c) = rows.at(static_cast<std::size_t>(r)).at(static_cast<std::size_t>(c)).get<double>();
-  }
-  return m;
-}
-
-nlohmann::json readJson(const std::string& path) {
-  std::ifstream in(path);
-  return nlohmann::json::parse(in);
-}
-
-struct ShotRow {
-  std::string capture;
-  int frame = 0;
-  std::string bone;
-  bool shouldAccept = false;
-  double depthMm = 0.0;
-  double speedMps = 0.0;
-};
-
-std::vector<ShotRow> readShots(const std::string& path) {
-  std::ifstream in(path);
-  std::string line;
-  std::getline(in, line);
-  EXPECT_EQ(line, "capture,frame,bone,should_accept,true_depth_mm,true_speed_of_sound_mps");
-  std::vector<ShotRow> rows;
-  while (std::getline(in, line)) {
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    std::string cell;
-    while (std::getline(ss, cell, ',')) cells.push_back(cell);
-    while (cells.size() < 6) cells.emplace_back();
-    ShotRow row;
-    row.capture = cells[0];
-    row.frame = std::stoi(cells[1]);
-    row.bone = cells[2];
-    row.shouldAccept = cells[3] == "1";
-    row.depthMm = cells[4].empty() ? std::nan("") : std::stod(cells[4]);
-    row.speedMps = cells[5].empty() ? std::nan("") : std::stod(cells[5]);
-    rows.push_back(row);
-  }
-  return rows;
-}
 
 // One small cadaver study shared by the tests of this suite.
 class SimulatedStudy : public ::testing::Test {
@@ -136,41 +91,11 @@ TEST_F(SimulatedStudy, WritesTheDocumentedLayout) {
 // For every frame that should be accepted, the true depth turned into a point with the true
 // transforms lies on the true bone surface (the contract the detector and registration rely on).
 TEST_F(SimulatedStudy, TrueDepthsLandOnTheTrueSurfaces) {
-  const nlohmann::json transforms = readJson(path("truth/transforms.json"));
-  const Eigen::Matrix4d beamToProbe = matrixFrom(transforms.at("BeamToProbe"));
-  const std::map<std::string, Eigen::Matrix4d> boneToCt{
-      {"femur", matrixFrom(transforms.at("FemurToCT"))},
-      {"tibia", matrixFrom(transforms.at("TibiaToCT"))},
-      {"fibula", matrixFrom(transforms.at("TibiaToCT"))},
-      {"patella", matrixFrom(transforms.at("FemurToCT"))}};
-  std::map<std::string, core::MeshLocator> surfaces;
-  for (const char* bone : {"femur", "tibia", "fibula", "patella"}) {
-    surfaces.emplace(bone, core::MeshLocator(filters::readMesh(path(std::string("truth/") + bone + ".vtp"))));
-  }
-  const std::vector<ShotRow> shots = readShots(path("truth/shots.csv"));
-  std::map<std::string, Sequence> truthCaptures;
-  int checked = 0;
-  double worst = 0.0;
-  for (const ShotRow& shot : shots) {
-    if (!shot.shouldAccept || shot.bone == "sphere") continue;
-    if (!truthCaptures.count(shot.capture)) {
-      truthCaptures[shot.capture] = readSequence(path("truth/captures/" + shot.capture));
-    }
-    const SequenceFrame& frame = truthCaptures[shot.capture].frames.at(static_cast<std::size_t>(shot.frame));
-    const std::string marker = shot.bone == "femur" || shot.bone == "patella" ? "FemurToTracker"
-                                                                              : "TibiaToTracker";
-    const Eigen::Matrix4d probeToTracker = frame.transforms.at("ProbeToTracker").matrix;
-    const Eigen::Matrix4d boneToTracker = frame.transforms.at(marker).matrix;
-    const Eigen::Vector4d p = boneToCt.at(shot.bone) * boneToTracker.inverse() * probeToTracker *
-                              beamToProbe * Eigen::Vector4d(0, 0, shot.depthMm, 1);
-    const double distance = surfaces.at(shot.bone).closest(p.head<3>()).distance;
-    worst = std::max(worst, distance);
-    ++checked;
-  }
-  std::cout << checked << " accepted frames checked, worst distance to the surface " << worst
-            << " mm\n";
-  EXPECT_GT(checked, 200);
-  EXPECT_LT(worst, 0.05);
+  const TruthCheck check = checkTrueDepths(root_);
+  std::cout << check.checked << " accepted frames checked, worst distance to the surface "
+            << check.worstMm << " mm\n";
+  EXPECT_GT(check.checked, 200);
+  EXPECT_LT(check.worstMm, 0.05);
 }
 
 // The physics and the truth agree: the dissertation's-style detector finds the bone where the

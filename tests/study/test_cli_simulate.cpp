@@ -1,0 +1,73 @@
+// `echoreg simulate` from the command line: usage errors exit 2, failures exit 1 naming the file
+// and leaving nothing, a small study prints its summary.
+#include "cli_test_support.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+
+namespace echoreg {
+namespace {
+
+namespace fs = std::filesystem;
+using test::runEchoreg;
+
+TEST(CliSimulate, UsageErrorsExitTwo) {
+  test::TempDir dir;
+  for (const std::vector<std::string>& args :
+       {std::vector<std::string>{"simulate", "--out", dir.file("s"), "--preset", "sawbones"},
+        std::vector<std::string>{"simulate", "--out", dir.file("s"), "--size", "medium"},
+        std::vector<std::string>{"simulate", "--out", dir.file("s"), "--bone", "femur"},
+        std::vector<std::string>{"simulate", "--out", dir.file("s"), "--bone", "patella=p.stl"},
+        std::vector<std::string>{"simulate", "--out", dir.file("s"), "--flexion", "170"},
+        std::vector<std::string>{"simulate"}}) {
+    const test::CommandResult r = runEchoreg(args);
+    EXPECT_EQ(r.exitCode, 2) << args.back() << ": " << r.err;
+    EXPECT_FALSE(r.err.empty());
+  }
+  EXPECT_FALSE(fs::exists(dir.file("s")));
+  const test::CommandResult help = runEchoreg({"simulate", "--help"});
+  EXPECT_EQ(help.exitCode, 0);
+  EXPECT_NE(help.out.find("--preset"), std::string::npos);
+  EXPECT_NE(help.out.find("--fibula-in-tibia"), std::string::npos);
+}
+
+TEST(CliSimulate, FailuresNameTheFileAndLeaveNothing) {
+  test::TempDir dir;
+  fs::create_directories(dir.file("taken"));
+  std::ofstream(dir.file("taken/notes.txt")) << "keep me";
+  test::CommandResult r = runEchoreg({"simulate", "--out", dir.file("taken"), "--size", "small"});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find(dir.file("taken")), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("not empty"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::is_regular_file(dir.file("taken/notes.txt")));
+
+  r = runEchoreg({"simulate", "--out", dir.file("s"), "--size", "small", "--bone",
+                  "femur=" + dir.file("missing.stl")});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find(dir.file("missing.stl")), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir.file("s")));
+  std::size_t entries = 0;
+  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir.path())) ++entries;
+  EXPECT_EQ(entries, 1u) << "only the folder made by the test remains";
+}
+
+TEST(CliSimulate, SmallStudySummaryAsJson) {
+  test::TempDir dir;
+  const test::CommandResult r = runEchoreg({"simulate", "--out", dir.file("s"), "--size", "small",
+                                            "--seed", "11", "--frames-per-bone", "40", "--preset",
+                                            "phantom", "--json"});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json summary = nlohmann::json::parse(r.out);
+  EXPECT_EQ(summary.at("captures"), 10);  // no hip rotation for a clamped phantom
+  EXPECT_EQ(summary.at("ct").at("columns"), 256);
+  EXPECT_GT(summary.at("ultrasound_frames").get<int>(), 60);
+  EXPECT_TRUE(fs::is_regular_file(dir.file("s/study.json")));
+  EXPECT_TRUE(r.err.empty()) << "no progress on a non-terminal: " << r.err;
+}
+
+}  // namespace
+}  // namespace echoreg
