@@ -20,6 +20,7 @@
 #include <fstream>
 #include <stdexcept>
 #include <thread>
+#include <tuple>
 #include <unistd.h>
 
 namespace echoreg::simulation {
@@ -156,7 +157,8 @@ struct Scene {
   Transducer transducer;
   Receiver receiver;
 
-  Scene(const StudyOptions& o, const Specimen& s) : options(o), specimen(s) {}
+  Scene(const StudyOptions& o, const Specimen& s)
+      : options(o), specimen(s), tracker(TrackerNoise{}, o.seed) {}
 
   // The leg's pose in the camera's frame at time t: fixed, with a slow sway of the held leg.
   Iso ctToTracker(double timeS) const {
@@ -620,7 +622,7 @@ class StudyBuilder {
                                   : o_.standoff == Standoff::GelPad ? Tissue::GelPad
                                                                     : Tissue::Water;
     SmoothNoise tilt(rng, phantom ? 4.0 : 6.0, 0.05, 0.6);
-    SmoothNoise tremor(rng, 0.3, 6.0, 12.0);
+    SmoothNoise tremor(rng, 0.15, 6.0, 12.0);
     SmoothNoise standoffDrift(rng, 1.0, 0.05, 0.3);
     SmoothNoise rollDrift(rng, 8.0, 0.05, 0.3);
     // Coupling: a two-state chain per frame (lost, regained) for each standoff.
@@ -647,18 +649,25 @@ class StudyBuilder {
     bool coupled = true;
     for (const Region& region : regions) {
       const int frames = static_cast<int>(std::lround(sizes_.framesPerBone * region.weight / weightSum));
-      const int rows = 4;
+      // Spot by spot, as the dissertation's assistant collected a few dozen points per bone:
+      // move to a new spot of the region in 0.2 s, hold it for 0.3 s while the system listens.
+      constexpr int kMoveFrames = 20, kHoldFrames = 30;
+      auto spot = [&]() {
+        return Eigen::Vector2d(rng.uniform(region.h0, region.h1),
+                               rng.uniform(region.theta0, region.theta1));
+      };
+      Eigen::Vector2d from = spot(), to = from;
       for (int f = 0; f < frames; ++f, t += 1.0 / kFrameRateHz) {
-        // A zig-zag over the region: rows of constant height, swept across theta.
-        const double u = static_cast<double>(f) / frames * rows;
-        const int row = std::min(rows - 1, static_cast<int>(u));
-        double across = u - row;
-        if (row % 2 == 1) across = 1.0 - across;
+        const int phase = f % (kMoveFrames + kHoldFrames);
+        if (phase == 0) {
+          from = to;
+          to = spot();
+        }
+        const double s = std::min(1.0, static_cast<double>(phase) / kMoveFrames);
+        const Eigen::Vector2d at = from + (s * s * (3.0 - 2.0 * s)) * (to - from);
         const Eigen::Vector3d jitter = tremor.at(t - start);
-        const double h = region.h0 + (region.h1 - region.h0) * (row + 0.5) / rows + jitter.x() +
-                         4.0 * std::sin(2 * kPi * across);
-        const double theta = (region.theta0 + (region.theta1 - region.theta0) * across) * kDeg +
-                             jitter.y() / 40.0;
+        const double h = at.x() + jitter.x();
+        const double theta = at.y() * kDeg + jitter.y() / 40.0;
         const Iso ctToTracker = scene_.ctToTracker(t - start);
         std::optional<SurfacePoint> surface = specimen_.surfacePoint(region.segment, h, theta);
         if (!surface) continue;
@@ -1047,6 +1056,17 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
                                {"TibiaToCT", matrixJson(scene.tibiaToCt)},
                                {"StylusTipToStylus", matrixJson(scene.stylusTipToStylus)}};
   writeText(root + "/truth/transforms.json", transforms.dump(2) + "\n");
+  // The same transforms as single transform files (docs/formats.md "Transforms"), which the
+  // commands take with --beam-to-probe, --stylus-tip-to-stylus, --initial.
+  const std::vector<std::tuple<std::string, std::string, std::string, Iso>> singles{
+      {"BeamToProbe.json", "Beam", "Probe", scene.beamToProbe},
+      {"StylusTipToStylus.json", "StylusTip", "Stylus", scene.stylusTipToStylus},
+      {"FemurToCT.json", "Femur", "CT", scene.femurToCt},
+      {"TibiaToCT.json", "Tibia", "CT", scene.tibiaToCt}};
+  for (const auto& [file, from, to, matrix] : singles) {
+    const nlohmann::json single = {{"from", from}, {"to", to}, {"matrix", matrixJson(matrix)}};
+    writeText(root + "/truth/" + file, single.dump(2) + "\n");
+  }
   for (const Bone& bone : knee.bones) {
     core::TriangleMesh mesh = bone.mesh;
     if (bone.id == BoneId::Tibia && options.fibulaInTibiaModel) {

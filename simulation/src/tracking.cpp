@@ -35,6 +35,37 @@ bool OpticalTracker::visible(const Eigen::Isometry3d& markerToTracker,
   return angle <= noise_.maxViewAngleDeg * kPi / 180.0;
 }
 
+OpticalTracker::OpticalTracker(TrackerNoise noise, std::uint64_t seed) : noise_(noise) {
+  // The bias: a sum of plane waves with random directions and phases, scaled to the RMS asked
+  // (a sinusoid of amplitude A has variance A^2 / 2).
+  core::Rng rng = core::Rng::derive(seed, "camera-bias");
+  constexpr int kWaves = 6;
+  const double perWave = std::sqrt(2.0 / kWaves);
+  for (int i = 0; i < kWaves; ++i) {
+    Wave wave;
+    Eigen::Vector3d direction(rng.normal(), rng.normal(), rng.normal());
+    direction.normalize();
+    const double wavelength = noise_.biasWavelengthMm * rng.uniform(0.6, 1.6);
+    wave.wavevector = direction * (2.0 * kPi / wavelength);
+    wave.amplitude = Eigen::Vector3d(noise_.biasLateralMm, noise_.biasLateralMm, noise_.biasDepthMm) *
+                     perWave * rng.uniform(0.7, 1.3);
+    wave.phase = rng.uniform(0.0, 2.0 * kPi);
+    waves_.push_back(wave);
+  }
+}
+
+Eigen::Vector3d OpticalTracker::bias(const Eigen::Vector3d& p) const {
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (std::size_t i = 0; i < waves_.size(); ++i) {
+    // Each axis its own phase offset, so the three components are independent.
+    for (int axis = 0; axis < 3; ++axis) {
+      sum[axis] += waves_[i].amplitude[axis] *
+                   std::sin(waves_[i].wavevector.dot(p) + waves_[i].phase + 2.1 * axis);
+    }
+  }
+  return sum;
+}
+
 Measurement OpticalTracker::measure(const Eigen::Isometry3d& truth, const MarkerGeometry& marker,
                                     core::Rng& rng, bool noisy) const {
   Measurement result;
@@ -51,12 +82,13 @@ Measurement OpticalTracker::measure(const Eigen::Isometry3d& truth, const Marker
     Eigen::Vector3d p = truth * marker.fiducialsMm[i];
     // The camera's depth axis is along the line of sight to the fiducial; across it is lateral.
     const Eigen::Vector3d sight = p.normalized();
-    Eigen::Vector3d across1 = sight.unitOrthogonal();
-    Eigen::Vector3d across2 = sight.cross(across1);
-    const double a = rng.normal() * noise_.fiducialSigmaLateralMm;
-    const double b = rng.normal() * noise_.fiducialSigmaLateralMm;
-    const double d = rng.normal() * noise_.fiducialSigmaDepthMm;
-    if (noisy) p += a * across1 + b * across2 + d * sight;
+    const Eigen::Vector3d across1 = Eigen::Vector3d::UnitY().cross(sight).normalized();
+    const Eigen::Vector3d across2 = sight.cross(across1);
+    const Eigen::Vector3d b = bias(p);
+    const double a1 = b.x() + rng.normal() * noise_.jitterLateralMm;
+    const double a2 = b.y() + rng.normal() * noise_.jitterLateralMm;
+    const double d = b.z() + rng.normal() * noise_.jitterDepthMm;
+    if (noisy) p += a1 * across1 + a2 * across2 + d * sight;
     seen.col(c) = p;
     if (rng.chance(noise_.dropoutProbability)) occluded = true;
   }

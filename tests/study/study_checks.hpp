@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include <cmath>
+#include <cstdlib>
 #include <fstream>
 #include <map>
 #include <sstream>
@@ -18,6 +19,14 @@
 #include <vector>
 
 namespace echoreg::simulation {
+
+/// The study the ctest fixture simulated (or ECHOREG_TEST_STUDY), "" when it is not there.
+inline std::string fixtureStudy() {
+  const char* over = std::getenv("ECHOREG_TEST_STUDY");
+  const std::string root = over != nullptr ? over : ECHOREG_FIXTURE_STUDY_DIR;
+  std::ifstream manifest(root + "/study.json");
+  return manifest.good() ? root : std::string();
+}
 
 inline Eigen::Matrix4d matrixFrom(const nlohmann::json& rows) {
   Eigen::Matrix4d m;

@@ -30,11 +30,8 @@ class SimulatedStudy : public ::testing::Test {
  protected:
   // The ctest fixture's study (ECHOREG_TEST_STUDY), or one simulated here when run alone.
   static void SetUpTestSuite() {
-    const char* fixture = std::getenv("ECHOREG_TEST_STUDY");
-    if (fixture != nullptr && fs::is_regular_file(fs::path(fixture) / "study.json")) {
-      root_ = fixture;
-      return;
-    }
+    root_ = fixtureStudy();
+    if (!root_.empty()) return;
     dir_ = new test::TempDir();
     root_ = dir_->file("study");
     StudyOptions options;

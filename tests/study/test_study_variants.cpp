@@ -93,9 +93,10 @@ TEST(StudyVariants, PhantomInWarmWaterBiasesDepthsByTheSpeedRatio) {
 // The fixture's CT read back by pydicom: the dissertation's groups, and Hounsfield values where
 // the true bone surfaces say bone, and air where they say nothing is near.
 TEST(StudyVariants, FixtureCtReadsBackIndependently) {
-  const char* fixture = std::getenv("ECHOREG_TEST_STUDY");
-  if (fixture == nullptr || !fs::is_regular_file(fs::path(fixture) / "study.json")) {
-    GTEST_SKIP() << "runs under ctest, on the simulate_fixture_study fixture";
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty()) {
+    GTEST_SKIP() << "needs the ctest fixture's study (ctest -R FixtureCt runs simulate_fixture_study "
+                    "first) or ECHOREG_TEST_STUDY";
   }
   if (!fs::exists("/usr/bin/python3")) GTEST_SKIP() << "/usr/bin/python3 (pydicom) is absent";
   const std::string root = fixture;

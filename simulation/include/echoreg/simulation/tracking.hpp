@@ -10,6 +10,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -30,13 +31,20 @@ MarkerGeometry probeMarker();
 MarkerGeometry stylusMarker();
 MarkerGeometry boneMarker(const std::string& name);
 
+/// Optical tracker errors per fiducial, split as cameras show them: a frame-to-frame jitter
+/// (precision) and a bias that varies smoothly over the measurement volume (the calibration error
+/// of the camera: accuracy), both larger along the line of sight than across it. Totals match
+/// NDI's Polaris specification of 0.25 mm RMS over the volume.
 struct TrackerNoise {
-  double fiducialSigmaLateralMm = 0.09;  ///< across the camera's view, per fiducial (1 sigma)
-  double fiducialSigmaDepthMm = 0.25;    ///< along the camera's view axis (its z), per fiducial
-  double maxViewAngleDeg = 75.0;         ///< marker normal versus the line of sight: INVALID beyond
-  double minDistanceMm = 950.0;          ///< Polaris Vicra/Spectra pyramid volume, near end
-  double maxDistanceMm = 2400.0;         ///< far end
-  double dropoutProbability = 0.002;     ///< a sphere occluded by a hand for a frame
+  double jitterLateralMm = 0.03;   ///< across the camera's view, per fiducial per frame (1 sigma)
+  double jitterDepthMm = 0.08;     ///< along the line of sight
+  double biasLateralMm = 0.09;     ///< RMS of the smooth volumetric bias, across
+  double biasDepthMm = 0.23;       ///< along the line of sight
+  double biasWavelengthMm = 400.0; ///< spatial scale of the bias
+  double maxViewAngleDeg = 75.0;   ///< marker normal versus the line of sight: INVALID beyond
+  double minDistanceMm = 950.0;    ///< Polaris Vicra/Spectra pyramid volume, near end
+  double maxDistanceMm = 2400.0;   ///< far end
+  double dropoutProbability = 0.002;  ///< a sphere occluded by a hand for a frame
 };
 
 /// A measured pose: the transform and whether the camera could see the marker.
@@ -48,7 +56,8 @@ struct Measurement {
 /// The camera. Its frame is the `Tracker` frame: origin at the camera, +z its viewing axis.
 class OpticalTracker {
  public:
-  explicit OpticalTracker(TrackerNoise noise = {}) : noise_(noise) {}
+  /// `seed` draws this camera's volumetric bias.
+  explicit OpticalTracker(TrackerNoise noise = {}, std::uint64_t seed = 1);
 
   /// What the camera reports for a marker at `trueMarkerToTracker`. With `noisy` false, the true
   /// pose (still INVALID when out of view), for the noise-free truth captures.
@@ -61,7 +70,15 @@ class OpticalTracker {
   const TrackerNoise& noise() const { return noise_; }
 
  private:
+  Eigen::Vector3d bias(const Eigen::Vector3d& pointMm) const;  // in (across1, across2, depth)
+
   TrackerNoise noise_;
+  struct Wave {
+    Eigen::Vector3d wavevector;
+    Eigen::Vector3d amplitude;
+    double phase;
+  };
+  std::vector<Wave> waves_;
 };
 
 /// Smooth random motion: a sum of a few sinusoids per axis with random phases (seeded), band
