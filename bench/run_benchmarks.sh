@@ -33,7 +33,8 @@ if ! grep -q '^ECHOREG_BUILD_BENCH:BOOL=ON' "$build/CMakeCache.txt"; then
   echo "run_benchmarks.sh: $build has ECHOREG_BUILD_BENCH off; reconfigure with -DECHOREG_BUILD_BENCH=ON" >&2
   exit 2
 fi
-cmake --build "$build" --target bench_signal_chain export_records --parallel "${JOBS:-2}"
+cmake --build "$build" --target bench_signal_chain export_records bench_mesh_locator \
+  bench_simulation --parallel "${JOBS:-2}"
 bench="$build/bench/bench_signal_chain"
 export_records="$build/bench/export_records"
 mkdir -p "$out"
@@ -56,3 +57,11 @@ for preset in default mozes2008; do
   "$export_records" "$out" --records "$records" --preset "$preset"
 done
 "$python" "$here/compare_scipy.py" "$out" --preset default --preset mozes2008
+
+for program in bench_mesh_locator bench_simulation; do
+  echo
+  echo "== $program"
+  "$build/bench/$program" --benchmark_min_time="$min_time" --benchmark_repetitions="$repetitions" \
+    --benchmark_report_aggregates_only=true --benchmark_filter="$filter" \
+    --benchmark_out="$out/$program.json" --benchmark_out_format=json
+done

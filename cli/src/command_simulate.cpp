@@ -100,8 +100,9 @@ CommandAction addSimulateCommand(CLI::App& app) {
             return "";
           },
           "femur=FILE"));
-  cmd->add_option("--flexion", o->flexionDeg, "Knee flexion in degrees (0 = straight)")
-      ->check(CLI::Range(0.0, 120.0));
+  cmd->add_option("--flexion", o->flexionDeg,
+                  "Knee flexion in degrees, 0 (straight) to 90, in the CT and the captures")
+      ->check(CLI::Range(0.0, 90.0));
   cmd->add_option("--standoff", o->standoff,
                   "glove (water-filled glove finger), gel (Aquaflex-like pad) or none (cadaver)")
       ->check(CLI::IsMember({"glove", "gel", "none"}));
