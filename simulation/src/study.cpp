@@ -621,7 +621,7 @@ class StudyBuilder {
     const Tissue standoffTissue = phantom ? Tissue::Water
                                   : o_.standoff == Standoff::GelPad ? Tissue::GelPad
                                                                     : Tissue::Water;
-    SmoothNoise tilt(rng, phantom ? 4.0 : 6.0, 0.05, 0.6);
+    SmoothNoise tilt(rng, phantom ? 8.0 : 6.0, 0.05, 0.6);  // over water the operator aims less
     SmoothNoise tremor(rng, 0.15, 6.0, 12.0);
     SmoothNoise standoffDrift(rng, 1.0, 0.05, 0.3);
     SmoothNoise rollDrift(rng, 8.0, 0.05, 0.3);
