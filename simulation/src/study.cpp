@@ -141,6 +141,22 @@ class CaptureWriter {
   Sequence truth_;
 };
 
+// A probe (or stylus) frame whose long axis (z) is `axis`, rolled about it so that its marker
+// (facing -x) looks at `camera`, then `roll` radians more. All in one frame.
+Eigen::Matrix3d facingPoint(const Eigen::Vector3d& axis, const Eigen::Vector3d& at,
+                            const Eigen::Vector3d& camera, double roll) {
+  const Eigen::Vector3d z = axis.normalized();
+  const Eigen::Vector3d toCamera = (camera - at).normalized();
+  Eigen::Vector3d across = toCamera - toCamera.dot(z) * z;
+  if (across.norm() < 1e-6) across = z.unitOrthogonal();
+  const Eigen::Vector3d x = -across.normalized();
+  Eigen::Matrix3d r;
+  r.col(0) = x;
+  r.col(1) = z.cross(x);
+  r.col(2) = z;
+  return r * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+}
+
 struct Scene {
   const StudyOptions& options;
   const Specimen& specimen;
@@ -178,20 +194,9 @@ struct Scene {
             {"TibiaToTracker", ctToTrackerNow * tibiaToCt, &tibiaMarker}};
   }
 
-  // A probe (or stylus) frame whose long axis is `axisCt`, rolled so that its marker (facing -x)
-  // looks at the camera, with `rollNoise` radians more.
   Eigen::Matrix3d facingCamera(const Eigen::Vector3d& axisCt, const Eigen::Vector3d& atCt,
                                double rollNoise) const {
-    const Eigen::Vector3d z = axisCt.normalized();
-    Eigen::Vector3d toCamera = (cameraCt - atCt).normalized();
-    Eigen::Vector3d across = toCamera - toCamera.dot(z) * z;
-    if (across.norm() < 1e-6) across = z.unitOrthogonal();
-    const Eigen::Vector3d x = -across.normalized();
-    Eigen::Matrix3d r;
-    r.col(0) = x;
-    r.col(1) = z.cross(x);
-    r.col(2) = z;
-    return r * Eigen::AngleAxisd(rollNoise, Eigen::Vector3d::UnitZ()).toRotationMatrix();
+    return facingPoint(axisCt, atCt, cameraCt, rollNoise);
   }
 };
 
@@ -473,19 +478,9 @@ class StudyBuilder {
                                  1500.0 + rng.normal(0, 20));
     const Eigen::Vector3d up = -Eigen::Vector3d(0.0, 1.0, 0.25).normalized();  // toward the camera side
     sphereCentreTracker_ = centre;
-    const Iso trackerToCamera = Iso::Identity();  // the phantom has no tracker: camera frame
-    (void)trackerToCamera;
-    auto faceCamera = [&](const Eigen::Vector3d& axis, const Eigen::Vector3d& at, double roll) {
-      const Eigen::Vector3d z = axis.normalized();
-      Eigen::Vector3d toCamera = (-at).normalized();  // the camera is the origin
-      Eigen::Vector3d across = toCamera - toCamera.dot(z) * z;
-      if (across.norm() < 1e-6) across = z.unitOrthogonal();
-      const Eigen::Vector3d x = -across.normalized();
-      Eigen::Matrix3d r;
-      r.col(0) = x;
-      r.col(1) = z.cross(x);
-      r.col(2) = z;
-      return Eigen::Matrix3d(r * Eigen::AngleAxisd(roll, Eigen::Vector3d::UnitZ()).toRotationMatrix());
+    // The sphere has no tracker: everything here is in the camera's frame (camera at the origin).
+    auto faceCamera = [](const Eigen::Vector3d& axis, const Eigen::Vector3d& at, double roll) {
+      return facingPoint(axis, at, Eigen::Vector3d::Zero(), roll);
     };
     auto onCap = [&](double maxAngle) {  // a direction within maxAngle of `up`
       const double cosMax = std::cos(maxAngle);
@@ -598,13 +593,7 @@ class StudyBuilder {
       const double tilt = (25.0 + 10.0 * std::sin(2 * kPi * s * 3)) * kDeg;
       const double azimuth = phase + 2 * kPi * 2 * s;
       const Eigen::Vector3d axis = tiltAbout(up, tilt, azimuth) * -up;  // from the marker toward the tip
-      const Eigen::Vector3d toCamera = (-tip).normalized();
-      Eigen::Vector3d across = toCamera - toCamera.dot(axis) * axis;
-      const Eigen::Vector3d x = -across.normalized();
-      Eigen::Matrix3d r;
-      r.col(0) = x;
-      r.col(1) = axis.cross(x);
-      r.col(2) = axis;
+      const Eigen::Matrix3d r = facingPoint(axis, tip, Eigen::Vector3d::Zero(), 0.0);
       const Eigen::Vector3d position = tip - r * scene_.stylusTipToStylus.translation();
       writer.addFrame(t, {{"StylusToTracker", fromRotationTranslation(r, position), &scene_.stylus}});
     }
