@@ -29,6 +29,7 @@ struct SimulateOptions {
   std::string femurRegions = "all";
   double tissueScale = 1.0;
   int framesPerBone = 0;
+  int registrations = 1;
   bool json = false;
 };
 
@@ -49,6 +50,7 @@ simulation::StudyOptions toStudyOptions(const SimulateOptions& o) {
                                                    : simulation::FemurRegions::All;
   s.tissueScale = o.tissueScale;
   s.framesPerBone = o.framesPerBone;
+  s.registrations = o.registrations;
   const std::map<std::string, simulation::BoneId> names{{"femur", simulation::BoneId::Femur}};
   for (const std::string& spec : o.bones) {
     const auto eq = spec.find('=');
@@ -123,6 +125,10 @@ CommandAction addSimulateCommand(CLI::App& app) {
   cmd->add_option("--frames-per-bone", o->framesPerBone,
                   "Ultrasound frames per bone (default: small 800, full 3000)")
       ->check(CLI::Range(10, 100000));
+  cmd->add_option("--registrations", o->registrations,
+                  "Ultrasound captures per bone, each its own sweep (the dissertation did 5): "
+                  "femur_ultrasound.igs.mha, femur_ultrasound_2.igs.mha, ...")
+      ->check(CLI::Range(1, 20));
   cmd->add_flag("--json", o->json, "Print the summary as JSON");
 
   return [o](const Streams& io) {

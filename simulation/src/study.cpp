@@ -377,7 +377,9 @@ class StudyBuilder {
   void writeCaptures(StudySummary& summary) {
     calibration(summary);
     pivot();
-    for (BoneId bone : {BoneId::Femur, BoneId::Tibia}) ultrasound(bone, summary);
+    for (BoneId bone : {BoneId::Femur, BoneId::Tibia}) {
+      for (int r = 1; r <= o_.registrations; ++r) ultrasound(bone, r, summary);
+    }
     for (BoneId bone : {BoneId::Femur, BoneId::Tibia}) {
       mechanical(bone, false);
       mechanical(bone, true);
@@ -602,8 +604,10 @@ class StudyBuilder {
   }
 
   // ----- ultrasound sweeps over one bone ---------------------------------------------------
-  void ultrasound(BoneId bone, StudySummary& summary) {
-    const std::string name = std::string(boneName(bone)) + "_ultrasound.igs.mha";
+  // Registration `index` (1, 2, ...): the dissertation did five per bone and specimen.
+  void ultrasound(BoneId bone, int index, StudySummary& summary) {
+    const std::string name = std::string(boneName(bone)) + "_ultrasound" +
+                             (index > 1 ? "_" + std::to_string(index) : std::string()) + ".igs.mha";
     core::Rng rng = core::Rng::derive(o_.seed, "sweep:" + name);
     CaptureWriter writer(name, scene_.tracker, o_.seed);
     const bool phantom = o_.preset == SpecimenKind::Phantom;
@@ -733,7 +737,7 @@ class StudyBuilder {
       summary.regions.push_back(share);
     }
     summary.ultrasoundFrames += static_cast<int>(truths.size());
-    manifest_["bones"][std::string(boneName(bone))]["ultrasound"] = {"captures/" + name};
+    manifest_["bones"][std::string(boneName(bone))]["ultrasound"].push_back("captures/" + name);
   }
 
   // ----- mechanical probe on the bone through the incision --------------------------------

@@ -59,10 +59,12 @@ TEST(CliSimulate, SmallStudySummaryAsJson) {
   test::TempDir dir;
   const test::CommandResult r = runEchoreg({"simulate", "--out", dir.file("s"), "--size", "small",
                                             "--seed", "11", "--frames-per-bone", "40", "--preset",
-                                            "phantom", "--json"});
+                                            "phantom", "--registrations", "2", "--json"});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const nlohmann::json summary = nlohmann::json::parse(r.out);
-  EXPECT_EQ(summary.at("captures"), 10);  // no hip rotation for a clamped phantom
+  // 8 + 2 ultrasound captures per bone; no hip rotation for a clamped phantom.
+  EXPECT_EQ(summary.at("captures"), 12);
+  EXPECT_TRUE(fs::is_regular_file(dir.file("s/captures/tibia_ultrasound_2.igs.mha")));
   EXPECT_EQ(summary.at("ct").at("columns"), 256);
   EXPECT_GT(summary.at("ultrasound_frames").get<int>(), 60);
   EXPECT_TRUE(fs::is_regular_file(dir.file("s/study.json")));

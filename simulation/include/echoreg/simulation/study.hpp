@@ -35,6 +35,7 @@ struct StudyOptions {
   FemurRegions femurRegions = FemurRegions::All;
   double tissueScale = 1.0;         ///< soft tissue thickness factor
   int framesPerBone = 0;            ///< ultrasound frames per bone; 0 = by size (small 800, full 3000)
+  int registrations = 1;            ///< ultrasound captures per bone (the dissertation: 5)
 };
 
 /// Shares of frames that a correct detector should accept, per capture and region.
