@@ -20,7 +20,8 @@ const Specimen& specimen() {
     KneeOptions options;
     options.meshResolutionMm = 1.2;
     options.seed = 7;
-    return std::make_unique<Specimen>(buildKnee(options), SpecimenKind::Cadaver, SoftTissueOptions{});
+    return std::make_unique<Specimen>(buildKnee(options), SpecimenKind::Cadaver,
+                                      SoftTissueOptions{});
   }();
   return *instance;
 }
@@ -31,8 +32,9 @@ void BM_TissueAt(benchmark::State& state) {
   core::Rng rng(1);
   std::vector<Eigen::Vector3d> points;
   for (int i = 0; i < 4096; ++i) {
-    points.push_back(s.knee().kneeCentre +
-                     Eigen::Vector3d(rng.uniform(-100, 100), rng.uniform(-100, 100), rng.uniform(-40, 40)));
+    points.push_back(s.knee().kneeCentre + Eigen::Vector3d(rng.uniform(-100, 100),
+                                                           rng.uniform(-100, 100),
+                                                           rng.uniform(-40, 40)));
   }
   std::size_t i = 0;
   for (auto _ : state) {
@@ -48,8 +50,10 @@ void BM_TraceBeam(benchmark::State& state) {
   core::Rng rng(2);
   std::vector<std::pair<Eigen::Vector3d, Eigen::Vector3d>> beams;
   while (beams.size() < 256) {
-    const auto surface = s.surfacePoint(Segment::Shank, rng.uniform(45, 130), rng.uniform(-1.3, -0.35));
-    if (!surface) continue;
+    const auto surface =
+        s.surfacePoint(Segment::Shank, rng.uniform(45, 130), rng.uniform(-1.3, -0.35));
+    if (!surface)
+      continue;
     beams.push_back({surface->point + 10.0 * surface->normal, -surface->normal});
   }
   std::size_t i = 0;
@@ -63,8 +67,11 @@ BENCHMARK(BM_TraceBeam)->Unit(benchmark::kMicrosecond);
 
 void BM_SimulateALine(benchmark::State& state) {
   BeamPath path;
-  path.layers = {{Tissue::Water, 10.0, 0.0}, {Tissue::Skin, 2.0, 0.0}, {Tissue::Fat, 4.0, 0.0},
-                 {Tissue::Muscle, 6.0, 5.0}, {Tissue::CorticalBone, 1e6, 0.0}};
+  path.layers = {{Tissue::Water, 10.0, 0.0},
+                 {Tissue::Skin, 2.0, 0.0},
+                 {Tissue::Fat, 4.0, 0.0},
+                 {Tissue::Muscle, 6.0, 5.0},
+                 {Tissue::CorticalBone, 1e6, 0.0}};
   core::Rng rng(3);
   for (auto _ : state) {
     benchmark::DoNotOptimize(simulateALine(path, Transducer{}, Receiver{}, rng));

@@ -8,11 +8,13 @@
 namespace echoreg::core {
 
 std::string MeshCheck::describe() const {
-  if (triangles == 0) return "has no triangles";
+  if (triangles == 0)
+    return "has no triangles";
   std::ostringstream text;
   std::vector<std::string> parts;
   auto add = [&parts](std::size_t count, const char* what) {
-    if (count > 0) parts.push_back(std::to_string(count) + " " + what);
+    if (count > 0)
+      parts.push_back(std::to_string(count) + " " + what);
   };
   add(badIndices, "triangle indices outside the vertex list");
   add(boundaryEdges, "boundary edges (holes)");
@@ -21,11 +23,13 @@ std::string MeshCheck::describe() const {
   add(degenerateTriangles, "degenerate triangles");
   if (closed()) {
     text << "closed surface of " << triangles << " triangles";
-    if (!parts.empty()) text << " (with " << parts.front() << ")";
+    if (!parts.empty())
+      text << " (with " << parts.front() << ")";
     return text.str();
   }
   text << "not a closed surface: ";
-  for (std::size_t i = 0; i < parts.size(); ++i) text << (i > 0 ? ", " : "") << parts[i];
+  for (std::size_t i = 0; i < parts.size(); ++i)
+    text << (i > 0 ? ", " : "") << parts[i];
   return text.str();
 }
 
@@ -50,11 +54,13 @@ MeshCheck checkMesh(const TriangleMesh& mesh) {
     }
     check.areaMm2 += 0.5 * cross.norm();
     check.volumeMm3 += a.dot(b.cross(c)) / 6.0;
-    for (int k = 0; k < 3; ++k) ++directed[{tri[static_cast<std::size_t>(k)], tri[static_cast<std::size_t>((k + 1) % 3)]}];
+    for (int k = 0; k < 3; ++k)
+      ++directed[{tri[static_cast<std::size_t>(k)], tri[static_cast<std::size_t>((k + 1) % 3)]}];
   }
   for (const auto& [edge, count] : directed) {
     const auto [a, b] = edge;
-    if (a > b && directed.count({b, a}) > 0) continue;  // counted from the other direction
+    if (a > b && directed.count({b, a}) > 0)
+      continue;  // counted from the other direction
     const auto reverse = directed.find({b, a});
     const int back = reverse == directed.end() ? 0 : reverse->second;
     const int total = count + back;
@@ -73,16 +79,19 @@ TriangleMesh transformed(const TriangleMesh& mesh, const Eigen::Isometry3d& tran
   TriangleMesh out;
   out.triangles = mesh.triangles;
   out.vertices.reserve(mesh.vertices.size());
-  for (const Eigen::Vector3d& v : mesh.vertices) out.vertices.push_back(transform * v);
+  for (const Eigen::Vector3d& v : mesh.vertices)
+    out.vertices.push_back(transform * v);
   return out;
 }
 
 void flipWinding(TriangleMesh& mesh) {
-  for (auto& tri : mesh.triangles) std::swap(tri[1], tri[2]);
+  for (auto& tri : mesh.triangles)
+    std::swap(tri[1], tri[2]);
 }
 
 std::array<Eigen::Vector3d, 2> bounds(const TriangleMesh& mesh) {
-  if (mesh.vertices.empty()) return {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
+  if (mesh.vertices.empty())
+    return {Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero()};
   Eigen::Vector3d low = mesh.vertices.front();
   Eigen::Vector3d high = low;
   for (const Eigen::Vector3d& v : mesh.vertices) {

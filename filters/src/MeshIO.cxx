@@ -17,11 +17,11 @@
 #include <vtkXMLPolyDataReader.h>
 #include <vtkXMLPolyDataWriter.h>
 
+#include <unistd.h>
 #include <algorithm>
 #include <cctype>
 #include <cstdio>
 #include <filesystem>
-#include <unistd.h>
 
 namespace echoreg::filters {
 
@@ -41,7 +41,8 @@ core::TriangleMesh toTriangleMesh(vtkPolyData* polyData) {
   triangles->SetInputData(polyData);
   triangles->PassVertsOff();
   triangles->PassLinesOff();
-  vtkNew<vtkCleanPolyData> clean;  // merge exactly coincident points (STL stores each triangle's own)
+  vtkNew<vtkCleanPolyData>
+      clean;  // merge exactly coincident points (STL stores each triangle's own)
   clean->SetInputConnection(triangles->GetOutputPort());
   clean->PointMergingOn();
   clean->SetTolerance(0.0);
@@ -62,7 +63,8 @@ core::TriangleMesh toTriangleMesh(vtkPolyData* polyData) {
   mesh.triangles.reserve(static_cast<std::size_t>(polys->GetNumberOfCells()));
   vtkNew<vtkIdList> ids;
   for (polys->InitTraversal(); polys->GetNextCell(ids);) {
-    if (ids->GetNumberOfIds() != 3) continue;
+    if (ids->GetNumberOfIds() != 3)
+      continue;
     mesh.triangles.push_back({static_cast<int>(ids->GetId(0)), static_cast<int>(ids->GetId(1)),
                               static_cast<int>(ids->GetId(2))});
   }
@@ -101,7 +103,8 @@ vtkSmartPointer<vtkPolyData> toPolyData(const core::TriangleMesh& mesh) {
 
 core::TriangleMesh readMesh(const std::string& path) {
   std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec)) throw FileError(path, "no such file");
+  if (!std::filesystem::is_regular_file(path, ec))
+    throw FileError(path, "no such file");
   const std::string ext = lowerExtension(path);
   vtkSmartPointer<vtkPolyData> poly;
   if (ext == ".stl") {
@@ -114,7 +117,8 @@ core::TriangleMesh readMesh(const std::string& path) {
     vtkNew<vtkXMLPolyDataReader> reader;
     reader->SetFileName(path.c_str());
     reader->Update();
-    if (reader->GetErrorCode() != 0) throw FileError(path, "not a readable VTK XML PolyData file");
+    if (reader->GetErrorCode() != 0)
+      throw FileError(path, "not a readable VTK XML PolyData file");
     poly = reader->GetOutput();
   } else if (ext == ".ply") {
     vtkNew<vtkPLYReader> reader;
@@ -129,9 +133,11 @@ core::TriangleMesh readMesh(const std::string& path) {
   } else {
     throw FileError(path, "unknown mesh kind '" + ext + "' (expected .stl, .vtp, .ply or .obj)");
   }
-  if (!poly || poly->GetNumberOfPolys() == 0) throw FileError(path, "holds no triangles");
+  if (!poly || poly->GetNumberOfPolys() == 0)
+    throw FileError(path, "holds no triangles");
   core::TriangleMesh mesh = toTriangleMesh(poly);
-  if (mesh.triangles.empty()) throw FileError(path, "holds no triangles");
+  if (mesh.triangles.empty())
+    throw FileError(path, "holds no triangles");
   return mesh;
 }
 

@@ -34,26 +34,24 @@ struct ThicknessTable {
 };
 
 const ThicknessTable& thighTable() {
-  static const ThicknessTable table{
-      {0.0, 30.0, 60.0, 120.0, 250.0, 460.0},
-      {{{6, 8, 7, 25, 35, 25, 8, 6}},
-       {{5, 9, 6, 25, 40, 25, 7, 7}},
-       {{12, 14, 12, 30, 45, 30, 14, 12}},
-       {{25, 25, 22, 40, 50, 40, 28, 25}},
-       {{38, 35, 30, 50, 60, 55, 45, 40}},
-       {{45, 35, 28, 55, 70, 60, 55, 45}}}};
+  static const ThicknessTable table{{0.0, 30.0, 60.0, 120.0, 250.0, 460.0},
+                                    {{{6, 8, 7, 25, 35, 25, 8, 6}},
+                                     {{5, 9, 6, 25, 40, 25, 7, 7}},
+                                     {{12, 14, 12, 30, 45, 30, 14, 12}},
+                                     {{25, 25, 22, 40, 50, 40, 28, 25}},
+                                     {{38, 35, 30, 50, 60, 55, 45, 40}},
+                                     {{45, 35, 28, 55, 70, 60, 55, 45}}}};
   return table;
 }
 
 const ThicknessTable& shankTable() {
-  static const ThicknessTable table{
-      {0.0, 30.0, 60.0, 150.0, 280.0, 390.0},
-      {{{6, 10, 12, 30, 35, 25, 10, 6}},
-       {{4, 15, 10, 30, 40, 30, 8, 4}},
-       {{4, 18, 15, 35, 45, 35, 8, 3.5}},
-       {{4, 22, 16, 35, 50, 35, 7, 3}},
-       {{4, 14, 10, 20, 30, 20, 6, 3}},
-       {{4, 6, 4, 12, 20, 10, 4, 4}}}};
+  static const ThicknessTable table{{0.0, 30.0, 60.0, 150.0, 280.0, 390.0},
+                                    {{{6, 10, 12, 30, 35, 25, 10, 6}},
+                                     {{4, 15, 10, 30, 40, 30, 8, 4}},
+                                     {{4, 18, 15, 35, 45, 35, 8, 3.5}},
+                                     {{4, 22, 16, 35, 50, 35, 7, 3}},
+                                     {{4, 14, 10, 20, 30, 20, 6, 3}},
+                                     {{4, 6, 4, 12, 20, 10, 4, 4}}}};
   return table;
 }
 
@@ -65,7 +63,8 @@ double sampleTable(const ThicknessTable& table, double heightMm, double thetaRad
   // Periodic in theta (sector width 45 degrees), clamped in height.
   double sector = thetaRad / (kPi / 4.0);
   sector = std::fmod(sector, 8.0);
-  if (sector < 0) sector += 8.0;
+  if (sector < 0)
+    sector += 8.0;
   const int s0 = static_cast<int>(std::floor(sector)) % 8;
   const int s1 = (s0 + 1) % 8;
   const double fs = sector - std::floor(sector);
@@ -78,7 +77,8 @@ double sampleTable(const ThicknessTable& table, double heightMm, double thetaRad
     r0 = h.size() - 2;
     fr = 1.0;
   } else {
-    while (r0 + 1 < h.size() && h[r0 + 1] < heightMm) ++r0;
+    while (r0 + 1 < h.size() && h[r0 + 1] < heightMm)
+      ++r0;
     fr = (heightMm - h[r0]) / (h[r0 + 1] - h[r0]);
   }
   auto at = [&](std::size_t row, int sec) {
@@ -106,9 +106,11 @@ class SignedMesh {
         const int b = tri[static_cast<std::size_t>((k + 1) % 3)];
         const int c = tri[static_cast<std::size_t>((k + 2) % 3)];
         const Eigen::Vector3d e1 = (mesh.vertices[static_cast<std::size_t>(b)] -
-                                    mesh.vertices[static_cast<std::size_t>(a)]).normalized();
+                                    mesh.vertices[static_cast<std::size_t>(a)])
+                                       .normalized();
         const Eigen::Vector3d e2 = (mesh.vertices[static_cast<std::size_t>(c)] -
-                                    mesh.vertices[static_cast<std::size_t>(a)]).normalized();
+                                    mesh.vertices[static_cast<std::size_t>(a)])
+                                       .normalized();
         const double angle = std::acos(std::clamp(e1.dot(e2), -1.0, 1.0));
         vertexNormals_[static_cast<std::size_t>(a)] += angle * n;
         // (operator[] would leave an Eigen vector uninitialised)
@@ -122,7 +124,8 @@ class SignedMesh {
   // caller only uses capped values far from every bone).
   double signedDistance(const Eigen::Vector3d& p, double cap) const {
     const core::ClosestPoint c = locator_->closest(p, cap);
-    if (c.triangle < 0) return cap;
+    if (c.triangle < 0)
+      return cap;
     const auto& tri = locator_->mesh().triangles[static_cast<std::size_t>(c.triangle)];
     constexpr double eps = 1e-7;
     Eigen::Vector3d normal;
@@ -131,13 +134,15 @@ class SignedMesh {
     if (small >= 2) {
       int vertex = 0;
       for (int k = 0; k < 3; ++k) {
-        if (w[k] >= eps) vertex = tri[static_cast<std::size_t>(k)];
+        if (w[k] >= eps)
+          vertex = tri[static_cast<std::size_t>(k)];
       }
       normal = vertexNormals_[static_cast<std::size_t>(vertex)];
     } else if (small == 1) {
       int a = -1, b = -1;
       for (int k = 0; k < 3; ++k) {
-        if (w[k] >= eps) (a < 0 ? a : b) = tri[static_cast<std::size_t>(k)];
+        if (w[k] >= eps)
+          (a < 0 ? a : b) = tri[static_cast<std::size_t>(k)];
       }
       const auto it = edgeNormals_.find(edgeKey(a, b));
       normal = it != edgeNormals_.end() ? it->second
@@ -171,28 +176,31 @@ struct Specimen::Grid {
 
   std::size_t index(int i, int j, int k) const {
     return (static_cast<std::size_t>(k) * static_cast<std::size_t>(size[1]) +
-            static_cast<std::size_t>(j)) * static_cast<std::size_t>(size[0]) +
+            static_cast<std::size_t>(j)) *
+               static_cast<std::size_t>(size[0]) +
            static_cast<std::size_t>(i);
   }
 
   bool contains(const Eigen::Vector3d& p) const {
     const Eigen::Vector3d g = (p - origin) / kGridSpacingMm;
-    return g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() <= size[0] - 1 &&
-           g.y() <= size[1] - 1 && g.z() <= size[2] - 1;
+    return g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() <= size[0] - 1 && g.y() <= size[1] - 1 &&
+           g.z() <= size[2] - 1;
   }
 
   // Trilinear distance and the nearest bone of the nearest node; +inf outside the grid.
   double sample(const Eigen::Vector3d& p, std::size_t* bone) const {
     const Eigen::Vector3d g = (p - origin) / kGridSpacingMm;
-    if (!(g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() <= size[0] - 1 &&
-          g.y() <= size[1] - 1 && g.z() <= size[2] - 1)) {
+    if (!(g.x() >= 0 && g.y() >= 0 && g.z() >= 0 && g.x() <= size[0] - 1 && g.y() <= size[1] - 1 &&
+          g.z() <= size[2] - 1)) {
       return std::numeric_limits<double>::infinity();
     }
     const int i = std::min(static_cast<int>(g.x()), size[0] - 2);
     const int j = std::min(static_cast<int>(g.y()), size[1] - 2);
     const int k = std::min(static_cast<int>(g.z()), size[2] - 2);
     const double fx = g.x() - i, fy = g.y() - j, fz = g.z() - k;
-    auto d = [&](int a, int b, int c) { return static_cast<double>(distance[index(i + a, j + b, k + c)]); };
+    auto d = [&](int a, int b, int c) {
+      return static_cast<double>(distance[index(i + a, j + b, k + c)]);
+    };
     const double c00 = d(0, 0, 0) * (1 - fx) + d(1, 0, 0) * fx;
     const double c10 = d(0, 1, 0) * (1 - fx) + d(1, 1, 0) * fx;
     const double c01 = d(0, 0, 1) * (1 - fx) + d(1, 0, 1) * fx;
@@ -208,12 +216,14 @@ struct Specimen::Grid {
 Specimen::Specimen(Knee knee, SpecimenKind kind, const SoftTissueOptions& tissue,
                    const std::function<void(double)>& progress)
     : knee_(std::move(knee)), kind_(kind), tissue_(tissue), grid_(std::make_unique<Grid>()) {
-  if (knee_.bones.empty()) throw std::invalid_argument("specimen without bones");
+  if (knee_.bones.empty())
+    throw std::invalid_argument("specimen without bones");
   for (const Bone& bone : knee_.bones) {
     locators_.emplace_back(bone.mesh);
     boneBounds_.push_back(core::bounds(bone.mesh));
   }
-  for (const core::MeshLocator& locator : locators_) grid_->signedMeshes.emplace_back(locator);
+  for (const core::MeshLocator& locator : locators_)
+    grid_->signedMeshes.emplace_back(locator);
 
   // Limb frames from the anatomy.
   kneeCentre_ = knee_.kneeCentre;
@@ -227,10 +237,12 @@ Specimen::Specimen(Knee knee, SpecimenKind kind, const SoftTissueOptions& tissue
   shankAnterior_ = (shankAnterior_ - shankAnterior_.dot(shankAxis_) * shankAxis_).normalized();
   lateral_ = -knee_.medialCt.normalized();
   core::Rng rng = core::Rng::derive(tissue_.seed, "soft-tissue-variation");
-  for (double& v : variation_) v = rng.uniform(-0.1, 0.1);
+  for (double& v : variation_)
+    v = rng.uniform(-0.1, 0.1);
   double tableMax = 0.0;
   for (const ThicknessTable* table : {&thighTable(), &shankTable()}) {
-    for (const auto& row : table->rows) tableMax = std::max(tableMax, *std::max_element(row.begin(), row.end()));
+    for (const auto& row : table->rows)
+      tableMax = std::max(tableMax, *std::max_element(row.begin(), row.end()));
   }
   maxThicknessMm_ = tableMax * tissue_.thicknessScale * 1.1 + 0.5;
 
@@ -240,7 +252,8 @@ Specimen::Specimen(Knee knee, SpecimenKind kind, const SoftTissueOptions& tissue
     low = low.cwiseMin(box[0]);
     high = high.cwiseMax(box[1]);
   }
-  const double margin = kind_ == SpecimenKind::Cadaver ? 100.0 * std::max(1.0, tissue_.thicknessScale) : 20.0;
+  const double margin =
+      kind_ == SpecimenKind::Cadaver ? 100.0 * std::max(1.0, tissue_.thicknessScale) : 20.0;
   low -= Eigen::Vector3d(margin, margin, 25.0);
   high += Eigen::Vector3d(margin, margin, 25.0);
   Grid& grid = *grid_;
@@ -264,9 +277,10 @@ Specimen::Specimen(Knee knee, SpecimenKind kind, const SoftTissueOptions& tissue
         for (int i = 0; i < grid.size[0]; ++i) {
           const Eigen::Vector3d p = grid.origin + kGridSpacingMm * Eigen::Vector3d(i, j, k);
           // Beyond the skin plus a margin the exact distance does not matter (air): cap there.
-          const double nodeCap = kind_ == SpecimenKind::Cadaver
-                                     ? std::min(cap, softTissueThicknessMm(p) + 3.0 * kGridSpacingMm)
-                                     : cap;
+          const double nodeCap =
+              kind_ == SpecimenKind::Cadaver
+                  ? std::min(cap, softTissueThicknessMm(p) + 3.0 * kGridSpacingMm)
+                  : cap;
           // The distance changes by at most one spacing between neighbours: prune with it.
           double best = std::min(nodeCap, std::abs(previous) + kGridSpacingMm * 1.01);
           std::uint8_t bestBone = 0;
@@ -275,7 +289,8 @@ Specimen::Specimen(Knee knee, SpecimenKind kind, const SoftTissueOptions& tissue
             const auto& box = boneBounds_[b];
             const Eigen::Vector3d outside =
                 (box[0] - p).cwiseMax(p - box[1]).cwiseMax(Eigen::Vector3d::Zero());
-            if (outside.norm() >= best) continue;
+            if (outside.norm() >= best)
+              continue;
             const double sd = grid.signedMeshes[b].signedDistance(p, best);
             if (std::abs(sd) < best || (sd < 0 && bestSigned >= 0)) {
               best = std::abs(sd);
@@ -293,15 +308,18 @@ Specimen::Specimen(Knee knee, SpecimenKind kind, const SoftTissueOptions& tissue
   };
   const unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   std::vector<std::thread> pool;
-  for (unsigned t = 0; t < threads; ++t) pool.emplace_back(work);
+  for (unsigned t = 0; t < threads; ++t)
+    pool.emplace_back(work);
   if (progress) {
     while (doneSlices.load() < grid.size[2]) {
       progress(static_cast<double>(doneSlices.load()) / grid.size[2]);
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
   }
-  for (std::thread& t : pool) t.join();
-  if (progress) progress(1.0);
+  for (std::thread& t : pool)
+    t.join();
+  if (progress)
+    progress(1.0);
 }
 
 Specimen::~Specimen() = default;
@@ -318,7 +336,8 @@ double Specimen::exactSignedDistance(const Eigen::Vector3d& p, std::size_t* bone
     const auto& box = boneBounds_[b];
     const Eigen::Vector3d outside =
         (box[0] - p).cwiseMax(p - box[1]).cwiseMax(Eigen::Vector3d::Zero());
-    if (outside.norm() >= best) continue;
+    if (outside.norm() >= best)
+      continue;
     const double cap = std::isfinite(best) ? best : 1e30;
     const double sd = grid_->signedMeshes[b].signedDistance(p, cap);
     if (sd < 0 && bestSigned >= 0) {  // inside a bone wins over near another
@@ -331,13 +350,15 @@ double Specimen::exactSignedDistance(const Eigen::Vector3d& p, std::size_t* bone
       bestBone = b;
     }
   }
-  if (bone != nullptr) *bone = bestBone;
+  if (bone != nullptr)
+    *bone = bestBone;
   return bestSigned;
 }
 
 double Specimen::boneSignedDistance(const Eigen::Vector3d& p) const {
   const double coarse = grid_->sample(p, nullptr);
-  if (std::isfinite(coarse) && std::abs(coarse) > kExactBandMm) return coarse;
+  if (std::isfinite(coarse) && std::abs(coarse) > kExactBandMm)
+    return coarse;
   return exactSignedDistance(p, nullptr);
 }
 
@@ -363,13 +384,15 @@ Eigen::Vector3d Specimen::axisPoint(Segment segment, double heightMm) const {
 Eigen::Vector3d Specimen::radialDirection(Segment segment, double thetaRad) const {
   const Eigen::Vector3d& axis = segment == Segment::Thigh ? thighAxis_ : shankAxis_;
   const Eigen::Vector3d& anterior = segment == Segment::Thigh ? thighAnterior_ : shankAnterior_;
-  Eigen::Vector3d lateral = lateral_ - lateral_.dot(axis) * axis - lateral_.dot(anterior) * anterior;
+  Eigen::Vector3d lateral =
+      lateral_ - lateral_.dot(axis) * axis - lateral_.dot(anterior) * anterior;
   lateral.normalize();
   return std::cos(thetaRad) * anterior + std::sin(thetaRad) * lateral;
 }
 
 double Specimen::softTissueThicknessMm(const Eigen::Vector3d& p) const {
-  if (kind_ == SpecimenKind::Phantom) return 0.0;
+  if (kind_ == SpecimenKind::Phantom)
+    return 0.0;
   const Eigen::Vector3d v = p - kneeCentre_;
   const double ht = v.dot(thighAxis_);
   const double hs = v.dot(shankAxis_);
@@ -392,7 +415,8 @@ double Specimen::softTissueThicknessMm(const Eigen::Vector3d& p) const {
   if (w < 1.0) {
     const double th = theta(Segment::Shank);
     t += (1.0 - w) * sampleTable(shankTable(), hs, th);
-    if (w < 0.5) thetaForVariation = th;
+    if (w < 0.5)
+      thetaForVariation = th;
   }
   // Smooth variation around the limb (periodic linear interpolation of 8 values).
   double sector = std::fmod(thetaForVariation / (kPi / 4.0) + 8.0, 8.0);
@@ -413,22 +437,28 @@ double Specimen::fatFor(const Eigen::Vector3d& p, double total) const {
   const double fat = (w * kThighFatMm + (1 - w) * kShankFatMm) * tissue_.thicknessScale;
   const double belowSkin = std::max(0.0, total - tissue_.skinMm);
   // Where less than 2 mm of muscle would remain (over subcutaneous bone), there is none.
-  if (belowSkin - fat < 2.0) return belowSkin;
+  if (belowSkin - fat < 2.0)
+    return belowSkin;
   return fat;
 }
 
 double Specimen::legField(const Eigen::Vector3d& p) const {
   const double sd = boneSignedDistance(p);
-  if (kind_ == SpecimenKind::Phantom) return sd;
+  if (kind_ == SpecimenKind::Phantom)
+    return sd;
   return sd - softTissueThicknessMm(p);
 }
 
 Tissue Specimen::softTissueAt(const Eigen::Vector3d& p, double distance) const {
-  if (kind_ == SpecimenKind::Phantom) return Tissue::Air;
-  if (distance > maxThicknessMm_) return Tissue::Air;
+  if (kind_ == SpecimenKind::Phantom)
+    return Tissue::Air;
+  if (distance > maxThicknessMm_)
+    return Tissue::Air;
   const double total = softTissueThicknessMm(p);
-  if (distance > total) return Tissue::Air;
-  if (distance > total - tissue_.skinMm) return Tissue::Skin;
+  if (distance > total)
+    return Tissue::Air;
+  if (distance > total - tissue_.skinMm)
+    return Tissue::Skin;
   const double fat = fatFor(p, total);
   const double muscle = std::max(0.0, total - tissue_.skinMm - fat);
   return distance > muscle ? Tissue::Fat : Tissue::Muscle;
@@ -439,20 +469,26 @@ Tissue Specimen::boneInteriorAt(const Eigen::Vector3d& p, std::size_t bone, doub
     return depth < kPhantomShellMm ? Tissue::SawbonesShell : Tissue::SawbonesFoam;
   }
   const Bone& b = knee_.bones[bone];
-  if (depth < b.corticalThicknessMm(p)) return Tissue::CorticalBone;
-  if (b.distanceFromAxisMm(p) < b.medullaryRadiusMm(p)) return Tissue::Marrow;
+  if (depth < b.corticalThicknessMm(p))
+    return Tissue::CorticalBone;
+  if (b.distanceFromAxisMm(p) < b.medullaryRadiusMm(p))
+    return Tissue::Marrow;
   return Tissue::CancellousBone;
 }
 
 Tissue Specimen::tissueAt(const Eigen::Vector3d& p) const {
   std::size_t bone = 0;
   const double coarse = grid_->sample(p, &bone);
-  if (!std::isfinite(coarse)) return Tissue::Air;
-  if (coarse > kExactBandMm) return softTissueAt(p, coarse);
+  if (!std::isfinite(coarse))
+    return Tissue::Air;
+  if (coarse > kExactBandMm)
+    return softTissueAt(p, coarse);
   // Inside a bone the depth only places the cortex's inner wall: the grid is precise enough.
-  if (coarse < -kExactBandMm) return boneInteriorAt(p, bone, -coarse);
+  if (coarse < -kExactBandMm)
+    return boneInteriorAt(p, bone, -coarse);
   const double sd = exactSignedDistance(p, &bone);
-  if (sd < 0) return boneInteriorAt(p, bone, -sd);
+  if (sd < 0)
+    return boneInteriorAt(p, bone, -sd);
   return softTissueAt(p, sd);
 }
 
@@ -461,7 +497,8 @@ std::optional<SurfacePoint> Specimen::surfacePoint(Segment segment, double heigh
   const Eigen::Vector3d a = axisPoint(segment, heightMm);
   const Eigen::Vector3d dir = radialDirection(segment, thetaRad);
   double outside = 200.0;
-  if (legField(a + outside * dir) <= 0.0) return std::nullopt;
+  if (legField(a + outside * dir) <= 0.0)
+    return std::nullopt;
   double r = outside;
   bool found = false;
   for (; r > 0.0; r -= 1.0) {
@@ -471,7 +508,8 @@ std::optional<SurfacePoint> Specimen::surfacePoint(Segment segment, double heigh
     }
     outside = r;
   }
-  if (!found) return std::nullopt;
+  if (!found)
+    return std::nullopt;
   double inside = r;
   for (int it = 0; it < 40; ++it) {
     const double mid = 0.5 * (inside + outside);
@@ -486,7 +524,8 @@ std::optional<SurfacePoint> Specimen::surfacePoint(Segment segment, double heigh
     e[k] = h;
     g[k] = legField(s.point + e) - legField(s.point - e);
   }
-  if (g.norm() == 0.0) return std::nullopt;
+  if (g.norm() == 0.0)
+    return std::nullopt;
   s.normal = g.normalized();
   return s;
 }
@@ -516,7 +555,8 @@ BeamTrace Specimen::traceBeam(const Eigen::Vector3d& o, const Eigen::Vector3d& u
       g[k] = skin ? legField(p + e) - legField(p - e)
                   : boneSignedDistance(p + e) - boneSignedDistance(p - e);
     }
-    if (g.norm() == 0.0) return 0.0;
+    if (g.norm() == 0.0)
+      return 0.0;
     return std::acos(std::min(1.0, std::abs(g.normalized().dot(u)))) * 180.0 / kPi;
   };
 
@@ -537,7 +577,8 @@ BeamTrace Specimen::traceBeam(const Eigen::Vector3d& o, const Eigen::Vector3d& u
       const Eigen::Vector3d p = o + t * u;
       const double total = softTissueThicknessMm(p);
       const double muscle = std::max(0.0, total - tissue_.skinMm - fatThicknessMm(p));
-      if (muscle < 12.0) return std::numeric_limits<double>::quiet_NaN();
+      if (muscle < 12.0)
+        return std::numeric_limits<double>::quiet_NaN();
       return boneSignedDistance(p) - 0.45 * muscle;
     };
     constexpr double step = 0.1;
@@ -573,8 +614,10 @@ BeamTrace Specimen::traceBeam(const Eigen::Vector3d& o, const Eigen::Vector3d& u
         const bool skin = current == Tissue::Air || tissue == Tissue::Air;
         const double angle = gradientAngle(o + boundary * u, skin);
         Tissue layerTissue = current;
-        if (current == Tissue::Air && !inLeg) layerTissue = standoff;
-        if (boundary - layerStart > 0.0) layers.push_back({layerTissue, boundary - layerStart, angle});
+        if (current == Tissue::Air && !inLeg)
+          layerTissue = standoff;
+        if (boundary - layerStart > 0.0)
+          layers.push_back({layerTissue, boundary - layerStart, angle});
         if (tissue == Tissue::Skin && !inLeg) {
           trace.skinDepthMm = boundary;
           inLeg = true;
@@ -596,21 +639,24 @@ BeamTrace Specimen::traceBeam(const Eigen::Vector3d& o, const Eigen::Vector3d& u
   double oneWayTimeS = 0.0;
   double length = 0.0;
   for (const PathLayer& layer : layers) {
-    if (layer.lengthMm >= 1e5) break;
+    if (layer.lengthMm >= 1e5)
+      break;
     oneWayTimeS += layer.lengthMm * 1e-3 / properties(layer.tissue).speedMps;
     length += layer.lengthMm;
   }
   trace.meanSpeedMps = oneWayTimeS > 0 ? length * 1e-3 / oneWayTimeS : 0.0;
-  const bool exitedLeg = !layers.empty() && layers.back().tissue == Tissue::Air && layers.back().lengthMm >= 1e5;
+  const bool exitedLeg =
+      !layers.empty() && layers.back().tissue == Tissue::Air && layers.back().lengthMm >= 1e5;
   if (trace.boneIndex >= 0 && boneT <= maxDepthMm && !exitedLeg) {
     trace.boneDepthMm = boneT;
     trace.incidenceDeg = std::acos(std::min(1.0, std::abs(boneNormal.dot(u)))) * 180.0 / kPi;
     layers.back().exitIncidenceDeg = trace.incidenceDeg;
-    layers.push_back({kind_ == SpecimenKind::Phantom ? Tissue::SawbonesShell : Tissue::CorticalBone,
-                      1e6, 0.0});
+    layers.push_back(
+        {kind_ == SpecimenKind::Phantom ? Tissue::SawbonesShell : Tissue::CorticalBone, 1e6, 0.0});
   } else {
     trace.boneIndex = -1;
-    if (!layers.empty() && layers.back().tissue != Tissue::Air) layers.back().lengthMm = 1e6;
+    if (!layers.empty() && layers.back().tissue != Tissue::Air)
+      layers.back().lengthMm = 1e6;
   }
   return trace;
 }

@@ -12,6 +12,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <unistd.h>
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -21,7 +22,6 @@
 #include <stdexcept>
 #include <thread>
 #include <tuple>
-#include <unistd.h>
 
 namespace echoreg::simulation {
 
@@ -37,7 +37,7 @@ constexpr double kSphereRadiusMm = 25.4;
 constexpr double kCalibrationTipRadiusMm = 1.5;  // the acustar probe's spherical tip
 constexpr double kSharpTipRadiusMm = 0.5;
 constexpr double kBluntTipRadiusMm = 3.0;
-constexpr double kCartilageMm = 2.0;             // under the blunt tip on the articular surface
+constexpr double kCartilageMm = 2.0;  // under the blunt tip on the articular surface
 
 Iso fromRotationTranslation(const Eigen::Matrix3d& r, const Eigen::Vector3d& t) {
   Iso m = Iso::Identity();
@@ -50,13 +50,16 @@ nlohmann::json matrixJson(const Iso& m) {
   nlohmann::json rows = nlohmann::json::array();
   for (int r = 0; r < 4; ++r) {
     nlohmann::json row = nlohmann::json::array();
-    for (int c = 0; c < 4; ++c) row.push_back(m.matrix()(r, c));
+    for (int c = 0; c < 4; ++c)
+      row.push_back(m.matrix()(r, c));
     rows.push_back(row);
   }
   return rows;
 }
 
-nlohmann::json vectorJson(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+nlohmann::json vectorJson(const Eigen::Vector3d& v) {
+  return {v.x(), v.y(), v.z()};
+}
 
 void writeText(const std::string& path, const std::string& text) {
   AtomicFile file(path);
@@ -148,7 +151,8 @@ Eigen::Matrix3d facingPoint(const Eigen::Vector3d& axis, const Eigen::Vector3d& 
   const Eigen::Vector3d z = axis.normalized();
   const Eigen::Vector3d toCamera = (camera - at).normalized();
   Eigen::Vector3d across = toCamera - toCamera.dot(z) * z;
-  if (across.norm() < 1e-6) across = z.unitOrthogonal();
+  if (across.norm() < 1e-6)
+    across = z.unitOrthogonal();
   const Eigen::Vector3d x = -across.normalized();
   Eigen::Matrix3d r;
   r.col(0) = x;
@@ -203,7 +207,8 @@ struct Scene {
 // Time of flight and mean speed of a path with the bath's water speed.
 void applyWaterSpeed(BeamPath& path, double waterSpeedMps) {
   for (PathLayer& layer : path.layers) {
-    if (layer.tissue == Tissue::Water) layer.speedMps = waterSpeedMps;
+    if (layer.tissue == Tissue::Water)
+      layer.speedMps = waterSpeedMps;
   }
 }
 
@@ -211,7 +216,8 @@ double meanSpeed(const BeamPath& path, double depthMm) {
   double time = 0.0, length = 0.0;
   for (const PathLayer& layer : path.layers) {
     const double l = std::min(layer.lengthMm, depthMm - length);
-    if (l <= 0) break;
+    if (l <= 0)
+      break;
     const double c = layer.speedMps > 0 ? layer.speedMps : properties(layer.tissue).speedMps;
     time += l / c;
     length += l;
@@ -242,9 +248,10 @@ struct PendingShot {
 // Acoustic shots of a capture, traced and simulated in parallel (each frame its own random
 // stream), appended to the capture's pixels in frame order.
 template <class TraceFn>
-void simulateShots(Sequence& capture, const std::string& name, const std::vector<PendingShot>& shots,
-                   const Scene& scene, TraceFn trace, std::vector<ShotTruth>& truths,
-                   const StudyProgress& progress, const std::string& step) {
+void simulateShots(Sequence& capture, const std::string& name,
+                   const std::vector<PendingShot>& shots, const Scene& scene, TraceFn trace,
+                   std::vector<ShotTruth>& truths, const StudyProgress& progress,
+                   const std::string& step) {
   const int samples = scene.receiver.samples;
   capture.elementType = ElementType::UInt8;
   capture.frameSize = {samples, 1};
@@ -261,33 +268,38 @@ void simulateShots(Sequence& capture, const std::string& name, const std::vector
       applyWaterSpeed(path, scene.waterSpeedMps);
       const ALine line = simulateALine(path, scene.transducer, scene.receiver, rng);
       std::copy(line.samples.begin(), line.samples.end(),
-                capture.pixels.begin() + static_cast<std::ptrdiff_t>(i * static_cast<std::size_t>(samples)));
+                capture.pixels.begin() +
+                    static_cast<std::ptrdiff_t>(i * static_cast<std::size_t>(samples)));
       truth.region = shots[i].region;
       truth.coupled = shots[i].coupled;
       truth.shouldAccept = line.targetClear && shots[i].coupled && truth.bone != "none";
-      if (truth.bone != "none") truth.speedMps = meanSpeed(path, truth.depthMm);
-      truth.snr = line.clutterRmsAtTarget > 0 ? line.targetEchoAmplitude / line.clutterRmsAtTarget : 0.0;
+      if (truth.bone != "none")
+        truth.speedMps = meanSpeed(path, truth.depthMm);
+      truth.snr =
+          line.clutterRmsAtTarget > 0 ? line.targetEchoAmplitude / line.clutterRmsAtTarget : 0.0;
       truths[i] = truth;
       ++done;
     }
   };
   const unsigned threads = std::max(1u, std::thread::hardware_concurrency());
   std::vector<std::thread> pool;
-  for (unsigned t = 0; t < threads; ++t) pool.emplace_back(work);
+  for (unsigned t = 0; t < threads; ++t)
+    pool.emplace_back(work);
   if (progress) {
     while (done.load() < shots.size()) {
       progress(step, static_cast<double>(done.load()) / static_cast<double>(shots.size()));
       std::this_thread::sleep_for(std::chrono::milliseconds(100));
     }
   }
-  for (std::thread& t : pool) t.join();
+  for (std::thread& t : pool)
+    t.join();
 }
 
 struct Region {
   std::string name;
   BoneId bone;
   Segment segment;
-  double h0, h1;       // mm from the knee centre along the segment
+  double h0, h1;          // mm from the knee centre along the segment
   double theta0, theta1;  // degrees, 0 anterior, +90 lateral, -90 medial
   double weight;
 };
@@ -299,8 +311,8 @@ std::vector<Region> ultrasoundRegions(BoneId bone, FemurRegions femurRegions) {
         {"medial_epicondyle", BoneId::Femur, Segment::Thigh, 12, 45, -115, -65, 0.3},
         {"lateral_epicondyle", BoneId::Femur, Segment::Thigh, 12, 45, 65, 115, 0.3}};
     if (femurRegions == FemurRegions::All) {
-      regions.insert(regions.begin(),
-                     {"anterior_distal_femur", BoneId::Femur, Segment::Thigh, 60, 130, -40, 40, 0.4});
+      regions.insert(regions.begin(), {"anterior_distal_femur", BoneId::Femur, Segment::Thigh, 60,
+                                       130, -40, 40, 0.4});
     }
     return regions;
   }
@@ -316,14 +328,17 @@ std::optional<double> raySphere(const Eigen::Vector3d& o, const Eigen::Vector3d&
   const Eigen::Vector3d oc = o - c;
   const double b = oc.dot(u);
   const double disc = b * b - (oc.squaredNorm() - r * r);
-  if (disc < 0) return std::nullopt;
+  if (disc < 0)
+    return std::nullopt;
   const double t = -b - std::sqrt(disc);
-  if (t <= 0) return std::nullopt;
+  if (t <= 0)
+    return std::nullopt;
   return t;
 }
 
 std::string boneLabel(int boneIndex, const Knee& knee) {
-  if (boneIndex < 0) return "none";
+  if (boneIndex < 0)
+    return "none";
   return std::string(boneName(knee.bones[static_cast<std::size_t>(boneIndex)].id));
 }
 
@@ -335,13 +350,15 @@ std::string_view presetName(SpecimenKind kind) {
 
 std::string_view standoffName(Standoff standoff) {
   switch (standoff) {
-    case Standoff::GloveFinger: return "glove";
-    case Standoff::GelPad: return "gel";
-    case Standoff::None: return "none";
+    case Standoff::GloveFinger:
+      return "glove";
+    case Standoff::GelPad:
+      return "gel";
+    case Standoff::None:
+      return "none";
   }
   return "glove";
 }
-
 
 namespace {
 
@@ -358,10 +375,10 @@ struct Sizes {
 };
 
 Sizes sizesFor(const StudyOptions& o) {
-  Sizes s = o.size == StudySize::Small
-                ? Sizes{800, 300, 20, 15, 400, 500, 15, 20, 80, 1.2}
-                : Sizes{3000, 1000, 40, 30, 1000, 1500, 40, 30, 150, 0.8};
-  if (o.framesPerBone > 0) s.framesPerBone = o.framesPerBone;
+  Sizes s = o.size == StudySize::Small ? Sizes{800, 300, 20, 15, 400, 500, 15, 20, 80, 1.2}
+                                       : Sizes{3000, 1000, 40, 30, 1000, 1500, 40, 30, 150, 0.8};
+  if (o.framesPerBone > 0)
+    s.framesPerBone = o.framesPerBone;
   return s;
 }
 
@@ -369,8 +386,12 @@ class StudyBuilder {
  public:
   StudyBuilder(const StudyOptions& options, const Specimen& specimen, std::string root,
                const StudyProgress& progress)
-      : o_(options), specimen_(specimen), scene_(options, specimen), root_(std::move(root)),
-        progress_(progress), sizes_(sizesFor(options)) {
+      : o_(options),
+        specimen_(specimen),
+        scene_(options, specimen),
+        root_(std::move(root)),
+        progress_(progress),
+        sizes_(sizesFor(options)) {
     setUpScene();
   }
 
@@ -378,14 +399,16 @@ class StudyBuilder {
     calibration(summary);
     pivot();
     for (BoneId bone : {BoneId::Femur, BoneId::Tibia}) {
-      for (int r = 1; r <= o_.registrations; ++r) ultrasound(bone, r, summary);
+      for (int r = 1; r <= o_.registrations; ++r)
+        ultrasound(bone, r, summary);
     }
     for (BoneId bone : {BoneId::Femur, BoneId::Tibia}) {
       mechanical(bone, false);
       mechanical(bone, true);
     }
     landmarks();
-    if (o_.preset == SpecimenKind::Cadaver) hipRotation();
+    if (o_.preset == SpecimenKind::Cadaver)
+      hipRotation();
     writeShotsCsv();
     summary.captures = static_cast<int>(captureFiles_.size());
   }
@@ -407,8 +430,8 @@ class StudyBuilder {
     const Eigen::Vector3d superior = (knee.hipCentre - knee.kneeCentre).normalized();
     const Eigen::Vector3d lateral = -knee.medialCt;
     // The camera stands 1.6 m from the knee, anterior, above and to the lateral side.
-    scene_.cameraCt = knee.kneeCentre + 1600.0 * (knee.anteriorCt + 0.35 * superior + 0.45 * lateral)
-                                                     .normalized();
+    scene_.cameraCt = knee.kneeCentre +
+                      1600.0 * (knee.anteriorCt + 0.35 * superior + 0.45 * lateral).normalized();
     const Eigen::Vector3d z = (knee.kneeCentre - scene_.cameraCt).normalized();
     const Eigen::Vector3d x = z.cross(superior).normalized();
     Eigen::Matrix3d r;
@@ -436,12 +459,13 @@ class StudyBuilder {
     // origin 26 mm beside the marker's axis and 201 mm along it.
     scene_.beamToProbe = Iso::Identity();
     scene_.beamToProbe.translation() =
-        Eigen::Vector3d(26.0, 1.2, 201.3) + Eigen::Vector3d(rng.normal(0, 0.3), rng.normal(0, 0.3),
-                                                            rng.normal(0, 0.3));
+        Eigen::Vector3d(26.0, 1.2, 201.3) +
+        Eigen::Vector3d(rng.normal(0, 0.3), rng.normal(0, 0.3), rng.normal(0, 0.3));
     scene_.stylusTipToStylus = Iso::Identity();
     scene_.stylusTipToStylus.translation() = Eigen::Vector3d(-0.8, 1.1, 161.7);
     core::Rng sway = core::Rng::derive(o_.seed, "leg-sway");
-    const double swayScale = o_.preset == SpecimenKind::Cadaver ? 1.0 : 0.0;  // a phantom is clamped
+    const double swayScale =
+        o_.preset == SpecimenKind::Cadaver ? 1.0 : 0.0;  // a phantom is clamped
     scene_.swayTranslation = SmoothNoise(sway, 0.4 * swayScale, 0.05, 0.4);
     scene_.swayRotation = SmoothNoise(sway, 0.2 * swayScale, 0.05, 0.4);
   }
@@ -478,7 +502,8 @@ class StudyBuilder {
     // The bath in the camera's frame: 1.5 m in front, below the line of sight.
     const Eigen::Vector3d centre(35.0 + rng.normal(0, 5), 60.0 + rng.normal(0, 5),
                                  1500.0 + rng.normal(0, 20));
-    const Eigen::Vector3d up = -Eigen::Vector3d(0.0, 1.0, 0.25).normalized();  // toward the camera side
+    const Eigen::Vector3d up =
+        -Eigen::Vector3d(0.0, 1.0, 0.25).normalized();  // toward the camera side
     sphereCentreTracker_ = centre;
     // The sphere has no tracker: everything here is in the camera's frame (camera at the origin).
     auto faceCamera = [](const Eigen::Vector3d& axis, const Eigen::Vector3d& at, double roll) {
@@ -489,7 +514,8 @@ class StudyBuilder {
       const double c = rng.uniform(cosMax, 1.0);
       const double phi = rng.uniform(0, 2 * kPi);
       const Eigen::Vector3d a = up.unitOrthogonal(), b = up.cross(a);
-      return Eigen::Vector3d(c * up + std::sqrt(1 - c * c) * (std::cos(phi) * a + std::sin(phi) * b));
+      return Eigen::Vector3d(c * up +
+                             std::sqrt(1 - c * c) * (std::cos(phi) * a + std::sin(phi) * b));
     };
 
     // Stylus points on the sphere: the tip's centre at R + tip radius.
@@ -499,13 +525,19 @@ class StudyBuilder {
       for (int p = 0; p < sizes_.spherePoints; ++p) {
         const Eigen::Vector3d n = onCap(75.0 * kDeg);
         const Eigen::Vector3d tip = centre + (kSphereRadiusMm + kCalibrationTipRadiusMm) * n;
-        const Eigen::Vector3d axis = (tiltAbout(n, rng.uniform(0, 25) * kDeg, rng.uniform(0, 2 * kPi)) * -n);
+        const Eigen::Vector3d axis =
+            (tiltAbout(n, rng.uniform(0, 25) * kDeg, rng.uniform(0, 2 * kPi)) * -n);
         for (int f = 0; f < sizes_.framesPerSpherePoint; ++f, t += 1.0 / kFrameRateHz) {
           const Eigen::Vector3d wobble(rng.normal(0, 0.4), rng.normal(0, 0.4), 0.0);
-          const Eigen::Matrix3d r = faceCamera(axis, tip, rng.normal(0, 0.1)) *
-                                    Eigen::AngleAxisd(wobble.norm() * kDeg, wobble.normalized().norm() > 0 ? wobble.normalized() : Eigen::Vector3d::UnitX()).toRotationMatrix();
+          const Eigen::Matrix3d r =
+              faceCamera(axis, tip, rng.normal(0, 0.1)) *
+              Eigen::AngleAxisd(wobble.norm() * kDeg, wobble.normalized().norm() > 0
+                                                          ? wobble.normalized()
+                                                          : Eigen::Vector3d::UnitX())
+                  .toRotationMatrix();
           const Eigen::Vector3d position = tip - r * scene_.stylusTipToStylus.translation();
-          writer.addFrame(t, {{"StylusToTracker", fromRotationTranslation(r, position), &scene_.stylus}});
+          writer.addFrame(
+              t, {{"StylusToTracker", fromRotationTranslation(r, position), &scene_.stylus}});
         }
       }
       saveCapture(writer, false);
@@ -525,10 +557,12 @@ class StudyBuilder {
         const double offset = rng.uniform(0.0, 3.5);
         const double azimuth = rng.uniform(0, 2 * kPi);
         const Eigen::Vector3d side = u.unitOrthogonal();
-        const Eigen::Vector3d lateral = std::cos(azimuth) * side + std::sin(azimuth) * u.cross(side);
+        const Eigen::Vector3d lateral =
+            std::cos(azimuth) * side + std::sin(azimuth) * u.cross(side);
         const double distance = rng.uniform(18.0, 32.0);
         const Eigen::Vector3d origin = centre + offset * lateral - (kSphereRadiusMm + distance) * u;
-        keyPoses.push_back(fromRotationTranslation(faceCamera(u, origin, rng.normal(0, 0.15)), origin));
+        keyPoses.push_back(
+            fromRotationTranslation(faceCamera(u, origin, rng.normal(0, 0.15)), origin));
       }
       const int perKey = std::max(1, sizes_.calibrationShots / keys);
       double t = nextStart();
@@ -545,27 +579,29 @@ class StudyBuilder {
                                w * keyPoses[static_cast<std::size_t>(k + 1)].translation();
           const Iso probeToTracker = beam * scene_.beamToProbe.inverse();
           writer.addFrame(t, {{"ProbeToTracker", probeToTracker, &scene_.probe}});
-          shots.push_back({beam.translation(), beam.linear().col(2), true, Tissue::Water, "sphere"});
+          shots.push_back(
+              {beam.translation(), beam.linear().col(2), true, Tissue::Water, "sphere"});
         }
       }
       std::vector<ShotTruth> truths;
-      simulateShots(writer.measured(), writer.name(), shots, scene_,
-                    [&](const PendingShot& shot, BeamPath& path, ShotTruth& truth) {
-                      const auto hit = raySphere(shot.origin, shot.direction, centre, kSphereRadiusMm);
-                      if (!hit || *hit > 70.0) {
-                        path.layers = {{Tissue::Water, 1e6, 0.0}};
-                        return;
-                      }
-                      const Eigen::Vector3d point = shot.origin + *hit * shot.direction;
-                      const Eigen::Vector3d normal = (point - centre).normalized();
-                      const double incidence =
-                          std::acos(std::min(1.0, std::abs(normal.dot(shot.direction)))) / kDeg;
-                      path.layers = {{Tissue::Water, *hit, incidence}, {Tissue::Steel, 1e6, 0.0}};
-                      truth.bone = "sphere";
-                      truth.depthMm = *hit;
-                      truth.incidenceDeg = incidence;
-                    },
-                    truths, progress_, "calibration shots");
+      simulateShots(
+          writer.measured(), writer.name(), shots, scene_,
+          [&](const PendingShot& shot, BeamPath& path, ShotTruth& truth) {
+            const auto hit = raySphere(shot.origin, shot.direction, centre, kSphereRadiusMm);
+            if (!hit || *hit > 70.0) {
+              path.layers = {{Tissue::Water, 1e6, 0.0}};
+              return;
+            }
+            const Eigen::Vector3d point = shot.origin + *hit * shot.direction;
+            const Eigen::Vector3d normal = (point - centre).normalized();
+            const double incidence =
+                std::acos(std::min(1.0, std::abs(normal.dot(shot.direction)))) / kDeg;
+            path.layers = {{Tissue::Water, *hit, incidence}, {Tissue::Steel, 1e6, 0.0}};
+            truth.bone = "sphere";
+            truth.depthMm = *hit;
+            truth.incidenceDeg = incidence;
+          },
+          truths, progress_, "calibration shots");
       saveCapture(writer, true);
       recordShots(writer.name(), truths);
       manifest_["calibration"]["capture"] = "captures/" + writer.name();
@@ -576,7 +612,8 @@ class StudyBuilder {
     manifest_["calibration"]["window_mm"] = {12.0, 45.0};
     // The dissertation's initial guess came from a CMM: the front face of the housing, a few mm
     // from the true beam origin.
-    const Eigen::Vector3d initial = scene_.beamToProbe.translation() + Eigen::Vector3d(0.6, -0.4, -4.5);
+    const Eigen::Vector3d initial =
+        scene_.beamToProbe.translation() + Eigen::Vector3d(0.6, -0.4, -4.5);
     manifest_["calibration"]["initial_beam_to_probe_mm"] = vectorJson(initial);
     manifest_["calibration"]["stylus_tip_to_stylus"] = "truth/transforms.json#StylusTipToStylus";
   }
@@ -594,10 +631,12 @@ class StudyBuilder {
       const double s = static_cast<double>(f) / sizes_.pivotFrames;
       const double tilt = (25.0 + 10.0 * std::sin(2 * kPi * s * 3)) * kDeg;
       const double azimuth = phase + 2 * kPi * 2 * s;
-      const Eigen::Vector3d axis = tiltAbout(up, tilt, azimuth) * -up;  // from the marker toward the tip
+      const Eigen::Vector3d axis =
+          tiltAbout(up, tilt, azimuth) * -up;  // from the marker toward the tip
       const Eigen::Matrix3d r = facingPoint(axis, tip, Eigen::Vector3d::Zero(), 0.0);
       const Eigen::Vector3d position = tip - r * scene_.stylusTipToStylus.translation();
-      writer.addFrame(t, {{"StylusToTracker", fromRotationTranslation(r, position), &scene_.stylus}});
+      writer.addFrame(t,
+                      {{"StylusToTracker", fromRotationTranslation(r, position), &scene_.stylus}});
     }
     saveCapture(writer, false);
     manifest_["calibration"]["pivot_capture"] = "captures/" + writer.name();
@@ -611,7 +650,7 @@ class StudyBuilder {
     core::Rng rng = core::Rng::derive(o_.seed, "sweep:" + name);
     CaptureWriter writer(name, scene_.tracker, o_.seed);
     const bool phantom = o_.preset == SpecimenKind::Phantom;
-    const Tissue standoffTissue = phantom ? Tissue::Water
+    const Tissue standoffTissue = phantom                           ? Tissue::Water
                                   : o_.standoff == Standoff::GelPad ? Tissue::GelPad
                                                                     : Tissue::Water;
     SmoothNoise tilt(rng, phantom ? 8.0 : 6.0, 0.05, 0.6);  // over water the operator aims less
@@ -621,27 +660,33 @@ class StudyBuilder {
     // Coupling: a two-state chain per frame (lost, regained) for each standoff.
     double lose = 0.0, regain = 1.0;
     if (!phantom) {
-      if (o_.standoff == Standoff::GloveFinger) lose = 0.003, regain = 0.1;
-      if (o_.standoff == Standoff::GelPad) lose = 0.01, regain = 0.05;
+      if (o_.standoff == Standoff::GloveFinger)
+        lose = 0.003, regain = 0.1;
+      if (o_.standoff == Standoff::GelPad)
+        lose = 0.01, regain = 0.05;
       // A bare flat face on curved skin: air gaps a third of the time (the dissertation found
       // signals without a standoff unusable, section 6.3.1).
-      if (o_.standoff == Standoff::None) lose = 0.02, regain = 0.04;
+      if (o_.standoff == Standoff::None)
+        lose = 0.02, regain = 0.04;
     }
     const double nominalStandoff = phantom ? 22.0 : (o_.standoff == Standoff::None ? 0.0 : 10.0);
 
     const std::vector<Region> regions = ultrasoundRegions(bone, o_.femurRegions);
     std::size_t targetIndex = 0;
     for (std::size_t b = 0; b < specimen_.knee().bones.size(); ++b) {
-      if (specimen_.knee().bones[b].id == bone) targetIndex = b;
+      if (specimen_.knee().bones[b].id == bone)
+        targetIndex = b;
     }
     double weightSum = 0.0;
-    for (const Region& r : regions) weightSum += r.weight;
+    for (const Region& r : regions)
+      weightSum += r.weight;
     std::vector<PendingShot> shots;
     double t = nextStart();
     const double start = t;
     bool coupled = true;
     for (const Region& region : regions) {
-      const int frames = static_cast<int>(std::lround(sizes_.framesPerBone * region.weight / weightSum));
+      const int frames =
+          static_cast<int>(std::lround(sizes_.framesPerBone * region.weight / weightSum));
       // Spot by spot, as the dissertation's assistant collected a few dozen points per bone:
       // move to a new spot of the region in 0.2 s, hold it for 0.3 s while the system listens.
       constexpr int kMoveFrames = 20, kHoldFrames = 30;
@@ -663,32 +708,41 @@ class StudyBuilder {
         const double theta = at.y() * kDeg + jitter.y() / 40.0;
         const Iso ctToTracker = scene_.ctToTracker(t - start);
         std::optional<SurfacePoint> surface = specimen_.surfacePoint(region.segment, h, theta);
-        if (!surface) continue;
-        if (rng.chance(coupled ? lose : regain)) coupled = !coupled;
+        if (!surface)
+          continue;
+        if (rng.chance(coupled ? lose : regain))
+          coupled = !coupled;
         // The operator watches the signal and tilts the probe toward the bone's normal: the beam
         // aims between the skin's normal and the normal of the bone beneath, then wanders.
         core::ClosestPoint below = specimen_.locator(targetIndex).closest(surface->point);
         for (std::size_t b = 0; b < specimen_.knee().bones.size(); ++b) {
-          if (b == targetIndex) continue;
-          const core::ClosestPoint other = specimen_.locator(b).closest(surface->point, below.distance);
-          if (other.triangle >= 0 && other.distance < below.distance) below = other;
+          if (b == targetIndex)
+            continue;
+          const core::ClosestPoint other =
+              specimen_.locator(b).closest(surface->point, below.distance);
+          if (other.triangle >= 0 && other.distance < below.distance)
+            below = other;
         }
         Eigen::Vector3d aim = surface->normal;
         if (below.distance > 1e-6) {
-          aim = (0.5 * surface->normal + 0.5 * (surface->point - below.point).normalized()).normalized();
+          aim = (0.5 * surface->normal + 0.5 * (surface->point - below.point).normalized())
+                    .normalized();
         }
         const Eigen::Vector3d tiltNow = tilt.at(t - start);
         const Eigen::Vector3d e1 = aim.unitOrthogonal();
         const Eigen::Vector3d e2 = aim.cross(e1);
         const Eigen::Vector3d rotation = (tiltNow.x() * e1 + tiltNow.y() * e2) * kDeg;
         Eigen::Vector3d beamDirection = -aim;
-        if (rotation.norm() > 0) beamDirection = Eigen::AngleAxisd(rotation.norm(), rotation.normalized()) * beamDirection;
-        const double standoff = std::max(0.0, nominalStandoff + standoffDrift.at(t - start).x() *
-                                                                    (nominalStandoff > 0 ? 1.0 : 0.0));
+        if (rotation.norm() > 0)
+          beamDirection = Eigen::AngleAxisd(rotation.norm(), rotation.normalized()) * beamDirection;
+        const double standoff =
+            std::max(0.0, nominalStandoff +
+                              standoffDrift.at(t - start).x() * (nominalStandoff > 0 ? 1.0 : 0.0));
         // Without a standoff the face sits on the skin, pressing it by a fraction of a mm.
-        const Eigen::Vector3d origin = surface->point - (standoff > 0 ? standoff : -0.3) * beamDirection;
-        const Eigen::Matrix3d r = scene_.facingCamera(beamDirection, origin,
-                                                       rollDrift.at(t - start).x() * kDeg);
+        const Eigen::Vector3d origin =
+            surface->point - (standoff > 0 ? standoff : -0.3) * beamDirection;
+        const Eigen::Matrix3d r =
+            scene_.facingCamera(beamDirection, origin, rollDrift.at(t - start).x() * kDeg);
         const Iso beamToCt = fromRotationTranslation(r, origin);
         const Iso probeToTracker = ctToTracker * beamToCt * scene_.beamToProbe.inverse();
         std::vector<TrackedPose> poses = scene_.bonePoses(t - start, ctToTracker);
@@ -697,28 +751,31 @@ class StudyBuilder {
         shots.push_back({origin, beamDirection, coupled, standoffTissue, region.name});
       }
     }
-    const double recordDepth = scene_.receiver.samples / scene_.receiver.samplingFrequencyHz *
-                               1.7e6 / 2.0 + 5.0;  // beyond what the fastest path reaches
+    const double recordDepth =
+        scene_.receiver.samples / scene_.receiver.samplingFrequencyHz * 1.7e6 / 2.0 +
+        5.0;  // beyond what the fastest path reaches
     std::vector<ShotTruth> truths;
-    simulateShots(writer.measured(), name, shots, scene_,
-                  [&](const PendingShot& shot, BeamPath& path, ShotTruth& truth) {
-                    BeamTrace trace = specimen_.traceBeam(shot.origin, shot.direction, shot.standoff,
-                                                          recordDepth);
-                    truth.bone = boneLabel(trace.boneIndex, specimen_.knee());
-                    if (trace.boneIndex >= 0) {
-                      truth.depthMm = trace.boneDepthMm;
-                      truth.incidenceDeg = trace.incidenceDeg;
-                    }
-                    truth.skinDepthMm = trace.skinDepthMm;
-                    path = std::move(trace.path);
-                    if (!shot.coupled) {
-                      // An air gap between the standoff and the skin: the beam stops there.
-                      const double gap = path.layers.empty() ? 5.0 : std::max(1.0, path.layers.front().lengthMm);
-                      path.layers = {{shot.standoff, gap, 0.0}, {Tissue::Air, 1e6, 0.0}};
-                      path.fasciaDepthsMm.clear();
-                    }
-                  },
-                  truths, progress_, std::string(boneName(bone)) + " ultrasound");
+    simulateShots(
+        writer.measured(), name, shots, scene_,
+        [&](const PendingShot& shot, BeamPath& path, ShotTruth& truth) {
+          BeamTrace trace =
+              specimen_.traceBeam(shot.origin, shot.direction, shot.standoff, recordDepth);
+          truth.bone = boneLabel(trace.boneIndex, specimen_.knee());
+          if (trace.boneIndex >= 0) {
+            truth.depthMm = trace.boneDepthMm;
+            truth.incidenceDeg = trace.incidenceDeg;
+          }
+          truth.skinDepthMm = trace.skinDepthMm;
+          path = std::move(trace.path);
+          if (!shot.coupled) {
+            // An air gap between the standoff and the skin: the beam stops there.
+            const double gap =
+                path.layers.empty() ? 5.0 : std::max(1.0, path.layers.front().lengthMm);
+            path.layers = {{shot.standoff, gap, 0.0}, {Tissue::Air, 1e6, 0.0}};
+            path.fasciaDepthsMm.clear();
+          }
+        },
+        truths, progress_, std::string(boneName(bone)) + " ultrasound");
     saveCapture(writer, true);
     recordShots(name, truths);
     // Shares per region.
@@ -727,11 +784,13 @@ class StudyBuilder {
       share.capture = name;
       share.region = region.name;
       for (const ShotTruth& truth : truths) {
-        if (truth.region != region.name) continue;
+        if (truth.region != region.name)
+          continue;
         ++share.frames;
         share.shouldAccept += truth.shouldAccept ? 1 : 0;
         for (std::size_t b = 0; b < specimen_.knee().bones.size() && b < 4; ++b) {
-          if (truth.bone == boneName(specimen_.knee().bones[b].id)) ++share.onBone[b];
+          if (truth.bone == boneName(specimen_.knee().bones[b].id))
+            ++share.onBone[b];
         }
       }
       summary.regions.push_back(share);
@@ -742,14 +801,15 @@ class StudyBuilder {
 
   // ----- mechanical probe on the bone through the incision --------------------------------
   void mechanical(BoneId bone, bool blunt) {
-    const std::string name = std::string(boneName(bone)) + (blunt ? "_mechanical_blunt.igs.mha"
-                                                                  : "_mechanical.igs.mha");
+    const std::string name =
+        std::string(boneName(bone)) + (blunt ? "_mechanical_blunt.igs.mha" : "_mechanical.igs.mha");
     core::Rng rng = core::Rng::derive(o_.seed, "mechanical:" + name);
     CaptureWriter writer(name, scene_.tracker, o_.seed);
     const Knee& knee = specimen_.knee();
     std::size_t boneIndex = 0;
     for (std::size_t b = 0; b < knee.bones.size(); ++b) {
-      if (knee.bones[b].id == bone) boneIndex = b;
+      if (knee.bones[b].id == bone)
+        boneIndex = b;
     }
     const core::MeshLocator& locator = specimen_.locator(boneIndex);
     // Fig. 4.8 (a, b): the distal femur's anterior and condylar surfaces and the proximal tibia's
@@ -767,19 +827,22 @@ class StudyBuilder {
       const Eigen::Vector3d axis = specimen_.axisPoint(segment, h);
       const Eigen::Vector3d out = specimen_.radialDirection(segment, theta);
       const auto hit = locator.firstHit(axis + 150.0 * out, -out, 150.0);
-      if (!hit) continue;
+      if (!hit)
+        continue;
       const Eigen::Vector3d contact = hit->point + (cartilage + tipRadius) * hit->normal;
-      const Eigen::Vector3d stylusAxis = tiltAbout(hit->normal, rng.uniform(0, 30) * kDeg,
-                                                   rng.uniform(0, 2 * kPi)) * -hit->normal;
+      const Eigen::Vector3d stylusAxis =
+          tiltAbout(hit->normal, rng.uniform(0, 30) * kDeg, rng.uniform(0, 2 * kPi)) * -hit->normal;
       for (int f = 0; f < sizes_.framesPerMechanicalPoint; ++f, t += 1.0 / kFrameRateHz) {
         const Iso ctToTracker = scene_.ctToTracker(t - start);
         const Eigen::Matrix3d r = scene_.facingCamera(stylusAxis, contact, rng.normal(0, 0.05));
-        const Iso stylusToCt = fromRotationTranslation(r, contact - r * scene_.stylusTipToStylus.translation());
+        const Iso stylusToCt =
+            fromRotationTranslation(r, contact - r * scene_.stylusTipToStylus.translation());
         std::vector<TrackedPose> poses = scene_.bonePoses(t - start, ctToTracker);
         poses.insert(poses.begin(), {"StylusToTracker", ctToTracker * stylusToCt, &scene_.stylus});
         writer.addFrame(t, poses);
       }
-      points.push_back({{"surface_ct", vectorJson(hit->point)}, {"tip_centre_ct", vectorJson(contact)}});
+      points.push_back(
+          {{"surface_ct", vectorJson(hit->point)}, {"tip_centre_ct", vectorJson(contact)}});
     }
     saveCapture(writer, false);
     const std::string key = blunt ? "mechanical_blunt" : "mechanical";
@@ -813,15 +876,18 @@ class StudyBuilder {
       const Eigen::Vector3d landmark = bone.landmarks.at(spec.name);
       std::size_t boneIndex = 0;
       for (std::size_t b = 0; b < knee.bones.size(); ++b) {
-        if (knee.bones[b].id == spec.bone) boneIndex = b;
+        if (knee.bones[b].id == spec.bone)
+          boneIndex = b;
       }
       const core::ClosestPoint c = specimen_.locator(boneIndex).closest(landmark);
-      Eigen::Vector3d normal = (landmark - c.point).norm() > 1e-3
-                                   ? Eigen::Vector3d((landmark - c.point).normalized())
-                                   : core::triangleNormal(specimen_.locator(boneIndex).mesh(), c.triangle);
+      Eigen::Vector3d normal =
+          (landmark - c.point).norm() > 1e-3
+              ? Eigen::Vector3d((landmark - c.point).normalized())
+              : core::triangleNormal(specimen_.locator(boneIndex).mesh(), c.triangle);
       // The user feels for the landmark: off by a tangential error.
       const Eigen::Vector3d e1 = normal.unitOrthogonal(), e2 = normal.cross(e1);
-      const Eigen::Vector3d guess = c.point + rng.normal(0, spec.sigmaMm) * e1 + rng.normal(0, spec.sigmaMm) * e2;
+      const Eigen::Vector3d guess =
+          c.point + rng.normal(0, spec.sigmaMm) * e1 + rng.normal(0, spec.sigmaMm) * e2;
       const core::ClosestPoint onBone = specimen_.locator(boneIndex).closest(guess);
       Eigen::Vector3d touched = onBone.point + kSharpTipRadiusMm * normal;
       if (spec.throughSkin && o_.preset == SpecimenKind::Cadaver) {
@@ -833,14 +899,16 @@ class StudyBuilder {
           }
         }
       }
-      const Eigen::Vector3d axis = tiltAbout(normal, rng.uniform(5, 30) * kDeg, rng.uniform(0, 2 * kPi)) * -normal;
+      const Eigen::Vector3d axis =
+          tiltAbout(normal, rng.uniform(5, 30) * kDeg, rng.uniform(0, 2 * kPi)) * -normal;
       const int first = static_cast<int>(writer.frames());
       SmoothNoise tremor(rng, 0.15, 6.0, 12.0);
       for (int f = 0; f < sizes_.landmarkDwellFrames; ++f, t += 1.0 / kFrameRateHz) {
         const Iso ctToTracker = scene_.ctToTracker(t - start);
         const Eigen::Vector3d tip = touched + tremor.at(t);
         const Eigen::Matrix3d r = scene_.facingCamera(axis, tip, 0.0);
-        const Iso stylusToCt = fromRotationTranslation(r, tip - r * scene_.stylusTipToStylus.translation());
+        const Iso stylusToCt =
+            fromRotationTranslation(r, tip - r * scene_.stylusTipToStylus.translation());
         std::vector<TrackedPose> poses = scene_.bonePoses(t - start, ctToTracker);
         poses.insert(poses.begin(), {"StylusToTracker", ctToTracker * stylusToCt, &scene_.stylus});
         writer.addFrame(t, poses);
@@ -853,7 +921,8 @@ class StudyBuilder {
         const Eigen::Vector3d tip = touched + s * (away - touched);
         const Iso ctToTracker = scene_.ctToTracker(t - start);
         const Eigen::Matrix3d r = scene_.facingCamera(axis, tip, 0.0);
-        const Iso stylusToCt = fromRotationTranslation(r, tip - r * scene_.stylusTipToStylus.translation());
+        const Iso stylusToCt =
+            fromRotationTranslation(r, tip - r * scene_.stylusTipToStylus.translation());
         std::vector<TrackedPose> poses = scene_.bonePoses(t - start, ctToTracker);
         poses.insert(poses.begin(), {"StylusToTracker", ctToTracker * stylusToCt, &scene_.stylus});
         writer.addFrame(t, poses);
@@ -867,15 +936,20 @@ class StudyBuilder {
                        {"localisation_sigma_mm", spec.sigmaMm}});
       truePoints.push_back({spec.name, landmark});
       // What a user picks on the CT: within a voxel or so of the true landmark.
-      ctLandmarks_.push_back({spec.name, landmark + Eigen::Vector3d(picks.normal(0, 0.7), picks.normal(0, 0.7), picks.normal(0, 0.7))});
+      ctLandmarks_.push_back(
+          {spec.name, landmark + Eigen::Vector3d(picks.normal(0, 0.7), picks.normal(0, 0.7),
+                                                 picks.normal(0, 0.7))});
     }
     const Eigen::Vector3d hip = knee.hipCentre;
     truePoints.push_back({"hip_centre", hip});
-    ctLandmarks_.push_back({"hip_centre", hip + Eigen::Vector3d(picks.normal(0, 0.5), picks.normal(0, 0.5), picks.normal(0, 0.5))});
+    ctLandmarks_.push_back(
+        {"hip_centre",
+         hip + Eigen::Vector3d(picks.normal(0, 0.5), picks.normal(0, 0.5), picks.normal(0, 0.5))});
     saveCapture(writer, false);
     manifest_["landmarks"]["capture"] = "captures/" + writer.name();
     nlohmann::json order = nlohmann::json::array();
-    for (const Spec& spec : specs) order.push_back(spec.name);
+    for (const Spec& spec : specs)
+      order.push_back(spec.name);
     manifest_["landmarks"]["order"] = order;
     manifest_["landmarks"]["ct"] = "ct/landmarks.mrk.json";
     landmarkTruth_ = truth;
@@ -897,7 +971,8 @@ class StudyBuilder {
       const double b = 15.0 * kDeg * std::cos(2 * kPi * 2 * s + phase);
       Iso rotate = Iso::Identity();
       rotate.linear() = (Eigen::AngleAxisd(a, specimen_.knee().medialCt) *
-                         Eigen::AngleAxisd(b, specimen_.knee().anteriorCt)).toRotationMatrix();
+                         Eigen::AngleAxisd(b, specimen_.knee().anteriorCt))
+                            .toRotationMatrix();
       rotate.translation() = hip - rotate.linear() * hip;
       const Iso ctToTracker = scene_.ctToTracker0 * rotate;
       writer.addFrame(t, scene_.bonePoses(t - start, ctToTracker));
@@ -907,14 +982,17 @@ class StudyBuilder {
   }
 
   void recordShots(const std::string& capture, const std::vector<ShotTruth>& truths) {
-    for (std::size_t i = 0; i < truths.size(); ++i) shotRows_.push_back({capture, i, truths[i]});
+    for (std::size_t i = 0; i < truths.size(); ++i)
+      shotRows_.push_back({capture, i, truths[i]});
   }
 
   void writeShotsCsv() {
     std::string main = "capture,frame,bone,should_accept,true_depth_mm,true_speed_of_sound_mps\n";
     std::string detail =
         "capture,frame,region,bone,coupled,incidence_deg,skin_depth_mm,echo_to_clutter\n";
-    auto number = [](double v) { return std::isfinite(v) ? fmt::format("{:.4f}", v) : std::string(); };
+    auto number = [](double v) {
+      return std::isfinite(v) ? fmt::format("{:.4f}", v) : std::string();
+    };
     for (const ShotRow& row : shotRows_) {
       const ShotTruth& s = row.truth;
       main += fmt::format("{},{},{},{},{},{}\n", row.capture, row.frame, s.bone,
@@ -958,8 +1036,10 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
                            const StudyProgress& progress) {
   std::error_code ec;
   if (fs::exists(folder, ec)) {
-    if (!fs::is_directory(folder, ec)) throw FileError(folder, "exists and is not a folder");
-    if (!fs::is_empty(folder, ec)) throw FileError(folder, "exists and is not empty");
+    if (!fs::is_directory(folder, ec))
+      throw FileError(folder, "exists and is not a folder");
+    if (!fs::is_empty(folder, ec))
+      throw FileError(folder, "exists and is not empty");
   }
   const fs::path target = fs::absolute(folder);
   const fs::path parent = target.parent_path();
@@ -968,28 +1048,33 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   }
   for (const auto& [bone, file] : options.meshFiles) {
     (void)bone;
-    if (!fs::is_regular_file(file, ec)) throw FileError(file, "no such mesh file");
+    if (!fs::is_regular_file(file, ec))
+      throw FileError(file, "no such mesh file");
   }
-  const fs::path temporary = parent / (target.filename().string() + ".tmp-" + std::to_string(::getpid()));
+  const fs::path temporary =
+      parent / (target.filename().string() + ".tmp-" + std::to_string(::getpid()));
   fs::remove_all(temporary, ec);
   struct Cleanup {
     fs::path path;
     bool keep = false;
     ~Cleanup() {
       std::error_code e;
-      if (!keep) fs::remove_all(path, e);
+      if (!keep)
+        fs::remove_all(path, e);
     }
   } cleanup{temporary};
   for (const char* sub : {"", "/ct", "/captures", "/truth", "/truth/captures"}) {
     fs::create_directories(temporary.string() + sub, ec);
-    if (ec) throw FileError(temporary.string() + sub, "cannot create folder: " + ec.message());
+    if (ec)
+      throw FileError(temporary.string() + sub, "cannot create folder: " + ec.message());
   }
   const std::string root = temporary.string();
   const Sizes sizes = sizesFor(options);
   StudySummary summary;
   summary.folder = target.string();
   auto report = [&](const std::string& step, double fraction) {
-    if (progress) progress(step, fraction);
+    if (progress)
+      progress(step, fraction);
   };
 
   // Bones.
@@ -1008,8 +1093,7 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   SoftTissueOptions tissue;
   tissue.thicknessScale = options.tissueScale;
   tissue.seed = options.seed;
-  const Specimen specimen(knee, options.preset, tissue,
-                          [&](double f) { report("leg", f); });
+  const Specimen specimen(knee, options.preset, tissue, [&](double f) { report("leg", f); });
   summary.stepSeconds.push_back({"leg", secondsSince(stepStart)});
 
   // Captures.
@@ -1020,14 +1104,15 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
 
   // CT.
   stepStart = Clock::now();
-  const Eigen::Vector2d centre = (0.5 * (knee.hipCentre + knee.kneeCentre)).head<2>() * 0.5 +
-                                 knee.kneeCentre.head<2>() * 0.5;
+  const Eigen::Vector2d centre =
+      (0.5 * (knee.hipCentre + knee.kneeCentre)).head<2>() * 0.5 + knee.kneeCentre.head<2>() * 0.5;
   const CtProtocol protocol =
       options.size == StudySize::Small
           ? smallProtocol(knee.hipCentre.z(), knee.kneeCentre.z(), knee.ankleCentre.z(), centre)
-          : dissertationProtocol(knee.hipCentre.z(), knee.kneeCentre.z(), knee.ankleCentre.z(), centre);
-  const CtVolume volume = synthesizeCt(specimen, protocol, options.seed,
-                                       [&](double f) { report("ct", f); });
+          : dissertationProtocol(knee.hipCentre.z(), knee.kneeCentre.z(), knee.ankleCentre.z(),
+                                 centre);
+  const CtVolume volume =
+      synthesizeCt(specimen, protocol, options.seed, [&](double f) { report("ct", f); });
   DicomSeriesInfo dicom;
   dicom.patientId = fmt::format("ECHOREG-{}-{}", presetName(options.preset), options.seed);
   dicom.studyDescription = fmt::format("echoreg simulated {} study", presetName(options.preset));
@@ -1067,7 +1152,8 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
       const int offset = static_cast<int>(mesh.vertices.size());
       mesh.vertices.insert(mesh.vertices.end(), fibula.vertices.begin(), fibula.vertices.end());
       for (auto tri : fibula.triangles) {
-        for (int& i : tri) i += offset;
+        for (int& i : tri)
+          i += offset;
         mesh.triangles.push_back(tri);
       }
     }
@@ -1094,19 +1180,21 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   nlohmann::json manifest = builder.manifestCaptures();
   manifest["format"] = "echoreg-study";
   manifest["version"] = 1;
-  manifest["generator"] = {{"tool", "echoreg simulate"},
-                           {"preset", std::string(presetName(options.preset))},
-                           {"seed", options.seed},
-                           {"size", options.size == StudySize::Small ? "small" : "full"},
-                           {"standoff", std::string(standoffName(options.standoff))},
-                           {"flexion_deg", options.flexionDeg},
-                           {"water_temperature_c", options.waterTemperatureC},
-                           {"tissue_scale", options.tissueScale},
-                           {"fibula_in_tibia_model", options.fibulaInTibiaModel},
-                           {"femur_regions", options.femurRegions == FemurRegions::All ? "all" : "epicondyles"}};
+  manifest["generator"] = {
+      {"tool", "echoreg simulate"},
+      {"preset", std::string(presetName(options.preset))},
+      {"seed", options.seed},
+      {"size", options.size == StudySize::Small ? "small" : "full"},
+      {"standoff", std::string(standoffName(options.standoff))},
+      {"flexion_deg", options.flexionDeg},
+      {"water_temperature_c", options.waterTemperatureC},
+      {"tissue_scale", options.tissueScale},
+      {"fibula_in_tibia_model", options.fibulaInTibiaModel},
+      {"femur_regions", options.femurRegions == FemurRegions::All ? "all" : "epicondyles"}};
   manifest["ct"] = {{"dicom", "ct/series"}, {"landmarks", "ct/landmarks.mrk.json"}};
-  manifest["detection"] = {{"preset", options.preset == SpecimenKind::Phantom ? "calibration" : "default"},
-                           {"speed_of_sound_mps", scene.assumedSpeedMps}};
+  manifest["detection"] = {
+      {"preset", options.preset == SpecimenKind::Phantom ? "calibration" : "default"},
+      {"speed_of_sound_mps", scene.assumedSpeedMps}};
   manifest["truth"] = {{"transforms", "truth/transforms.json"},
                        {"shots", "truth/shots.csv"},
                        {"femur", "truth/femur.vtp"},
@@ -1122,9 +1210,11 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   writeText(root + "/study.json", manifest.dump(2) + "\n");
 
   // Publish.
-  if (fs::exists(target, ec)) fs::remove(target, ec);  // empty (checked above)
+  if (fs::exists(target, ec))
+    fs::remove(target, ec);  // empty (checked above)
   fs::rename(temporary, target, ec);
-  if (ec) throw FileError(folder, "could not be written: " + ec.message());
+  if (ec)
+    throw FileError(folder, "could not be written: " + ec.message());
   cleanup.keep = true;
   return summary;
 }

@@ -17,7 +17,8 @@ MarkerGeometry probeMarker() {
 }
 
 MarkerGeometry stylusMarker() {
-  return {"Stylus", {{0, 0, 0}, {0, -30, 45}, {0, 25, 80}, {0, -20, 110}}, -Eigen::Vector3d::UnitX()};
+  return {
+      "Stylus", {{0, 0, 0}, {0, -30, 45}, {0, 25, 80}, {0, -20, 110}}, -Eigen::Vector3d::UnitX()};
 }
 
 MarkerGeometry boneMarker(const std::string& name) {
@@ -28,7 +29,8 @@ bool OpticalTracker::visible(const Eigen::Isometry3d& markerToTracker,
                              const MarkerGeometry& marker) const {
   const Eigen::Vector3d position = markerToTracker.translation();
   const double distance = position.norm();
-  if (distance < noise_.minDistanceMm || distance > noise_.maxDistanceMm) return false;
+  if (distance < noise_.minDistanceMm || distance > noise_.maxDistanceMm)
+    return false;
   const Eigen::Vector3d normal = markerToTracker.linear() * marker.faceNormal;
   const Eigen::Vector3d towardCamera = -position / distance;
   const double angle = std::acos(std::clamp(normal.dot(towardCamera), -1.0, 1.0));
@@ -47,8 +49,9 @@ OpticalTracker::OpticalTracker(TrackerNoise noise, std::uint64_t seed) : noise_(
     direction.normalize();
     const double wavelength = noise_.biasWavelengthMm * rng.uniform(0.6, 1.6);
     wave.wavevector = direction * (2.0 * kPi / wavelength);
-    wave.amplitude = Eigen::Vector3d(noise_.biasLateralMm, noise_.biasLateralMm, noise_.biasDepthMm) *
-                     perWave * rng.uniform(0.7, 1.3);
+    wave.amplitude =
+        Eigen::Vector3d(noise_.biasLateralMm, noise_.biasLateralMm, noise_.biasDepthMm) * perWave *
+        rng.uniform(0.7, 1.3);
     wave.phase = rng.uniform(0.0, 2.0 * kPi);
     waves_.push_back(wave);
   }
@@ -88,11 +91,14 @@ Measurement OpticalTracker::measure(const Eigen::Isometry3d& truth, const Marker
     const double a1 = b.x() + rng.normal() * noise_.jitterLateralMm;
     const double a2 = b.y() + rng.normal() * noise_.jitterLateralMm;
     const double d = b.z() + rng.normal() * noise_.jitterDepthMm;
-    if (noisy) p += a1 * across1 + a2 * across2 + d * sight;
+    if (noisy)
+      p += a1 * across1 + a2 * across2 + d * sight;
     seen.col(c) = p;
-    if (rng.chance(noise_.dropoutProbability)) occluded = true;
+    if (rng.chance(noise_.dropoutProbability))
+      occluded = true;
   }
-  if (noisy && occluded) result.valid = false;
+  if (noisy && occluded)
+    result.valid = false;
   if (!noisy) {
     result.markerToTracker = truth;
     return result;
@@ -122,8 +128,8 @@ Eigen::Vector3d SmoothNoise::at(double timeS) const {
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (const Wave& wave : waves_) {
     for (int axis = 0; axis < 3; ++axis) {
-      sum[axis] += wave.amplitude[axis] *
-                   std::sin(2.0 * kPi * wave.frequencyHz * timeS + wave.phase[axis]);
+      sum[axis] +=
+          wave.amplitude[axis] * std::sin(2.0 * kPi * wave.frequencyHz * timeS + wave.phase[axis]);
     }
   }
   return sum;

@@ -15,7 +15,8 @@ const Specimen& cadaver() {
     KneeOptions options;
     options.meshResolutionMm = 2.0;
     options.seed = 0;
-    return std::make_unique<Specimen>(buildKnee(options), SpecimenKind::Cadaver, SoftTissueOptions{});
+    return std::make_unique<Specimen>(buildKnee(options), SpecimenKind::Cadaver,
+                                      SoftTissueOptions{});
   }();
   return *specimen;
 }
@@ -52,7 +53,8 @@ TEST(Specimen, LayersFromTheSkinInward) {
   std::vector<Tissue> order;
   for (double d = 0.1; d < 60.0; d += 0.1) {
     const Tissue t = s.tissueAt(surface->point - d * surface->normal);
-    if (order.empty() || order.back() != t) order.push_back(t);
+    if (order.empty() || order.back() != t)
+      order.push_back(t);
   }
   ASSERT_GE(order.size(), 4u);
   EXPECT_EQ(order[0], Tissue::Skin);
@@ -72,12 +74,14 @@ TEST(Specimen, BeamTraceMatchesTheBoneHitAndTheSkin) {
   EXPECT_NEAR(trace.skinDepthMm, 10.0, 0.05);
   // The layers add up to the bone depth, start with the standoff and end in cortical bone.
   double sum = 0.0;
-  for (std::size_t i = 0; i + 1 < trace.path.layers.size(); ++i) sum += trace.path.layers[i].lengthMm;
+  for (std::size_t i = 0; i + 1 < trace.path.layers.size(); ++i)
+    sum += trace.path.layers[i].lengthMm;
   EXPECT_NEAR(sum, trace.boneDepthMm, 1e-6);
   EXPECT_EQ(trace.path.layers.front().tissue, Tissue::Water);
   EXPECT_EQ(trace.path.layers.back().tissue, Tissue::CorticalBone);
   // The hit is on the tibia's mesh, exactly.
-  EXPECT_LT(s.locator(static_cast<std::size_t>(trace.boneIndex)).closest(trace.hitPoint).distance, 1e-9);
+  EXPECT_LT(s.locator(static_cast<std::size_t>(trace.boneIndex)).closest(trace.hitPoint).distance,
+            1e-9);
   // Harmonic mean speed between water's and the soft tissues'.
   EXPECT_GT(trace.meanSpeedMps, 1470.0);
   EXPECT_LT(trace.meanSpeedMps, 1600.0);

@@ -56,7 +56,8 @@ TEST(OpticalTracker, BiasVariesOverTheVolumeAndWithTheCamera) {
     Eigen::Vector3d mean = Eigen::Vector3d::Zero();
     for (int i = 0; i < 400; ++i) {
       mean += (tracker.measure(facingCamera(where), marker, rng).markerToTracker.translation() -
-               where) / 400.0;
+               where) /
+              400.0;
     }
     return mean;
   };

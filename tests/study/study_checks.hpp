@@ -31,7 +31,8 @@ inline std::string fixtureStudy() {
 inline Eigen::Matrix4d matrixFrom(const nlohmann::json& rows) {
   Eigen::Matrix4d m;
   for (int r = 0; r < 4; ++r) {
-    for (int c = 0; c < 4; ++c) m(r, c) = rows.at(static_cast<std::size_t>(r)).at(static_cast<std::size_t>(c)).get<double>();
+    for (int c = 0; c < 4; ++c)
+      m(r, c) = rows.at(static_cast<std::size_t>(r)).at(static_cast<std::size_t>(c)).get<double>();
   }
   return m;
 }
@@ -60,8 +61,10 @@ inline std::vector<ShotRow> readShots(const std::string& path) {
     std::vector<std::string> cells;
     std::stringstream ss(line);
     std::string cell;
-    while (std::getline(ss, cell, ',')) cells.push_back(cell);
-    while (cells.size() < 6) cells.emplace_back();
+    while (std::getline(ss, cell, ','))
+      cells.push_back(cell);
+    while (cells.size() < 6)
+      cells.emplace_back();
     ShotRow row;
     row.capture = cells[0];
     row.frame = std::stoi(cells[1]);
@@ -96,7 +99,8 @@ inline TruthCheck checkTrueDepths(const std::string& root) {
   std::map<std::string, Sequence> truthCaptures;
   TruthCheck check;
   for (const ShotRow& shot : readShots(root + "/truth/shots.csv")) {
-    if (!shot.shouldAccept || shot.bone == "sphere") continue;
+    if (!shot.shouldAccept || shot.bone == "sphere")
+      continue;
     if (!truthCaptures.count(shot.capture)) {
       truthCaptures[shot.capture] = readSequence(root + "/truth/captures/" + shot.capture);
     }

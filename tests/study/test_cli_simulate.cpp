@@ -51,7 +51,8 @@ TEST(CliSimulate, FailuresNameTheFileAndLeaveNothing) {
   EXPECT_NE(r.err.find(dir.file("missing.stl")), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir.file("s")));
   std::size_t entries = 0;
-  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir.path())) ++entries;
+  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(dir.path()))
+    ++entries;
   EXPECT_EQ(entries, 1u) << "only the folder made by the test remains";
 }
 

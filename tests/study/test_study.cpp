@@ -13,8 +13,8 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
-#include <cstdlib>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -31,7 +31,8 @@ class SimulatedStudy : public ::testing::Test {
   // The ctest fixture's study (ECHOREG_TEST_STUDY), or one simulated here when run alone.
   static void SetUpTestSuite() {
     root_ = fixtureStudy();
-    if (!root_.empty()) return;
+    if (!root_.empty())
+      return;
     dir_ = new test::TempDir();
     root_ = dir_->file("study");
     StudyOptions options;
@@ -52,15 +53,14 @@ test::TempDir* SimulatedStudy::dir_ = nullptr;
 std::string SimulatedStudy::root_;
 
 TEST_F(SimulatedStudy, WritesTheDocumentedLayout) {
-  for (const char* file : {"study.json", "truth/transforms.json", "truth/femur.vtp", "truth/tibia.vtp",
-                           "truth/fibula.vtp", "truth/shots.csv", "ct/landmarks.mrk.json",
-                           "captures/femur_ultrasound.igs.mha", "captures/tibia_ultrasound.igs.mha",
-                           "captures/calibration_shots.igs.mha",
-                           "captures/calibration_sphere_stylus.igs.mha",
-                           "captures/stylus_pivot.igs.mha", "captures/femur_mechanical.igs.mha",
-                           "captures/tibia_mechanical_blunt.igs.mha", "captures/landmarks.igs.mha",
-                           "captures/hip_rotation.igs.mha",
-                           "truth/captures/femur_ultrasound.igs.mha"}) {
+  for (const char* file :
+       {"study.json", "truth/transforms.json", "truth/femur.vtp", "truth/tibia.vtp",
+        "truth/fibula.vtp", "truth/shots.csv", "ct/landmarks.mrk.json",
+        "captures/femur_ultrasound.igs.mha", "captures/tibia_ultrasound.igs.mha",
+        "captures/calibration_shots.igs.mha", "captures/calibration_sphere_stylus.igs.mha",
+        "captures/stylus_pivot.igs.mha", "captures/femur_mechanical.igs.mha",
+        "captures/tibia_mechanical_blunt.igs.mha", "captures/landmarks.igs.mha",
+        "captures/hip_rotation.igs.mha", "truth/captures/femur_ultrasound.igs.mha"}) {
     EXPECT_TRUE(fs::is_regular_file(path(file))) << file;
   }
   const nlohmann::json transforms = readJson(path("truth/transforms.json"));
@@ -110,7 +110,8 @@ TEST_F(SimulatedStudy, DetectorFindsTheTrueDepths) {
     int agree = 0, total = 0, truePositive = 0, positives = 0, falsePositive = 0, negatives = 0;
     std::vector<double> errors;
     for (const ShotRow& shot : shots) {
-      if (shot.capture != capture) continue;
+      if (shot.capture != capture)
+        continue;
       const FrameDetection& f = detection.frames.at(static_cast<std::size_t>(shot.frame));
       ++total;
       agree += f.accepted() == shot.shouldAccept ? 1 : 0;
@@ -118,8 +119,8 @@ TEST_F(SimulatedStudy, DetectorFindsTheTrueDepths) {
         ++positives;
         if (f.accepted()) {
           ++truePositive;
-          errors.push_back(std::abs(*f.depthMm * shot.speedMps / params.depth.speedOfSoundMps -
-                                    shot.depthMm));
+          errors.push_back(
+              std::abs(*f.depthMm * shot.speedMps / params.depth.speedOfSoundMps - shot.depthMm));
         }
       } else {
         ++negatives;
@@ -172,9 +173,9 @@ TEST_F(SimulatedStudy, AcceptanceSharesPerRegionAreRealistic) {
   EXPECT_LT(share["anterior_distal_femur"], share["anteromedial_tibia"]);
   EXPECT_LT(share["anterior_distal_femur"], share["lateral_epicondyle"]);
   EXPECT_GT(share["anteromedial_tibia"], 0.6);
-  for (const char* region : {"anterior_distal_femur", "medial_epicondyle", "lateral_epicondyle",
-                             "tibial_tubercle", "anteromedial_tibia", "medial_proximal_tibia",
-                             "lateral_proximal_tibia"}) {
+  for (const char* region :
+       {"anterior_distal_femur", "medial_epicondyle", "lateral_epicondyle", "tibial_tubercle",
+        "anteromedial_tibia", "medial_proximal_tibia", "lateral_proximal_tibia"}) {
     ASSERT_TRUE(share.count(region)) << region;
     EXPECT_GT(share[region], 0.05) << region;
     EXPECT_LT(share[region], 0.98) << region;
@@ -200,12 +201,14 @@ TEST(SimulateStudy, SameSeedSameBytesAnotherSeedAnotherStudy) {
   };
   int files = 0, differing = 0;
   for (const auto& entry : fs::recursive_directory_iterator(dir.file("a"))) {
-    if (!entry.is_regular_file()) continue;
+    if (!entry.is_regular_file())
+      continue;
     const fs::path relative = fs::relative(entry.path(), dir.file("a"));
     ++files;
     EXPECT_TRUE(bytes(entry.path()) == bytes(fs::path(dir.file("b")) / relative))
         << relative << " differs between two runs with the same seed";
-    if (bytes(entry.path()) != bytes(fs::path(dir.file("c")) / relative)) ++differing;
+    if (bytes(entry.path()) != bytes(fs::path(dir.file("c")) / relative))
+      ++differing;
   }
   EXPECT_GT(files, 20);
   EXPECT_GT(differing, files / 2) << "another seed must give another study";

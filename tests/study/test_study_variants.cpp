@@ -75,10 +75,12 @@ TEST(StudyVariants, PhantomInWarmWaterBiasesDepthsByTheSpeedRatio) {
   double sumRatio = 0.0, worstCorrected = 0.0;
   int n = 0;
   for (const ShotRow& shot : readShots(dir.file("s/truth/shots.csv"))) {
-    if (shot.capture != "calibration_shots.igs.mha" || !shot.shouldAccept) continue;
+    if (shot.capture != "calibration_shots.igs.mha" || !shot.shouldAccept)
+      continue;
     EXPECT_NEAR(shot.speedMps, water, 1e-3);
     const FrameDetection& f = detection.frames.at(static_cast<std::size_t>(shot.frame));
-    if (!f.accepted()) continue;
+    if (!f.accepted())
+      continue;
     sumRatio += *f.depthMm / shot.depthMm;
     worstCorrected = std::max(worstCorrected, std::abs(*f.depthMm * water / 1450.0 - shot.depthMm));
     ++n;
@@ -95,10 +97,12 @@ TEST(StudyVariants, PhantomInWarmWaterBiasesDepthsByTheSpeedRatio) {
 TEST(StudyVariants, FixtureCtReadsBackIndependently) {
   const std::string fixture = fixtureStudy();
   if (fixture.empty()) {
-    GTEST_SKIP() << "needs the ctest fixture's study (ctest -R FixtureCt runs simulate_fixture_study "
-                    "first) or ECHOREG_TEST_STUDY";
+    GTEST_SKIP()
+        << "needs the ctest fixture's study (ctest -R FixtureCt runs simulate_fixture_study "
+           "first) or ECHOREG_TEST_STUDY";
   }
-  if (!fs::exists("/usr/bin/python3")) GTEST_SKIP() << "/usr/bin/python3 (pydicom) is absent";
+  if (!fs::exists("/usr/bin/python3"))
+    GTEST_SKIP() << "/usr/bin/python3 (pydicom) is absent";
   const std::string root = fixture;
   const std::string script = std::string(ECHOREG_SIMULATION_TEST_DIR) + "/read_dicom_series.py";
   auto run = [&](const std::string& voxels) {
@@ -120,7 +124,8 @@ TEST(StudyVariants, FixtureCtReadsBackIndependently) {
   const nlohmann::json& slices = geometry.at("slices");
   ASSERT_EQ(slices.size(), 86u);
   std::map<double, int> thicknesses;
-  for (const nlohmann::json& s : slices) ++thicknesses[s.at("thickness").get<double>()];
+  for (const nlohmann::json& s : slices)
+    ++thicknesses[s.at("thickness").get<double>()];
   EXPECT_EQ(thicknesses[5.0], 6);   // hip and ankle: 3 slices at 5 mm each
   EXPECT_EQ(thicknesses[1.0], 80);  // knee: 80 slices at 1 mm
   // Voxels: deep inside the femoral condyles (cancellous) and far from any bone (air).
@@ -135,7 +140,8 @@ TEST(StudyVariants, FixtureCtReadsBackIndependently) {
   int boneCount = 0, airCount = 0;
   for (std::size_t k = 0; k < slices.size(); ++k) {
     const double z = slices[k].at("position")[2];
-    if (slices[k].at("thickness").get<double>() != 1.0 || z < knee.z() + 8 || z > knee.z() + 30) continue;
+    if (slices[k].at("thickness").get<double>() != 1.0 || z < knee.z() + 8 || z > knee.z() + 30)
+      continue;
     for (int j = 0; j < 256; j += 3) {
       for (int i = 0; i < 256; i += 3) {
         const Eigen::Vector3d p(x0 + i * spacing, y0 + j * spacing, z);
@@ -155,7 +161,8 @@ TEST(StudyVariants, FixtureCtReadsBackIndependently) {
   auto meanHu = [&](const std::string& voxels) {
     const nlohmann::json values = nlohmann::json::parse(run(voxels)).at("voxels");
     double sum = 0.0;
-    for (const nlohmann::json& v : values) sum += v.at("hu").get<double>();
+    for (const nlohmann::json& v : values)
+      sum += v.at("hu").get<double>();
     return sum / static_cast<double>(values.size());
   };
   const double cancellous = meanHu(bone), outside = meanHu(air);

@@ -24,9 +24,9 @@ struct TriangleMesh {
 struct MeshCheck {
   std::size_t vertices = 0;
   std::size_t triangles = 0;
-  std::size_t boundaryEdges = 0;      ///< edges used by one triangle (holes)
-  std::size_t nonManifoldEdges = 0;   ///< edges used by three or more triangles
-  std::size_t inconsistentEdges = 0;  ///< edges whose two triangles traverse them the same way
+  std::size_t boundaryEdges = 0;        ///< edges used by one triangle (holes)
+  std::size_t nonManifoldEdges = 0;     ///< edges used by three or more triangles
+  std::size_t inconsistentEdges = 0;    ///< edges whose two triangles traverse them the same way
   std::size_t degenerateTriangles = 0;  ///< zero area or repeated vertex indices
   std::size_t badIndices = 0;           ///< triangle indices outside the vertex list
   double volumeMm3 = 0.0;               ///< signed volume (divergence theorem)

@@ -14,14 +14,16 @@ class Rng {
  public:
   explicit Rng(std::uint64_t seed = 0) {
     std::uint64_t s = seed;
-    for (auto& word : state_) word = splitmix(s);
+    for (auto& word : state_)
+      word = splitmix(s);
   }
 
   /// A generator for the stream named by (seed, label, index...): independent of draw order.
   static Rng derive(std::uint64_t seed, std::string_view label, std::uint64_t a = 0,
                     std::uint64_t b = 0) {
     std::uint64_t h = 0xcbf29ce484222325ULL ^ seed;
-    for (char c : label) h = (h ^ static_cast<unsigned char>(c)) * 0x100000001b3ULL;
+    for (char c : label)
+      h = (h ^ static_cast<unsigned char>(c)) * 0x100000001b3ULL;
     std::uint64_t s = h;
     s ^= splitmix(h) + a * 0x9e3779b97f4a7c15ULL;
     s ^= splitmix(h) + b * 0xc2b2ae3d27d4eb4fULL;

@@ -39,12 +39,12 @@ struct SoftTissueOptions {
 
 /// Where the beam goes and what it meets, with the truth of the shot.
 struct BeamTrace {
-  BeamPath path;                 ///< layers from the transducer face, for simulateALine
-  int boneIndex = -1;            ///< index into knee().bones of the first bone hit, -1 none
-  double boneDepthMm = 0.0;      ///< distance from the beam origin to the bone surface
-  double incidenceDeg = 0.0;     ///< beam versus the bone's normal at the hit
-  double skinDepthMm = 0.0;      ///< distance from the beam origin to the skin (0 in a bath)
-  double meanSpeedMps = 0.0;     ///< path length / one-way time to the bone (or to maxDepth)
+  BeamPath path;              ///< layers from the transducer face, for simulateALine
+  int boneIndex = -1;         ///< index into knee().bones of the first bone hit, -1 none
+  double boneDepthMm = 0.0;   ///< distance from the beam origin to the bone surface
+  double incidenceDeg = 0.0;  ///< beam versus the bone's normal at the hit
+  double skinDepthMm = 0.0;   ///< distance from the beam origin to the skin (0 in a bath)
+  double meanSpeedMps = 0.0;  ///< path length / one-way time to the bone (or to maxDepth)
   Eigen::Vector3d hitPoint = Eigen::Vector3d::Zero();
 };
 

@@ -33,9 +33,9 @@ struct StudyOptions {
   double waterTemperatureC = 24.0;  ///< bath and standoff water: sets its true speed of sound
   bool fibulaInTibiaModel = false;  ///< truth/tibia.vtp holds tibia and fibula (specimen #3)
   FemurRegions femurRegions = FemurRegions::All;
-  double tissueScale = 1.0;         ///< soft tissue thickness factor
-  int framesPerBone = 0;            ///< ultrasound frames per bone; 0 = by size (small 800, full 3000)
-  int registrations = 1;            ///< ultrasound captures per bone (the dissertation: 5)
+  double tissueScale = 1.0;  ///< soft tissue thickness factor
+  int framesPerBone = 0;     ///< ultrasound frames per bone; 0 = by size (small 800, full 3000)
+  int registrations = 1;     ///< ultrasound captures per bone (the dissertation: 5)
 };
 
 /// Shares of frames that a correct detector should accept, per capture and region.

@@ -9,29 +9,29 @@ namespace echoreg::simulation {
 
 enum class Tissue : std::uint8_t {
   Air,
-  Water,           ///< bath or standoff (glove finger); speed from the temperature
-  GelPad,          ///< Aquaflex-like hydrogel standoff
+  Water,   ///< bath or standoff (glove finger); speed from the temperature
+  GelPad,  ///< Aquaflex-like hydrogel standoff
   Skin,
   Fat,
   Muscle,
   CorticalBone,
   CancellousBone,
-  Marrow,          ///< yellow (fatty) marrow of the shaft
-  SawbonesShell,   ///< composite "cortical" shell of a sawbones phantom
-  SawbonesFoam,    ///< rigid polyurethane foam interior of a sawbones phantom
-  Steel,           ///< the calibration sphere
+  Marrow,         ///< yellow (fatty) marrow of the shaft
+  SawbonesShell,  ///< composite "cortical" shell of a sawbones phantom
+  SawbonesFoam,   ///< rigid polyurethane foam interior of a sawbones phantom
+  Steel,          ///< the calibration sphere
   Count
 };
 
 struct TissueProperties {
   std::string_view name;
   double densityKgM3;
-  double speedMps;                   ///< longitudinal speed of sound at body temperature
-  double attenuationDbPerCmMHz;      ///< amplitude attenuation coefficient a in a * f^n
-  double attenuationPower;           ///< n (1 for soft tissue, 2 for water)
-  double hounsfield;                 ///< mean CT number at 120 kVp
-  double hounsfieldSigma;            ///< spread within the tissue (texture), before scanner noise
-  double backscatter;                ///< relative speckle strength (muscle = 1)
+  double speedMps;               ///< longitudinal speed of sound at body temperature
+  double attenuationDbPerCmMHz;  ///< amplitude attenuation coefficient a in a * f^n
+  double attenuationPower;       ///< n (1 for soft tissue, 2 for water)
+  double hounsfield;             ///< mean CT number at 120 kVp
+  double hounsfieldSigma;        ///< spread within the tissue (texture), before scanner noise
+  double backscatter;            ///< relative speckle strength (muscle = 1)
 
   /// Characteristic acoustic impedance Z = rho * c in MRayl.
   double impedanceMRayl() const { return densityKgM3 * speedMps * 1e-6; }

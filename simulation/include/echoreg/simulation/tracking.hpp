@@ -36,14 +36,14 @@ MarkerGeometry boneMarker(const std::string& name);
 /// of the camera: accuracy), both larger along the line of sight than across it. Totals match
 /// NDI's Polaris specification of 0.25 mm RMS over the volume.
 struct TrackerNoise {
-  double jitterLateralMm = 0.03;   ///< across the camera's view, per fiducial per frame (1 sigma)
-  double jitterDepthMm = 0.08;     ///< along the line of sight
-  double biasLateralMm = 0.09;     ///< RMS of the smooth volumetric bias, across
-  double biasDepthMm = 0.23;       ///< along the line of sight
-  double biasWavelengthMm = 400.0; ///< spatial scale of the bias
-  double maxViewAngleDeg = 75.0;   ///< marker normal versus the line of sight: INVALID beyond
-  double minDistanceMm = 950.0;    ///< Polaris Vicra/Spectra pyramid volume, near end
-  double maxDistanceMm = 2400.0;   ///< far end
+  double jitterLateralMm = 0.03;    ///< across the camera's view, per fiducial per frame (1 sigma)
+  double jitterDepthMm = 0.08;      ///< along the line of sight
+  double biasLateralMm = 0.09;      ///< RMS of the smooth volumetric bias, across
+  double biasDepthMm = 0.23;        ///< along the line of sight
+  double biasWavelengthMm = 400.0;  ///< spatial scale of the bias
+  double maxViewAngleDeg = 75.0;    ///< marker normal versus the line of sight: INVALID beyond
+  double minDistanceMm = 950.0;     ///< Polaris Vicra/Spectra pyramid volume, near end
+  double maxDistanceMm = 2400.0;    ///< far end
   double dropoutProbability = 0.002;  ///< a sphere occluded by a hand for a frame
 };
 
