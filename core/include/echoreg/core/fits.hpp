@@ -1,0 +1,68 @@
+// Geometric fits of calibration: the centre of a sphere from points on it (stylus tips on the
+// calibration sphere), and pivot calibration, the fixed point of a set of marker poses (a stylus
+// tip pivoting in a divot, or the hip centre while the femur is rotated). Both robust to stray
+// points, both refuse data that cannot determine them, saying what is missing.
+#pragma once
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace echoreg::core {
+
+struct SphereFitOptions {
+  /// Known radius (mm); nullopt fits the radius too.
+  std::optional<double> radiusMm;
+  /// Points whose |residual| exceeds max(outlierSigmas * robust sigma, minOutlierMm) are dropped
+  /// and the fit repeated (robust sigma = 1.4826 * median absolute residual).
+  double outlierSigmas = 3.0;
+  double minOutlierMm = 0.5;
+  int maxRounds = 5;
+};
+
+struct SphereFit {
+  Eigen::Vector3d centre = Eigen::Vector3d::Zero();
+  double radiusMm = 0.0;
+  double rmsMm = 0.0;                 ///< over the inliers
+  std::vector<double> residualsMm;    ///< per input point: |p - c| - r (signed)
+  std::vector<bool> inlier;           ///< per input point
+  int inliers = 0;
+  /// Largest over smallest singular value of the fit's Jacobian at the solution.
+  double conditionNumber = 0.0;
+};
+
+/// Least-squares sphere (algebraic start, then geometric refinement with Ceres). Throws
+/// std::invalid_argument when there are too few points (4 free, 3 known radius), a radius <= 0,
+/// or the points are too poorly spread (e.g. coplanar or a tiny cap), saying which.
+SphereFit fitSphere(const std::vector<Eigen::Vector3d>& points, const SphereFitOptions& options = {});
+
+struct PivotOptions {
+  /// Poses whose residual exceeds max(outlierSigmas * robust sigma, minOutlierMm) are dropped.
+  double outlierSigmas = 3.0;
+  double minOutlierMm = 0.5;
+  int maxRounds = 5;
+  /// Refuse unless the marker's rotations span at least this much about two independent axes.
+  double minRotationSpreadDeg = 15.0;
+};
+
+struct PivotResult {
+  Eigen::Vector3d pointInMarker = Eigen::Vector3d::Zero();   ///< e.g. the tip in Stylus
+  Eigen::Vector3d pointInTracker = Eigen::Vector3d::Zero();  ///< the fixed point in Tracker
+  double rmsMm = 0.0;               ///< |R p_marker + t - p_fixed| over the inliers
+  std::vector<double> residualsMm;  ///< per pose
+  std::vector<bool> inlier;
+  int inliers = 0;
+  /// Spread of the rotations (degrees) about their principal axes, largest first.
+  Eigen::Vector3d rotationSpreadDeg = Eigen::Vector3d::Zero();
+};
+
+/// Solves [R_i | -I] [p_marker; p_fixed] = -t_i in least squares over all poses, with outlier
+/// rejection. Throws std::invalid_argument for fewer than 4 poses or rotations that do not
+/// spread enough (the message gives the spread found and the spread needed).
+PivotResult pivotCalibration(const std::vector<Eigen::Isometry3d>& markerToTracker,
+                             const PivotOptions& options = {});
+
+}  // namespace echoreg::core
