@@ -3,6 +3,7 @@
 
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/transform_file.hpp"
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/sequence_detection.hpp"
 
@@ -218,36 +219,6 @@ DetectionParams resolveParams(const std::string& preset, const TunableSettings& 
   return params;
 }
 
-Eigen::Matrix4d readBeamToProbe(const std::string& file) {
-  std::ifstream in(file);
-  if (!in) throw FileError(file, "cannot be opened");
-  nlohmann::json transform;
-  try {
-    transform = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw FileError(file, std::string("is not valid JSON: ") + e.what());
-  }
-  if (!transform.contains("matrix") || !transform["matrix"].is_array() || transform["matrix"].size() != 4) {
-    throw FileError(file, "needs \"matrix\": 4 rows of 4 numbers");
-  }
-  Eigen::Matrix4d matrix;
-  for (int r = 0; r < 4; ++r) {
-    const auto& row = transform["matrix"][static_cast<std::size_t>(r)];
-    if (!row.is_array() || row.size() != 4) throw FileError(file, "needs \"matrix\": 4 rows of 4 numbers");
-    for (int c = 0; c < 4; ++c) {
-      const auto& value = row[static_cast<std::size_t>(c)];
-      if (!value.is_number() || !std::isfinite(value.get<double>())) {
-        throw FileError(file, fmt::format("matrix[{}][{}] is not a finite number", r, c));
-      }
-      matrix(r, c) = value.get<double>();
-    }
-  }
-  if (transform.contains("from") && transform["from"] != "Beam") {
-    throw FileError(file, "expected a BeamToProbe transform (\"from\": \"Beam\")");
-  }
-  return matrix;
-}
-
 std::string optionalNumber(const std::optional<double>& value, int decimals) {
   return value ? fmt::format("{:.{}f}", *value, decimals) : std::string();
 }
@@ -332,7 +303,7 @@ CommandAction addDetectCommand(CLI::App& app) {
     PointFrameOptions points;
     points.poseTransform = o->pose;
     points.referenceTransform = o->reference;
-    if (!o->beamToProbeFile.empty()) points.beamToProbe = readBeamToProbe(o->beamToProbeFile);
+    if (!o->beamToProbeFile.empty()) points.beamToProbe = readTransformFile(o->beamToProbeFile, "Beam", "Probe").matrix;
     SequenceDetection detection;
     try {
       const bool showProgress = io.errIsTerminal && sequence.frameCount() > 2000;
