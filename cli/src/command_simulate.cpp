@@ -30,6 +30,7 @@ struct SimulateOptions {
   double tissueScale = 1.0;
   int framesPerBone = 0;
   int registrations = 1;
+  int calibrations = 1;
   bool json = false;
 };
 
@@ -51,6 +52,7 @@ simulation::StudyOptions toStudyOptions(const SimulateOptions& o) {
   s.tissueScale = o.tissueScale;
   s.framesPerBone = o.framesPerBone;
   s.registrations = o.registrations;
+  s.calibrations = o.calibrations;
   const std::map<std::string, simulation::BoneId> names{{"femur", simulation::BoneId::Femur}};
   for (const std::string& spec : o.bones) {
     const auto eq = spec.find('=');
@@ -140,6 +142,11 @@ CommandAction addSimulateCommand(CLI::App& app) {
   cmd->add_option("--registrations", o->registrations,
                   "Ultrasound captures per bone, each its own sweep (the dissertation did 5): "
                   "femur_ultrasound.igs.mha, femur_ultrasound_2.igs.mha, ...")
+      ->check(CLI::Range(1, 20))
+      ->capture_default_str();
+  cmd->add_option("--calibrations", o->calibrations,
+                  "Calibration sessions of the one probe, the bath set up anew each time (Table 5.1 "
+                  "has 5): calibration_shots.igs.mha, calibration_shots_2.igs.mha, ...")
       ->check(CLI::Range(1, 20))
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "Print the summary as JSON");

@@ -38,6 +38,9 @@ constexpr double kCalibrationTipRadiusMm = 1.5;  // the acustar probe's spherica
 constexpr double kSharpTipRadiusMm = 0.5;
 constexpr double kBluntTipRadiusMm = 3.0;
 constexpr double kCartilageMm = 2.0;  // under the blunt tip on the articular surface
+// The calibration software assumes distilled water at a cool temperature, as the dissertation's
+// did (section 4.2.2: 1450 m/s), whatever the bath's true temperature.
+constexpr double kCalibrationAssumedSpeedMps = 1450.0;
 
 Iso fromRotationTranslation(const Eigen::Matrix3d& r, const Eigen::Vector3d& t) {
   Iso m = Iso::Identity();
@@ -396,7 +399,7 @@ class StudyBuilder {
   }
 
   void writeCaptures(StudySummary& summary) {
-    calibration(summary);
+    for (int c = 1; c <= o_.calibrations; ++c) calibration(c);
     pivot();
     for (BoneId bone : {BoneId::Femur, BoneId::Tibia}) {
       for (int r = 1; r <= o_.registrations; ++r)
@@ -472,13 +475,14 @@ class StudyBuilder {
 
   std::string capturePath(const std::string& name) const { return root_ + "/captures/" + name; }
 
-  void saveCapture(CaptureWriter& writer, bool withALines) {
+  // `assumedSpeedMps` > 0: an A-line capture recorded with that speed of sound in its header.
+  void saveCapture(CaptureWriter& writer, double assumedSpeedMps = 0.0) {
     Sequence& measured = writer.measured();
     Sequence& truth = writer.truth();
-    if (withALines) {
+    if (assumedSpeedMps > 0.0) {
       measured.acquisition.samplingFrequencyHz = scene_.receiver.samplingFrequencyHz;
       measured.acquisition.delayS = scene_.receiver.delayS;
-      measured.acquisition.speedOfSoundMps = scene_.assumedSpeedMps;
+      measured.acquisition.speedOfSoundMps = assumedSpeedMps;
       measured.acquisition.transducer = "Olympus V312 9 MHz 6.35 mm F25 (simulated)";
     }
     measured.extraHeader.push_back({"EchoregSimulated", "True"});
@@ -496,15 +500,17 @@ class StudyBuilder {
   }
 
   // ----- calibration: a steel sphere in a water bath ---------------------------------------
-  void calibration(StudySummary& summary) {
-    (void)summary;
-    core::Rng rng = core::Rng::derive(o_.seed, "calibration");
+  // Calibration session `index` (1, 2, ...): the bath set up anew, the same probe.
+  void calibration(int index) {
+    const std::string suffix = index > 1 ? "_" + std::to_string(index) : std::string();
+    core::Rng rng = core::Rng::derive(o_.seed, "calibration", static_cast<std::uint64_t>(index - 1));
     // The bath in the camera's frame: 1.5 m in front, below the line of sight.
     const Eigen::Vector3d centre(35.0 + rng.normal(0, 5), 60.0 + rng.normal(0, 5),
                                  1500.0 + rng.normal(0, 20));
     const Eigen::Vector3d up =
         -Eigen::Vector3d(0.0, 1.0, 0.25).normalized();  // toward the camera side
-    sphereCentreTracker_ = centre;
+    if (index == 1) sphereCentreTracker_ = centre;
+    nlohmann::json session = {{"sphere_centre_tracker_mm", vectorJson(centre)}};
     // The sphere has no tracker: everything here is in the camera's frame (camera at the origin).
     auto faceCamera = [](const Eigen::Vector3d& axis, const Eigen::Vector3d& at, double roll) {
       return facingPoint(axis, at, Eigen::Vector3d::Zero(), roll);
@@ -520,7 +526,7 @@ class StudyBuilder {
 
     // Stylus points on the sphere: the tip's centre at R + tip radius.
     {
-      CaptureWriter writer("calibration_sphere_stylus.igs.mha", scene_.tracker, o_.seed);
+      CaptureWriter writer("calibration_sphere_stylus" + suffix + ".igs.mha", scene_.tracker, o_.seed);
       double t = nextStart();
       for (int p = 0; p < sizes_.spherePoints; ++p) {
         const Eigen::Vector3d n = onCap(75.0 * kDeg);
@@ -540,13 +546,13 @@ class StudyBuilder {
               t, {{"StylusToTracker", fromRotationTranslation(r, position), &scene_.stylus}});
         }
       }
-      saveCapture(writer, false);
-      manifest_["calibration"]["sphere_capture"] = "captures/" + writer.name();
+      saveCapture(writer);
+      session["sphere_capture"] = "captures/" + writer.name();
     }
 
     // A-line shots at the sphere from many directions, the probe moved smoothly between poses.
     {
-      CaptureWriter writer("calibration_shots.igs.mha", scene_.tracker, o_.seed);
+      CaptureWriter writer("calibration_shots" + suffix + ".igs.mha", scene_.tracker, o_.seed);
       std::vector<PendingShot> shots;
       std::vector<Iso> beamPoses;
       const int keys = std::max(2, sizes_.calibrationShots / 30);
@@ -602,13 +608,20 @@ class StudyBuilder {
             truth.incidenceDeg = incidence;
           },
           truths, progress_, "calibration shots");
-      saveCapture(writer, true);
+      saveCapture(writer, kCalibrationAssumedSpeedMps);
       recordShots(writer.name(), truths);
-      manifest_["calibration"]["capture"] = "captures/" + writer.name();
+      session["capture"] = "captures/" + writer.name();
     }
+    if (index == 1) {
+      manifest_["calibration"]["sphere_capture"] = session["sphere_capture"];
+      manifest_["calibration"]["capture"] = session["capture"];
+    }
+    manifest_["calibration"]["sessions"].push_back(
+        {{"sphere_capture", session["sphere_capture"]}, {"capture", session["capture"]}});
+    calibrationSessions_.push_back(session);
     manifest_["calibration"]["sphere_radius_mm"] = kSphereRadiusMm;
     manifest_["calibration"]["stylus_tip_radius_mm"] = kCalibrationTipRadiusMm;
-    manifest_["calibration"]["speed_of_sound_mps"] = scene_.assumedSpeedMps;
+    manifest_["calibration"]["speed_of_sound_mps"] = kCalibrationAssumedSpeedMps;
     manifest_["calibration"]["window_mm"] = {12.0, 45.0};
     // The dissertation's initial guess came from a CMM: the front face of the housing, a few mm
     // from the true beam origin.
@@ -638,7 +651,7 @@ class StudyBuilder {
       writer.addFrame(t,
                       {{"StylusToTracker", fromRotationTranslation(r, position), &scene_.stylus}});
     }
-    saveCapture(writer, false);
+    saveCapture(writer);
     manifest_["calibration"]["pivot_capture"] = "captures/" + writer.name();
   }
 
@@ -776,7 +789,7 @@ class StudyBuilder {
           }
         },
         truths, progress_, std::string(boneName(bone)) + " ultrasound");
-    saveCapture(writer, true);
+    saveCapture(writer, scene_.assumedSpeedMps);
     recordShots(name, truths);
     // Shares per region.
     for (const Region& region : regions) {
@@ -844,7 +857,7 @@ class StudyBuilder {
       points.push_back(
           {{"surface_ct", vectorJson(hit->point)}, {"tip_centre_ct", vectorJson(contact)}});
     }
-    saveCapture(writer, false);
+    saveCapture(writer);
     const std::string key = blunt ? "mechanical_blunt" : "mechanical";
     manifest_["bones"][std::string(boneName(bone))][key] = "captures/" + name;
     manifest_["bones"][std::string(boneName(bone))][key + "_tip_radius_mm"] = tipRadius;
@@ -945,7 +958,7 @@ class StudyBuilder {
     ctLandmarks_.push_back(
         {"hip_centre",
          hip + Eigen::Vector3d(picks.normal(0, 0.5), picks.normal(0, 0.5), picks.normal(0, 0.5))});
-    saveCapture(writer, false);
+    saveCapture(writer);
     manifest_["landmarks"]["capture"] = "captures/" + writer.name();
     nlohmann::json order = nlohmann::json::array();
     for (const Spec& spec : specs)
@@ -977,7 +990,7 @@ class StudyBuilder {
       const Iso ctToTracker = scene_.ctToTracker0 * rotate;
       writer.addFrame(t, scene_.bonePoses(t - start, ctToTracker));
     }
-    saveCapture(writer, false);
+    saveCapture(writer);
     manifest_["bones"]["femur"]["hip_rotation"] = "captures/" + writer.name();
   }
 
@@ -1010,6 +1023,7 @@ class StudyBuilder {
   std::vector<std::pair<std::string, Eigen::Vector3d>> trueLandmarks_;
   std::map<std::string, nlohmann::json> mechanicalTruth_;
   Eigen::Vector3d sphereCentreTracker_ = Eigen::Vector3d::Zero();
+  nlohmann::json calibrationSessions_ = nlohmann::json::array();
 
  private:
   struct ShotRow {
@@ -1162,6 +1176,7 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   writeMarkups(root + "/truth/landmarks.mrk.json", builder.trueLandmarks_);
   nlohmann::json calibration = {
       {"sphere_centre_tracker_mm", vectorJson(builder.sphereCentreTracker_)},
+      {"sessions", builder.calibrationSessions_},
       {"sphere_radius_mm", kSphereRadiusMm},
       {"stylus_tip_radius_mm", kCalibrationTipRadiusMm},
       {"water_temperature_c", options.waterTemperatureC},

@@ -36,6 +36,7 @@ struct StudyOptions {
   double tissueScale = 1.0;  ///< soft tissue thickness factor
   int framesPerBone = 0;     ///< ultrasound frames per bone; 0 = by size (small 800, full 3000)
   int registrations = 1;     ///< ultrasound captures per bone (the dissertation: 5)
+  int calibrations = 1;      ///< calibration sessions of the one probe (Table 5.1: 5)
 };
 
 /// Shares of frames that a correct detector should accept, per capture and region.
