@@ -145,6 +145,22 @@ TEST(BeamCalibration, NoiseFreeTranslationRecoveredWithinAcceptance) {
   }
 }
 
+TEST(BeamCalibration, NoiseFreeRecoveryWithTheBeamAcrossTheProbe) {
+  // A transducer mounted sideways: the beam along the probe's -x axis, known from the guess.
+  BeamShotsSpec spec = cleanSpec(40, 13);
+  spec.beamToProbe.linear() =
+      Eigen::Matrix3d(Eigen::AngleAxisd(-kPi / 2.0, Eigen::Vector3d::UnitY()));
+  Eigen::Isometry3d guess = initialGuess();
+  guess.linear() = spec.beamToProbe.linear();
+  for (const auto mode : {BeamCalibrationMode::Translation, BeamCalibrationMode::Beam}) {
+    BeamCalibrationOptions options = beamOptionsFor(spec, guess);
+    options.mode = mode;
+    const BeamCalibrationResult result = calibrateBeam(makeBeamShots(spec), options);
+    EXPECT_LT(offsetError(result, spec.beamToProbe), 1e-6);
+    EXPECT_LT((result.beamToProbe.linear().col(2) - Eigen::Vector3d(-1.0, 0.0, 0.0)).norm(), 1e-9);
+  }
+}
+
 TEST(BeamCalibration, NoiseFreeSpeedOfSoundRecovered) {
   BeamShotsSpec spec = cleanSpec(80, 12);
   spec.trueSpeedOfSoundMps = 1480.0;
