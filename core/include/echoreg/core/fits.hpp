@@ -17,7 +17,10 @@ struct SphereFitOptions {
   /// Known radius (mm); nullopt fits the radius too.
   std::optional<double> radiusMm;
   /// Points whose |residual| exceeds max(outlierSigmas * robust sigma, minOutlierMm) are dropped
-  /// and the fit repeated (robust sigma = 1.4826 * median absolute residual).
+  /// and the fit repeated (robust sigma = 1.4826 * median absolute residual). With maxRounds > 1
+  /// and 8 or more points, the first round fits the points that agree with the least-median
+  /// sphere of 128 four-point samples (deterministic), so that stray points cannot drag the
+  /// start; maxRounds = 1 fits all points.
   double outlierSigmas = 3.0;
   double minOutlierMm = 0.5;
   int maxRounds = 5;
