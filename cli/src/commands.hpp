@@ -21,5 +21,7 @@ using CommandAction = std::function<int(const Streams&)>;
 CommandAction addInfoCommand(CLI::App& app);
 CommandAction addDetectCommand(CLI::App& app);
 CommandAction addSimulateCommand(CLI::App& app);
+CommandAction addCalibrateCommand(CLI::App& app);
+CommandAction addPivotCommand(CLI::App& app);
 
 }  // namespace echoreg::cli

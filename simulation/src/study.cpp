@@ -555,17 +555,20 @@ class StudyBuilder {
       CaptureWriter writer("calibration_shots" + suffix + ".igs.mha", scene_.tracker, o_.seed);
       std::vector<PendingShot> shots;
       std::vector<Iso> beamPoses;
-      const int keys = std::max(2, sizes_.calibrationShots / 30);
+      // A good session: the operator moves on every ~0.1 s, aims off the centre on every side as
+      // far as the echo survives (5.5 mm off is 12.5 degrees of incidence) and varies the
+      // distance: the lateral offset is only seen through the sphere's curvature.
+      const int keys = std::max(2, sizes_.calibrationShots / 10);
       std::vector<Iso> keyPoses;
       for (int k = 0; k < keys; ++k) {
         const Eigen::Vector3d n = onCap(50.0 * kDeg);
         const Eigen::Vector3d u = -n;
-        const double offset = rng.uniform(0.0, 3.5);
+        const double offset = 5.5 * std::sqrt(rng.uniform());  // uniform over a disc
         const double azimuth = rng.uniform(0, 2 * kPi);
         const Eigen::Vector3d side = u.unitOrthogonal();
         const Eigen::Vector3d lateral =
             std::cos(azimuth) * side + std::sin(azimuth) * u.cross(side);
-        const double distance = rng.uniform(18.0, 32.0);
+        const double distance = rng.uniform(15.0, 35.0);
         const Eigen::Vector3d origin = centre + offset * lateral - (kSphereRadiusMm + distance) * u;
         keyPoses.push_back(
             fromRotationTranslation(faceCamera(u, origin, rng.normal(0, 0.15)), origin));

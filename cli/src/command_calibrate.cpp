@@ -1,0 +1,323 @@
+// `echoreg calibrate`: BeamToProbe from a sphere in a water bath (Mozes 2008, section 4.2), and
+// `echoreg pivot`: the fixed point of a marker's poses (a stylus tip, the hip centre).
+#include "commands.hpp"
+
+#include "echoreg/core/beam_calibration.hpp"
+#include "echoreg/core/detection.hpp"
+#include "echoreg/core/error.hpp"
+#include "echoreg/core/fits.hpp"
+#include "echoreg/core/sequence.hpp"
+#include "echoreg/core/sequence_detection.hpp"
+#include "echoreg/core/transform_file.hpp"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <map>
+#include <memory>
+#include <ostream>
+#include <stdexcept>
+
+namespace echoreg::cli {
+
+namespace {
+
+// The poses of `transform` ("StylusToTracker") in a capture, OK frames only, with their frame
+// numbers. Throws FileError when the capture has no such transform or none of it is valid.
+std::vector<std::pair<int, Eigen::Isometry3d>> validPoses(const Sequence& sequence,
+                                                          const std::string& path,
+                                                          const std::string& transform) {
+  const std::vector<std::string> names = sequence.transformNames();
+  if (std::find(names.begin(), names.end(), transform) == names.end()) {
+    std::string have;
+    for (const std::string& n : names) have += (have.empty() ? "" : ", ") + n + "Transform";
+    throw FileError(path, "has no " + transform + "Transform" +
+                              (have.empty() ? std::string(" (it has no transforms)")
+                                            : " (it has " + have + ")"));
+  }
+  std::vector<std::pair<int, Eigen::Isometry3d>> poses;
+  for (std::size_t f = 0; f < sequence.frames.size(); ++f) {
+    const auto it = sequence.frames[f].transforms.find(transform);
+    if (it == sequence.frames[f].transforms.end() || !it->second.valid()) continue;
+    Eigen::Isometry3d pose;
+    pose.matrix() = it->second.matrix;
+    poses.emplace_back(static_cast<int>(f), pose);
+  }
+  if (poses.empty()) {
+    throw FileError(path, "every " + transform + "Transform of its " +
+                              std::to_string(sequence.frames.size()) + " frames is INVALID");
+  }
+  return poses;
+}
+
+nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+
+struct CalibrateOptions {
+  std::string sphereCapture, tipFile, capture, out;
+  double sphereRadius = 25.4;
+  double tipRadius = 0.0;
+  bool freeRadius = false;
+  std::vector<double> initial;
+  double speedOfSound = 0.0;
+  std::vector<double> windowMm;
+  std::string mode = "translation";
+  bool fitSpeed = false;
+  bool json = false;
+};
+
+int runCalibrate(const CalibrateOptions& o, const Streams& io) {
+  if (!(o.sphereRadius > 0.0)) {
+    throw std::invalid_argument(fmt::format("--sphere-radius must be > 0 mm, got {}", o.sphereRadius));
+  }
+  if (o.tipRadius < 0.0) {
+    throw std::invalid_argument(fmt::format("--stylus-tip-radius must be >= 0 mm, got {}", o.tipRadius));
+  }
+  if (o.windowMm.size() == 2 && !(o.windowMm[0] >= 0.0 && o.windowMm[1] > o.windowMm[0])) {
+    throw std::invalid_argument(fmt::format("--window-mm must be MIN MAX with 0 <= MIN < MAX, got {} {}",
+                                            o.windowMm[0], o.windowMm[1]));
+  }
+  // 1. The sphere's centre from the stylus tips.
+  const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
+  const Sequence sphereSequence = readSequence(o.sphereCapture);
+  const auto stylusPoses = validPoses(sphereSequence, o.sphereCapture, "StylusToTracker");
+  std::vector<Eigen::Vector3d> tips;
+  for (const auto& [frame, pose] : stylusPoses) {
+    tips.push_back(pose * Eigen::Vector3d(tip.matrix.topRightCorner<3, 1>()));
+  }
+  core::SphereFitOptions sphereOptions;
+  if (!o.freeRadius) sphereOptions.radiusMm = o.sphereRadius + o.tipRadius;
+  core::SphereFit sphere;
+  try {
+    sphere = core::fitSphere(tips, sphereOptions);
+  } catch (const std::invalid_argument& e) {
+    throw FileError(o.sphereCapture, std::string("the stylus points give no sphere: ") + e.what());
+  }
+  const double sphereRadius = o.freeRadius ? sphere.radiusMm - o.tipRadius : o.sphereRadius;
+
+  // 2. The sphere's echo in every shot: the calibration preset (window-max) in the window.
+  const Sequence shotsSequence = readSequence(o.capture);
+  DetectionParams params = detectionPreset("calibration");
+  params.depth = depthFromSequence(shotsSequence, params.depth);
+  if (o.speedOfSound > 0.0) params.depth.speedOfSoundMps = o.speedOfSound;
+  if (o.windowMm.size() == 2) {
+    params.windowMinMm = o.windowMm[0];
+    params.windowMaxMm = o.windowMm[1];
+  }
+  params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
+  params.interSignal.history = 1;      // shots are independent
+  params.interSignal.minSpreadMm = 0.0;
+  PointFrameOptions points;
+  points.poseTransform = "ProbeToTracker";
+  SequenceDetection detection;
+  try {
+    validate(params);
+    detection = detectSequence(shotsSequence, params, points);
+  } catch (const std::invalid_argument& e) {
+    throw FileError(o.capture, e.what());
+  }
+  std::vector<core::BeamShot> shots;
+  std::vector<int> shotFrames;
+  for (const FrameDetection& f : detection.frames) {
+    if (!f.accepted()) continue;
+    core::BeamShot shot;
+    shot.probeToTracker.matrix() =
+        shotsSequence.frames[static_cast<std::size_t>(f.frame)].transforms.at("ProbeToTracker").matrix;
+    shot.depthMm = *f.depthMm;
+    shots.push_back(shot);
+    shotFrames.push_back(f.frame);
+  }
+
+  // 3. BeamToProbe.
+  core::BeamCalibrationOptions options;
+  options.mode = o.mode == "beam" ? core::BeamCalibrationMode::Beam : core::BeamCalibrationMode::Translation;
+  options.fitSpeedOfSound = o.fitSpeed;
+  options.assumedSpeedOfSoundMps = params.depth.speedOfSoundMps;
+  options.sphereCentreTracker = sphere.centre;
+  options.sphereRadiusMm = sphereRadius;
+  options.initialBeamToProbe.translation() = Eigen::Vector3d(o.initial[0], o.initial[1], o.initial[2]);
+  core::BeamCalibrationResult result;
+  try {
+    result = core::calibrateBeam(shots, options);
+  } catch (const std::invalid_argument& e) {
+    throw FileError(o.capture, fmt::format("{} sphere echoes found in {} frames; {}", shots.size(),
+                                           detection.frames.size(), e.what()));
+  }
+
+  nlohmann::json rejected = nlohmann::json::object();
+  int rejectedCount = 0;
+  for (const auto& [reason, count] : detection.rejectedByReason) {
+    rejected[reason] = count;
+    rejectedCount += count;
+  }
+  int outliers = 0;
+  nlohmann::json perShot = nlohmann::json::array();
+  for (std::size_t i = 0; i < shots.size(); ++i) {
+    outliers += result.used[i] ? 0 : 1;
+    perShot.push_back({{"frame", shotFrames[i]},
+                       {"depth_mm", shots[i].depthMm},
+                       {"residual_mm", result.residualsMm[i]},
+                       {"used", static_cast<bool>(result.used[i])}});
+  }
+  if (outliers > 0) rejected["outlier"] = outliers;
+  rejectedCount += outliers;
+  nlohmann::json parameters = nlohmann::json::object();
+  for (std::size_t p = 0; p < result.parameterNames.size(); ++p) {
+    parameters[result.parameterNames[p]] = {
+        {"value", result.parameters[static_cast<Eigen::Index>(p)]},
+        {"std", result.parameterStdDev[static_cast<Eigen::Index>(p)]}};
+  }
+  TransformFile out;
+  out.from = "Beam";
+  out.to = "Probe";
+  out.matrix = result.beamToProbe.matrix();
+  out.extra = {{"rms_mm", result.rmsMm},
+               {"condition_number", result.conditionNumber},
+               {"shots_used", static_cast<int>(shots.size()) - outliers},
+               {"shots_rejected", rejectedCount},
+               {"shots_rejected_by_reason", rejected},
+               {"sphere_center_mm", vec(sphere.centre)},
+               {"sphere_radius_mm", sphereRadius},
+               {"sphere_fit_rms_mm", sphere.rmsMm},
+               {"sphere_points_used", sphere.inliers},
+               {"speed_of_sound_mps", result.speedOfSoundMps},
+               {"mode", o.mode},
+               {"parameters", parameters},
+               {"iterations", result.iterations},
+               {"converged", result.converged},
+               {"shots", perShot}};
+  const std::string tfm = writeTransformFile(o.out, out);
+  if (o.json) {
+    nlohmann::json summary = out.extra;
+    summary.erase("shots");
+    summary["out"] = o.out;
+    summary["tfm"] = tfm;
+    summary["matrix"] = matrixRows(out.matrix);
+    io.out << summary.dump(2) << "\n";
+  } else {
+    const Eigen::Vector3d t = result.beamToProbe.translation();
+    io.out << fmt::format(
+        "{}: BeamToProbe translation ({:.2f}, {:.2f}, {:.2f}) mm, RMS {:.3f} mm, condition number "
+        "{:.2f}, {} shots used, {} rejected; speed of sound {:.1f} m/s\n",
+        o.out, t.x(), t.y(), t.z(), result.rmsMm, result.conditionNumber,
+        static_cast<int>(shots.size()) - outliers, rejectedCount, result.speedOfSoundMps);
+  }
+  return 0;
+}
+
+struct PivotCommandOptions {
+  std::string capture, marker = "StylusToTracker", out, from;
+  double minSpreadDeg = 15.0;
+  bool json = false;
+};
+
+int runPivot(const PivotCommandOptions& o, const Streams& io) {
+  const auto at = o.marker.find("To");
+  if (at == std::string::npos || at == 0) {
+    throw std::invalid_argument("--marker must name a transform like StylusToTracker, got '" + o.marker + "'");
+  }
+  const std::string markerFrame = o.marker.substr(0, at);
+  std::string from = o.from;
+  if (from.empty()) {
+    from = markerFrame == "Stylus" ? "StylusTip" : markerFrame == "Femur" ? "HipCentre" : markerFrame + "Pivot";
+  }
+  const Sequence sequence = readSequence(o.capture);
+  const auto poses = validPoses(sequence, o.capture, o.marker);
+  std::vector<Eigen::Isometry3d> transforms;
+  for (const auto& [frame, pose] : poses) transforms.push_back(pose);
+  core::PivotOptions options;
+  options.minRotationSpreadDeg = o.minSpreadDeg;
+  core::PivotResult result;
+  try {
+    result = core::pivotCalibration(transforms, options);
+  } catch (const std::invalid_argument& e) {
+    throw FileError(o.capture, e.what());
+  }
+  TransformFile out;
+  out.from = from;
+  out.to = markerFrame;
+  out.matrix.topRightCorner<3, 1>() = result.pointInMarker;
+  out.extra = {{"rms_mm", result.rmsMm},
+               {"pivot_point_tracker_mm", vec(result.pointInTracker)},
+               {"poses_used", result.inliers},
+               {"poses_rejected", static_cast<int>(sequence.frames.size()) - result.inliers},
+               {"rotation_spread_deg", vec(result.rotationSpreadDeg)}};
+  const std::string tfm = writeTransformFile(o.out, out);
+  if (o.json) {
+    nlohmann::json summary = out.extra;
+    summary["out"] = o.out;
+    summary["tfm"] = tfm;
+    summary["point_in_marker_mm"] = vec(result.pointInMarker);
+    io.out << summary.dump(2) << "\n";
+  } else {
+    io.out << fmt::format(
+        "{}: {}To{} ({:.2f}, {:.2f}, {:.2f}) mm, RMS {:.3f} mm over {} poses; rotations spread "
+        "{:.1f}, {:.1f}, {:.1f} deg\n",
+        o.out, from, markerFrame, result.pointInMarker.x(), result.pointInMarker.y(),
+        result.pointInMarker.z(), result.rmsMm, result.inliers, result.rotationSpreadDeg.x(),
+        result.rotationSpreadDeg.y(), result.rotationSpreadDeg.z());
+  }
+  return 0;
+}
+
+}  // namespace
+
+CommandAction addCalibrateCommand(CLI::App& app) {
+  auto o = std::make_shared<CalibrateOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "calibrate",
+      "Calibrate the tracked transducer on a sphere in a water bath (Mozes 2008, 4.2): the\n"
+      "sphere's centre from stylus points on it, the sphere's echo in every A-line (window-max in\n"
+      "--window-mm), then BeamToProbe by Levenberg-Marquardt (Ceres) on r - |p - c|. Writes the\n"
+      "transform JSON with rms_mm, condition_number, per-parameter std, per-shot residuals, and a\n"
+      "Slicer .tfm beside it.");
+  cmd->add_option("--sphere-capture", o->sphereCapture, "Stylus on the sphere (StylusToTracker)")->required();
+  cmd->add_option("--stylus-tip-to-stylus", o->tipFile, "StylusTipToStylus transform JSON (from `echoreg pivot`)")
+      ->required();
+  cmd->add_option("--capture", o->capture, "A-line shots at the sphere (ProbeToTracker)")->required();
+  cmd->add_option("--sphere-radius", o->sphereRadius, "Sphere radius, mm")->capture_default_str();
+  cmd->add_option("--stylus-tip-radius", o->tipRadius,
+                  "Radius of the stylus' ball tip, mm: tip centres lie this much outside the sphere")
+      ->capture_default_str();
+  cmd->add_flag("--free-radius", o->freeRadius, "Fit the sphere's radius too (stylus points only)");
+  cmd->add_option("--initial", o->initial, "Initial BeamToProbe translation X Y Z, mm (e.g. a CMM measurement)")
+      ->expected(3)
+      ->required();
+  cmd->add_option("--speed-of-sound", o->speedOfSound,
+                  "Assumed speed of sound in the bath, m/s (default: the capture's header)");
+  cmd->add_option("--window-mm", o->windowMm, "Processing window MIN MAX, mm from the beam origin")
+      ->expected(2);
+  cmd->add_option("--out", o->out, "Calibration JSON to write (a .tfm is written beside it)")->required();
+  cmd->add_option("--mode", o->mode,
+                  "translation (3 parameters, beam along the probe's z: the dissertation's) or beam "
+                  "(origin and direction, 5)")
+      ->check(CLI::IsMember({"translation", "beam"}))
+      ->capture_default_str();
+  cmd->add_flag("--fit-speed-of-sound", o->fitSpeed, "Fit the bath's speed of sound as one more parameter");
+  cmd->add_flag("--json", o->json, "Print the result as JSON");
+  return [o](const Streams& io) { return runCalibrate(*o, io); };
+}
+
+CommandAction addPivotCommand(CLI::App& app) {
+  auto o = std::make_shared<PivotCommandOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "pivot",
+      "Pivot calibration: the point fixed in the marker's frame while it rotates about it (a\n"
+      "stylus tip in a divot, or the hip centre from FemurToTracker while the leg is circled).\n"
+      "Refuses poses that do not rotate enough in two directions.");
+  cmd->add_option("--capture", o->capture, "Tracker capture (PLUS sequence)")->required();
+  cmd->add_option("--marker", o->marker, "The marker's transform, e.g. StylusToTracker, FemurToTracker")
+      ->capture_default_str();
+  cmd->add_option("--out", o->out, "Transform JSON to write (a .tfm is written beside it)")->required();
+  cmd->add_option("--from", o->from,
+                  "Name of the pivot point's frame (default StylusTip for a stylus, HipCentre for the "
+                  "femur)");
+  cmd->add_option("--min-spread-deg", o->minSpreadDeg,
+                  "Rotation needed about two axes, degrees")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 90.0));
+  cmd->add_flag("--json", o->json, "Print the result as JSON");
+  return [o](const Streams& io) { return runPivot(*o, io); };
+}
+
+}  // namespace echoreg::cli
