@@ -32,7 +32,7 @@ demo: build
 	  --stylus-tip-to-stylus $(DEMO_DIR)/results/stylus_tip.json --stylus-tip-radius 1.5 \
 	  --capture $(DEMO_DIR)/captures/calibration_shots.igs.mha --sphere-radius 25.4 \
 	  --initial $$(/usr/bin/python3 -c "import json; print(*json.load(open('$(DEMO_DIR)/study.json'))['calibration']['initial_beam_to_probe_mm'])") \
-	  --window-mm 12 45 --fit-speed-of-sound --out $(DEMO_CAL)
+	  --window-mm 14 34 --fit-speed-of-sound --out $(DEMO_CAL)
 	@$(ECHOREG) detect $(DEMO_DIR)/captures/femur_ultrasound.igs.mha --pose ProbeToTracker \
 	  --reference FemurToTracker --beam-to-probe $(DEMO_CAL) --out $(DEMO_DIR)/results/femur_points.csv
 	@$(ECHOREG) detect $(DEMO_DIR)/captures/tibia_ultrasound.igs.mha --pose ProbeToTracker \

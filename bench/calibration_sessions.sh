@@ -21,7 +21,7 @@ for k in 1 2 3 4 5; do
     "$echoreg" calibrate --sphere-capture "$work/study/captures/calibration_sphere_stylus$suffix.igs.mha" \
       --stylus-tip-to-stylus "$work/tip.json" --stylus-tip-radius 1.5 \
       --capture "$work/study/captures/calibration_shots$suffix.igs.mha" --sphere-radius 25.4 \
-      --initial "$x" "$y" "$z" --window-mm 12 45 "${extra[@]}" --out "$work/c${k}_$fit.json" > /dev/null
+      --initial "$x" "$y" "$z" --window-mm 14 34 "${extra[@]}" --out "$work/c${k}_$fit.json" > /dev/null
   done
 done
 /usr/bin/python3 - "$work" <<'PY'

@@ -557,7 +557,8 @@ class StudyBuilder {
       std::vector<Iso> beamPoses;
       // A good session: the operator moves on every ~0.1 s, aims off the centre on every side as
       // far as the echo survives (5.5 mm off is 12.5 degrees of incidence) and varies the
-      // distance: the lateral offset is only seen through the sphere's curvature.
+      // distance (18-32 mm, near the 25 mm focus): the lateral offset is only seen through the
+      // sphere's curvature.
       const int keys = std::max(2, sizes_.calibrationShots / 10);
       std::vector<Iso> keyPoses;
       for (int k = 0; k < keys; ++k) {
@@ -568,7 +569,7 @@ class StudyBuilder {
         const Eigen::Vector3d side = u.unitOrthogonal();
         const Eigen::Vector3d lateral =
             std::cos(azimuth) * side + std::sin(azimuth) * u.cross(side);
-        const double distance = rng.uniform(15.0, 35.0);
+        const double distance = rng.uniform(18.0, 32.0);
         const Eigen::Vector3d origin = centre + offset * lateral - (kSphereRadiusMm + distance) * u;
         keyPoses.push_back(
             fromRotationTranslation(faceCamera(u, origin, rng.normal(0, 0.15)), origin));
@@ -625,7 +626,9 @@ class StudyBuilder {
     manifest_["calibration"]["sphere_radius_mm"] = kSphereRadiusMm;
     manifest_["calibration"]["stylus_tip_radius_mm"] = kCalibrationTipRadiusMm;
     manifest_["calibration"]["speed_of_sound_mps"] = kCalibrationAssumedSpeedMps;
-    manifest_["calibration"]["window_mm"] = {12.0, 45.0};
+    // The window covers the sphere's echo at 18-32 mm and excludes the face-to-sphere multiple
+    // (at twice the distance, from 36 mm on), as the dissertation's processing window did.
+    manifest_["calibration"]["window_mm"] = {14.0, 34.0};
     // The dissertation's initial guess came from a CMM: the front face of the housing, a few mm
     // from the true beam origin.
     const Eigen::Vector3d initial =

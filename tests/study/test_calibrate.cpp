@@ -32,7 +32,7 @@ class Calibrate : public ::testing::Test {
     return {"calibrate", "--sphere-capture", path(c.at("sphere_capture")), "--stylus-tip-to-stylus",
             tip, "--capture", path(c.at("capture")), "--sphere-radius", "25.4",
             "--stylus-tip-radius", "1.5", "--initial", fmt(initial[0]), fmt(initial[1]),
-            fmt(initial[2]), "--window-mm", "12", "45", "--out", out};
+            fmt(initial[2]), "--window-mm", "14", "34", "--out", out};
   }
   static std::string fmt(const nlohmann::json& v) { return std::to_string(v.get<double>()); }
 

