@@ -1,5 +1,7 @@
 #include "echoreg/core/beam_calibration.hpp"
 
+#include "robust_solve.hpp"
+
 #include <ceres/ceres.h>
 #include <Eigen/SVD>
 
@@ -280,33 +282,6 @@ Conditioning conditioning(const Eigen::MatrixXd& jacobian, const Layout& layout,
   throw std::invalid_argument("beam calibration: " + message);
 }
 
-ceres::Solver::Options solverOptions() {
-  ceres::Solver::Options options;
-  options.minimizer_type = ceres::TRUST_REGION;
-  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  options.linear_solver_type = ceres::DENSE_QR;
-  options.num_threads = 1;
-  options.minimizer_progress_to_stdout = false;
-  options.logging_type = ceres::SILENT;
-  options.max_num_iterations = 200;
-  options.function_tolerance = 1e-12;
-  options.gradient_tolerance = 1e-14;
-  options.parameter_tolerance = 1e-12;
-  return options;
-}
-
-double median(std::vector<double> values) {
-  if (values.empty())
-    return 0.0;
-  const auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  if (values.size() % 2 == 1)
-    return *middle;
-  const double upper = *middle;
-  const double lower = *std::max_element(values.begin(), middle);
-  return 0.5 * (lower + upper);
-}
-
 }  // namespace
 
 std::vector<std::string> beamParameterNames(const BeamCalibrationOptions& options) {
@@ -399,7 +374,7 @@ BeamCalibrationResult calibrateBeam(const std::vector<BeamShot>& shots,
       beamParameters(options.initialBeamToProbe, options.assumedSpeedOfSoundMps, options);
   std::vector<bool> used(shots.size(), true);
   std::vector<double> residuals(shots.size(), 0.0);
-  const ceres::Solver::Options solver = solverOptions();
+  const ceres::Solver::Options solver = detail::levenbergMarquardt(1e-12, 1e-14, 1e-12);
 
   for (int round = 1; round <= options.maxRounds; ++round) {
     ceres::Problem problem;
@@ -425,7 +400,7 @@ BeamCalibrationResult calibrateBeam(const std::vector<BeamShot>& shots,
     std::transform(residuals.begin(), residuals.end(), absolute.begin(),
                    [](double r) { return std::abs(r); });
     const double threshold =
-        std::max(options.outlierSigmas * 1.4826 * median(absolute), options.minOutlierMm);
+        detail::robustThreshold(absolute, options.outlierSigmas, options.minOutlierMm);
     std::vector<bool> next(shots.size());
     for (std::size_t i = 0; i < shots.size(); ++i)
       next[i] = absolute[i] <= threshold;

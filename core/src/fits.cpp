@@ -1,5 +1,7 @@
 #include "echoreg/core/fits.hpp"
 
+#include "robust_solve.hpp"
+
 #include "echoreg/core/random.hpp"
 
 #include <ceres/ceres.h>
@@ -61,18 +63,7 @@ double outlierThreshold(const std::vector<double>& residuals, const std::vector<
     if (used[i])
       magnitudes.push_back(std::abs(residuals[i]));
   }
-  if (magnitudes.empty())
-    return minOutlierMm;
-  const std::size_t half = magnitudes.size() / 2;
-  std::nth_element(magnitudes.begin(), magnitudes.begin() + static_cast<std::ptrdiff_t>(half),
-                   magnitudes.end());
-  double median = magnitudes[half];
-  if (magnitudes.size() % 2 == 0) {
-    const double below = *std::max_element(magnitudes.begin(),
-                                           magnitudes.begin() + static_cast<std::ptrdiff_t>(half));
-    median = 0.5 * (median + below);
-  }
-  return std::max(outlierSigmas * 1.4826 * median, minOutlierMm);
+  return detail::robustThreshold(magnitudes, outlierSigmas, minOutlierMm);
 }
 
 int countTrue(const std::vector<bool>& flags) {
@@ -186,17 +177,7 @@ void refineSphere(const std::vector<Eigen::Vector3d>& points, bool knownRadius,
   }
   if (knownRadius)
     problem.SetParameterBlockConstant(r);
-  ceres::Solver::Options options;
-  options.minimizer_type = ceres::TRUST_REGION;
-  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  options.linear_solver_type = ceres::DENSE_QR;
-  options.num_threads = 1;
-  options.minimizer_progress_to_stdout = false;
-  options.logging_type = ceres::SILENT;
-  options.max_num_iterations = 200;
-  options.function_tolerance = 1e-16;
-  options.gradient_tolerance = 1e-16;
-  options.parameter_tolerance = 1e-14;
+  const ceres::Solver::Options options = detail::levenbergMarquardt(1e-16, 1e-16, 1e-14);
   ceres::Solver::Summary summary;
   ceres::Solve(options, &problem, &summary);
   if (!summary.IsSolutionUsable() || !std::isfinite(c[0]) || !std::isfinite(c[1]) ||

@@ -473,6 +473,19 @@ class StudyBuilder {
     scene_.swayRotation = SmoothNoise(sway, 0.2 * swayScale, 0.05, 0.4);
   }
 
+  // One frame of a stylus capture: the tip's centre at `tipCt` with its long axis along
+  // `axisCt`, turned toward the camera (then `roll` rad), and the bone markers, at time t.
+  void addStylusFrame(CaptureWriter& writer, double t, double start, const Eigen::Vector3d& tipCt,
+                      const Eigen::Vector3d& axisCt, double roll) {
+    const Iso ctToTracker = scene_.ctToTracker(t - start);
+    const Eigen::Matrix3d r = scene_.facingCamera(axisCt, tipCt, roll);
+    const Iso stylusToCt =
+        fromRotationTranslation(r, tipCt - r * scene_.stylusTipToStylus.translation());
+    std::vector<TrackedPose> poses = scene_.bonePoses(t - start, ctToTracker);
+    poses.insert(poses.begin(), {"StylusToTracker", ctToTracker * stylusToCt, &scene_.stylus});
+    writer.addFrame(t, poses);
+  }
+
   std::string capturePath(const std::string& name) const { return root_ + "/captures/" + name; }
 
   // `assumedSpeedMps` > 0: an A-line capture recorded with that speed of sound in its header.
@@ -852,13 +865,7 @@ class StudyBuilder {
       const Eigen::Vector3d stylusAxis =
           tiltAbout(hit->normal, rng.uniform(0, 30) * kDeg, rng.uniform(0, 2 * kPi)) * -hit->normal;
       for (int f = 0; f < sizes_.framesPerMechanicalPoint; ++f, t += 1.0 / kFrameRateHz) {
-        const Iso ctToTracker = scene_.ctToTracker(t - start);
-        const Eigen::Matrix3d r = scene_.facingCamera(stylusAxis, contact, rng.normal(0, 0.05));
-        const Iso stylusToCt =
-            fromRotationTranslation(r, contact - r * scene_.stylusTipToStylus.translation());
-        std::vector<TrackedPose> poses = scene_.bonePoses(t - start, ctToTracker);
-        poses.insert(poses.begin(), {"StylusToTracker", ctToTracker * stylusToCt, &scene_.stylus});
-        writer.addFrame(t, poses);
+        addStylusFrame(writer, t, start, contact, stylusAxis, rng.normal(0, 0.05));
       }
       points.push_back(
           {{"surface_ct", vectorJson(hit->point)}, {"tip_centre_ct", vectorJson(contact)}});
@@ -923,28 +930,14 @@ class StudyBuilder {
       const int first = static_cast<int>(writer.frames());
       SmoothNoise tremor(rng, 0.15, 6.0, 12.0);
       for (int f = 0; f < sizes_.landmarkDwellFrames; ++f, t += 1.0 / kFrameRateHz) {
-        const Iso ctToTracker = scene_.ctToTracker(t - start);
-        const Eigen::Vector3d tip = touched + tremor.at(t);
-        const Eigen::Matrix3d r = scene_.facingCamera(axis, tip, 0.0);
-        const Iso stylusToCt =
-            fromRotationTranslation(r, tip - r * scene_.stylusTipToStylus.translation());
-        std::vector<TrackedPose> poses = scene_.bonePoses(t - start, ctToTracker);
-        poses.insert(poses.begin(), {"StylusToTracker", ctToTracker * stylusToCt, &scene_.stylus});
-        writer.addFrame(t, poses);
+        addStylusFrame(writer, t, start, touched + tremor.at(t), axis, 0.0);
       }
       const int last = static_cast<int>(writer.frames()) - 1;
       // Moving to the next landmark: the tip lifted 40-80 mm away, one second.
       const Eigen::Vector3d away = touched + rng.uniform(40, 80) * normal;
       for (int f = 0; f < 100; ++f, t += 1.0 / kFrameRateHz) {
         const double s = std::sin(kPi * f / 100.0);
-        const Eigen::Vector3d tip = touched + s * (away - touched);
-        const Iso ctToTracker = scene_.ctToTracker(t - start);
-        const Eigen::Matrix3d r = scene_.facingCamera(axis, tip, 0.0);
-        const Iso stylusToCt =
-            fromRotationTranslation(r, tip - r * scene_.stylusTipToStylus.translation());
-        std::vector<TrackedPose> poses = scene_.bonePoses(t - start, ctToTracker);
-        poses.insert(poses.begin(), {"StylusToTracker", ctToTracker * stylusToCt, &scene_.stylus});
-        writer.addFrame(t, poses);
+        addStylusFrame(writer, t, start, touched + s * (away - touched), axis, 0.0);
       }
       truth.push_back({{"name", spec.name},
                        {"bone", std::string(boneName(spec.bone))},
