@@ -1,0 +1,50 @@
+#include "echoreg/segmentation/ct_image.hpp"
+
+#include <gtest/gtest.h>
+
+namespace {
+
+using echoreg::segmentation::CtImage;
+
+// A 2 x 1 image of three slices at 0, 5 and 6 mm (two groups: the step changes) on a rotated frame.
+CtImage threeSlices() {
+  CtImage image;
+  image.dimensions = {2, 1, 3};
+  image.originMm = {10, 20, 30};
+  image.direction << 0, 1, 0,  //
+      1, 0, 0,                 //
+      0, 0, -1;
+  image.pixelSpacingMm = {0.5, 0.75};
+  image.slicePositionsMm = {0, 5, 6};
+  image.groups = {{0, 2, 5.0}, {2, 1, 0.0}};
+  image.hu = {0, 100, 50, 150, 60, 160};
+  return image;
+}
+
+TEST(CtImage, VoxelToLpsFollowsDirectionSpacingAndSlicePositions) {
+  const CtImage image = threeSlices();
+  EXPECT_FALSE(image.uniform());
+  EXPECT_THROW(image.sliceSpacingMm(), std::logic_error);
+  const Eigen::Vector3d p = image.voxelToLps({1, 0, 1.5});
+  EXPECT_TRUE(p.isApprox(Eigen::Vector3d(10, 20.5, 30 - 5.5), 1e-12)) << p.transpose();
+  const Eigen::Vector3d back = image.lpsToVoxel(p);
+  EXPECT_NEAR((back - Eigen::Vector3d(1, 0, 1.5)).norm(), 0.0, 1e-12);
+  // Outside the slices: extrapolated with the end groups' spacing.
+  EXPECT_NEAR(image.voxelToLps({0, 0, 3}).z(), 30 - 7, 1e-12);
+  EXPECT_NEAR(image.lpsToVoxel({10, 20, 30 + 10}).z(), -2.0, 1e-12);
+}
+
+TEST(CtImage, ResampleUniformInterpolatesAlongTheSlices) {
+  const CtImage out = echoreg::segmentation::resampleUniform(threeSlices());
+  EXPECT_TRUE(out.uniform());
+  ASSERT_EQ(out.dimensions[2], 7);  // 0..6 mm at 1 mm
+  EXPECT_DOUBLE_EQ(out.sliceSpacingMm(), 1.0);
+  EXPECT_EQ(out.at(1, 0, 0), 100);
+  EXPECT_EQ(out.at(0, 0, 1), 10);   // 1/5 of the way from 0 to 50
+  EXPECT_EQ(out.at(1, 0, 5), 150);
+  EXPECT_EQ(out.at(0, 0, 6), 60);
+  EXPECT_TRUE(out.voxelToLps({0, 0, 6}).isApprox(threeSlices().voxelToLps({0, 0, 2}), 1e-12));
+  EXPECT_THROW(echoreg::segmentation::resampleUniform(CtImage{}), std::invalid_argument);
+}
+
+}  // namespace
