@@ -380,9 +380,20 @@ Selection selectSeries(const std::string& folder, const DicomReadOptions& option
   std::vector<std::string> skipped;
   std::vector<SeriesGroup> series = groupSeries(scan, &skipped);
   if (series.empty()) {
-    throw FileError(folder, fmt::format("holds no DICOM image ({} file{}{}{})", scan.headers.size(),
+    std::vector<std::string> subfolders;
+    if (!scan.singleFile) {
+      std::error_code ec;
+      for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec)) {
+        std::error_code typeError;
+        if (entry.is_directory(typeError)) subfolders.push_back(entry.path().filename().string());
+      }
+      std::sort(subfolders.begin(), subfolders.end());
+    }
+    throw FileError(folder, fmt::format("holds no DICOM image ({} file{}{}{}{}{})", scan.headers.size(),
                                         scan.headers.size() == 1 ? "" : "s", skipped.empty() ? "" : "; ",
-                                        skipped.empty() ? "" : skipped.front()));
+                                        skipped.empty() ? "" : skipped.front(),
+                                        subfolders.empty() ? "" : "; subfolders are not searched, it has: ",
+                                        nameList(subfolders)));
   }
   const SeriesGroup* chosen = nullptr;
   if (!options.seriesUid.empty()) {
