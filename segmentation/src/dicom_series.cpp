@@ -349,9 +349,9 @@ std::string describeSeries(const std::vector<SeriesGroup>& series) {
   std::string out;
   for (const SeriesGroup& s : series) {
     if (!out.empty()) out += "; ";
-    out += fmt::format("{} ({}, {} file{})", seriesLabel(s.summary.seriesInstanceUid),
-                       s.summary.modality.empty() ? "no modality" : s.summary.modality,
-                       s.summary.files, s.summary.files > 1 ? "s" : "");
+    out += fmt::format("{} ({}, {} file{}: {}{})", seriesLabel(s.summary.seriesInstanceUid),
+                       s.summary.modality.empty() ? "no modality" : s.summary.modality, s.summary.files,
+                       s.summary.files > 1 ? "s" : "", s.summary.firstFile, s.summary.files > 1 ? "..." : "");
   }
   return out;
 }
