@@ -389,7 +389,7 @@ Selection selectSeries(const std::string& folder, const DicomReadOptions& option
       }
       std::sort(subfolders.begin(), subfolders.end());
     }
-    throw FileError(folder, fmt::format("holds no DICOM image ({} file{}{}{}{}{})", scan.headers.size(),
+    throw FileError(folder, fmt::format("is a directory with no DICOM image ({} file{}{}{}{}{})", scan.headers.size(),
                                         scan.headers.size() == 1 ? "" : "s", skipped.empty() ? "" : "; ",
                                         skipped.empty() ? "" : skipped.front(),
                                         subfolders.empty() ? "" : "; subfolders are not searched, it has: ",

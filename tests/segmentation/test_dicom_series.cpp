@@ -315,7 +315,7 @@ TEST_F(DicomSeriesRefusal, NoCtSeriesListsWhatThereIs) {
 TEST_F(DicomSeriesRefusal, NotDicomEmptyOrAbsent) {
   EXPECT_CONTAINS(refusal(dir_.file("absent")), "does not exist");
   fs::create_directory(dir_.file("empty"));
-  EXPECT_CONTAINS(refusal(dir_.file("empty")), "holds no DICOM image");
+  EXPECT_CONTAINS(refusal(dir_.file("empty")), "is a directory with no DICOM image");
   std::ofstream(dir_.file("empty/notes.dcm")) << "hello";
   EXPECT_CONTAINS(refusal(dir_.file("empty")), "notes.dcm");
   EXPECT_CONTAINS(refusal(dir_.file("empty/notes.dcm")), "is not a DICOM file");
