@@ -20,8 +20,12 @@
 
 #include <Eigen/Geometry>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -683,6 +687,21 @@ void convert(const char* data, std::size_t pixels, const Scratch::Key& key, Scra
     }
     return;
   }
+  // Integer rescale of unsigned values that cannot leave the int16 range (the usual CT: 12 or 16
+  // stored bits, slope 1, intercept -1024 or -1000): a plain loop the compiler vectorises.
+  const int intercept = static_cast<int>(key.intercept);
+  const std::int64_t largest = (std::int64_t{1} << key.bitsStored) - 1 + intercept;
+  if (key.bitsAllocated == 16 && key.slope == 1.0 && key.intercept == static_cast<double>(intercept) &&
+      key.pixelRepresentation == 0 && key.highBit + 1 == key.bitsStored && intercept >= -32768 &&
+      largest <= 32767) {
+    const auto mask = static_cast<std::uint16_t>((1u << key.bitsStored) - 1u);
+    for (std::size_t p = 0; p < pixels; ++p) {
+      std::uint16_t word = 0;
+      std::memcpy(&word, data + 2 * p, 2);
+      out[p] = static_cast<std::int16_t>(static_cast<int>(word & mask) + intercept);
+    }
+    return;
+  }
   if (!(scratch.key == key)) {
     const std::size_t size = std::size_t{1} << key.bitsAllocated;
     scratch.table.resize(size);
@@ -712,7 +731,44 @@ bool hostIsLittleEndian() {
   return first == 1;
 }
 
+/// Native little-endian pixel data (implicit or explicit VR) whose value offset the header scan
+/// found: read straight from the file into the thread's buffer, without GDCM parsing the file
+/// again and allocating the pixel data. True when done; false when this path does not apply.
+bool readNativeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out, Scratch& scratch) {
+  if (h.pixelDataOffset == 0 || !hostIsLittleEndian() ||
+      (h.transferSyntax != "1.2.840.10008.1.2" && h.transferSyntax != "1.2.840.10008.1.2.1")) {
+    return false;
+  }
+  const Scratch::Key key{h.bitsAllocated, h.bitsStored, h.highBit, h.pixelRepresentation, h.slope, h.intercept};
+  const std::size_t pixels = static_cast<std::size_t>(h.rows) * static_cast<std::size_t>(h.columns);
+  const std::size_t bytes = pixels * static_cast<std::size_t>(key.bitsAllocated / 8);
+  if (h.fileSize > 0 && h.pixelDataOffset + bytes > h.fileSize) {
+    throw FileError(folder, fmt::format("{}: truncated pixel data: the file ends {} bytes short of the {} x {} "
+                                        "pixels of {} bits",
+                                        h.name, h.pixelDataOffset + bytes - h.fileSize, h.columns, h.rows,
+                                        key.bitsAllocated));
+  }
+  const int fd = ::open(h.path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw FileError(folder, h.name + ": cannot be opened: " + std::strerror(errno));
+  scratch.buffer.resize(bytes);
+  std::size_t done = 0;
+  while (done < bytes) {
+    const ssize_t n = ::pread(fd, scratch.buffer.data() + done, bytes - done,
+                              static_cast<off_t>(h.pixelDataOffset + done));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    done += static_cast<std::size_t>(n);
+  }
+  ::close(fd);
+  if (done != bytes) {
+    throw FileError(folder, fmt::format("{}: truncated pixel data: {} of {} bytes could be read", h.name, done, bytes));
+  }
+  convert(scratch.buffer.data(), pixels, key, scratch, out);
+  return true;
+}
+
 void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out, Scratch& scratch) {
+  if (readNativeSlice(folder, h, out, scratch)) return;
   gdcm::ImageReader reader;
   reader.SetFileName(h.path.c_str());
   bool read = false;

@@ -70,6 +70,21 @@ vtkSmartPointer<vtkImageData> emptyImage(const CtImage& image) {
   return data;
 }
 
+// A copy of everything but the voxels (copying the CtImage and clearing `hu` would hold a second
+// full volume for a moment).
+CtImage geometryOnly(const CtImage& image) {
+  CtImage out;
+  out.dimensions = image.dimensions;
+  out.originMm = image.originMm;
+  out.direction = image.direction;
+  out.pixelSpacingMm = image.pixelSpacingMm;
+  out.slicePositionsMm = image.slicePositionsMm;
+  out.groups = image.groups;
+  out.seriesInstanceUid = image.seriesInstanceUid;
+  out.folder = image.folder;
+  return out;
+}
+
 // Geometry of resampleUniform(image, spacing) without voxels (same slice count rule).
 CtImage resampledGeometry(const CtImage& image, double spacingMm) {
   if (spacingMm <= 0.0) {
@@ -80,8 +95,7 @@ CtImage resampledGeometry(const CtImage& image, double spacingMm) {
     }
     if (spacingMm <= 0.0) spacingMm = 1.0;
   }
-  CtImage out = image;
-  out.hu.clear();
+  CtImage out = geometryOnly(image);
   const double length = image.slicePositionsMm.empty() ? 0.0 : image.slicePositionsMm.back();
   const int slices = static_cast<int>(std::floor(length / spacingMm + 1e-6)) + 1;
   out.dimensions[2] = slices;
@@ -191,9 +205,7 @@ echoreg::segmentation::CtImage vtkEchoregDicomSeriesReader::OutputGeometry(
                                                   " slice group(s); group " + std::to_string(this->Group) +
                                                   " does not exist");
     }
-    CtImage geometry = series;
-    geometry.hu.clear();
-    return extractSliceGroup(geometry, this->Group);
+    return extractSliceGroup(geometryOnly(series), this->Group);
   }
   if (!series.uniform()) {
     std::string groups;
@@ -203,9 +215,7 @@ echoreg::segmentation::CtImage vtkEchoregDicomSeriesReader::OutputGeometry(
     throw echoreg::FileError(series.folder, "has slices of several spacings (" + groups +
                                                 "): turn ResampleToUniform on or choose one Group");
   }
-  CtImage geometry = series;
-  geometry.hu.clear();
-  return geometry;
+  return geometryOnly(series);
 }
 
 int vtkEchoregDicomSeriesReader::RequestInformation(vtkInformation* /*request*/,
