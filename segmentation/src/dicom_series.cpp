@@ -467,7 +467,10 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
       } else if ((*frames)[0] != 1.0) {
         multiFrame.push_back(h.name + " (" + h.frames + " frames)");
       }
-      if (h.samplesPerPixel != 1) colour.push_back(h.name);
+      if (h.samplesPerPixel != 1 ||
+          (!h.photometric.empty() && h.photometric != "MONOCHROME2" && h.photometric != "MONOCHROME1")) {
+        colour.push_back(h.name + (h.photometric.empty() ? "" : " (" + h.photometric + ")"));
+      }
       if (!h.position) noPosition.push_back(h.name);
       if (!h.orientation) noOrientation.push_back(h.name);
       if (!h.pixelSpacing) noSpacing.push_back(h.name);
@@ -480,7 +483,10 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
     if (!multiFrame.empty()) {
       fail("multi-frame images are not supported (export the series as one file per slice): " + nameList(multiFrame));
     }
-    if (!colour.empty()) fail("colour images (SamplesPerPixel > 1) are not CT slices: " + nameList(colour));
+    if (!colour.empty()) {
+      fail("colour or palette images (not MONOCHROME1/2 with one sample per pixel) are not CT slices: " +
+           nameList(colour));
+    }
     if (!badBits.empty()) {
       fail("unsupported pixel layout (BitsAllocated/BitsStored/HighBit): " + nameList(badBits));
     }

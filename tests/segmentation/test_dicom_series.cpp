@@ -224,6 +224,35 @@ TEST_F(DicomSeriesRefusal, EachSliceUsesItsOwnRescale) {
   }
 }
 
+TEST_F(DicomSeriesRefusal, SignedStoredValuesAreSignExtended) {
+  // The same 12 stored bits read as signed: stored values from 2048 up are negative.
+  for (int k = 0; k < 6; ++k) {
+    gdcm::Attribute<0x0028, 0x0103> representation;
+    representation.SetValue(1);
+    editElement(path(k), representation.GetAsDataElement());
+  }
+  const CtImage image = readDicomSeries(folder_);
+  int negative = 0;
+  for (int k = 0; k < 6; ++k) {
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 4; ++i) {
+        const int stored = pattern(i, j, k) + 1024;
+        const int expected = (stored >= 2048 ? stored - 4096 : stored) - 1024;
+        negative += stored >= 2048 ? 1 : 0;
+        EXPECT_EQ(image.at(i, j, k), expected) << i << " " << j << " " << k;
+      }
+    }
+  }
+  EXPECT_GT(negative, 10);
+}
+
+TEST_F(DicomSeriesRefusal, PaletteImages) {
+  editString(path(1), 0x0028, 0x0004, gdcm::VR::CS, "PALETTE COLOR");
+  const std::string message = refusal(folder_);
+  EXPECT_CONTAINS(message, "palette");
+  EXPECT_CONTAINS(message, fileName(1) + " (PALETTE COLOR)");
+}
+
 TEST_F(DicomSeriesRefusal, MissingSlice) {
   fs::remove(path(3));
   const std::string message = refusal(folder_);
