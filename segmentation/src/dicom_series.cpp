@@ -739,37 +739,49 @@ bool hostIsLittleEndian() {
 
 /// Native little-endian pixel data (implicit or explicit VR) whose value offset the header scan
 /// found: read straight from the file into the thread's buffer, without GDCM parsing the file
-/// again and allocating the pixel data. True when done; false when this path does not apply.
+/// again and allocating the pixel data. The 12 bytes before the value are read too and must be
+/// the pixel data element's header (tag, VR OB/OW in explicit VR, a length covering the pixels);
+/// otherwise (an offset the scan got wrong, e.g. after a nested icon image) GDCM reads the file.
+/// True when done; false when this path does not apply.
 bool readNativeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out, Scratch& scratch) {
-  if (h.pixelDataOffset == 0 || !hostIsLittleEndian() ||
+  constexpr std::size_t kHeader = 12;
+  if (h.pixelDataOffset < kHeader || !hostIsLittleEndian() ||
       (h.transferSyntax != "1.2.840.10008.1.2" && h.transferSyntax != "1.2.840.10008.1.2.1")) {
     return false;
   }
+  const bool explicitVr = h.transferSyntax == "1.2.840.10008.1.2.1";
   const Scratch::Key key{h.bitsAllocated, h.bitsStored, h.highBit, h.pixelRepresentation, h.slope, h.intercept};
   const std::size_t pixels = static_cast<std::size_t>(h.rows) * static_cast<std::size_t>(h.columns);
   const std::size_t bytes = pixels * static_cast<std::size_t>(key.bitsAllocated / 8);
-  if (h.fileSize > 0 && h.pixelDataOffset + bytes > h.fileSize) {
-    throw FileError(folder, fmt::format("{}: truncated pixel data: the file ends {} bytes short of the {} x {} "
-                                        "pixels of {} bits",
-                                        h.name, h.pixelDataOffset + bytes - h.fileSize, h.columns, h.rows,
-                                        key.bitsAllocated));
-  }
   const int fd = ::open(h.path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0) throw FileError(folder, h.name + ": cannot be opened: " + std::strerror(errno));
-  scratch.buffer.resize(bytes);
+  scratch.buffer.resize(kHeader + bytes);
   std::size_t done = 0;
-  while (done < bytes) {
-    const ssize_t n = ::pread(fd, scratch.buffer.data() + done, bytes - done,
-                              static_cast<off_t>(h.pixelDataOffset + done));
+  while (done < kHeader + bytes) {
+    const ssize_t n = ::pread(fd, scratch.buffer.data() + done, kHeader + bytes - done,
+                              static_cast<off_t>(h.pixelDataOffset - kHeader + done));
     if (n < 0 && errno == EINTR) continue;
     if (n <= 0) break;
     done += static_cast<std::size_t>(n);
   }
   ::close(fd);
-  if (done != bytes) {
-    throw FileError(folder, fmt::format("{}: truncated pixel data: {} of {} bytes could be read", h.name, done, bytes));
+  const char* head = scratch.buffer.data();
+  const char tag[4] = {'\xe0', '\x7f', '\x10', '\x00'};
+  std::uint32_t length = 0;
+  std::memcpy(&length, head + 8, 4);
+  const bool headerFound =
+      done >= kHeader &&
+      (explicitVr ? std::memcmp(head, tag, 4) == 0 && (std::memcmp(head + 4, "OW", 2) == 0 ||
+                                                       std::memcmp(head + 4, "OB", 2) == 0)
+                  : std::memcmp(head + 4, tag, 4) == 0) &&
+      length != 0xffffffffu;
+  if (!headerFound) return false;
+  if (done != kHeader + bytes || length < bytes) {
+    throw FileError(folder, fmt::format("{}: truncated pixel data: {} bytes where {} x {} pixels of {} bits need {}",
+                                        h.name, std::min<std::size_t>(done - kHeader, length), h.columns, h.rows,
+                                        key.bitsAllocated, bytes));
   }
-  convert(scratch.buffer.data(), pixels, key, scratch, out);
+  convert(head + kHeader, pixels, key, scratch, out);
   return true;
 }
 
