@@ -194,11 +194,17 @@ TEST(LiveWire, OptimalOnRandomImagesAgainstAPlainDijkstra) {
         }
       }
     }
-    // The quantised link costs are the local costs rounded.
-    const Eigen::Vector2i q = anchor.x() + 1 < w ? Eigen::Vector2i(anchor.x() + 1, anchor.y())
-                                                 : Eigen::Vector2i(anchor.x() - 1, anchor.y());
-    EXPECT_NEAR(wire.pathCost({anchor, q}).cost, wire.localCost(anchor, q),
-                0.5 / options.costResolution + 1e-12);
+    // Every precomputed link cost is the local cost rounded to the quantum.
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int n = 0; n < 9; ++n) {
+          const Eigen::Vector2i p(x, y);
+          const Eigen::Vector2i q = p + Eigen::Vector2i(n % 3 - 1, n / 3 - 1);
+          if (q == p || !wire.contains(q)) continue;
+          ASSERT_EQ(wire.pathCost({p, q}).quantised,
+                    static_cast<std::uint64_t>(wire.localCost(p, q) * options.costResolution + 0.5))
+              << "seed " << seed << " link " << x << "," << y << " -> " << q.transpose();
+        }
   }
 }
 
