@@ -166,20 +166,43 @@ void printAgreement() {
 #ifndef ECHOREG_HAVE_OPENCV
   std::printf("agreement: built without OpenCV (scripts/install-deps --bench); skipped\n\n");
 #else
-  cv::segmentation::IntelligentScissorsMB scissors;
-  scissors.applyImage(openCvImage(*s));
+  cv::segmentation::IntelligentScissorsMB own;
+  own.applyImage(openCvImage(*s));
   struct Variant {
     const char* name;
     LiveWireOptions options;
+    bool sameFeatures;  // OpenCV given echoreg's feature maps, its fD weight matched
   };
-  const Variant variants[] = {{"echoreg default (Gaussian sigma 1 px)", LiveWireOptions{}},
-                              {"echoreg OpenCV-like (no smoothing)", openCvLike()}};
+  const Variant variants[] = {{"echoreg default (Gaussian sigma 1 px)", LiveWireOptions{}, false},
+                              {"echoreg OpenCV-like (no smoothing)", openCvLike(), false},
+                              {"OpenCV given echoreg's features", LiveWireOptions{}, true}};
   std::printf("agreement on %d anchor/target pairs, slice 1-124.dcm (%d x %d, %.3f mm pixels)\n", kPairs,
               s->width, s->height, s->spacingMm.x());
   std::printf("%-40s %10s %10s %12s %12s %10s %10s\n", "variant", "dist px", "dist mm", "cost echoreg",
               "cost OpenCV", "OpenCV/ech", "identical");
   for (const Variant& v : variants) {
     LiveWire wire(s->windowedFloat, s->width, s->height, s->spacingMm, v.options);
+    cv::segmentation::IntelligentScissorsMB fed;
+    if (v.sameFeatures) {
+      // echoreg's fD is 2/(3 pi) (acos + acos), OpenCV's (acos + acos) / pi: weight 2/3 of it.
+      fed.setWeights(static_cast<float>(v.options.weightZeroCrossing),
+                     static_cast<float>(v.options.weightDirection * 2.0 / 3.0),
+                     static_cast<float>(v.options.weightMagnitude));
+      const auto& f = wire.features();
+      cv::Mat nonEdge(s->height, s->width, CV_8UC1);
+      cv::Mat direction(s->height, s->width, CV_32FC2);
+      cv::Mat magnitude(s->height, s->width, CV_32FC1);
+      for (int y = 0; y < s->height; ++y) {
+        for (int x = 0; x < s->width; ++x) {
+          const std::size_t i = static_cast<std::size_t>(y * s->width + x);
+          nonEdge.at<std::uint8_t>(y, x) = f.zeroCrossing[i] > 0.5f ? 1 : 0;
+          direction.at<cv::Point2f>(y, x) = cv::Point2f(f.gradientDirection[i].x(), f.gradientDirection[i].y());
+          magnitude.at<float>(y, x) = f.magnitudeCost[i];
+        }
+      }
+      fed.applyImageFeatures(nonEdge, direction, magnitude);
+    }
+    cv::segmentation::IntelligentScissorsMB& scissors = v.sameFeatures ? fed : own;
     double distance = 0.0;
     double ours = 0.0;
     double theirs = 0.0;

@@ -64,8 +64,11 @@ double linkCost(const LiveWireFeatures& f, const LiveWireOptions& o, std::size_t
     dp = -dp;
     dq = -dq;
   }
-  const double fD = (2.0 / (3.0 * kPi)) * (fastAcos(dp) + fastAcos(dq));
-  return o.weightZeroCrossing * f.zeroCrossing[q] + o.weightDirection * fD +
+  // acos(|y|) rounded to float as the link table keeps it; acos(-|y|) = pi - acos(|y|).
+  const double ap = static_cast<float>(fastAcos(dp));
+  const double aq = static_cast<float>(fastAcos(std::abs(dq)));
+  const double fD = ap + (dq >= 0.0 ? aq : kPi - aq);
+  return o.weightZeroCrossing * f.zeroCrossing[q] + o.weightDirection * (2.0 / (3.0 * kPi)) * fD +
          o.weightMagnitude * f.magnitudeCost[q] * g.lengthRatio;
 }
 
@@ -113,14 +116,21 @@ std::vector<float> smooth(const std::vector<float>& image, int width, int height
   for (int y = 0; y < height; ++y) {
     const float* row = image.data() + toIndex(0, y, width);
     float* dst = tmp.data() + toIndex(0, y, width);
-    for (int x = 0; x < width; ++x) {
-      float s = 0.0f;
-      for (int i = -rx; i <= rx; ++i) {
-        const int xi = std::clamp(x + i, 0, width - 1);
-        s += kx[static_cast<std::size_t>(i + rx)] * row[xi];
-      }
-      dst[x] = s;
+    const auto clamped = [&](int x) {
+      float sum = 0.0f;
+      for (int i = -rx; i <= rx; ++i)
+        sum += kx[static_cast<std::size_t>(i + rx)] * row[std::clamp(x + i, 0, width - 1)];
+      return sum;
+    };
+    const int interiorEnd = std::max(rx, width - rx);
+    for (int x = 0; x < std::min(rx, width); ++x) dst[x] = clamped(x);
+    for (int x = rx; x < interiorEnd; ++x) {
+      float sum = 0.0f;
+      const float* src = row + x - rx;
+      for (int i = 0; i <= 2 * rx; ++i) sum += kx[static_cast<std::size_t>(i)] * src[i];
+      dst[x] = sum;
     }
+    for (int x = std::max(interiorEnd, std::min(rx, width)); x < width; ++x) dst[x] = clamped(x);
   }
   for (int y = 0; y < height; ++y) {
     float* dst = out.data() + toIndex(0, y, width);
@@ -203,19 +213,26 @@ LiveWire::LiveWire(const std::vector<float>& image, int width, int height,
   for (int y = 0; y < height; ++y) {
     const int y0 = std::max(0, y - 1);
     const int y1 = std::min(height - 1, y + 1);
+    const float invY = static_cast<float>(1.0 / ((y1 - y0) * sy));
+    const float* above = g.data() + toIndex(0, y0, width);
+    const float* row = g.data() + toIndex(0, y, width);
+    const float* below = g.data() + toIndex(0, y1, width);
+    float* magnitude = features_.gradientMagnitude.data() + toIndex(0, y, width);
+    Eigen::Vector2f* direction = features_.gradientDirection.data() + toIndex(0, y, width);
+    const float invInterior = static_cast<float>(1.0 / (2.0 * sx));
+    const float invBorder = static_cast<float>(1.0 / sx);
     for (int x = 0; x < width; ++x) {
       const int x0 = std::max(0, x - 1);
       const int x1 = std::min(width - 1, x + 1);
-      const double gx = (static_cast<double>(g[toIndex(x1, y, width)]) - g[toIndex(x0, y, width)]) /
-                        (static_cast<double>(x1 - x0) * sx);
-      const double gy = (static_cast<double>(g[toIndex(x, y1, width)]) - g[toIndex(x, y0, width)]) /
-                        (static_cast<double>(y1 - y0) * sy);
-      const double m = std::sqrt(gx * gx + gy * gy);
-      const std::size_t i = toIndex(x, y, width);
-      features_.gradientMagnitude[i] = static_cast<float>(m);
-      if (m > 0.0)
-        features_.gradientDirection[i] = Eigen::Vector2f(static_cast<float>(gx / m), static_cast<float>(gy / m));
-      maxG = std::max(maxG, m);
+      const float gx = (row[x1] - row[x0]) * (x1 - x0 == 2 ? invInterior : invBorder);
+      const float gy = (below[x] - above[x]) * invY;
+      const float m = std::sqrt(gx * gx + gy * gy);
+      magnitude[x] = m;
+      if (m > 0.0f) {
+        const float inv = 1.0f / m;
+        direction[x] = Eigen::Vector2f(gx * inv, gy * inv);
+      }
+      maxG = std::max(maxG, static_cast<double>(m));
     }
   }
   const double cap = options.gradientMagnitudeCap > 0.0 ? options.gradientMagnitudeCap : maxG;
@@ -284,24 +301,32 @@ LiveWire::LiveWire(const std::vector<float>& image, int width, int height,
   constexpr std::size_t kUndirected[4] = {4, 6, 7, 5};
   constexpr int kDirectionOf[8] = {2, 1, 3, 0, 0, 3, 1, 2};
   constexpr int kSigmaOf[8] = {-1, -1, -1, -1, 1, 1, 1, 1};
-  std::vector<double> acosAbs(4 * count);
-  std::vector<signed char> sign(4 * count);
-  for (std::size_t p = 0; p < count; ++p) {
-    const Eigen::Vector2f& gp = features_.gradientDirection[p];
-    for (std::size_t d = 0; d < 4; ++d) {
-      const LinkGeometry& u = geometry[kUndirected[d]];
-      const double y = static_cast<double>(gp.y()) * u.ux - static_cast<double>(gp.x()) * u.uy;
-      acosAbs[4 * p + d] = fastAcos(std::abs(y));
-      sign[4 * p + d] = static_cast<signed char>(y > 0.0 ? 1 : y < 0.0 ? -1 : 0);
+  // acos(|y|) and the sign of y for three rows at a time (a ring: row r in slot r % 3).
+  const std::size_t w = static_cast<std::size_t>(width);
+  std::vector<float> acosAbs(3 * 4 * w);
+  std::vector<signed char> sign(3 * 4 * w);
+  const auto prepareRow = [&](int row) {
+    const std::size_t base = static_cast<std::size_t>(row % 3) * 4 * w;
+    const Eigen::Vector2f* gradient = features_.gradientDirection.data() + toIndex(0, row, width);
+    for (std::size_t x = 0; x < w; ++x) {
+      for (std::size_t d = 0; d < 4; ++d) {
+        const LinkGeometry& u = geometry[kUndirected[d]];
+        const double y = static_cast<double>(gradient[x].y()) * u.ux - static_cast<double>(gradient[x].x()) * u.uy;
+        acosAbs[base + 4 * x + d] = static_cast<float>(fastAcos(std::abs(y)));
+        sign[base + 4 * x + d] = static_cast<signed char>(y > 0.0 ? 1 : y < 0.0 ? -1 : 0);
+      }
     }
-  }
+  };
   const double wZ = options.weightZeroCrossing;
   const double wD = options.weightDirection * (2.0 / (3.0 * kPi));
   const double wG = options.weightMagnitude;
   std::uint32_t maxLink = 1;
+  prepareRow(0);
   for (int y = 0; y < height; ++y) {
+    if (y + 1 < height) prepareRow(y + 1);
     for (int x = 0; x < width; ++x) {
       const std::size_t p = toIndex(x, y, width);
+      const std::size_t pr = static_cast<std::size_t>(y % 3) * 4 * w + 4 * static_cast<std::size_t>(x);
       std::uint16_t* out = links_.data() + 8 * p;
       const bool interior = x > 0 && y > 0 && x + 1 < width && y + 1 < height;
       for (std::size_t n = 0; n < 8; ++n) {
@@ -309,11 +334,12 @@ LiveWire::LiveWire(const std::vector<float>& image, int width, int height,
         const int qy = y + kDy[n];
         if (!interior && (qx < 0 || qy < 0 || qx >= width || qy >= height)) continue;
         const std::size_t q = toIndex(qx, qy, width);
+        const std::size_t qr = static_cast<std::size_t>(qy % 3) * 4 * w + 4 * static_cast<std::size_t>(qx);
         const std::size_t d = static_cast<std::size_t>(kDirectionOf[n]);
-        const int sp = sign[4 * p + d];
-        const int orientation = (sp != 0 ? sp : kSigmaOf[n]) * sign[4 * q + d];
-        const double aq = acosAbs[4 * q + d];
-        const double fD = acosAbs[4 * p + d] + (orientation >= 0 ? aq : kPi - aq);
+        const int sp = sign[pr + d];
+        const int orientation = (sp != 0 ? sp : kSigmaOf[n]) * sign[qr + d];
+        const double aq = acosAbs[qr + d];
+        const double fD = static_cast<double>(acosAbs[pr + d]) + (orientation >= 0 ? aq : kPi - aq);
         const double c = wZ * features_.zeroCrossing[q] + wD * fD +
                          wG * features_.magnitudeCost[q] * geometry[n].lengthRatio;
         const auto quantised = static_cast<std::uint32_t>(c * resolution + 0.5);
