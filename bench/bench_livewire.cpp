@@ -13,7 +13,8 @@
 //   opencv_BuildMap      IntelligentScissorsMB::buildMap from the same anchor
 // Agreement, printed before the timings: for 40 anchor/target pairs on the bone boundary
 // (pixels >= 300 HU with a neighbour below, drawn with Rng(2008), 15-60 pixels apart), the mean
-// distance between echoreg's and OpenCV's paths and each path's cost under echoreg's cost.
+// distance between echoreg's and OpenCV's paths, each path's cost under echoreg's cost, and the
+// share of each path's pixels on the 300 HU boundary.
 //
 //   bench_livewire [--no-agreement] [--benchmark_filter=BuildMap]
 
@@ -143,6 +144,24 @@ double meanDistance(const std::vector<Pixel>& a, const std::vector<Pixel>& b) {
   return 0.5 * (oneWay(a, b) + oneWay(b, a));
 }
 
+// Share of a path's pixels whose 3 x 3 neighbourhood holds pixels on both sides of 300 HU (the
+// bone boundary the anchors were drawn on).
+double shareOnBoundary(const Slice& s, const std::vector<Pixel>& path) {
+  int on = 0;
+  for (const auto& p : path) {
+    bool above = false;
+    bool below = false;
+    for (int dy = -1; dy <= 1; ++dy)
+      for (int dx = -1; dx <= 1; ++dx) {
+        const int x = std::clamp(p.x() + dx, 0, s.width - 1);
+        const int y = std::clamp(p.y() + dy, 0, s.height - 1);
+        (s.hu[static_cast<std::size_t>(y * s.width + x)] >= 300.0f ? above : below) = true;
+      }
+    if (above && below) ++on;
+  }
+  return static_cast<double>(on) / static_cast<double>(path.size());
+}
+
 #ifdef ECHOREG_HAVE_OPENCV
 cv::Mat openCvImage(const Slice& s) {
   return cv::Mat(s.height, s.width, CV_8UC1, const_cast<std::uint8_t*>(s.windowed.data())).clone();
@@ -178,8 +197,8 @@ void printAgreement() {
                               {"OpenCV given echoreg's features", LiveWireOptions{}, true}};
   std::printf("agreement on %d anchor/target pairs, slice 1-124.dcm (%d x %d, %.3f mm pixels)\n", kPairs,
               s->width, s->height, s->spacingMm.x());
-  std::printf("%-40s %10s %10s %12s %12s %10s %10s\n", "variant", "dist px", "dist mm", "cost echoreg",
-              "cost OpenCV", "OpenCV/ech", "identical");
+  std::printf("%-40s %8s %8s %12s %12s %10s %9s %8s %8s\n", "variant", "dist px", "dist mm",
+              "cost echoreg", "cost OpenCV", "OpenCV/ech", "identical", "edge ech", "edge OCV");
   for (const Variant& v : variants) {
     LiveWire wire(s->windowedFloat, s->width, s->height, s->spacingMm, v.options);
     cv::segmentation::IntelligentScissorsMB fed;
@@ -208,6 +227,8 @@ void printAgreement() {
     double theirs = 0.0;
     double ratio = 0.0;
     int identical = 0;
+    double edgeOurs = 0.0;
+    double edgeTheirs = 0.0;
     for (const auto& [anchor, target] : s->pairs) {
       scissors.buildMap(cv::Point(anchor.x(), anchor.y()));
       const std::vector<Pixel> cvPath = openCvPath(scissors, target);
@@ -220,13 +241,16 @@ void printAgreement() {
       theirs += b;
       ratio += b / a;
       if (path == cvPath) ++identical;
+      edgeOurs += shareOnBoundary(*s, path);
+      edgeTheirs += shareOnBoundary(*s, cvPath);
     }
-    std::printf("%-40s %10.3f %10.3f %12.3f %12.3f %10.4f %7d/%d\n", v.name, distance / kPairs,
+    std::printf("%-40s %8.3f %8.3f %12.3f %12.3f %10.4f %6d/%d %8.3f %8.3f\n", v.name, distance / kPairs,
                 distance / kPairs * s->spacingMm.x(), ours / kPairs, theirs / kPairs, ratio / kPairs,
-                identical, kPairs);
+                identical, kPairs, edgeOurs / kPairs, edgeTheirs / kPairs);
   }
   std::printf("(dist: mean of the two paths' mean nearest-point distances; costs: mean per path under\n"
-              " echoreg's cost of the variant; OpenCV/ech: mean ratio of the two, >= 1 as echoreg's is optimal)\n\n");
+              " echoreg's cost of the variant; OpenCV/ech: mean ratio of the two, >= 1 as echoreg's is optimal;\n"
+              " edge: mean share of path pixels whose 3 x 3 neighbourhood straddles 300 HU)\n\n");
 #endif
 }
 
