@@ -159,7 +159,7 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
   sphere->SetPhiResolution(12);
 
   OffscreenWindow window(size.width, size.height);
-  const double legendHeight = 0.16;
+  const double legendHeight = std::clamp(110.0 / size.height, 0.08, 0.25);
   const double titleHeight = figure.title.empty() ? 0.0 : 0.08;
   const int panels = static_cast<int>(figure.views.size());
   for (int v = 0; v < panels; ++v) {
@@ -221,7 +221,18 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
   footer->SetBackground(1, 1, 1);
   const int fontSize = std::max(11, std::min(size.height / 30, size.width / 60));
   const double footerPx = size.height * legendHeight;
-  double x = 20.0;
+  // One row when the bands fit side by side, else one row per band.
+  const std::size_t entries = figure.bands.size() + 1;
+  const bool oneRow = size.width / static_cast<double>(entries) >= 13.0 * fontSize;
+  const double step = oneRow ? std::min(15.0 * fontSize, (size.width - 40.0) / static_cast<double>(entries))
+                             : 0.0;
+  const double rowHeight = oneRow ? 0.0 : (footerPx - 8.0) / static_cast<double>(entries);
+  auto place = [&](std::size_t entry, double dx) {
+    const double px = 20.0 + (oneRow ? step * static_cast<double>(entry) : 0.0) + dx;
+    const double py = oneRow ? 0.35 * footerPx
+                             : footerPx - 4.0 - rowHeight * static_cast<double>(entry + 1);
+    return std::array<double, 2>{px, py};
+  };
   for (std::size_t b = 0; b < figure.bands.size(); ++b) {
     vtkNew<vtkTextActor> swatch;
     swatch->SetInput("  ");
@@ -229,7 +240,8 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
                                                   figure.bands[b].rgb[2]);
     swatch->GetTextProperty()->SetBackgroundOpacity(1.0);
     swatch->GetTextProperty()->SetFontSize(fontSize);
-    swatch->SetPosition(x, 0.35 * footerPx);
+    const auto at = place(b, 0.0);
+    swatch->SetPosition(at[0], at[1]);
     footer->AddViewProp(swatch);
     vtkNew<vtkTextActor> text;
     text->SetInput(fmt::format("{}: {} point{}", figure.bands[b].label, perBand[b],
@@ -237,16 +249,17 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
     text->GetTextProperty()->SetFontSize(fontSize);
     text->GetTextProperty()->SetColor(0.1, 0.1, 0.1);
     text->GetTextProperty()->SetFontFamilyToArial();
-    text->SetPosition(x + 2.2 * fontSize, 0.35 * footerPx);
+    const auto textAt = place(b, 2.2 * fontSize);
+    text->SetPosition(textAt[0], textAt[1]);
     footer->AddViewProp(text);
-    x += std::min(14.0 * fontSize, (size.width - 40.0) / static_cast<double>(figure.bands.size() + 1));
   }
   vtkNew<vtkTextActor> valueName;
   valueName->SetInput(fmt::format("colour: {}", figure.valueName).c_str());
   valueName->GetTextProperty()->SetFontSize(fontSize);
   valueName->GetTextProperty()->SetColor(0.3, 0.3, 0.3);
   valueName->GetTextProperty()->SetFontFamilyToArial();
-  valueName->SetPosition(x, 0.35 * footerPx);
+  const auto nameAt = place(figure.bands.size(), 0.0);
+  valueName->SetPosition(nameAt[0], nameAt[1]);
   footer->AddViewProp(valueName);
   if (!figure.title.empty()) {
     vtkRenderer* header = window.addRenderer(0.0, 1.0 - titleHeight, 1.0, 1.0);
