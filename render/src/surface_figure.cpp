@@ -115,21 +115,41 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
     }
   }
 
-  // Bounds of everything drawn, for the cameras.
+  // The surface drawn: all of it, or the part near the points.
+  core::TriangleMesh shown = figure.surface;
   Eigen::Vector3d lo = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector3d hi = -lo;
-  for (const auto& v : figure.surface.vertices) { lo = lo.cwiseMin(v); hi = hi.cwiseMax(v); }
   for (const auto& p : figure.points) {
     lo = lo.cwiseMin(p - Eigen::Vector3d::Constant(figure.pointRadiusMm));
     hi = hi.cwiseMax(p + Eigen::Vector3d::Constant(figure.pointRadiusMm));
+  }
+  if (figure.cropMarginMm > 0.0 && !figure.points.empty()) {
+    const Eigen::Vector3d boxLo = lo - Eigen::Vector3d::Constant(figure.cropMarginMm);
+    const Eigen::Vector3d boxHi = hi + Eigen::Vector3d::Constant(figure.cropMarginMm);
+    shown.triangles.clear();
+    for (const auto& t : figure.surface.triangles) {
+      bool inside = true;
+      for (int c = 0; c < 3 && inside; ++c) {
+        const Eigen::Vector3d& v = figure.surface.vertices[static_cast<std::size_t>(t[static_cast<std::size_t>(c)])];
+        inside = (v.array() >= boxLo.array()).all() && (v.array() <= boxHi.array()).all();
+      }
+      if (inside) shown.triangles.push_back(t);
+    }
+  }
+  for (const auto& t : shown.triangles) {
+    for (int c = 0; c < 3; ++c) {
+      const Eigen::Vector3d& v = shown.vertices[static_cast<std::size_t>(t[static_cast<std::size_t>(c)])];
+      lo = lo.cwiseMin(v);
+      hi = hi.cwiseMax(v);
+    }
   }
   const Eigen::Vector3d centre = 0.5 * (lo + hi);
   const Eigen::Vector3d extent = (hi - lo).cwiseMax(1.0);
 
   vtkSmartPointer<vtkPolyData> surface;
   vtkNew<vtkPolyDataNormals> normals;
-  if (!figure.surface.triangles.empty()) {
-    surface = toPolyData(figure.surface);
+  if (!shown.triangles.empty()) {
+    surface = toPolyData(shown);
     normals->SetInputData(surface);
     normals->SetFeatureAngle(60.0);
     normals->SplittingOff();
@@ -208,7 +228,9 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
     renderer->ResetCameraClippingRange();
 
     vtkNew<vtkTextActor> label;
-    label->SetInput(viewName(figure.views[static_cast<std::size_t>(v)]));
+    label->SetInput(static_cast<std::size_t>(v) < figure.viewLabels.size()
+                        ? figure.viewLabels[static_cast<std::size_t>(v)].c_str()
+                        : viewName(figure.views[static_cast<std::size_t>(v)]));
     label->GetTextProperty()->SetFontSize(std::max(12, size.height / 32));
     label->GetTextProperty()->SetColor(0.1, 0.1, 0.1);
     label->GetTextProperty()->SetFontFamilyToArial();

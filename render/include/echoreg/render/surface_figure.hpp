@@ -47,6 +47,12 @@ struct SurfaceFigure {
   std::vector<View> views{View::Coronal, View::Sagittal, View::Transverse};
   std::string title;
   std::string valueName = "distance to surface";
+  /// Labels of the views (default: viewName of each), e.g. for a figure in the tracker's frame.
+  std::vector<std::string> viewLabels;
+  /// When > 0 and there are points: show only the surface within this margin of the points'
+  /// bounding box (the distal femur around its points rather than the whole bone, which would
+  /// also hide the knee behind the hip in the transverse view), and frame the views on it.
+  double cropMarginMm = 0.0;
 };
 
 struct FigureSize {
