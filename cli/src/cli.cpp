@@ -29,6 +29,7 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   actions["calibrate"] = addCalibrateCommand(app);
   actions["pivot"] = addPivotCommand(app);
   actions["figure"] = addFigureCommand(app);
+  actions["study"] = addStudyCommand(app);
 
   std::vector<std::string> reversed(args.rbegin(), args.rend());
   try {

@@ -24,5 +24,6 @@ CommandAction addSimulateCommand(CLI::App& app);
 CommandAction addCalibrateCommand(CLI::App& app);
 CommandAction addPivotCommand(CLI::App& app);
 CommandAction addFigureCommand(CLI::App& app);
+CommandAction addStudyCommand(CLI::App& app);
 
 }  // namespace echoreg::cli
