@@ -103,6 +103,11 @@ OffscreenWindow::OffscreenWindow(int width, int height) : impl_(std::make_unique
   impl_->window->SetReadyForRendering(true);
   impl_->window->SetMultiSamples(0);
   impl_->window->SetForceMaximumHardwareLineWidth(1.0f);
+  // A white background under every panel, so that parts no renderer covers are not black.
+  vtkNew<vtkRenderer> background;
+  background->SetBackground(1, 1, 1);
+  background->SetViewport(0, 0, 1, 1);
+  impl_->window->AddRenderer(background);
   vtkNew<vtkCallbackCommand> isCurrent;
   isCurrent->SetCallback(markCurrent);
   impl_->window->AddObserver(vtkCommand::WindowIsCurrentEvent, isCurrent);
