@@ -28,6 +28,8 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   actions["simulate"] = addSimulateCommand(app);
   actions["calibrate"] = addCalibrateCommand(app);
   actions["pivot"] = addPivotCommand(app);
+  actions["figure"] = addFigureCommand(app);
+  actions["study"] = addStudyCommand(app);
 
   std::vector<std::string> reversed(args.rbegin(), args.rend());
   try {

@@ -154,8 +154,14 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   nlohmann::json perShot = nlohmann::json::array();
   for (std::size_t i = 0; i < shots.size(); ++i) {
     outliers += result.used[i] ? 0 : 1;
+    // The echo mapped with the calibration (and the fitted speed): the point the figure draws.
+    const Eigen::Vector3d point =
+        shots[i].probeToTracker * (result.beamToProbe *
+                                   Eigen::Vector3d(0, 0, shots[i].depthMm * result.speedOfSoundMps /
+                                                             options.assumedSpeedOfSoundMps));
     perShot.push_back({{"frame", shotFrames[i]},
                        {"depth_mm", shots[i].depthMm},
+                       {"point_mm", vec(point)},
                        {"residual_mm", result.residualsMm[i]},
                        {"used", static_cast<bool>(result.used[i])}});
   }
@@ -181,6 +187,7 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
                {"sphere_fit_rms_mm", sphere.rmsMm},
                {"sphere_points_used", sphere.inliers},
                {"speed_of_sound_mps", result.speedOfSoundMps},
+               {"assumed_speed_of_sound_mps", options.assumedSpeedOfSoundMps},
                {"mode", o.mode},
                {"parameters", parameters},
                {"iterations", result.iterations},

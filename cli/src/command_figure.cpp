@@ -1,0 +1,546 @@
+// `echoreg figure registration|calibration|signals|boxplot ... --out FIG.png`: the publication
+// figures, rendered off-screen (render/, OSMesa: no X server needed).
+#include "commands.hpp"
+
+#include "echoreg/core/error.hpp"
+#include "echoreg/core/mesh.hpp"
+#include "echoreg/core/mesh_locator.hpp"
+#include "echoreg/core/sequence.hpp"
+#include "echoreg/core/sequence_detection.hpp"
+#include "echoreg/core/statistics.hpp"
+#include "echoreg/core/transform_file.hpp"
+#include "echoreg/filters/MeshIO.h"
+#include "echoreg/render/plot_figure.hpp"
+#include "echoreg/render/surface_figure.hpp"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <memory>
+#include <sstream>
+
+namespace echoreg::cli {
+
+namespace {
+
+std::vector<std::string> splitCsvLine(const std::string& line) {
+  std::vector<std::string> cells;
+  std::string cell;
+  std::istringstream in(line);
+  while (std::getline(in, cell, ',')) {
+    while (!cell.empty() && (cell.back() == '\r' || cell.back() == ' ')) cell.pop_back();
+    cells.push_back(cell);
+  }
+  if (!line.empty() && line.back() == ',') cells.emplace_back();
+  return cells;
+}
+
+/// A CSV table of named columns (header row first).
+struct CsvTable {
+  std::vector<std::string> header;
+  std::vector<std::vector<std::string>> rows;
+  int column(const std::string& name) const {
+    for (std::size_t i = 0; i < header.size(); ++i) {
+      if (header[i] == name) return static_cast<int>(i);
+    }
+    return -1;
+  }
+};
+
+CsvTable readCsv(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw FileError(path, "cannot open the CSV file");
+  CsvTable table;
+  std::string line;
+  if (!std::getline(in, line)) throw FileError(path, "is empty (no header row)");
+  table.header = splitCsvLine(line);
+  int lineNumber = 1;
+  while (std::getline(in, line)) {
+    ++lineNumber;
+    if (line.empty() || line == "\r") continue;
+    auto cells = splitCsvLine(line);
+    if (cells.size() != table.header.size()) {
+      throw FileError(path, fmt::format("line {} has {} cells, the header {}", lineNumber,
+                                        cells.size(), table.header.size()));
+    }
+    table.rows.push_back(std::move(cells));
+  }
+  return table;
+}
+
+double parseNumber(const std::string& text, const std::string& path, std::size_t row,
+                   const std::string& column) {
+  std::size_t used = 0;
+  double value = 0.0;
+  try {
+    value = std::stod(text, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != text.size() || !std::isfinite(value)) {
+    throw FileError(path, fmt::format("row {}: {} \"{}\" is not a number", row + 2, column, text));
+  }
+  return value;
+}
+
+/// Points of a CSV with columns x,y,z or x_mm,y_mm,z_mm (`echoreg detect`'s output: rows without
+/// a point are skipped).
+std::vector<Eigen::Vector3d> readPointsCsv(const std::string& path) {
+  const CsvTable table = readCsv(path);
+  std::array<int, 3> columns{table.column("x"), table.column("y"), table.column("z")};
+  if (columns[0] < 0) columns = {table.column("x_mm"), table.column("y_mm"), table.column("z_mm")};
+  if (columns[0] < 0 || columns[1] < 0 || columns[2] < 0) {
+    throw FileError(path, "has no point columns (x,y,z or x_mm,y_mm,z_mm)");
+  }
+  std::vector<Eigen::Vector3d> points;
+  for (std::size_t r = 0; r < table.rows.size(); ++r) {
+    const auto& row = table.rows[r];
+    if (row[static_cast<std::size_t>(columns[0])].empty()) continue;  // a frame without a point
+    Eigen::Vector3d p;
+    for (int a = 0; a < 3; ++a) {
+      p[a] = parseNumber(row[static_cast<std::size_t>(columns[static_cast<std::size_t>(a)])], path, r,
+                         table.header[static_cast<std::size_t>(columns[static_cast<std::size_t>(a)])]);
+    }
+    points.push_back(p);
+  }
+  if (points.empty()) throw FileError(path, "holds no point");
+  return points;
+}
+
+std::vector<render::View> parseViews(const std::vector<std::string>& names) {
+  std::vector<render::View> views;
+  for (const std::string& name : names) {
+    if (name == "coronal") views.push_back(render::View::Coronal);
+    else if (name == "sagittal") views.push_back(render::View::Sagittal);
+    else if (name == "transverse" || name == "axial") views.push_back(render::View::Transverse);
+    else throw std::invalid_argument("unknown view \"" + name + "\" (coronal, sagittal, transverse)");
+  }
+  return views;
+}
+
+core::TriangleMesh uvSphere(const Eigen::Vector3d& centre, double radius) {
+  core::TriangleMesh mesh;
+  const int rings = 36;
+  const int segments = 72;
+  mesh.vertices.push_back(centre + Eigen::Vector3d(0, 0, radius));
+  for (int r = 1; r < rings; ++r) {
+    const double theta = M_PI * r / rings;
+    for (int s = 0; s < segments; ++s) {
+      const double phi = 2.0 * M_PI * s / segments;
+      mesh.vertices.push_back(centre + radius * Eigen::Vector3d(std::sin(theta) * std::cos(phi),
+                                                                std::sin(theta) * std::sin(phi),
+                                                                std::cos(theta)));
+    }
+  }
+  mesh.vertices.push_back(centre - Eigen::Vector3d(0, 0, radius));
+  const int south = static_cast<int>(mesh.vertices.size()) - 1;
+  auto at = [&](int r, int s) { return 1 + (r - 1) * segments + (s % segments); };
+  for (int s = 0; s < segments; ++s) mesh.triangles.push_back({0, at(1, s), at(1, s + 1)});
+  for (int r = 1; r < rings - 1; ++r) {
+    for (int s = 0; s < segments; ++s) {
+      mesh.triangles.push_back({at(r, s), at(r + 1, s), at(r + 1, s + 1)});
+      mesh.triangles.push_back({at(r, s), at(r + 1, s + 1), at(r, s + 1)});
+    }
+  }
+  for (int s = 0; s < segments; ++s) mesh.triangles.push_back({south, at(rings - 1, s + 1), at(rings - 1, s)});
+  return mesh;
+}
+
+struct SurfaceOptions {
+  std::string out;
+  std::string title;
+  double greenBelow = 0.0;
+  double redAbove = 0.0;
+  double pointRadius = 0.0;
+  std::vector<std::string> views{"coronal", "sagittal", "transverse"};
+  int width = 1500;
+  int height = 620;
+  double cropMargin = 0.0;
+  bool json = false;
+};
+
+void addSurfaceOptions(CLI::App* cmd, SurfaceOptions& o, double green, double red, double radius) {
+  o.greenBelow = green;
+  o.redAbove = red;
+  o.pointRadius = radius;
+  cmd->add_option("--out", o.out, "PNG to write (written whole or not at all)")->required();
+  cmd->add_option("--title", o.title, "Title over the figure");
+  cmd->add_option("--green-below", o.greenBelow, "Green below this distance, mm")->capture_default_str();
+  cmd->add_option("--red-above", o.redAbove, "Red above this distance (yellow between), mm")->capture_default_str();
+  cmd->add_option("--point-radius", o.pointRadius, "Radius of the point spheres, mm")->capture_default_str();
+  cmd->add_option("--views", o.views, "Views: coronal, sagittal, transverse (named from the CT axes)")
+      ->delimiter(',')->capture_default_str();
+  cmd->add_option("--width", o.width, "Image width, pixels")->capture_default_str()->check(CLI::Range(200, 8192));
+  cmd->add_option("--height", o.height, "Image height, pixels")->capture_default_str()->check(CLI::Range(200, 8192));
+  cmd->add_flag("--json", o.json, "Print the figure's numbers as JSON");
+}
+
+void addCropOption(CLI::App* cmd, SurfaceOptions& o, double margin) {
+  o.cropMargin = margin;
+  cmd->add_option("--crop-margin", o.cropMargin,
+                  "Show the model only within this margin of the points, mm (0: the whole model)")
+      ->capture_default_str()->check(CLI::NonNegativeNumber);
+}
+
+// Renders, writes, and reports the per-band counts and distance statistics.
+int finishSurfaceFigure(render::SurfaceFigure& figure, const SurfaceOptions& o,
+                        const std::vector<double>& signedValues, const Streams& streams,
+                        const std::string& kind) {
+  figure.bands = render::registrationBands(o.greenBelow, o.redAbove);
+  figure.views = parseViews(o.views);
+  figure.pointRadiusMm = o.pointRadius;
+  figure.title = o.title;
+  figure.cropMarginMm = o.cropMargin;
+  const render::RgbImage image = render::renderSurfaceFigure(figure, {o.width, o.height});
+  render::writePng(o.out, image);
+  std::vector<int> counts(figure.bands.size(), 0);
+  double sumSquares = 0.0;
+  double sumSigned = 0.0;
+  for (std::size_t i = 0; i < figure.valuesMm.size(); ++i) {
+    ++counts[static_cast<std::size_t>(render::bandOf(figure.bands, figure.valuesMm[i]))];
+    sumSquares += figure.valuesMm[i] * figure.valuesMm[i];
+    sumSigned += signedValues[i];
+  }
+  const double n = static_cast<double>(figure.valuesMm.size());
+  nlohmann::json bands = nlohmann::json::array();
+  for (std::size_t b = 0; b < figure.bands.size(); ++b) {
+    bands.push_back({{"label", figure.bands[b].label}, {"points", counts[b]}});
+  }
+  const nlohmann::json summary = {{"figure", kind},
+                                  {"out", o.out},
+                                  {"points", figure.valuesMm.size()},
+                                  {"rms_mm", n > 0 ? std::sqrt(sumSquares / n) : 0.0},
+                                  {"mean_signed_mm", n > 0 ? sumSigned / n : 0.0},
+                                  {"bands", bands}};
+  if (o.json) {
+    streams.out << summary.dump(2) << "\n";
+  } else {
+    streams.out << fmt::format("{} figure: {} points, rms {:.2f} mm; wrote {}\n", kind,
+                               figure.valuesMm.size(), summary["rms_mm"].get<double>(), o.out);
+  }
+  return 0;
+}
+
+// ---------------------------------------------------------------------------------------------
+
+struct RegistrationOptions : SurfaceOptions {
+  std::string model;
+  std::string points;
+  std::string transform;
+};
+
+CommandAction addRegistrationFigure(CLI::App* parent) {
+  auto o = std::make_shared<RegistrationOptions>();
+  CLI::App* cmd = parent->add_subcommand(
+      "registration",
+      "The bone model with the ultrasound points mapped by a registration (Eq. 4.6), as spheres\n"
+      "coloured by their distance to the surface (Figs. 5.6-5.9, 5.30-5.35).");
+  cmd->add_option("--model", o->model, "Bone model in CT coordinates (.vtp, .stl, .ply, .obj)")->required();
+  cmd->add_option("--points", o->points,
+                  "CSV of points in the bone tracker's frame: columns x,y,z or x_mm,y_mm,z_mm\n"
+                  "(the output of `echoreg detect --reference`)")->required();
+  cmd->add_option("--transform", o->transform,
+                  "Registration mapping the points' frame to CT, e.g. FemurToCT.json")->required();
+  addSurfaceOptions(cmd, *o, 3.0, 5.0, 1.5);
+  addCropOption(cmd, *o, 30.0);
+  return [o, cmd](const Streams& streams) {
+    (void)cmd;
+    render::SurfaceFigure figure;
+    figure.surface = filters::readMesh(o->model);
+    const TransformFile transform = readTransformFile(o->transform, "", "CT");
+    const Eigen::Isometry3d toCt(transform.matrix);
+    const core::MeshLocator locator(figure.surface);
+    std::vector<double> signedValues;
+    for (const Eigen::Vector3d& p : readPointsCsv(o->points)) {
+      const Eigen::Vector3d q = toCt * p;
+      const double d = locator.signedDistance(q);
+      figure.points.push_back(q);
+      figure.valuesMm.push_back(std::abs(d));
+      signedValues.push_back(d);
+    }
+    return finishSurfaceFigure(figure, *o, signedValues, streams, "registration");
+  };
+}
+
+struct CalibrationOptions : SurfaceOptions {
+  std::string calibration;
+};
+
+CommandAction addCalibrationFigure(CLI::App* parent) {
+  auto o = std::make_shared<CalibrationOptions>();
+  CLI::App* cmd = parent->add_subcommand(
+      "calibration",
+      "The calibration sphere with the calibration points (each shot's echo mapped with the\n"
+      "calibration), coloured by their distance to the sphere (Figs. 5.1-5.5).");
+  cmd->add_option("--calibration", o->calibration,
+                  "Output of `echoreg calibrate` (BeamToProbe JSON with its shots)")->required();
+  addSurfaceOptions(cmd, *o, 0.5, 1.0, 1.0);
+  o->views = {"coronal", "sagittal", "transverse"};
+  return [o](const Streams& streams) {
+    std::ifstream in(o->calibration);
+    if (!in) throw FileError(o->calibration, "cannot open the calibration file");
+    nlohmann::json doc;
+    try {
+      doc = nlohmann::json::parse(in);
+    } catch (const nlohmann::json::exception& e) {
+      throw FileError(o->calibration, std::string("not JSON: ") + e.what());
+    }
+    if (!doc.contains("sphere_center_mm") || !doc.contains("sphere_radius_mm") || !doc.contains("shots")) {
+      throw FileError(o->calibration, "not an `echoreg calibrate` result (no sphere_center_mm, "
+                                      "sphere_radius_mm or shots)");
+    }
+    const auto centre = doc["sphere_center_mm"].get<std::vector<double>>();
+    if (centre.size() != 3) throw FileError(o->calibration, "sphere_center_mm is not 3 numbers");
+    const Eigen::Vector3d c(centre[0], centre[1], centre[2]);
+    const double radius = doc["sphere_radius_mm"].get<double>();
+    render::SurfaceFigure figure;
+    figure.surface = uvSphere(c, radius);
+    figure.surfaceRgb = {0.80, 0.84, 0.90};
+    std::vector<double> signedValues;
+    for (const auto& shot : doc["shots"]) {
+      if (!shot.contains("point_mm")) {
+        throw FileError(o->calibration, "its shots have no point_mm (re-run `echoreg calibrate`)");
+      }
+      if (!shot.value("used", true)) continue;
+      const auto p = shot["point_mm"].get<std::vector<double>>();
+      figure.points.emplace_back(p.at(0), p.at(1), p.at(2));
+      const double residual = shot.at("residual_mm").get<double>();
+      figure.valuesMm.push_back(std::abs(residual));
+      signedValues.push_back(residual);
+    }
+    if (figure.points.empty()) throw FileError(o->calibration, "has no used shot to draw");
+    figure.valueName = "distance to the sphere";
+    // The sphere and points are in the tracker's frame, not the CT's: name the views so.
+    for (const std::string& view : o->views) {
+      figure.viewLabels.push_back(view == "coronal"    ? "along tracker +y"
+                                  : view == "sagittal" ? "along tracker +x"
+                                                       : "along tracker -z");
+    }
+    return finishSurfaceFigure(figure, *o, signedValues, streams, "calibration");
+  };
+}
+
+// ---------------------------------------------------------------------------------------------
+
+struct SignalsOptions {
+  std::string capture;
+  int frame = 0;
+  std::vector<std::string> presets{"mozes2008", "default"};
+  std::string out;
+  std::string title;
+  int width = 1400;
+  int height = 1000;
+  bool json = false;
+};
+
+CommandAction addSignalsFigure(CLI::App* parent) {
+  auto o = std::make_shared<SignalsOptions>();
+  CLI::App* cmd = parent->add_subcommand(
+      "signals",
+      "One raw A-line and its envelope under several filter settings, with the threshold, the\n"
+      "peaks found and each setting's verdict (Figs. 5.10-5.29).");
+  cmd->add_option("--capture", o->capture, "A-line capture (.igs.mha, .igs.nrrd)")->required();
+  cmd->add_option("--frame", o->frame, "Frame index (from 0)")->capture_default_str();
+  cmd->add_option("--preset", o->presets, "Detection presets to compare (repeat): " +
+                                              fmt::format("{}", fmt::join(detectionPresetNames(), ", ")))
+      ->capture_default_str();
+  cmd->add_option("--out", o->out, "PNG to write")->required();
+  cmd->add_option("--title", o->title, "Title over the figure");
+  cmd->add_option("--width", o->width, "Image width, pixels")->capture_default_str()->check(CLI::Range(300, 8192));
+  cmd->add_option("--height", o->height, "Image height, pixels")->capture_default_str()->check(CLI::Range(300, 8192));
+  cmd->add_flag("--json", o->json, "Print each setting's verdict as JSON");
+  return [o](const Streams& streams) {
+    const Sequence sequence = readSequence(o->capture);
+    if (!sequence.hasPixels()) throw FileError(o->capture, "holds no A-lines (tracker-only capture)");
+    if (o->frame < 0 || static_cast<std::size_t>(o->frame) >= sequence.frameCount()) {
+      throw FileError(o->capture, fmt::format("has no frame {} (frames 0-{})", o->frame,
+                                              sequence.frameCount() - 1));
+    }
+    std::vector<float> samples;
+    sequence.frameSamples(static_cast<std::size_t>(o->frame), samples);
+    std::vector<render::PlotPanel> panels;
+    nlohmann::json verdicts = nlohmann::json::array();
+    const DepthConversion depth = depthFromSequence(sequence, detectionPreset("default").depth);
+    render::PlotPanel raw;
+    raw.title = fmt::format("raw A-line, frame {}", o->frame);
+    raw.xLabel = "depth (mm)";
+    raw.yLabel = "amplitude";
+    render::Series rawSeries;
+    rawSeries.rgb = {0.35, 0.35, 0.35};
+    rawSeries.lineWidth = 1.0;
+    for (std::size_t i = 0; i < samples.size(); ++i) {
+      rawSeries.x.push_back(depth.depthMm(static_cast<double>(i)));
+      rawSeries.y.push_back(samples[i]);
+    }
+    raw.series.push_back(rawSeries);
+    panels.push_back(raw);
+    const std::array<std::array<double, 3>, 4> colours{{{0.0, 0.3, 0.85}, {0.0, 0.55, 0.3},
+                                                        {0.55, 0.2, 0.7}, {0.75, 0.45, 0.0}}};
+    for (std::size_t s = 0; s < o->presets.size(); ++s) {
+      DetectionParams params = detectionPreset(o->presets[s]);
+      params.depth = depthFromSequence(sequence, params.depth);
+      params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
+      SignalDetector detector(params);
+      const SignalDetection detection = detector.detect(samples.data(), static_cast<int>(samples.size()));
+      render::PlotPanel panel;
+      panel.title = fmt::format("envelope: preset \"{}\"", o->presets[s]);
+      panel.xLabel = "depth (mm)";
+      panel.yLabel = "envelope";
+      render::Series env;
+      env.name = "envelope";
+      env.rgb = colours[s % colours.size()];
+      for (std::size_t i = 0; i < detector.envelope().size(); ++i) {
+        env.x.push_back(params.depth.depthMm(static_cast<double>(i)));
+        env.y.push_back(detector.envelope()[i]);
+      }
+      panel.series.push_back(env);
+      render::Series peaks;
+      peaks.name = "peaks";
+      peaks.markersOnly = true;
+      peaks.rgb = {0.85, 0.1, 0.1};
+      for (const Peak& p : detection.peaks.peaks) {
+        peaks.x.push_back(params.depth.depthMm(p.index));
+        peaks.y.push_back(p.value);
+      }
+      if (!peaks.x.empty()) panel.series.push_back(peaks);
+      panel.horizontalLines.push_back({"threshold", detection.peaks.threshold});
+      const bool accepted = detection.accepted();
+      panel.note = accepted ? fmt::format("accepted: {:.2f} mm", detection.depthMm)
+                            : fmt::format("rejected: {}", rejectReasonName(detection.peaks.reason));
+      panel.noteRgb = accepted ? std::array<double, 3>{0.0, 0.5, 0.15} : std::array<double, 3>{0.75, 0.1, 0.1};
+      panels.push_back(panel);
+      verdicts.push_back({{"preset", o->presets[s]},
+                          {"accepted", accepted},
+                          {"reason", std::string(rejectReasonName(detection.peaks.reason))},
+                          {"peaks", detection.peaks.peaks.size()},
+                          {"threshold", detection.peaks.threshold},
+                          {"depth_mm", accepted ? nlohmann::json(detection.depthMm) : nlohmann::json()}});
+    }
+    const int columns = panels.size() <= 2 ? 1 : 2;
+    const std::string title = o->title.empty()
+        ? fmt::format("{}, frame {}", std::filesystem::path(o->capture).filename().string(), o->frame)
+        : o->title;
+    render::writePng(o->out, render::renderPlots(panels, columns, title, {o->width, o->height}));
+    if (o->json) {
+      streams.out << nlohmann::json{{"figure", "signals"}, {"out", o->out}, {"frame", o->frame},
+                                    {"settings", verdicts}}.dump(2) << "\n";
+    } else {
+      streams.out << fmt::format("signals figure: frame {}, {} settings; wrote {}\n", o->frame,
+                                 o->presets.size(), o->out);
+    }
+    return 0;
+  };
+}
+
+// ---------------------------------------------------------------------------------------------
+
+struct BoxplotOptions {
+  std::vector<std::string> groups;
+  std::string column = "error_mm";
+  std::string out;
+  std::string title;
+  std::string yLabel;
+  int width = 900;
+  int height = 650;
+  bool json = false;
+};
+
+CommandAction addBoxplotFigure(CLI::App* parent) {
+  auto o = std::make_shared<BoxplotOptions>();
+  CLI::App* cmd = parent->add_subcommand(
+      "boxplot",
+      "Box plots of a value between groups with the one-way ANOVA p-value (Figs. 6.1, 6.3,\n"
+      "6.7-6.9).");
+  cmd->add_option("--group", o->groups,
+                  "A group: NAME=FILE.csv (the column --column of every row) or\n"
+                  "NAME=FILE.csv:COLUMN; repeat for each group")->required();
+  cmd->add_option("--column", o->column, "Column read from each CSV (unless the group names one)")
+      ->capture_default_str();
+  cmd->add_option("--out", o->out, "PNG to write")->required();
+  cmd->add_option("--title", o->title, "Title over the figure");
+  cmd->add_option("--ylabel", o->yLabel, "Label of the value axis (default: the column)");
+  cmd->add_option("--width", o->width, "Image width, pixels")->capture_default_str()->check(CLI::Range(300, 8192));
+  cmd->add_option("--height", o->height, "Image height, pixels")->capture_default_str()->check(CLI::Range(300, 8192));
+  cmd->add_flag("--json", o->json, "Print the groups' summaries and the ANOVA as JSON");
+  return [o](const Streams& streams) {
+    std::vector<render::BoxGroup> groups;
+    for (const std::string& spec : o->groups) {
+      const auto eq = spec.find('=');
+      if (eq == std::string::npos || eq == 0 || eq + 1 == spec.size()) {
+        throw std::invalid_argument("--group \"" + spec + "\": expected NAME=FILE.csv[:COLUMN]");
+      }
+      std::string file = spec.substr(eq + 1);
+      std::string column = o->column;
+      const auto colon = file.rfind(':');
+      if (colon != std::string::npos && colon > 0) {
+        column = file.substr(colon + 1);
+        file = file.substr(0, colon);
+      }
+      const CsvTable table = readCsv(file);
+      const int c = table.column(column);
+      if (c < 0) throw FileError(file, "has no column \"" + column + "\"");
+      render::BoxGroup group;
+      group.label = spec.substr(0, eq);
+      for (std::size_t r = 0; r < table.rows.size(); ++r) {
+        const std::string& cell = table.rows[r][static_cast<std::size_t>(c)];
+        if (cell.empty() || table.rows[r][0] == "mean_abs") continue;  // evaluate's summary row
+        group.values.push_back(parseNumber(cell, file, r, column));
+      }
+      if (group.values.empty()) throw FileError(file, "has no value in column \"" + column + "\"");
+      groups.push_back(std::move(group));
+    }
+    render::writePng(o->out, render::renderBoxPlot(groups, o->title,
+                                                   o->yLabel.empty() ? o->column : o->yLabel,
+                                                   {o->width, o->height}));
+    nlohmann::json summary = {{"figure", "boxplot"}, {"out", o->out}};
+    nlohmann::json list = nlohmann::json::array();
+    std::vector<std::vector<double>> values;
+    for (const auto& g : groups) {
+      const core::BoxSummary b = core::boxSummary(g.values);
+      list.push_back({{"label", g.label}, {"n", b.count}, {"mean", b.mean}, {"median", b.median},
+                      {"q1", b.q1}, {"q3", b.q3}, {"outliers", b.outliers.size()}});
+      values.push_back(g.values);
+    }
+    summary["groups"] = list;
+    if (groups.size() >= 2) {
+      try {
+        const core::AnovaResult r = core::oneWayAnova(values);
+        summary["anova"] = {{"f", r.f}, {"df_between", r.dfBetween}, {"df_within", r.dfWithin},
+                            {"p", r.pValue}};
+      } catch (const std::invalid_argument& e) {
+        summary["anova"] = {{"undefined", e.what()}};
+      }
+    }
+    if (o->json) {
+      streams.out << summary.dump(2) << "\n";
+    } else {
+      streams.out << fmt::format("boxplot figure: {} groups; wrote {}\n", groups.size(), o->out);
+    }
+    return 0;
+  };
+}
+
+}  // namespace
+
+CommandAction addFigureCommand(CLI::App& app) {
+  CLI::App* cmd = app.add_subcommand(
+      "figure",
+      "Publication figures, rendered off-screen (no X server needed): registration, calibration,\n"
+      "signals, boxplot. PNG out, written whole or not at all.");
+  cmd->require_subcommand(1);
+  auto actions = std::make_shared<std::map<std::string, CommandAction>>();
+  (*actions)["registration"] = addRegistrationFigure(cmd);
+  (*actions)["calibration"] = addCalibrationFigure(cmd);
+  (*actions)["signals"] = addSignalsFigure(cmd);
+  (*actions)["boxplot"] = addBoxplotFigure(cmd);
+  return [cmd, actions](const Streams& streams) {
+    for (CLI::App* sub : cmd->get_subcommands()) return actions->at(sub->get_name())(streams);
+    return 2;
+  };
+}
+
+}  // namespace echoreg::cli

@@ -1,0 +1,290 @@
+// `echoreg study run DIR`: the users' main job. The study manifest (DIR/study.json, see
+// docs/formats.md) run end to end as echoreg steps — stylus pivot, transducer calibration, hip
+// centre, bone models, detection, registrations, evaluation, figures — then the report
+// (results/report.md, report.html, results.json). Steps whose inputs did not change are not run
+// again (study_runner.hpp).
+#include "commands.hpp"
+#include "report.hpp"
+#include "study_runner.hpp"
+
+#include "echoreg/core/atomic_file.hpp"
+#include "echoreg/core/error.hpp"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <map>
+#include <memory>
+
+namespace echoreg::cli {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+struct StudyOptions {
+  std::string dir;
+  bool force = false;
+  bool json = false;
+};
+
+nlohmann::json readJsonFile(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw FileError(path, "cannot be read");
+  try {
+    return nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw FileError(path, std::string("is not valid JSON: ") + e.what());
+  }
+}
+
+std::string number(double value, int decimals = 2) { return fmt::format("{:.{}f}", value, decimals); }
+
+// The manifest, with every path resolved against the study folder and checked on use.
+class Manifest {
+ public:
+  Manifest(std::string dir) : dir_(std::move(dir)), path_(dir_ + "/study.json") {
+    if (!fs::is_directory(dir_)) throw FileError(dir_, "is not a study folder");
+    doc_ = readJsonFile(path_);
+    if (doc_.value("format", std::string()) != "echoreg-study") {
+      throw FileError(path_, "is not an echoreg study manifest (\"format\": \"echoreg-study\")");
+    }
+  }
+  const std::string& dir() const { return dir_; }
+  const nlohmann::json& doc() const { return doc_; }
+  /// The value at a JSON pointer, or null.
+  nlohmann::json at(const std::string& pointer) const {
+    const nlohmann::json::json_pointer p(pointer);
+    return doc_.contains(p) ? doc_[p] : nlohmann::json();
+  }
+  /// A file named by the manifest at `pointer`, resolved; "" when absent and not required.
+  std::string file(const std::string& pointer, bool required = true) const {
+    const nlohmann::json v = at(pointer);
+    if (v.is_null()) {
+      if (required) throw FileError(path_, "names no " + pointer.substr(1));
+      return "";
+    }
+    if (!v.is_string()) throw FileError(path_, pointer.substr(1) + " is not a file name");
+    return resolve(v.get<std::string>());
+  }
+  std::string resolve(const std::string& relative) const {
+    const auto hash = relative.find('#');  // "truth/transforms.json#Name" names a member
+    const std::string name = hash == std::string::npos ? relative : relative.substr(0, hash);
+    return fs::path(name).is_absolute() ? name : dir_ + "/" + name;
+  }
+  double number(const std::string& pointer) const {
+    const nlohmann::json v = at(pointer);
+    if (!v.is_number()) throw FileError(path_, pointer.substr(1) + " is not a number");
+    return v.get<double>();
+  }
+
+ private:
+  std::string dir_;
+  std::string path_;
+  nlohmann::json doc_;
+};
+
+std::string capitalised(std::string name) {
+  if (!name.empty()) name[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(name[0])));
+  return name;
+}
+
+int runStudy(const StudyOptions& o, const Streams& streams) {
+  const auto started = std::chrono::steady_clock::now();
+  const Manifest manifest(o.dir);
+  const std::string results = manifest.dir() + "/results";
+  std::error_code ec;
+  fs::create_directories(results + "/figures", ec);
+  fs::create_directories(results + "/points", ec);
+  if (ec) throw FileError(results, "cannot be created: " + ec.message());
+  StudyRunner runner(results + "/.study-state.json", o.force);
+  std::vector<StepOutcome> outcomes;
+  std::string failure;
+
+  // Runs a stage of steps; a required step's failure ends the study (after the report of what ran).
+  int stepIndex = 0;
+  auto runSteps = [&](const std::vector<StudyStep>& steps) {
+    for (const StudyStep& step : steps) {
+      if (!failure.empty()) break;
+      ++stepIndex;
+      bool inputsPresent = true;
+      for (const std::string& input : step.inputs) inputsPresent = inputsPresent && fs::exists(input);
+      if (!inputsPresent && !step.required) {
+        StepOutcome skipped;
+        skipped.id = step.id;
+        skipped.title = step.title;
+        skipped.status = StepOutcome::Status::Skipped;
+        skipped.message = "an input is missing (an earlier step failed)";
+        outcomes.push_back(skipped);
+        continue;
+      }
+      StepOutcome outcome = runner.run(step, streams, stepIndex, 0);
+      if (outcome.status == StepOutcome::Status::Failed && step.required) {
+        failure = fmt::format("step \"{}\" failed: {}", step.title, outcome.message);
+      }
+      outcomes.push_back(std::move(outcome));
+    }
+    runner.save();
+  };
+
+  // --- Calibration ---------------------------------------------------------------------------
+  std::vector<StudyStep> stage;
+  const std::string stylusTip = results + "/stylus_tip.json";
+  const std::string pivotCapture = manifest.file("/calibration/pivot_capture");
+  stage.push_back({"pivot-stylus", "stylus tip (pivot)",
+                   {"pivot", "--capture", pivotCapture, "--out", stylusTip},
+                   {pivotCapture}, {stylusTip}, true});
+  const std::string calibration = results + "/calibration.json";
+  const std::string sphereCapture = manifest.file("/calibration/sphere_capture");
+  const std::string shotsCapture = manifest.file("/calibration/capture");
+  std::vector<std::string> calibrate = {
+      "calibrate", "--sphere-capture", sphereCapture, "--stylus-tip-to-stylus", stylusTip,
+      "--capture", shotsCapture, "--sphere-radius",
+      fmt::format("{}", manifest.number("/calibration/sphere_radius_mm")), "--fit-speed-of-sound",
+      "--out", calibration};
+  if (!manifest.at("/calibration/stylus_tip_radius_mm").is_null()) {
+    calibrate.insert(calibrate.end(), {"--stylus-tip-radius",
+                                       fmt::format("{}", manifest.number("/calibration/stylus_tip_radius_mm"))});
+  }
+  if (const auto initial = manifest.at("/calibration/initial_beam_to_probe_mm"); initial.is_array()) {
+    calibrate.push_back("--initial");
+    for (const auto& v : initial) calibrate.push_back(fmt::format("{}", v.get<double>()));
+  }
+  if (const auto window = manifest.at("/calibration/window_mm"); window.is_array() && window.size() == 2) {
+    calibrate.insert(calibrate.end(), {"--window-mm", fmt::format("{}", window[0].get<double>()),
+                                       fmt::format("{}", window[1].get<double>())});
+  }
+  stage.push_back({"calibrate", "transducer calibration (BeamToProbe)", calibrate,
+                   {sphereCapture, shotsCapture, stylusTip}, {calibration}, true});
+  const std::string calibrationFigure = results + "/figures/calibration.png";
+  stage.push_back({"figure-calibration", "calibration figure",
+                   {"figure", "calibration", "--calibration", calibration, "--title",
+                    "Calibration: echoes on the sphere (distance to the sphere)", "--out",
+                    calibrationFigure},
+                   {calibration}, {calibrationFigure}, false});
+  runSteps(stage);
+
+  // --- Bones: detection and figures ----------------------------------------------------------
+  const nlohmann::json bones = manifest.at("/bones");
+  const std::string preset = manifest.at("/detection/preset").is_string()
+                                 ? manifest.at("/detection/preset").get<std::string>() : "default";
+  std::map<std::string, std::vector<std::string>> pointFiles;
+  if (failure.empty() && bones.is_object()) {
+    stage.clear();
+    for (const auto& [bone, entry] : bones.items()) {
+      const std::string marker = capitalised(bone) + "ToTracker";
+      int n = 0;
+      for (const auto& capture : entry.value("ultrasound", nlohmann::json::array())) {
+        ++n;
+        const std::string path = manifest.resolve(capture.get<std::string>());
+        const std::string points = fmt::format("{}/points/{}_ultrasound_{}.csv", results, bone, n);
+        std::vector<std::string> args = {"detect", path, "--pose", "ProbeToTracker", "--reference",
+                                         marker, "--beam-to-probe", calibration, "--preset", preset,
+                                         "--out", points};
+        if (const auto c = manifest.at("/detection/speed_of_sound_mps"); c.is_number()) {
+          args.insert(args.end(), {"--speed-of-sound", fmt::format("{}", c.get<double>())});
+        }
+        stage.push_back({fmt::format("detect-{}-{}", bone, n),
+                         fmt::format("{} sweep {}: bone echoes", bone, n), args, {path, calibration},
+                         {points}, true});
+        pointFiles[bone].push_back(points);
+      }
+    }
+    runSteps(stage);
+  }
+
+  // --- Report ----------------------------------------------------------------------------------
+  Report report;
+  nlohmann::json numbers;
+  const std::string studyName = fs::path(manifest.dir()).filename().string();
+  report.heading("Study report: " + studyName, 1);
+  const nlohmann::json generator = manifest.at("/generator");
+  if (generator.is_object()) {
+    report.paragraph(fmt::format("Simulated by {} (preset {}, seed {}, size {}).",
+                                 generator.value("tool", std::string("?")),
+                                 generator.value("preset", std::string("?")),
+                                 generator.value("seed", 0), generator.value("size", std::string("?"))));
+  }
+  if (fs::exists(calibration)) {
+    const nlohmann::json cal = readJsonFile(calibration);
+    report.heading("Calibration of the transducer (Table 5.1)");
+    const auto& m = cal.at("matrix");
+    report.table({"", "x (mm)", "y (mm)", "z (mm)", "RMS (mm)", "speed of sound (m/s)", "shots used"},
+                 {{"BeamToProbe translation", number(m[0][3].get<double>()), number(m[1][3].get<double>()),
+                   number(m[2][3].get<double>()), number(cal.value("rms_mm", 0.0), 3),
+                   number(cal.value("speed_of_sound_mps", 0.0), 1),
+                   fmt::format("{}", cal.value("shots_used", 0))}});
+    numbers["calibration"] = {{"beam_to_probe_mm", {m[0][3], m[1][3], m[2][3]}},
+                              {"rms_mm", cal.value("rms_mm", 0.0)},
+                              {"speed_of_sound_mps", cal.value("speed_of_sound_mps", 0.0)},
+                              {"shots_used", cal.value("shots_used", 0)}};
+    if (fs::exists(calibrationFigure)) {
+      report.figure("figures/calibration.png",
+                    "Calibration points on the sphere, coloured by their distance to it "
+                    "(green < 0.5 mm, yellow 0.5-1.0 mm, red > 1.0 mm), as Figs. 5.1-5.5.");
+    }
+  }
+  report.heading("Steps");
+  std::vector<std::vector<std::string>> rows;
+  nlohmann::json stepsJson = nlohmann::json::array();
+  for (const StepOutcome& s : outcomes) {
+    rows.push_back({s.title, statusName(s.status), number(s.seconds, 2)});
+    stepsJson.push_back({{"id", s.id}, {"title", s.title}, {"status", statusName(s.status)},
+                         {"seconds", s.seconds}});
+  }
+  report.table({"step", "status", "time (s)"}, rows);
+  numbers["steps"] = stepsJson;
+  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  numbers["seconds"] = total;
+  if (!failure.empty()) {
+    report.paragraph("The study stopped: " + failure);
+    numbers["failure"] = failure;
+  }
+  {
+    AtomicFile md(results + "/report.md");
+    md.stream() << report.markdown();
+    md.commit();
+    AtomicFile html(results + "/report.html");
+    html.stream() << report.html("Study report: " + studyName);
+    html.commit();
+    AtomicFile json(results + "/results.json");
+    json.stream() << numbers.dump(2) << "\n";
+    json.commit();
+  }
+  if (o.json) {
+    streams.out << numbers.dump(2) << "\n";
+  } else {
+    streams.out << fmt::format("study {}: report in {}\n", failure.empty() ? "done" : "stopped",
+                               fs::absolute(results + "/report.html").lexically_normal().string());
+  }
+  if (!failure.empty()) {
+    streams.err << "echoreg study: " << failure << "\n";
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+CommandAction addStudyCommand(CLI::App& app) {
+  CLI::App* cmd = app.add_subcommand(
+      "study",
+      "The main job: a study folder (study.json) run end to end into a report.");
+  cmd->require_subcommand(1);
+  auto o = std::make_shared<StudyOptions>();
+  CLI::App* run = cmd->add_subcommand(
+      "run",
+      "Runs the study: stylus pivot, calibration, detection, registrations, evaluation and\n"
+      "figures, then writes DIR/results/report.html, report.md and results.json. Steps whose\n"
+      "inputs did not change since the last run are not run again (--force runs all).");
+  run->add_option("dir", o->dir, "Study folder (holds study.json)")->required();
+  run->add_flag("--force", o->force, "Run every step again");
+  run->add_flag("--json", o->json, "Print every number of the report as JSON");
+  return [o](const Streams& streams) { return runStudy(*o, streams); };
+}
+
+}  // namespace echoreg::cli

@@ -1,0 +1,64 @@
+// The engine of `echoreg study run`: a study is a list of steps, each one echoreg command with
+// the files it reads and writes. A step runs again only when its command line or the content of
+// a file it reads changed, or an output is missing (the state is kept in results/.study-state.json),
+// so re-running after a change redoes exactly what the change affects: outputs are deterministic,
+// so a step whose inputs come out byte-identical stops the chain there.
+#pragma once
+
+#include "commands.hpp"
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+namespace echoreg::cli {
+
+struct StudyStep {
+  std::string id;                    ///< unique, e.g. "register-femur-ultrasound-1"
+  std::string title;                 ///< for progress and the report
+  std::vector<std::string> args;     ///< the echoreg command line (without "echoreg")
+  std::vector<std::string> inputs;   ///< files or folders read (folders: every file in them)
+  std::vector<std::string> outputs;  ///< files written
+  bool required = true;              ///< a failed optional step is reported, the study goes on
+};
+
+struct StepOutcome {
+  std::string id;
+  std::string title;
+  enum class Status { Ran, UpToDate, Failed, Skipped } status = Status::Skipped;
+  double seconds = 0.0;   ///< of the last actual run (kept from the state when up to date)
+  std::string message;    ///< the command's error output when it failed
+  std::string output;     ///< the command's standard output of this run
+};
+
+const char* statusName(StepOutcome::Status status);
+
+/// 64-bit FNV-1a of a file's bytes (folders: of their files' relative names and bytes, sorted).
+/// Throws FileError when the path cannot be read.
+std::uint64_t contentHash(const std::string& path);
+
+class StudyRunner {
+ public:
+  /// `stateFile` keeps each step's input hash and time between runs.
+  StudyRunner(std::string stateFile, bool force);
+
+  /// Runs the step unless it is up to date. Returns the outcome; never throws for the step's
+  /// own failure (that is the outcome), but throws FileError for a missing input.
+  StepOutcome run(const StudyStep& step, const Streams& streams, int index, int total);
+
+  /// Writes the state (atomically).
+  void save() const;
+
+ private:
+  std::string stateFile_;
+  bool force_ = false;
+  struct Entry {
+    std::string hash;
+    double seconds = 0.0;
+  };
+  std::vector<std::pair<std::string, Entry>> state_;
+  Entry* find(const std::string& id);
+};
+
+}  // namespace echoreg::cli
