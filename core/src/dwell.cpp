@@ -1,0 +1,212 @@
+// Dwell detection on a tracked stylus tip, and the tip's track in the reference marker's frame.
+#include "echoreg/core/dwell.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstddef>
+#include <stdexcept>
+#include <string>
+
+namespace echoreg::core {
+
+namespace {
+
+double medianOf(std::vector<double>& v) {
+  const std::size_t mid = v.size() / 2;
+  std::nth_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid), v.end());
+  double m = v[mid];
+  if (v.size() % 2 == 0) {
+    m = 0.5 * (m + *std::max_element(v.begin(), v.begin() + static_cast<std::ptrdiff_t>(mid)));
+  }
+  return m;
+}
+
+// Component-wise median of positions[idx[from..to)].
+Eigen::Vector3d medianPosition(const std::vector<Eigen::Vector3d>& positions,
+                               const std::vector<std::size_t>& idx, std::size_t from,
+                               std::size_t to) {
+  Eigen::Vector3d m;
+  std::vector<double> c;
+  c.reserve(to - from);
+  for (Eigen::Index k = 0; k < 3; ++k) {
+    c.clear();
+    for (std::size_t i = from; i < to; ++i) c.push_back(positions[idx[i]][k]);
+    m[k] = medianOf(c);
+  }
+  return m;
+}
+
+struct Run {
+  std::size_t begin = 0;  // into the valid-frame index list
+  std::size_t end = 0;    // exclusive
+};
+
+// Mean over the run's stable core and its RMS spread.
+Dwell summarise(const std::vector<Eigen::Vector3d>& positions, const std::vector<std::size_t>& idx,
+                const Run& run, const DwellOptions& options) {
+  const Eigen::Vector3d median = medianPosition(positions, idx, run.begin, run.end);
+  std::vector<std::size_t> core;
+  for (std::size_t i = run.begin; i < run.end; ++i) {
+    if ((positions[idx[i]] - median).norm() <= 0.5 * options.maxMotionMm) core.push_back(idx[i]);
+  }
+  if (static_cast<int>(core.size()) < options.minFrames) {
+    core.assign(idx.begin() + static_cast<std::ptrdiff_t>(run.begin),
+                idx.begin() + static_cast<std::ptrdiff_t>(run.end));
+  }
+  Dwell d;
+  d.firstFrame = static_cast<int>(idx[run.begin]);
+  d.lastFrame = static_cast<int>(idx[run.end - 1]);
+  d.meanMm.setZero();
+  for (std::size_t f : core) d.meanMm += positions[f];
+  d.meanMm /= static_cast<double>(core.size());
+  double sum = 0.0;
+  for (std::size_t f : core) sum += (positions[f] - d.meanMm).squaredNorm();
+  d.spreadMm = std::sqrt(sum / static_cast<double>(core.size()));
+  d.frames = static_cast<int>(core.size());
+  return d;
+}
+
+}  // namespace
+
+std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
+                                const std::vector<double>& timestampsS,
+                                const std::vector<bool>& valid, const DwellOptions& options) {
+  if (positions.size() != timestampsS.size() || positions.size() != valid.size()) {
+    throw std::invalid_argument("detectDwells: " + std::to_string(positions.size()) +
+                                " positions, " + std::to_string(timestampsS.size()) +
+                                " timestamps and " + std::to_string(valid.size()) +
+                                " validity flags differ in number");
+  }
+  if (!(options.maxMotionMm > 0.0) || !std::isfinite(options.maxMotionMm)) {
+    throw std::invalid_argument("detectDwells: maxMotionMm must be > 0, got " +
+                                std::to_string(options.maxMotionMm));
+  }
+  if (!(options.minDurationS >= 0.0) || !std::isfinite(options.minDurationS)) {
+    throw std::invalid_argument("detectDwells: minDurationS must be >= 0, got " +
+                                std::to_string(options.minDurationS));
+  }
+  if (options.minFrames < 2) {
+    throw std::invalid_argument("detectDwells: minFrames must be >= 2, got " +
+                                std::to_string(options.minFrames));
+  }
+  // The valid frames, checked.
+  std::vector<std::size_t> idx;
+  for (std::size_t f = 0; f < positions.size(); ++f) {
+    if (!valid[f]) continue;
+    if (!positions[f].allFinite() || !std::isfinite(timestampsS[f])) {
+      throw std::invalid_argument("detectDwells: frame " + std::to_string(f) +
+                                  " is valid but its position or timestamp is not finite");
+    }
+    if (!idx.empty() && timestampsS[f] < timestampsS[idx.back()]) {
+      throw std::invalid_argument("detectDwells: the timestamp of frame " + std::to_string(f) +
+                                  " is earlier than that of frame " + std::to_string(idx.back()));
+    }
+    idx.push_back(f);
+  }
+
+  // Greedy runs of positions within maxMotionMm of the run's median.
+  std::vector<Run> runs;
+  std::size_t start = 0;
+  while (start < idx.size()) {
+    std::size_t end = start + 1;
+    Eigen::Vector3d anchor = positions[idx[start]];
+    std::size_t anchoredAt = 1;  // run length when the anchor was last recomputed
+    while (end < idx.size()) {
+      if ((positions[idx[end]] - anchor).norm() > options.maxMotionMm) break;
+      ++end;
+      if (end - start >= 2 * anchoredAt) {
+        anchor = medianPosition(positions, idx, start, end);
+        anchoredAt = end - start;
+        // A recomputed median may leave earlier frames outside: stop the run there.
+        bool ok = true;
+        for (std::size_t i = start; i < end && ok; ++i) {
+          ok = (positions[idx[i]] - anchor).norm() <= options.maxMotionMm;
+        }
+        if (!ok) {
+          --end;
+          break;
+        }
+      }
+    }
+    const double duration = timestampsS[idx[end - 1]] - timestampsS[idx[start]];
+    const bool longEnough = duration >= options.minDurationS &&
+                            static_cast<int>(end - start) >= options.minFrames;
+    if (longEnough) {
+      runs.push_back({start, end});
+      start = end;
+    } else {
+      ++start;
+    }
+  }
+
+  // Merge neighbouring runs on the same spot (a jitter beyond the tolerance split one dwell).
+  std::vector<Dwell> dwells;
+  std::vector<Run> merged;
+  for (const Run& r : runs) {
+    if (!merged.empty() && merged.back().end == r.begin) {
+      const Dwell a = summarise(positions, idx, merged.back(), options);
+      const Dwell b = summarise(positions, idx, r, options);
+      if ((a.meanMm - b.meanMm).norm() <= options.maxMotionMm) {
+        merged.back().end = r.end;
+        continue;
+      }
+    }
+    merged.push_back(r);
+  }
+  for (const Run& r : merged) dwells.push_back(summarise(positions, idx, r, options));
+  return dwells;
+}
+
+StylusTrack stylusTipTrack(const Sequence& capture, const Eigen::Isometry3d& stylusTipToStylus,
+                           const std::string& stylusTransform,
+                           const std::string& referenceTransform) {
+  const std::vector<std::string> names = capture.transformNames();
+  auto has = [&](const std::string& n) {
+    return std::find(names.begin(), names.end(), n) != names.end();
+  };
+  for (const std::string& n : {stylusTransform, referenceTransform}) {
+    if (n.empty() || has(n)) continue;
+    std::string list;
+    for (const std::string& h : names) list += (list.empty() ? "" : ", ") + h + "Transform";
+    throw std::invalid_argument("has no " + n + "Transform" +
+                                (list.empty() ? std::string(" (it has no transforms)")
+                                              : " (it has " + list + ")"));
+  }
+  if (stylusTransform.empty()) throw std::invalid_argument("the stylus transform name is empty");
+  const Eigen::Vector3d tipInStylus = stylusTipToStylus.translation();
+  StylusTrack track;
+  const std::size_t n = capture.frames.size();
+  track.tipInReference.assign(n, Eigen::Vector3d::Zero());
+  track.timestampsS.assign(n, 0.0);
+  track.valid.assign(n, false);
+  int validCount = 0;
+  for (std::size_t f = 0; f < n; ++f) {
+    const SequenceFrame& frame = capture.frames[f];
+    track.timestampsS[f] = frame.timestampS ? *frame.timestampS : static_cast<double>(f);
+    const auto s = frame.transforms.find(stylusTransform);
+    if (s == frame.transforms.end() || !s->second.valid()) continue;
+    Eigen::Isometry3d stylusToTracker;
+    stylusToTracker.matrix() = s->second.matrix;
+    Eigen::Vector3d tip = stylusToTracker * tipInStylus;
+    if (!referenceTransform.empty()) {
+      const auto r = frame.transforms.find(referenceTransform);
+      if (r == frame.transforms.end() || !r->second.valid()) continue;
+      Eigen::Isometry3d referenceToTracker;
+      referenceToTracker.matrix() = r->second.matrix;
+      tip = referenceToTracker.inverse() * tip;
+    }
+    if (!tip.allFinite()) continue;
+    track.tipInReference[f] = tip;
+    track.valid[f] = true;
+    ++validCount;
+  }
+  if (validCount == 0) {
+    throw std::invalid_argument(
+        "none of its " + std::to_string(n) + " frames has a valid " + stylusTransform +
+        "Transform" +
+        (referenceTransform.empty() ? std::string() : " and " + referenceTransform + "Transform"));
+  }
+  return track;
+}
+
+}  // namespace echoreg::core
