@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
+#include <limits>
 #include <stdexcept>
 #include <string>
 
@@ -41,9 +42,11 @@ struct Run {
   std::size_t end = 0;    // exclusive
 };
 
-// Mean over the run's stable core and its RMS spread.
-Dwell summarise(const std::vector<Eigen::Vector3d>& positions, const std::vector<std::size_t>& idx,
-                const Run& run, const DwellOptions& options) {
+// The run's stable core: its frames within maxMotionMm / 2 of its median (all of them when that
+// leaves fewer than minFrames).
+std::vector<std::size_t> stableCore(const std::vector<Eigen::Vector3d>& positions,
+                                    const std::vector<std::size_t>& idx, const Run& run,
+                                    const DwellOptions& options) {
   const Eigen::Vector3d median = medianPosition(positions, idx, run.begin, run.end);
   std::vector<std::size_t> core;
   for (std::size_t i = run.begin; i < run.end; ++i) {
@@ -53,17 +56,14 @@ Dwell summarise(const std::vector<Eigen::Vector3d>& positions, const std::vector
     core.assign(idx.begin() + static_cast<std::ptrdiff_t>(run.begin),
                 idx.begin() + static_cast<std::ptrdiff_t>(run.end));
   }
-  Dwell d;
-  d.firstFrame = static_cast<int>(idx[run.begin]);
-  d.lastFrame = static_cast<int>(idx[run.end - 1]);
-  d.meanMm.setZero();
-  for (std::size_t f : core) d.meanMm += positions[f];
-  d.meanMm /= static_cast<double>(core.size());
-  double sum = 0.0;
-  for (std::size_t f : core) sum += (positions[f] - d.meanMm).squaredNorm();
-  d.spreadMm = std::sqrt(sum / static_cast<double>(core.size()));
-  d.frames = static_cast<int>(core.size());
-  return d;
+  return core;
+}
+
+Eigen::Vector3d meanOf(const std::vector<Eigen::Vector3d>& positions,
+                       const std::vector<std::size_t>& frames) {
+  Eigen::Vector3d m = Eigen::Vector3d::Zero();
+  for (std::size_t f : frames) m += positions[f];
+  return m / static_cast<double>(frames.size());
 }
 
 }  // namespace
@@ -84,6 +84,10 @@ std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
   if (!(options.minDurationS >= 0.0) || !std::isfinite(options.minDurationS)) {
     throw std::invalid_argument("detectDwells: minDurationS must be >= 0, got " +
                                 std::to_string(options.minDurationS));
+  }
+  if (!(options.mergeDistanceMm >= 0.0) || !std::isfinite(options.mergeDistanceMm)) {
+    throw std::invalid_argument("detectDwells: mergeDistanceMm must be >= 0, got " +
+                                std::to_string(options.mergeDistanceMm));
   }
   if (options.minFrames < 2) {
     throw std::invalid_argument("detectDwells: minFrames must be >= 2, got " +
@@ -139,22 +143,84 @@ std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
     }
   }
 
-  // Merge neighbouring runs on the same spot (a jitter beyond the tolerance split one dwell).
+  // Merge consecutive runs on the same spot (pivoting on the landmark, or a jitter split a rest).
   std::vector<Dwell> dwells;
-  std::vector<Run> merged;
+  std::vector<std::size_t> core;  // the current dwell's frames
   for (const Run& r : runs) {
-    if (!merged.empty() && merged.back().end == r.begin) {
-      const Dwell a = summarise(positions, idx, merged.back(), options);
-      const Dwell b = summarise(positions, idx, r, options);
-      if ((a.meanMm - b.meanMm).norm() <= options.maxMotionMm) {
-        merged.back().end = r.end;
-        continue;
-      }
+    std::vector<std::size_t> c = stableCore(positions, idx, r, options);
+    if (!dwells.empty() &&
+        (meanOf(positions, c) - dwells.back().meanMm).norm() < options.mergeDistanceMm) {
+      core.insert(core.end(), c.begin(), c.end());
+    } else {
+      dwells.emplace_back();
+      dwells.back().firstFrame = static_cast<int>(idx[r.begin]);
+      core = std::move(c);
     }
-    merged.push_back(r);
+    Dwell& d = dwells.back();
+    d.lastFrame = static_cast<int>(idx[r.end - 1]);
+    d.meanMm = meanOf(positions, core);
+    double sum = 0.0;
+    for (std::size_t f : core) sum += (positions[f] - d.meanMm).squaredNorm();
+    d.spreadMm = std::sqrt(sum / static_cast<double>(core.size()));
+    d.frames = static_cast<int>(core.size());
   }
-  for (const Run& r : merged) dwells.push_back(summarise(positions, idx, r, options));
   return dwells;
+}
+
+DwellMatch matchDwellsInOrder(const std::vector<Dwell>& dwells,
+                              const std::vector<Eigen::Vector3d>& landmarks) {
+  const std::size_t n = landmarks.size();
+  const std::size_t m = dwells.size();
+  if (n < 3) {
+    throw std::invalid_argument(std::to_string(n) + " landmarks, at least 3 needed");
+  }
+  if (m < n) {
+    throw std::invalid_argument("found " + std::to_string(m) + " dwells of the stylus for " +
+                                std::to_string(n) + " landmarks");
+  }
+  // Choices of n of m in order: C(m, n).
+  double choices = 1.0;
+  for (std::size_t k = 0; k < n; ++k) {
+    choices = choices * static_cast<double>(m - k) / static_cast<double>(k + 1);
+  }
+  if (choices > 2e6) {
+    throw std::invalid_argument("found " + std::to_string(m) + " dwells for " + std::to_string(n) +
+                                " landmarks: too many ways to choose (tighten the dwell options)");
+  }
+  DwellMatch best;
+  best.runnerUpFreMm = std::numeric_limits<double>::infinity();
+  best.candidates = 0;
+  bool haveBest = false;
+  std::string lastError;
+  std::vector<std::size_t> pick(n);
+  for (std::size_t k = 0; k < n; ++k) pick[k] = k;
+  std::vector<Eigen::Vector3d> to(n);
+  while (true) {
+    for (std::size_t k = 0; k < n; ++k) to[k] = dwells[pick[k]].meanMm;
+    ++best.candidates;
+    try {
+      PairedPointResult r = registerPairedPoints(landmarks, to);
+      if (!haveBest || r.freMm < best.registration.freMm) {
+        if (haveBest) best.runnerUpFreMm = best.registration.freMm;
+        best.registration = std::move(r);
+        best.dwellIndex.clear();
+        for (std::size_t k : pick) best.dwellIndex.push_back(static_cast<int>(k));
+        haveBest = true;
+      } else if (r.freMm < best.runnerUpFreMm) {
+        best.runnerUpFreMm = r.freMm;
+      }
+    } catch (const std::invalid_argument& e) {
+      lastError = e.what();
+    }
+    // Next combination in lexicographic order.
+    std::size_t k = n;
+    while (k > 0 && pick[k - 1] == m - n + (k - 1)) --k;
+    if (k == 0) break;
+    ++pick[k - 1];
+    for (std::size_t j = k; j < n; ++j) pick[j] = pick[j - 1] + 1;
+  }
+  if (!haveBest) throw std::invalid_argument(lastError);
+  return best;
 }
 
 StylusTrack stylusTipTrack(const Sequence& capture, const Eigen::Isometry3d& stylusTipToStylus,

@@ -4,6 +4,7 @@
 // `echoreg register --landmarks-capture` (initial, paired-point registration). docs/registration.md.
 #pragma once
 
+#include "echoreg/core/paired_point.hpp"
 #include "echoreg/core/sequence.hpp"
 
 #include <Eigen/Core>
@@ -21,6 +22,9 @@ struct DwellOptions {
   double minDurationS = 0.5;
   /// Fewest valid frames in a dwell.
   int minFrames = 10;
+  /// Consecutive dwells whose means are closer than this are one landmark (the stylus pivoted on
+  /// it, or a jitter split the rest), mm. PLUS uses 5 mm (a third of its 15 mm landmark spacing).
+  double mergeDistanceMm = 5.0;
 };
 
 struct Dwell {
@@ -37,14 +41,34 @@ struct Dwell {
 /// maxMotionMm of the run's component-wise median (checked as the run grows, against the median
 /// recomputed when the run has doubled); a run that lasts minDurationS and has minFrames valid
 /// frames is a dwell, and the search restarts after it; otherwise the start advances by one
-/// frame. Dwells that touch or overlap and whose means are within maxMotionMm are merged. The
-/// mean is taken over the dwell's stable core: the frames within maxMotionMm / 2 of its median
-/// (all of them when that leaves fewer than minFrames).
+/// frame. Consecutive runs whose means are within mergeDistanceMm are merged into one dwell.
+/// Each run contributes its stable core to the mean: the frames within maxMotionMm / 2 of its
+/// median (all of them when that leaves fewer than minFrames).
 /// Throws std::invalid_argument when the three vectors differ in size, an option is not
-/// positive, timestamps decrease, or a valid frame has a non-finite position or timestamp.
+/// positive (mergeDistanceMm may be 0: no merging), timestamps decrease, or a valid frame has a non-finite position or timestamp.
 std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
                                 const std::vector<double>& timestampsS,
                                 const std::vector<bool>& valid, const DwellOptions& options);
+
+/// Dwells matched in time order to landmarks: which dwell is which landmark, and the paired-point
+/// registration landmarks -> dwell means.
+struct DwellMatch {
+  std::vector<int> dwellIndex;  ///< per landmark, the index of its dwell
+  PairedPointResult registration;  ///< landmarks (from) -> dwell means (to)
+  /// FRE of the best other choice of dwells (infinity when there was no other): a value close to
+  /// registration.freMm means the choice was ambiguous.
+  double runnerUpFreMm = 0.0;
+  long long candidates = 1;  ///< choices of dwells tried
+};
+
+/// Pairs landmarks[i] with the i-th chosen dwell, in time order. With as many dwells as
+/// landmarks all are used; with more (the stylus rested away from the landmarks, before, between
+/// or after them) every in-order choice of landmarks.size() dwells is registered and the one of
+/// smallest FRE taken. Throws std::invalid_argument when there are fewer dwells than landmarks
+/// (saying how many were found), fewer than 3 landmarks, more than 2e6 choices, or when the
+/// registration refuses (collinear points).
+DwellMatch matchDwellsInOrder(const std::vector<Dwell>& dwells,
+                              const std::vector<Eigen::Vector3d>& landmarks);
 
 struct StylusTrack {
   std::vector<Eigen::Vector3d> tipInReference;  ///< one per frame (zero where not valid)
