@@ -85,6 +85,10 @@ std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
     throw std::invalid_argument("detectDwells: minDurationS must be >= 0, got " +
                                 std::to_string(options.minDurationS));
   }
+  if (!(options.smoothingS >= 0.0) || !std::isfinite(options.smoothingS)) {
+    throw std::invalid_argument("detectDwells: smoothingS must be >= 0, got " +
+                                std::to_string(options.smoothingS));
+  }
   if (!(options.mergeDistanceMm >= 0.0) || !std::isfinite(options.mergeDistanceMm)) {
     throw std::invalid_argument("detectDwells: mergeDistanceMm must be >= 0, got " +
                                 std::to_string(options.mergeDistanceMm));
@@ -108,23 +112,38 @@ std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
     idx.push_back(f);
   }
 
-  // Greedy runs of positions within maxMotionMm of the run's median.
+  // Tracker noise and tremor smoothed away: the centred moving mean over smoothingS.
+  std::vector<Eigen::Vector3d> smooth(positions.size(), Eigen::Vector3d::Zero());
+  {
+    std::size_t lo = 0;
+    std::size_t hi = 0;  // window idx[lo..hi)
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+    const double half = 0.5 * options.smoothingS;
+    for (std::size_t i = 0; i < idx.size(); ++i) {
+      const double t = timestampsS[idx[i]];
+      while (hi < idx.size() && timestampsS[idx[hi]] <= t + half) sum += positions[idx[hi++]];
+      while (timestampsS[idx[lo]] < t - half) sum -= positions[idx[lo++]];
+      smooth[idx[i]] = sum / static_cast<double>(hi - lo);
+    }
+  }
+
+  // Greedy runs of smoothed positions within maxMotionMm of the run's median.
   std::vector<Run> runs;
   std::size_t start = 0;
   while (start < idx.size()) {
     std::size_t end = start + 1;
-    Eigen::Vector3d anchor = positions[idx[start]];
+    Eigen::Vector3d anchor = smooth[idx[start]];
     std::size_t anchoredAt = 1;  // run length when the anchor was last recomputed
     while (end < idx.size()) {
-      if ((positions[idx[end]] - anchor).norm() > options.maxMotionMm) break;
+      if ((smooth[idx[end]] - anchor).norm() > options.maxMotionMm) break;
       ++end;
       if (end - start >= 2 * anchoredAt) {
-        anchor = medianPosition(positions, idx, start, end);
+        anchor = medianPosition(smooth, idx, start, end);
         anchoredAt = end - start;
         // A recomputed median may leave earlier frames outside: stop the run there.
         bool ok = true;
         for (std::size_t i = start; i < end && ok; ++i) {
-          ok = (positions[idx[i]] - anchor).norm() <= options.maxMotionMm;
+          ok = (smooth[idx[i]] - anchor).norm() <= options.maxMotionMm;
         }
         if (!ok) {
           --end;

@@ -172,10 +172,9 @@ struct Session {
 };
 
 Session makeSession(const std::vector<Eigen::Vector3d>& spots, double restS, double moveS,
-                    double noiseMm, int dropEvery, std::uint64_t seed) {
+                    double noiseMm, int dropEvery, std::uint64_t seed, double dt = 0.05) {
   Session s;
   Rng rng(seed);
-  const double dt = 0.05;
   double t = 0.0;
   auto push = [&](const Eigen::Vector3d& p) {
     const int f = static_cast<int>(s.positions.size());
@@ -214,6 +213,22 @@ TEST(Dwell, FindsEachRestDespiteDroppedFramesAndNoise) {
     EXPECT_NEAR(dwells[i].lastFrame, s.restFrames[i].second, 2);
     EXPECT_TRUE(s.valid[static_cast<std::size_t>(dwells[i].firstFrame)]);
   }
+}
+
+TEST(Dwell, SmoothingKeepsShortNoisyRestsWhole) {
+  // The simulator's landmark capture: 100 Hz, 0.8 s rests, 0.3 mm per axis of jitter and tremor
+  // (0.5 mm in 3D): single frames often leave a 1 mm ball, their 0.1 s means do not.
+  const auto spots = kneeLandmarks();
+  const Session s = makeSession(spots, 0.8, 1.0, 0.3, 0, 17, 0.01);
+  const auto dwells = detectDwells(s.positions, s.times, s.valid, DwellOptions{});
+  ASSERT_EQ(dwells.size(), spots.size());
+  for (std::size_t i = 0; i < spots.size(); ++i) {
+    EXPECT_LT((dwells[i].meanMm - spots[i]).norm(), 0.15) << "dwell " << i;
+    EXPECT_GT(dwells[i].lastFrame - dwells[i].firstFrame, 60);
+  }
+  DwellOptions raw;
+  raw.smoothingS = 0.0;
+  EXPECT_LT(detectDwells(s.positions, s.times, s.valid, raw).size(), spots.size());
 }
 
 TEST(Dwell, IgnoresShortPausesAndSlowMotion) {
@@ -258,6 +273,9 @@ TEST(Dwell, RefusesBadInput) {
   DwellOptions zero;
   zero.maxMotionMm = 0.0;
   EXPECT_NE(thrownMessage([&] { detectDwells(p, t, v, zero); }).find("maxMotionMm"), std::string::npos);
+  DwellOptions negative;
+  negative.smoothingS = -0.1;
+  EXPECT_NE(thrownMessage([&] { detectDwells(p, t, v, negative); }).find("smoothingS"), std::string::npos);
   auto back = t;
   back[7] = 0.0;
   EXPECT_NE(thrownMessage([&] { detectDwells(p, back, v, DwellOptions{}); }).find("frame 7"),

@@ -25,6 +25,9 @@ struct DwellOptions {
   /// Consecutive dwells whose means are closer than this are one landmark (the stylus pivoted on
   /// it, or a jitter split the rest), mm. PLUS uses 5 mm (a third of its 15 mm landmark spacing).
   double mergeDistanceMm = 5.0;
+  /// The motion test runs on the tip smoothed by a centred moving mean over this time, s (tracker
+  /// jitter and tremor of a few tenths of a mm would otherwise break a rest at 1 mm). 0: none.
+  double smoothingS = 0.1;
 };
 
 struct Dwell {
@@ -36,14 +39,15 @@ struct Dwell {
 };
 
 /// The stylus' resting periods, in time order. Algorithm (docs/registration.md, "Dwells"):
-/// frames that are not `valid` are ignored (a gap does not end a dwell). A run of consecutive
-/// valid frames is grown greedily from each start frame while every position stays within
+/// frames that are not `valid` are ignored (a gap does not end a dwell). The positions are
+/// smoothed by a centred moving mean over smoothingS for the motion test only. A run of
+/// consecutive valid frames is grown greedily from each start frame while every position stays within
 /// maxMotionMm of the run's component-wise median (checked as the run grows, against the median
 /// recomputed when the run has doubled); a run that lasts minDurationS and has minFrames valid
 /// frames is a dwell, and the search restarts after it; otherwise the start advances by one
 /// frame. Consecutive runs whose means are within mergeDistanceMm are merged into one dwell.
-/// Each run contributes its stable core to the mean: the frames within maxMotionMm / 2 of its
-/// median (all of them when that leaves fewer than minFrames).
+/// Each run contributes its stable core to the mean: its raw positions within maxMotionMm / 2
+/// of their median (all of them when that leaves fewer than minFrames).
 /// Throws std::invalid_argument when the three vectors differ in size, an option is not
 /// positive (mergeDistanceMm may be 0: no merging), timestamps decrease, or a valid frame has a non-finite position or timestamp.
 std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
