@@ -23,5 +23,7 @@ CommandAction addDetectCommand(CLI::App& app);
 CommandAction addSimulateCommand(CLI::App& app);
 CommandAction addCalibrateCommand(CLI::App& app);
 CommandAction addPivotCommand(CLI::App& app);
+CommandAction addLandmarksCommand(CLI::App& app);
+CommandAction addEvaluateCommand(CLI::App& app);
 
 }  // namespace echoreg::cli
