@@ -25,5 +25,6 @@ CommandAction addCalibrateCommand(CLI::App& app);
 CommandAction addPivotCommand(CLI::App& app);
 CommandAction addLandmarksCommand(CLI::App& app);
 CommandAction addEvaluateCommand(CLI::App& app);
+CommandAction addRegisterCommand(CLI::App& app);
 
 }  // namespace echoreg::cli

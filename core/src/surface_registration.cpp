@@ -156,8 +156,8 @@ void validate(const std::vector<SurfacePoint>& points, const std::vector<Landmar
   require(!o.searchAboutAxis || (o.axisPoint.allFinite() && o.axisDirection.norm() > 1e-9),
           "the search axis needs a point and a non-zero direction");
   require(o.maxIterations >= 1, "at least one iteration");
-  require(o.toleranceMm > 0.0, "tolerance must be > 0");
-  require(o.maxRmsMm > 0.0, "max RMS must be > 0");
+  require(o.toleranceMm > 0.0 && o.plainRmsChangeMm > 0.0, "tolerances must be > 0");
+  require(o.maxRmsMm > 0.0 && o.maxStartDistanceMm > 0.0, "max RMS and max start distance must be > 0");
   require(o.minInlierFraction > 0.0 && o.minInlierFraction <= 1.0, "min inlier fraction must be in (0, 1]");
   require(o.initial.matrix().allFinite(), "initial pose is not finite");
 }
@@ -380,7 +380,7 @@ Solution solvePlain(const MeshLocator& locator, const std::vector<SurfacePoint>&
     }
     const double rms = std::sqrt(sum / static_cast<double>(n));
     // The dissertation's stopping rule: the RMS (Eq. 4.4) no longer changes.
-    if (std::abs(previousRms - rms) < o.toleranceMm) {
+    if (std::abs(previousRms - rms) < o.plainRmsChangeMm) {
       s.settled = true;
       break;
     }
@@ -474,13 +474,13 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
 
   // The starts: the initial pose, rotations of it about the axis, random perturbations.
   std::vector<Eigen::Isometry3d> starts{options.initial};
-  if (robust && options.searchAboutAxis) {
+  if (options.searchAboutAxis) {
     const Eigen::Vector3d point = options.initial * options.axisPoint;
     const Eigen::Vector3d axis = options.initial.linear() * options.axisDirection.normalized();
     for (int k = 1; k < options.axisStarts; ++k)
       starts.push_back(rotationAbout(point, axis, 2.0 * kPi * k / options.axisStarts) * options.initial);
   }
-  if (robust && options.restarts > 0) {
+  if (options.restarts > 0) {
     Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
     for (const SurfacePoint& p : points) centroid += options.initial * p.point;
     centroid /= static_cast<double>(points.size());
@@ -498,7 +498,14 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
     }
   }
 
-  SurfaceRegistrationResult best;
+  // How far the points start from the surface (the best start's median distance).
+  double startDistance = std::numeric_limits<double>::infinity();
+  for (const Eigen::Isometry3d& start : starts) {
+    std::vector<double> distances;
+    for (const SurfacePoint& p : points) distances.push_back(locator_.closest(start * p.at(1.0)).distance);
+    startDistance = std::min(startDistance, detail::median(distances));
+  }
+
   double bestCost = std::numeric_limits<double>::infinity();
   Solution chosen;
   std::vector<Correspondence> c(points.size());
@@ -540,7 +547,15 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
 
   const int minimumInliers = std::max(
       3, static_cast<int>(std::ceil(options.minInlierFraction * static_cast<double>(points.size()))));
-  if (!chosen.settled) {
+  const int constraints = result.pointsUsed + (robust && options.useLandmarks ? 3 * static_cast<int>(landmarks.size()) : 0);
+  if (startDistance > options.maxStartDistanceMm) {
+    result.message = "the points start " + number(startDistance, "%.3g") +
+                     " mm (median) from the surface, beyond " + number(options.maxStartDistanceMm, "%.3g") +
+                     " mm: wrong frame, model or start?";
+  } else if (constraints < 6) {
+    result.message = "only " + std::to_string(result.pointsUsed) +
+                     " points (and landmarks) for 6 degrees of freedom: at least 6 constraints needed";
+  } else if (!chosen.settled) {
     result.message = "did not settle within " + std::to_string(options.maxIterations) + " iterations";
   } else if (result.pointsUsed < minimumInliers) {
     result.message = "only " + std::to_string(result.pointsUsed) + " of " + std::to_string(points.size()) +

@@ -118,7 +118,7 @@ TEST(SurfaceRegistration, PlainIcpConvergesWithoutNoise) {
   options.method = SurfaceMethod::Plain;
   options.initial = perturbed(truth, 4.0, 3.0);
   options.maxIterations = 500;
-  options.toleranceMm = 1e-9;
+  options.plainRmsChangeMm = 1e-9;
   const SurfaceRegistrationResult r = lumpy().registerPoints(points, {}, options);
   ASSERT_TRUE(r.converged) << r.message;
   // Point-to-point ICP creeps (linear convergence); it still gets there.

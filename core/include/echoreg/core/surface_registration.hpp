@@ -92,14 +92,14 @@ struct SurfaceRegistrationOptions {
   bool useLandmarks = true;
 
   Eigen::Isometry3d initial = Eigen::Isometry3d::Identity();  ///< bone -> model
-  /// Robust: this many extra starts from the initial pose perturbed by a random rotation of up to
+  /// This many extra starts (either method; the least truncated cost wins) from the initial pose perturbed by a random rotation of up to
   /// restartRotationDeg (about the points' centroid) and a translation of up to
   /// restartTranslationMm (seeded: same seed, same starts).
   int restarts = 0;
   double restartRotationDeg = 10.0;
   double restartTranslationMm = 10.0;
   std::uint64_t seed = 1;
-  /// Robust: starts rotated about a line (bone frame), e.g. through two landmarks whose rotation
+  /// Starts rotated about a line (bone frame), e.g. through two landmarks whose rotation
   /// about their line the landmarks cannot fix: axisStarts starts evenly over 360 deg.
   bool searchAboutAxis = false;
   Eigen::Vector3d axisPoint = Eigen::Vector3d::Zero();
@@ -107,11 +107,18 @@ struct SurfaceRegistrationOptions {
   int axisStarts = 12;
 
   int maxIterations = 100;     ///< outer iterations (closest points re-found) per start
-  double toleranceMm = 1e-6;   ///< stop when no point moves more than this in one iteration
+  /// Robust: stop when no point moves more than this in one iteration (or the objective no longer
+  /// decreases).
+  double toleranceMm = 1e-6;
+  /// Plain: stop when the RMS (Eq. 4.4) changes by less than this in one iteration.
+  double plainRmsChangeMm = 1e-4;
   /// converged = false when the inliers' RMS exceeds this (the points end far from the surface)
   /// or fewer than minInlierFraction of the points (and fewer than 3) remain.
   double maxRmsMm = 2.0;
   double minInlierFraction = 0.5;
+  /// converged = false when, at every start, the points' median distance to the surface exceeds
+  /// this (wrong frame, wrong model or a wild start: any fit from there would be a guess).
+  double maxStartDistanceMm = 30.0;
 };
 
 struct SurfaceRegistrationResult {
@@ -146,7 +153,9 @@ class SurfaceRegistration {
 
   const MeshLocator& locator() const { return locator_; }
 
-  /// Registers `points` (bone frame) to the model. Throws std::invalid_argument for bad input,
+  /// Registers `points` (bone frame) to the model. converged = false also when fewer than 6
+  /// constraints remain (a surface point fixes one degree of freedom, a landmark three) or the
+  /// points start far from the surface (maxStartDistanceMm). Throws std::invalid_argument for bad input,
   /// naming the point, landmark or option: fewer than 3 points, a non-finite coordinate, a sigma
   /// <= 0, a beam direction not unit, a negative depth, a speed-of-sound fit without any beam, or
   /// an option out of range. Never returns a silently wrong transform: converged = false (with
