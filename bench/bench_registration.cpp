@@ -1,11 +1,11 @@
 // Surface registration side by side on the SAME simulated trials of the real femur
 // (../shared/data/meshes/femur.stl; tests/support/registration_trials.hpp): VTK's
 // vtkIterativeClosestPointTransform in rigid mode, echoreg's plain ICP (the dissertation's), and
-// echoreg's robust registration without and with the speed-of-sound scale (and with 4 restarts). Printed first: the
-// error at the knee centre over the trials (median, 95th percentile, max, failures > 3 mm), the
-// rotation error and the time per registration, for two settings:
-//   A: 120 beams, 0.3 mm depth noise (the settings of tests/filters/test_surface_registration_femur)
-//   B: 60 beams, 0.4 mm depth noise
+// echoreg's robust registration without and with the speed-of-sound scale (and with 4 restarts).
+// Printed first: the error at the knee centre over the trials (median, 95th percentile, max,
+// failures > 3 mm), the rotation error and the time per registration, for two settings:
+//   A: 120 beams, 0.3 mm depth noise (the settings of
+//   tests/filters/test_surface_registration_femur) B: 60 beams, 0.4 mm depth noise
 // both with 10 % false echoes of 3-15 mm, the true speed of sound 3 % above the assumed, and an
 // initial pose 3-6 deg / 3-6 mm off about the knee centre.
 // Then Google Benchmark timings of one registration of 50 beams on the femur subdivided to
@@ -51,9 +51,11 @@ using echoreg::test::RegistrationTrial;
 // vtkCellLocator), mean distance as the stopping rule, 100 iterations at most.
 class VtkIcp {
  public:
-  explicit VtkIcp(const echoreg::core::TriangleMesh& mesh) : target_(echoreg::filters::toPolyData(mesh)) {}
+  explicit VtkIcp(const echoreg::core::TriangleMesh& mesh)
+      : target_(echoreg::filters::toPolyData(mesh)) {}
 
-  Eigen::Isometry3d run(const std::vector<SurfacePoint>& points, const Eigen::Isometry3d& initial) const {
+  Eigen::Isometry3d run(const std::vector<SurfacePoint>& points,
+                        const Eigen::Isometry3d& initial) const {
     vtkNew<vtkPoints> sourcePoints;
     for (const SurfacePoint& p : points) {
       const Eigen::Vector3d q = initial * p.point;
@@ -76,7 +78,8 @@ class VtkIcp {
     vtkMatrix4x4* m = icp->GetMatrix();
     Eigen::Matrix4d matrix;
     for (int r = 0; r < 4; ++r) {
-      for (int c = 0; c < 4; ++c) matrix(r, c) = m->GetElement(r, c);
+      for (int c = 0; c < 4; ++c)
+        matrix(r, c) = m->GetElement(r, c);
     }
     Eigen::Isometry3d t;
     t.matrix() = matrix;
@@ -99,9 +102,11 @@ const Model* femur(int parts) {
   std::unique_ptr<Model>& slot = models.at(static_cast<std::size_t>(parts));
   if (!slot) {
     const std::string path = echoreg::test::sharedDataFile("meshes/femur.stl");
-    if (path.empty()) return nullptr;
+    if (path.empty())
+      return nullptr;
     echoreg::core::TriangleMesh mesh = echoreg::filters::readMesh(path);
-    if (parts > 1) mesh = echoreg::test::subdivided(mesh, parts);
+    if (parts > 1)
+      mesh = echoreg::test::subdivided(mesh, parts);
     slot = std::make_unique<Model>();
     slot->registration = std::make_unique<SurfaceRegistration>(mesh);
     slot->icp = std::make_unique<VtkIcp>(mesh);
@@ -117,7 +122,8 @@ struct Method {
 
 std::vector<Method> methods() {
   return {
-      {"VTK ICP (rigid)", [](const Model& m, const RegistrationTrial& t) { return m.icp->run(t.points, t.initial); }},
+      {"VTK ICP (rigid)",
+       [](const Model& m, const RegistrationTrial& t) { return m.icp->run(t.points, t.initial); }},
       {"echoreg plain",
        [](const Model& m, const RegistrationTrial& t) {
          SurfaceRegistrationOptions o;
@@ -160,24 +166,31 @@ void compare(int trialCount) {
     int points;
     double noise;
   };
-  for (const Setting& setting : {Setting{"A: 120 beams, 0.3 mm noise", 120, 0.3}, Setting{"B: 60 beams, 0.4 mm noise", 60, 0.4}}) {
+  for (const Setting& setting : {Setting{"A: 120 beams, 0.3 mm noise", 120, 0.3},
+                                 Setting{"B: 60 beams, 0.4 mm noise", 60, 0.4}}) {
     echoreg::test::TrialOptions options;
     options.points = setting.points;
     options.noiseMm = setting.noise;
     std::vector<RegistrationTrial> trials;
-    for (int i = 0; i < trialCount; ++i) trials.push_back(model->trials->make(2008, i, options));
-    std::printf("\n%s, 10 %% false echoes, speed +3 %%, start 3-6 deg / 3-6 mm off; %d trials, femur %zu triangles\n",
-                setting.name, trialCount, model->registration->locator().mesh().triangles.size());
-    std::printf("%-24s %9s %9s %9s %9s %11s %10s\n", "method", "median", "95th", "max", "> 3 mm", "rot median",
-                "ms median");
+    for (int i = 0; i < trialCount; ++i)
+      trials.push_back(model->trials->make(2008, i, options));
+    std::printf(
+        "\n%s, 10 %% false echoes, speed +3 %%, start 3-6 deg / 3-6 mm off; %d trials, femur %zu "
+        "triangles\n",
+        setting.name, trialCount, model->registration->locator().mesh().triangles.size());
+    std::printf("%-24s %9s %9s %9s %9s %11s %10s\n", "method", "median", "95th", "max", "> 3 mm",
+                "rot median", "ms median");
     for (const Method& method : methods()) {
       std::vector<double> knee, rotation, ms;
       int failures = 0;
       for (const RegistrationTrial& trial : trials) {
         const auto start = std::chrono::steady_clock::now();
         const Eigen::Isometry3d estimate = method.run(*model, trial);
-        ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count());
-        const echoreg::test::TrialError e = echoreg::test::trialError(trial.truth, estimate, model->trials->kneeCentre());
+        ms.push_back(
+            std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+                .count());
+        const echoreg::test::TrialError e =
+            echoreg::test::trialError(trial.truth, estimate, model->trials->kneeCentre());
         knee.push_back(e.kneeMm);
         rotation.push_back(e.rotationDeg);
         failures += e.kneeMm > 3.0 ? 1 : 0;
@@ -201,20 +214,32 @@ void timed(benchmark::State& state, int methodIndex) {
   echoreg::test::TrialOptions options;
   options.points = 50;
   std::vector<RegistrationTrial> trials;
-  for (int i = 0; i < 16; ++i) trials.push_back(model->trials->make(7, i, options));
+  for (int i = 0; i < 16; ++i)
+    trials.push_back(model->trials->make(7, i, options));
   const Method method = methods().at(static_cast<std::size_t>(methodIndex));
   std::size_t i = 0;
   for (auto _ : state) {
     benchmark::DoNotOptimize(method.run(*model, trials[i++ % trials.size()]));
   }
-  state.counters["triangles"] = static_cast<double>(model->registration->locator().mesh().triangles.size());
+  state.counters["triangles"] =
+      static_cast<double>(model->registration->locator().mesh().triangles.size());
 }
 
-void BM_Register50_325k_VtkIcp(benchmark::State& state) { timed(state, 0); }
-void BM_Register50_325k_Plain(benchmark::State& state) { timed(state, 1); }
-void BM_Register50_325k_Robust(benchmark::State& state) { timed(state, 2); }
-void BM_Register50_325k_RobustSpeed(benchmark::State& state) { timed(state, 3); }
-void BM_Register50_325k_RobustSpeedRestarts4(benchmark::State& state) { timed(state, 4); }
+void BM_Register50_325k_VtkIcp(benchmark::State& state) {
+  timed(state, 0);
+}
+void BM_Register50_325k_Plain(benchmark::State& state) {
+  timed(state, 1);
+}
+void BM_Register50_325k_Robust(benchmark::State& state) {
+  timed(state, 2);
+}
+void BM_Register50_325k_RobustSpeed(benchmark::State& state) {
+  timed(state, 3);
+}
+void BM_Register50_325k_RobustSpeedRestarts4(benchmark::State& state) {
+  timed(state, 4);
+}
 
 void BM_PrepareModel_325k(benchmark::State& state) {
   const std::string path = echoreg::test::sharedDataFile("meshes/femur.stl");
@@ -222,7 +247,8 @@ void BM_PrepareModel_325k(benchmark::State& state) {
     state.SkipWithError("../shared/data/meshes/femur.stl is absent");
     return;
   }
-  const echoreg::core::TriangleMesh mesh = echoreg::test::subdivided(echoreg::filters::readMesh(path), 4);
+  const echoreg::core::TriangleMesh mesh =
+      echoreg::test::subdivided(echoreg::filters::readMesh(path), 4);
   for (auto _ : state) {
     SurfaceRegistration model(mesh);
     benchmark::DoNotOptimize(&model);
@@ -248,7 +274,8 @@ int main(int argc, char** argv) {
       rest.push_back(argv[i]);
     }
   }
-  if (trials > 0) compare(trials);
+  if (trials > 0)
+    compare(trials);
   int count = static_cast<int>(rest.size());
   benchmark::Initialize(&count, rest.data());
   benchmark::RunSpecifiedBenchmarks();

@@ -31,14 +31,15 @@ std::string number(double value, const char* format = "%.4g") {
 }
 
 void require(bool condition, const std::string& message) {
-  if (!condition) throw std::invalid_argument("surface registration: " + message);
+  if (!condition)
+    throw std::invalid_argument("surface registration: " + message);
 }
 
 // One point's closest point and the plane the point-to-plane residual uses.
 struct Correspondence {
   Eigen::Vector3d foot = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // unit; the distance's gradient, outward
-  double signedDistance = 0.0;                       // n . (y - foot)
+  double signedDistance = 0.0;                        // n . (y - foot)
 };
 
 Correspondence correspond(const MeshLocator& locator, const Eigen::Vector3d& y) {
@@ -58,7 +59,8 @@ Correspondence correspond(const MeshLocator& locator, const Eigen::Vector3d& y) 
     c.normal = faceNormal;
   }
   c.signedDistance = c.normal.dot(d);
-  if (onBoundary && distance > 1e-9) c.signedDistance = std::copysign(distance, c.signedDistance);
+  if (onBoundary && distance > 1e-9)
+    c.signedDistance = std::copysign(distance, c.signedDistance);
   return c;
 }
 
@@ -77,14 +79,15 @@ struct PlaneResidual {
     T r[3];
     ceres::AngleAxisRotatePoint(pose, p, r);
     T along = T(0.0);
-    for (int k = 0; k < 3; ++k) along += T(normal[k]) * (r[k] + pose[3 + k] + T(centroidMinusFoot[k]));
+    for (int k = 0; k < 3; ++k)
+      along += T(normal[k]) * (r[k] + pose[3 + k] + T(centroidMinusFoot[k]));
     residual[0] = (along - T(offset)) * T(invSigma);
     return true;
   }
 };
 
 struct LandmarkResidual {
-  Eigen::Vector3d a;                 // bone landmark under the current pose minus the centroid
+  Eigen::Vector3d a;  // bone landmark under the current pose minus the centroid
   Eigen::Vector3d centroidMinusModel;
   double invSigma = 1.0;
 
@@ -93,27 +96,36 @@ struct LandmarkResidual {
     const T p[3] = {T(a.x()), T(a.y()), T(a.z())};
     T r[3];
     ceres::AngleAxisRotatePoint(pose, p, r);
-    for (int k = 0; k < 3; ++k) residual[k] = (r[k] + pose[3 + k] + T(centroidMinusModel[k])) * T(invSigma);
+    for (int k = 0; k < 3; ++k)
+      residual[k] = (r[k] + pose[3 + k] + T(centroidMinusModel[k])) * T(invSigma);
     return true;
   }
 };
 
 double defaultLossScale(RobustLoss loss) {
   switch (loss) {
-    case RobustLoss::Huber: return 1.345;
-    case RobustLoss::Cauchy: return 2.385;
-    case RobustLoss::Tukey: return 4.685;
-    case RobustLoss::Trim: return 0.0;
+    case RobustLoss::Huber:
+      return 1.345;
+    case RobustLoss::Cauchy:
+      return 2.385;
+    case RobustLoss::Tukey:
+      return 4.685;
+    case RobustLoss::Trim:
+      return 0.0;
   }
   return 0.0;
 }
 
 ceres::LossFunction* makeLoss(RobustLoss loss, double scale) {
   switch (loss) {
-    case RobustLoss::Huber: return new ceres::HuberLoss(scale);
-    case RobustLoss::Cauchy: return new ceres::CauchyLoss(scale);
-    case RobustLoss::Tukey: return new ceres::TukeyLoss(scale);
-    case RobustLoss::Trim: return nullptr;
+    case RobustLoss::Huber:
+      return new ceres::HuberLoss(scale);
+    case RobustLoss::Cauchy:
+      return new ceres::CauchyLoss(scale);
+    case RobustLoss::Tukey:
+      return new ceres::TukeyLoss(scale);
+    case RobustLoss::Trim:
+      return nullptr;
   }
   return nullptr;
 }
@@ -144,9 +156,11 @@ void validate(const std::vector<SurfacePoint>& points, const std::vector<Landmar
     require(std::isfinite(l.sigmaMm) && l.sigmaMm > 0.0, name + ": sigma must be > 0 mm");
   }
   require(!o.fitSpeedOfSound || anyBeam,
-          "the speed of sound can only be fitted for points with their beams (origin, direction, depth)");
-  require(o.fitSpeedOfSound ? o.minSpeedScale > 0.0 && o.minSpeedScale < 1.0 && o.maxSpeedScale > 1.0
-                            : true,
+          "the speed of sound can only be fitted for points with their beams (origin, direction, "
+          "depth)");
+  require(o.fitSpeedOfSound
+              ? o.minSpeedScale > 0.0 && o.minSpeedScale < 1.0 && o.maxSpeedScale > 1.0
+              : true,
           "speed-of-sound bounds must bracket 1");
   require(o.lossScale >= 0.0 && std::isfinite(o.lossScale), "loss scale must be >= 0");
   require(o.trimFraction >= 0.0 && o.trimFraction < 0.5, "trim fraction must be in [0, 0.5)");
@@ -157,8 +171,10 @@ void validate(const std::vector<SurfacePoint>& points, const std::vector<Landmar
           "the search axis needs a point and a non-zero direction");
   require(o.maxIterations >= 1, "at least one iteration");
   require(o.toleranceMm > 0.0 && o.plainRmsChangeMm > 0.0, "tolerances must be > 0");
-  require(o.maxRmsMm > 0.0 && o.maxStartDistanceMm > 0.0, "max RMS and max start distance must be > 0");
-  require(o.minInlierFraction > 0.0 && o.minInlierFraction <= 1.0, "min inlier fraction must be in (0, 1]");
+  require(o.maxRmsMm > 0.0 && o.maxStartDistanceMm > 0.0,
+          "max RMS and max start distance must be > 0");
+  require(o.minInlierFraction > 0.0 && o.minInlierFraction <= 1.0,
+          "min inlier fraction must be in (0, 1]");
   require(o.initial.matrix().allFinite(), "initial pose is not finite");
 }
 
@@ -182,16 +198,22 @@ std::vector<double> whitenedAbs(const std::vector<SurfacePoint>& points,
 std::vector<bool> selectInliers(const std::vector<double>& z, const SurfaceRegistrationOptions& o) {
   std::vector<bool> inlier(z.size(), true);
   if (o.loss == RobustLoss::Trim) {
-    const std::size_t drop = static_cast<std::size_t>(std::floor(o.trimFraction * static_cast<double>(z.size())));
-    if (drop == 0) return inlier;
+    const std::size_t drop =
+        static_cast<std::size_t>(std::floor(o.trimFraction * static_cast<double>(z.size())));
+    if (drop == 0)
+      return inlier;
     std::vector<std::size_t> order(z.size());
-    for (std::size_t i = 0; i < order.size(); ++i) order[i] = i;
-    std::stable_sort(order.begin(), order.end(), [&](std::size_t l, std::size_t r) { return z[l] < z[r]; });
-    for (std::size_t k = z.size() - drop; k < z.size(); ++k) inlier[order[k]] = false;
+    for (std::size_t i = 0; i < order.size(); ++i)
+      order[i] = i;
+    std::stable_sort(order.begin(), order.end(),
+                     [&](std::size_t l, std::size_t r) { return z[l] < z[r]; });
+    for (std::size_t k = z.size() - drop; k < z.size(); ++k)
+      inlier[order[k]] = false;
     return inlier;
   }
   const double gate = detail::robustThreshold(z, o.gateSigmas, o.gateSigmas);
-  for (std::size_t i = 0; i < z.size(); ++i) inlier[i] = z[i] <= gate;
+  for (std::size_t i = 0; i < z.size(); ++i)
+    inlier[i] = z[i] <= gate;
   return inlier;
 }
 
@@ -200,8 +222,8 @@ std::vector<bool> selectInliers(const std::vector<double>& z, const SurfaceRegis
 Eigen::Isometry3d increment(const double* pose, const Eigen::Vector3d& centroid, double k) {
   const Eigen::Vector3d w = k * Eigen::Vector3d(pose[0], pose[1], pose[2]);
   const double angle = w.norm();
-  const Eigen::Matrix3d delta =
-      angle > 0.0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix() : Eigen::Matrix3d::Identity();
+  const Eigen::Matrix3d delta = angle > 0.0 ? Eigen::AngleAxisd(angle, w / angle).toRotationMatrix()
+                                            : Eigen::Matrix3d::Identity();
   Eigen::Isometry3d step = Eigen::Isometry3d::Identity();
   step.linear() = delta;
   step.translation() = centroid + k * Eigen::Vector3d(pose[3], pose[4], pose[5]) - delta * centroid;
@@ -216,22 +238,25 @@ double objective(const MeshLocator& locator, const std::vector<SurfacePoint>& po
                  double scale) {
   double cost = 0.0;
   for (std::size_t i = 0; i < points.size(); ++i) {
-    if (!inlier[i]) continue;
+    if (!inlier[i])
+      continue;
     const Correspondence c = correspond(locator, t * points[i].at(scale));
     const double z = (c.signedDistance - points[i].surfaceOffsetMm) / points[i].sigmaMm;
     double rho[3] = {z * z, 1.0, 0.0};
-    if (loss != nullptr) loss->Evaluate(z * z, rho);
+    if (loss != nullptr)
+      loss->Evaluate(z * z, rho);
     cost += rho[0];
   }
   if (useLandmarks) {
-    for (const LandmarkPair& l : landmarks) cost += ((t * l.bone - l.model) / l.sigmaMm).squaredNorm();
+    for (const LandmarkPair& l : landmarks)
+      cost += ((t * l.bone - l.model) / l.sigmaMm).squaredNorm();
   }
   return cost;
 }
 
 Solution solveRobust(const MeshLocator& locator, const std::vector<SurfacePoint>& points,
-                     const std::vector<LandmarkPair>& landmarks, const SurfaceRegistrationOptions& o,
-                     const Eigen::Isometry3d& start) {
+                     const std::vector<LandmarkPair>& landmarks,
+                     const SurfaceRegistrationOptions& o, const Eigen::Isometry3d& start) {
   Solution s;
   s.transform = start;
   const double lossScale = o.lossScale > 0.0 ? o.lossScale : defaultLossScale(o.loss);
@@ -255,7 +280,8 @@ Solution solveRobust(const MeshLocator& locator, const std::vector<SurfacePoint>
     centroid /= static_cast<double>(points.size());
     s.inlier = selectInliers(whitenedAbs(points, c), o);
     const auto costAt = [&](const Eigen::Isometry3d& t, double scale) {
-      return objective(locator, points, landmarks, s.inlier, lossForCost.get(), useLandmarks, t, scale);
+      return objective(locator, points, landmarks, s.inlier, lossForCost.get(), useLandmarks, t,
+                       scale);
     };
     const double before = costAt(s.transform, s.scale);
 
@@ -264,7 +290,8 @@ Solution solveRobust(const MeshLocator& locator, const std::vector<SurfacePoint>
     ceres::Problem problem;
     const Eigen::Matrix3d rotation = s.transform.linear();
     for (std::size_t i = 0; i < points.size(); ++i) {
-      if (!s.inlier[i]) continue;
+      if (!s.inlier[i])
+        continue;
       const SurfacePoint& p = points[i];
       PlaneResidual r;
       if (p.hasBeam) {
@@ -278,8 +305,9 @@ Solution solveRobust(const MeshLocator& locator, const std::vector<SurfacePoint>
       r.centroidMinusFoot = centroid - c[i].foot;
       r.offset = p.surfaceOffsetMm;
       r.invSigma = 1.0 / p.sigmaMm;
-      problem.AddResidualBlock(new ceres::AutoDiffCostFunction<PlaneResidual, 1, 6, 1>(new PlaneResidual(r)),
-                               makeLoss(o.loss, lossScale), pose, &scale);
+      problem.AddResidualBlock(
+          new ceres::AutoDiffCostFunction<PlaneResidual, 1, 6, 1>(new PlaneResidual(r)),
+          makeLoss(o.loss, lossScale), pose, &scale);
     }
     if (useLandmarks) {
       for (const LandmarkPair& l : landmarks) {
@@ -287,8 +315,9 @@ Solution solveRobust(const MeshLocator& locator, const std::vector<SurfacePoint>
         r.a = s.transform * l.bone - centroid;
         r.centroidMinusModel = centroid - l.model;
         r.invSigma = 1.0 / l.sigmaMm;
-        problem.AddResidualBlock(new ceres::AutoDiffCostFunction<LandmarkResidual, 3, 6>(new LandmarkResidual(r)),
-                                 nullptr, pose);
+        problem.AddResidualBlock(
+            new ceres::AutoDiffCostFunction<LandmarkResidual, 3, 6>(new LandmarkResidual(r)),
+            nullptr, pose);
       }
     }
     if (!o.fitSpeedOfSound) {
@@ -299,7 +328,8 @@ Solution solveRobust(const MeshLocator& locator, const std::vector<SurfacePoint>
     }
     ceres::Solver::Summary summary;
     ceres::Solve(solver, &problem, &summary);
-    if (!summary.IsSolutionUsable()) break;
+    if (!summary.IsSolutionUsable())
+      break;
 
     // The plane model's step, halved while it does not lower the true objective (closest points
     // re-found): every accepted step descends, so the iterations cannot cycle.
@@ -334,19 +364,23 @@ Solution solveRobust(const MeshLocator& locator, const std::vector<SurfacePoint>
     // same step; k is about -1/2 for a zigzag), kept only if it lowers the objective. r is
     // measured on the steps as 7-vectors in mm (rotation in rad x 100 mm, scale x 20 mm).
     Eigen::Matrix<double, 7, 1> step;
-    step << 100.0 * pose[0], 100.0 * pose[1], 100.0 * pose[2], pose[3], pose[4], pose[5], 20.0 * deltaScale;
+    step << 100.0 * pose[0], 100.0 * pose[1], 100.0 * pose[2], pose[3], pose[4], pose[5],
+        20.0 * deltaScale;
     step *= fraction;
-    const double ratio = previousStep.squaredNorm() > 0.0 ? step.dot(previousStep) / previousStep.squaredNorm() : 0.0;
-    const bool steady = s.inlier == previousInlier && std::abs(ratio) > 0.3 && std::abs(ratio) < 0.995 &&
+    const double ratio = previousStep.squaredNorm() > 0.0
+                             ? step.dot(previousStep) / previousStep.squaredNorm()
+                             : 0.0;
+    const bool steady = s.inlier == previousInlier && std::abs(ratio) > 0.3 &&
+                        std::abs(ratio) < 0.995 &&
                         std::abs(ratio - previousRatio) < 0.05 * std::abs(ratio);
     previousRatio = ratio;
     previousStep = step;
     if (steady) {
       const double k = std::clamp(ratio / (1.0 - ratio), -0.5, 100.0) * fraction;
       const Eigen::Isometry3d jump = increment(pose, centroid, k) * s.transform;
-      const double jumpScale = o.fitSpeedOfSound
-                                   ? std::clamp(s.scale + k * deltaScale, o.minSpeedScale, o.maxSpeedScale)
-                                   : s.scale;
+      const double jumpScale =
+          o.fitSpeedOfSound ? std::clamp(s.scale + k * deltaScale, o.minSpeedScale, o.maxSpeedScale)
+                            : s.scale;
       if (costAt(jump, jumpScale) < after) {
         s.transform = jump;
         s.scale = jumpScale;
@@ -356,7 +390,8 @@ Solution solveRobust(const MeshLocator& locator, const std::vector<SurfacePoint>
     }
     previousInlier = s.inlier;
     // Keep the rotation exactly orthonormal over many iterations.
-    s.transform.linear() = Eigen::Quaterniond(s.transform.rotation()).normalized().toRotationMatrix();
+    s.transform.linear() =
+        Eigen::Quaterniond(s.transform.rotation()).normalized().toRotationMatrix();
   }
   return s;
 }
@@ -368,7 +403,8 @@ Solution solvePlain(const MeshLocator& locator, const std::vector<SurfacePoint>&
   s.inlier.assign(points.size(), true);
   const Eigen::Index n = static_cast<Eigen::Index>(points.size());
   Eigen::Matrix3Xd from(3, n), to(3, n);
-  for (Eigen::Index i = 0; i < n; ++i) from.col(i) = points[static_cast<std::size_t>(i)].at(1.0);
+  for (Eigen::Index i = 0; i < n; ++i)
+    from.col(i) = points[static_cast<std::size_t>(i)].at(1.0);
   double previousRms = std::numeric_limits<double>::infinity();
   for (int iteration = 1; iteration <= o.maxIterations; ++iteration) {
     s.iterations = iteration;
@@ -398,14 +434,17 @@ double truncatedCost(const std::vector<SurfacePoint>& points, const std::vector<
   double cost = 0.0;
   const double cap = o.gateSigmas * o.gateSigmas;
   const std::vector<double> z = whitenedAbs(points, c);
-  for (double value : z) cost += std::min(value * value, cap);
+  for (double value : z)
+    cost += std::min(value * value, cap);
   if (o.useLandmarks && o.method == SurfaceMethod::Robust) {
-    for (const LandmarkPair& l : landmarks) cost += ((t * l.bone - l.model) / l.sigmaMm).squaredNorm();
+    for (const LandmarkPair& l : landmarks)
+      cost += ((t * l.bone - l.model) / l.sigmaMm).squaredNorm();
   }
   return cost;
 }
 
-Eigen::Isometry3d rotationAbout(const Eigen::Vector3d& point, const Eigen::Vector3d& axis, double angle) {
+Eigen::Isometry3d rotationAbout(const Eigen::Vector3d& point, const Eigen::Vector3d& axis,
+                                double angle) {
   Eigen::Isometry3d r = Eigen::Isometry3d::Identity();
   r.linear() = Eigen::AngleAxisd(angle, axis.normalized()).toRotationMatrix();
   r.translation() = point - r.linear() * point;
@@ -419,28 +458,39 @@ std::string_view surfaceMethodName(SurfaceMethod method) {
 }
 
 SurfaceMethod parseSurfaceMethod(std::string_view name) {
-  if (name == "plain") return SurfaceMethod::Plain;
-  if (name == "robust") return SurfaceMethod::Robust;
+  if (name == "plain")
+    return SurfaceMethod::Plain;
+  if (name == "robust")
+    return SurfaceMethod::Robust;
   throw std::invalid_argument("unknown registration method \"" + std::string(name) +
                               "\" (plain or robust)");
 }
 
 std::string_view robustLossName(RobustLoss loss) {
   switch (loss) {
-    case RobustLoss::Huber: return "huber";
-    case RobustLoss::Cauchy: return "cauchy";
-    case RobustLoss::Tukey: return "tukey";
-    case RobustLoss::Trim: return "trim";
+    case RobustLoss::Huber:
+      return "huber";
+    case RobustLoss::Cauchy:
+      return "cauchy";
+    case RobustLoss::Tukey:
+      return "tukey";
+    case RobustLoss::Trim:
+      return "trim";
   }
   return "huber";
 }
 
 RobustLoss parseRobustLoss(std::string_view name) {
-  if (name == "huber") return RobustLoss::Huber;
-  if (name == "cauchy") return RobustLoss::Cauchy;
-  if (name == "tukey") return RobustLoss::Tukey;
-  if (name == "trim") return RobustLoss::Trim;
-  throw std::invalid_argument("unknown loss \"" + std::string(name) + "\" (huber, cauchy, tukey or trim)");
+  if (name == "huber")
+    return RobustLoss::Huber;
+  if (name == "cauchy")
+    return RobustLoss::Cauchy;
+  if (name == "tukey")
+    return RobustLoss::Tukey;
+  if (name == "trim")
+    return RobustLoss::Trim;
+  throw std::invalid_argument("unknown loss \"" + std::string(name) +
+                              "\" (huber, cauchy, tukey or trim)");
 }
 
 SurfacePoint beamSurfacePoint(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction,
@@ -478,17 +528,20 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
     const Eigen::Vector3d point = options.initial * options.axisPoint;
     const Eigen::Vector3d axis = options.initial.linear() * options.axisDirection.normalized();
     for (int k = 1; k < options.axisStarts; ++k)
-      starts.push_back(rotationAbout(point, axis, 2.0 * kPi * k / options.axisStarts) * options.initial);
+      starts.push_back(rotationAbout(point, axis, 2.0 * kPi * k / options.axisStarts) *
+                       options.initial);
   }
   if (options.restarts > 0) {
     Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-    for (const SurfacePoint& p : points) centroid += options.initial * p.point;
+    for (const SurfacePoint& p : points)
+      centroid += options.initial * p.point;
     centroid /= static_cast<double>(points.size());
     const std::size_t base = starts.size();
     Rng rng = Rng::derive(options.seed, "surface-registration-restarts");
     for (int k = 0; k < options.restarts; ++k) {
       Eigen::Vector3d axis(rng.normal(), rng.normal(), rng.normal());
-      if (axis.norm() < 1e-12) axis = Eigen::Vector3d::UnitZ();
+      if (axis.norm() < 1e-12)
+        axis = Eigen::Vector3d::UnitZ();
       const double angle = rng.uniform(-1.0, 1.0) * options.restartRotationDeg * kPi / 180.0;
       Eigen::Vector3d shift(rng.normal(), rng.normal(), rng.normal());
       shift *= rng.uniform() * options.restartTranslationMm / std::max(shift.norm(), 1e-12);
@@ -502,7 +555,8 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
   double startDistance = std::numeric_limits<double>::infinity();
   for (const Eigen::Isometry3d& start : starts) {
     std::vector<double> distances;
-    for (const SurfacePoint& p : points) distances.push_back(locator_.closest(start * p.at(1.0)).distance);
+    for (const SurfacePoint& p : points)
+      distances.push_back(locator_.closest(start * p.at(1.0)).distance);
     startDistance = std::min(startDistance, detail::median(distances));
   }
 
@@ -512,7 +566,8 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
   for (const Eigen::Isometry3d& start : starts) {
     const Solution s = robust ? solveRobust(locator_, points, landmarks, options, start)
                               : solvePlain(locator_, points, options, start);
-    for (std::size_t i = 0; i < points.size(); ++i) c[i] = correspond(locator_, s.transform * points[i].at(s.scale));
+    for (std::size_t i = 0; i < points.size(); ++i)
+      c[i] = correspond(locator_, s.transform * points[i].at(s.scale));
     const double cost = truncatedCost(points, c, landmarks, s.transform, options);
     if (cost < bestCost) {
       bestCost = cost;
@@ -526,9 +581,11 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
   result.iterations = chosen.iterations;
   result.starts = static_cast<int>(starts.size());
   result.cost = bestCost;
-  for (std::size_t i = 0; i < points.size(); ++i) c[i] = correspond(locator_, chosen.transform * points[i].at(chosen.scale));
+  for (std::size_t i = 0; i < points.size(); ++i)
+    c[i] = correspond(locator_, chosen.transform * points[i].at(chosen.scale));
   // Inliers at the end: the robust gate (or the trim) at the solution; plain keeps every point.
-  result.inlier = robust ? selectInliers(whitenedAbs(points, c), options) : std::vector<bool>(points.size(), true);
+  result.inlier = robust ? selectInliers(whitenedAbs(points, c), options)
+                         : std::vector<bool>(points.size(), true);
   double sumIn = 0.0, sumAll = 0.0;
   result.residualsMm.resize(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
@@ -543,33 +600,42 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
   result.pointsRejected = static_cast<int>(points.size()) - result.pointsUsed;
   result.rmsAllMm = std::sqrt(sumAll / static_cast<double>(points.size()));
   result.rmsMm = result.pointsUsed > 0 ? std::sqrt(sumIn / result.pointsUsed) : 0.0;
-  for (const LandmarkPair& l : landmarks) result.landmarkResidualsMm.push_back((chosen.transform * l.bone - l.model).norm());
+  for (const LandmarkPair& l : landmarks)
+    result.landmarkResidualsMm.push_back((chosen.transform * l.bone - l.model).norm());
 
   const int minimumInliers = std::max(
-      3, static_cast<int>(std::ceil(options.minInlierFraction * static_cast<double>(points.size()))));
-  const int constraints = result.pointsUsed + (robust && options.useLandmarks ? 3 * static_cast<int>(landmarks.size()) : 0);
+      3,
+      static_cast<int>(std::ceil(options.minInlierFraction * static_cast<double>(points.size()))));
+  const int constraints =
+      result.pointsUsed +
+      (robust && options.useLandmarks ? 3 * static_cast<int>(landmarks.size()) : 0);
   if (startDistance > options.maxStartDistanceMm) {
     result.message = "the points start " + number(startDistance, "%.3g") +
-                     " mm (median) from the surface, beyond " + number(options.maxStartDistanceMm, "%.3g") +
+                     " mm (median) from the surface, beyond " +
+                     number(options.maxStartDistanceMm, "%.3g") +
                      " mm: wrong frame, model or start?";
   } else if (constraints < 6) {
-    result.message = "only " + std::to_string(result.pointsUsed) +
-                     " points (and landmarks) for 6 degrees of freedom: at least 6 constraints needed";
+    result.message =
+        "only " + std::to_string(result.pointsUsed) +
+        " points (and landmarks) for 6 degrees of freedom: at least 6 constraints needed";
   } else if (!chosen.settled) {
-    result.message = "did not settle within " + std::to_string(options.maxIterations) + " iterations";
+    result.message =
+        "did not settle within " + std::to_string(options.maxIterations) + " iterations";
   } else if (result.pointsUsed < minimumInliers) {
-    result.message = "only " + std::to_string(result.pointsUsed) + " of " + std::to_string(points.size()) +
-                     " points lie near the surface (at least " + std::to_string(minimumInliers) + " needed)";
+    result.message = "only " + std::to_string(result.pointsUsed) + " of " +
+                     std::to_string(points.size()) + " points lie near the surface (at least " +
+                     std::to_string(minimumInliers) + " needed)";
   } else if (result.rmsMm > options.maxRmsMm) {
     result.message = "the points end far from the surface: RMS " + number(result.rmsMm, "%.3g") +
-                     " mm over the inliers, above the limit " + number(options.maxRmsMm, "%.3g") + " mm";
+                     " mm over the inliers, above the limit " + number(options.maxRmsMm, "%.3g") +
+                     " mm";
   }
   result.converged = result.message.empty();
   return result;
 }
 
-Eigen::Isometry3d poseFromTwoLandmarks(const LandmarkPair& a, const LandmarkPair& b, double angleRad,
-                                       double maxLengthMismatchMm) {
+Eigen::Isometry3d poseFromTwoLandmarks(const LandmarkPair& a, const LandmarkPair& b,
+                                       double angleRad, double maxLengthMismatchMm) {
   const Eigen::Vector3d boneLine = b.bone - a.bone;
   const Eigen::Vector3d modelLine = b.model - a.model;
   require(boneLine.allFinite() && modelLine.allFinite(), "landmarks are not finite");
@@ -588,7 +654,8 @@ Eigen::Isometry3d poseFromTwoLandmarks(const LandmarkPair& a, const LandmarkPair
 }
 
 LandmarkSpread landmarkSpread(const std::vector<LandmarkPair>& landmarks, double minOffLineMm) {
-  require(landmarks.size() >= 2, "at least 2 landmarks needed, got " + std::to_string(landmarks.size()));
+  require(landmarks.size() >= 2,
+          "at least 2 landmarks needed, got " + std::to_string(landmarks.size()));
   LandmarkSpread s;
   for (std::size_t i = 0; i < landmarks.size(); ++i) {
     for (std::size_t j = i + 1; j < landmarks.size(); ++j) {
@@ -602,7 +669,8 @@ LandmarkSpread landmarkSpread(const std::vector<LandmarkPair>& landmarks, double
   }
   const Eigen::Vector3d a = landmarks[static_cast<std::size_t>(s.first)].bone;
   const Eigen::Vector3d b = landmarks[static_cast<std::size_t>(s.second)].bone;
-  const Eigen::Vector3d u = s.lengthMm > 0.0 ? Eigen::Vector3d((b - a) / s.lengthMm) : Eigen::Vector3d::UnitX();
+  const Eigen::Vector3d u =
+      s.lengthMm > 0.0 ? Eigen::Vector3d((b - a) / s.lengthMm) : Eigen::Vector3d::UnitX();
   for (const LandmarkPair& l : landmarks) {
     const Eigen::Vector3d d = l.bone - a;
     s.maxOffLineMm = std::max(s.maxOffLineMm, (d - d.dot(u) * u).norm());

@@ -3,8 +3,8 @@
 // tip offset), the landmark penalty fixing what one face cannot, the search about two landmarks'
 // line, determinism, and refusals of bad input. The real femur with 150 noisy trials is in
 // tests/filters/test_surface_registration_femur.cpp.
-#include "echoreg/core/surface_registration.hpp"
 #include "echoreg/core/random.hpp"
+#include "echoreg/core/surface_registration.hpp"
 #include "mesh_test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -35,7 +35,8 @@ std::string thrownMessage(Call call) {
 TriangleMesh lumpyShape() {
   TriangleMesh mesh = test::icosphere(1.0, 3);
   for (Eigen::Vector3d& v : mesh.vertices) {
-    const double r = 1.0 + 0.15 * v.x() * v.y() + 0.1 * v.z() * v.z() * v.z() + 0.08 * std::sin(3.0 * v.x());
+    const double r =
+        1.0 + 0.15 * v.x() * v.y() + 0.1 * v.z() * v.z() * v.z() + 0.08 * std::sin(3.0 * v.x());
     v = Eigen::Vector3d(30.0 * v.x(), 20.0 * v.y(), 45.0 * v.z()) * r;
   }
   return mesh;
@@ -57,7 +58,8 @@ Eigen::Isometry3d truthPose() {
 Eigen::Isometry3d perturbed(const Eigen::Isometry3d& truth, double degrees, double mm,
                             const Eigen::Vector3d& centre = Eigen::Vector3d::Zero()) {
   Eigen::Isometry3d e = Eigen::Isometry3d::Identity();
-  e.linear() = Eigen::AngleAxisd(degrees * kDeg, Eigen::Vector3d(0.3, 1, -0.4).normalized()).toRotationMatrix();
+  e.linear() = Eigen::AngleAxisd(degrees * kDeg, Eigen::Vector3d(0.3, 1, -0.4).normalized())
+                   .toRotationMatrix();
   e.translation() = centre - e.linear() * centre + mm * Eigen::Vector3d(1, 1, -1).normalized();
   return e * truth;
 }
@@ -66,7 +68,8 @@ Eigen::Isometry3d perturbed(const Eigen::Isometry3d& truth, double degrees, doub
 // triangles (model frame), expressed in the bone frame of `truth`; depths read at speed
 // c_assumed = c_true / speedScale.
 std::vector<SurfacePoint> beams(const TriangleMesh& mesh, const Eigen::Isometry3d& truth, int count,
-                                std::uint64_t seed, double speedScale = 1.0, double standoff = 15.0) {
+                                std::uint64_t seed, double speedScale = 1.0,
+                                double standoff = 15.0) {
   Rng rng(seed);
   const Eigen::Isometry3d toBone = truth.inverse();
   std::vector<SurfacePoint> points;
@@ -82,20 +85,22 @@ std::vector<SurfacePoint> beams(const TriangleMesh& mesh, const Eigen::Isometry3
     const Eigen::Vector3d q = a + u * (mesh.vertices[static_cast<std::size_t>(tri[1])] - a) +
                               v * (mesh.vertices[static_cast<std::size_t>(tri[2])] - a);
     const Eigen::Vector3d n = triangleNormal(mesh, t);
-    points.push_back(beamSurfacePoint(toBone * Eigen::Vector3d(q + standoff * n), toBone.linear() * -n,
-                                      standoff / speedScale));
+    points.push_back(beamSurfacePoint(toBone * Eigen::Vector3d(q + standoff * n),
+                                      toBone.linear() * -n, standoff / speedScale));
   }
   return points;
 }
 
-double errorAt(const Eigen::Isometry3d& truth, const Eigen::Isometry3d& estimate, const Eigen::Vector3d& model) {
+double errorAt(const Eigen::Isometry3d& truth, const Eigen::Isometry3d& estimate,
+               const Eigen::Vector3d& model) {
   return (estimate * (truth.inverse() * model) - model).norm();
 }
 
 TEST(SurfaceRegistration, RecoversAKnownTransformExactlyWithEveryLoss) {
   const Eigen::Isometry3d truth = truthPose();
   const std::vector<SurfacePoint> points = beams(lumpy().locator().mesh(), truth, 80, 1);
-  for (RobustLoss loss : {RobustLoss::Huber, RobustLoss::Cauchy, RobustLoss::Tukey, RobustLoss::Trim}) {
+  for (RobustLoss loss :
+       {RobustLoss::Huber, RobustLoss::Cauchy, RobustLoss::Tukey, RobustLoss::Trim}) {
     SurfaceRegistrationOptions options;
     options.loss = loss;
     options.initial = perturbed(truth, 6.0, 5.0);
@@ -163,7 +168,8 @@ TEST(SurfaceRegistration, HybridStylusPointsCarryTheirBallTipRadius) {
   ASSERT_TRUE(r.converged) << r.message;
   EXPECT_LT(errorAt(truth, r.transform, Eigen::Vector3d::Zero()), 1e-6);
   EXPECT_EQ(r.pointsRejected, 0);
-  for (double residual : r.residualsMm) EXPECT_NEAR(residual, 0.0, 1e-6);
+  for (double residual : r.residualsMm)
+    EXPECT_NEAR(residual, 0.0, 1e-6);
 }
 
 TEST(SurfaceRegistration, LandmarksFixWhatOneFaceCannot) {
@@ -174,11 +180,13 @@ TEST(SurfaceRegistration, LandmarksFixWhatOneFaceCannot) {
   Rng rng(6);
   for (int i = 0; i < 30; ++i) {
     const Eigen::Vector3d q(rng.uniform(5, 55), rng.uniform(5, 55), 60.0);
-    points.push_back(beamSurfacePoint(truth.inverse() * Eigen::Vector3d(q + Eigen::Vector3d(0, 0, 20)),
-                                      truth.inverse().linear() * -Eigen::Vector3d::UnitZ(), 20.0));
+    points.push_back(
+        beamSurfacePoint(truth.inverse() * Eigen::Vector3d(q + Eigen::Vector3d(0, 0, 20)),
+                         truth.inverse().linear() * -Eigen::Vector3d::UnitZ(), 20.0));
   }
   std::vector<LandmarkPair> landmarks;
-  for (const Eigen::Vector3d& m : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(60, 0, 30), Eigen::Vector3d(0, 60, 60)})
+  for (const Eigen::Vector3d& m :
+       {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(60, 0, 30), Eigen::Vector3d(0, 60, 60)})
     landmarks.push_back({"l", truth.inverse() * m, m, 1.0});
   SurfaceRegistrationOptions options;
   options.initial = perturbed(truth, 3.0, 5.0, Eigen::Vector3d(30, 30, 30));
@@ -205,7 +213,8 @@ TEST(SurfaceRegistration, SearchesTheRotationAboutTwoLandmarks) {
   double offBy = 0.0;
   for (double angle = 0.0; angle < 2 * kPi; angle += 0.01) {
     const Eigen::Isometry3d guess = poseFromTwoLandmarks(a, b, angle);
-    if (errorAt(truth, guess, Eigen::Vector3d(0, 0, 0)) < errorAt(truth, poseFromTwoLandmarks(a, b, offBy), Eigen::Vector3d(0, 0, 0)))
+    if (errorAt(truth, guess, Eigen::Vector3d(0, 0, 0)) <
+        errorAt(truth, poseFromTwoLandmarks(a, b, offBy), Eigen::Vector3d(0, 0, 0)))
       offBy = angle;
   }
   SurfaceRegistrationOptions options;
@@ -227,7 +236,8 @@ TEST(SurfaceRegistration, SameInputSameBytes) {
   const Eigen::Isometry3d truth = truthPose();
   std::vector<SurfacePoint> points = beams(lumpy().locator().mesh(), truth, 50, 8);
   Rng rng(9);
-  for (SurfacePoint& p : points) p = beamSurfacePoint(p.beamOrigin, p.beamDirection, p.depthMm + rng.normal(0, 0.4));
+  for (SurfacePoint& p : points)
+    p = beamSurfacePoint(p.beamOrigin, p.beamDirection, p.depthMm + rng.normal(0, 0.4));
   SurfaceRegistrationOptions options;
   options.initial = perturbed(truth, 5.0, 5.0);
   options.restarts = 3;
@@ -257,7 +267,8 @@ TEST(SurfaceRegistration, PointsFarFromTheModelAreNotConverged) {
   std::vector<SurfacePoint> sphere;
   Rng rng(11);
   for (int i = 0; i < 40; ++i) {
-    const Eigen::Vector3d u = Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
+    const Eigen::Vector3d u =
+        Eigen::Vector3d(rng.normal(), rng.normal(), rng.normal()).normalized();
     SurfacePoint p;
     p.point = 80.0 * u;
     sphere.push_back(p);
@@ -271,15 +282,19 @@ TEST(SurfaceRegistration, PointsFarFromTheModelAreNotConverged) {
 TEST(SurfaceRegistration, RefusesBadModelsAndInput) {
   TriangleMesh open = test::icosphere(20.0, 2);
   open.triangles.pop_back();
-  EXPECT_NE(thrownMessage([&] { SurfaceRegistration r(open); }).find("boundary"), std::string::npos);
-  EXPECT_NE(thrownMessage([&] { SurfaceRegistration r(TriangleMesh{}); }).find("no triangles"), std::string::npos);
+  EXPECT_NE(thrownMessage([&] { SurfaceRegistration r(open); }).find("boundary"),
+            std::string::npos);
+  EXPECT_NE(thrownMessage([&] { SurfaceRegistration r(TriangleMesh{}); }).find("no triangles"),
+            std::string::npos);
   TriangleMesh inward = test::icosphere(20.0, 2);
   flipWinding(inward);
-  EXPECT_NE(thrownMessage([&] { SurfaceRegistration r(inward); }).find("inward"), std::string::npos);
+  EXPECT_NE(thrownMessage([&] { SurfaceRegistration r(inward); }).find("inward"),
+            std::string::npos);
 
   const std::vector<SurfacePoint> good = beams(lumpy().locator().mesh(), truthPose(), 10, 12);
   const SurfaceRegistrationOptions defaults;
-  const auto refusal = [&](std::vector<SurfacePoint> points, const SurfaceRegistrationOptions& options,
+  const auto refusal = [&](std::vector<SurfacePoint> points,
+                           const SurfaceRegistrationOptions& options,
                            std::vector<LandmarkPair> landmarks = {}) {
     return thrownMessage([&] { lumpy().registerPoints(points, landmarks, options); });
   };
@@ -298,7 +313,8 @@ TEST(SurfaceRegistration, RefusesBadModelsAndInput) {
   bad[5].depthMm = -1.0;
   EXPECT_NE(refusal(bad, defaults).find("negative depth"), std::string::npos);
   bad = good;
-  for (SurfacePoint& p : bad) p.hasBeam = false;
+  for (SurfacePoint& p : bad)
+    p.hasBeam = false;
   SurfaceRegistrationOptions speed;
   speed.fitSpeedOfSound = true;
   EXPECT_NE(refusal(bad, speed).find("speed of sound"), std::string::npos);
@@ -308,9 +324,10 @@ TEST(SurfaceRegistration, RefusesBadModelsAndInput) {
   SurfaceRegistrationOptions restarts;
   restarts.restarts = -1;
   EXPECT_NE(refusal(good, restarts).find("restarts"), std::string::npos);
-  EXPECT_NE(refusal(good, defaults, {{"lateral", Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0}})
-                .find("landmark lateral: sigma"),
-            std::string::npos);
+  EXPECT_NE(
+      refusal(good, defaults, {{"lateral", Eigen::Vector3d::Zero(), Eigen::Vector3d::Zero(), 0.0}})
+          .find("landmark lateral: sigma"),
+      std::string::npos);
   EXPECT_THROW(parseRobustLoss("l2"), std::invalid_argument);
   EXPECT_THROW(parseSurfaceMethod("icp"), std::invalid_argument);
   EXPECT_EQ(parseRobustLoss("tukey"), RobustLoss::Tukey);
@@ -332,9 +349,11 @@ TEST(SurfaceRegistration, TwoLandmarkPoseAndSpread) {
   EXPECT_NEAR((p0 - p1).norm(), std::sqrt(2.0) * 10.0, 1e-9);
 
   const LandmarkPair same{"same", Eigen::Vector3d(0.5, 0, 0), Eigen::Vector3d(10, 10, 10.5), 3.0};
-  EXPECT_NE(thrownMessage([&] { poseFromTwoLandmarks(a, same); }).find("within 1 mm"), std::string::npos);
+  EXPECT_NE(thrownMessage([&] { poseFromTwoLandmarks(a, same); }).find("within 1 mm"),
+            std::string::npos);
   const LandmarkPair far{"far", Eigen::Vector3d(150, 0, 0), Eigen::Vector3d(10, 90, 10), 3.0};
-  EXPECT_NE(thrownMessage([&] { poseFromTwoLandmarks(a, far); }).find("swapped or wrong"), std::string::npos);
+  EXPECT_NE(thrownMessage([&] { poseFromTwoLandmarks(a, far); }).find("swapped or wrong"),
+            std::string::npos);
 
   const LandmarkPair mid{"mid", Eigen::Vector3d(40, 2, 0), Eigen::Vector3d(10, 50, 12), 3.0};
   const LandmarkSpread line = landmarkSpread({a, mid, b});

@@ -18,7 +18,8 @@ namespace {
 
 const SurfaceRegistration& femurModel(const std::string& path) {
   static std::unique_ptr<SurfaceRegistration> model;
-  if (!model) model = std::make_unique<SurfaceRegistration>(filters::readMesh(path));
+  if (!model)
+    model = std::make_unique<SurfaceRegistration>(filters::readMesh(path));
   return *model;
 }
 
@@ -76,11 +77,14 @@ TEST(SurfaceRegistrationFemur, RobustWithSpeedOfSoundOver150NoisyTrials) {
     options.initial = trial.initial;
     options.fitSpeedOfSound = true;
     const SurfaceRegistrationResult r = model.registerPoints(trial.points, {}, options);
-    if (!r.converged) ++notConverged;
+    if (!r.converged)
+      ++notConverged;
     for (std::size_t i = 0; i < trial.points.size(); ++i) {
-      if (!trial.outlier[i]) continue;
+      if (!trial.outlier[i])
+        continue;
       ++outliers;
-      if (r.inlier[i]) ++outliersKept;
+      if (r.inlier[i])
+        ++outliersKept;
     }
     const test::TrialError e = test::trialError(trial.truth, r.transform, trials.kneeCentre());
     knee.push_back(e.kneeMm);
@@ -90,10 +94,11 @@ TEST(SurfaceRegistrationFemur, RobustWithSpeedOfSoundOver150NoisyTrials) {
   const double medianKnee = test::percentile(knee, 50);
   const double medianRotation = test::percentile(rotation, 50);
   const double worst = *std::max_element(knee.begin(), knee.end());
-  std::printf("robust + speed: knee median %.3f mm, 95th %.3f, max %.3f; rotation median %.3f deg; "
-              "scale median %.4f; not converged %d; outliers kept %d of %d\n",
-              medianKnee, test::percentile(knee, 95), worst, medianRotation, test::percentile(scale, 50),
-              notConverged, outliersKept, outliers);
+  std::printf(
+      "robust + speed: knee median %.3f mm, 95th %.3f, max %.3f; rotation median %.3f deg; "
+      "scale median %.4f; not converged %d; outliers kept %d of %d\n",
+      medianKnee, test::percentile(knee, 95), worst, medianRotation, test::percentile(scale, 50),
+      notConverged, outliersKept, outliers);
   EXPECT_LE(medianKnee, 0.3);
   EXPECT_LE(medianRotation, 0.3);
   EXPECT_LT(worst, 3.0);

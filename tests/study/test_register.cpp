@@ -12,10 +12,10 @@
 #include <nlohmann/json.hpp>
 
 #include <cmath>
-#include <string>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <string>
 
 namespace echoreg::simulation {
 namespace {
@@ -27,19 +27,35 @@ class Register : public ::testing::Test {
  protected:
   void SetUp() override {
     root_ = fixtureStudy();
-    if (root_.empty()) GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+    if (root_.empty())
+      GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
     const nlohmann::json points = readJson(root_ + "/truth/points.json");
-    for (int k = 0; k < 3; ++k) knee_[k] = points.at("knee_centre_ct")[static_cast<std::size_t>(k)].get<double>();
+    for (int k = 0; k < 3; ++k)
+      knee_[k] = points.at("knee_centre_ct")[static_cast<std::size_t>(k)].get<double>();
   }
   std::string path(const std::string& relative) const { return root_ + "/" + relative; }
   std::vector<std::string> args(const std::string& bone, const std::string& out) const {
     const std::string lower = bone == "Femur" ? "femur" : "tibia";
-    return {"register", "--model", path("truth/" + lower + ".vtp"), "--bone", bone, "--capture",
-            path("captures/" + lower + "_ultrasound.igs.mha"), "--calibration", path("truth/BeamToProbe.json"),
-            "--landmarks-ct", path("ct/landmarks.mrk.json"), "--landmarks-capture", path("captures/landmarks.igs.mha"),
-            "--stylus-tip-to-stylus", path("truth/StylusTipToStylus.json"), "--landmark-labels",
-            bone == "Femur" ? "medial_epicondyle,lateral_epicondyle" : "medial_malleolus,lateral_malleolus",
-            "--out", out};
+    return {"register",
+            "--model",
+            path("truth/" + lower + ".vtp"),
+            "--bone",
+            bone,
+            "--capture",
+            path("captures/" + lower + "_ultrasound.igs.mha"),
+            "--calibration",
+            path("truth/BeamToProbe.json"),
+            "--landmarks-ct",
+            path("ct/landmarks.mrk.json"),
+            "--landmarks-capture",
+            path("captures/landmarks.igs.mha"),
+            "--stylus-tip-to-stylus",
+            path("truth/StylusTipToStylus.json"),
+            "--landmark-labels",
+            bone == "Femur" ? "medial_epicondyle,lateral_epicondyle"
+                            : "medial_malleolus,lateral_malleolus",
+            "--out",
+            out};
   }
   // Distance at the knee centre (mm) and rotation angle (deg) of an estimate against the truth.
   std::pair<double, double> error(const std::string& estimateFile, const std::string& bone) const {
@@ -48,7 +64,8 @@ class Register : public ::testing::Test {
     const Eigen::Matrix4d e = truth.matrix.inverse() * estimate.matrix;
     const Eigen::Vector4d k(knee_.x(), knee_.y(), knee_.z(), 1.0);
     const double distance = (estimate.matrix * (truth.matrix.inverse() * k) - k).head<3>().norm();
-    const double angle = Eigen::AngleAxisd(Eigen::Matrix3d(e.topLeftCorner<3, 3>())).angle() * 57.29577951308232;
+    const double angle =
+        Eigen::AngleAxisd(Eigen::Matrix3d(e.topLeftCorner<3, 3>())).angle() * 57.29577951308232;
     return {distance, angle};
   }
 
@@ -71,9 +88,10 @@ TEST_F(Register, FemurAndTibiaFromTheirCapturesMatchTheTruth) {
     const auto [knee, rotation] = error(out, bone);
     const TransformFile written = readTransformFile(out, bone, "CT");
     const double scale = written.extra.at("speed_of_sound_scale").get<double>();
-    std::cout << bone << ": knee centre " << knee << " mm, rotation " << rotation << " deg, scale " << scale
-              << ", " << written.extra.at("points_used") << " points used, "
-              << written.extra.at("points_rejected") << " rejected, RMS " << written.extra.at("rms_mm") << " mm\n";
+    std::cout << bone << ": knee centre " << knee << " mm, rotation " << rotation << " deg, scale "
+              << scale << ", " << written.extra.at("points_used") << " points used, "
+              << written.extra.at("points_rejected") << " rejected, RMS "
+              << written.extra.at("rms_mm") << " mm\n";
     EXPECT_LT(knee, 1.5) << bone;
     EXPECT_LT(rotation, 3.0) << bone;
     EXPECT_NEAR(scale, 1512.0 / 1540.0, 0.01) << bone;
@@ -87,9 +105,10 @@ TEST_F(Register, FemurAndTibiaFromTheirCapturesMatchTheTruth) {
 TEST_F(Register, HybridWithTheStylusAndTheCsvInput) {
   // The detect CSV route: points in the Femur frame, then registered from the truth as start.
   const std::string csv = dir_.file("femur_points.csv");
-  test::CommandResult r = runEchoreg({"detect", path("captures/femur_ultrasound.igs.mha"), "--out", csv, "--pose",
-                                      "ProbeToTracker", "--reference", "FemurToTracker", "--beam-to-probe",
-                                      path("truth/BeamToProbe.json"), "--history", "1"});
+  test::CommandResult r =
+      runEchoreg({"detect", path("captures/femur_ultrasound.igs.mha"), "--out", csv, "--pose",
+                  "ProbeToTracker", "--reference", "FemurToTracker", "--beam-to-probe",
+                  path("truth/BeamToProbe.json"), "--history", "1"});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const std::string out = dir_.file("FemurToCT.json");
   r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", csv, "--initial",
@@ -98,9 +117,11 @@ TEST_F(Register, HybridWithTheStylusAndTheCsvInput) {
   EXPECT_LT(error(out, "Femur").first, 2.0);
   // Hybrid: the same ultrasound plus the sharp stylus on the bone (0.5 mm tip, study manifest).
   std::vector<std::string> a = args("Femur", out);
-  for (const char* extra : {"--stylus-points", "captures/femur_mechanical.igs.mha"}) a.push_back(extra);
+  for (const char* extra : {"--stylus-points", "captures/femur_mechanical.igs.mha"})
+    a.push_back(extra);
   a.back() = path(a.back());
-  for (const char* extra : {"--stylus-tip-radius", "0.5", "--fit-speed-of-sound"}) a.push_back(extra);
+  for (const char* extra : {"--stylus-tip-radius", "0.5", "--fit-speed-of-sound"})
+    a.push_back(extra);
   r = runEchoreg(a);
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const TransformFile hybrid = readTransformFile(out, "Femur", "CT");
@@ -122,33 +143,34 @@ TEST_F(Register, RefusesBadInput) {
   // An open model.
   std::ofstream(dir_.file("open.obj")) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
   std::ofstream(dir_.file("p.csv")) << "x,y,z\n1,2,3\n4,5,6\n7,8,10\n";
-  r = runEchoreg({"register", "--model", dir_.file("open.obj"), "--points", dir_.file("p.csv"), "--initial",
-                  path("truth/FemurToCT.json"), "--out", out});
+  r = runEchoreg({"register", "--model", dir_.file("open.obj"), "--points", dir_.file("p.csv"),
+                  "--initial", path("truth/FemurToCT.json"), "--out", out});
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("open.obj"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("boundary"), std::string::npos) << r.err;
   // Too few points, a bad number.
   std::ofstream(dir_.file("two.csv")) << "x,y,z\n1,2,3\n4,5,6\n";
-  r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("two.csv"), "--initial",
-                  path("truth/FemurToCT.json"), "--out", out});
+  r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("two.csv"),
+                  "--initial", path("truth/FemurToCT.json"), "--out", out});
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("at least 3"), std::string::npos) << r.err;
   std::ofstream(dir_.file("nan.csv")) << "x,y,z\n1,2,3\n4,five,6\n";
-  r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("nan.csv"), "--initial",
-                  path("truth/FemurToCT.json"), "--out", out});
+  r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("nan.csv"),
+                  "--initial", path("truth/FemurToCT.json"), "--out", out});
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("line 3: column y is not a number"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(out));
   // Points nowhere near the bone: written, but not converged, exit 1.
-  r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("p.csv"), "--initial",
-                  path("truth/FemurToCT.json"), "--out", out});
+  r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("p.csv"),
+                  "--initial", path("truth/FemurToCT.json"), "--out", out});
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("not converged"), std::string::npos) << r.err;
   ASSERT_TRUE(fs::exists(out));
   EXPECT_FALSE(readTransformFile(out).extra.at("converged").get<bool>());
   // A speed-of-sound fit without beams.
-  r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("p.csv"), "--initial",
-                  path("truth/FemurToCT.json"), "--out", dir_.file("bad2.json"), "--fit-speed-of-sound"});
+  r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("p.csv"),
+                  "--initial", path("truth/FemurToCT.json"), "--out", dir_.file("bad2.json"),
+                  "--fit-speed-of-sound"});
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("beams"), std::string::npos) << r.err;
 }

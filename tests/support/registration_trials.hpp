@@ -15,17 +15,17 @@ namespace echoreg::test {
 
 struct TrialOptions {
   int points = 60;
-  double noiseMm = 0.4;           ///< depth noise, 1 sigma
-  double outlierFraction = 0.1;   ///< false echoes: depth off by 3-15 mm (either sign)
-  double speedError = 0.03;       ///< true speed = assumed * (1 + speedError)
-  double standoffMinMm = 10.0;    ///< beam origin's distance from the surface
+  double noiseMm = 0.4;          ///< depth noise, 1 sigma
+  double outlierFraction = 0.1;  ///< false echoes: depth off by 3-15 mm (either sign)
+  double speedError = 0.03;      ///< true speed = assumed * (1 + speedError)
+  double standoffMinMm = 10.0;   ///< beam origin's distance from the surface
   double standoffMaxMm = 30.0;
-  double tiltDeg = 15.0;          ///< beam's largest tilt from the surface normal
+  double tiltDeg = 15.0;               ///< beam's largest tilt from the surface normal
   double initialRotationMinDeg = 3.0;  ///< initial pose error: rotation about the knee centre
   double initialRotationMaxDeg = 6.0;
   double initialTranslationMinMm = 3.0;
   double initialTranslationMaxMm = 6.0;
-  double sigmaMm = 0.5;           ///< sigma given to the registration
+  double sigmaMm = 0.5;  ///< sigma given to the registration
 };
 
 struct RegistrationTrial {
@@ -48,7 +48,9 @@ class FemurTrials {
   RegistrationTrial make(std::uint64_t seed, int index, const TrialOptions& options = {}) const;
   /// Centre of the distal end (model frame): the centre of the condyles' bounds, 20 mm up.
   const Eigen::Vector3d& kneeCentre() const { return kneeCentre_; }
-  std::size_t regionTriangles(int region) const { return triangles_[static_cast<std::size_t>(region)].size(); }
+  std::size_t regionTriangles(int region) const {
+    return triangles_[static_cast<std::size_t>(region)].size();
+  }
 
  private:
   const core::MeshLocator& model_;

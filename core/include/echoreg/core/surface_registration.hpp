@@ -92,9 +92,9 @@ struct SurfaceRegistrationOptions {
   bool useLandmarks = true;
 
   Eigen::Isometry3d initial = Eigen::Isometry3d::Identity();  ///< bone -> model
-  /// This many extra starts (either method; the least truncated cost wins) from the initial pose perturbed by a random rotation of up to
-  /// restartRotationDeg (about the points' centroid) and a translation of up to
-  /// restartTranslationMm (seeded: same seed, same starts).
+  /// This many extra starts (either method; the least truncated cost wins) from the initial pose
+  /// perturbed by a random rotation of up to restartRotationDeg (about the points' centroid) and a
+  /// translation of up to restartTranslationMm (seeded: same seed, same starts).
   int restarts = 0;
   double restartRotationDeg = 10.0;
   double restartTranslationMm = 10.0;
@@ -106,7 +106,7 @@ struct SurfaceRegistrationOptions {
   Eigen::Vector3d axisDirection = Eigen::Vector3d::UnitZ();
   int axisStarts = 12;
 
-  int maxIterations = 100;     ///< outer iterations (closest points re-found) per start
+  int maxIterations = 100;  ///< outer iterations (closest points re-found) per start
   /// Robust: stop when no point moves more than this in one iteration (or the objective no longer
   /// decreases).
   double toleranceMm = 1e-6;
@@ -134,7 +134,7 @@ struct SurfaceRegistrationResult {
   int starts = 1;                  ///< starts tried
   double cost = 0.0;               ///< truncated robust cost of the chosen start (see docs)
   bool converged = false;
-  std::string message;             ///< why not converged ("" when converged)
+  std::string message;  ///< why not converged ("" when converged)
   /// Per input point: signed distance to the surface after registration minus its offset (mm,
   /// positive outside), and whether it was an inlier at the end.
   std::vector<double> residualsMm;
@@ -155,8 +155,9 @@ class SurfaceRegistration {
 
   /// Registers `points` (bone frame) to the model. converged = false also when fewer than 6
   /// constraints remain (a surface point fixes one degree of freedom, a landmark three) or the
-  /// points start far from the surface (maxStartDistanceMm). Throws std::invalid_argument for bad input,
-  /// naming the point, landmark or option: fewer than 3 points, a non-finite coordinate, a sigma
+  /// points start far from the surface (maxStartDistanceMm). Throws std::invalid_argument for bad
+  /// input, naming the point, landmark or option: fewer than 3 points, a non-finite coordinate, a
+  /// sigma
   /// <= 0, a beam direction not unit, a negative depth, a speed-of-sound fit without any beam, or
   /// an option out of range. Never returns a silently wrong transform: converged = false (with
   /// `message`) when the iterations did not settle, too few inliers remain or the inliers' RMS
@@ -187,7 +188,8 @@ struct LandmarkSpread {
   double maxOffLineMm = 0.0;  ///< largest distance of another landmark (bone side) from the line
   bool collinear = true;
 };
-LandmarkSpread landmarkSpread(const std::vector<LandmarkPair>& landmarks, double minOffLineMm = 5.0);
+LandmarkSpread landmarkSpread(const std::vector<LandmarkPair>& landmarks,
+                              double minOffLineMm = 5.0);
 
 /// Eq. 4.4 for given points and transform: RMS of the distances from transform * p_i to the
 /// triangles (no offsets, all points). Throws std::invalid_argument for no points.
