@@ -62,6 +62,8 @@ struct RegisterOptions {
   std::string initial, landmarksCt, landmarksCapture, tipFile, landmarkLabels;
   std::vector<int> landmarkDwells;
   double landmarkSigma = 3.0;
+  std::string hipCentre, hipLabel = "hip_centre";
+  double hipSigma = 2.0;
   std::vector<std::string> stylusCaptures;
   double stylusTipRadius = 0.0;
   double stylusSigma = 0.3;
@@ -281,7 +283,10 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
   const std::vector<core::MarkupPoint> all = core::readMarkupPoints(o.landmarksCt);
   std::vector<core::MarkupPoint> chosen;
   if (o.landmarkLabels.empty()) {
-    chosen = all;
+    for (const core::MarkupPoint& p : all) {
+      if (o.hipCentre.empty() || p.label != o.hipLabel)
+        chosen.push_back(p);  // the hip is no dwell
+    }
   } else {
     for (const std::string& label : splitCommas(o.landmarkLabels)) {
       const auto found = std::find_if(all.begin(), all.end(),
@@ -385,6 +390,20 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
                     {"first_frame", d.firstFrame},
                     {"last_frame", d.lastFrame},
                     {"measured_mm", vec(d.meanMm)}});
+  }
+  if (!o.hipCentre.empty()) {
+    // The hip centre: the pivot of the femur's marker (echoreg pivot --marker FemurToTracker)
+    // paired with the CT landmark --hip-label; far from the knee, it fixes the rotations.
+    const TransformFile hip = readTransformFile(o.hipCentre, "", o.bone);
+    const auto found = std::find_if(
+        all.begin(), all.end(), [&](const core::MarkupPoint& p) { return p.label == o.hipLabel; });
+    if (found == all.end())
+      throw FileError(o.landmarksCt, "has no landmark '" + o.hipLabel + "' (--hip-label)");
+    init.pairs.push_back(
+        {o.hipLabel, hip.matrix.topRightCorner<3, 1>(), found->positionLps, o.hipSigma});
+    list.push_back({{"label", o.hipLabel},
+                    {"measured_mm", vec(hip.matrix.topRightCorner<3, 1>())},
+                    {"from", o.hipCentre}});
   }
   init.report = {{"dwells_found", dwells.size()}, {"landmarks", list}};
   if (std::isfinite(runnerUp))
@@ -663,6 +682,17 @@ CommandAction addRegisterCommand(CLI::App& app) {
                   "Landmarks' localisation sigma, mm (their weight)")
       ->capture_default_str()
       ->group("Start");
+  cmd->add_option("--hip-centre", o->hipCentre,
+                  "Femur: HipCentreTo<Bone> JSON (echoreg pivot --marker FemurToTracker), paired "
+                  "with the CT "
+                  "landmark --hip-label as one more landmark")
+      ->group("Start");
+  cmd->add_option("--hip-label", o->hipLabel, "CT landmark of the hip centre")
+      ->capture_default_str()
+      ->group("Start");
+  cmd->add_option("--hip-sigma", o->hipSigma, "Hip centre's localisation sigma, mm")
+      ->capture_default_str()
+      ->group("Start");
   cmd->add_option("--axis-starts", o->axisStarts, "Two landmarks: starts about their line")
       ->capture_default_str()
       ->check(CLI::Range(1, 360))
@@ -699,6 +729,10 @@ CommandAction addRegisterCommand(CLI::App& app) {
     if (o->initial.empty() && o->landmarksCt.empty()) {
       throw CLI::ValidationError(
           "register", "give the start: --initial, or --landmarks-ct with --landmarks-capture");
+    }
+    if (!o->hipCentre.empty() && o->landmarksCt.empty()) {
+      throw CLI::ValidationError("register",
+                                 "--hip-centre needs --landmarks-ct and --landmarks-capture");
     }
     if ((!o->landmarksCt.empty() || !o->stylusCaptures.empty()) && o->tipFile.empty()) {
       throw CLI::ValidationError(

@@ -4,7 +4,9 @@
 // TibiaToCT.json at the knee centre. Also the CSV input, the hybrid with the stylus points,
 // and refusals.
 #include "cli_test_support.hpp"
+#include "echoreg/core/mesh.hpp"
 #include "echoreg/core/transform_file.hpp"
+#include "echoreg/filters/MeshIO.h"
 #include "study_checks.hpp"
 #include "test_support.hpp"
 
@@ -102,6 +104,26 @@ TEST_F(Register, FemurAndTibiaFromTheirCapturesMatchTheTruth) {
   }
 }
 
+// The hip centre (pivot of the femur's marker) as a third landmark: the start is the paired-point
+// registration of the epicondyles and the hip (measured: knee 0.84 mm, FRE 1.9 mm).
+TEST_F(Register, HipCentreMakesAPairedPointStart) {
+  const std::string hip = dir_.file("hip.json");
+  test::CommandResult r = runEchoreg({"pivot", "--capture", path("captures/hip_rotation.igs.mha"),
+                                      "--marker", "FemurToTracker", "--out", hip});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const std::string out = dir_.file("FemurToCT.json");
+  std::vector<std::string> a = args("Femur", out);
+  for (const std::string& extra :
+       {std::string("--hip-centre"), hip, std::string("--fit-speed-of-sound")})
+    a.push_back(extra);
+  r = runEchoreg(a);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const TransformFile result = readTransformFile(out, "Femur", "CT");
+  EXPECT_EQ(result.extra.at("start").at("method"), "paired-point");
+  EXPECT_EQ(result.extra.at("starts").get<int>(), 1);
+  EXPECT_LT(error(out, "Femur").first, 1.5);
+}
+
 TEST_F(Register, HybridWithTheStylusAndTheCsvInput) {
   // The detect CSV route: points in the Femur frame, then registered from the truth as start.
   const std::string csv = dir_.file("femur_points.csv");
@@ -132,6 +154,40 @@ TEST_F(Register, HybridWithTheStylusAndTheCsvInput) {
   const auto [knee, rotation] = error(out, "Femur");
   std::cout << "hybrid femur: knee centre " << knee << " mm, rotation " << rotation << " deg\n";
   EXPECT_LT(knee, 1.5);
+}
+
+// A CSV with the beams (ox..dz, depth_mm): 60 vertices of the truth model in the Femur frame,
+// each seen from 15 mm along a slanted direction; read back, the speed fit leaves the scale at 1.
+TEST_F(Register, CsvWithBeamsFitsTheSpeedOfSound) {
+  const core::TriangleMesh mesh = filters::readMesh(path("truth/femur.vtp"));
+  Eigen::Isometry3d truth;
+  truth.matrix() = readTransformFile(path("truth/FemurToCT.json")).matrix;
+  const Eigen::Isometry3d toFemur = truth.inverse();
+  const Eigen::Vector3d knee = knee_;
+  std::ofstream csv(dir_.file("beams.csv"));
+  csv << "x,y,z,ox,oy,oz,dx,dy,dz,depth_mm\n";
+  csv.precision(17);
+  int written = 0;
+  for (std::size_t v = 0; v < mesh.vertices.size() && written < 60; v += 97) {
+    if ((mesh.vertices[v] - knee).norm() > 80.0)
+      continue;
+    const Eigen::Vector3d p = toFemur * mesh.vertices[v];
+    const Eigen::Vector3d u = Eigen::Vector3d(0.3, -0.5, 0.81 + 0.001 * written).normalized();
+    const Eigen::Vector3d o = p - 15.0 * u;
+    csv << p.x() << ',' << p.y() << ',' << p.z() << ',' << o.x() << ',' << o.y() << ',' << o.z()
+        << ',' << u.x() << ',' << u.y() << ',' << u.z() << ",15\n";
+    ++written;
+  }
+  csv.close();
+  ASSERT_EQ(written, 60);
+  const std::string out = dir_.file("FemurToCT.json");
+  const test::CommandResult r = runEchoreg(
+      {"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("beams.csv"),
+       "--initial", path("truth/FemurToCT.json"), "--fit-speed-of-sound", "--out", out});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const TransformFile result = readTransformFile(out, "Femur", "CT");
+  EXPECT_NEAR(result.extra.at("speed_of_sound_scale").get<double>(), 1.0, 1e-6);
+  EXPECT_LT(error(out, "Femur").first, 1e-3);
 }
 
 TEST_F(Register, RefusesBadInput) {
@@ -167,6 +223,18 @@ TEST_F(Register, RefusesBadInput) {
   EXPECT_NE(r.err.find("not converged"), std::string::npos) << r.err;
   ASSERT_TRUE(fs::exists(out));
   EXPECT_FALSE(readTransformFile(out).extra.at("converged").get<bool>());
+  // Half a beam, and a beam direction that is not unit.
+  std::ofstream(dir_.file("half.csv")) << "x,y,z,ox,oy,oz\n1,2,3,0,0,0\n";
+  r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("half.csv"),
+                  "--initial", path("truth/FemurToCT.json"), "--out", out + "2"});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("not all of ox,oy,oz,dx,dy,dz,depth_mm"), std::string::npos) << r.err;
+  std::ofstream(dir_.file("long.csv"))
+      << "x,y,z,ox,oy,oz,dx,dy,dz,depth_mm\n0,0,20,0,0,0,0,0,2,10\n";
+  r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("long.csv"),
+                  "--initial", path("truth/FemurToCT.json"), "--out", out + "2"});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("line 2: beam direction dx,dy,dz is not unit"), std::string::npos) << r.err;
   // A speed-of-sound fit without beams.
   r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("p.csv"),
                   "--initial", path("truth/FemurToCT.json"), "--out", dir_.file("bad2.json"),
