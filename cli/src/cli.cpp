@@ -15,8 +15,8 @@ namespace echoreg::cli {
 int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   CLI::App app{
       "echoreg: register bones to CT with tracked A-mode ultrasound (Mozes 2008).\n"
-      "Commands available in this build: info, detect, simulate, calibrate, pivot. segment,\n"
-      "register, evaluate, figure and study arrive with their issues.",
+      "Commands available in this build: info, detect, simulate, calibrate, pivot, landmarks,\n"
+      "evaluate, register. segment, figure and study arrive with their issues.",
       "echoreg"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "echoreg 0.1.0");
@@ -30,6 +30,9 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   actions["pivot"] = addPivotCommand(app);
   actions["figure"] = addFigureCommand(app);
   actions["study"] = addStudyCommand(app);
+  actions["landmarks"] = addLandmarksCommand(app);
+  actions["evaluate"] = addEvaluateCommand(app);
+  actions["register"] = addRegisterCommand(app);
 
   std::vector<std::string> reversed(args.rbegin(), args.rend());
   try {

@@ -25,5 +25,8 @@ CommandAction addCalibrateCommand(CLI::App& app);
 CommandAction addPivotCommand(CLI::App& app);
 CommandAction addFigureCommand(CLI::App& app);
 CommandAction addStudyCommand(CLI::App& app);
+CommandAction addLandmarksCommand(CLI::App& app);
+CommandAction addEvaluateCommand(CLI::App& app);
+CommandAction addRegisterCommand(CLI::App& app);
 
 }  // namespace echoreg::cli

@@ -30,11 +30,14 @@ PairedPointResult registerPairedPoints(const std::vector<Eigen::Vector3d>& from,
 /// Fitzpatrick, West & Maurer (1998): expected TRE at `target` for fiducials `fiducials` (in the
 /// same space) localised with isotropic RMS error `fleMm`:
 /// TRE^2 = FLE^2 / N * (1 + 1/3 * sum_k d_k^2 / f_k^2), d_k the target's distance from principal
-/// axis k of the fiducial configuration and f_k the fiducials' RMS distance from it.
+/// axis k of the fiducial configuration and f_k the fiducials' RMS distance from it. FLE is the
+/// 3D RMS error (sqrt(3) sigma for sigma per axis). Throws std::invalid_argument for fewer than 3
+/// fiducials, collinear fiducials, a negative or non-finite FLE, or non-finite points.
 double expectedTargetErrorMm(const std::vector<Eigen::Vector3d>& fiducials, double fleMm,
                              const Eigen::Vector3d& target);
 
-/// Fitzpatrick's expected FRE for N fiducials: FRE^2 = (1 - 2/N) FLE^2.
+/// Fitzpatrick's expected FRE for N fiducials: FRE^2 = (1 - 2/N) FLE^2. Throws
+/// std::invalid_argument for N < 3 or a negative or non-finite FLE.
 double expectedFiducialErrorMm(int fiducials, double fleMm);
 
 }  // namespace echoreg::core

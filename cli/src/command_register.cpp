@@ -1,0 +1,745 @@
+// `echoreg register`: a bone's surface registration (BoneToCT, e.g. FemurToCT) from A-mode points
+// (a capture run through the detection chain, or a CSV of points), optionally with stylus points
+// (the hybrid registration), started from an initial transform or from landmarks touched with
+// the stylus. docs/registration.md.
+#include "commands.hpp"
+
+#include "echoreg/core/detection.hpp"
+#include "echoreg/core/dwell.hpp"
+#include "echoreg/core/error.hpp"
+#include "echoreg/core/markups.hpp"
+#include "echoreg/core/paired_point.hpp"
+#include "echoreg/core/sequence.hpp"
+#include "echoreg/core/sequence_detection.hpp"
+#include "echoreg/core/surface_registration.hpp"
+#include "echoreg/core/transform_file.hpp"
+#include "echoreg/filters/MeshIO.h"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <memory>
+#include <ostream>
+#include <sstream>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace echoreg::cli {
+
+namespace {
+
+nlohmann::json vec(const Eigen::Vector3d& v) {
+  return {v.x(), v.y(), v.z()};
+}
+
+std::vector<std::string> splitCommas(const std::string& text) {
+  std::vector<std::string> out;
+  std::stringstream ss(text);
+  std::string cell;
+  while (std::getline(ss, cell, ',')) {
+    while (!cell.empty() && (cell.back() == '\r' || cell.back() == ' '))
+      cell.pop_back();
+    while (!cell.empty() && cell.front() == ' ')
+      cell.erase(cell.begin());
+    out.push_back(cell);
+  }
+  if (!text.empty() && text.back() == ',')
+    out.emplace_back();
+  return out;
+}
+
+struct RegisterOptions {
+  std::string model, bone = "Femur", out;
+  std::vector<std::string> captures;
+  std::string calibration, pointsCsv;
+  std::string initial, landmarksCt, landmarksCapture, tipFile, landmarkLabels;
+  std::vector<int> landmarkDwells;
+  double landmarkSigma = 3.0;
+  std::string hipCentre, hipLabel = "hip_centre";
+  double hipSigma = 2.0;
+  std::vector<std::string> stylusCaptures;
+  double stylusTipRadius = 0.0;
+  double stylusSigma = 0.3;
+  double stylusSpacing = 1.0;
+  double ultrasoundSigma = 0.5;
+  std::string preset = "default";
+  double speedOfSound = 0.0;
+  int history = 1;
+  double minSpreadMm = 1.0;
+  std::string method = "robust", loss = "huber";
+  bool fitSpeed = false;
+  int restarts = 0;
+  int axisStarts = 12;
+  std::uint64_t seed = 1;
+  double maxRms = 2.0;
+  bool json = false;
+};
+
+double parseNumber(const std::string& cell, const std::string& path, std::size_t line,
+                   const std::string& column) {
+  std::size_t used = 0;
+  double value = 0.0;
+  try {
+    value = std::stod(cell, &used);
+  } catch (const std::exception&) {
+    used = 0;
+  }
+  if (used == 0 || used != cell.size() || !std::isfinite(value)) {
+    throw FileError(path,
+                    fmt::format("line {}: column {} is not a number: '{}'", line, column, cell));
+  }
+  return value;
+}
+
+// Points from a CSV: x,y,z (or echoreg detect's x_mm,y_mm,z_mm, accepted rows only), optionally
+// ox,oy,oz,dx,dy,dz,depth_mm (the beam, same frame).
+std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double sigma) {
+  if (std::filesystem::is_directory(path))
+    throw FileError(path, "is a directory, expected a CSV file");
+  std::ifstream in(path);
+  if (!in)
+    throw FileError(path, "cannot be opened");
+  std::string line;
+  if (!std::getline(in, line))
+    throw FileError(path, "is empty (expected a header x,y,z,...)");
+  const std::vector<std::string> header = splitCommas(line);
+  std::map<std::string, std::size_t> column;
+  for (std::size_t i = 0; i < header.size(); ++i)
+    column[header[i]] = i;
+  const auto has = [&](const char* name) { return column.count(name) != 0; };
+  std::vector<std::string> xyz;
+  if (has("x") && has("y") && has("z")) {
+    xyz = {"x", "y", "z"};
+  } else if (has("x_mm") && has("y_mm") && has("z_mm")) {
+    xyz = {"x_mm", "y_mm", "z_mm"};
+  } else {
+    throw FileError(path,
+                    "has no columns x,y,z (or x_mm,y_mm,z_mm as echoreg detect --pose writes)");
+  }
+  // The beam: ox..dz with depth_mm (echoreg detect's CSV has depth_mm alone: no beam).
+  const std::vector<std::string> beam{"ox", "oy", "oz", "dx", "dy", "dz", "depth_mm"};
+  int beamColumns = 0;
+  for (std::size_t k = 0; k < 6; ++k)
+    beamColumns += has(beam[k].c_str()) ? 1 : 0;
+  if (beamColumns != 0 && (beamColumns != 6 || !has("depth_mm"))) {
+    throw FileError(path, "has some beam columns but not all of ox,oy,oz,dx,dy,dz,depth_mm");
+  }
+  const bool withBeam = beamColumns == 6;
+  std::vector<core::SurfacePoint> points;
+  std::size_t lineNumber = 1;
+  while (std::getline(in, line)) {
+    ++lineNumber;
+    if (line.empty() || line == "\r")
+      continue;
+    const std::vector<std::string> cells = splitCommas(line);
+    const auto cell = [&](const std::string& name) -> const std::string& {
+      const std::size_t at = column.at(name);
+      if (at >= cells.size())
+        throw FileError(path, fmt::format("line {}: no column {}", lineNumber, name));
+      return cells[at];
+    };
+    if (has("status") && cell("status") != "accepted")
+      continue;
+    if (cell(xyz[0]).empty() && cell(xyz[1]).empty() && cell(xyz[2]).empty()) {
+      if (has("status"))
+        continue;  // echoreg detect leaves rejected frames' points empty
+      throw FileError(path, fmt::format("line {}: no point", lineNumber));
+    }
+    const Eigen::Vector3d p(parseNumber(cell(xyz[0]), path, lineNumber, xyz[0]),
+                            parseNumber(cell(xyz[1]), path, lineNumber, xyz[1]),
+                            parseNumber(cell(xyz[2]), path, lineNumber, xyz[2]));
+    core::SurfacePoint point;
+    if (withBeam) {
+      double v[7];
+      for (std::size_t k = 0; k < 7; ++k)
+        v[k] = parseNumber(cell(beam[k]), path, lineNumber, beam[k]);
+      const Eigen::Vector3d origin(v[0], v[1], v[2]), direction(v[3], v[4], v[5]);
+      if (std::abs(direction.norm() - 1.0) > 1e-3) {
+        throw FileError(path,
+                        fmt::format("line {}: beam direction dx,dy,dz is not unit (length {:.4g})",
+                                    lineNumber, direction.norm()));
+      }
+      point = core::beamSurfacePoint(origin, direction, v[6], sigma);
+      if ((point.point - p).norm() > 0.01) {
+        throw FileError(path,
+                        fmt::format("line {}: x,y,z is {:.3f} mm from origin + depth * direction",
+                                    lineNumber, (point.point - p).norm()));
+      }
+    } else {
+      point.point = p;
+      point.sigmaMm = sigma;
+    }
+    points.push_back(point);
+  }
+  if (points.empty())
+    throw FileError(path, "holds no points");
+  return points;
+}
+
+// Points (with their beams, in the bone frame) from an A-line capture through the detection chain.
+std::vector<core::SurfacePoint> capturePoints(const std::string& path,
+                                              const Eigen::Matrix4d& beamToProbe,
+                                              const std::string& referenceTransform,
+                                              const RegisterOptions& o, double& speedOfSound,
+                                              nlohmann::json& report) {
+  const Sequence sequence = readSequence(path);
+  DetectionParams params;
+  try {
+    params = detectionPreset(o.preset);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("--preset: ") + e.what());
+  }
+  params.depth = depthFromSequence(sequence, params.depth);
+  if (o.speedOfSound > 0.0)
+    params.depth.speedOfSoundMps = o.speedOfSound;
+  params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
+  params.interSignal.history = o.history;
+  params.interSignal.minSpreadMm = o.minSpreadMm;
+  PointFrameOptions frameOptions;
+  frameOptions.poseTransform = "ProbeToTracker";
+  frameOptions.referenceTransform = referenceTransform;
+  frameOptions.beamToProbe = beamToProbe;
+  SequenceDetection detection;
+  try {
+    validate(params);
+    detection = detectSequence(sequence, params, frameOptions);
+  } catch (const std::invalid_argument& e) {
+    throw FileError(path, e.what());
+  }
+  speedOfSound = params.depth.speedOfSoundMps;
+  std::vector<core::SurfacePoint> points;
+  for (const FrameDetection& f : detection.frames) {
+    if (!f.accepted() || !f.depthMm || !f.pointMm)
+      continue;
+    const auto& transforms = sequence.frames[static_cast<std::size_t>(f.frame)].transforms;
+    const Eigen::Matrix4d beamToBone = transforms.at(referenceTransform).matrix.inverse() *
+                                       transforms.at("ProbeToTracker").matrix * beamToProbe;
+    const Eigen::Vector3d origin = beamToBone.topRightCorner<3, 1>();
+    const Eigen::Vector3d direction = beamToBone.block<3, 1>(0, 2).normalized();
+    points.push_back(core::beamSurfacePoint(origin, direction, *f.depthMm, o.ultrasoundSigma));
+  }
+  nlohmann::json rejected = nlohmann::json::object();
+  for (const auto& [reason, count] : detection.rejectedByReason)
+    rejected[reason] = count;
+  report.push_back({{"capture", path},
+                    {"frames", detection.frames.size()},
+                    {"accepted", detection.accepted},
+                    {"rejected_by_reason", rejected},
+                    {"speed_of_sound_mps", params.depth.speedOfSoundMps}});
+  return points;
+}
+
+// Stylus points on the bone: the ball-tip centre (bone frame) of every dwell of the stylus (a
+// touched point is held still for a moment; docs/registration.md).
+std::vector<core::SurfacePoint> stylusPoints(const std::string& path,
+                                             const Eigen::Isometry3d& tipToStylus,
+                                             const std::string& referenceTransform,
+                                             const RegisterOptions& o) {
+  const Sequence capture = readSequence(path);
+  std::vector<core::Dwell> dwells;
+  try {
+    const core::StylusTrack track =
+        core::stylusTipTrack(capture, tipToStylus, "StylusToTracker", referenceTransform);
+    // A touched point is held for a fraction of a second (the simulator: 0.2 s at 100 Hz), much
+    // shorter than a landmark's dwell.
+    core::DwellOptions dwellOptions;
+    dwellOptions.minDurationS = 0.1;
+    dwellOptions.minFrames = 5;
+    dwellOptions.smoothingS = 0.05;
+    dwellOptions.mergeDistanceMm = o.stylusSpacing;
+    dwells = core::detectDwells(track.tipInReference, track.timestampsS, track.valid, dwellOptions);
+  } catch (const std::invalid_argument& e) {
+    throw FileError(path, e.what());
+  }
+  std::vector<core::SurfacePoint> points;
+  for (const core::Dwell& d : dwells) {
+    core::SurfacePoint p;
+    p.point = d.meanMm;
+    p.source = core::PointSource::Stylus;
+    p.sigmaMm = o.stylusSigma;
+    p.surfaceOffsetMm = o.stylusTipRadius;
+    points.push_back(p);
+  }
+  if (points.empty())
+    throw FileError(path, "has no dwell of the stylus (no touched point)");
+  return points;
+}
+
+struct LandmarkInit {
+  std::vector<core::LandmarkPair> pairs;
+  nlohmann::json report;
+};
+
+// The landmarks touched in the capture (dwells of the stylus tip in the bone's frame), matched in
+// order to the named CT landmarks.
+LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& referenceTransform) {
+  const std::vector<core::MarkupPoint> all = core::readMarkupPoints(o.landmarksCt);
+  std::vector<core::MarkupPoint> chosen;
+  if (o.landmarkLabels.empty()) {
+    for (const core::MarkupPoint& p : all) {
+      if (o.hipCentre.empty() || p.label != o.hipLabel)
+        chosen.push_back(p);  // the hip is no dwell
+    }
+  } else {
+    for (const std::string& label : splitCommas(o.landmarkLabels)) {
+      const auto found = std::find_if(all.begin(), all.end(),
+                                      [&](const core::MarkupPoint& p) { return p.label == label; });
+      if (found == all.end()) {
+        std::string have;
+        for (const core::MarkupPoint& p : all)
+          have += (have.empty() ? "" : ", ") + p.label;
+        throw FileError(o.landmarksCt, "has no landmark '" + label + "' (it has " + have + ")");
+      }
+      chosen.push_back(*found);
+    }
+  }
+  if (chosen.size() < 2) {
+    throw FileError(o.landmarksCt,
+                    fmt::format("{} landmark(s) chosen: at least 2 are needed", chosen.size()));
+  }
+  const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
+  Eigen::Isometry3d tipToStylus;
+  tipToStylus.matrix() = tip.matrix;
+  const Sequence capture = readSequence(o.landmarksCapture);
+  std::vector<core::Dwell> dwells;
+  try {
+    const core::StylusTrack track =
+        core::stylusTipTrack(capture, tipToStylus, "StylusToTracker", referenceTransform);
+    dwells = core::detectDwells(track.tipInReference, track.timestampsS, track.valid,
+                                core::DwellOptions{});
+  } catch (const std::invalid_argument& e) {
+    throw FileError(o.landmarksCapture, e.what());
+  }
+  std::vector<Eigen::Vector3d> ct;
+  for (const core::MarkupPoint& p : chosen)
+    ct.push_back(p.positionLps);
+  std::vector<int> index;
+  double runnerUp = std::numeric_limits<double>::infinity();
+  if (!o.landmarkDwells.empty()) {
+    if (o.landmarkDwells.size() != chosen.size()) {
+      throw std::invalid_argument(fmt::format("--landmark-dwells gives {} dwells for {} landmarks",
+                                              o.landmarkDwells.size(), chosen.size()));
+    }
+    for (int d : o.landmarkDwells) {
+      if (d < 0 || static_cast<std::size_t>(d) >= dwells.size()) {
+        throw FileError(
+            o.landmarksCapture,
+            fmt::format("has {} dwells; --landmark-dwells names dwell {}", dwells.size(), d));
+      }
+    }
+    index = o.landmarkDwells;
+  } else if (chosen.size() >= 3) {
+    try {
+      const core::DwellMatch match = core::matchDwellsInOrder(dwells, ct);
+      index = match.dwellIndex;
+      runnerUp = match.runnerUpFreMm;
+    } catch (const std::invalid_argument& e) {
+      throw FileError(o.landmarksCapture, e.what());
+    }
+  } else {
+    // Two landmarks: the in-order pair of dwells whose distance best matches the CT's.
+    if (dwells.size() < 2) {
+      throw FileError(o.landmarksCapture,
+                      fmt::format("{} dwell(s) of the stylus found: 2 needed", dwells.size()));
+    }
+    const double length = (ct[1] - ct[0]).norm();
+    double best = std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < dwells.size(); ++i) {
+      for (std::size_t j = i + 1; j < dwells.size(); ++j) {
+        const double mismatch = std::abs((dwells[j].meanMm - dwells[i].meanMm).norm() - length);
+        if (mismatch < best) {
+          runnerUp = best;
+          best = mismatch;
+          index = {static_cast<int>(i), static_cast<int>(j)};
+        } else {
+          runnerUp = std::min(runnerUp, mismatch);
+        }
+      }
+    }
+    if (best > 15.0) {
+      throw FileError(
+          o.landmarksCapture,
+          fmt::format(
+              "no two dwells lie {:.1f} mm apart as {} and {} do (best {:.1f} mm off); name them "
+              "with --landmark-dwells",
+              length, chosen[0].label, chosen[1].label, best));
+    }
+    if (runnerUp - best < 2.0) {
+      throw FileError(
+          o.landmarksCapture,
+          fmt::format(
+              "{} dwells and two pairs match the landmarks' distance within 2 mm of each other; "
+              "name the dwells with --landmark-dwells",
+              dwells.size()));
+    }
+  }
+  LandmarkInit init;
+  nlohmann::json list = nlohmann::json::array();
+  for (std::size_t i = 0; i < chosen.size(); ++i) {
+    const core::Dwell& d = dwells[static_cast<std::size_t>(index[i])];
+    init.pairs.push_back({chosen[i].label, d.meanMm, chosen[i].positionLps, o.landmarkSigma});
+    list.push_back({{"label", chosen[i].label},
+                    {"dwell", index[i]},
+                    {"first_frame", d.firstFrame},
+                    {"last_frame", d.lastFrame},
+                    {"measured_mm", vec(d.meanMm)}});
+  }
+  if (!o.hipCentre.empty()) {
+    // The hip centre: the pivot of the femur's marker (echoreg pivot --marker FemurToTracker)
+    // paired with the CT landmark --hip-label; far from the knee, it fixes the rotations.
+    const TransformFile hip = readTransformFile(o.hipCentre, "", o.bone);
+    const auto found = std::find_if(
+        all.begin(), all.end(), [&](const core::MarkupPoint& p) { return p.label == o.hipLabel; });
+    if (found == all.end())
+      throw FileError(o.landmarksCt, "has no landmark '" + o.hipLabel + "' (--hip-label)");
+    init.pairs.push_back(
+        {o.hipLabel, hip.matrix.topRightCorner<3, 1>(), found->positionLps, o.hipSigma});
+    list.push_back({{"label", o.hipLabel},
+                    {"measured_mm", vec(hip.matrix.topRightCorner<3, 1>())},
+                    {"from", o.hipCentre}});
+  }
+  init.report = {{"dwells_found", dwells.size()}, {"landmarks", list}};
+  if (std::isfinite(runnerUp))
+    init.report["runner_up_mm"] = runnerUp;
+  return init;
+}
+
+int runRegister(const RegisterOptions& o, const Streams& io) {
+  if (o.bone.empty() || o.bone.find("To") != std::string::npos) {
+    throw std::invalid_argument("--bone must name the bone's frame, e.g. Femur, got '" + o.bone +
+                                "'");
+  }
+  if (!(o.ultrasoundSigma > 0.0) || !(o.stylusSigma > 0.0) || !(o.landmarkSigma > 0.0)) {
+    throw std::invalid_argument(
+        "--ultrasound-sigma, --stylus-sigma and --landmark-sigma must be > 0 mm");
+  }
+  if (o.stylusTipRadius < 0.0)
+    throw std::invalid_argument("--stylus-tip-radius must be >= 0 mm");
+  const std::string reference = o.bone + "ToTracker";
+  core::SurfaceRegistrationOptions options;
+  options.method = core::parseSurfaceMethod(o.method);
+  options.loss = core::parseRobustLoss(o.loss);
+  options.fitSpeedOfSound = o.fitSpeed;
+  options.restarts = o.restarts;
+  options.seed = o.seed;
+  options.axisStarts = o.axisStarts;
+  options.maxRmsMm = o.maxRms;
+
+  // The model first: a bad model fails before the long detection.
+  std::unique_ptr<core::SurfaceRegistration> model;
+  try {
+    model = std::make_unique<core::SurfaceRegistration>(filters::readMesh(o.model));
+  } catch (const std::invalid_argument& e) {
+    throw FileError(o.model, e.what());
+  }
+
+  // The points.
+  std::vector<core::SurfacePoint> points;
+  nlohmann::json sources = nlohmann::json::array();
+  double speedOfSound = 0.0;
+  if (!o.pointsCsv.empty()) {
+    points = readPointsCsv(o.pointsCsv, o.ultrasoundSigma);
+    sources.push_back({{"points", o.pointsCsv}, {"count", points.size()}});
+  } else {
+    const TransformFile calibration = readTransformFile(o.calibration, "Beam", "Probe");
+    for (const std::string& capture : o.captures) {
+      const std::vector<core::SurfacePoint> found =
+          capturePoints(capture, calibration.matrix, reference, o, speedOfSound, sources);
+      points.insert(points.end(), found.begin(), found.end());
+    }
+  }
+  const int ultrasoundCount = static_cast<int>(points.size());
+  if (!o.stylusCaptures.empty()) {
+    const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
+    Eigen::Isometry3d tipToStylus;
+    tipToStylus.matrix() = tip.matrix;
+    for (const std::string& capture : o.stylusCaptures) {
+      const std::vector<core::SurfacePoint> found =
+          stylusPoints(capture, tipToStylus, reference, o);
+      points.insert(points.end(), found.begin(), found.end());
+      sources.push_back({{"stylus_capture", capture}, {"points", found.size()}});
+    }
+  }
+  if (points.size() < 3) {
+    const std::string from = !o.pointsCsv.empty() ? o.pointsCsv
+                             : o.captures.empty() ? o.model
+                                                  : o.captures.front();
+    throw FileError(from, fmt::format("{} point(s) found: at least 3 are needed for a registration",
+                                      points.size()));
+  }
+  if (o.fitSpeed && std::none_of(points.begin(), points.end(),
+                                 [](const core::SurfacePoint& p) { return p.hasBeam; })) {
+    throw std::invalid_argument(
+        "--fit-speed-of-sound needs the points' beams: give --capture, or a CSV with "
+        "ox,oy,oz,dx,dy,dz,depth_mm");
+  }
+
+  // The start.
+  std::vector<core::LandmarkPair> landmarks;
+  nlohmann::json initReport;
+  if (!o.initial.empty()) {
+    const TransformFile initial = readTransformFile(o.initial, o.bone, "CT");
+    options.initial.matrix() = initial.matrix;
+    initReport = {{"initial", o.initial}};
+  } else {
+    LandmarkInit init = landmarksFromCapture(o, reference);
+    landmarks = init.pairs;
+    initReport = init.report;
+    const core::LandmarkSpread spread = core::landmarkSpread(landmarks);
+    if (!spread.collinear) {
+      std::vector<Eigen::Vector3d> bone, ct;
+      std::vector<double> weights;
+      for (const core::LandmarkPair& l : landmarks) {
+        bone.push_back(l.bone);
+        ct.push_back(l.model);
+        weights.push_back(1.0 / (l.sigmaMm * l.sigmaMm));
+      }
+      const core::PairedPointResult paired = core::registerPairedPoints(bone, ct, weights);
+      options.initial = paired.transform;
+      initReport["method"] = "paired-point";
+      initReport["fre_mm"] = paired.freMm;
+    } else {
+      // Two landmarks (or all on one line) leave the rotation about their line open: start from
+      // evenly spaced turns about it and keep the start of least robust cost.
+      const core::LandmarkPair& a = landmarks[static_cast<std::size_t>(spread.first)];
+      const core::LandmarkPair& b = landmarks[static_cast<std::size_t>(spread.second)];
+      try {
+        options.initial = core::poseFromTwoLandmarks(a, b);
+      } catch (const std::invalid_argument& e) {
+        throw FileError(o.landmarksCapture, e.what());
+      }
+      options.searchAboutAxis = true;
+      options.axisPoint = a.bone;
+      options.axisDirection = b.bone - a.bone;
+      initReport["method"] = "two-landmark line, rotation about it searched";
+      initReport["axis_starts"] = o.axisStarts;
+    }
+  }
+
+  const core::SurfaceRegistrationResult r = model->registerPoints(points, landmarks, options);
+
+  TransformFile out;
+  out.from = o.bone;
+  out.to = "CT";
+  out.matrix = r.transform.matrix();
+  nlohmann::json residuals = nlohmann::json::array();
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    residuals.push_back(
+        {{"source", points[i].source == core::PointSource::Stylus ? "stylus" : "ultrasound"},
+         {"residual_mm", r.residualsMm[i]},
+         {"inlier", static_cast<bool>(r.inlier[i])}});
+  }
+  nlohmann::json landmarkResiduals = nlohmann::json::array();
+  for (std::size_t i = 0; i < landmarks.size(); ++i)
+    landmarkResiduals.push_back(
+        {{"label", landmarks[i].name}, {"residual_mm", r.landmarkResidualsMm[i]}});
+  out.extra = {{"rms_mm", r.rmsMm},
+               {"rms_over", "inliers"},
+               {"rms_all_mm", r.rmsAllMm},
+               {"points_used", r.pointsUsed},
+               {"points_rejected", r.pointsRejected},
+               {"ultrasound_points", ultrasoundCount},
+               {"stylus_points", static_cast<int>(points.size()) - ultrasoundCount},
+               {"speed_of_sound_scale", r.speedOfSoundScale},
+               {"iterations", r.iterations},
+               {"starts", r.starts},
+               {"converged", r.converged},
+               {"method", o.method},
+               {"loss", options.method == core::SurfaceMethod::Robust ? nlohmann::json(o.loss)
+                                                                      : nlohmann::json(nullptr)},
+               {"sources", sources},
+               {"start", initReport},
+               {"landmark_residuals", landmarkResiduals},
+               {"points", residuals}};
+  if (speedOfSound > 0.0)
+    out.extra["speed_of_sound_mps"] = speedOfSound * r.speedOfSoundScale;
+  if (!r.converged)
+    out.extra["message"] = r.message;
+  const std::string tfm = writeTransformFile(o.out, out);
+  if (o.json) {
+    nlohmann::json summary = out.extra;
+    summary.erase("points");
+    summary["out"] = o.out;
+    summary["tfm"] = tfm;
+    summary["matrix"] = matrixRows(out.matrix);
+    io.out << summary.dump(2) << "\n";
+  } else {
+    io.out << fmt::format(
+        "{}: {}ToCT, RMS {:.3f} mm over {} inliers ({:.3f} mm over all {}), {} rejected, "
+        "speed-of-sound scale {:.4f}, {} iterations, {} start(s){}\n",
+        o.out, o.bone, r.rmsMm, r.pointsUsed, r.rmsAllMm, points.size(), r.pointsRejected,
+        r.speedOfSoundScale, r.iterations, r.starts, r.converged ? "" : ", NOT CONVERGED");
+  }
+  if (!r.converged) {
+    io.err << fmt::format(
+        "echoreg register: {}: not converged: {} (written with \"converged\": false)\n", o.out,
+        r.message);
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+CommandAction addRegisterCommand(CLI::App& app) {
+  auto o = std::make_shared<RegisterOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "register",
+      "Register a bone to its CT model from A-mode points (docs/registration.md): points in the\n"
+      "bone tracker's frame (--bone) from captures through the detection chain, or from a CSV;\n"
+      "optionally stylus points too (the hybrid registration, each source weighted by its sigma).\n"
+      "Start from --initial, or from landmarks touched with the stylus (paired-point with 3 or\n"
+      "more; with 2, their line, the rotation about it searched with the surface points).\n"
+      "Writes <Bone>ToCT JSON (rms_mm over the inliers, rms_all_mm, points_used, points_rejected,\n"
+      "speed_of_sound_scale, iterations, converged, per-point residuals) and a Slicer .tfm.\n"
+      "Exit 1 with a message for bad input. A registration that did not converge (did not\n"
+      "settle, too few inliers, or inliers' RMS above --max-rms) is still written, with\n"
+      "\"converged\": false, reported on stderr, and the exit code is 1.");
+  cmd->add_option("--model", o->model,
+                  "Bone model in CT coordinates (.vtp, .stl, .ply, .obj), closed")
+      ->required();
+  cmd->add_option("--bone", o->bone, "The bone's tracker frame (its transform is <Bone>ToTracker)")
+      ->capture_default_str();
+  auto* capture =
+      cmd->add_option("--capture", o->captures, "A-line capture(s) of the bone (PLUS sequence)")
+          ->group("Points");
+  auto* calibration = cmd->add_option("--calibration", o->calibration,
+                                      "BeamToProbe transform JSON (echoreg calibrate)")
+                          ->group("Points");
+  auto* csv =
+      cmd->add_option(
+             "--points", o->pointsCsv,
+             "CSV of points in the bone frame: x,y,z [+ ox,oy,oz,dx,dy,dz,depth_mm], or the CSV "
+             "of echoreg detect --pose ... --reference (x_mm,y_mm,z_mm of accepted rows)")
+          ->group("Points");
+  capture->needs(calibration);
+  calibration->needs(capture);
+  csv->excludes(capture);
+  cmd->add_option("--preset", o->preset, "Detection preset for --capture (see echoreg detect)")
+      ->capture_default_str()
+      ->group("Points");
+  cmd->add_option("--speed-of-sound", o->speedOfSound,
+                  "Assumed speed, m/s (default: the capture's header)")
+      ->group("Points");
+  cmd->add_option(
+         "--history", o->history,
+         "Temporal filter: consecutive agreeing frames (1 = off: each echo judged alone and the "
+         "robust loss rejects strays; echoreg detect's default 3 drops most frames of a quick "
+         "sweep)")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 100))
+      ->group("Points");
+  cmd->add_option("--min-spread-mm", o->minSpreadMm,
+                  "Spatial filter: min distance between points, mm (0 = off)")
+      ->capture_default_str()
+      ->check(CLI::Range(0.0, 100.0))
+      ->group("Points");
+  cmd->add_option("--ultrasound-sigma", o->ultrasoundSigma, "Ultrasound points' sigma, mm")
+      ->capture_default_str()
+      ->group("Points");
+  cmd->add_option(
+         "--stylus-points", o->stylusCaptures,
+         "Capture(s) of the stylus on the bone (hybrid registration; needs --stylus-tip-to-stylus)")
+      ->group("Stylus points");
+  cmd->add_option("--stylus-tip-radius", o->stylusTipRadius,
+                  "Ball-tip radius of that stylus, mm (study manifest)")
+      ->capture_default_str()
+      ->group("Stylus points");
+  cmd->add_option("--stylus-sigma", o->stylusSigma, "Stylus points' sigma, mm")
+      ->capture_default_str()
+      ->group("Stylus points");
+  cmd->add_option("--stylus-spacing", o->stylusSpacing,
+                  "Dwells of the stylus closer than this are one point, mm")
+      ->capture_default_str()
+      ->group("Stylus points");
+  auto* initial =
+      cmd->add_option("--initial", o->initial, "Initial <Bone>ToCT transform JSON")->group("Start");
+  auto* landmarksCt =
+      cmd->add_option("--landmarks-ct", o->landmarksCt, "Landmarks in CT (3D Slicer .mrk.json)")
+          ->group("Start");
+  auto* landmarksCapture =
+      cmd->add_option("--landmarks-capture", o->landmarksCapture,
+                      "Capture of the stylus dwelling on them, in the same order")
+          ->group("Start");
+  cmd->add_option("--stylus-tip-to-stylus", o->tipFile,
+                  "StylusTipToStylus transform JSON (echoreg pivot)")
+      ->group("Start");
+  cmd->add_option("--landmark-labels", o->landmarkLabels,
+                  "Landmarks to use, comma-separated, in touch order")
+      ->group("Start");
+  cmd->add_option("--landmark-dwells", o->landmarkDwells,
+                  "Dwell index per landmark (when the choice is ambiguous)")
+      ->delimiter(',')
+      ->group("Start");
+  cmd->add_option("--landmark-sigma", o->landmarkSigma,
+                  "Landmarks' localisation sigma, mm (their weight)")
+      ->capture_default_str()
+      ->group("Start");
+  cmd->add_option("--hip-centre", o->hipCentre,
+                  "Femur: HipCentreTo<Bone> JSON (echoreg pivot --marker FemurToTracker), paired "
+                  "with the CT "
+                  "landmark --hip-label as one more landmark")
+      ->group("Start");
+  cmd->add_option("--hip-label", o->hipLabel, "CT landmark of the hip centre")
+      ->capture_default_str()
+      ->group("Start");
+  cmd->add_option("--hip-sigma", o->hipSigma, "Hip centre's localisation sigma, mm")
+      ->capture_default_str()
+      ->group("Start");
+  cmd->add_option("--axis-starts", o->axisStarts, "Two landmarks: starts about their line")
+      ->capture_default_str()
+      ->check(CLI::Range(1, 360))
+      ->group("Start");
+  initial->excludes(landmarksCt);
+  initial->excludes(landmarksCapture);
+  landmarksCt->needs(landmarksCapture);
+  landmarksCapture->needs(landmarksCt);
+  cmd->add_option("--out", o->out, "<Bone>ToCT JSON to write (a .tfm is written beside it)")
+      ->required();
+  cmd->add_option("--method", o->method, "robust, or plain (the dissertation's ICP)")
+      ->check(CLI::IsMember({"plain", "robust"}))
+      ->capture_default_str();
+  cmd->add_option("--loss", o->loss, "robust: huber, cauchy, tukey or trim (10 %)")
+      ->check(CLI::IsMember({"huber", "cauchy", "tukey", "trim"}))
+      ->capture_default_str();
+  cmd->add_flag("--fit-speed-of-sound", o->fitSpeed,
+                "robust: fit the speed-of-sound scale along each beam");
+  cmd->add_option("--restarts", o->restarts,
+                  "robust: extra starts perturbed by up to 10 deg / 10 mm")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 1000));
+  cmd->add_option("--seed", o->seed, "Seed of the restarts")->capture_default_str();
+  cmd->add_option("--max-rms", o->maxRms, "Not converged when the inliers' RMS exceeds this, mm")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
+  cmd->add_flag("--json", o->json, "Print the result as JSON");
+  // Usage errors (exit 2) found once everything is parsed.
+  cmd->parse_complete_callback([o] {
+    if (o->captures.empty() && o->pointsCsv.empty()) {
+      throw CLI::ValidationError("register",
+                                 "give the points: --capture with --calibration, or --points");
+    }
+    if (o->initial.empty() && o->landmarksCt.empty()) {
+      throw CLI::ValidationError(
+          "register", "give the start: --initial, or --landmarks-ct with --landmarks-capture");
+    }
+    if (!o->hipCentre.empty() && o->landmarksCt.empty()) {
+      throw CLI::ValidationError("register",
+                                 "--hip-centre needs --landmarks-ct and --landmarks-capture");
+    }
+    if ((!o->landmarksCt.empty() || !o->stylusCaptures.empty()) && o->tipFile.empty()) {
+      throw CLI::ValidationError(
+          "register", "--landmarks-capture and --stylus-points need --stylus-tip-to-stylus");
+    }
+  });
+  return [o](const Streams& io) { return runRegister(*o, io); };
+}
+
+}  // namespace echoreg::cli
