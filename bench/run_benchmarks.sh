@@ -58,7 +58,7 @@ for preset in default mozes2008; do
 done
 "$python" "$here/compare_scipy.py" "$out" --preset default --preset mozes2008
 
-# bench_livewire bench_registration prints its path agreement with OpenCV first (when built with OpenCV).
+# bench_livewire prints its path agreement with OpenCV first (when built with OpenCV).
 for program in bench_mesh_locator bench_simulation bench_livewire bench_registration; do
   echo
   echo "== $program"
