@@ -447,7 +447,7 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   if (!o.pointsCsv.empty()) {
     points = readPointsCsv(o.pointsCsv, o.ultrasoundSigma);
     sources.push_back({{"points", o.pointsCsv}, {"count", points.size()}});
-  } else {
+  } else if (!o.captures.empty()) {
     const TransformFile calibration = readTransformFile(o.calibration, "Beam", "Probe");
     for (const std::string& capture : o.captures) {
       const std::vector<core::SurfacePoint> found =
@@ -468,9 +468,10 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
     }
   }
   if (points.size() < 3) {
-    const std::string from = !o.pointsCsv.empty() ? o.pointsCsv
-                             : o.captures.empty() ? o.model
-                                                  : o.captures.front();
+    const std::string from = !o.pointsCsv.empty()        ? o.pointsCsv
+                             : !o.captures.empty()       ? o.captures.front()
+                             : !o.stylusCaptures.empty() ? o.stylusCaptures.front()
+                                                         : o.model;
     throw FileError(from, fmt::format("{} point(s) found: at least 3 are needed for a registration",
                                       points.size()));
   }
@@ -722,9 +723,10 @@ CommandAction addRegisterCommand(CLI::App& app) {
   cmd->add_flag("--json", o->json, "Print the result as JSON");
   // Usage errors (exit 2) found once everything is parsed.
   cmd->parse_complete_callback([o] {
-    if (o->captures.empty() && o->pointsCsv.empty()) {
+    if (o->captures.empty() && o->pointsCsv.empty() && o->stylusCaptures.empty()) {
       throw CLI::ValidationError("register",
-                                 "give the points: --capture with --calibration, or --points");
+                                 "give the points: --capture with --calibration, --points, or "
+                                 "--stylus-points (the mechanical probe alone)");
     }
     if (o->initial.empty() && o->landmarksCt.empty()) {
       throw CLI::ValidationError(

@@ -9,10 +9,12 @@
 
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/markups.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -168,31 +170,222 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                    {calibration}, {calibrationFigure}, false});
   runSteps(stage);
 
-  // --- Bones: detection and figures ----------------------------------------------------------
+  // --- Bones: hip centre, models, detection, registrations, evaluation, figures ---------------
   const nlohmann::json bones = manifest.at("/bones");
   const std::string preset = manifest.at("/detection/preset").is_string()
                                  ? manifest.at("/detection/preset").get<std::string>() : "default";
-  std::map<std::string, std::vector<std::string>> pointFiles;
+  const std::string ctLandmarks = manifest.file("/landmarks/ct", false);
+  const std::string landmarkCapture = manifest.file("/landmarks/capture", false);
+  std::vector<std::string> landmarkOrder;
+  for (const auto& label : manifest.at("/landmarks/order").is_array() ? manifest.at("/landmarks/order")
+                                                                      : nlohmann::json::array()) {
+    landmarkOrder.push_back(label.get<std::string>());
+  }
+  // Targets of the evaluation, in CT, from the CT landmarks: the knee centre (between the
+  // epicondyles), the hip centre, the ankle centre (between the malleoli).
+  std::map<std::string, Eigen::Vector3d> targets;
+  if (!ctLandmarks.empty() && fs::exists(ctLandmarks)) {
+    std::map<std::string, Eigen::Vector3d> picked;
+    for (const core::MarkupPoint& p : core::readMarkupPoints(ctLandmarks)) picked[p.label] = p.positionLps;
+    auto midpoint = [&](const char* a, const char* b, const char* name) {
+      if (picked.count(a) != 0 && picked.count(b) != 0) targets[name] = 0.5 * (picked[a] + picked[b]);
+    };
+    midpoint("medial_epicondyle", "lateral_epicondyle", "knee_centre");
+    midpoint("medial_malleolus", "lateral_malleolus", "ankle_centre");
+    if (picked.count("hip_centre") != 0) targets["hip_centre"] = picked["hip_centre"];
+  }
+  // Each bone's targets: the knee centre, and the hip (femur) or ankle (tibia) centre.
+  auto targetsFileOf = [&](const std::string& bone) {
+    std::vector<core::MarkupPoint> list;
+    for (const auto& [name, p] : targets) {
+      if (name == "knee_centre" || (bone == "femur" && name == "hip_centre") ||
+          (bone == "tibia" && name == "ankle_centre")) {
+        list.push_back({name, p});
+      }
+    }
+    if (list.empty()) return std::string();
+    const std::string path = results + "/targets_" + bone + ".mrk.json";
+    core::writeMarkupPoints(path, list);
+    return path;
+  };
+  // Landmarks touched on each bone, in touch order (the femur's epicondyles, the malleoli of the
+  // tibia and fibula).
+  auto landmarksOf = [&](const std::string& bone) {
+    std::pair<std::vector<std::string>, std::vector<std::string>> labelsAndDwells;
+    for (std::size_t i = 0; i < landmarkOrder.size(); ++i) {
+      const std::string& label = landmarkOrder[i];
+      const bool femoral = label.find("epicondyle") != std::string::npos;
+      const bool ankle = label.find("malleolus") != std::string::npos;
+      if ((bone == "femur" && femoral) || (bone == "tibia" && ankle)) {
+        labelsAndDwells.first.push_back(label);
+        labelsAndDwells.second.push_back(std::to_string(i));  // touched in the manifest's order
+      }
+    }
+    return labelsAndDwells;
+  };
+  struct BoneRun {
+    std::string name;
+    std::string model;
+    std::vector<std::string> points;
+    std::vector<std::string> ultrasound;  // registration files
+    std::string mechanical;
+    std::string evaluationMechanical;
+    std::string evaluationTruth;
+    std::string figure;
+  };
+  std::vector<BoneRun> boneRuns;
   if (failure.empty() && bones.is_object()) {
     stage.clear();
+    const std::string hipCentre = results + "/hip_centre.json";
+    const std::string hipCapture = manifest.file("/bones/femur/hip_rotation", false);
+    if (!hipCapture.empty()) {
+      stage.push_back({"pivot-hip", "hip centre (femur pivot)",
+                       {"pivot", "--capture", hipCapture, "--marker", "FemurToTracker", "--out", hipCentre},
+                       {hipCapture}, {hipCentre}, false});
+    }
+    fs::create_directories(results + "/registrations", ec);
+    fs::create_directories(results + "/evaluation", ec);
     for (const auto& [bone, entry] : bones.items()) {
-      const std::string marker = capitalised(bone) + "ToTracker";
+      BoneRun run;
+      run.name = bone;
+      const std::string Bone = capitalised(bone);
+      const std::string marker = Bone + "ToTracker";
+      run.model = manifest.file("/bones/" + bone + "/model");
+      // The start: the landmarks touched on this bone (+ the hip centre for the femur).
+      std::vector<std::string> start;
+      std::vector<std::string> startInputs;
+      const auto [labels, dwells] = landmarksOf(bone);
+      if (!ctLandmarks.empty() && !landmarkCapture.empty() && !labels.empty()) {
+        std::string joined;
+        for (const std::string& l : labels) joined += (joined.empty() ? "" : ",") + l;
+        start = {"--landmarks-ct", ctLandmarks, "--landmarks-capture", landmarkCapture,
+                 "--stylus-tip-to-stylus", stylusTip, "--landmark-labels", joined,
+                 "--landmark-dwells"};
+        start.insert(start.end(), dwells.begin(), dwells.end());
+        startInputs = {ctLandmarks, landmarkCapture, stylusTip};
+        if (bone == "femur" && !hipCapture.empty()) {
+          start.insert(start.end(), {"--hip-centre", hipCentre});
+          startInputs.push_back(hipCentre);
+        }
+      } else if (const std::string initial = manifest.file("/bones/" + bone + "/initial", false); !initial.empty()) {
+        start = {"--initial", initial};
+        startInputs = {initial};
+      } else {
+        throw FileError(manifest.dir() + "/study.json",
+                        "bones." + bone + ": no landmarks (landmarks.ct, landmarks.capture, "
+                        "landmarks.order) and no initial transform to start the registration");
+      }
       int n = 0;
       for (const auto& capture : entry.value("ultrasound", nlohmann::json::array())) {
         ++n;
         const std::string path = manifest.resolve(capture.get<std::string>());
+        // The points, for the figures (the registration runs the same chain on the capture).
         const std::string points = fmt::format("{}/points/{}_ultrasound_{}.csv", results, bone, n);
-        std::vector<std::string> args = {"detect", path, "--pose", "ProbeToTracker", "--reference",
-                                         marker, "--beam-to-probe", calibration, "--preset", preset,
-                                         "--out", points};
+        std::vector<std::string> detect = {"detect", path, "--pose", "ProbeToTracker", "--reference",
+                                           marker, "--beam-to-probe", calibration, "--preset", preset,
+                                           "--history", "1", "--out", points};
+        std::vector<std::string> speed;
         if (const auto c = manifest.at("/detection/speed_of_sound_mps"); c.is_number()) {
-          args.insert(args.end(), {"--speed-of-sound", fmt::format("{}", c.get<double>())});
+          speed = {"--speed-of-sound", fmt::format("{}", c.get<double>())};
+          detect.insert(detect.end(), speed.begin(), speed.end());
         }
         stage.push_back({fmt::format("detect-{}-{}", bone, n),
-                         fmt::format("{} sweep {}: bone echoes", bone, n), args, {path, calibration},
-                         {points}, true});
-        pointFiles[bone].push_back(points);
+                         fmt::format("{} sweep {}: bone echoes", bone, n), detect,
+                         {path, calibration}, {points}, true});
+        run.points.push_back(points);
+        const std::string out = fmt::format("{}/registrations/{}_ultrasound_{}.json", results, bone, n);
+        std::vector<std::string> reg = {"register", "--model", run.model, "--bone", Bone, "--capture",
+                                        path, "--calibration", calibration, "--preset", preset,
+                                        "--fit-speed-of-sound", "--out", out};
+        reg.insert(reg.end(), speed.begin(), speed.end());
+        reg.insert(reg.end(), start.begin(), start.end());
+        std::vector<std::string> inputs = {run.model, path, calibration};
+        inputs.insert(inputs.end(), startInputs.begin(), startInputs.end());
+        stage.push_back({fmt::format("register-{}-ultrasound-{}", bone, n),
+                         fmt::format("{} registration {} from ultrasound", bone, n), reg, inputs,
+                         {out}, false});
+        run.ultrasound.push_back(out);
       }
+      // The reference: the mechanical probe on the exposed bone (section 5.2).
+      if (const std::string mech = manifest.file("/bones/" + bone + "/mechanical", false); !mech.empty()) {
+        run.mechanical = fmt::format("{}/registrations/{}_mechanical.json", results, bone);
+        std::vector<std::string> reg = {
+            "register", "--model", run.model, "--bone", Bone, "--stylus-points", mech,
+            "--stylus-tip-radius",
+            fmt::format("{}", entry.value("mechanical_tip_radius_mm", 0.0)), "--out", run.mechanical};
+        if (std::find(start.begin(), start.end(), "--stylus-tip-to-stylus") == start.end()) {
+          reg.insert(reg.end(), {"--stylus-tip-to-stylus", stylusTip});
+        }
+        reg.insert(reg.end(), start.begin(), start.end());
+        std::vector<std::string> inputs = {run.model, mech, stylusTip};
+        inputs.insert(inputs.end(), startInputs.begin(), startInputs.end());
+        stage.push_back({fmt::format("register-{}-mechanical", bone),
+                         fmt::format("{} registration from the mechanical probe (reference)", bone),
+                         reg, inputs, {run.mechanical}, false});
+      }
+      boneRuns.push_back(run);
+    }
+    runSteps(stage);
+
+    // Evaluation and figures: only the registrations that exist.
+    stage.clear();
+    const std::string truthTransforms = manifest.file("/truth/transforms", false);
+    for (BoneRun& run : boneRuns) {
+      const std::string Bone = capitalised(run.name);
+      std::vector<std::string> estimates;
+      for (const std::string& r : run.ultrasound) {
+        if (fs::exists(r)) estimates.push_back(r);
+      }
+      if (estimates.empty()) continue;
+      std::vector<std::string> common;
+      for (const std::string& e : estimates) common.insert(common.end(), {"--estimate", e});
+      const std::string targetsFile = targetsFileOf(run.name);
+      if (!targetsFile.empty()) common.insert(common.end(), {"--targets", targetsFile});
+      if (targets.count("knee_centre") != 0) {
+        const Eigen::Vector3d& c = targets["knee_centre"];
+        common.insert(common.end(), {"--centre", fmt::format("{}", c.x()), fmt::format("{}", c.y()),
+                                     fmt::format("{}", c.z())});
+      }
+      std::vector<std::string> inputs = estimates;
+      if (!targetsFile.empty()) inputs.push_back(targetsFile);
+      if (!run.mechanical.empty() && fs::exists(run.mechanical)) {
+        run.evaluationMechanical = fmt::format("{}/evaluation/{}_vs_mechanical.csv", results, run.name);
+        std::vector<std::string> args = {"evaluate", "--reference", run.mechanical};
+        args.insert(args.end(), common.begin(), common.end());
+        args.insert(args.end(), {"--out", run.evaluationMechanical});
+        std::vector<std::string> in = inputs;
+        in.push_back(run.mechanical);
+        stage.push_back({fmt::format("evaluate-{}-mechanical", run.name),
+                         fmt::format("{}: ultrasound against the mechanical probe", run.name), args,
+                         in, {run.evaluationMechanical}, false});
+      }
+      const std::string truth = manifest.resolve(fmt::format("truth/{}ToCT.json", Bone));
+      if (!truthTransforms.empty() && fs::exists(truth)) {
+        run.evaluationTruth = fmt::format("{}/evaluation/{}_vs_truth.csv", results, run.name);
+        std::vector<std::string> args = {"evaluate", "--reference", truth};
+        args.insert(args.end(), common.begin(), common.end());
+        if (!run.mechanical.empty() && fs::exists(run.mechanical)) {
+          args.insert(args.end(), {"--estimate", run.mechanical});
+        }
+        args.insert(args.end(), {"--out", run.evaluationTruth});
+        std::vector<std::string> in = inputs;
+        in.push_back(truth);
+        stage.push_back({fmt::format("evaluate-{}-truth", run.name),
+                         fmt::format("{}: registrations against the simulation's truth", run.name),
+                         args, in, {run.evaluationTruth}, false});
+      }
+      // The points of the first sweep on the model through the reference registration (Eq. 4.6).
+      const std::string reference = !run.mechanical.empty() && fs::exists(run.mechanical)
+                                        ? run.mechanical : estimates.front();
+      run.figure = fmt::format("{}/figures/{}_registration.png", results, run.name);
+      stage.push_back({fmt::format("figure-{}-registration", run.name),
+                       fmt::format("{}: registration figure", run.name),
+                       {"figure", "registration", "--model", run.model, "--points", run.points.front(),
+                        "--transform", reference, "--title",
+                        fmt::format("{}: ultrasound points through the {} registration", Bone,
+                                    reference == run.mechanical ? "mechanical-probe" : "ultrasound"),
+                        "--out", run.figure},
+                       {run.model, run.points.front(), reference}, {run.figure}, false});
     }
     runSteps(stage);
   }
