@@ -1,0 +1,390 @@
+#include "echoreg/segmentation/bone_mask.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <stdexcept>
+
+namespace echoreg::segmentation {
+
+namespace {
+
+bool sameGrid(const CtImage& a, const CtImage& b) {
+  return a.dimensions == b.dimensions && a.slicePositionsMm == b.slicePositionsMm &&
+         (a.originMm - b.originMm).norm() < 1e-9 && (a.pixelSpacingMm - b.pixelSpacingMm).norm() < 1e-12;
+}
+
+CtImage geometryOf(const CtImage& image) {
+  CtImage g = image;
+  g.hu.clear();
+  g.hu.shrink_to_fit();
+  return g;
+}
+
+std::size_t sz(int v) { return static_cast<std::size_t>(v); }
+
+// 1D squared Euclidean distance transform (Felzenszwalb & Huttenlocher 2012) of f (n samples
+// `step` mm apart), in place, with scratch buffers.
+void edt1d(std::vector<double>& f, std::size_t n, double step, std::vector<double>& d,
+           std::vector<int>& v, std::vector<double>& z) {
+  const double inf = std::numeric_limits<double>::infinity();
+  d.assign(n, inf);
+  v.assign(n, 0);
+  z.assign(n + 1, 0.0);
+  int k = -1;
+  for (std::size_t qi = 0; qi < n; ++qi) {
+    if (!std::isfinite(f[qi])) continue;
+    const double q = static_cast<double>(qi) * step;
+    double s = 0.0;
+    while (k >= 0) {
+      const double p = v[sz(k)] * step;
+      s = ((f[qi] + q * q) - (f[sz(v[sz(k)])] + p * p)) / (2.0 * (q - p));
+      if (s <= z[sz(k)]) {
+        --k;
+      } else {
+        break;
+      }
+    }
+    ++k;
+    v[sz(k)] = static_cast<int>(qi);
+    z[sz(k)] = k == 0 ? -inf : s;
+    z[sz(k) + 1] = inf;
+  }
+  if (k < 0) return;  // no finite sample: all stay infinite
+  int j = 0;
+  for (std::size_t qi = 0; qi < n; ++qi) {
+    const double q = static_cast<double>(qi) * step;
+    while (z[sz(j) + 1] < q) ++j;
+    const double p = v[sz(j)] * step;
+    d[qi] = (q - p) * (q - p) + f[sz(v[sz(j)])];
+  }
+  for (std::size_t i = 0; i < n; ++i) f[i] = d[i];
+}
+
+// Squared distance (mm^2) from every voxel to the nearest voxel where `on(value)` holds.
+std::vector<double> squaredDistance(const VoxelMask& mask, bool toForeground) {
+  const auto& g = mask.geometry;
+  const int nx = g.dimensions[0], ny = g.dimensions[1], nz = g.dimensions[2];
+  const Eigen::Vector3d s = g.uniform() ? g.spacingMm() : Eigen::Vector3d(g.pixelSpacingMm.x(), g.pixelSpacingMm.y(), 1.0);
+  const double inf = std::numeric_limits<double>::infinity();
+  std::vector<double> dist(mask.voxels.size());
+  for (std::size_t i = 0; i < dist.size(); ++i) {
+    const bool fg = mask.voxels[i] != 0;
+    dist[i] = (fg == toForeground) ? 0.0 : inf;
+  }
+  std::vector<double> line, d, z;
+  std::vector<int> v;
+  // along i
+  line.resize(sz(nx));
+  for (int k = 0; k < nz; ++k) {
+    for (int j = 0; j < ny; ++j) {
+      const std::size_t base = g.index(0, j, k);
+      for (int i = 0; i < nx; ++i) line[sz(i)] = dist[base + sz(i)];
+      edt1d(line, sz(nx), s.x(), d, v, z);
+      for (int i = 0; i < nx; ++i) dist[base + sz(i)] = line[sz(i)];
+    }
+  }
+  line.resize(sz(ny));
+  for (int k = 0; k < nz; ++k) {
+    for (int i = 0; i < nx; ++i) {
+      for (int j = 0; j < ny; ++j) line[sz(j)] = dist[g.index(i, j, k)];
+      edt1d(line, sz(ny), s.y(), d, v, z);
+      for (int j = 0; j < ny; ++j) dist[g.index(i, j, k)] = line[sz(j)];
+    }
+  }
+  line.resize(sz(nz));
+  for (int j = 0; j < ny; ++j) {
+    for (int i = 0; i < nx; ++i) {
+      for (int k = 0; k < nz; ++k) line[sz(k)] = dist[g.index(i, j, k)];
+      edt1d(line, sz(nz), s.z(), d, v, z);
+      for (int k = 0; k < nz; ++k) dist[g.index(i, j, k)] = line[sz(k)];
+    }
+  }
+  return dist;
+}
+
+// Flood fill from `starts` through voxels where `pass` is true; 6- or 26-connected.
+template <class Pass>
+std::vector<std::uint8_t> flood(const CtImage& g, const std::vector<std::size_t>& starts, Pass pass,
+                                bool connect26) {
+  const int nx = g.dimensions[0], ny = g.dimensions[1], nz = g.dimensions[2];
+  std::vector<std::uint8_t> reached(g.voxelCount(), 0);
+  std::vector<std::size_t> stack;
+  for (std::size_t s : starts) {
+    if (!reached[s] && pass(s)) {
+      reached[s] = 1;
+      stack.push_back(s);
+    }
+  }
+  const std::size_t plane = sz(nx) * sz(ny);
+  while (!stack.empty()) {
+    const std::size_t idx = stack.back();
+    stack.pop_back();
+    const int k = static_cast<int>(idx / plane);
+    const int j = static_cast<int>((idx % plane) / sz(nx));
+    const int i = static_cast<int>(idx % sz(nx));
+    for (int dk = -1; dk <= 1; ++dk) {
+      for (int dj = -1; dj <= 1; ++dj) {
+        for (int di = -1; di <= 1; ++di) {
+          const int manhattan = std::abs(di) + std::abs(dj) + std::abs(dk);
+          if (manhattan == 0 || (!connect26 && manhattan > 1)) continue;
+          const int a = i + di, b = j + dj, c = k + dk;
+          if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz) continue;
+          const std::size_t n = g.index(a, b, c);
+          if (reached[n] || !pass(n)) continue;
+          reached[n] = 1;
+          stack.push_back(n);
+        }
+      }
+    }
+  }
+  return reached;
+}
+
+void report(const GrowOptions& o, double f, const std::string& stage) {
+  if (o.progress) o.progress(f, stage);
+}
+
+}  // namespace
+
+std::size_t VoxelMask::count() const {
+  return static_cast<std::size_t>(std::count(voxels.begin(), voxels.end(), std::uint8_t{1}));
+}
+
+VoxelMask emptyMask(const CtImage& image) {
+  VoxelMask m;
+  m.geometry = geometryOf(image);
+  m.voxels.assign(image.voxelCount(), 0);
+  return m;
+}
+
+CtImage extractGroup(const CtImage& image, std::size_t group) {
+  if (group >= image.groups.size()) {
+    throw std::invalid_argument(fmt::format("the CT has {} slice groups, no group {}", image.groups.size(), group));
+  }
+  const CtSliceGroup& gr = image.groups[group];
+  CtImage out;
+  out.dimensions = {image.dimensions[0], image.dimensions[1], gr.count};
+  out.direction = image.direction;
+  out.pixelSpacingMm = image.pixelSpacingMm;
+  out.seriesInstanceUid = image.seriesInstanceUid;
+  out.folder = image.folder;
+  const double z0 = image.slicePositionsMm[sz(gr.firstSlice)];
+  out.originMm = image.originMm + image.direction.col(2) * z0;
+  for (int k = 0; k < gr.count; ++k) out.slicePositionsMm.push_back(image.slicePositionsMm[sz(gr.firstSlice + k)] - z0);
+  out.groups = {CtSliceGroup{0, gr.count, gr.count > 1 ? gr.spacingMm : 0.0}};
+  const std::size_t plane = sz(image.dimensions[0]) * sz(image.dimensions[1]);
+  if (!image.hu.empty()) {
+    out.hu.assign(image.hu.begin() + static_cast<std::ptrdiff_t>(plane * sz(gr.firstSlice)),
+                  image.hu.begin() + static_cast<std::ptrdiff_t>(plane * sz(gr.firstSlice + gr.count)));
+  }
+  return out;
+}
+
+int groupContaining(const CtImage& image, const Eigen::Vector3d& pointLps) {
+  if (image.voxelCount() == 0) return -1;
+  const Eigen::Vector3d v = image.lpsToVoxel(pointLps);
+  if (v.x() < -0.5 || v.y() < -0.5 || v.x() > image.dimensions[0] - 0.5 || v.y() > image.dimensions[1] - 0.5) return -1;
+  for (std::size_t g = 0; g < image.groups.size(); ++g) {
+    const CtSliceGroup& gr = image.groups[g];
+    const double half = gr.count > 1 ? 0.5 : 0.5;  // half a slice beyond the end slices
+    if (v.z() >= gr.firstSlice - half && v.z() <= gr.firstSlice + gr.count - 1 + half) return static_cast<int>(g);
+  }
+  return -1;
+}
+
+VoxelMask thresholdBone(const CtImage& image, const BoneThreshold& threshold) {
+  if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount()) {
+    throw std::invalid_argument("thresholdBone: the CT image is empty");
+  }
+  if (threshold.weakHu > threshold.strongHu) {
+    throw std::invalid_argument(fmt::format("bone threshold: weak {} HU must not exceed strong {} HU",
+                                            threshold.weakHu, threshold.strongHu));
+  }
+  std::vector<std::size_t> strong;
+  for (std::size_t i = 0; i < image.hu.size(); ++i) {
+    if (image.hu[i] >= threshold.strongHu) strong.push_back(i);
+  }
+  VoxelMask m;
+  m.geometry = geometryOf(image);
+  m.voxels = flood(image, strong, [&](std::size_t n) { return image.hu[n] >= threshold.weakHu; }, true);
+  return m;
+}
+
+VoxelMask unite(const VoxelMask& a, const VoxelMask& b) {
+  if (!sameGrid(a.geometry, b.geometry)) throw std::invalid_argument("unite: the masks lie on different grids");
+  VoxelMask out = a;
+  for (std::size_t i = 0; i < out.voxels.size(); ++i) out.voxels[i] = (a.voxels[i] | b.voxels[i]) ? 1 : 0;
+  return out;
+}
+
+VoxelMask dilate(const VoxelMask& mask, double radiusMm) {
+  if (radiusMm <= 0.0) return mask;
+  const std::vector<double> d = squaredDistance(mask, true);
+  VoxelMask out = mask;
+  const double r2 = radiusMm * radiusMm + 1e-9;
+  for (std::size_t i = 0; i < d.size(); ++i) out.voxels[i] = d[i] <= r2 ? 1 : 0;
+  return out;
+}
+
+VoxelMask erode(const VoxelMask& mask, double radiusMm) {
+  if (radiusMm <= 0.0) return mask;
+  const std::vector<double> d = squaredDistance(mask, false);
+  VoxelMask out = mask;
+  const double r2 = radiusMm * radiusMm + 1e-9;
+  for (std::size_t i = 0; i < d.size(); ++i) out.voxels[i] = d[i] > r2 ? 1 : 0;
+  return out;
+}
+
+void fillHoles(VoxelMask& mask, bool perSlice) {
+  const CtImage& g = mask.geometry;
+  const int nx = g.dimensions[0], ny = g.dimensions[1], nz = g.dimensions[2];
+  std::vector<std::size_t> border;
+  for (int k = 0; k < nz; ++k) {
+    for (int j = 0; j < ny; ++j) {
+      for (int i = 0; i < nx; ++i) {
+        if (i == 0 || j == 0 || k == 0 || i == nx - 1 || j == ny - 1 || k == nz - 1) border.push_back(g.index(i, j, k));
+      }
+    }
+  }
+  const auto outside = flood(g, border, [&](std::size_t n) { return mask.voxels[n] == 0; }, false);
+  for (std::size_t i = 0; i < mask.voxels.size(); ++i) {
+    if (!outside[i]) mask.voxels[i] = 1;
+  }
+  if (!perSlice) return;
+  // Per axial slice, 4-connected background flood from the slice's border.
+  std::vector<std::uint8_t> reached(sz(nx) * sz(ny));
+  std::vector<int> stack;
+  for (int k = 0; k < nz; ++k) {
+    std::fill(reached.begin(), reached.end(), std::uint8_t{0});
+    const std::uint8_t* slice = mask.voxels.data() + g.index(0, 0, k);
+    auto push = [&](int i, int j) {
+      const std::size_t p = sz(j) * sz(nx) + sz(i);
+      if (reached[p] || slice[p]) return;
+      reached[p] = 1;
+      stack.push_back(static_cast<int>(p));
+    };
+    for (int i = 0; i < nx; ++i) {
+      push(i, 0);
+      push(i, ny - 1);
+    }
+    for (int j = 0; j < ny; ++j) {
+      push(0, j);
+      push(nx - 1, j);
+    }
+    while (!stack.empty()) {
+      const int p = stack.back();
+      stack.pop_back();
+      const int i = p % nx, j = p / nx;
+      if (i > 0) push(i - 1, j);
+      if (i < nx - 1) push(i + 1, j);
+      if (j > 0) push(i, j - 1);
+      if (j < ny - 1) push(i, j + 1);
+    }
+    std::uint8_t* out = mask.voxels.data() + g.index(0, 0, k);
+    for (std::size_t p = 0; p < reached.size(); ++p) {
+      if (!reached[p]) out[p] = 1;
+    }
+  }
+}
+
+VoxelMask connectedComponent(const VoxelMask& mask, const Eigen::Vector3i& seed) {
+  VoxelMask out = mask;
+  const CtImage& g = mask.geometry;
+  if (seed.x() < 0 || seed.y() < 0 || seed.z() < 0 || seed.x() >= g.dimensions[0] || seed.y() >= g.dimensions[1] ||
+      seed.z() >= g.dimensions[2] || !mask.at(seed.x(), seed.y(), seed.z())) {
+    std::fill(out.voxels.begin(), out.voxels.end(), std::uint8_t{0});
+    return out;
+  }
+  out.voxels = flood(g, {g.index(seed.x(), seed.y(), seed.z())}, [&](std::size_t n) { return mask.voxels[n] != 0; }, true);
+  return out;
+}
+
+GrowResult growBone(const CtImage& image, const Eigen::Vector3d& seedLps, const GrowOptions& options) {
+  if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount()) {
+    throw std::invalid_argument("the CT image is empty");
+  }
+  if (!image.uniform()) {
+    throw std::invalid_argument("growBone needs one slice group (extract the seed's group first)");
+  }
+  const Eigen::Vector3d v = image.lpsToVoxel(seedLps);
+  const Eigen::Vector3i seed(static_cast<int>(std::lround(v.x())), static_cast<int>(std::lround(v.y())),
+                             static_cast<int>(std::lround(v.z())));
+  const auto& dims = image.dimensions;
+  if (seed.x() < 0 || seed.y() < 0 || seed.z() < 0 || seed.x() >= dims[0] || seed.y() >= dims[1] || seed.z() >= dims[2]) {
+    const Eigen::Vector3d lo = image.voxelToLps(Eigen::Vector3d(-0.5, -0.5, -0.5));
+    const Eigen::Vector3d hi = image.voxelToLps(Eigen::Vector3d(dims[0] - 0.5, dims[1] - 0.5, dims[2] - 0.5));
+    throw std::invalid_argument(fmt::format(
+        "the seed ({:.1f}, {:.1f}, {:.1f}) mm lies outside the CT volume, which spans x {:.1f}..{:.1f}, "
+        "y {:.1f}..{:.1f}, z {:.1f}..{:.1f} mm (LPS)",
+        seedLps.x(), seedLps.y(), seedLps.z(), std::min(lo.x(), hi.x()), std::max(lo.x(), hi.x()),
+        std::min(lo.y(), hi.y()), std::max(lo.y(), hi.y()), std::min(lo.z(), hi.z()), std::max(lo.z(), hi.z())));
+  }
+  GrowResult result;
+  result.seedVoxel = seed;
+  result.seedHu = image.at(seed.x(), seed.y(), seed.z());
+  report(options, 0.0, "threshold");
+  result.threshold = thresholdBone(image, options.threshold);
+  const VoxelMask& bone = result.threshold;
+  const Eigen::Vector3d spacing = image.spacingMm();
+  const double voxelMm3 = spacing.prod();
+
+  // Separation: the opening by a small ball cuts the thin bridges a joint leaves in the mask.
+  const double radiusMm = options.separationRadiusVoxels * std::max(spacing.x(), spacing.y());
+  report(options, 0.2, "separate");
+  const VoxelMask core = options.separationRadiusVoxels > 0 ? erode(bone, radiusMm) : bone;
+
+  // The seed, or the nearest core voxel in its axial slice within 15 mm (a seed in the marrow).
+  Eigen::Vector3i start = seed;
+  if (!core.at(seed.x(), seed.y(), seed.z())) {
+    double best = std::numeric_limits<double>::infinity();
+    const int ri = static_cast<int>(std::ceil(15.0 / spacing.x()));
+    const int rj = static_cast<int>(std::ceil(15.0 / spacing.y()));
+    for (int j = std::max(0, seed.y() - rj); j <= std::min(dims[1] - 1, seed.y() + rj); ++j) {
+      for (int i = std::max(0, seed.x() - ri); i <= std::min(dims[0] - 1, seed.x() + ri); ++i) {
+        if (!core.at(i, j, seed.z())) continue;
+        const double d = std::hypot((i - seed.x()) * spacing.x(), (j - seed.y()) * spacing.y());
+        if (d < best && d <= 15.0) {
+          best = d;
+          start = Eigen::Vector3i(i, j, seed.z());
+        }
+      }
+    }
+    if (!std::isfinite(best)) {
+      throw std::invalid_argument(fmt::format(
+          "the seed ({:.1f}, {:.1f}, {:.1f}) mm is not in bone: {} HU there (bone is >= {} HU) and no bone "
+          "within 15 mm in its slice",
+          seedLps.x(), seedLps.y(), seedLps.z(), result.seedHu, options.threshold.weakHu));
+    }
+  }
+  report(options, 0.4, "grow");
+  VoxelMask grown = connectedComponent(core, start);
+  if (options.separationRadiusVoxels > 0) {
+    // Give the component its border back, but only the bone voxels next to it.
+    grown = dilate(grown, radiusMm + std::max(spacing.x(), spacing.y()) * 1.01);
+    for (std::size_t i = 0; i < grown.voxels.size(); ++i) grown.voxels[i] = grown.voxels[i] & bone.voxels[i];
+    grown = connectedComponent(grown, start);
+  }
+  report(options, 0.7, "fill");
+  if (options.fillHoles) fillHoles(grown, true);
+  if (!grown.at(seed.x(), seed.y(), seed.z())) {
+    throw std::invalid_argument(fmt::format(
+        "the seed ({:.1f}, {:.1f}, {:.1f}) mm is not in bone: {} HU there (bone is >= {} HU), and the "
+        "nearest bone does not enclose it",
+        seedLps.x(), seedLps.y(), seedLps.z(), result.seedHu, options.threshold.weakHu));
+  }
+  result.volumeMm3 = static_cast<double>(grown.count()) * voxelMm3;
+  if (result.volumeMm3 < options.minVolumeMm3) {
+    throw std::invalid_argument(fmt::format(
+        "the bone grown from the seed ({:.1f}, {:.1f}, {:.1f}) mm has only {:.0f} mm^3 (at least {:.0f} "
+        "expected): a speck of bone or calcification, not a bone",
+        seedLps.x(), seedLps.y(), seedLps.z(), result.volumeMm3, options.minVolumeMm3));
+  }
+  result.mask = std::move(grown);
+  report(options, 1.0, "grow");
+  return result;
+}
+
+}  // namespace echoreg::segmentation

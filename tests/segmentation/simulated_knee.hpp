@@ -1,0 +1,25 @@
+// A simulated knee CT in memory for the segmentation tests: the procedural knee of the simulator
+// (seed 3, 1.2 mm bone meshes as in a small study) in a cadaver leg, imaged with the small
+// protocol's knee group only (256 x 256 pixels of 0.8 mm, 1 mm slices over +-40 mm) or with its
+// three groups. Built once per test program (a few seconds) and shared.
+#pragma once
+
+#include "echoreg/segmentation/ct_image.hpp"
+#include "echoreg/simulation/anatomy.hpp"
+#include "echoreg/simulation/ct.hpp"
+
+namespace echoreg::test {
+
+struct SimulatedKnee {
+  simulation::Knee knee;
+  segmentation::CtImage ct;  ///< knee group only (uniform)
+  double kneeZMinMm = 0.0, kneeZMaxMm = 0.0;  ///< the first and last slice centres
+};
+
+/// The simulated CT as a CtImage (axial, identity direction, groups from the slice spacing).
+segmentation::CtImage toCtImage(const simulation::CtVolume& volume);
+
+/// The shared knee (built on first use).
+const SimulatedKnee& simulatedKnee();
+
+}  // namespace echoreg::test

@@ -1,0 +1,86 @@
+#include "echoreg/core/mesh_locator.hpp"
+#include "echoreg/segmentation/bone_mask.hpp"
+#include "echoreg/segmentation/bone_surface.hpp"
+#include "echoreg/segmentation/surface_metrics.hpp"
+
+#include "simulated_knee.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <iostream>
+
+namespace {
+
+using namespace echoreg;
+using segmentation::BoneSurfaceOptions;
+using segmentation::GrowOptions;
+using simulation::BoneId;
+
+double secondsSince(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// A point inside `bone` at height z (the centroid of a ring of inside points).
+Eigen::Vector3d insidePoint(const simulation::Bone& bone, double z) {
+  const core::MeshLocator locator(bone.mesh);
+  const auto b = core::bounds(bone.mesh);
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  int n = 0;
+  for (double y = b[0].y(); y <= b[1].y(); y += 1.0) {
+    for (double x = b[0].x(); x <= b[1].x(); x += 1.0) {
+      if (locator.signedDistance({x, y, z}) < -3.0) {
+        sum += Eigen::Vector3d(x, y, z);
+        ++n;
+      }
+    }
+  }
+  if (n == 0) throw std::runtime_error("no inside point");
+  // The inside point nearest the centroid.
+  const Eigen::Vector3d c = sum / n;
+  Eigen::Vector3d best = c;
+  double bestD = 1e30;
+  for (double y = b[0].y(); y <= b[1].y(); y += 1.0) {
+    for (double x = b[0].x(); x <= b[1].x(); x += 1.0) {
+      if (locator.signedDistance({x, y, z}) < -3.0 && (Eigen::Vector3d(x, y, z) - c).norm() < bestD) {
+        bestD = (Eigen::Vector3d(x, y, z) - c).norm();
+        best = Eigen::Vector3d(x, y, z);
+      }
+    }
+  }
+  return best;
+}
+
+TEST(BoneSegmentation, AutoFromSeedMatchesTheTruth) {
+  const auto& sim = test::simulatedKnee();
+  for (BoneId id : {BoneId::Femur, BoneId::Tibia}) {
+    const simulation::Bone& bone = sim.knee.bone(id);
+    const double z = id == BoneId::Femur ? sim.kneeZMaxMm - 15.0 : sim.kneeZMinMm + 15.0;
+    const Eigen::Vector3d seed = insidePoint(bone, z);
+    auto t0 = std::chrono::steady_clock::now();
+    const auto grown = segmentation::growBone(sim.ct, seed);
+    const double tGrow = secondsSince(t0);
+    t0 = std::chrono::steady_clock::now();
+    segmentation::VoxelMask others = grown.threshold;
+    for (std::size_t i = 0; i < others.voxels.size(); ++i) others.voxels[i] &= static_cast<std::uint8_t>(!grown.mask.voxels[i]);
+    const auto surface = segmentation::boneSurface(sim.ct, grown.mask, &others);
+    const double tSurf = secondsSince(t0);
+    segmentation::SurfaceComparisonOptions co;
+    co.zMinMm = sim.kneeZMinMm + 2.0;
+    co.zMaxMm = sim.kneeZMaxMm - 2.0;
+    t0 = std::chrono::steady_clock::now();
+    const auto c = segmentation::compareSurfaces(surface.mesh, bone.mesh, co);
+    std::cout << simulation::boneName(id) << ": grow " << tGrow << " s, surface " << tSurf << " s, compare "
+              << secondsSince(t0) << " s; iso " << surface.isoHu << " (cortex " << surface.cortexHu << ", soft "
+              << surface.softTissueHu << "), " << surface.mesh.triangles.size() << " triangles, pieces "
+              << surface.components << " dropped " << surface.droppedComponents << "; MSD " << c.meanMm
+              << " (est->truth " << c.meanEstimateToTruthMm << ", truth->est " << c.meanTruthToEstimateMm
+              << ") p95 " << c.p95Mm << " max " << c.maxMm << " Dice " << c.dice << " vol " << c.volumeEstimateMm3
+              << " / " << c.volumeTruthMm3 << "\n";
+    EXPECT_LE(c.meanMm, 0.5);
+    EXPECT_LE(c.p95Mm, 1.5);
+    EXPECT_GE(c.dice, 0.97);
+  }
+}
+
+}  // namespace
