@@ -302,6 +302,20 @@ VoxelMask connectedComponent(const VoxelMask& mask, const Eigen::Vector3i& seed)
   return out;
 }
 
+VoxelMask otherBones(const VoxelMask& threshold, const VoxelMask& region, double bandMm) {
+  if (!sameGrid(threshold.geometry, region.geometry)) throw std::invalid_argument("otherBones: the masks lie on different grids");
+  const VoxelMask band = dilate(region, bandMm);
+  std::vector<std::size_t> starts;
+  for (std::size_t i = 0; i < region.voxels.size(); ++i) {
+    if (region.voxels[i] && threshold.voxels[i]) starts.push_back(i);
+  }
+  const auto ours = flood(threshold.geometry, starts,
+                          [&](std::size_t n) { return threshold.voxels[n] != 0 && band.voxels[n] != 0; }, true);
+  VoxelMask out = threshold;
+  for (std::size_t i = 0; i < out.voxels.size(); ++i) out.voxels[i] = (threshold.voxels[i] && !ours[i]) ? 1 : 0;
+  return out;
+}
+
 GrowResult growBone(const CtImage& image, const Eigen::Vector3d& seedLps, const GrowOptions& options) {
   if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount()) {
     throw std::invalid_argument("the CT image is empty");

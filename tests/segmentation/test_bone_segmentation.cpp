@@ -1,6 +1,7 @@
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/segmentation/bone_mask.hpp"
 #include "echoreg/segmentation/bone_surface.hpp"
+#include "echoreg/segmentation/contour_surface.hpp"
 #include "echoreg/segmentation/surface_metrics.hpp"
 
 #include "simulated_knee.hpp"
@@ -77,6 +78,46 @@ TEST(BoneSegmentation, AutoFromSeedMatchesTheTruth) {
               << " (est->truth " << c.meanEstimateToTruthMm << ", truth->est " << c.meanTruthToEstimateMm
               << ") p95 " << c.p95Mm << " max " << c.maxMm << " Dice " << c.dice << " vol " << c.volumeEstimateMm3
               << " / " << c.volumeTruthMm3 << "\n";
+    EXPECT_LE(c.meanMm, 0.5);
+    EXPECT_LE(c.p95Mm, 1.5);
+    EXPECT_GE(c.dice, 0.97);
+  }
+}
+
+}  // namespace
+
+namespace {
+
+TEST(BoneSegmentation, TruthContoursToSurface) {
+  using namespace echoreg;
+  const auto& sim = test::simulatedKnee();
+  for (simulation::BoneId id : {simulation::BoneId::Femur, simulation::BoneId::Tibia}) {
+    const simulation::Bone& bone = sim.knee.bone(id);
+    auto t0 = std::chrono::steady_clock::now();
+    std::vector<segmentation::SliceContour> contours;
+    for (double x : segmentation::evenSlicePositions(bone.mesh, segmentation::SlicePlane::Sagittal, 40)) {
+      for (auto& loop : segmentation::planeSections(bone.mesh, segmentation::SlicePlane::Sagittal, x)) {
+        segmentation::SliceContour c;
+        c.positionMm = x;
+        c.pointsLps = loop;
+        contours.push_back(c);
+      }
+    }
+    const auto mask = segmentation::contoursToMask(contours, sim.ct);
+    const double tMask = secondsSince(t0);
+    const auto threshold = segmentation::thresholdBone(sim.ct);
+    const auto others = segmentation::otherBones(threshold, mask, 2.0);
+    const auto surface = segmentation::boneSurface(sim.ct, mask, &others);
+    const auto plain = segmentation::maskSurface(mask);
+    segmentation::SurfaceComparisonOptions co;
+    co.zMinMm = sim.kneeZMinMm + 2.0;
+    co.zMaxMm = sim.kneeZMaxMm - 2.0;
+    const auto c = segmentation::compareSurfaces(surface.mesh, bone.mesh, co);
+    const auto cp = segmentation::compareSurfaces(plain.mesh, bone.mesh, co);
+    std::cout << simulation::boneName(id) << ": " << contours.size() << " contours, mask " << tMask
+              << " s, total " << secondsSince(t0) << " s; refined MSD " << c.meanMm << " p95 " << c.p95Mm
+              << " Dice " << c.dice << "; mask only MSD " << cp.meanMm << " p95 " << cp.p95Mm << " Dice "
+              << cp.dice << "\n";
     EXPECT_LE(c.meanMm, 0.5);
     EXPECT_LE(c.p95Mm, 1.5);
     EXPECT_GE(c.dice, 0.97);

@@ -86,6 +86,11 @@ VoxelMask erode(const VoxelMask& mask, double radiusMm);
 /// `perSlice`, per axial slice (background not 4-connected to the slice's border).
 void fillHoles(VoxelMask& mask, bool perSlice = true);
 
+/// The bone voxels of `threshold` that do not belong to the bone around `region`: those not
+/// 26-connected to threshold-and-region through threshold voxels within `bandMm` of the region.
+/// Given to boneSurface as `exclude`, so a neighbouring bone in the band cannot join the surface.
+VoxelMask otherBones(const VoxelMask& threshold, const VoxelMask& region, double bandMm);
+
 /// The 26-connected component of `mask` containing voxel `seed` (empty when seed is 0 there).
 VoxelMask connectedComponent(const VoxelMask& mask, const Eigen::Vector3i& seed);
 
