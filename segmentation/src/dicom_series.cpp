@@ -1,0 +1,821 @@
+// The DICOM CT series reader: headers scanned first (gdcm::Reader up to the pixel data), checked
+// and sorted, then the volume allocated once and every slice decoded (gdcm::ImageReader) by a pool
+// of threads straight into its place, each slice with its own rescale.
+#include "echoreg/segmentation/dicom_series.hpp"
+
+#include "echoreg/core/error.hpp"
+
+#include <fmt/format.h>
+#include <gdcmDataElement.h>
+#include <gdcmDataSet.h>
+#include <gdcmFile.h>
+#include <gdcmImage.h>
+#include <gdcmImageReader.h>
+#include <gdcmPixelFormat.h>
+#include <gdcmReader.h>
+#include <gdcmStringFilter.h>
+#include <gdcmTag.h>
+#include <gdcmTrace.h>
+#include <gdcmTransferSyntax.h>
+
+#include <Eigen/Geometry>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <system_error>
+#include <thread>
+
+namespace echoreg::segmentation {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Two slices closer than this along the normal are at the same position.
+constexpr double kSamePositionMm = 1e-3;
+/// Slice centres may lie this far off the normal through the first slice (plus kOffNormalRelative
+/// of their distance along it) before the series counts as tilted.
+constexpr double kOffNormalMm = 0.01;
+constexpr double kOffNormalRelative = 1e-4;
+/// Orientation cosines (and pixel spacings, relatively) that differ by less are equal.
+constexpr double kOrientationTolerance = 1e-4;
+constexpr double kSpacingRelativeTolerance = 1e-4;
+/// A step continues a group when within this of its spacing (absolute mm, or relative).
+constexpr double kGroupStepMm = 0.01;
+constexpr double kGroupStepRelative = 0.01;
+/// A non-zero GantryDetectorTilt above this (degrees) is refused.
+constexpr double kGantryTiltDegrees = 1e-3;
+/// At most this many file names in one message.
+constexpr std::size_t kNamesInMessage = 8;
+
+void silenceGdcm() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    gdcm::Trace::SetDebug(false);
+    gdcm::Trace::SetWarning(false);
+    gdcm::Trace::SetError(false);
+  });
+}
+
+std::string trimmed(std::string text) {
+  const auto blank = [](char c) { return c == ' ' || c == '\0' || c == '\t' || c == '\r' || c == '\n'; };
+  while (!text.empty() && blank(text.back())) text.pop_back();
+  std::size_t first = 0;
+  while (first < text.size() && blank(text[first])) ++first;
+  return text.substr(first);
+}
+
+/// Backslash-separated decimal numbers; nullopt when any part is not a number.
+std::optional<std::vector<double>> numbers(const std::string& text) {
+  std::vector<double> values;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    std::size_t end = text.find('\\', start);
+    if (end == std::string::npos) end = text.size();
+    const std::string part = trimmed(text.substr(start, end - start));
+    if (part.empty()) return std::nullopt;
+    char* stop = nullptr;
+    const double value = std::strtod(part.c_str(), &stop);
+    if (stop != part.c_str() + part.size() || !std::isfinite(value)) return std::nullopt;
+    values.push_back(value);
+    start = end + 1;
+  }
+  return values;
+}
+
+/// "a, b, c and 4 more".
+std::string nameList(const std::vector<std::string>& names) {
+  std::string out;
+  const std::size_t shown = std::min(names.size(), kNamesInMessage);
+  for (std::size_t n = 0; n < shown; ++n) {
+    if (n > 0) out += ", ";
+    out += names[n];
+  }
+  if (names.size() > shown) out += fmt::format(" and {} more", names.size() - shown);
+  return out;
+}
+
+/// What the header of one file says (read up to the pixel data).
+struct SliceHeader {
+  std::string name;  ///< file name (the path's last component)
+  std::string path;
+  bool dicom = false;  ///< GDCM read the header
+  bool image = false;  ///< it has Rows and Columns
+  std::string seriesUid, modality, description, sopClass, transferSyntax, photometric;
+  int rows = 0, columns = 0;
+  int bitsAllocated = 0, bitsStored = 0, highBit = -1, pixelRepresentation = 0;
+  int samplesPerPixel = 1;
+  std::string frames = "1";  ///< NumberOfFrames as written ("1" when absent)
+  std::optional<Eigen::Vector3d> position;
+  std::optional<std::array<double, 6>> orientation;
+  std::optional<Eigen::Vector2d> pixelSpacing;  ///< as written: between rows, between columns
+  double slope = 1.0, intercept = 0.0;
+  double gantryTiltDegrees = 0.0;
+  std::vector<std::string> problems;  ///< unparsable values
+  /// Where the pixel data value starts in the file, and the file's size (0 when unknown): a
+  /// native (uncompressed) element must fit in the file; GDCM pads a truncated one silently.
+  std::uint64_t pixelDataOffset = 0;
+  std::uint64_t fileSize = 0;
+};
+
+SliceHeader scanHeader(const fs::path& path) {
+  SliceHeader h;
+  h.name = path.filename().string();
+  h.path = path.string();
+  try {
+    gdcm::Reader reader;
+    reader.SetFileName(h.path.c_str());
+    // With the pixel data in `skip`, GDCM stops right after that element's header: the stream is
+    // then at the first pixel byte, and no pixel is read.
+    const std::set<gdcm::Tag> skip{gdcm::Tag(0x7fe0, 0x0010)};
+    if (!reader.ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010), skip)) return h;
+    const gdcm::File& file = reader.GetFile();
+    const gdcm::DataSet& ds = file.GetDataSet();
+    if (ds.IsEmpty()) return h;
+    h.dicom = true;
+    std::error_code sizeError;
+    h.fileSize = fs::file_size(path, sizeError);
+    if (sizeError) h.fileSize = 0;
+    const std::size_t position = reader.GetStreamCurrentPosition();
+    if (position != static_cast<std::size_t>(-1) && position < h.fileSize) h.pixelDataOffset = position;
+    h.transferSyntax = trimmed(file.GetHeader().GetDataSetTransferSyntax().GetString()
+                                   ? file.GetHeader().GetDataSetTransferSyntax().GetString()
+                                   : "");
+    gdcm::StringFilter filter;
+    filter.SetFile(file);
+    const auto text = [&](std::uint16_t group, std::uint16_t element) -> std::optional<std::string> {
+      const gdcm::Tag tag(group, element);
+      if (!ds.FindDataElement(tag) || ds.GetDataElement(tag).IsEmpty()) return std::nullopt;
+      return trimmed(filter.ToString(tag));
+    };
+    const auto number = [&](std::uint16_t group, std::uint16_t element, const char* name,
+                            std::size_t count) -> std::optional<std::vector<double>> {
+      const auto value = text(group, element);
+      if (!value) return std::nullopt;
+      auto parsed = numbers(*value);
+      if (!parsed || parsed->size() < count) {
+        h.problems.push_back(fmt::format("{} \"{}\" is not {} number{}", name, *value, count,
+                                         count > 1 ? "s" : ""));
+        return std::nullopt;
+      }
+      return parsed;
+    };
+    const auto integer = [&](std::uint16_t group, std::uint16_t element, const char* name,
+                             int fallback) {
+      const auto value = number(group, element, name, 1);
+      return value ? static_cast<int>(std::lround((*value)[0])) : fallback;
+    };
+    h.seriesUid = text(0x0020, 0x000e).value_or("");
+    h.modality = text(0x0008, 0x0060).value_or("");
+    h.description = text(0x0008, 0x103e).value_or("");
+    h.sopClass = text(0x0008, 0x0016).value_or("");
+    h.photometric = text(0x0028, 0x0004).value_or("");
+    h.rows = integer(0x0028, 0x0010, "Rows", 0);
+    h.columns = integer(0x0028, 0x0011, "Columns", 0);
+    h.image = h.rows > 0 && h.columns > 0;
+    h.bitsAllocated = integer(0x0028, 0x0100, "BitsAllocated", 0);
+    h.bitsStored = integer(0x0028, 0x0101, "BitsStored", h.bitsAllocated);
+    h.highBit = integer(0x0028, 0x0102, "HighBit", h.bitsStored - 1);
+    h.pixelRepresentation = integer(0x0028, 0x0103, "PixelRepresentation", 0);
+    h.samplesPerPixel = integer(0x0028, 0x0002, "SamplesPerPixel", 1);
+    h.frames = text(0x0028, 0x0008).value_or("1");
+    if (const auto p = number(0x0020, 0x0032, "ImagePositionPatient", 3)) {
+      h.position = Eigen::Vector3d((*p)[0], (*p)[1], (*p)[2]);
+    }
+    if (const auto o = number(0x0020, 0x0037, "ImageOrientationPatient", 6)) {
+      h.orientation = std::array<double, 6>{(*o)[0], (*o)[1], (*o)[2], (*o)[3], (*o)[4], (*o)[5]};
+    }
+    if (const auto s = number(0x0028, 0x0030, "PixelSpacing", 2)) {
+      if ((*s)[0] > 0.0 && (*s)[1] > 0.0) {
+        h.pixelSpacing = Eigen::Vector2d((*s)[0], (*s)[1]);
+      } else {
+        h.problems.push_back(fmt::format("PixelSpacing {}\\{} is not positive", (*s)[0], (*s)[1]));
+      }
+    }
+    if (const auto v = number(0x0028, 0x1053, "RescaleSlope", 1)) h.slope = (*v)[0];
+    if (const auto v = number(0x0028, 0x1052, "RescaleIntercept", 1)) h.intercept = (*v)[0];
+    if (const auto v = number(0x0018, 0x1120, "GantryDetectorTilt", 1)) h.gantryTiltDegrees = (*v)[0];
+  } catch (const std::exception&) {
+    h.dicom = false;  // GDCM throws on some malformed files: not a DICOM file we can read
+    h.image = false;
+  }
+  return h;
+}
+
+/// Runs fn(index, worker) for index 0..count-1 on `threads` threads. When some calls throw, the
+/// rest are skipped and the exception of the lowest index is rethrown (the same whatever the
+/// number of threads: indices are handed out in order, so every index below a failing one has
+/// been started and runs to its end).
+template <class Fn>
+void parallelFor(int count, int threads, Fn&& fn) {
+  threads = std::max(1, std::min(threads, count));
+  std::atomic<int> next{0};
+  std::atomic<bool> stop{false};
+  std::mutex errorMutex;
+  int errorIndex = std::numeric_limits<int>::max();
+  std::exception_ptr error;
+  const auto work = [&](int worker) {
+    for (;;) {
+      if (stop.load()) return;
+      const int index = next.fetch_add(1);
+      if (index >= count) return;
+      try {
+        fn(index, worker);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(errorMutex);
+        if (index < errorIndex) {
+          errorIndex = index;
+          error = std::current_exception();
+        }
+        stop.store(true);
+      }
+    }
+  };
+  if (threads == 1) {
+    work(0);
+  } else {
+    std::vector<std::thread> pool;
+    pool.reserve(static_cast<std::size_t>(threads));
+    for (int t = 0; t < threads; ++t) pool.emplace_back(work, t);
+    for (std::thread& thread : pool) thread.join();
+  }
+  if (error) std::rethrow_exception(error);
+}
+
+int threadCount(const DicomReadOptions& options) {
+  if (options.threads < 0) {
+    throw std::invalid_argument(fmt::format("DicomReadOptions.threads = {} is negative", options.threads));
+  }
+  if (options.threads > 0) return options.threads;
+  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+/// The headers of `folder`'s regular files (sorted by name), or of the single file `folder`.
+struct Scan {
+  std::vector<SliceHeader> headers;
+  bool singleFile = false;
+};
+
+Scan scanFolder(const std::string& folder, int threads) {
+  silenceGdcm();
+  std::error_code ec;
+  const fs::file_status status = fs::status(folder, ec);
+  if (ec || !fs::exists(status)) throw FileError(folder, "does not exist");
+  Scan scan;
+  std::vector<fs::path> paths;
+  if (fs::is_regular_file(status)) {
+    scan.singleFile = true;
+    paths.emplace_back(folder);
+  } else if (fs::is_directory(status)) {
+    fs::directory_iterator it(folder, ec);
+    if (ec) throw FileError(folder, "cannot be listed: " + ec.message());
+    for (const fs::directory_entry& entry : it) {
+      std::error_code typeError;
+      if (entry.is_regular_file(typeError)) paths.push_back(entry.path());
+    }
+    std::sort(paths.begin(), paths.end());
+  } else {
+    throw FileError(folder, "is neither a folder nor a regular file");
+  }
+  scan.headers.resize(paths.size());
+  parallelFor(static_cast<int>(paths.size()), threads, [&](int index, int) {
+    scan.headers[static_cast<std::size_t>(index)] = scanHeader(paths[static_cast<std::size_t>(index)]);
+  });
+  return scan;
+}
+
+std::string seriesLabel(const std::string& uid) { return uid.empty() ? std::string("(no SeriesInstanceUID)") : uid; }
+
+struct SeriesGroup {
+  DicomSeriesSummary summary;
+  std::vector<std::size_t> members;  ///< indices into Scan::headers, by file name
+};
+
+/// Image series by UID, largest first (ties by UID); skipped files into `warnings`.
+std::vector<SeriesGroup> groupSeries(const Scan& scan, std::vector<std::string>* warnings) {
+  std::map<std::string, SeriesGroup> byUid;
+  std::vector<std::string> notDicom, noImage;
+  for (std::size_t n = 0; n < scan.headers.size(); ++n) {
+    const SliceHeader& h = scan.headers[n];
+    if (!h.dicom) {
+      notDicom.push_back(h.name);
+      continue;
+    }
+    if (!h.image) {
+      noImage.push_back(h.name);
+      continue;
+    }
+    SeriesGroup& group = byUid[h.seriesUid];
+    if (group.members.empty()) {
+      group.summary.seriesInstanceUid = h.seriesUid;
+      group.summary.modality = h.modality;
+      group.summary.description = h.description;
+      group.summary.rows = h.rows;
+      group.summary.columns = h.columns;
+      group.summary.firstFile = h.name;
+    }
+    group.members.push_back(n);
+    group.summary.files = static_cast<int>(group.members.size());
+  }
+  if (warnings != nullptr) {
+    if (!notDicom.empty()) {
+      warnings->push_back(fmt::format("skipped {} file{} that GDCM cannot read as DICOM: {}", notDicom.size(),
+                                      notDicom.size() > 1 ? "s" : "", nameList(notDicom)));
+    }
+    if (!noImage.empty()) {
+      warnings->push_back(fmt::format("skipped {} DICOM file{} without an image: {}", noImage.size(),
+                                      noImage.size() > 1 ? "s" : "", nameList(noImage)));
+    }
+  }
+  std::vector<SeriesGroup> series;
+  for (auto& [uid, group] : byUid) series.push_back(std::move(group));
+  std::stable_sort(series.begin(), series.end(), [](const SeriesGroup& a, const SeriesGroup& b) {
+    return a.summary.files > b.summary.files;
+  });
+  return series;
+}
+
+std::string describeSeries(const std::vector<SeriesGroup>& series) {
+  std::string out;
+  for (const SeriesGroup& s : series) {
+    if (!out.empty()) out += "; ";
+    out += fmt::format("{} ({}, {} file{})", seriesLabel(s.summary.seriesInstanceUid),
+                       s.summary.modality.empty() ? "no modality" : s.summary.modality,
+                       s.summary.files, s.summary.files > 1 ? "s" : "");
+  }
+  return out;
+}
+
+/// The headers of the chosen series plus the warnings so far.
+struct Selection {
+  std::vector<SliceHeader> slices;
+  std::vector<std::string> warnings;
+  std::string modality;
+  std::string uid;
+  bool singleFile = false;
+};
+
+Selection selectSeries(const std::string& folder, const DicomReadOptions& options, int threads) {
+  Scan scan = scanFolder(folder, threads);
+  Selection selection;
+  selection.singleFile = scan.singleFile;
+  if (scan.singleFile) {
+    const SliceHeader& h = scan.headers.front();
+    if (!h.dicom) throw FileError(folder, "is not a DICOM file (GDCM cannot read it)");
+    if (!h.image) {
+      throw FileError(folder, fmt::format("is a DICOM file without an image (no Rows / Columns; SOP class {})",
+                                          h.sopClass.empty() ? "absent" : h.sopClass));
+    }
+  }
+  std::vector<std::string> skipped;
+  std::vector<SeriesGroup> series = groupSeries(scan, &skipped);
+  if (series.empty()) {
+    throw FileError(folder, fmt::format("holds no DICOM image ({} file{}{}{})", scan.headers.size(),
+                                        scan.headers.size() == 1 ? "" : "s", skipped.empty() ? "" : "; ",
+                                        skipped.empty() ? "" : skipped.front()));
+  }
+  const SeriesGroup* chosen = nullptr;
+  if (!options.seriesUid.empty()) {
+    for (const SeriesGroup& s : series) {
+      if (s.summary.seriesInstanceUid == options.seriesUid) chosen = &s;
+    }
+    if (chosen == nullptr) {
+      throw FileError(folder, fmt::format("has no series {}; it has: {}", options.seriesUid, describeSeries(series)));
+    }
+  } else if (scan.singleFile) {
+    chosen = &series.front();
+  } else {
+    for (const SeriesGroup& s : series) {
+      if (s.summary.modality == "CT") {
+        chosen = &s;
+        break;
+      }
+    }
+    if (chosen == nullptr) {
+      throw FileError(folder, "holds no CT series; it has: " + describeSeries(series));
+    }
+  }
+  selection.warnings = skipped;
+  if (series.size() > 1) {
+    std::vector<SeriesGroup> others;
+    for (const SeriesGroup& s : series) {
+      if (&s != chosen) others.push_back(s);
+    }
+    selection.warnings.push_back(fmt::format("read series {}; left out {} other series: {}",
+                                             seriesLabel(chosen->summary.seriesInstanceUid), others.size(),
+                                             describeSeries(others)));
+  }
+  selection.modality = chosen->summary.modality;
+  selection.uid = chosen->summary.seriesInstanceUid;
+  if (selection.modality != "CT") {
+    selection.warnings.push_back(fmt::format(
+        "modality {} is not CT: the voxels are the rescaled stored values, not Hounsfield units",
+        selection.modality.empty() ? "(absent)" : selection.modality));
+  }
+  for (std::size_t index : chosen->members) selection.slices.push_back(std::move(scan.headers[index]));
+  return selection;
+}
+
+Eigen::Vector3d rowDirection(const std::array<double, 6>& o) { return {o[0], o[1], o[2]}; }
+Eigen::Vector3d columnDirection(const std::array<double, 6>& o) { return {o[3], o[4], o[5]}; }
+
+/// Checks the selected headers and computes the geometry; sorts `selection.slices` into slice
+/// order. The image gets everything but its voxels.
+DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
+  std::vector<SliceHeader>& slices = selection.slices;
+  const bool single = slices.size() == 1;
+  const auto fail = [&folder](const std::string& problem) { throw FileError(folder, problem); };
+
+  // Per-file problems first: each names its files.
+  {
+    std::vector<std::string> unparsable, multiFrame, colour, noPosition, noOrientation, noSpacing, badBits;
+    std::string firstProblem;
+    for (const SliceHeader& h : slices) {
+      if (!h.problems.empty()) {
+        unparsable.push_back(h.name);
+        if (firstProblem.empty()) firstProblem = h.problems.front();
+      }
+      const auto frames = numbers(h.frames);
+      if (!frames || frames->size() != 1) {
+        unparsable.push_back(h.name);
+        if (firstProblem.empty()) firstProblem = "NumberOfFrames \"" + h.frames + "\" is not a number";
+      } else if ((*frames)[0] != 1.0) {
+        multiFrame.push_back(h.name + " (" + h.frames + " frames)");
+      }
+      if (h.samplesPerPixel != 1) colour.push_back(h.name);
+      if (!h.position) noPosition.push_back(h.name);
+      if (!h.orientation) noOrientation.push_back(h.name);
+      if (!h.pixelSpacing) noSpacing.push_back(h.name);
+      if ((h.bitsAllocated != 8 && h.bitsAllocated != 16 && h.bitsAllocated != 32) || h.bitsStored < 1 ||
+          h.bitsStored > h.bitsAllocated || h.highBit + 1 < h.bitsStored || h.highBit >= h.bitsAllocated) {
+        badBits.push_back(fmt::format("{} ({}/{}/{})", h.name, h.bitsAllocated, h.bitsStored, h.highBit));
+      }
+    }
+    if (!unparsable.empty()) fail(fmt::format("unreadable values in {}: {}", nameList(unparsable), firstProblem));
+    if (!multiFrame.empty()) {
+      fail("multi-frame images are not supported (export the series as one file per slice): " + nameList(multiFrame));
+    }
+    if (!colour.empty()) fail("colour images (SamplesPerPixel > 1) are not CT slices: " + nameList(colour));
+    if (!badBits.empty()) {
+      fail("unsupported pixel layout (BitsAllocated/BitsStored/HighBit): " + nameList(badBits));
+    }
+    if (!single) {
+      if (!noPosition.empty()) fail("slices without ImagePositionPatient: " + nameList(noPosition));
+      if (!noOrientation.empty()) fail("slices without ImageOrientationPatient: " + nameList(noOrientation));
+      if (!noSpacing.empty()) fail("slices without PixelSpacing: " + nameList(noSpacing));
+    }
+  }
+  DicomSeriesRead result;
+  result.warnings = std::move(selection.warnings);
+  result.modality = selection.modality;
+  SliceHeader& first = slices.front();
+  if (!first.position) {
+    first.position = Eigen::Vector3d::Zero();
+    result.warnings.push_back(first.name + " has no ImagePositionPatient: origin (0, 0, 0) assumed");
+  }
+  if (!first.orientation) {
+    first.orientation = std::array<double, 6>{1, 0, 0, 0, 1, 0};
+    result.warnings.push_back(first.name + " has no ImageOrientationPatient: axial (1 0 0, 0 1 0) assumed");
+  }
+  if (!first.pixelSpacing) {
+    first.pixelSpacing = Eigen::Vector2d(1.0, 1.0);
+    result.warnings.push_back(first.name + " has no PixelSpacing: 1 mm assumed");
+  }
+
+  // Sizes, spacings and orientations equal to the first file's.
+  const Eigen::Vector3d row0 = rowDirection(*first.orientation);
+  const Eigen::Vector3d column0 = columnDirection(*first.orientation);
+  if (std::abs(row0.norm() - 1.0) > 1e-3 || std::abs(column0.norm() - 1.0) > 1e-3 ||
+      std::abs(row0.dot(column0)) > 1e-3) {
+    fail(fmt::format("{}: ImageOrientationPatient ({}, {}) is not two orthogonal unit vectors", first.name,
+                     fmt::join(row0, " "), fmt::join(column0, " ")));
+  }
+  {
+    std::vector<std::string> size, spacing, orientation, tilt;
+    for (const SliceHeader& h : slices) {
+      if (h.rows != first.rows || h.columns != first.columns) {
+        size.push_back(fmt::format("{} ({} x {})", h.name, h.columns, h.rows));
+      }
+      if (((*h.pixelSpacing - *first.pixelSpacing).array().abs() >
+           kSpacingRelativeTolerance * first.pixelSpacing->array()).any()) {
+        spacing.push_back(fmt::format("{} ({}\\{})", h.name, (*h.pixelSpacing)[0], (*h.pixelSpacing)[1]));
+      }
+      if ((rowDirection(*h.orientation) - row0).cwiseAbs().maxCoeff() > kOrientationTolerance ||
+          (columnDirection(*h.orientation) - column0).cwiseAbs().maxCoeff() > kOrientationTolerance) {
+        orientation.push_back(h.name);
+      }
+      if (std::abs(h.gantryTiltDegrees) > kGantryTiltDegrees) {
+        tilt.push_back(fmt::format("{} ({} degrees)", h.name, h.gantryTiltDegrees));
+      }
+    }
+    if (!size.empty()) {
+      fail(fmt::format("slices differ in size: {} is {} x {} but {}", first.name, first.columns, first.rows,
+                       nameList(size)));
+    }
+    if (!spacing.empty()) {
+      fail(fmt::format("slices differ in PixelSpacing: {} has {}\\{} but {}", first.name, (*first.pixelSpacing)[0],
+                       (*first.pixelSpacing)[1], nameList(spacing)));
+    }
+    if (!orientation.empty()) {
+      fail(fmt::format("mixed orientations: {} has ImageOrientationPatient {}\\{} but {} differ{}", first.name,
+                       fmt::join(row0, "\\"), fmt::join(column0, "\\"), nameList(orientation),
+                       orientation.size() == 1 ? "s" : ""));
+    }
+    if (!tilt.empty()) fail("gantry tilt (GantryDetectorTilt) is not supported: " + nameList(tilt));
+  }
+
+  // Sort along the normal (`first` dangles from here on).
+  const Eigen::Vector3d row = row0.normalized();
+  const Eigen::Vector3d column = (column0 - column0.dot(row) * row).normalized();
+  const Eigen::Vector3d normal = row.cross(column);
+  std::vector<double> along(slices.size());
+  for (std::size_t n = 0; n < slices.size(); ++n) along[n] = slices[n].position->dot(normal);
+  std::vector<std::size_t> order(slices.size());
+  for (std::size_t n = 0; n < order.size(); ++n) order[n] = n;
+  std::stable_sort(order.begin(), order.end(), [&along](std::size_t a, std::size_t b) { return along[a] < along[b]; });
+  {
+    std::vector<SliceHeader> sorted;
+    std::vector<double> sortedAlong;
+    sorted.reserve(slices.size());
+    for (std::size_t n : order) {
+      sorted.push_back(std::move(slices[n]));
+      sortedAlong.push_back(along[n]);
+    }
+    slices = std::move(sorted);
+    along = std::move(sortedAlong);
+  }
+  const std::size_t count = slices.size();
+  for (std::size_t k = 1; k < count; ++k) {
+    if (along[k] - along[k - 1] < kSamePositionMm) {
+      fail(fmt::format("duplicate slice position: {} and {} are both at {:.3f} mm along the normal", slices[k - 1].name,
+                       slices[k].name, along[k]));
+    }
+  }
+  const Eigen::Vector3d origin = *slices.front().position;
+  for (std::size_t k = 1; k < count; ++k) {
+    const Eigen::Vector3d offset = *slices[k].position - origin;
+    const double distance = offset.dot(normal);
+    const double off = (offset - distance * normal).norm();
+    if (off > kOffNormalMm + kOffNormalRelative * std::abs(distance)) {
+      fail(fmt::format("slices are not stacked along their normal (gantry tilt or a sheared series): {} lies "
+                       "{:.3f} mm off the normal through {} ({:.2f} degrees)",
+                       slices[k].name, off, slices.front().name, std::atan2(off, distance) * 180.0 / 3.14159265358979323846));
+    }
+  }
+
+  // Steps, missing slices, groups.
+  std::vector<double> steps;
+  for (std::size_t k = 1; k < count; ++k) steps.push_back(along[k] - along[k - 1]);
+  const auto sameStep = [](double a, double b) {
+    return std::abs(a - b) <= std::max(kGroupStepMm, kGroupStepRelative * std::min(a, b));
+  };
+  for (std::size_t k = 1; k + 1 < steps.size(); ++k) {
+    const double before = steps[k - 1], after = steps[k + 1];
+    if (sameStep(before, after) && steps[k] > 1.5 * before && steps[k] > 1.5 * after) {
+      fail(fmt::format("a slice seems missing between {} and {}: they are {:.3f} mm apart where the slices on "
+                       "both sides are {:.3f} mm apart",
+                       slices[k].name, slices[k + 1].name, steps[k], before));
+    }
+  }
+  CtImage& image = result.image;
+  image.folder = folder;
+  image.seriesInstanceUid = selection.uid;
+  image.dimensions = {slices.front().columns, slices.front().rows, static_cast<int>(count)};
+  image.originMm = origin;
+  image.direction.col(0) = row;
+  image.direction.col(1) = column;
+  image.direction.col(2) = normal;
+  // PixelSpacing is (between rows, between columns): i runs along a row, so its spacing is the
+  // second value.
+  image.pixelSpacingMm = Eigen::Vector2d((*slices.front().pixelSpacing)[1], (*slices.front().pixelSpacing)[0]);
+  image.slicePositionsMm.resize(count);
+  for (std::size_t k = 0; k < count; ++k) image.slicePositionsMm[k] = along[k] - along[0];
+  {
+    int start = 0;
+    double groupFirstStep = -1.0, sum = 0.0;
+    int groupSteps = 0;
+    const auto close = [&](int last) {
+      image.groups.push_back(CtSliceGroup{start, last - start + 1, groupSteps > 0 ? sum / groupSteps : 0.0});
+    };
+    for (std::size_t k = 0; k < steps.size(); ++k) {
+      const double step = steps[k];
+      if (groupSteps == 0) {
+        groupFirstStep = step;
+        sum = step;
+        groupSteps = 1;
+      } else if (sameStep(step, groupFirstStep)) {
+        sum += step;
+        ++groupSteps;
+      } else {
+        close(static_cast<int>(k));
+        start = static_cast<int>(k) + 1;
+        sum = 0.0;
+        groupSteps = 0;
+      }
+    }
+    close(static_cast<int>(count) - 1);
+  }
+  result.files.reserve(count);
+  for (const SliceHeader& h : slices) result.files.push_back(h.name);
+  return result;
+}
+
+/// Per-thread scratch: the decoded slice when GDCM must decode, and the lookup table from stored
+/// 8- or 16-bit words to HU for the last rescale seen.
+struct Scratch {
+  std::vector<char> buffer;
+  std::vector<std::int16_t> table;
+  struct Key {
+    int bitsAllocated = -1, bitsStored = -1, highBit = -1, pixelRepresentation = -1;
+    double slope = 0, intercept = 0;
+    bool operator==(const Key& o) const {
+      return bitsAllocated == o.bitsAllocated && bitsStored == o.bitsStored && highBit == o.highBit &&
+             pixelRepresentation == o.pixelRepresentation && slope == o.slope && intercept == o.intercept;
+    }
+  } key;
+};
+
+std::int16_t toHu(double value) {
+  const double rounded = std::round(value);
+  if (!(rounded > std::numeric_limits<std::int16_t>::min())) return std::numeric_limits<std::int16_t>::min();
+  if (rounded >= std::numeric_limits<std::int16_t>::max()) return std::numeric_limits<std::int16_t>::max();
+  return static_cast<std::int16_t>(rounded);
+}
+
+/// The stored value of a raw word: BitsStored bits ending at HighBit, sign-extended if signed.
+std::int64_t storedValue(std::uint32_t word, const Scratch::Key& key) {
+  const int shift = key.highBit + 1 - key.bitsStored;
+  const std::uint64_t mask = (std::uint64_t{1} << key.bitsStored) - 1;
+  std::int64_t value = static_cast<std::int64_t>((std::uint64_t{word} >> shift) & mask);
+  if (key.pixelRepresentation == 1 && (value >> (key.bitsStored - 1)) != 0) {
+    value -= static_cast<std::int64_t>(std::uint64_t{1} << key.bitsStored);
+  }
+  return value;
+}
+
+void convert(const char* data, std::size_t pixels, const Scratch::Key& key, Scratch& scratch, std::int16_t* out) {
+  if (key.bitsAllocated == 32) {
+    for (std::size_t p = 0; p < pixels; ++p) {
+      std::uint32_t word = 0;
+      std::memcpy(&word, data + 4 * p, 4);
+      out[p] = toHu(static_cast<double>(storedValue(word, key)) * key.slope + key.intercept);
+    }
+    return;
+  }
+  if (!(scratch.key == key)) {
+    const std::size_t size = std::size_t{1} << key.bitsAllocated;
+    scratch.table.resize(size);
+    for (std::size_t word = 0; word < size; ++word) {
+      scratch.table[word] = toHu(static_cast<double>(storedValue(static_cast<std::uint32_t>(word), key)) * key.slope +
+                                 key.intercept);
+    }
+    scratch.key = key;
+  }
+  const std::int16_t* table = scratch.table.data();
+  if (key.bitsAllocated == 8) {
+    const auto* bytes = reinterpret_cast<const unsigned char*>(data);
+    for (std::size_t p = 0; p < pixels; ++p) out[p] = table[bytes[p]];
+  } else {
+    for (std::size_t p = 0; p < pixels; ++p) {
+      std::uint16_t word = 0;
+      std::memcpy(&word, data + 2 * p, 2);
+      out[p] = table[word];
+    }
+  }
+}
+
+bool hostIsLittleEndian() {
+  const std::uint16_t one = 1;
+  unsigned char first = 0;
+  std::memcpy(&first, &one, 1);
+  return first == 1;
+}
+
+void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out, Scratch& scratch) {
+  gdcm::ImageReader reader;
+  reader.SetFileName(h.path.c_str());
+  bool read = false;
+  try {
+    read = reader.Read();
+  } catch (const std::exception&) {
+    read = false;
+  }
+  if (!read) throw FileError(folder, h.name + ": GDCM cannot read its image");
+  const gdcm::Image& image = reader.GetImage();
+  const gdcm::PixelFormat& format = image.GetPixelFormat();
+  const unsigned int* dims = image.GetDimensions();
+  if (dims == nullptr || dims[0] != static_cast<unsigned int>(h.columns) ||
+      dims[1] != static_cast<unsigned int>(h.rows) ||
+      (image.GetNumberOfDimensions() > 2 && dims[2] != 1)) {
+    throw FileError(folder, h.name + ": GDCM reports image dimensions other than the header's Rows / Columns");
+  }
+  if (format.GetSamplesPerPixel() != 1) throw FileError(folder, h.name + ": not a one-sample (grey) image");
+  const Scratch::Key key{format.GetBitsAllocated(), format.GetBitsStored(), format.GetHighBit(),
+                         format.GetPixelRepresentation(), h.slope, h.intercept};
+  if ((key.bitsAllocated != 8 && key.bitsAllocated != 16 && key.bitsAllocated != 32) || key.bitsStored < 1 ||
+      key.bitsStored > key.bitsAllocated || key.highBit + 1 < key.bitsStored || key.highBit >= key.bitsAllocated) {
+    throw FileError(folder, fmt::format("{}: unsupported pixel format ({} bits allocated, {} stored, high bit {})",
+                                        h.name, key.bitsAllocated, key.bitsStored, key.highBit));
+  }
+  const std::size_t pixels = static_cast<std::size_t>(h.rows) * static_cast<std::size_t>(h.columns);
+  const std::size_t bytes = pixels * static_cast<std::size_t>(key.bitsAllocated / 8);
+  const gdcm::DataElement& pixelData = image.GetDataElement();
+  const gdcm::ByteValue* raw = pixelData.GetByteValue();
+  if (pixelData.IsEmpty() && pixelData.GetSequenceOfFragments() == nullptr) {
+    throw FileError(folder, h.name + ": no pixel data");
+  }
+  const gdcm::TransferSyntax& syntax = image.GetTransferSyntax();
+  if (raw != nullptr && !syntax.IsEncapsulated()) {
+    if (h.pixelDataOffset > 0 && h.fileSize > 0 && h.pixelDataOffset + bytes > h.fileSize) {
+      throw FileError(folder, fmt::format("{}: truncated pixel data: the file ends {} bytes short of the {} x {} "
+                                          "pixels of {} bits",
+                                          h.name, h.pixelDataOffset + bytes - h.fileSize, h.columns,
+                                          h.rows, key.bitsAllocated));
+    }
+    if (raw->GetLength() < bytes) {
+      throw FileError(folder, fmt::format("{}: truncated pixel data: {} bytes where {} x {} pixels of {} bits "
+                                          "need {}",
+                                          h.name, raw->GetLength(), h.columns, h.rows, key.bitsAllocated, bytes));
+    }
+    if (hostIsLittleEndian() && syntax.GetSwapCode() == gdcm::SwapCode::LittleEndian) {
+      convert(raw->GetPointer(), pixels, key, scratch, out);  // no copy for the common case
+      return;
+    }
+  }
+  const unsigned long length = image.GetBufferLength();
+  if (length < bytes) {
+    throw FileError(folder, fmt::format("{}: GDCM decodes {} bytes where {} are needed", h.name, length, bytes));
+  }
+  scratch.buffer.resize(length);
+  bool decoded = false;
+  try {
+    decoded = image.GetBuffer(scratch.buffer.data());
+  } catch (const std::exception&) {
+    decoded = false;
+  }
+  if (!decoded) {
+    throw FileError(folder, fmt::format("{}: GDCM cannot decode its pixel data ({})", h.name,
+                                        syntax.GetString() ? syntax.GetString() : "unknown transfer syntax"));
+  }
+  convert(scratch.buffer.data(), pixels, key, scratch, out);
+}
+
+DicomSeriesRead readGeometry(const std::string& folder, const DicomReadOptions& options, int threads,
+                             std::vector<SliceHeader>& slices) {
+  Selection selection = selectSeries(folder, options, threads);
+  DicomSeriesRead result = buildGeometry(folder, selection);
+  slices = std::move(selection.slices);
+  return result;
+}
+
+}  // namespace
+
+std::vector<DicomSeriesSummary> listDicomSeries(const std::string& folder, std::vector<std::string>* warnings) {
+  const Scan scan = scanFolder(folder, threadCount({}));
+  std::vector<DicomSeriesSummary> out;
+  for (const SeriesGroup& group : groupSeries(scan, warnings)) out.push_back(group.summary);
+  return out;
+}
+
+DicomSeriesRead readDicomSeriesGeometry(const std::string& folder, const DicomReadOptions& options) {
+  std::vector<SliceHeader> slices;
+  return readGeometry(folder, options, threadCount(options), slices);
+}
+
+DicomSeriesRead readDicomSeriesWithWarnings(const std::string& folder, const DicomReadOptions& options) {
+  const int threads = threadCount(options);
+  std::vector<SliceHeader> slices;
+  DicomSeriesRead result = readGeometry(folder, options, threads, slices);
+  CtImage& image = result.image;
+  const std::size_t plane = static_cast<std::size_t>(image.dimensions[0]) * static_cast<std::size_t>(image.dimensions[1]);
+  image.hu.resize(image.voxelCount());
+  const int total = static_cast<int>(slices.size());
+  std::vector<Scratch> scratch(static_cast<std::size_t>(std::max(1, std::min(threads, total))));
+  std::mutex progressMutex;
+  int done = 0;
+  parallelFor(total, threads, [&](int k, int worker) {
+    decodeSlice(folder, slices[static_cast<std::size_t>(k)], image.hu.data() + plane * static_cast<std::size_t>(k),
+                scratch[static_cast<std::size_t>(worker)]);
+    if (options.progress) {
+      const std::lock_guard<std::mutex> lock(progressMutex);
+      options.progress(++done, total);
+    }
+  });
+  return result;
+}
+
+CtImage readDicomSeries(const std::string& folder, const DicomReadOptions& options) {
+  return readDicomSeriesWithWarnings(folder, options).image;
+}
+
+}  // namespace echoreg::segmentation
