@@ -15,7 +15,7 @@ namespace echoreg::cli {
 int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   CLI::App app{
       "echoreg: register bones to CT with tracked A-mode ultrasound (Mozes 2008).\n"
-      "Commands available in this build: info, detect, simulate, calibrate, pivot. segment,\n"
+      "Commands available in this build: info, detect, simulate, calibrate, pivot, segment.\n"
       "register, evaluate, figure and study arrive with their issues.",
       "echoreg"};
   app.require_subcommand(1);
@@ -28,6 +28,7 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   actions["simulate"] = addSimulateCommand(app);
   actions["calibrate"] = addCalibrateCommand(app);
   actions["pivot"] = addPivotCommand(app);
+  actions["segment"] = addSegmentCommand(app);
 
   std::vector<std::string> reversed(args.rbegin(), args.rend());
   try {

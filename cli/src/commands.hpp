@@ -23,5 +23,6 @@ CommandAction addDetectCommand(CLI::App& app);
 CommandAction addSimulateCommand(CLI::App& app);
 CommandAction addCalibrateCommand(CLI::App& app);
 CommandAction addPivotCommand(CLI::App& app);
+CommandAction addSegmentCommand(CLI::App& app);
 
 }  // namespace echoreg::cli

@@ -351,6 +351,17 @@ VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImag
   VoxelMask mask = emptyMask(grid);
   const auto& d = grid.dimensions;
   const double first = slices.front().positionMm, last = slices.back().positionMm;
+  // Beyond an end slice the solid closes within half the spacing to its neighbour: the end
+  // contour's distance grows by its depth (deepest inside point) per that half spacing.
+  auto deepest = [](const SliceDistance& s) {
+    float low = 0.0f;
+    for (float x : s.d) low = std::min(low, x);
+    return -static_cast<double>(low);
+  };
+  const double halfFirst = slices.size() > 1 ? 0.5 * (slices[1].positionMm - first) : 1.0;
+  const double halfLast = slices.size() > 1 ? 0.5 * (last - slices[slices.size() - 2].positionMm) : 1.0;
+  const double slopeFirst = std::max(1.0, deepest(slices.front()) / halfFirst);
+  const double slopeLast = std::max(1.0, deepest(slices.back()) / halfLast);
   // Voxels whose centres lie within the contours' bounds (the taper reaches at most the largest
   // in-plane extent beyond the end slices; it is bounded by the bounds' margin here).
   for (int k = 0; k < d[2]; ++k) {
@@ -364,9 +375,9 @@ VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImag
         const double w = p[axis];
         double dist = 0.0;
         if (w <= first) {
-          dist = slices.front().sample(p[u], p[v]) + (first - w);
+          dist = slices.front().sample(p[u], p[v]) + slopeFirst * (first - w);
         } else if (w >= last) {
-          dist = slices.back().sample(p[u], p[v]) + (w - last);
+          dist = slices.back().sample(p[u], p[v]) + slopeLast * (w - last);
         } else {
           const auto it = std::upper_bound(slices.begin(), slices.end(), w,
                                            [](double x, const SliceDistance& s) { return x < s.positionMm; });

@@ -56,7 +56,8 @@ struct ContourMaskOptions {
 /// The solid enclosed by `contours` (all in one plane family) on the grid of `grid` (uniform):
 /// in each contoured slice the signed distance to its loops (even-odd inside); between slices
 /// the linear interpolation of the two; beyond the first and last slice the end slice's
-/// distance plus the distance beyond it (a 45 degree taper). Throws std::invalid_argument when
+/// distance grows so that the solid closes within half the spacing to the neighbouring slice
+/// (1 mm for a single slice). Throws std::invalid_argument when
 /// there is no contour, the contours lie in different plane families, or the grid is empty.
 VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImage& grid,
                          const ContourMaskOptions& options = {});
