@@ -44,7 +44,7 @@ struct SegmentOptions {
   double bandMm = 2.0;
   int smoothing = 10;
   int targetTriangles = 0;
-  int separationVoxels = 1;
+  double separationMm = 2.4;
   double regionRadiusMm = 20.0;
   std::vector<double> viewDirections;
   double maxAngleDeg = 60.0;
@@ -136,7 +136,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                                               o.thresholdHu[0], o.thresholdHu[1]));
     }
   }
-  grow.separationRadiusVoxels = o.separationVoxels;
+  grow.separationRadiusMm = o.separationMm;
   const seg::SlicePlane plane = seg::parseSlicePlane(o.plane);
   for (const std::string& path : {o.out, o.mask, o.anchorsOut, o.accessibleOut}) requireOutputFolder(path);
   std::vector<seg::AnchorSet> anchorSets;
@@ -186,6 +186,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   const seg::CtSliceGroup& used = ct.groups[static_cast<std::size_t>(group)];
   const double zFirst = ct.voxelToLps(Eigen::Vector3d(0, 0, used.firstSlice)).z();
   const double zLast = ct.voxelToLps(Eigen::Vector3d(0, 0, used.firstSlice + used.count - 1)).z();
+  const double zLow = std::min(zFirst, zLast), zHigh = std::max(zFirst, zLast);
   if (!ct.uniform()) {
     warnings.push_back(fmt::format("the CT has {} slice groups; segmented in group {} ({} slices at {:.2f} mm, "
                                    "z {:.1f} to {:.1f} mm): the model is closed at that group's ends",
@@ -199,7 +200,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   nlohmann::json modeJson;
   if (o.automatic) {
     nlohmann::json seedsJson = nlohmann::json::array();
-    seg::VoxelMask threshold;
+    seg::VoxelMask others;
     for (std::size_t s = 0; s < seeds.size(); ++s) {
       grow.progress = [&](double f, const std::string& stage) {
         progress(fmt::format("seed {}: {}", s + 1, stage), f);
@@ -214,20 +215,26 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                            {"seed_hu", grown.seedHu},
                            {"volume_mm3", grown.volumeMm3}});
       region = s == 0 ? grown.mask : seg::unite(region, grown.mask);
-      if (s == 0) threshold = std::move(grown.threshold);
+      others = s == 0 ? grown.others : seg::unite(others, grown.others);
     }
-    exclude = threshold;
+    exclude = others;  // the other bones, but not the bones asked for
     for (std::size_t i = 0; i < exclude.voxels.size(); ++i) exclude.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
     modeJson = {{"mode", "auto"}, {"seeds", seedsJson}};
   } else {
     std::vector<seg::SliceContour> contours;
     nlohmann::json contoursJson = nlohmann::json::array();
+    // Anchors on the scan's ends (within half a slice): the contour runs straight between them.
+    const double endTolerance = 0.5 * volume.spacingMm().z() + 0.01;
+    int straightened = 0;
     for (std::size_t c = 0; c < anchorSets.size(); ++c) {
       progress("live-wire contours", static_cast<double>(c) / static_cast<double>(anchorSets.size()));
       try {
-        contours.push_back(seg::liveWireContour(ct, anchorSets[c]));
+        contours.push_back(seg::liveWireContour(volume, anchorSets[c]));
       } catch (const std::invalid_argument& e) {
-        throw FileError(o.anchors, fmt::format("contour '{}': {}", anchorSets[c].label, e.what()));
+        throw FileError(o.anchors, e.what());
+      }
+      if (anchorSets[c].plane != seg::SlicePlane::Axial) {
+        straightened += seg::straightenAtScanEnds(contours.back(), anchorSets[c], zLow, zHigh, endTolerance);
       }
       contoursJson.push_back({{"label", anchorSets[c].label},
                               {"plane", seg::slicePlaneName(anchorSets[c].plane)},
@@ -244,7 +251,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     }
     if (region.count() == 0) throw FileError(o.anchors, "the contours enclose no voxel of the CT");
     exclude = seg::otherBones(seg::thresholdBone(volume, grow.threshold), region, o.bandMm);
-    modeJson = {{"mode", "anchors"}, {"contours", contoursJson}};
+    modeJson = {{"mode", "anchors"}, {"contours", contoursJson}, {"straight_cuts_at_scan_ends", straightened}};
   }
   timings["region_s"] = secondsSince(t0);
 
@@ -269,7 +276,12 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
 
   // 5. Anchors proposed on the model, and the accessible surface.
   std::vector<seg::AnchorSet> proposed;
-  if (!o.anchorsOut.empty()) proposed = seg::proposeAnchors(surface.mesh, plane, o.slices);
+  if (!o.anchorsOut.empty()) {
+    seg::AnchorProposalOptions proposal;
+    proposal.zMinMm = zLow;
+    proposal.zMaxMm = zHigh;
+    proposed = seg::proposeAnchors(surface.mesh, plane, o.slices, proposal);
+  }
   std::unique_ptr<seg::AccessibleSurface> accessible;
   if (!o.accessibleOut.empty()) {
     seg::AccessibleSurfaceOptions ao;
@@ -390,9 +402,9 @@ CommandAction addSegmentCommand(CLI::App& app) {
   cmd->add_option("--threshold-hu", o->thresholdHu,
                   "Bone threshold STRONG WEAK, HU: voxels >= STRONG, and >= WEAK connected to them (default 600 200)")
       ->expected(2);
-  cmd->add_option("--separation-voxels", o->separationVoxels,
-                  "Radius of the opening that separates touching bones (0 = none)")
-      ->check(CLI::Range(0, 5))
+  cmd->add_option("--separation-mm", o->separationMm,
+                  "Radius of the erosion that separates bones touching at a joint, mm (0 = none)")
+      ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();
   cmd->add_option("--iso-hu", o->isoHu, "Iso level of the surface, HU (default: half way cortex - soft tissue)");
   cmd->add_option("--band-mm", o->bandMm, "Band around the region in which the CT decides the surface, mm")

@@ -238,7 +238,7 @@ VoxelMask erode(const VoxelMask& mask, double radiusMm) {
   return out;
 }
 
-void fillHoles(VoxelMask& mask, bool perSlice) {
+void fillHoles(VoxelMask& mask, double maxSliceHoleMm2) {
   const CtImage& g = mask.geometry;
   const int nx = g.dimensions[0], ny = g.dimensions[1], nz = g.dimensions[2];
   std::vector<std::size_t> border;
@@ -253,39 +253,39 @@ void fillHoles(VoxelMask& mask, bool perSlice) {
   for (std::size_t i = 0; i < mask.voxels.size(); ++i) {
     if (!outside[i]) mask.voxels[i] = 1;
   }
-  if (!perSlice) return;
-  // Per axial slice, 4-connected background flood from the slice's border.
-  std::vector<std::uint8_t> reached(sz(nx) * sz(ny));
-  std::vector<int> stack;
+  if (!(maxSliceHoleMm2 > 0.0)) return;
+  // Per axial slice: label the background regions (4-connected); fill those that do not touch
+  // the slice's border and are small enough.
+  const double pixelMm2 = g.pixelSpacingMm.x() * g.pixelSpacingMm.y();
+  std::vector<int> label(sz(nx) * sz(ny));
+  std::vector<int> stack, region;
   for (int k = 0; k < nz; ++k) {
-    std::fill(reached.begin(), reached.end(), std::uint8_t{0});
-    const std::uint8_t* slice = mask.voxels.data() + g.index(0, 0, k);
-    auto push = [&](int i, int j) {
-      const std::size_t p = sz(j) * sz(nx) + sz(i);
-      if (reached[p] || slice[p]) return;
-      reached[p] = 1;
-      stack.push_back(static_cast<int>(p));
-    };
-    for (int i = 0; i < nx; ++i) {
-      push(i, 0);
-      push(i, ny - 1);
-    }
-    for (int j = 0; j < ny; ++j) {
-      push(0, j);
-      push(nx - 1, j);
-    }
-    while (!stack.empty()) {
-      const int p = stack.back();
-      stack.pop_back();
-      const int i = p % nx, j = p / nx;
-      if (i > 0) push(i - 1, j);
-      if (i < nx - 1) push(i + 1, j);
-      if (j > 0) push(i, j - 1);
-      if (j < ny - 1) push(i, j + 1);
-    }
-    std::uint8_t* out = mask.voxels.data() + g.index(0, 0, k);
-    for (std::size_t p = 0; p < reached.size(); ++p) {
-      if (!reached[p]) out[p] = 1;
+    std::uint8_t* slice = mask.voxels.data() + g.index(0, 0, k);
+    std::fill(label.begin(), label.end(), 0);
+    for (std::size_t startPixel = 0; startPixel < label.size(); ++startPixel) {
+      if (slice[startPixel] || label[startPixel]) continue;
+      region.clear();
+      bool touchesBorder = false;
+      label[startPixel] = 1;
+      stack.push_back(static_cast<int>(startPixel));
+      while (!stack.empty()) {
+        const int p = stack.back();
+        stack.pop_back();
+        region.push_back(p);
+        const int i = p % nx, j = p / nx;
+        if (i == 0 || j == 0 || i == nx - 1 || j == ny - 1) touchesBorder = true;
+        const int next[4][2] = {{i - 1, j}, {i + 1, j}, {i, j - 1}, {i, j + 1}};
+        for (const auto& q : next) {
+          if (q[0] < 0 || q[1] < 0 || q[0] >= nx || q[1] >= ny) continue;
+          const std::size_t n = sz(q[1]) * sz(nx) + sz(q[0]);
+          if (slice[n] || label[n]) continue;
+          label[n] = 1;
+          stack.push_back(static_cast<int>(n));
+        }
+      }
+      if (!touchesBorder && static_cast<double>(region.size()) * pixelMm2 <= maxSliceHoleMm2) {
+        for (int p : region) slice[sz(p)] = 1;
+      }
     }
   }
 }
@@ -341,53 +341,81 @@ GrowResult growBone(const CtImage& image, const Eigen::Vector3d& seedLps, const 
   result.seedHu = image.at(seed.x(), seed.y(), seed.z());
   report(options, 0.0, "threshold");
   result.threshold = thresholdBone(image, options.threshold);
-  const VoxelMask& bone = result.threshold;
   const Eigen::Vector3d spacing = image.spacingMm();
   const double voxelMm3 = spacing.prod();
 
-  // Separation: the opening by a small ball cuts the thin bridges a joint leaves in the mask.
-  const double radiusMm = options.separationRadiusVoxels * std::max(spacing.x(), spacing.y());
-  report(options, 0.2, "separate");
-  const VoxelMask core = options.separationRadiusVoxels > 0 ? erode(bone, radiusMm) : bone;
+  // Solid bones: the threshold with the marrow (enclosed background) filled.
+  report(options, 0.2, "fill");
+  VoxelMask solid = result.threshold;
+  fillHoles(solid, options.maxSliceHoleMm2);
+  const std::size_t seedIndex = image.index(seed.x(), seed.y(), seed.z());
+  if (!solid.voxels[seedIndex]) {
+    throw std::invalid_argument(fmt::format(
+        "the seed ({:.1f}, {:.1f}, {:.1f}) mm is not in bone: {} HU there (bone is >= {} HU, or enclosed by it)",
+        seedLps.x(), seedLps.y(), seedLps.z(), result.seedHu, options.threshold.weakHu));
+  }
 
-  // The seed, or the nearest core voxel in its axial slice within 15 mm (a seed in the marrow).
-  Eigen::Vector3i start = seed;
-  if (!core.at(seed.x(), seed.y(), seed.z())) {
+  // Separation: the components of the eroded solid are the bones; each solid voxel goes to the
+  // nearest one.
+  report(options, 0.4, "separate");
+  const double step = std::max(spacing.x(), spacing.y());
+  const double radiusMm = options.separationRadiusMm;
+  VoxelMask grown;
+  if (radiusMm > 0.0) {
+    const VoxelMask core = erode(solid, radiusMm);
+    // The core voxel nearest the seed (the seed itself when it is in the core), within the
+    // radius plus 1.5 voxels.
+    Eigen::Vector3i start(-1, -1, -1);
+    const double reach = radiusMm + 1.5 * step;
     double best = std::numeric_limits<double>::infinity();
-    const int ri = static_cast<int>(std::ceil(15.0 / spacing.x()));
-    const int rj = static_cast<int>(std::ceil(15.0 / spacing.y()));
-    for (int j = std::max(0, seed.y() - rj); j <= std::min(dims[1] - 1, seed.y() + rj); ++j) {
-      for (int i = std::max(0, seed.x() - ri); i <= std::min(dims[0] - 1, seed.x() + ri); ++i) {
-        if (!core.at(i, j, seed.z())) continue;
-        const double d = std::hypot((i - seed.x()) * spacing.x(), (j - seed.y()) * spacing.y());
-        if (d < best && d <= 15.0) {
-          best = d;
-          start = Eigen::Vector3i(i, j, seed.z());
+    const Eigen::Vector3i r = (Eigen::Vector3d::Constant(reach).cwiseQuotient(spacing)).array().ceil().cast<int>();
+    for (int k = std::max(0, seed.z() - r.z()); k <= std::min(dims[2] - 1, seed.z() + r.z()); ++k) {
+      for (int j = std::max(0, seed.y() - r.y()); j <= std::min(dims[1] - 1, seed.y() + r.y()); ++j) {
+        for (int i = std::max(0, seed.x() - r.x()); i <= std::min(dims[0] - 1, seed.x() + r.x()); ++i) {
+          if (!core.at(i, j, k)) continue;
+          const double d = Eigen::Vector3d((i - seed.x()) * spacing.x(), (j - seed.y()) * spacing.y(),
+                                           (k - seed.z()) * spacing.z()).norm();
+          if (d < best) {
+            best = d;
+            start = Eigen::Vector3i(i, j, k);
+          }
         }
       }
     }
-    if (!std::isfinite(best)) {
-      throw std::invalid_argument(fmt::format(
-          "the seed ({:.1f}, {:.1f}, {:.1f}) mm is not in bone: {} HU there (bone is >= {} HU) and no bone "
-          "within 15 mm in its slice",
-          seedLps.x(), seedLps.y(), seedLps.z(), result.seedHu, options.threshold.weakHu));
+    if (start.x() < 0) {
+      // A thin bone (thinner than the erosion): grow it without separation.
+      grown = connectedComponent(solid, seed);
+    } else {
+      const VoxelMask own = connectedComponent(core, start);
+      VoxelMask rest = core;
+      for (std::size_t i = 0; i < rest.voxels.size(); ++i) rest.voxels[i] = core.voxels[i] && !own.voxels[i] ? 1 : 0;
+      report(options, 0.6, "separate");
+      const std::vector<double> dOwn = squaredDistance(own, true);
+      const std::vector<double> dRest = squaredDistance(rest, true);
+      const double reach2 = reach * reach;
+      grown = solid;
+      result.others = solid;
+      for (std::size_t i = 0; i < solid.voxels.size(); ++i) {
+        const bool bone = solid.voxels[i] != 0;
+        result.others.voxels[i] = bone && dRest[i] < dOwn[i] && dRest[i] <= reach2 ? 1 : 0;
+        grown.voxels[i] = bone && !result.others.voxels[i] ? 1 : 0;
+      }
+      grown = connectedComponent(grown, grown.voxels[seedIndex] ? seed : start);
     }
+  } else {
+    grown = connectedComponent(solid, seed);
   }
-  report(options, 0.4, "grow");
-  VoxelMask grown = connectedComponent(core, start);
-  if (options.separationRadiusVoxels > 0) {
-    // Give the component its border back, but only the bone voxels next to it.
-    grown = dilate(grown, radiusMm + std::max(spacing.x(), spacing.y()) * 1.01);
-    for (std::size_t i = 0; i < grown.voxels.size(); ++i) grown.voxels[i] = grown.voxels[i] & bone.voxels[i];
-    grown = connectedComponent(grown, start);
+  if (result.others.voxels.empty()) {
+    result.others = solid;
+    for (std::size_t i = 0; i < solid.voxels.size(); ++i) result.others.voxels[i] = solid.voxels[i] && !grown.voxels[i] ? 1 : 0;
   }
-  report(options, 0.7, "fill");
-  if (options.fillHoles) fillHoles(grown, true);
-  if (!grown.at(seed.x(), seed.y(), seed.z())) {
+  report(options, 0.9, "fill");
+  fillHoles(grown, options.maxSliceHoleMm2);
+  if (!grown.voxels[seedIndex]) {
     throw std::invalid_argument(fmt::format(
-        "the seed ({:.1f}, {:.1f}, {:.1f}) mm is not in bone: {} HU there (bone is >= {} HU), and the "
-        "nearest bone does not enclose it",
-        seedLps.x(), seedLps.y(), seedLps.z(), result.seedHu, options.threshold.weakHu));
+        "the seed ({:.1f}, {:.1f}, {:.1f}) mm lies on the bridge between two bones at a joint ({} HU); "
+        "move it into the bone",
+        seedLps.x(), seedLps.y(), seedLps.z(), result.seedHu));
   }
   result.volumeMm3 = static_cast<double>(grown.count()) * voxelMm3;
   if (result.volumeMm3 < options.minVolumeMm3) {

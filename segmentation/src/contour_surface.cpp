@@ -234,12 +234,18 @@ std::vector<std::vector<Eigen::Vector3d>> planeSections(const core::TriangleMesh
   return loops;
 }
 
-std::vector<double> evenSlicePositions(const core::TriangleMesh& mesh, SlicePlane plane, int count) {
+std::vector<double> evenSlicePositions(const core::TriangleMesh& mesh, SlicePlane plane, int count, double zMinMm,
+                                       double zMaxMm) {
   if (count < 1) throw std::invalid_argument(fmt::format("the number of slices must be >= 1, got {}", count));
-  if (mesh.empty()) throw std::invalid_argument("evenSlicePositions: the surface is empty");
   const int axis = planeAxis(plane);
-  const auto b = core::bounds(mesh);
-  const double lo = b[0][axis], width = b[1][axis] - b[0][axis];
+  double lo = std::numeric_limits<double>::infinity(), hi = -lo;
+  for (const auto& v : mesh.vertices) {
+    if (v.z() < zMinMm || v.z() > zMaxMm) continue;
+    lo = std::min(lo, v[axis]);
+    hi = std::max(hi, v[axis]);
+  }
+  if (!(hi >= lo)) throw std::invalid_argument("evenSlicePositions: the surface has no vertex in the scanned slab");
+  const double width = hi - lo;
   std::vector<double> positions;
   for (int i = 0; i < count; ++i) positions.push_back(lo + (i + 0.5) * width / count);
   return positions;
@@ -253,9 +259,6 @@ std::vector<Eigen::Vector3d> proposeLoopAnchors(const std::vector<Eigen::Vector3
   for (std::size_t i = 0; i < n; ++i) arc[i + 1] = arc[i] + (loop[(i + 1) % n] - loop[i]).norm();
   const double perimeter = arc[n];
   if (perimeter < options.minPerimeterMm) return {};
-  const int count = std::max(options.minAnchors, static_cast<int>(std::lround(perimeter / options.spacingMm)));
-  const double spacing = perimeter / count;
-  // Turning angle at each point, over +-2 mm of contour.
   auto pointAt = [&](double s) {
     s = std::fmod(std::fmod(s, perimeter) + perimeter, perimeter);
     const std::size_t i = static_cast<std::size_t>(std::upper_bound(arc.begin(), arc.end(), s) - arc.begin()) - 1;
@@ -263,6 +266,7 @@ std::vector<Eigen::Vector3d> proposeLoopAnchors(const std::vector<Eigen::Vector3
     const double t = len > 0.0 ? (s - arc[i]) / len : 0.0;
     return Eigen::Vector3d(loop[i] + t * (loop[(i + 1) % n] - loop[i]));
   };
+  // Turning angle at each point, over +-2 mm of contour.
   std::vector<double> turn(n, 0.0);
   const double window = std::min(2.0, perimeter / 8.0);
   for (std::size_t i = 0; i < n; ++i) {
@@ -270,14 +274,23 @@ std::vector<Eigen::Vector3d> proposeLoopAnchors(const std::vector<Eigen::Vector3
     const Eigen::Vector3d b = (pointAt(arc[i] + window) - loop[i]).normalized();
     turn[i] = std::acos(std::clamp(a.dot(b), -1.0, 1.0));
   }
-  std::vector<Eigen::Vector3d> anchors;
-  std::size_t cursor = 0;
-  for (int k = 0; k < count; ++k) {
-    const double target = k * spacing;
-    while (cursor + 1 < n && arc[cursor + 1] <= target) ++cursor;
-    std::size_t best = cursor;
-    double bestTurn = -1.0;
-    const double reach = options.snapFraction * spacing;
+  // Corners: local maxima of the turn above cornerDeg, at least a window apart.
+  const double cornerRad = options.cornerDeg * M_PI / 180.0;
+  std::vector<double> fixed;  // arc positions of the anchors so far
+  for (std::size_t i = 0; i < n; ++i) {
+    if (turn[i] < cornerRad) continue;
+    bool isMax = true;
+    for (std::size_t j = 0; j < n && isMax; ++j) {
+      double ds = std::abs(arc[j] - arc[i]);
+      ds = std::min(ds, perimeter - ds);
+      if (j != i && ds <= window && (turn[j] > turn[i] || (turn[j] == turn[i] && j < i))) isMax = false;
+    }
+    if (isMax) fixed.push_back(arc[i]);
+  }
+  const double reach = options.snapFraction * options.spacingMm;
+  auto snapped = [&](double target) {
+    std::size_t best = n;
+    double bestTurn = 15.0 * M_PI / 180.0;  // only a clear bend moves an anchor
     for (std::size_t i = 0; i < n; ++i) {
       double ds = std::abs(arc[i] - target);
       ds = std::min(ds, perimeter - ds);
@@ -286,16 +299,107 @@ std::vector<Eigen::Vector3d> proposeLoopAnchors(const std::vector<Eigen::Vector3
         best = i;
       }
     }
-    // Only a clear corner (> 15 degrees over 4 mm) moves the anchor.
-    anchors.push_back(bestTurn > 15.0 * M_PI / 180.0 ? loop[best] : pointAt(target));
+    return best < n ? arc[best] : target;
+  };
+  if (fixed.empty()) {
+    const int count = std::max(options.minAnchors, static_cast<int>(std::lround(perimeter / options.spacingMm)));
+    std::vector<Eigen::Vector3d> anchors;
+    for (int k = 0; k < count; ++k) anchors.push_back(pointAt(snapped(k * perimeter / count)));
+    return anchors;
   }
+  // Fill each gap between consecutive corners evenly.
+  std::vector<double> positions;
+  for (std::size_t c = 0; c < fixed.size(); ++c) {
+    const double from = fixed[c];
+    double to = fixed[(c + 1) % fixed.size()];
+    if (to <= from) to += perimeter;
+    positions.push_back(from);
+    const int pieces = static_cast<int>(std::ceil((to - from) / options.spacingMm - 1e-9));
+    for (int k = 1; k < pieces; ++k) positions.push_back(from + k * (to - from) / pieces);
+  }
+  // At least minAnchors: split the longest gaps.
+  while (static_cast<int>(positions.size()) < options.minAnchors) {
+    std::size_t longest = 0;
+    double gap = -1.0;
+    for (std::size_t i = 0; i < positions.size(); ++i) {
+      double g = (i + 1 < positions.size() ? positions[i + 1] : positions.front() + perimeter) - positions[i];
+      if (g > gap) {
+        gap = g;
+        longest = i;
+      }
+    }
+    positions.insert(positions.begin() + static_cast<std::ptrdiff_t>(longest) + 1, positions[longest] + 0.5 * gap);
+  }
+  std::vector<Eigen::Vector3d> anchors;
+  for (double s : positions) anchors.push_back(pointAt(s));
   return anchors;
+}
+
+std::vector<Eigen::Vector3d> clipLoopZ(const std::vector<Eigen::Vector3d>& loop, double zMinMm, double zMaxMm) {
+  auto clip = [](const std::vector<Eigen::Vector3d>& in, double limit, bool keepBelow) {
+    std::vector<Eigen::Vector3d> out;
+    const std::size_t n = in.size();
+    auto inside = [&](const Eigen::Vector3d& p) { return keepBelow ? p.z() <= limit : p.z() >= limit; };
+    for (std::size_t i = 0; i < n; ++i) {
+      const Eigen::Vector3d& a = in[i];
+      const Eigen::Vector3d& b = in[(i + 1) % n];
+      const bool ia = inside(a), ib = inside(b);
+      if (ia) out.push_back(a);
+      if (ia != ib) {
+        const double t = (limit - a.z()) / (b.z() - a.z());
+        Eigen::Vector3d x = a + t * (b - a);
+        x.z() = limit;
+        out.push_back(x);
+      }
+    }
+    return out;
+  };
+  std::vector<Eigen::Vector3d> out = loop;
+  if (std::isfinite(zMaxMm)) out = clip(out, zMaxMm, true);
+  if (std::isfinite(zMinMm) && !out.empty()) out = clip(out, zMinMm, false);
+  return out;
+}
+
+int straightenAtScanEnds(SliceContour& contour, const AnchorSet& anchors, double zMinMm, double zMaxMm,
+                         double tolMm) {
+  const auto& idx = contour.anchorIndices;
+  const auto& pts = contour.pointsLps;
+  const auto& at = anchors.anchorsLps;
+  if (idx.size() < 2 || idx.size() != at.size() || pts.size() < 3) return 0;
+  for (std::size_t i : idx) {
+    if (i >= pts.size()) return 0;
+  }
+  auto near = [&](const Eigen::Vector3d& p, double z) { return std::abs(p.z() - z) <= tolMm; };
+  std::vector<std::uint8_t> drop(pts.size(), 0);
+  std::vector<Eigen::Vector3d> moved = pts;
+  int replaced = 0;
+  for (std::size_t a = 0; a < idx.size(); ++a) {
+    const std::size_t b = (a + 1) % idx.size();
+    const bool low = near(at[a], zMinMm) && near(at[b], zMinMm);
+    const bool high = near(at[a], zMaxMm) && near(at[b], zMaxMm);
+    if (!low && !high) continue;
+    const std::size_t from = idx[a], to = idx[b];
+    for (std::size_t i = (from + 1) % pts.size(); i != to; i = (i + 1) % pts.size()) drop[i] = 1;
+    moved[from] = at[a];
+    moved[to] = at[b];
+    ++replaced;
+  }
+  if (replaced == 0) return 0;
+  std::vector<Eigen::Vector3d> kept;
+  std::vector<std::size_t> newIndex(pts.size(), 0);
+  for (std::size_t i = 0; i < pts.size(); ++i) {
+    newIndex[i] = kept.size();
+    if (!drop[i]) kept.push_back(moved[i]);
+  }
+  for (std::size_t& i : contour.anchorIndices) i = newIndex[i];
+  contour.pointsLps = std::move(kept);
+  return replaced;
 }
 
 std::vector<AnchorSet> proposeAnchors(const core::TriangleMesh& surface, SlicePlane plane, int slices,
                                       const AnchorProposalOptions& options) {
   std::vector<AnchorSet> sets;
-  const auto positions = evenSlicePositions(surface, plane, slices);
+  const auto positions = evenSlicePositions(surface, plane, slices, options.zMinMm, options.zMaxMm);
   const char* prefix = plane == SlicePlane::Sagittal ? "s" : plane == SlicePlane::Coronal ? "c" : "a";
   for (std::size_t s = 0; s < positions.size(); ++s) {
     const auto loops = planeSections(surface, plane, positions[s]);
@@ -303,7 +407,9 @@ std::vector<AnchorSet> proposeAnchors(const core::TriangleMesh& surface, SlicePl
       AnchorSet set;
       set.plane = plane;
       set.positionMm = positions[s];
-      set.anchorsLps = proposeLoopAnchors(loops[l], options);
+      const auto clipped = clipLoopZ(loops[l], options.zMinMm, options.zMaxMm);
+      if (clipped.size() < 3) continue;
+      set.anchorsLps = proposeLoopAnchors(clipped, options);
       if (set.anchorsLps.size() < 3) continue;
       set.label = fmt::format("{}{:02d}-{}", prefix, s, l);
       sets.push_back(std::move(set));

@@ -99,7 +99,7 @@ TEST(BoneMask, GrowthDoesNotCrossAThinBridgeBetweenBones) {
     return 30.0;
   });
   segmentation::GrowOptions plain;
-  plain.separationRadiusVoxels = 0;
+  plain.separationRadiusMm = 0.0;
   const auto joined = segmentation::growBone(ct, a, plain);
   const auto separated = segmentation::growBone(ct, a);
   const double ball = 4.0 / 3.0 * M_PI * 1000.0;
@@ -213,13 +213,39 @@ TEST(Contours, AnchorsSitOnTheCorners) {
   edge({0, 40, 20}, {0, 0, 20});
   edge({0, 0, 20}, {0, 0, 0});
   const auto anchors = segmentation::proposeLoopAnchors(loop);
-  EXPECT_EQ(anchors.size(), 10u);  // 120 mm / 12 mm
+  // The four corners, then each side split into pieces of at most 12 mm: 4 + 2 x 3 + 2 x 1.
+  EXPECT_EQ(anchors.size(), 12u);
+  for (std::size_t i = 0; i < anchors.size(); ++i) {
+    EXPECT_LE((anchors[(i + 1) % anchors.size()] - anchors[i]).norm(), 12.0 + 1e-9);
+  }
   for (const Eigen::Vector3d& corner : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0, 40, 0), Eigen::Vector3d(0, 40, 20),
                                        Eigen::Vector3d(0, 0, 20)}) {
     double nearest = 1e9;
     for (const auto& a : anchors) nearest = std::min(nearest, (a - corner).norm());
     EXPECT_LT(nearest, 0.6) << corner.transpose();
   }
+  // Clipped to z <= 15 (the end of a scan): the cut's two ends become corners.
+  const auto clipped = segmentation::clipLoopZ(loop, -1e9, 15.0);
+  const auto cut = segmentation::proposeLoopAnchors(clipped);
+  int onCut = 0;
+  for (const auto& a : cut) {
+    EXPECT_LE(a.z(), 15.0 + 1e-9);
+    if (std::abs(a.z() - 15.0) < 1e-9 && (std::abs(a.y()) < 1e-9 || std::abs(a.y() - 40.0) < 1e-9)) ++onCut;
+  }
+  EXPECT_EQ(onCut, 2);
+  // Live-wire between two anchors on the scan's end is replaced by the straight cut.
+  segmentation::SliceContour wire;
+  wire.pointsLps = {{0, 0, 15}, {0, 5, 12}, {0, 10, 15}, {0, 10, 0}, {0, 0, 0}};
+  wire.anchorIndices = {0, 2, 3, 4};
+  segmentation::AnchorSet wireAnchors;
+  wireAnchors.anchorsLps = {{0, 0, 15.2}, {0, 10, 14.9}, {0, 10, 0}, {0, 0, 0}};
+  EXPECT_EQ(segmentation::straightenAtScanEnds(wire, wireAnchors, -100.0, 15.0, 0.5), 1);
+  ASSERT_EQ(wire.pointsLps.size(), 4u);
+  EXPECT_EQ(wire.anchorIndices, (std::vector<std::size_t>{0, 1, 2, 3}));
+  EXPECT_EQ(wire.pointsLps[0].z(), 15.2);  // the anchors themselves
+  EXPECT_EQ(wire.pointsLps[1].z(), 14.9);
+  wireAnchors.anchorsLps.pop_back();  // anchors that do not match the contour: left alone
+  EXPECT_EQ(segmentation::straightenAtScanEnds(wire, wireAnchors, -100.0, 15.0, 0.5), 0);
   // A tiny loop gets none.
   std::vector<Eigen::Vector3d> tiny{{0, 0, 0}, {0, 1, 0}, {0, 1, 1}};
   EXPECT_TRUE(segmentation::proposeLoopAnchors(tiny).empty());

@@ -46,13 +46,17 @@ VoxelMask thresholdBone(const CtImage& image, const BoneThreshold& threshold = {
 
 struct GrowOptions {
   BoneThreshold threshold;
-  /// Radius (voxels, in-plane; along k scaled by the spacings) of the opening that cuts thin
-  /// bridges between bones touching at a joint before growing; 0 grows in the plain mask.
-  int separationRadiusVoxels = 1;
-  /// Fill the marrow: background not reachable from the volume's border (3D), then per axial
-  /// slice background not reachable from the slice's border.
-  bool fillHoles = true;
-  /// Smallest acceptable mask, mm^3 (a seed on a speck of bone is refused).
+  /// Radius (mm) of the erosion that cuts the bridges partial volume leaves between bones
+  /// touching at a joint: the bones are the components of the eroded (marrow-filled) mask; a
+  /// bone voxel within the radius plus 1.5 voxels of another component, and nearer to it than to
+  /// the seed's, belongs to that other bone; the seed's bone is the rest connected to the seed.
+  /// 0 grows in the plain mask.
+  double separationRadiusMm = 2.4;
+  /// Marrow and other enclosed background: filled in 3D (not connected to the volume's border)
+  /// and per axial slice when the enclosed area is at most this (mm^2; a femoral canal is a few
+  /// hundred, a pelvic ring's cavity thousands). 0 fills no per-slice holes.
+  double maxSliceHoleMm2 = 2000.0;
+  /// Smallest acceptable bone, mm^3 (a seed on a speck of bone is refused).
   double minVolumeMm3 = 500.0;
   /// Called with a fraction done and a short stage name.
   std::function<void(double, const std::string&)> progress;
@@ -61,17 +65,19 @@ struct GrowOptions {
 struct GrowResult {
   VoxelMask mask;        ///< the grown bone, marrow filled
   VoxelMask threshold;   ///< every bone voxel of the image (the hysteresis threshold)
+  /// Bone voxels that belong to the other bones (nearer another component of the eroded mask):
+  /// boneSurface's `exclude`.
+  VoxelMask others;
   Eigen::Vector3i seedVoxel = Eigen::Vector3i::Zero();
   double volumeMm3 = 0.0;
   int seedHu = 0;
 };
 
 /// Grows the bone that contains `seedLps` (CT patient coordinates, mm) in a uniform `image` (one
-/// group: see extractGroup). The seed may be on the cortex, in cancellous bone or in the marrow
-/// (then the nearest bone voxel within 15 mm in its axial slice, enclosed by bone, is used).
+/// group: see extractGroup). The seed may be on the cortex, in cancellous bone or in the marrow.
 /// Throws std::invalid_argument with a sentence for the user: the image is not uniform, the seed
-/// lies outside the volume, the seed is not in bone (its HU and the nearest bone), or the grown
-/// bone is smaller than minVolumeMm3.
+/// lies outside the volume, the seed is not in bone (its HU), the seed lies on a joint's bridge
+/// that went to another bone, or the grown bone is smaller than minVolumeMm3.
 GrowResult growBone(const CtImage& image, const Eigen::Vector3d& seedLps,
                     const GrowOptions& options = {});
 
@@ -82,9 +88,10 @@ VoxelMask unite(const VoxelMask& a, const VoxelMask& b);
 VoxelMask dilate(const VoxelMask& mask, double radiusMm);
 VoxelMask erode(const VoxelMask& mask, double radiusMm);
 
-/// Fills enclosed background: 3D (background not 6-connected to the border) and, when
-/// `perSlice`, per axial slice (background not 4-connected to the slice's border).
-void fillHoles(VoxelMask& mask, bool perSlice = true);
+/// Fills enclosed background: 3D (background not 6-connected to the border) and per axial slice
+/// the background regions not 4-connected to the slice's border whose area is at most
+/// `maxSliceHoleMm2` (0: none; infinity: all).
+void fillHoles(VoxelMask& mask, double maxSliceHoleMm2 = 2000.0);
 
 /// The bone voxels of `threshold` that do not belong to the bone around `region`: those not
 /// 26-connected to threshold-and-region through threshold voxels within `bandMm` of the region.

@@ -11,6 +11,7 @@
 
 #include <Eigen/Core>
 
+#include <limits>
 #include <vector>
 
 namespace echoreg::segmentation {
@@ -24,10 +25,13 @@ int planeAxis(SlicePlane plane);
 std::vector<std::vector<Eigen::Vector3d>> planeSections(const core::TriangleMesh& mesh, SlicePlane plane,
                                                         double positionMm);
 
-/// `count` slice positions evenly over the extent of the mesh along the plane's normal: the
-/// centres of `count` equal bins, so the first and last lie half a bin inside the ends.
-/// Throws std::invalid_argument for count < 1 or an empty mesh.
-std::vector<double> evenSlicePositions(const core::TriangleMesh& mesh, SlicePlane plane, int count);
+/// `count` slice positions evenly over the extent of the mesh along the plane's normal (of its
+/// vertices within zMinMm <= z <= zMaxMm: the scanned part): the centres of `count` equal bins,
+/// so the first and last lie half a bin inside the ends. Throws std::invalid_argument for
+/// count < 1 or a mesh with no vertex in the slab.
+std::vector<double> evenSlicePositions(const core::TriangleMesh& mesh, SlicePlane plane, int count,
+                                       double zMinMm = -std::numeric_limits<double>::infinity(),
+                                       double zMaxMm = std::numeric_limits<double>::infinity());
 
 struct AnchorProposalOptions {
   double spacingMm = 12.0;      ///< about one anchor per this much contour
@@ -35,9 +39,27 @@ struct AnchorProposalOptions {
   double minPerimeterMm = 8.0;  ///< smaller loops (the tip of a condyle) get no anchors
   /// Each anchor moves to the sharpest corner within +-this fraction of the spacing.
   double snapFraction = 0.3;
+  /// Turns sharper than this over +-2 mm of contour are always anchors (a corner, e.g. where the
+  /// bone meets the end of the scan), degrees.
+  double cornerDeg = 50.0;
+  /// The slab of LPS z that was scanned (the CT group): loops are clipped to it, so anchors
+  /// stay inside the volume and the cut along its end runs straight between two corners.
+  double zMinMm = -std::numeric_limits<double>::infinity();
+  double zMaxMm = std::numeric_limits<double>::infinity();
 };
 
-/// Anchors on each loop: evenly by arc length, each moved to the sharpest turn nearby.
+/// The polygon `loop` clipped to zMin <= z <= zMax (Sutherland-Hodgman against both planes).
+std::vector<Eigen::Vector3d> clipLoopZ(const std::vector<Eigen::Vector3d>& loop, double zMinMm, double zMaxMm);
+
+/// Live-wire between two anchors that both lie on the same end of the scanned slab (within tolMm
+/// of zMinMm or zMaxMm) has no edge to follow: replaces that stretch of `contour` (the path of
+/// `anchors`, located by contour.anchorIndices) by the straight cut between the two anchors.
+/// Contours without anchor indices, or with a count that differs from the anchors', are left
+/// alone. Returns the number of stretches replaced.
+int straightenAtScanEnds(SliceContour& contour, const AnchorSet& anchors, double zMinMm, double zMaxMm, double tolMm);
+
+/// Anchors on each loop: every corner sharper than cornerDeg, then evenly by arc length between
+/// them (no gap longer than spacingMm), each moved to the sharpest turn nearby.
 std::vector<Eigen::Vector3d> proposeLoopAnchors(const std::vector<Eigen::Vector3d>& loop,
                                                 const AnchorProposalOptions& options = {});
 
