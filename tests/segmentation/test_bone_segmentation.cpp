@@ -197,3 +197,41 @@ TEST(BoneSegmentation, FromAnchorsMatchesTheTruth) {
 }
 
 }  // namespace
+
+namespace {
+
+TEST(BoneSegmentation, TibiaWithFibulaAsOneModel) {
+  using namespace echoreg;
+  const auto& sim = test::simulatedKnee();
+  const auto& tibia = sim.knee.bone(simulation::BoneId::Tibia);
+  const auto& fibula = sim.knee.bone(simulation::BoneId::Fibula);
+  const double z = sim.kneeZMinMm + 15.0;
+  const auto a = segmentation::growBone(sim.ct, insidePoint(tibia, z));
+  const auto b = segmentation::growBone(sim.ct, insidePoint(fibula, z));
+  const auto both = segmentation::unite(a.mask, b.mask);
+  auto others = segmentation::unite(a.others, b.others);
+  for (std::size_t i = 0; i < others.voxels.size(); ++i) others.voxels[i] &= static_cast<std::uint8_t>(!both.voxels[i]);
+  const auto surface = segmentation::boneSurface(sim.ct, both, &others);
+  EXPECT_TRUE(core::checkMesh(surface.mesh).closed());
+  // Where the fibula's head nearly touches the tibia the two may join into one piece.
+  const core::MeshLocator model(surface.mesh);
+  EXPECT_TRUE(model.inside(insidePoint(fibula, z)));
+  EXPECT_TRUE(model.inside(insidePoint(tibia, z)));
+  core::TriangleMesh truth = tibia.mesh;
+  const int offset = static_cast<int>(truth.vertices.size());
+  truth.vertices.insert(truth.vertices.end(), fibula.mesh.vertices.begin(), fibula.mesh.vertices.end());
+  for (const auto& t : fibula.mesh.triangles) truth.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  segmentation::SurfaceComparisonOptions co;
+  co.zMinMm = sim.kneeZMinMm + 2.0;
+  co.zMaxMm = sim.kneeZMaxMm - 2.0;
+  const auto c = segmentation::compareSurfaces(surface.mesh, truth, co);
+  std::cout << "[ measured ] tibia+fibula auto: MSD " << c.meanMm << " p95 " << c.p95Mm << " Dice " << c.dice << "\n";
+  EXPECT_LE(c.meanMm, 0.5);
+  EXPECT_LE(c.p95Mm, 1.5);
+  EXPECT_GE(c.dice, 0.97);
+  // The fibula alone is a small part of the volume: it must be there (the model is not the tibia).
+  const auto tibiaOnly = segmentation::compareSurfaces(surface.mesh, tibia.mesh, co);
+  EXPECT_GT(tibiaOnly.meanEstimateToTruthMm, 1.0);
+}
+
+}  // namespace
