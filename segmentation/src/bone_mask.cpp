@@ -184,13 +184,17 @@ CtImage extractGroup(const CtImage& image, std::size_t group) {
 }
 
 int groupContaining(const CtImage& image, const Eigen::Vector3d& pointLps) {
-  if (image.voxelCount() == 0) return -1;
-  const Eigen::Vector3d v = image.lpsToVoxel(pointLps);
-  if (v.x() < -0.5 || v.y() < -0.5 || v.x() > image.dimensions[0] - 0.5 || v.y() > image.dimensions[1] - 0.5) return -1;
+  if (image.voxelCount() == 0 || image.slicePositionsMm.empty()) return -1;
+  const Eigen::Vector3d local = image.direction.transpose() * (pointLps - image.originMm);
+  const double i = local.x() / image.pixelSpacingMm.x(), j = local.y() / image.pixelSpacingMm.y();
+  if (i < -0.5 || j < -0.5 || i > image.dimensions[0] - 0.5 || j > image.dimensions[1] - 0.5) return -1;
+  // Along k in mm: within half the group's own spacing of its end slices (0.5 mm for one slice).
   for (std::size_t g = 0; g < image.groups.size(); ++g) {
     const CtSliceGroup& gr = image.groups[g];
-    const double half = gr.count > 1 ? 0.5 : 0.5;  // half a slice beyond the end slices
-    if (v.z() >= gr.firstSlice - half && v.z() <= gr.firstSlice + gr.count - 1 + half) return static_cast<int>(g);
+    const double first = image.slicePositionsMm[sz(gr.firstSlice)];
+    const double last = image.slicePositionsMm[sz(gr.firstSlice + gr.count - 1)];
+    const double half = gr.count > 1 ? 0.5 * gr.spacingMm : 0.5;
+    if (local.z() >= first - half && local.z() <= last + half) return static_cast<int>(g);
   }
   return -1;
 }

@@ -279,6 +279,13 @@ TEST(Contours, InterpolatedMaskOfACylinder) {
   EXPECT_FALSE(mask.at(20, 20, 1));  // z = -16.5: beyond the cylinder's end
   EXPECT_FALSE(mask.at(2, 20, 18));  // x = -14.4
   EXPECT_THROW(segmentation::contoursToMask({}, grid), std::invalid_argument);
+  // Contours beside the grid enclose none of its voxels: an empty mask (which the surface step
+  // refuses).
+  std::vector<segmentation::SliceContour> away = contours;
+  for (auto& c : away) {
+    for (auto& p : c.pointsLps) p.y() += 100.0;
+  }
+  EXPECT_EQ(segmentation::contoursToMask(away, grid).count(), 0u);
   contours[1].plane = segmentation::SlicePlane::Axial;
   EXPECT_THROW(segmentation::contoursToMask(contours, grid), std::invalid_argument);
 }

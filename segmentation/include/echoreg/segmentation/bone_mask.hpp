@@ -31,8 +31,8 @@ VoxelMask emptyMask(const CtImage& image);
 /// std::invalid_argument for a group index out of range.
 CtImage extractGroup(const CtImage& image, std::size_t group);
 
-/// Index of the group whose slices span `pointLps` along k (the nearest group when the point lies
-/// in a gap is NOT returned: -1 then, and for points outside the volume in-plane or along k).
+/// Index of the group whose slices span `pointLps` along k (to half the group's spacing beyond its
+/// end slices); -1 for a point in a gap between groups or outside the volume.
 int groupContaining(const CtImage& image, const Eigen::Vector3d& pointLps);
 
 struct BoneThreshold {
