@@ -63,16 +63,17 @@ void edt1d(std::vector<double>& f, std::size_t n, double step, std::vector<doubl
   for (std::size_t i = 0; i < n; ++i) f[i] = d[i];
 }
 
-// Squared distance (mm^2) from every voxel to the nearest voxel where `on(value)` holds.
-std::vector<double> squaredDistance(const VoxelMask& mask, bool toForeground) {
+// Squared distance (mm^2) from every voxel to the nearest foreground (toForeground) or background
+// voxel; float storage (half the memory of a real CT's volume in doubles), double arithmetic.
+std::vector<float> squaredDistance(const VoxelMask& mask, bool toForeground) {
   const auto& g = mask.geometry;
   const int nx = g.dimensions[0], ny = g.dimensions[1], nz = g.dimensions[2];
   const Eigen::Vector3d s = g.uniform() ? g.spacingMm() : Eigen::Vector3d(g.pixelSpacingMm.x(), g.pixelSpacingMm.y(), 1.0);
-  const double inf = std::numeric_limits<double>::infinity();
-  std::vector<double> dist(mask.voxels.size());
+  const float inf = std::numeric_limits<float>::infinity();
+  std::vector<float> dist(mask.voxels.size());
   for (std::size_t i = 0; i < dist.size(); ++i) {
     const bool fg = mask.voxels[i] != 0;
-    dist[i] = (fg == toForeground) ? 0.0 : inf;
+    dist[i] = (fg == toForeground) ? 0.0f : inf;
   }
   std::vector<double> line, d, z;
   std::vector<int> v;
@@ -83,7 +84,7 @@ std::vector<double> squaredDistance(const VoxelMask& mask, bool toForeground) {
       const std::size_t base = g.index(0, j, k);
       for (int i = 0; i < nx; ++i) line[sz(i)] = dist[base + sz(i)];
       edt1d(line, sz(nx), s.x(), d, v, z);
-      for (int i = 0; i < nx; ++i) dist[base + sz(i)] = line[sz(i)];
+      for (int i = 0; i < nx; ++i) dist[base + sz(i)] = static_cast<float>(line[sz(i)]);
     }
   }
   line.resize(sz(ny));
@@ -91,7 +92,7 @@ std::vector<double> squaredDistance(const VoxelMask& mask, bool toForeground) {
     for (int i = 0; i < nx; ++i) {
       for (int j = 0; j < ny; ++j) line[sz(j)] = dist[g.index(i, j, k)];
       edt1d(line, sz(ny), s.y(), d, v, z);
-      for (int j = 0; j < ny; ++j) dist[g.index(i, j, k)] = line[sz(j)];
+      for (int j = 0; j < ny; ++j) dist[g.index(i, j, k)] = static_cast<float>(line[sz(j)]);
     }
   }
   line.resize(sz(nz));
@@ -99,7 +100,7 @@ std::vector<double> squaredDistance(const VoxelMask& mask, bool toForeground) {
     for (int i = 0; i < nx; ++i) {
       for (int k = 0; k < nz; ++k) line[sz(k)] = dist[g.index(i, j, k)];
       edt1d(line, sz(nz), s.z(), d, v, z);
-      for (int k = 0; k < nz; ++k) dist[g.index(i, j, k)] = line[sz(k)];
+      for (int k = 0; k < nz; ++k) dist[g.index(i, j, k)] = static_cast<float>(line[sz(k)]);
     }
   }
   return dist;
@@ -226,18 +227,18 @@ VoxelMask unite(const VoxelMask& a, const VoxelMask& b) {
 
 VoxelMask dilate(const VoxelMask& mask, double radiusMm) {
   if (radiusMm <= 0.0) return mask;
-  const std::vector<double> d = squaredDistance(mask, true);
+  const std::vector<float> d = squaredDistance(mask, true);
   VoxelMask out = mask;
-  const double r2 = radiusMm * radiusMm + 1e-9;
+  const double r2 = radiusMm * radiusMm * (1.0 + 1e-6);  // float distances: exact radii count
   for (std::size_t i = 0; i < d.size(); ++i) out.voxels[i] = d[i] <= r2 ? 1 : 0;
   return out;
 }
 
 VoxelMask erode(const VoxelMask& mask, double radiusMm) {
   if (radiusMm <= 0.0) return mask;
-  const std::vector<double> d = squaredDistance(mask, false);
+  const std::vector<float> d = squaredDistance(mask, false);
   VoxelMask out = mask;
-  const double r2 = radiusMm * radiusMm + 1e-9;
+  const double r2 = radiusMm * radiusMm * (1.0 + 1e-6);  // float distances: exact radii count
   for (std::size_t i = 0; i < d.size(); ++i) out.voxels[i] = d[i] > r2 ? 1 : 0;
   return out;
 }
@@ -394,8 +395,8 @@ GrowResult growBone(const CtImage& image, const Eigen::Vector3d& seedLps, const 
       VoxelMask rest = core;
       for (std::size_t i = 0; i < rest.voxels.size(); ++i) rest.voxels[i] = core.voxels[i] && !own.voxels[i] ? 1 : 0;
       report(options, 0.6, "separate");
-      const std::vector<double> dOwn = squaredDistance(own, true);
-      const std::vector<double> dRest = squaredDistance(rest, true);
+      const std::vector<float> dOwn = squaredDistance(own, true);
+      const std::vector<float> dRest = squaredDistance(rest, true);
       const double reach2 = reach * reach;
       grown = solid;
       result.others = solid;

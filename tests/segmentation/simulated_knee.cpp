@@ -4,8 +4,13 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
 #include <iostream>
 #include <memory>
+#include <unistd.h>
 
 namespace echoreg::test {
 
@@ -32,6 +37,85 @@ segmentation::CtImage toCtImage(const simulation::CtVolume& volume) {
   return image;
 }
 
+namespace {
+
+// The CT takes seconds to synthesise; ctest runs each test in its own process, so the volume is
+// cached in the tests' temporary folder, keyed by a checksum of the bone meshes it was made from
+// (a changed knee makes a new volume). Written under a temporary name and renamed.
+std::uint64_t checksum(const simulation::Knee& knee) {
+  std::uint64_t h = 1469598103934665603ULL;
+  auto mix = [&](double v) {
+    const auto q = static_cast<std::int64_t>(std::llround(v * 1e6));
+    h = (h ^ static_cast<std::uint64_t>(q)) * 1099511628211ULL;
+  };
+  for (const auto& bone : knee.bones) {
+    for (const auto& v : bone.mesh.vertices) {
+      mix(v.x());
+      mix(v.y());
+      mix(v.z());
+    }
+  }
+  return h;
+}
+
+std::string cachePath(std::uint64_t key) {
+  const char* base = std::getenv("ECHOREG_TEST_TMP");
+  const std::filesystem::path dir =
+      base ? std::filesystem::path(base) : std::filesystem::temp_directory_path() / "echoreg-tests";
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  return (dir / ("simulated-knee-ct-v1-" + std::to_string(key) + ".bin")).string();
+}
+
+template <class T>
+void put(std::ostream& o, const T& v) {
+  o.write(reinterpret_cast<const char*>(&v), sizeof v);
+}
+template <class T>
+bool get(std::istream& in, T& v) {
+  return static_cast<bool>(in.read(reinterpret_cast<char*>(&v), sizeof v));
+}
+
+bool loadCache(const std::string& path, SimulatedKnee& s) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) return false;
+  segmentation::CtImage& ct = s.ct;
+  std::uint64_t slices = 0;
+  if (!get(in, ct.dimensions) || !get(in, ct.originMm) || !get(in, ct.pixelSpacingMm) || !get(in, s.kneeZMinMm) ||
+      !get(in, s.kneeZMaxMm) || !get(in, slices) || slices != static_cast<std::uint64_t>(ct.dimensions[2])) {
+    return false;
+  }
+  ct.slicePositionsMm.resize(slices);
+  for (double& z : ct.slicePositionsMm) get(in, z);
+  ct.hu.resize(ct.voxelCount());
+  in.read(reinterpret_cast<char*>(ct.hu.data()), static_cast<std::streamsize>(ct.hu.size() * sizeof(std::int16_t)));
+  if (!in) return false;
+  ct.groups = {{0, ct.dimensions[2], ct.slicePositionsMm.size() > 1 ? ct.slicePositionsMm[1] : 0.0}};
+  ct.seriesInstanceUid = "simulated";
+  return true;
+}
+
+void saveCache(const std::string& path, const SimulatedKnee& s) {
+  const std::string temporary = path + ".tmp-" + std::to_string(::getpid());
+  {
+    std::ofstream o(temporary, std::ios::binary);
+    put(o, s.ct.dimensions);
+    put(o, s.ct.originMm);
+    put(o, s.ct.pixelSpacingMm);
+    put(o, s.kneeZMinMm);
+    put(o, s.kneeZMaxMm);
+    put(o, static_cast<std::uint64_t>(s.ct.slicePositionsMm.size()));
+    for (double z : s.ct.slicePositionsMm) put(o, z);
+    o.write(reinterpret_cast<const char*>(s.ct.hu.data()),
+            static_cast<std::streamsize>(s.ct.hu.size() * sizeof(std::int16_t)));
+  }
+  std::error_code ec;
+  std::filesystem::rename(temporary, path, ec);
+  if (ec) std::filesystem::remove(temporary, ec);
+}
+
+}  // namespace
+
 const SimulatedKnee& simulatedKnee() {
   static const std::unique_ptr<SimulatedKnee> shared = [] {
     const auto start = std::chrono::steady_clock::now();
@@ -41,6 +125,12 @@ const SimulatedKnee& simulatedKnee() {
     options.meshResolutionMm = 1.2;
     s->knee = simulation::buildKnee(options);
     const double tKnee = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const std::string cache = cachePath(checksum(s->knee));
+    if (loadCache(cache, *s)) {
+      std::cout << "[ fixture  ] simulated knee CT " << s->ct.dimensions[0] << " x " << s->ct.dimensions[1] << " x "
+                << s->ct.dimensions[2] << " from " << cache << " (bones " << tKnee << " s)\n";
+      return s;
+    }
     simulation::SoftTissueOptions tissue;
     tissue.seed = 3;
     const simulation::Specimen specimen(s->knee, simulation::SpecimenKind::Cadaver, tissue);
@@ -61,6 +151,7 @@ const SimulatedKnee& simulatedKnee() {
     s->ct = toCtImage(volume);
     s->kneeZMinMm = volume.sliceZMm.front();
     s->kneeZMaxMm = volume.sliceZMm.back();
+    saveCache(cache, *s);
     std::cout << "[ fixture  ] simulated knee CT " << volume.columns << " x " << volume.rows << " x "
               << volume.slices() << " in "
               << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() << " s (bones "

@@ -1,7 +1,8 @@
 // A simulated knee CT in memory for the segmentation tests: the procedural knee of the simulator
 // (seed 3, 1.2 mm bone meshes as in a small study) in a cadaver leg, imaged with the small
 // protocol's pixels and knee group only (144 x 144 pixels of 0.8 mm centred on the knee, 1 mm
-// slices over +-32 mm). Built once per test program (a few seconds) and shared.
+// slices over +-32 mm). Built once per test program and shared; the CT (seconds to synthesise)
+// is cached in the tests' temporary folder under a checksum of the bones.
 #pragma once
 
 #include "echoreg/segmentation/ct_image.hpp"
