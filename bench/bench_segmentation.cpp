@@ -23,7 +23,9 @@ namespace {
 
 using namespace echoreg;
 
-const simulation::Bone& femur() { return test::simulatedKnee().knee.bone(simulation::BoneId::Femur); }
+const simulation::Bone& femur() {
+  return test::simulatedKnee().knee.bone(simulation::BoneId::Femur);
+}
 
 // The femur's seed: 15 mm below the group's top, the inside point nearest its section's centroid.
 Eigen::Vector3d femurSeed() {
@@ -44,7 +46,8 @@ Eigen::Vector3d femurSeed() {
     const Eigen::Vector3d c = sum / static_cast<double>(inside.size());
     Eigen::Vector3d best = inside.front();
     for (const auto& p : inside) {
-      if ((p - c).norm() < (best - c).norm()) best = p;
+      if ((p - c).norm() < (best - c).norm())
+        best = p;
     }
     return best;
   }();
@@ -52,7 +55,8 @@ Eigen::Vector3d femurSeed() {
 }
 
 const segmentation::GrowResult& grownFemur() {
-  static const segmentation::GrowResult g = segmentation::growBone(test::simulatedKnee().ct, femurSeed());
+  static const segmentation::GrowResult g =
+      segmentation::growBone(test::simulatedKnee().ct, femurSeed());
   return g;
 }
 
@@ -66,7 +70,8 @@ std::vector<segmentation::AnchorSet> userAnchors() {
 
 void BM_GrowFemur(benchmark::State& state) {
   const auto& ct = test::simulatedKnee().ct;
-  for (auto _ : state) benchmark::DoNotOptimize(segmentation::growBone(ct, femurSeed()));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(segmentation::growBone(ct, femurSeed()));
   state.counters["voxels"] = static_cast<double>(ct.voxelCount());
 }
 BENCHMARK(BM_GrowFemur)->Unit(benchmark::kMillisecond);
@@ -85,7 +90,8 @@ BENCHMARK(BM_FemurSurface)->Unit(benchmark::kMillisecond);
 void BM_LiveWire40Contours(benchmark::State& state) {
   const auto sets = userAnchors();
   for (auto _ : state) {
-    for (const auto& s : sets) benchmark::DoNotOptimize(segmentation::liveWireContour(test::simulatedKnee().ct, s));
+    for (const auto& s : sets)
+      benchmark::DoNotOptimize(segmentation::liveWireContour(test::simulatedKnee().ct, s));
   }
   state.counters["contours"] = static_cast<double>(sets.size());
 }
@@ -93,8 +99,10 @@ BENCHMARK(BM_LiveWire40Contours)->Unit(benchmark::kMillisecond);
 
 void BM_ContoursToMask(benchmark::State& state) {
   std::vector<segmentation::SliceContour> contours;
-  for (const auto& s : userAnchors()) contours.push_back(segmentation::liveWireContour(test::simulatedKnee().ct, s));
-  for (auto _ : state) benchmark::DoNotOptimize(segmentation::contoursToMask(contours, test::simulatedKnee().ct));
+  for (const auto& s : userAnchors())
+    contours.push_back(segmentation::liveWireContour(test::simulatedKnee().ct, s));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(segmentation::contoursToMask(contours, test::simulatedKnee().ct));
 }
 BENCHMARK(BM_ContoursToMask)->Unit(benchmark::kMillisecond);
 
@@ -104,12 +112,14 @@ void BM_CompareSurfaces(benchmark::State& state) {
   segmentation::SurfaceComparisonOptions o;
   o.zMinMm = test::simulatedKnee().kneeZMinMm + 2.0;
   o.zMaxMm = test::simulatedKnee().kneeZMaxMm - 2.0;
-  for (auto _ : state) benchmark::DoNotOptimize(segmentation::compareSurfaces(s.mesh, femur().mesh, o));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(segmentation::compareSurfaces(s.mesh, femur().mesh, o));
 }
 BENCHMARK(BM_CompareSurfaces)->Unit(benchmark::kMillisecond);
 
 void BM_RealCtReadAndGrowPelvis(benchmark::State& state) {
-  const std::string folder = test::sharedDataDir().empty() ? "" : test::sharedDataDir() + "/ct-abdomen";
+  const std::string folder =
+      test::sharedDataDir().empty() ? "" : test::sharedDataDir() + "/ct-abdomen";
   if (folder.empty() || test::sharedDataFile("ct-abdomen/1-001.dcm").empty()) {
     state.SkipWithError("../shared/data/ct-abdomen is absent");
     return;

@@ -50,31 +50,38 @@ struct SegmentOptions {
   double maxAngleDeg = 60.0;
 };
 
-nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+nlohmann::json vec(const Eigen::Vector3d& v) {
+  return {v.x(), v.y(), v.z()};
+}
 
 // The folder an output goes into must exist before the work starts.
 void requireOutputFolder(const std::string& path) {
-  if (path.empty()) return;
+  if (path.empty())
+    return;
   const std::filesystem::path parent = std::filesystem::absolute(path).parent_path();
   if (!std::filesystem::is_directory(parent)) {
     throw FileError(path, "the output folder " + parent.string() + " does not exist");
   }
-  if (std::filesystem::is_directory(path)) throw FileError(path, "is a folder, not a file");
+  if (std::filesystem::is_directory(path))
+    throw FileError(path, "is a folder, not a file");
 }
 
 class Progress {
  public:
   explicit Progress(const Streams& io) : io_(io) {}
   void operator()(const std::string& stage, double fraction) {
-    if (!io_.errIsTerminal) return;
+    if (!io_.errIsTerminal)
+      return;
     const int percent = static_cast<int>(std::clamp(fraction, 0.0, 1.0) * 100.0);
-    if (stage == stage_ && percent == percent_) return;
+    if (stage == stage_ && percent == percent_)
+      return;
     stage_ = stage;
     percent_ = percent;
     io_.err << fmt::format("\rsegment: {:<28} {:3d}%", stage, percent) << std::flush;
   }
   void done() {
-    if (io_.errIsTerminal && !stage_.empty()) io_.err << "\r" << std::string(45, ' ') << "\r" << std::flush;
+    if (io_.errIsTerminal && !stage_.empty())
+      io_.err << "\r" << std::string(45, ' ') << "\r" << std::flush;
   }
 
  private:
@@ -92,7 +99,8 @@ int majorityGroup(const seg::CtImage& ct, const std::vector<Eigen::Vector3d>& po
   std::map<int, int> votes;
   for (const auto& p : points) {
     const int g = seg::groupContaining(ct, p);
-    if (g >= 0) ++votes[g];
+    if (g >= 0)
+      ++votes[g];
   }
   int best = -1, most = 0;
   for (const auto& [g, n] : votes) {
@@ -107,20 +115,26 @@ int majorityGroup(const seg::CtImage& ct, const std::vector<Eigen::Vector3d>& po
 // Wrong usage (exit 2), checked while parsing.
 void checkUsage(const SegmentOptions& o) {
   if (o.automatic == !o.anchors.empty()) {
-    throw CLI::ValidationError("--anchors / --auto", "give exactly one of --anchors FILE and --auto --seed X Y Z");
+    throw CLI::ValidationError("--anchors / --auto",
+                               "give exactly one of --anchors FILE and --auto --seed X Y Z");
   }
   if (o.automatic && (o.seeds.empty() || o.seeds.size() % 3 != 0)) {
     throw CLI::ValidationError("--seed", "--auto needs --seed X Y Z (once per bone)");
   }
-  if (!o.automatic && !o.seeds.empty()) throw CLI::ValidationError("--seed", "--seed goes with --auto");
+  if (!o.automatic && !o.seeds.empty())
+    throw CLI::ValidationError("--seed", "--seed goes with --auto");
   const bool tibiaFibula = o.withFibula || o.bone == "tibia+fibula";
   if (o.automatic && tibiaFibula && o.seeds.size() < 6) {
-    throw CLI::ValidationError("--seed", "--bone tibia+fibula with --auto needs two seeds: --seed (tibia) --seed (fibula)");
+    throw CLI::ValidationError(
+        "--seed",
+        "--bone tibia+fibula with --auto needs two seeds: --seed (tibia) --seed (fibula)");
   }
   if ((!o.keepRegions.empty() || !o.viewDirections.empty()) && o.accessibleOut.empty()) {
-    throw CLI::ValidationError("--accessible-out", "--keep-regions / --view-direction need --accessible-out FILE.vtp");
+    throw CLI::ValidationError("--accessible-out",
+                               "--keep-regions / --view-direction need --accessible-out FILE.vtp");
   }
-  if (o.viewDirections.size() % 3 != 0) throw CLI::ValidationError("--view-direction", "takes X Y Z");
+  if (o.viewDirections.size() % 3 != 0)
+    throw CLI::ValidationError("--view-direction", "takes X Y Z");
 }
 
 int runSegment(const SegmentOptions& o, const Streams& io) {
@@ -132,17 +146,21 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     grow.threshold.strongHu = o.thresholdHu[0];
     grow.threshold.weakHu = o.thresholdHu[1];
     if (grow.threshold.weakHu > grow.threshold.strongHu) {
-      throw std::invalid_argument(fmt::format("--threshold-hu STRONG WEAK needs WEAK <= STRONG, got {} {}",
-                                              o.thresholdHu[0], o.thresholdHu[1]));
+      throw std::invalid_argument(
+          fmt::format("--threshold-hu STRONG WEAK needs WEAK <= STRONG, got {} {}",
+                      o.thresholdHu[0], o.thresholdHu[1]));
     }
   }
   grow.separationRadiusMm = o.separationMm;
   const seg::SlicePlane plane = seg::parseSlicePlane(o.plane);
-  for (const std::string& path : {o.out, o.mask, o.anchorsOut, o.accessibleOut}) requireOutputFolder(path);
+  for (const std::string& path : {o.out, o.mask, o.anchorsOut, o.accessibleOut})
+    requireOutputFolder(path);
   std::vector<seg::AnchorSet> anchorSets;
-  if (!o.anchors.empty()) anchorSets = seg::readAnchors(o.anchors);  // bad files fail before the CT is read
+  if (!o.anchors.empty())
+    anchorSets = seg::readAnchors(o.anchors);  // bad files fail before the CT is read
   std::vector<seg::SurfaceRegion> regions;
-  if (!o.keepRegions.empty()) regions = seg::readSurfaceRegions(o.keepRegions, o.regionRadiusMm);
+  if (!o.keepRegions.empty())
+    regions = seg::readSurfaceRegions(o.keepRegions, o.regionRadiusMm);
 
   Progress progress(io);
   nlohmann::json timings = nlohmann::json::object();
@@ -152,46 +170,56 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   auto t0 = std::chrono::steady_clock::now();
   seg::DicomReadOptions read;
   read.seriesUid = o.series;
-  read.progress = [&](int done, int total) { progress("reading the CT", static_cast<double>(done) / total); };
+  read.progress = [&](int done, int total) {
+    progress("reading the CT", static_cast<double>(done) / total);
+  };
   const seg::DicomSeriesRead series = seg::readDicomSeriesWithWarnings(o.dicom, read);
-  for (const std::string& w : series.warnings) warnings.push_back(w);
+  for (const std::string& w : series.warnings)
+    warnings.push_back(w);
   const seg::CtImage& ct = series.image;
   timings["read_s"] = secondsSince(t0);
 
   // 2. The protocol group to segment in.
   std::vector<Eigen::Vector3d> seeds;
-  for (std::size_t i = 0; i + 2 < o.seeds.size(); i += 3) seeds.emplace_back(o.seeds[i], o.seeds[i + 1], o.seeds[i + 2]);
+  for (std::size_t i = 0; i + 2 < o.seeds.size(); i += 3)
+    seeds.emplace_back(o.seeds[i], o.seeds[i + 1], o.seeds[i + 2]);
   int group = 0;
   if (o.automatic) {
     group = seg::groupContaining(ct, seeds.front());
     if (group < 0) {
-      throw FileError(o.dicom, fmt::format("the seed ({:.1f}, {:.1f}, {:.1f}) mm lies outside the CT's slices "
-                                           "(or in a gap between its slice groups)",
-                                           seeds.front().x(), seeds.front().y(), seeds.front().z()));
+      throw FileError(
+          o.dicom, fmt::format("the seed ({:.1f}, {:.1f}, {:.1f}) mm lies outside the CT's slices "
+                               "(or in a gap between its slice groups)",
+                               seeds.front().x(), seeds.front().y(), seeds.front().z()));
     }
     for (const auto& s : seeds) {
       if (seg::groupContaining(ct, s) != group) {
-        throw FileError(o.dicom, fmt::format("the seeds lie in different slice groups of the CT (seed ({:.1f}, "
-                                             "{:.1f}, {:.1f}) mm); give seeds in one group",
-                                             s.x(), s.y(), s.z()));
+        throw FileError(
+            o.dicom, fmt::format("the seeds lie in different slice groups of the CT (seed ({:.1f}, "
+                                 "{:.1f}, {:.1f}) mm); give seeds in one group",
+                                 s.x(), s.y(), s.z()));
       }
     }
   } else {
     std::vector<Eigen::Vector3d> points;
-    for (const auto& set : anchorSets) points.insert(points.end(), set.anchorsLps.begin(), set.anchorsLps.end());
+    for (const auto& set : anchorSets)
+      points.insert(points.end(), set.anchorsLps.begin(), set.anchorsLps.end());
     group = majorityGroup(ct, points);
-    if (group < 0) throw FileError(o.anchors, "no anchor lies within the CT's slices");
+    if (group < 0)
+      throw FileError(o.anchors, "no anchor lies within the CT's slices");
   }
-  const seg::CtImage volume = ct.uniform() ? ct : seg::extractGroup(ct, static_cast<std::size_t>(group));
+  const seg::CtImage volume =
+      ct.uniform() ? ct : seg::extractGroup(ct, static_cast<std::size_t>(group));
   const seg::CtSliceGroup& used = ct.groups[static_cast<std::size_t>(group)];
   const double zFirst = ct.voxelToLps(Eigen::Vector3d(0, 0, used.firstSlice)).z();
   const double zLast = ct.voxelToLps(Eigen::Vector3d(0, 0, used.firstSlice + used.count - 1)).z();
   const double zLow = std::min(zFirst, zLast), zHigh = std::max(zFirst, zLast);
   if (!ct.uniform()) {
-    warnings.push_back(fmt::format("the CT has {} slice groups; segmented in group {} ({} slices at {:.2f} mm, "
-                                   "z {:.1f} to {:.1f} mm): the model is closed at that group's ends",
-                                   ct.groups.size(), group, used.count, used.spacingMm, std::min(zFirst, zLast),
-                                   std::max(zFirst, zLast)));
+    warnings.push_back(
+        fmt::format("the CT has {} slice groups; segmented in group {} ({} slices at {:.2f} mm, "
+                    "z {:.1f} to {:.1f} mm): the model is closed at that group's ends",
+                    ct.groups.size(), group, used.count, used.spacingMm, std::min(zFirst, zLast),
+                    std::max(zFirst, zLast)));
   }
 
   // 3. The region: grown from the seeds, or enclosed by the live-wire contours.
@@ -211,14 +239,14 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
       } catch (const std::invalid_argument& e) {
         throw FileError(o.dicom, e.what());
       }
-      seedsJson.push_back({{"seed_mm", vec(seeds[s])},
-                           {"seed_hu", grown.seedHu},
-                           {"volume_mm3", grown.volumeMm3}});
+      seedsJson.push_back(
+          {{"seed_mm", vec(seeds[s])}, {"seed_hu", grown.seedHu}, {"volume_mm3", grown.volumeMm3}});
       region = s == 0 ? grown.mask : seg::unite(region, grown.mask);
       others = s == 0 ? grown.others : seg::unite(others, grown.others);
     }
     exclude = others;  // the other bones, but not the bones asked for
-    for (std::size_t i = 0; i < exclude.voxels.size(); ++i) exclude.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
+    for (std::size_t i = 0; i < exclude.voxels.size(); ++i)
+      exclude.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
     modeJson = {{"mode", "auto"}, {"seeds", seedsJson}};
   } else {
     std::vector<seg::SliceContour> contours;
@@ -227,14 +255,16 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     const double endTolerance = 0.5 * volume.spacingMm().z() + 0.01;
     int straightened = 0;
     for (std::size_t c = 0; c < anchorSets.size(); ++c) {
-      progress("live-wire contours", static_cast<double>(c) / static_cast<double>(anchorSets.size()));
+      progress("live-wire contours",
+               static_cast<double>(c) / static_cast<double>(anchorSets.size()));
       try {
         contours.push_back(seg::liveWireContour(volume, anchorSets[c]));
       } catch (const std::invalid_argument& e) {
         throw FileError(o.anchors, e.what());
       }
       if (anchorSets[c].plane != seg::SlicePlane::Axial) {
-        straightened += seg::straightenAtScanEnds(contours.back(), anchorSets[c], zLow, zHigh, endTolerance);
+        straightened +=
+            seg::straightenAtScanEnds(contours.back(), anchorSets[c], zLow, zHigh, endTolerance);
       }
       contoursJson.push_back({{"label", anchorSets[c].label},
                               {"plane", seg::slicePlaneName(anchorSets[c].plane)},
@@ -249,9 +279,12 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     } catch (const std::invalid_argument& e) {
       throw FileError(o.anchors, e.what());
     }
-    if (region.count() == 0) throw FileError(o.anchors, "the contours enclose no voxel of the CT");
+    if (region.count() == 0)
+      throw FileError(o.anchors, "the contours enclose no voxel of the CT");
     exclude = seg::otherBones(seg::thresholdBone(volume, grow.threshold), region, o.bandMm);
-    modeJson = {{"mode", "anchors"}, {"contours", contoursJson}, {"straight_cuts_at_scan_ends", straightened}};
+    modeJson = {{"mode", "anchors"},
+                {"contours", contoursJson},
+                {"straight_cuts_at_scan_ends", straightened}};
   }
   timings["region_s"] = secondsSince(t0);
 
@@ -271,7 +304,8 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     throw FileError(o.dicom, std::string("no surface: ") + e.what());
   }
   const core::MeshCheck check = core::checkMesh(surface.mesh);
-  if (!check.closed()) throw FileError(o.dicom, "the model is " + check.describe());
+  if (!check.closed())
+    throw FileError(o.dicom, "the model is " + check.describe());
   timings["surface_s"] = secondsSince(t0);
 
   // 5. Anchors proposed on the model, and the accessible surface.
@@ -287,11 +321,13 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     seg::AccessibleSurfaceOptions ao;
     ao.regions = regions;
     for (std::size_t i = 0; i + 2 < o.viewDirections.size(); i += 3) {
-      ao.viewDirections.emplace_back(o.viewDirections[i], o.viewDirections[i + 1], o.viewDirections[i + 2]);
+      ao.viewDirections.emplace_back(o.viewDirections[i], o.viewDirections[i + 1],
+                                     o.viewDirections[i + 2]);
     }
     ao.maxAngleDeg = o.maxAngleDeg;
     try {
-      accessible = std::make_unique<seg::AccessibleSurface>(seg::accessibleSurface(surface.mesh, ao));
+      accessible =
+          std::make_unique<seg::AccessibleSurface>(seg::accessibleSurface(surface.mesh, ao));
     } catch (const std::invalid_argument& e) {
       throw FileError(o.accessibleOut, e.what());
     }
@@ -300,40 +336,56 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   // 6. Outputs (each written atomically; all the work is done before the first).
   progress("writing", 1.0);
   filters::writeMesh(o.out, surface.mesh);
-  if (!o.mask.empty()) seg::writeMaskNrrd(o.mask, region);
-  if (!o.anchorsOut.empty()) seg::writeAnchors(o.anchorsOut, proposed);
-  if (accessible) filters::writeMesh(o.accessibleOut, accessible->mesh);
+  if (!o.mask.empty())
+    seg::writeMaskNrrd(o.mask, region);
+  if (!o.anchorsOut.empty())
+    seg::writeAnchors(o.anchorsOut, proposed);
+  if (accessible)
+    filters::writeMesh(o.accessibleOut, accessible->mesh);
   progress.done();
   timings["total_s"] = secondsSince(start);
 
   const Eigen::Vector3d spacing = volume.spacingMm();
-  nlohmann::json result = {
-      {"bone", boneName},
-      {"out", o.out},
-      {"ct", {{"folder", o.dicom}, {"series_uid", ct.seriesInstanceUid}, {"slices", ct.dimensions[2]}, {"groups", ct.groups.size()}}},
-      {"group", {{"index", group}, {"slices", used.count}, {"spacing_mm", vec(spacing)}, {"z_first_mm", zFirst}, {"z_last_mm", zLast}}},
-      {"mask", {{"voxels", region.count()}, {"volume_mm3", static_cast<double>(region.count()) * spacing.prod()}}},
-      {"surface",
-       {{"refined_with_ct", !o.noRefine},
-        {"iso_hu", surface.isoHu},
-        {"cortex_hu", surface.cortexHu},
-        {"soft_tissue_hu", surface.softTissueHu},
-        {"triangles", check.triangles},
-        {"vertices", check.vertices},
-        {"area_mm2", check.areaMm2},
-        {"volume_mm3", check.volumeMm3},
-        {"closed", check.closed()},
-        {"pieces", surface.components},
-        {"dropped_pieces", surface.droppedComponents},
-        {"decimated", surface.decimated}}},
-      {"timings", timings},
-      {"warnings", warnings}};
+  nlohmann::json result = {{"bone", boneName},
+                           {"out", o.out},
+                           {"ct",
+                            {{"folder", o.dicom},
+                             {"series_uid", ct.seriesInstanceUid},
+                             {"slices", ct.dimensions[2]},
+                             {"groups", ct.groups.size()}}},
+                           {"group",
+                            {{"index", group},
+                             {"slices", used.count},
+                             {"spacing_mm", vec(spacing)},
+                             {"z_first_mm", zFirst},
+                             {"z_last_mm", zLast}}},
+                           {"mask",
+                            {{"voxels", region.count()},
+                             {"volume_mm3", static_cast<double>(region.count()) * spacing.prod()}}},
+                           {"surface",
+                            {{"refined_with_ct", !o.noRefine},
+                             {"iso_hu", surface.isoHu},
+                             {"cortex_hu", surface.cortexHu},
+                             {"soft_tissue_hu", surface.softTissueHu},
+                             {"triangles", check.triangles},
+                             {"vertices", check.vertices},
+                             {"area_mm2", check.areaMm2},
+                             {"volume_mm3", check.volumeMm3},
+                             {"closed", check.closed()},
+                             {"pieces", surface.components},
+                             {"dropped_pieces", surface.droppedComponents},
+                             {"decimated", surface.decimated}}},
+                           {"timings", timings},
+                           {"warnings", warnings}};
   result.update(modeJson);
-  if (!o.mask.empty()) result["mask"]["out"] = o.mask;
+  if (!o.mask.empty())
+    result["mask"]["out"] = o.mask;
   if (!o.anchorsOut.empty()) {
     std::size_t anchors = 0;
-    for (const auto& s : proposed) anchors += s.anchorsLps.size();
-    result["anchors_out"] = {{"file", o.anchorsOut}, {"contours", proposed.size()}, {"anchors", anchors}};
+    for (const auto& s : proposed)
+      anchors += s.anchorsLps.size();
+    result["anchors_out"] = {
+        {"file", o.anchorsOut}, {"contours", proposed.size()}, {"anchors", anchors}};
   }
   if (accessible) {
     result["accessible"] = {{"file", o.accessibleOut},
@@ -344,20 +396,25 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   if (o.json) {
     io.out << result.dump(2) << "\n";
   } else {
-    for (const auto& w : warnings) io.err << "echoreg segment: note: " << w.get<std::string>() << "\n";
+    for (const auto& w : warnings)
+      io.err << "echoreg segment: note: " << w.get<std::string>() << "\n";
     io.out << fmt::format(
-        "{}: {} ({}), {} triangles, {:.0f} mm^3, closed; iso-surface at {:.0f} HU (cortex {:.0f}, soft tissue "
+        "{}: {} ({}), {} triangles, {:.0f} mm^3, closed; iso-surface at {:.0f} HU (cortex {:.0f}, "
+        "soft tissue "
         "{:.0f}); {:.1f} s\n",
-        o.out, boneName, o.automatic ? "from the seed" : fmt::format("from {} live-wire contours", anchorSets.size()),
+        o.out, boneName,
+        o.automatic ? "from the seed"
+                    : fmt::format("from {} live-wire contours", anchorSets.size()),
         check.triangles, check.volumeMm3, surface.isoHu, surface.cortexHu, surface.softTissueHu,
         secondsSince(start));
     if (!o.anchorsOut.empty()) {
-      io.out << fmt::format("{}: {} contours of proposed anchors on {} {} slices\n", o.anchorsOut, proposed.size(),
-                            o.slices, o.plane);
+      io.out << fmt::format("{}: {} contours of proposed anchors on {} {} slices\n", o.anchorsOut,
+                            proposed.size(), o.slices, o.plane);
     }
     if (accessible) {
-      io.out << fmt::format("{}: accessible surface, {:.0f} mm^2 ({:.0f} % of the model)\n", o.accessibleOut,
-                            accessible->areaMm2, 100.0 * accessible->fractionOfArea);
+      io.out << fmt::format("{}: accessible surface, {:.0f} mm^2 ({:.0f} % of the model)\n",
+                            o.accessibleOut, accessible->areaMm2,
+                            100.0 * accessible->fractionOfArea);
     }
   }
   return 0;
@@ -369,23 +426,33 @@ CommandAction addSegmentCommand(CLI::App& app) {
   auto o = std::make_shared<SegmentOptions>();
   CLI::App* cmd = app.add_subcommand(
       "segment",
-      "Segment one bone of a CT series into a closed surface model in CT patient coordinates (LPS,\n"
-      "mm). --anchors: live-wire contours through the anchors of each slice (the dissertation's 40\n"
+      "Segment one bone of a CT series into a closed surface model in CT patient coordinates "
+      "(LPS,\n"
+      "mm). --anchors: live-wire contours through the anchors of each slice (the dissertation's "
+      "40\n"
       "sagittal slices), filled and interpolated between slices; --auto: bone grown from --seed\n"
-      "(hysteresis threshold, bones touching at a joint cut apart by a small opening, marrow filled).\n"
-      "Either region is then refined by the CT itself: the model is the iso-surface half way between\n"
+      "(hysteresis threshold, bones touching at a joint cut apart by a small opening, marrow "
+      "filled).\n"
+      "Either region is then refined by the CT itself: the model is the iso-surface half way "
+      "between\n"
       "cortex and soft tissue inside a band around the region (sub-voxel; --no-refine keeps the\n"
       "region's own smoothed surface). A series of several slice groups (hip 5 mm / knee 1 mm /\n"
-      "ankle 5 mm) is segmented in the group of the seed or of most anchors; the model is closed at\n"
+      "ankle 5 mm) is segmented in the group of the seed or of most anchors; the model is closed "
+      "at\n"
       "the group's ends.");
   cmd->add_option("--dicom", o->dicom, "DICOM series folder")->required();
-  cmd->add_option("--series", o->series, "SeriesInstanceUID to read (default: the CT series with most files)");
-  cmd->add_option("--bone", o->bone, "Name of the bone: femur, tibia, fibula, patella, tibia+fibula, or any name")
+  cmd->add_option("--series", o->series,
+                  "SeriesInstanceUID to read (default: the CT series with most files)");
+  cmd->add_option("--bone", o->bone,
+                  "Name of the bone: femur, tibia, fibula, patella, tibia+fibula, or any name")
       ->required();
-  cmd->add_flag("--with-fibula", o->withFibula, "Model the tibia and the fibula as one (same as --bone tibia+fibula)");
-  cmd->add_option("--anchors", o->anchors, "Anchors: Slicer .mrk.json closed curves, or echoreg anchors JSON");
+  cmd->add_flag("--with-fibula", o->withFibula,
+                "Model the tibia and the fibula as one (same as --bone tibia+fibula)");
+  cmd->add_option("--anchors", o->anchors,
+                  "Anchors: Slicer .mrk.json closed curves, or echoreg anchors JSON");
   cmd->add_flag("--auto", o->automatic, "Grow the bone from --seed instead of live-wire contours");
-  cmd->add_option("--seed", o->seeds, "A point inside the bone X Y Z (LPS mm); repeat for tibia+fibula")
+  cmd->add_option("--seed", o->seeds,
+                  "A point inside the bone X Y Z (LPS mm); repeat for tibia+fibula")
       ->expected(3)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd->add_option("--out", o->out, "Model to write (.vtp or .stl)")->required();
@@ -393,42 +460,52 @@ CommandAction addSegmentCommand(CLI::App& app) {
   cmd->add_option("--plane", o->plane, "Plane of the proposed anchors' slices")
       ->check(CLI::IsMember({"sagittal", "coronal", "axial"}))
       ->capture_default_str();
-  cmd->add_option("--slices", o->slices, "Number of slices of proposed anchors, evenly over the bone")
+  cmd->add_option("--slices", o->slices,
+                  "Number of slices of proposed anchors, evenly over the bone")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
-  cmd->add_option("--anchors-out", o->anchorsOut,
-                  "Write anchors proposed on the model (Slicer .mrk.json closed curves) to edit and feed back "
-                  "with --anchors");
+  cmd->add_option(
+      "--anchors-out", o->anchorsOut,
+      "Write anchors proposed on the model (Slicer .mrk.json closed curves) to edit and feed back "
+      "with --anchors");
   cmd->add_option("--threshold-hu", o->thresholdHu,
-                  "Bone threshold STRONG WEAK, HU: voxels >= STRONG, and >= WEAK connected to them (default 600 200)")
+                  "Bone threshold STRONG WEAK, HU: voxels >= STRONG, and >= WEAK connected to them "
+                  "(default 600 200)")
       ->expected(2);
   cmd->add_option("--separation-mm", o->separationMm,
                   "Radius of the erosion that separates bones touching at a joint, mm (0 = none)")
       ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();
-  cmd->add_option("--iso-hu", o->isoHu, "Iso level of the surface, HU (default: half way cortex - soft tissue)");
-  cmd->add_option("--band-mm", o->bandMm, "Band around the region in which the CT decides the surface, mm")
+  cmd->add_option("--iso-hu", o->isoHu,
+                  "Iso level of the surface, HU (default: half way cortex - soft tissue)");
+  cmd->add_option("--band-mm", o->bandMm,
+                  "Band around the region in which the CT decides the surface, mm")
       ->check(CLI::Range(0.5, 10.0))
       ->capture_default_str();
-  cmd->add_flag("--no-refine", o->noRefine, "The region's own surface (smoothed mask), not the CT's iso-surface");
+  cmd->add_flag("--no-refine", o->noRefine,
+                "The region's own surface (smoothed mask), not the CT's iso-surface");
   cmd->add_option("--smoothing", o->smoothing, "Windowed-sinc smoothing iterations (0 = none)")
       ->check(CLI::Range(0, 200))
       ->capture_default_str();
-  cmd->add_option("--decimate", o->targetTriangles, "Decimate the model to about this many triangles (0 = keep all)")
+  cmd->add_option("--decimate", o->targetTriangles,
+                  "Decimate the model to about this many triangles (0 = keep all)")
       ->check(CLI::Range(0, 100000000));
   cmd->add_option("--accessible-out", o->accessibleOut,
                   "Write the accessible part of the model (.vtp) for the registration");
   cmd->add_option("--keep-regions", o->keepRegions,
-                  "Accessible part: points of a Slicer .mrk.json, each keeping the surface within --region-radius");
+                  "Accessible part: points of a Slicer .mrk.json, each keeping the surface within "
+                  "--region-radius");
   cmd->add_option("--region-radius", o->regionRadiusMm, "Radius of each kept region, mm")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
   cmd->add_option("--view-direction", o->viewDirections,
-                  "Accessible part: a direction X Y Z from the bone toward the probe (repeatable); keeps the "
+                  "Accessible part: a direction X Y Z from the bone toward the probe (repeatable); "
+                  "keeps the "
                   "triangles facing it within --max-angle-deg with nothing of the bone in front")
       ->expected(3)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
-  cmd->add_option("--max-angle-deg", o->maxAngleDeg, "Largest angle between a kept triangle's normal and a view direction")
+  cmd->add_option("--max-angle-deg", o->maxAngleDeg,
+                  "Largest angle between a kept triangle's normal and a view direction")
       ->check(CLI::Range(1.0, 90.0))
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "Print the result as JSON");

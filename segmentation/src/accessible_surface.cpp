@@ -10,24 +10,30 @@
 
 namespace echoreg::segmentation {
 
-AccessibleSurface accessibleSurface(const core::TriangleMesh& surface, const AccessibleSurfaceOptions& options) {
-  if (surface.empty()) throw std::invalid_argument("the surface is empty");
+AccessibleSurface accessibleSurface(const core::TriangleMesh& surface,
+                                    const AccessibleSurfaceOptions& options) {
+  if (surface.empty())
+    throw std::invalid_argument("the surface is empty");
   if (!(options.maxAngleDeg > 0.0 && options.maxAngleDeg <= 90.0)) {
-    throw std::invalid_argument(fmt::format("the beam angle must be in (0, 90] degrees, got {}", options.maxAngleDeg));
+    throw std::invalid_argument(
+        fmt::format("the beam angle must be in (0, 90] degrees, got {}", options.maxAngleDeg));
   }
   std::vector<Eigen::Vector3d> views;
   for (const Eigen::Vector3d& v : options.viewDirections) {
-    if (!(v.norm() > 1e-12) || !v.allFinite()) throw std::invalid_argument("a view direction is zero or not finite");
+    if (!(v.norm() > 1e-12) || !v.allFinite())
+      throw std::invalid_argument("a view direction is zero or not finite");
     views.push_back(v.normalized());
   }
   for (const SurfaceRegion& r : options.regions) {
     if (!(r.radiusMm > 0.0)) {
-      throw std::invalid_argument(fmt::format("region '{}' has radius {} mm (must be > 0)", r.label, r.radiusMm));
+      throw std::invalid_argument(
+          fmt::format("region '{}' has radius {} mm (must be > 0)", r.label, r.radiusMm));
     }
   }
   const double cosMax = std::cos(options.maxAngleDeg * M_PI / 180.0);
   std::unique_ptr<core::MeshLocator> locator;
-  if (!views.empty()) locator = std::make_unique<core::MeshLocator>(surface);
+  if (!views.empty())
+    locator = std::make_unique<core::MeshLocator>(surface);
   AccessibleSurface out;
   double total = 0.0;
   std::vector<int> newIndex(surface.vertices.size(), -1);
@@ -39,7 +45,8 @@ AccessibleSurface accessibleSurface(const core::TriangleMesh& surface, const Acc
     const Eigen::Vector3d cross = (b - a).cross(c - a);
     const double area = 0.5 * cross.norm();
     total += area;
-    if (area <= 0.0) continue;
+    if (area <= 0.0)
+      continue;
     const Eigen::Vector3d centroid = (a + b + c) / 3.0;
     const Eigen::Vector3d normal = cross.normalized();
     bool keep = options.regions.empty();
@@ -52,7 +59,8 @@ AccessibleSurface accessibleSurface(const core::TriangleMesh& surface, const Acc
     if (keep && !views.empty()) {
       keep = false;
       for (const Eigen::Vector3d& v : views) {
-        if (normal.dot(v) < cosMax) continue;
+        if (normal.dot(v) < cosMax)
+          continue;
         // Nothing of the surface in front of the triangle along v (a ray from just above it).
         if (!locator->firstHit(centroid + 1e-3 * v, v)) {
           keep = true;
@@ -60,7 +68,8 @@ AccessibleSurface accessibleSurface(const core::TriangleMesh& surface, const Acc
         }
       }
     }
-    if (!keep) continue;
+    if (!keep)
+      continue;
     std::array<int, 3> nt{};
     for (int k = 0; k < 3; ++k) {
       const int vtx = tri[static_cast<std::size_t>(k)];
@@ -75,7 +84,8 @@ AccessibleSurface accessibleSurface(const core::TriangleMesh& surface, const Acc
     out.areaMm2 += area;
   }
   if (out.mesh.empty()) {
-    throw std::invalid_argument("no triangle of the surface lies in the given regions and faces the given directions");
+    throw std::invalid_argument(
+        "no triangle of the surface lies in the given regions and faces the given directions");
   }
   out.fractionOfArea = total > 0.0 ? out.areaMm2 / total : 0.0;
   return out;

@@ -3,8 +3,8 @@
 #include "echoreg/filters/MeshIO.h"
 
 #include <vtkDecimatePro.h>
-#include <vtkFlyingEdges3D.h>
 #include <vtkFloatArray.h>
+#include <vtkFlyingEdges3D.h>
 #include <vtkImageData.h>
 #include <vtkPointData.h>
 #include <vtkPolyData.h>
@@ -22,10 +22,13 @@ namespace echoreg::segmentation {
 
 namespace {
 
-std::size_t sz(int v) { return static_cast<std::size_t>(v); }
+std::size_t sz(int v) {
+  return static_cast<std::size_t>(v);
+}
 
 double median(std::vector<double> v) {
-  if (v.empty()) return 0.0;
+  if (v.empty())
+    return 0.0;
   const auto mid = v.begin() + static_cast<std::ptrdiff_t>(v.size() / 2);
   std::nth_element(v.begin(), mid, v.end());
   return *mid;
@@ -101,7 +104,8 @@ BoneSurfaceResult contourField(const std::vector<float>& field, const std::array
   for (vtkIdType p = 0; p < points->GetNumberOfPoints(); ++p) {
     double x[3];
     points->GetPoint(p, x);
-    const Eigen::Vector3d lps = geometry.originMm + geometry.direction * Eigen::Vector3d(x[0], x[1], x[2]);
+    const Eigen::Vector3d lps =
+        geometry.originMm + geometry.direction * Eigen::Vector3d(x[0], x[1], x[2]);
     points->SetPoint(p, lps.data());
   }
   vtkSmartPointer<vtkPolyData> smoothed = surface;
@@ -134,11 +138,13 @@ BoneSurfaceResult contourField(const std::vector<float>& field, const std::array
     ++result.components;
     const int offset = static_cast<int>(kept.vertices.size());
     kept.vertices.insert(kept.vertices.end(), piece.vertices.begin(), piece.vertices.end());
-    for (const auto& t : piece.triangles) kept.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+    for (const auto& t : piece.triangles)
+      kept.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
   }
   if (kept.empty()) {
-    throw std::invalid_argument(fmt::format("the surface at {:.0f} HU has no closed piece of {:.0f} mm^3 or more",
-                                            level, options.minComponentMm3));
+    throw std::invalid_argument(
+        fmt::format("the surface at {:.0f} HU has no closed piece of {:.0f} mm^3 or more", level,
+                    options.minComponentMm3));
   }
   if (options.targetTriangles > 0 && kept.triangles.size() > options.targetTriangles) {
     auto decimate = vtkSmartPointer<vtkDecimatePro>::New();
@@ -151,7 +157,8 @@ BoneSurfaceResult contourField(const std::vector<float>& field, const std::array
     decimate->Update();
     core::TriangleMesh reduced = filters::toTriangleMesh(decimate->GetOutput());
     core::MeshCheck check = core::checkMesh(reduced);
-    if (check.volumeMm3 < 0.0) core::flipWinding(reduced);
+    if (check.volumeMm3 < 0.0)
+      core::flipWinding(reduced);
     if (check.closed() && check.degenerateTriangles == 0) {
       kept = std::move(reduced);
       result.decimated = true;
@@ -162,7 +169,8 @@ BoneSurfaceResult contourField(const std::vector<float>& field, const std::array
 }
 
 void requireUniform(const CtImage& g, const char* what) {
-  if (!g.uniform()) throw std::invalid_argument(std::string(what) + " needs a CT of one slice group");
+  if (!g.uniform())
+    throw std::invalid_argument(std::string(what) + " needs a CT of one slice group");
 }
 
 // The bounding box of `mask`'s voxels, grown by `pad` voxels (may go beyond the grid).
@@ -173,13 +181,15 @@ void maskBounds(const VoxelMask& mask, int pad, Eigen::Vector3i& lo, Eigen::Vect
   for (int k = 0; k < d[2]; ++k) {
     for (int j = 0; j < d[1]; ++j) {
       for (int i = 0; i < d[0]; ++i) {
-        if (!mask.at(i, j, k)) continue;
+        if (!mask.at(i, j, k))
+          continue;
         lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
         hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
       }
     }
   }
-  if (hi.x() < 0) throw std::invalid_argument("the mask is empty");
+  if (hi.x() < 0)
+    throw std::invalid_argument("the mask is empty");
   lo.array() -= pad;
   hi.array() += pad;
 }
@@ -194,10 +204,13 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
       (exclude != nullptr && exclude->voxels.size() != ct.voxelCount())) {
     throw std::invalid_argument("boneSurface: the CT and the masks lie on different grids");
   }
-  if (region.count() == 0) throw std::invalid_argument("the bone's mask is empty");
+  if (region.count() == 0)
+    throw std::invalid_argument("the bone's mask is empty");
   const VoxelMask band = dilate(region, options.bandMm);
   const VoxelMask interior = erode(region, options.interiorMm);
-  auto excluded = [&](std::size_t i) { return exclude != nullptr && exclude->voxels[i] != 0 && region.voxels[i] == 0; };
+  auto excluded = [&](std::size_t i) {
+    return exclude != nullptr && exclude->voxels[i] != 0 && region.voxels[i] == 0;
+  };
 
   // Levels of the cortex and of the soft tissue around it.
   BoneSurfaceResult levels;
@@ -205,23 +218,27 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
     const VoxelMask deep = erode(region, 1.0);
     std::vector<double> cortex;
     for (std::size_t i = 0; i < ct.hu.size(); ++i) {
-      if (deep.voxels[i] && ct.hu[i] >= options.cortexMinHu) cortex.push_back(ct.hu[i]);
+      if (deep.voxels[i] && ct.hu[i] >= options.cortexMinHu)
+        cortex.push_back(ct.hu[i]);
     }
     if (cortex.empty()) {
       for (std::size_t i = 0; i < ct.hu.size(); ++i) {
-        if (region.voxels[i] && ct.hu[i] >= options.cortexMinHu) cortex.push_back(ct.hu[i]);
+        if (region.voxels[i] && ct.hu[i] >= options.cortexMinHu)
+          cortex.push_back(ct.hu[i]);
       }
     }
     const VoxelMask near = dilate(region, 1.5);
     const VoxelMask far = dilate(region, 3.0);
     std::vector<double> soft;
     for (std::size_t i = 0; i < ct.hu.size(); ++i) {
-      if (far.voxels[i] && !near.voxels[i] && !excluded(i) && ct.hu[i] < options.cortexMinHu) soft.push_back(ct.hu[i]);
+      if (far.voxels[i] && !near.voxels[i] && !excluded(i) && ct.hu[i] < options.cortexMinHu)
+        soft.push_back(ct.hu[i]);
     }
     levels.cortexHu = cortex.empty() ? options.cortexMinHu : median(cortex);
     levels.softTissueHu = soft.empty() ? 0.0 : median(soft);
   }
-  const double iso = options.isoHu != 0.0 ? options.isoHu : 0.5 * (levels.cortexHu + levels.softTissueHu);
+  const double iso =
+      options.isoHu != 0.0 ? options.isoHu : 0.5 * (levels.cortexHu + levels.softTissueHu);
   const float high = static_cast<float>(std::max(levels.cortexHu, iso + 100.0));
   const float low = static_cast<float>(std::min(levels.softTissueHu, iso - 100.0));
 
@@ -240,7 +257,8 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
         } else if (band.voxels[v] && !excluded(v)) {
           value = std::clamp(static_cast<float>(ct.hu[v]), low, high);
         }
-        field[(sz(k - lo.z()) * sz(dims[1]) + sz(j - lo.y())) * sz(dims[0]) + sz(i - lo.x())] = value;
+        field[(sz(k - lo.z()) * sz(dims[1]) + sz(j - lo.y())) * sz(dims[0]) + sz(i - lo.x())] =
+            value;
       }
     }
   }
@@ -250,9 +268,11 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
   return result;
 }
 
-BoneSurfaceResult maskSurface(const VoxelMask& mask, double sigmaMm, const BoneSurfaceOptions& options) {
+BoneSurfaceResult maskSurface(const VoxelMask& mask, double sigmaMm,
+                              const BoneSurfaceOptions& options) {
   requireUniform(mask.geometry, "maskSurface");
-  if (mask.count() == 0) throw std::invalid_argument("the mask is empty");
+  if (mask.count() == 0)
+    throw std::invalid_argument("the mask is empty");
   const Eigen::Vector3d spacing = mask.geometry.spacingMm();
   Eigen::Vector3i lo, hi;
   const int pad = 2 + static_cast<int>(std::ceil(3.0 * sigmaMm / spacing.minCoeff()));
@@ -267,7 +287,8 @@ BoneSurfaceResult maskSurface(const VoxelMask& mask, double sigmaMm, const BoneS
     for (int j = 0; j < dims[1]; ++j) {
       for (int i = 0; i < dims[0]; ++i) {
         const int a = i + lo.x(), b = j + lo.y(), c = k + lo.z();
-        if (a >= 0 && b >= 0 && c >= 0 && a < d[0] && b < d[1] && c < d[2] && mask.at(a, b, c)) at(i, j, k) = 1.0f;
+        if (a >= 0 && b >= 0 && c >= 0 && a < d[0] && b < d[1] && c < d[2] && mask.at(a, b, c))
+          at(i, j, k) = 1.0f;
       }
     }
   }
@@ -278,8 +299,10 @@ BoneSurfaceResult maskSurface(const VoxelMask& mask, double sigmaMm, const BoneS
       const int r = static_cast<int>(std::ceil(3.0 * s));
       std::vector<double> kernel(sz(2 * r + 1));
       double sum = 0.0;
-      for (int t = -r; t <= r; ++t) sum += kernel[sz(t + r)] = std::exp(-0.5 * t * t / (s * s));
-      for (double& w : kernel) w /= sum;
+      for (int t = -r; t <= r; ++t)
+        sum += kernel[sz(t + r)] = std::exp(-0.5 * t * t / (s * s));
+      for (double& w : kernel)
+        w /= sum;
       std::vector<float> out(field.size(), 0.0f);
       const int n = dims[sz(axis)];
       for (int k = 0; k < dims[2]; ++k) {
@@ -289,7 +312,8 @@ BoneSurfaceResult maskSurface(const VoxelMask& mask, double sigmaMm, const BoneS
             double acc = 0.0;
             for (int t = -r; t <= r; ++t) {
               const int q = pos[axis] + t;
-              if (q < 0 || q >= n) continue;
+              if (q < 0 || q >= n)
+                continue;
               int p2[3] = {i, j, k};
               p2[axis] = q;
               acc += kernel[sz(t + r)] * at(p2[0], p2[1], p2[2]);

@@ -13,12 +13,16 @@ namespace echoreg::segmentation {
 
 namespace {
 
-std::size_t sz(int v) { return static_cast<std::size_t>(v); }
+std::size_t sz(int v) {
+  return static_cast<std::size_t>(v);
+}
 
 // The two in-plane LPS axes of a plane whose normal is `axis`.
 std::pair<int, int> inPlaneAxes(int axis) {
-  if (axis == 0) return {1, 2};
-  if (axis == 1) return {0, 2};
+  if (axis == 0)
+    return {1, 2};
+  if (axis == 1)
+    return {0, 2};
   return {0, 1};
 }
 
@@ -40,7 +44,8 @@ void edt1d(std::vector<double>& f, double step) {
   std::vector<std::size_t> v(n, 0);
   long k = -1;
   for (std::size_t q = 0; q < n; ++q) {
-    if (!std::isfinite(f[q])) continue;
+    if (!std::isfinite(f[q]))
+      continue;
     const double qq = static_cast<double>(q) * step;
     double s = 0.0;
     while (k >= 0) {
@@ -57,11 +62,13 @@ void edt1d(std::vector<double>& f, double step) {
     z[static_cast<std::size_t>(k)] = k == 0 ? -inf : s;
     z[static_cast<std::size_t>(k) + 1] = inf;
   }
-  if (k < 0) return;
+  if (k < 0)
+    return;
   std::size_t j = 0;
   for (std::size_t q = 0; q < n; ++q) {
     const double qq = static_cast<double>(q) * step;
-    while (z[j + 1] < qq) ++j;
+    while (z[j + 1] < qq)
+      ++j;
     const double pp = static_cast<double>(v[j]) * step;
     d[q] = (qq - pp) * (qq - pp) + f[v[j]];
   }
@@ -83,16 +90,17 @@ struct SliceDistance {
       const double dv = std::max({v0 - v, v - (v0 + (nv - 1) * step), 0.0});
       return std::hypot(du, dv) + 1.0;
     }
-    const int a = std::min(static_cast<int>(fu), nu - 2), b = std::min(static_cast<int>(fv), nv - 2);
+    const int a = std::min(static_cast<int>(fu), nu - 2),
+              b = std::min(static_cast<int>(fv), nv - 2);
     const double tu = fu - a, tv = fv - b;
     auto at = [&](int i, int j) { return static_cast<double>(d[sz(j) * sz(nu) + sz(i)]); };
-    return (1 - tu) * (1 - tv) * at(a, b) + tu * (1 - tv) * at(a + 1, b) + (1 - tu) * tv * at(a, b + 1) +
-           tu * tv * at(a + 1, b + 1);
+    return (1 - tu) * (1 - tv) * at(a, b) + tu * (1 - tv) * at(a + 1, b) +
+           (1 - tu) * tv * at(a, b + 1) + tu * tv * at(a + 1, b + 1);
   }
 };
 
-SliceDistance sliceDistance(const std::vector<const SliceContour*>& loops, int u, int v, double lo_u, double lo_v,
-                            double hi_u, double hi_v, double step) {
+SliceDistance sliceDistance(const std::vector<const SliceContour*>& loops, int u, int v,
+                            double lo_u, double lo_v, double hi_u, double hi_v, double step) {
   SliceDistance s;
   s.step = step;
   s.u0 = lo_u;
@@ -111,7 +119,8 @@ SliceDistance sliceDistance(const std::vector<const SliceContour*>& loops, int u
       for (std::size_t i = 0; i < pts.size(); ++i) {
         const Eigen::Vector3d& p = pts[i];
         const Eigen::Vector3d& q = pts[(i + 1) % pts.size()];
-        if ((p[v] <= y) == (q[v] <= y)) continue;
+        if ((p[v] <= y) == (q[v] <= y))
+          continue;
         const double t = (y - p[v]) / (q[v] - p[v]);
         crossings.push_back(p[u] + t * (q[u] - p[u]));
       }
@@ -119,26 +128,33 @@ SliceDistance sliceDistance(const std::vector<const SliceContour*>& loops, int u
     std::sort(crossings.begin(), crossings.end());
     for (std::size_t c = 0; c + 1 < crossings.size(); c += 2) {
       const int i0 = std::max(0, static_cast<int>(std::ceil((crossings[c] - s.u0) / step)));
-      const int i1 = std::min(s.nu - 1, static_cast<int>(std::floor((crossings[c + 1] - s.u0) / step)));
-      for (int i = i0; i <= i1; ++i) inside[sz(j) * sz(s.nu) + sz(i)] = 1;
+      const int i1 =
+          std::min(s.nu - 1, static_cast<int>(std::floor((crossings[c + 1] - s.u0) / step)));
+      for (int i = i0; i <= i1; ++i)
+        inside[sz(j) * sz(s.nu) + sz(i)] = 1;
     }
   }
   // Distances to the nearest raster point of the other kind, then signed (half a step off the
   // boundary on each side).
   auto distanceTo = [&](bool toInside) {
     std::vector<double> f(n);
-    for (std::size_t i = 0; i < n; ++i) f[i] = (inside[i] != 0) == toInside ? 0.0 : std::numeric_limits<double>::infinity();
+    for (std::size_t i = 0; i < n; ++i)
+      f[i] = (inside[i] != 0) == toInside ? 0.0 : std::numeric_limits<double>::infinity();
     std::vector<double> line(sz(s.nu));
     for (int j = 0; j < s.nv; ++j) {
-      for (int i = 0; i < s.nu; ++i) line[sz(i)] = f[sz(j) * sz(s.nu) + sz(i)];
+      for (int i = 0; i < s.nu; ++i)
+        line[sz(i)] = f[sz(j) * sz(s.nu) + sz(i)];
       edt1d(line, step);
-      for (int i = 0; i < s.nu; ++i) f[sz(j) * sz(s.nu) + sz(i)] = line[sz(i)];
+      for (int i = 0; i < s.nu; ++i)
+        f[sz(j) * sz(s.nu) + sz(i)] = line[sz(i)];
     }
     line.resize(sz(s.nv));
     for (int i = 0; i < s.nu; ++i) {
-      for (int j = 0; j < s.nv; ++j) line[sz(j)] = f[sz(j) * sz(s.nu) + sz(i)];
+      for (int j = 0; j < s.nv; ++j)
+        line[sz(j)] = f[sz(j) * sz(s.nu) + sz(i)];
       edt1d(line, step);
-      for (int j = 0; j < s.nv; ++j) f[sz(j) * sz(s.nu) + sz(i)] = line[sz(j)];
+      for (int j = 0; j < s.nv; ++j)
+        f[sz(j) * sz(s.nu) + sz(i)] = line[sz(j)];
     }
     return f;
   };
@@ -146,7 +162,8 @@ SliceDistance sliceDistance(const std::vector<const SliceContour*>& loops, int u
   const auto toOut = distanceTo(false);
   s.d.resize(n);
   for (std::size_t i = 0; i < n; ++i) {
-    const double dist = inside[i] ? -(std::sqrt(toOut[i]) - 0.5 * step) : std::sqrt(toIn[i]) - 0.5 * step;
+    const double dist =
+        inside[i] ? -(std::sqrt(toOut[i]) - 0.5 * step) : std::sqrt(toIn[i]) - 0.5 * step;
     s.d[i] = static_cast<float>(std::isfinite(dist) ? dist : 1e6);
   }
   return s;
@@ -166,8 +183,8 @@ int planeAxis(SlicePlane plane) {
   return 0;
 }
 
-std::vector<std::vector<Eigen::Vector3d>> planeSections(const core::TriangleMesh& mesh, SlicePlane plane,
-                                                        double positionMm) {
+std::vector<std::vector<Eigen::Vector3d>> planeSections(const core::TriangleMesh& mesh,
+                                                        SlicePlane plane, double positionMm) {
   const int axis = planeAxis(plane);
   const auto [u, v] = inPlaneAxes(axis);
   // A vertex exactly on the plane counts as above it, so every crossing is on an edge.
@@ -178,7 +195,8 @@ std::vector<std::vector<Eigen::Vector3d>> planeSections(const core::TriangleMesh
   auto edgePoint = [&](int a, int b) {
     const std::pair<int, int> key{std::min(a, b), std::max(a, b)};
     const auto it = pointOfEdge.find(key);
-    if (it != pointOfEdge.end()) return it->second;
+    if (it != pointOfEdge.end())
+      return it->second;
     const Eigen::Vector3d& p = mesh.vertices[sz(key.first)];
     const Eigen::Vector3d& q = mesh.vertices[sz(key.second)];
     const double t = (positionMm - p[axis]) / (q[axis] - p[axis]);
@@ -208,14 +226,17 @@ std::vector<std::vector<Eigen::Vector3d>> planeSections(const core::TriangleMesh
     std::vector<int> crossing;
     for (int e = 0; e < 3; ++e) {
       const int a = t[sz(e)], b = t[sz((e + 1) % 3)];
-      if (side(a) != side(b)) crossing.push_back(edgePoint(a, b));
+      if (side(a) != side(b))
+        crossing.push_back(edgePoint(a, b));
     }
-    if (crossing.size() == 2) link(crossing[0], crossing[1]);
+    if (crossing.size() == 2)
+      link(crossing[0], crossing[1]);
   }
   std::vector<std::vector<Eigen::Vector3d>> loops;
   std::vector<std::uint8_t> used(points.size(), 0);
   for (std::size_t start = 0; start < points.size(); ++start) {
-    if (used[start]) continue;
+    if (used[start])
+      continue;
     std::vector<Eigen::Vector3d> loop;
     int previous = -1;
     int current = static_cast<int>(start);
@@ -227,41 +248,52 @@ std::vector<std::vector<Eigen::Vector3d>> planeSections(const core::TriangleMesh
       previous = current;
       current = next >= 0 && !used[sz(next)] ? next : -1;
     }
-    if (loop.size() < 3) continue;
-    if (signedArea2d(loop, u, v) < 0.0) std::reverse(loop.begin(), loop.end());
+    if (loop.size() < 3)
+      continue;
+    if (signedArea2d(loop, u, v) < 0.0)
+      std::reverse(loop.begin(), loop.end());
     loops.push_back(std::move(loop));
   }
   return loops;
 }
 
-std::vector<double> evenSlicePositions(const core::TriangleMesh& mesh, SlicePlane plane, int count, double zMinMm,
-                                       double zMaxMm) {
-  if (count < 1) throw std::invalid_argument(fmt::format("the number of slices must be >= 1, got {}", count));
+std::vector<double> evenSlicePositions(const core::TriangleMesh& mesh, SlicePlane plane, int count,
+                                       double zMinMm, double zMaxMm) {
+  if (count < 1)
+    throw std::invalid_argument(fmt::format("the number of slices must be >= 1, got {}", count));
   const int axis = planeAxis(plane);
   double lo = std::numeric_limits<double>::infinity(), hi = -lo;
   for (const auto& v : mesh.vertices) {
-    if (v.z() < zMinMm || v.z() > zMaxMm) continue;
+    if (v.z() < zMinMm || v.z() > zMaxMm)
+      continue;
     lo = std::min(lo, v[axis]);
     hi = std::max(hi, v[axis]);
   }
-  if (!(hi >= lo)) throw std::invalid_argument("evenSlicePositions: the surface has no vertex in the scanned slab");
+  if (!(hi >= lo))
+    throw std::invalid_argument(
+        "evenSlicePositions: the surface has no vertex in the scanned slab");
   const double width = hi - lo;
   std::vector<double> positions;
-  for (int i = 0; i < count; ++i) positions.push_back(lo + (i + 0.5) * width / count);
+  for (int i = 0; i < count; ++i)
+    positions.push_back(lo + (i + 0.5) * width / count);
   return positions;
 }
 
 std::vector<Eigen::Vector3d> proposeLoopAnchors(const std::vector<Eigen::Vector3d>& loop,
                                                 const AnchorProposalOptions& options) {
   const std::size_t n = loop.size();
-  if (n < 3) return {};
+  if (n < 3)
+    return {};
   std::vector<double> arc(n + 1, 0.0);
-  for (std::size_t i = 0; i < n; ++i) arc[i + 1] = arc[i] + (loop[(i + 1) % n] - loop[i]).norm();
+  for (std::size_t i = 0; i < n; ++i)
+    arc[i + 1] = arc[i] + (loop[(i + 1) % n] - loop[i]).norm();
   const double perimeter = arc[n];
-  if (perimeter < options.minPerimeterMm) return {};
+  if (perimeter < options.minPerimeterMm)
+    return {};
   auto pointAt = [&](double s) {
     s = std::fmod(std::fmod(s, perimeter) + perimeter, perimeter);
-    const std::size_t i = static_cast<std::size_t>(std::upper_bound(arc.begin(), arc.end(), s) - arc.begin()) - 1;
+    const std::size_t i =
+        static_cast<std::size_t>(std::upper_bound(arc.begin(), arc.end(), s) - arc.begin()) - 1;
     const double len = arc[i + 1] - arc[i];
     const double t = len > 0.0 ? (s - arc[i]) / len : 0.0;
     return Eigen::Vector3d(loop[i] + t * (loop[(i + 1) % n] - loop[i]));
@@ -278,14 +310,17 @@ std::vector<Eigen::Vector3d> proposeLoopAnchors(const std::vector<Eigen::Vector3
   const double cornerRad = options.cornerDeg * M_PI / 180.0;
   std::vector<double> fixed;  // arc positions of the anchors so far
   for (std::size_t i = 0; i < n; ++i) {
-    if (turn[i] < cornerRad) continue;
+    if (turn[i] < cornerRad)
+      continue;
     bool isMax = true;
     for (std::size_t j = 0; j < n && isMax; ++j) {
       double ds = std::abs(arc[j] - arc[i]);
       ds = std::min(ds, perimeter - ds);
-      if (j != i && ds <= window && (turn[j] > turn[i] || (turn[j] == turn[i] && j < i))) isMax = false;
+      if (j != i && ds <= window && (turn[j] > turn[i] || (turn[j] == turn[i] && j < i)))
+        isMax = false;
     }
-    if (isMax) fixed.push_back(arc[i]);
+    if (isMax)
+      fixed.push_back(arc[i]);
   }
   const double reach = options.snapFraction * options.spacingMm;
   auto snapped = [&](double target) {
@@ -302,9 +337,11 @@ std::vector<Eigen::Vector3d> proposeLoopAnchors(const std::vector<Eigen::Vector3
     return best < n ? arc[best] : target;
   };
   if (fixed.empty()) {
-    const int count = std::max(options.minAnchors, static_cast<int>(std::lround(perimeter / options.spacingMm)));
+    const int count =
+        std::max(options.minAnchors, static_cast<int>(std::lround(perimeter / options.spacingMm)));
     std::vector<Eigen::Vector3d> anchors;
-    for (int k = 0; k < count; ++k) anchors.push_back(pointAt(snapped(k * perimeter / count)));
+    for (int k = 0; k < count; ++k)
+      anchors.push_back(pointAt(snapped(k * perimeter / count)));
     return anchors;
   }
   // Fill each gap between consecutive corners evenly.
@@ -312,39 +349,48 @@ std::vector<Eigen::Vector3d> proposeLoopAnchors(const std::vector<Eigen::Vector3
   for (std::size_t c = 0; c < fixed.size(); ++c) {
     const double from = fixed[c];
     double to = fixed[(c + 1) % fixed.size()];
-    if (to <= from) to += perimeter;
+    if (to <= from)
+      to += perimeter;
     positions.push_back(from);
     const int pieces = static_cast<int>(std::ceil((to - from) / options.spacingMm - 1e-9));
-    for (int k = 1; k < pieces; ++k) positions.push_back(from + k * (to - from) / pieces);
+    for (int k = 1; k < pieces; ++k)
+      positions.push_back(from + k * (to - from) / pieces);
   }
   // At least minAnchors: split the longest gaps.
   while (static_cast<int>(positions.size()) < options.minAnchors) {
     std::size_t longest = 0;
     double gap = -1.0;
     for (std::size_t i = 0; i < positions.size(); ++i) {
-      double g = (i + 1 < positions.size() ? positions[i + 1] : positions.front() + perimeter) - positions[i];
+      double g = (i + 1 < positions.size() ? positions[i + 1] : positions.front() + perimeter) -
+                 positions[i];
       if (g > gap) {
         gap = g;
         longest = i;
       }
     }
-    positions.insert(positions.begin() + static_cast<std::ptrdiff_t>(longest) + 1, positions[longest] + 0.5 * gap);
+    positions.insert(positions.begin() + static_cast<std::ptrdiff_t>(longest) + 1,
+                     positions[longest] + 0.5 * gap);
   }
   std::vector<Eigen::Vector3d> anchors;
-  for (double s : positions) anchors.push_back(pointAt(s));
+  for (double s : positions)
+    anchors.push_back(pointAt(s));
   return anchors;
 }
 
-std::vector<Eigen::Vector3d> clipLoopZ(const std::vector<Eigen::Vector3d>& loop, double zMinMm, double zMaxMm) {
+std::vector<Eigen::Vector3d> clipLoopZ(const std::vector<Eigen::Vector3d>& loop, double zMinMm,
+                                       double zMaxMm) {
   auto clip = [](const std::vector<Eigen::Vector3d>& in, double limit, bool keepBelow) {
     std::vector<Eigen::Vector3d> out;
     const std::size_t n = in.size();
-    auto inside = [&](const Eigen::Vector3d& p) { return keepBelow ? p.z() <= limit : p.z() >= limit; };
+    auto inside = [&](const Eigen::Vector3d& p) {
+      return keepBelow ? p.z() <= limit : p.z() >= limit;
+    };
     for (std::size_t i = 0; i < n; ++i) {
       const Eigen::Vector3d& a = in[i];
       const Eigen::Vector3d& b = in[(i + 1) % n];
       const bool ia = inside(a), ib = inside(b);
-      if (ia) out.push_back(a);
+      if (ia)
+        out.push_back(a);
       if (ia != ib) {
         const double t = (limit - a.z()) / (b.z() - a.z());
         Eigen::Vector3d x = a + t * (b - a);
@@ -355,19 +401,23 @@ std::vector<Eigen::Vector3d> clipLoopZ(const std::vector<Eigen::Vector3d>& loop,
     return out;
   };
   std::vector<Eigen::Vector3d> out = loop;
-  if (std::isfinite(zMaxMm)) out = clip(out, zMaxMm, true);
-  if (std::isfinite(zMinMm) && !out.empty()) out = clip(out, zMinMm, false);
+  if (std::isfinite(zMaxMm))
+    out = clip(out, zMaxMm, true);
+  if (std::isfinite(zMinMm) && !out.empty())
+    out = clip(out, zMinMm, false);
   return out;
 }
 
-int straightenAtScanEnds(SliceContour& contour, const AnchorSet& anchors, double zMinMm, double zMaxMm,
-                         double tolMm) {
+int straightenAtScanEnds(SliceContour& contour, const AnchorSet& anchors, double zMinMm,
+                         double zMaxMm, double tolMm) {
   const auto& idx = contour.anchorIndices;
   const auto& pts = contour.pointsLps;
   const auto& at = anchors.anchorsLps;
-  if (idx.size() < 2 || idx.size() != at.size() || pts.size() < 3) return 0;
+  if (idx.size() < 2 || idx.size() != at.size() || pts.size() < 3)
+    return 0;
   for (std::size_t i : idx) {
-    if (i >= pts.size()) return 0;
+    if (i >= pts.size())
+      return 0;
   }
   auto near = [&](const Eigen::Vector3d& p, double z) { return std::abs(p.z() - z) <= tolMm; };
   std::vector<std::uint8_t> drop(pts.size(), 0);
@@ -377,30 +427,37 @@ int straightenAtScanEnds(SliceContour& contour, const AnchorSet& anchors, double
     const std::size_t b = (a + 1) % idx.size();
     const bool low = near(at[a], zMinMm) && near(at[b], zMinMm);
     const bool high = near(at[a], zMaxMm) && near(at[b], zMaxMm);
-    if (!low && !high) continue;
+    if (!low && !high)
+      continue;
     const std::size_t from = idx[a], to = idx[b];
-    for (std::size_t i = (from + 1) % pts.size(); i != to; i = (i + 1) % pts.size()) drop[i] = 1;
+    for (std::size_t i = (from + 1) % pts.size(); i != to; i = (i + 1) % pts.size())
+      drop[i] = 1;
     moved[from] = at[a];
     moved[to] = at[b];
     ++replaced;
   }
-  if (replaced == 0) return 0;
+  if (replaced == 0)
+    return 0;
   std::vector<Eigen::Vector3d> kept;
   std::vector<std::size_t> newIndex(pts.size(), 0);
   for (std::size_t i = 0; i < pts.size(); ++i) {
     newIndex[i] = kept.size();
-    if (!drop[i]) kept.push_back(moved[i]);
+    if (!drop[i])
+      kept.push_back(moved[i]);
   }
-  for (std::size_t& i : contour.anchorIndices) i = newIndex[i];
+  for (std::size_t& i : contour.anchorIndices)
+    i = newIndex[i];
   contour.pointsLps = std::move(kept);
   return replaced;
 }
 
-std::vector<AnchorSet> proposeAnchors(const core::TriangleMesh& surface, SlicePlane plane, int slices,
-                                      const AnchorProposalOptions& options) {
+std::vector<AnchorSet> proposeAnchors(const core::TriangleMesh& surface, SlicePlane plane,
+                                      int slices, const AnchorProposalOptions& options) {
   std::vector<AnchorSet> sets;
   const auto positions = evenSlicePositions(surface, plane, slices, options.zMinMm, options.zMaxMm);
-  const char* prefix = plane == SlicePlane::Sagittal ? "s" : plane == SlicePlane::Coronal ? "c" : "a";
+  const char* prefix = plane == SlicePlane::Sagittal  ? "s"
+                       : plane == SlicePlane::Coronal ? "c"
+                                                      : "a";
   for (std::size_t s = 0; s < positions.size(); ++s) {
     const auto loops = planeSections(surface, plane, positions[s]);
     for (std::size_t l = 0; l < loops.size(); ++l) {
@@ -408,9 +465,11 @@ std::vector<AnchorSet> proposeAnchors(const core::TriangleMesh& surface, SlicePl
       set.plane = plane;
       set.positionMm = positions[s];
       const auto clipped = clipLoopZ(loops[l], options.zMinMm, options.zMaxMm);
-      if (clipped.size() < 3) continue;
+      if (clipped.size() < 3)
+        continue;
       set.anchorsLps = proposeLoopAnchors(clipped, options);
-      if (set.anchorsLps.size() < 3) continue;
+      if (set.anchorsLps.size() < 3)
+        continue;
       set.label = fmt::format("{}{:02d}-{}", prefix, s, l);
       sets.push_back(std::move(set));
     }
@@ -420,12 +479,16 @@ std::vector<AnchorSet> proposeAnchors(const core::TriangleMesh& surface, SlicePl
 
 VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImage& grid,
                          const ContourMaskOptions& options) {
-  if (contours.empty()) throw std::invalid_argument("no contour to fill");
-  if (grid.voxelCount() == 0) throw std::invalid_argument("contoursToMask: the grid is empty");
+  if (contours.empty())
+    throw std::invalid_argument("no contour to fill");
+  if (grid.voxelCount() == 0)
+    throw std::invalid_argument("contoursToMask: the grid is empty");
   const SlicePlane plane = contours.front().plane;
   for (const SliceContour& c : contours) {
-    if (c.plane != plane) throw std::invalid_argument("the contours lie in different plane families");
-    if (c.pointsLps.size() < 3) throw std::invalid_argument("a contour has fewer than 3 points");
+    if (c.plane != plane)
+      throw std::invalid_argument("the contours lie in different plane families");
+    if (c.pointsLps.size() < 3)
+      throw std::invalid_argument("a contour has fewer than 3 points");
   }
   const int axis = planeAxis(plane);
   const auto [u, v] = inPlaneAxes(axis);
@@ -441,15 +504,20 @@ VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImag
   const double margin = 3.0;
   // Slices: contours grouped by position.
   std::vector<const SliceContour*> sorted;
-  for (const SliceContour& c : contours) sorted.push_back(&c);
-  std::sort(sorted.begin(), sorted.end(), [](const SliceContour* a, const SliceContour* b) { return a->positionMm < b->positionMm; });
+  for (const SliceContour& c : contours)
+    sorted.push_back(&c);
+  std::sort(sorted.begin(), sorted.end(), [](const SliceContour* a, const SliceContour* b) {
+    return a->positionMm < b->positionMm;
+  });
   std::vector<SliceDistance> slices;
   for (std::size_t i = 0; i < sorted.size();) {
     std::vector<const SliceContour*> group{sorted[i]};
     std::size_t j = i + 1;
-    while (j < sorted.size() && sorted[j]->positionMm - sorted[i]->positionMm < options.sliceToleranceMm) group.push_back(sorted[j++]);
-    SliceDistance s = sliceDistance(group, u, v, lo[u] - margin, lo[v] - margin, hi[u] + margin, hi[v] + margin,
-                                    options.rasterMm);
+    while (j < sorted.size() &&
+           sorted[j]->positionMm - sorted[i]->positionMm < options.sliceToleranceMm)
+      group.push_back(sorted[j++]);
+    SliceDistance s = sliceDistance(group, u, v, lo[u] - margin, lo[v] - margin, hi[u] + margin,
+                                    hi[v] + margin, options.rasterMm);
     s.positionMm = sorted[i]->positionMm;
     slices.push_back(std::move(s));
     i = j;
@@ -461,11 +529,13 @@ VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImag
   // contour's distance grows by its depth (deepest inside point) per that half spacing.
   auto deepest = [](const SliceDistance& s) {
     float low = 0.0f;
-    for (float x : s.d) low = std::min(low, x);
+    for (float x : s.d)
+      low = std::min(low, x);
     return -static_cast<double>(low);
   };
   const double halfFirst = slices.size() > 1 ? 0.5 * (slices[1].positionMm - first) : 1.0;
-  const double halfLast = slices.size() > 1 ? 0.5 * (last - slices[slices.size() - 2].positionMm) : 1.0;
+  const double halfLast =
+      slices.size() > 1 ? 0.5 * (last - slices[slices.size() - 2].positionMm) : 1.0;
   const double slopeFirst = std::max(1.0, deepest(slices.front()) / halfFirst);
   const double slopeLast = std::max(1.0, deepest(slices.back()) / halfLast);
   // Voxels whose centres lie within the contours' bounds (the taper reaches at most the largest
@@ -474,8 +544,8 @@ VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImag
     for (int j = 0; j < d[1]; ++j) {
       for (int i = 0; i < d[0]; ++i) {
         const Eigen::Vector3d p = grid.voxelToLps(Eigen::Vector3d(i, j, k));
-        if (p[u] < lo[u] - margin || p[u] > hi[u] + margin || p[v] < lo[v] - margin || p[v] > hi[v] + margin ||
-            p[axis] < first - margin || p[axis] > last + margin) {
+        if (p[u] < lo[u] - margin || p[u] > hi[u] + margin || p[v] < lo[v] - margin ||
+            p[v] > hi[v] + margin || p[axis] < first - margin || p[axis] > last + margin) {
           continue;
         }
         const double w = p[axis];
@@ -485,14 +555,16 @@ VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImag
         } else if (w >= last) {
           dist = slices.back().sample(p[u], p[v]) + slopeLast * (w - last);
         } else {
-          const auto it = std::upper_bound(slices.begin(), slices.end(), w,
-                                           [](double x, const SliceDistance& s) { return x < s.positionMm; });
+          const auto it =
+              std::upper_bound(slices.begin(), slices.end(), w,
+                               [](double x, const SliceDistance& s) { return x < s.positionMm; });
           const SliceDistance& b = *it;
           const SliceDistance& a = *(it - 1);
           const double t = (w - a.positionMm) / (b.positionMm - a.positionMm);
           dist = (1.0 - t) * a.sample(p[u], p[v]) + t * b.sample(p[u], p[v]);
         }
-        if (dist < 0.0) mask.voxels[grid.index(i, j, k)] = 1;
+        if (dist < 0.0)
+          mask.voxels[grid.index(i, j, k)] = 1;
       }
     }
   }

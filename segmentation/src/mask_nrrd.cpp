@@ -13,7 +13,8 @@ void writeMaskNrrd(const std::string& path, const VoxelMask& mask) {
   if (g.voxelCount() == 0 || mask.voxels.size() != g.voxelCount()) {
     throw std::invalid_argument("writeMaskNrrd: the mask is empty");
   }
-  if (!g.uniform()) throw std::invalid_argument("writeMaskNrrd: the mask's grid has several slice spacings");
+  if (!g.uniform())
+    throw std::invalid_argument("writeMaskNrrd: the mask's grid has several slice spacings");
   const Eigen::Vector3d s = g.spacingMm();
   AtomicFile file(path);
   std::ostream& o = file.stream();
@@ -32,9 +33,11 @@ void writeMaskNrrd(const std::string& path, const VoxelMask& mask) {
   o << "kinds: domain domain domain\n";
   o << "endian: little\n";
   o << "encoding: raw\n";
-  o << fmt::format("space origin: ({:.17g},{:.17g},{:.17g})\n", g.originMm.x(), g.originMm.y(), g.originMm.z());
+  o << fmt::format("space origin: ({:.17g},{:.17g},{:.17g})\n", g.originMm.x(), g.originMm.y(),
+                   g.originMm.z());
   o << "\n";
-  o.write(reinterpret_cast<const char*>(mask.voxels.data()), static_cast<std::streamsize>(mask.voxels.size()));
+  o.write(reinterpret_cast<const char*>(mask.voxels.data()),
+          static_cast<std::streamsize>(mask.voxels.size()));
   file.commit();
 }
 

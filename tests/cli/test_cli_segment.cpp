@@ -29,8 +29,10 @@ constexpr double kRadius = 10.0;  // the big bone's outer radius, centred on x =
 // centred at x = 17 (3 mm gap), soft tissue 40 HU.
 double phantomHu(double x, double y) {
   const double r = std::hypot(x, y);
-  if (r <= kRadius) return r > kRadius - 3.0 ? 1500.0 : -60.0;
-  if (std::hypot(x - 17.0, y) <= 4.0) return 1400.0;
+  if (r <= kRadius)
+    return r > kRadius - 3.0 ? 1500.0 : -60.0;
+  if (std::hypot(x - 17.0, y) <= 4.0)
+    return 1400.0;
   return 40.0;
 }
 
@@ -41,9 +43,14 @@ std::string writePhantom(const std::string& folder) {
   v.pixelSpacingMm = 0.8;
   v.firstPixelXYMm = {-18.0, -18.8};
   v.groupNames = {"hip", "knee", "ankle"};
-  for (int k = 0; k < 3; ++k) v.sliceZMm.push_back(-60.0 + 5.0 * k), v.sliceGroup.push_back(0), v.sliceThicknessMm.push_back(5.0);
-  for (int k = 0; k < 30; ++k) v.sliceZMm.push_back(-15.0 + k), v.sliceGroup.push_back(1), v.sliceThicknessMm.push_back(1.0);
-  for (int k = 0; k < 3; ++k) v.sliceZMm.push_back(40.0 + 5.0 * k), v.sliceGroup.push_back(2), v.sliceThicknessMm.push_back(5.0);
+  for (int k = 0; k < 3; ++k)
+    v.sliceZMm.push_back(-60.0 + 5.0 * k), v.sliceGroup.push_back(0),
+        v.sliceThicknessMm.push_back(5.0);
+  for (int k = 0; k < 30; ++k)
+    v.sliceZMm.push_back(-15.0 + k), v.sliceGroup.push_back(1), v.sliceThicknessMm.push_back(1.0);
+  for (int k = 0; k < 3; ++k)
+    v.sliceZMm.push_back(40.0 + 5.0 * k), v.sliceGroup.push_back(2),
+        v.sliceThicknessMm.push_back(5.0);
   v.hu.resize(static_cast<std::size_t>(v.columns * v.rows * v.slices()));
   for (int k = 0; k < v.slices(); ++k) {
     for (int j = 0; j < v.rows; ++j) {
@@ -51,7 +58,8 @@ std::string writePhantom(const std::string& folder) {
         const Eigen::Vector3d c = v.voxelCentreMm(i, j, k);
         double sum = 0.0;  // partial volume: 4 x 4 samples in the pixel
         for (int a = 0; a < 4; ++a) {
-          for (int b = 0; b < 4; ++b) sum += phantomHu(c.x() + (a - 1.5) * 0.2, c.y() + (b - 1.5) * 0.2);
+          for (int b = 0; b < 4; ++b)
+            sum += phantomHu(c.x() + (a - 1.5) * 0.2, c.y() + (b - 1.5) * 0.2);
         }
         v.hu[v.index(i, j, k)] = static_cast<std::int16_t>(std::lround(sum / 16.0));
       }
@@ -87,7 +95,8 @@ double meanRadialError(const core::TriangleMesh& mesh) {
   double sum = 0.0;
   int n = 0;
   for (const auto& v : mesh.vertices) {
-    if (v.z() < -12.0 || v.z() > 11.0) continue;
+    if (v.z() < -12.0 || v.z() > 11.0)
+      continue;
     sum += std::abs(std::hypot(v.x(), v.y()) - kRadius);
     ++n;
   }
@@ -95,9 +104,11 @@ double meanRadialError(const core::TriangleMesh& mesh) {
 }
 
 TEST_F(CliSegment, AutoThenAnchorsGiveTheBone) {
-  const std::string model = out_.file("bone.vtp"), mask = out_.file("bone.nrrd"), anchors = out_.file("a.mrk.json");
-  auto r = runEchoreg({"segment", "--dicom", series_, "--bone", "femur", "--auto", "--seed", "0", "5", "0", "--out",
-                       model, "--mask", mask, "--anchors-out", anchors, "--slices", "8", "--json"});
+  const std::string model = out_.file("bone.vtp"), mask = out_.file("bone.nrrd"),
+                    anchors = out_.file("a.mrk.json");
+  auto r = runEchoreg({"segment", "--dicom", series_, "--bone", "femur", "--auto", "--seed", "0",
+                       "5", "0", "--out", model, "--mask", mask, "--anchors-out", anchors,
+                       "--slices", "8", "--json"});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const auto json = nlohmann::json::parse(r.out);
   EXPECT_EQ(json["mode"], "auto");
@@ -111,41 +122,49 @@ TEST_F(CliSegment, AutoThenAnchorsGiveTheBone) {
   EXPECT_TRUE(core::checkMesh(mesh).closed());
   EXPECT_LT(meanRadialError(mesh), 0.1) << "sub-voxel (0.8 mm pixels)";
   // The thin bone beside it stays out.
-  for (const auto& v : mesh.vertices) EXPECT_LT(v.x(), 12.5);
+  for (const auto& v : mesh.vertices)
+    EXPECT_LT(v.x(), 12.5);
   EXPECT_TRUE(fs::exists(mask));
   const auto curves = core::readMarkups(anchors);
   EXPECT_EQ(curves.size(), 8u);
-  for (const auto& c : curves) EXPECT_EQ(c.type, "ClosedCurve");
+  for (const auto& c : curves)
+    EXPECT_EQ(c.type, "ClosedCurve");
 
   // The proposed anchors, fed back: live-wire contours, filled, refined.
   const std::string fromAnchors = out_.file("lw.vtp");
-  r = runEchoreg({"segment", "--dicom", series_, "--bone", "femur", "--anchors", anchors, "--out", fromAnchors, "--json"});
+  r = runEchoreg({"segment", "--dicom", series_, "--bone", "femur", "--anchors", anchors, "--out",
+                  fromAnchors, "--json"});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const auto lw = nlohmann::json::parse(r.out);
   EXPECT_EQ(lw["mode"], "anchors");
   EXPECT_EQ(lw["contours"].size(), 8u);
-  EXPECT_GE(lw["straight_cuts_at_scan_ends"].get<int>(), 8) << "each contour crosses both ends of the group";
+  EXPECT_GE(lw["straight_cuts_at_scan_ends"].get<int>(), 8)
+      << "each contour crosses both ends of the group";
   const core::TriangleMesh lwMesh = filters::readMesh(fromAnchors);
   EXPECT_TRUE(core::checkMesh(lwMesh).closed());
   EXPECT_LT(meanRadialError(lwMesh), 0.15);
   // Without the CT's refinement: the contours' own surface, coarser but close.
   const std::string plain = out_.file("plain.vtp");
-  r = runEchoreg({"segment", "--dicom", series_, "--bone", "femur", "--anchors", anchors, "--out", plain, "--no-refine"});
+  r = runEchoreg({"segment", "--dicom", series_, "--bone", "femur", "--anchors", anchors, "--out",
+                  plain, "--no-refine"});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_LT(meanRadialError(filters::readMesh(plain)), 0.6);
 }
 
 TEST_F(CliSegment, AccessibleSurfaceAlongAViewDirection) {
   const std::string model = out_.file("bone.vtp"), accessible = out_.file("front.vtp");
-  const auto r = runEchoreg({"segment", "--dicom", series_, "--bone", "femur", "--auto", "--seed", "0", "-8.5", "0",
-                             "--out", model, "--view-direction", "0", "-1", "0", "--max-angle-deg", "45",
-                             "--accessible-out", accessible, "--json"});
+  const auto r =
+      runEchoreg({"segment",          "--dicom",  series_, "--bone", "femur",           "--auto",
+                  "--seed",           "0",        "-8.5",  "0",      "--out",           model,
+                  "--view-direction", "0",        "-1",    "0",      "--max-angle-deg", "45",
+                  "--accessible-out", accessible, "--json"});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const auto json = nlohmann::json::parse(r.out);
   const double fraction = json["accessible"]["fraction_of_area"];
   EXPECT_GT(fraction, 0.1);
   EXPECT_LT(fraction, 0.35);
-  for (const auto& v : filters::readMesh(accessible).vertices) EXPECT_LT(v.y(), -6.0);
+  for (const auto& v : filters::readMesh(accessible).vertices)
+    EXPECT_LT(v.y(), -6.0);
 }
 
 TEST_F(CliSegment, RefusalsNameTheFileAndWriteNothing) {
@@ -162,7 +181,8 @@ TEST_F(CliSegment, RefusalsNameTheFileAndWriteNothing) {
   };
   refused({"--auto", "--seed", "200", "0", "0"}, "outside the CT's slices");
   refused({"--auto", "--seed", "0", "0", "25"}, "gap between its slice groups");
-  refused({"--auto", "--seed", "-16", "-16", "0", "--mask", out_.file("m.nrrd")}, "is not in bone: 40 HU");
+  refused({"--auto", "--seed", "-16", "-16", "0", "--mask", out_.file("m.nrrd")},
+          "is not in bone: 40 HU");
   // A CT with bone nowhere near the seed's HU: the threshold above every voxel.
   refused({"--auto", "--seed", "0", "5", "0", "--threshold-hu", "3000", "2500"}, "is not in bone");
   refused({"--auto", "--seed", "0", "5", "0", "--threshold-hu", "100", "200"}, "WEAK <= STRONG");
@@ -171,27 +191,35 @@ TEST_F(CliSegment, RefusalsNameTheFileAndWriteNothing) {
   std::ofstream(notJson) << "{ not json";
   refused({"--anchors", notJson}, notJson);
   const std::string twoPoints = out_.file("two.mrk.json");
-  core::writeMarkups(twoPoints, {core::Markup{"ClosedCurve", "c", {{"a", {0, -10, -5}}, {"b", {0, 10, -5}}}}});
+  core::writeMarkups(twoPoints,
+                     {core::Markup{"ClosedCurve", "c", {{"a", {0, -10, -5}}, {"b", {0, 10, -5}}}}});
   refused({"--anchors", twoPoints}, "at least 3");
   const std::string outside = out_.file("outside.mrk.json");
-  core::writeMarkups(outside, {core::Markup{"ClosedCurve", "c", {{"a", {0, -10, 100}}, {"b", {0, 10, 100}}, {"c", {0, 0, 110}}}}});
+  core::writeMarkups(
+      outside,
+      {core::Markup{
+          "ClosedCurve", "c", {{"a", {0, -10, 100}}, {"b", {0, 10, 100}}, {"c", {0, 0, 110}}}}});
   refused({"--anchors", outside}, "no anchor lies within the CT's slices");
   // Anchors so close that two fall on one pixel of the slice: no closed contour.
   const std::string tiny = out_.file("tiny.mrk.json");
-  core::writeMarkups(tiny, {core::Markup{"ClosedCurve", "c", {{"a", {0.1, 0.0, 0.05}}, {"b", {0.1, 1.5, 0.95}}, {"c", {0.1, 1.45, 0.95}}}}});
+  core::writeMarkups(
+      tiny,
+      {core::Markup{"ClosedCurve",
+                    "c",
+                    {{"a", {0.1, 0.0, 0.05}}, {"b", {0.1, 1.5, 0.95}}, {"c", {0.1, 1.45, 0.95}}}}});
   refused({"--anchors", tiny}, "at least 3 distinct anchors");
   refused({"--anchors", out_.file("missing.mrk.json")}, "missing.mrk.json");
   // The output's folder must exist; the DICOM folder too.
   {
-    const auto r = runEchoreg({"segment", "--dicom", series_, "--bone", "femur", "--auto", "--seed", "0", "5", "0",
-                               "--out", out_.file("nowhere/m.vtp")});
+    const auto r = runEchoreg({"segment", "--dicom", series_, "--bone", "femur", "--auto", "--seed",
+                               "0", "5", "0", "--out", out_.file("nowhere/m.vtp")});
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("does not exist"), std::string::npos) << r.err;
     EXPECT_FALSE(fs::exists(out_.file("nowhere")));
   }
   {
-    const auto r = runEchoreg({"segment", "--dicom", out_.file("no-ct"), "--bone", "femur", "--auto", "--seed", "0",
-                               "5", "0", "--out", model});
+    const auto r = runEchoreg({"segment", "--dicom", out_.file("no-ct"), "--bone", "femur",
+                               "--auto", "--seed", "0", "5", "0", "--out", model});
     EXPECT_EQ(r.exitCode, 1);
     EXPECT_NE(r.err.find("no-ct"), std::string::npos) << r.err;
   }
@@ -200,12 +228,13 @@ TEST_F(CliSegment, RefusalsNameTheFileAndWriteNothing) {
 TEST_F(CliSegment, WrongUsageExitsTwo) {
   const std::string model = out_.file("m.vtp");
   for (const auto& args : std::vector<std::vector<std::string>>{
-           {"--auto"},                                                           // no seed
-           {"--anchors", "a.mrk.json", "--auto", "--seed", "0", "0", "0"},        // both modes
-           {},                                                                   // neither
-           {"--auto", "--seed", "0", "0"},                                       // two numbers
-           {"--auto", "--seed", "0", "0", "0", "--with-fibula"},                 // one seed, two bones
-           {"--auto", "--seed", "0", "0", "0", "--view-direction", "0", "1", "0"},  // no --accessible-out
+           {"--auto"},                                                      // no seed
+           {"--anchors", "a.mrk.json", "--auto", "--seed", "0", "0", "0"},  // both modes
+           {},                                                              // neither
+           {"--auto", "--seed", "0", "0"},                                  // two numbers
+           {"--auto", "--seed", "0", "0", "0", "--with-fibula"},            // one seed, two bones
+           {"--auto", "--seed", "0", "0", "0", "--view-direction", "0", "1",
+            "0"},  // no --accessible-out
            {"--auto", "--seed", "0", "0", "0", "--plane", "oblique"}}) {
     std::vector<std::string> full{"segment", "--dicom", series_, "--bone", "femur", "--out", model};
     full.insert(full.end(), args.begin(), args.end());

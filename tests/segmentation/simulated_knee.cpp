@@ -2,6 +2,7 @@
 
 #include "echoreg/simulation/specimen.hpp"
 
+#include <unistd.h>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -10,7 +11,6 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
-#include <unistd.h>
 
 namespace echoreg::test {
 
@@ -19,12 +19,15 @@ segmentation::CtImage toCtImage(const simulation::CtVolume& volume) {
   image.dimensions = {volume.columns, volume.rows, volume.slices()};
   image.originMm = volume.voxelCentreMm(0, 0, 0);
   image.pixelSpacingMm = {volume.pixelSpacingMm, volume.pixelSpacingMm};
-  for (double z : volume.sliceZMm) image.slicePositionsMm.push_back(z - volume.sliceZMm.front());
+  for (double z : volume.sliceZMm)
+    image.slicePositionsMm.push_back(z - volume.sliceZMm.front());
   int first = 0;
   for (int k = 1; k <= volume.slices(); ++k) {
     const auto kk = static_cast<std::size_t>(k);
-    const bool breakHere = k == volume.slices() || volume.sliceGroup[kk] != volume.sliceGroup[kk - 1];
-    if (!breakHere) continue;
+    const bool breakHere =
+        k == volume.slices() || volume.sliceGroup[kk] != volume.sliceGroup[kk - 1];
+    if (!breakHere)
+      continue;
     const int count = k - first;
     const double spacing = count > 1 ? volume.sliceZMm[static_cast<std::size_t>(first + 1)] -
                                            volume.sliceZMm[static_cast<std::size_t>(first)]
@@ -78,19 +81,25 @@ bool get(std::istream& in, T& v) {
 
 bool loadCache(const std::string& path, SimulatedKnee& s) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) return false;
+  if (!in)
+    return false;
   segmentation::CtImage& ct = s.ct;
   std::uint64_t slices = 0;
-  if (!get(in, ct.dimensions) || !get(in, ct.originMm) || !get(in, ct.pixelSpacingMm) || !get(in, s.kneeZMinMm) ||
-      !get(in, s.kneeZMaxMm) || !get(in, slices) || slices != static_cast<std::uint64_t>(ct.dimensions[2])) {
+  if (!get(in, ct.dimensions) || !get(in, ct.originMm) || !get(in, ct.pixelSpacingMm) ||
+      !get(in, s.kneeZMinMm) || !get(in, s.kneeZMaxMm) || !get(in, slices) ||
+      slices != static_cast<std::uint64_t>(ct.dimensions[2])) {
     return false;
   }
   ct.slicePositionsMm.resize(slices);
-  for (double& z : ct.slicePositionsMm) get(in, z);
+  for (double& z : ct.slicePositionsMm)
+    get(in, z);
   ct.hu.resize(ct.voxelCount());
-  in.read(reinterpret_cast<char*>(ct.hu.data()), static_cast<std::streamsize>(ct.hu.size() * sizeof(std::int16_t)));
-  if (!in) return false;
-  ct.groups = {{0, ct.dimensions[2], ct.slicePositionsMm.size() > 1 ? ct.slicePositionsMm[1] : 0.0}};
+  in.read(reinterpret_cast<char*>(ct.hu.data()),
+          static_cast<std::streamsize>(ct.hu.size() * sizeof(std::int16_t)));
+  if (!in)
+    return false;
+  ct.groups = {
+      {0, ct.dimensions[2], ct.slicePositionsMm.size() > 1 ? ct.slicePositionsMm[1] : 0.0}};
   ct.seriesInstanceUid = "simulated";
   return true;
 }
@@ -105,13 +114,15 @@ void saveCache(const std::string& path, const SimulatedKnee& s) {
     put(o, s.kneeZMinMm);
     put(o, s.kneeZMaxMm);
     put(o, static_cast<std::uint64_t>(s.ct.slicePositionsMm.size()));
-    for (double z : s.ct.slicePositionsMm) put(o, z);
+    for (double z : s.ct.slicePositionsMm)
+      put(o, z);
     o.write(reinterpret_cast<const char*>(s.ct.hu.data()),
             static_cast<std::streamsize>(s.ct.hu.size() * sizeof(std::int16_t)));
   }
   std::error_code ec;
   std::filesystem::rename(temporary, path, ec);
-  if (ec) std::filesystem::remove(temporary, ec);
+  if (ec)
+    std::filesystem::remove(temporary, ec);
 }
 
 }  // namespace
@@ -124,19 +135,23 @@ const SimulatedKnee& simulatedKnee() {
     options.seed = 3;
     options.meshResolutionMm = 1.2;
     s->knee = simulation::buildKnee(options);
-    const double tKnee = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double tKnee =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const std::string cache = cachePath(checksum(s->knee));
     if (loadCache(cache, *s)) {
-      std::cout << "[ fixture  ] simulated knee CT " << s->ct.dimensions[0] << " x " << s->ct.dimensions[1] << " x "
-                << s->ct.dimensions[2] << " from " << cache << " (bones " << tKnee << " s)\n";
+      std::cout << "[ fixture  ] simulated knee CT " << s->ct.dimensions[0] << " x "
+                << s->ct.dimensions[1] << " x " << s->ct.dimensions[2] << " from " << cache
+                << " (bones " << tKnee << " s)\n";
       return s;
     }
     simulation::SoftTissueOptions tissue;
     tissue.seed = 3;
     const simulation::Specimen specimen(s->knee, simulation::SpecimenKind::Cadaver, tissue);
-    const double tSpecimen = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const Eigen::Vector2d centre = (0.5 * (s->knee.hipCentre + s->knee.kneeCentre)).head<2>() * 0.5 +
-                                   s->knee.kneeCentre.head<2>() * 0.5;
+    const double tSpecimen =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const Eigen::Vector2d centre =
+        (0.5 * (s->knee.hipCentre + s->knee.kneeCentre)).head<2>() * 0.5 +
+        s->knee.kneeCentre.head<2>() * 0.5;
     simulation::CtProtocol protocol = simulation::smallProtocol(
         s->knee.hipCentre.z(), s->knee.kneeCentre.z(), s->knee.ankleCentre.z(), centre);
     // The knee group only, over +-32 mm, on 144 x 144 pixels (115 mm) centred on the knee: every
@@ -152,10 +167,10 @@ const SimulatedKnee& simulatedKnee() {
     s->kneeZMinMm = volume.sliceZMm.front();
     s->kneeZMaxMm = volume.sliceZMm.back();
     saveCache(cache, *s);
-    std::cout << "[ fixture  ] simulated knee CT " << volume.columns << " x " << volume.rows << " x "
-              << volume.slices() << " in "
-              << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() << " s (bones "
-              << tKnee << " s, leg " << tSpecimen - tKnee << " s)\n";
+    std::cout << "[ fixture  ] simulated knee CT " << volume.columns << " x " << volume.rows
+              << " x " << volume.slices() << " in "
+              << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
+              << " s (bones " << tKnee << " s, leg " << tSpecimen - tKnee << " s)\n";
     return s;
   }();
   return *shared;

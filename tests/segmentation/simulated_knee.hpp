@@ -13,7 +13,7 @@ namespace echoreg::test {
 
 struct SimulatedKnee {
   simulation::Knee knee;
-  segmentation::CtImage ct;  ///< knee group only (uniform)
+  segmentation::CtImage ct;                   ///< knee group only (uniform)
   double kneeZMinMm = 0.0, kneeZMaxMm = 0.0;  ///< the first and last slice centres
 };
 

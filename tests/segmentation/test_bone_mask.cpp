@@ -25,12 +25,14 @@ using segmentation::CtImage;
 
 // A uniform CT of `n` voxels of `spacing` mm whose HU at a point is `hu(p)` averaged over 3^3
 // sub-samples (partial volume), origin at (-n/2 * spacing) so the grid is centred on 0.
-CtImage analyticCt(const Eigen::Vector3i& n, const Eigen::Vector3d& spacing, const std::function<double(const Eigen::Vector3d&)>& hu) {
+CtImage analyticCt(const Eigen::Vector3i& n, const Eigen::Vector3d& spacing,
+                   const std::function<double(const Eigen::Vector3d&)>& hu) {
   CtImage ct;
   ct.dimensions = {n.x(), n.y(), n.z()};
   ct.pixelSpacingMm = spacing.head<2>();
   ct.originMm = -0.5 * (n.cast<double>() - Eigen::Vector3d::Ones()).cwiseProduct(spacing);
-  for (int k = 0; k < n.z(); ++k) ct.slicePositionsMm.push_back(k * spacing.z());
+  for (int k = 0; k < n.z(); ++k)
+    ct.slicePositionsMm.push_back(k * spacing.z());
   ct.groups = {{0, n.z(), spacing.z()}};
   ct.hu.resize(ct.voxelCount());
   for (int k = 0; k < n.z(); ++k) {
@@ -40,7 +42,8 @@ CtImage analyticCt(const Eigen::Vector3i& n, const Eigen::Vector3d& spacing, con
         double sum = 0.0;
         for (int a = -1; a <= 1; ++a) {
           for (int b = -1; b <= 1; ++b) {
-            for (int d = -1; d <= 1; ++d) sum += hu(c + Eigen::Vector3d(a, b, d).cwiseProduct(spacing) / 3.0);
+            for (int d = -1; d <= 1; ++d)
+              sum += hu(c + Eigen::Vector3d(a, b, d).cwiseProduct(spacing) / 3.0);
           }
         }
         ct.hu[ct.index(i, j, k)] = static_cast<std::int16_t>(std::lround(sum / 27.0));
@@ -53,13 +56,15 @@ CtImage analyticCt(const Eigen::Vector3i& n, const Eigen::Vector3d& spacing, con
 // A hollow "bone": cortex 1500 HU between radius r-3 and r, marrow -60 HU inside, soft tissue 40.
 double hollowSphere(const Eigen::Vector3d& p, const Eigen::Vector3d& centre, double r) {
   const double d = (p - centre).norm();
-  if (d > r) return 40.0;
+  if (d > r)
+    return 40.0;
   return d > r - 3.0 ? 1500.0 : -60.0;
 }
 
 TEST(BoneMask, GrowFillsTheMarrowAndRefusesBadSeeds) {
-  const CtImage ct = analyticCt({48, 48, 40}, {0.8, 0.8, 1.0},
-                                [](const Eigen::Vector3d& p) { return hollowSphere(p, Eigen::Vector3d::Zero(), 12.0); });
+  const CtImage ct = analyticCt({48, 48, 40}, {0.8, 0.8, 1.0}, [](const Eigen::Vector3d& p) {
+    return hollowSphere(p, Eigen::Vector3d::Zero(), 12.0);
+  });
   // A seed in the marrow: the nearest bone in its slice encloses it.
   const auto grown = segmentation::growBone(ct, Eigen::Vector3d(0, 0, 0.3));
   const double sphere = 4.0 / 3.0 * M_PI * 12.0 * 12.0 * 12.0;
@@ -94,8 +99,10 @@ TEST(BoneMask, GrowthDoesNotCrossAThinBridgeBetweenBones) {
   // Two solid spheres 2 mm apart, joined by a 1 mm rod of bone density (a joint's partial volume).
   const Eigen::Vector3d a(-11, 0, 0), b(11, 0, 0);
   const CtImage ct = analyticCt({64, 32, 32}, {0.8, 0.8, 0.8}, [&](const Eigen::Vector3d& p) {
-    if ((p - a).norm() < 10.0 || (p - b).norm() < 10.0) return 1200.0;
-    if (std::abs(p.x()) < 2.0 && std::hypot(p.y(), p.z()) < 0.5) return 1200.0;
+    if ((p - a).norm() < 10.0 || (p - b).norm() < 10.0)
+      return 1200.0;
+    if (std::abs(p.x()) < 2.0 && std::hypot(p.y(), p.z()) < 0.5)
+      return 1200.0;
     return 30.0;
   });
   segmentation::GrowOptions plain;
@@ -106,16 +113,19 @@ TEST(BoneMask, GrowthDoesNotCrossAThinBridgeBetweenBones) {
   EXPECT_GT(joined.volumeMm3, 1.8 * ball);  // without the opening both spheres come
   EXPECT_NEAR(separated.volumeMm3, ball, 0.12 * ball);
   const Eigen::Vector3d vb = ct.lpsToVoxel(b);
-  EXPECT_FALSE(separated.mask.at(static_cast<int>(vb.x()), static_cast<int>(vb.y()), static_cast<int>(vb.z())));
+  EXPECT_FALSE(separated.mask.at(static_cast<int>(vb.x()), static_cast<int>(vb.y()),
+                                 static_cast<int>(vb.z())));
   // The other sphere is what otherBones marks.
   const auto others = segmentation::otherBones(separated.threshold, separated.mask, 2.0);
-  EXPECT_TRUE(others.at(static_cast<int>(vb.x()), static_cast<int>(vb.y()), static_cast<int>(vb.z())));
+  EXPECT_TRUE(
+      others.at(static_cast<int>(vb.x()), static_cast<int>(vb.y()), static_cast<int>(vb.z())));
 }
 
 TEST(BoneSurface, SubVoxelSphereFromTheCt) {
   const double r = 12.0;
-  const CtImage ct = analyticCt({48, 48, 40}, {0.8, 0.8, 1.0},
-                                [&](const Eigen::Vector3d& p) { return hollowSphere(p, Eigen::Vector3d::Zero(), r); });
+  const CtImage ct = analyticCt({48, 48, 40}, {0.8, 0.8, 1.0}, [&](const Eigen::Vector3d& p) {
+    return hollowSphere(p, Eigen::Vector3d::Zero(), r);
+  });
   const auto grown = segmentation::growBone(ct, Eigen::Vector3d(0, 0, 0));
   const auto surface = segmentation::boneSurface(ct, grown.mask, nullptr);
   const auto check = core::checkMesh(surface.mesh);
@@ -134,7 +144,8 @@ TEST(BoneSurface, SubVoxelSphereFromTheCt) {
   const auto plain = segmentation::maskSurface(grown.mask);
   EXPECT_TRUE(core::checkMesh(plain.mesh).closed());
   double plainSum = 0.0;
-  for (const auto& v : plain.mesh.vertices) plainSum += std::abs(v.norm() - r);
+  for (const auto& v : plain.mesh.vertices)
+    plainSum += std::abs(v.norm() - r);
   EXPECT_LT(plainSum / static_cast<double>(plain.mesh.vertices.size()), 0.6);
   // Decimation keeps it closed.
   segmentation::BoneSurfaceOptions fewer;
@@ -144,7 +155,8 @@ TEST(BoneSurface, SubVoxelSphereFromTheCt) {
   EXPECT_LE(decimated.mesh.triangles.size(), 2200u);
   EXPECT_TRUE(core::checkMesh(decimated.mesh).closed());
   // An empty region is refused.
-  EXPECT_THROW(segmentation::boneSurface(ct, segmentation::emptyMask(ct), nullptr), std::invalid_argument);
+  EXPECT_THROW(segmentation::boneSurface(ct, segmentation::emptyMask(ct), nullptr),
+               std::invalid_argument);
   EXPECT_THROW(segmentation::maskSurface(segmentation::emptyMask(ct)), std::invalid_argument);
 }
 
@@ -194,11 +206,13 @@ TEST(Contours, PlaneSectionsOfACylinder) {
     EXPECT_DOUBLE_EQ(p.z(), 3.3);
   }
   EXPECT_TRUE(segmentation::planeSections(mesh, segmentation::SlicePlane::Sagittal, 11.0).empty());
-  const auto positions = segmentation::evenSlicePositions(mesh, segmentation::SlicePlane::Sagittal, 4);
+  const auto positions =
+      segmentation::evenSlicePositions(mesh, segmentation::SlicePlane::Sagittal, 4);
   ASSERT_EQ(positions.size(), 4u);
   EXPECT_NEAR(positions[0], -7.5, 1e-9);
   EXPECT_NEAR(positions[3], 7.5, 1e-9);
-  EXPECT_THROW(segmentation::evenSlicePositions(mesh, segmentation::SlicePlane::Sagittal, 0), std::invalid_argument);
+  EXPECT_THROW(segmentation::evenSlicePositions(mesh, segmentation::SlicePlane::Sagittal, 0),
+               std::invalid_argument);
 }
 
 TEST(Contours, AnchorsSitOnTheCorners) {
@@ -206,7 +220,8 @@ TEST(Contours, AnchorsSitOnTheCorners) {
   std::vector<Eigen::Vector3d> loop;
   auto edge = [&](Eigen::Vector3d a, Eigen::Vector3d b) {
     const int n = static_cast<int>(std::lround((b - a).norm() / 0.5));
-    for (int i = 0; i < n; ++i) loop.push_back(a + (b - a) * i / n);
+    for (int i = 0; i < n; ++i)
+      loop.push_back(a + (b - a) * i / n);
   };
   edge({0, 0, 0}, {0, 40, 0});
   edge({0, 40, 0}, {0, 40, 20});
@@ -218,10 +233,11 @@ TEST(Contours, AnchorsSitOnTheCorners) {
   for (std::size_t i = 0; i < anchors.size(); ++i) {
     EXPECT_LE((anchors[(i + 1) % anchors.size()] - anchors[i]).norm(), 12.0 + 1e-9);
   }
-  for (const Eigen::Vector3d& corner : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0, 40, 0), Eigen::Vector3d(0, 40, 20),
-                                       Eigen::Vector3d(0, 0, 20)}) {
+  for (const Eigen::Vector3d& corner : {Eigen::Vector3d(0, 0, 0), Eigen::Vector3d(0, 40, 0),
+                                        Eigen::Vector3d(0, 40, 20), Eigen::Vector3d(0, 0, 20)}) {
     double nearest = 1e9;
-    for (const auto& a : anchors) nearest = std::min(nearest, (a - corner).norm());
+    for (const auto& a : anchors)
+      nearest = std::min(nearest, (a - corner).norm());
     EXPECT_LT(nearest, 0.6) << corner.transpose();
   }
   // Clipped to z <= 15 (the end of a scan): the cut's two ends become corners.
@@ -230,7 +246,8 @@ TEST(Contours, AnchorsSitOnTheCorners) {
   int onCut = 0;
   for (const auto& a : cut) {
     EXPECT_LE(a.z(), 15.0 + 1e-9);
-    if (std::abs(a.z() - 15.0) < 1e-9 && (std::abs(a.y()) < 1e-9 || std::abs(a.y() - 40.0) < 1e-9)) ++onCut;
+    if (std::abs(a.z() - 15.0) < 1e-9 && (std::abs(a.y()) < 1e-9 || std::abs(a.y() - 40.0) < 1e-9))
+      ++onCut;
   }
   EXPECT_EQ(onCut, 2);
   // Live-wire between two anchors on the scan's end is replaced by the straight cut.
@@ -250,11 +267,13 @@ TEST(Contours, AnchorsSitOnTheCorners) {
   std::vector<Eigen::Vector3d> tiny{{0, 0, 0}, {0, 1, 0}, {0, 1, 1}};
   EXPECT_TRUE(segmentation::proposeLoopAnchors(tiny).empty());
   // Proposed sets on a cylinder: one per sagittal slice, each on the surface.
-  const auto sets = segmentation::proposeAnchors(cylinder(10.0, -20.0, 20.0), segmentation::SlicePlane::Sagittal, 5);
+  const auto sets = segmentation::proposeAnchors(cylinder(10.0, -20.0, 20.0),
+                                                 segmentation::SlicePlane::Sagittal, 5);
   ASSERT_EQ(sets.size(), 5u);
   for (const auto& s : sets) {
     EXPECT_GE(s.anchorsLps.size(), 4u);
-    for (const auto& a : s.anchorsLps) EXPECT_NEAR(a.x(), s.positionMm, 1e-9);
+    for (const auto& a : s.anchorsLps)
+      EXPECT_NEAR(a.x(), s.positionMm, 1e-9);
   }
 }
 
@@ -270,7 +289,8 @@ TEST(Contours, InterpolatedMaskOfACylinder) {
       contours.push_back(c);
     }
   }
-  const CtImage grid = analyticCt({40, 40, 36}, {0.8, 0.8, 1.0}, [](const Eigen::Vector3d&) { return 0.0; });
+  const CtImage grid =
+      analyticCt({40, 40, 36}, {0.8, 0.8, 1.0}, [](const Eigen::Vector3d&) { return 0.0; });
   const auto mask = segmentation::contoursToMask(contours, grid);
   const double volume = static_cast<double>(mask.count()) * 0.8 * 0.8 * 1.0;
   const double truth = M_PI * 100.0 * 24.0;
@@ -283,7 +303,8 @@ TEST(Contours, InterpolatedMaskOfACylinder) {
   // refuses).
   std::vector<segmentation::SliceContour> away = contours;
   for (auto& c : away) {
-    for (auto& p : c.pointsLps) p.y() += 100.0;
+    for (auto& p : c.pointsLps)
+      p.y() += 100.0;
   }
   EXPECT_EQ(segmentation::contoursToMask(away, grid).count(), 0u);
   contours[1].plane = segmentation::SlicePlane::Axial;
@@ -293,21 +314,36 @@ TEST(Contours, InterpolatedMaskOfACylinder) {
 core::TriangleMesh icosphere(double r, int subdivisions) {
   core::TriangleMesh m;
   const double t = (1.0 + std::sqrt(5.0)) / 2.0;
-  for (const auto& v : std::vector<Eigen::Vector3d>{{-1, t, 0}, {1, t, 0}, {-1, -t, 0}, {1, -t, 0}, {0, -1, t}, {0, 1, t},
-                                                    {0, -1, -t}, {0, 1, -t}, {t, 0, -1}, {t, 0, 1}, {-t, 0, -1}, {-t, 0, 1}}) {
+  for (const auto& v : std::vector<Eigen::Vector3d>{{-1, t, 0},
+                                                    {1, t, 0},
+                                                    {-1, -t, 0},
+                                                    {1, -t, 0},
+                                                    {0, -1, t},
+                                                    {0, 1, t},
+                                                    {0, -1, -t},
+                                                    {0, 1, -t},
+                                                    {t, 0, -1},
+                                                    {t, 0, 1},
+                                                    {-t, 0, -1},
+                                                    {-t, 0, 1}}) {
     m.vertices.push_back(v.normalized() * r);
   }
-  m.triangles = {{0, 11, 5}, {0, 5, 1}, {0, 1, 7}, {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
-                 {11, 10, 2}, {10, 7, 6}, {7, 1, 8}, {3, 9, 4}, {3, 4, 2}, {3, 2, 6}, {3, 6, 8},
-                 {3, 8, 9}, {4, 9, 5}, {2, 4, 11}, {6, 2, 10}, {8, 6, 7}, {9, 8, 1}};
+  m.triangles = {{0, 11, 5}, {0, 5, 1},  {0, 1, 7},   {0, 7, 10}, {0, 10, 11},
+                 {1, 5, 9},  {5, 11, 4}, {11, 10, 2}, {10, 7, 6}, {7, 1, 8},
+                 {3, 9, 4},  {3, 4, 2},  {3, 2, 6},   {3, 6, 8},  {3, 8, 9},
+                 {4, 9, 5},  {2, 4, 11}, {6, 2, 10},  {8, 6, 7},  {9, 8, 1}};
   for (int s = 0; s < subdivisions; ++s) {
     std::vector<std::array<int, 3>> next;
     std::map<std::pair<int, int>, int> mid;
     auto middle = [&](int a, int b) {
       const auto key = std::make_pair(std::min(a, b), std::max(a, b));
       auto it = mid.find(key);
-      if (it != mid.end()) return it->second;
-      m.vertices.push_back((m.vertices[static_cast<std::size_t>(a)] + m.vertices[static_cast<std::size_t>(b)]).normalized() * r);
+      if (it != mid.end())
+        return it->second;
+      m.vertices.push_back(
+          (m.vertices[static_cast<std::size_t>(a)] + m.vertices[static_cast<std::size_t>(b)])
+              .normalized() *
+          r);
       return mid[key] = static_cast<int>(m.vertices.size()) - 1;
     };
     for (const auto& tri : m.triangles) {
@@ -331,20 +367,25 @@ TEST(AccessibleSurface, ViewDirectionsAndRegions) {
   const auto front = segmentation::accessibleSurface(sphere, o);
   // A cap of half-angle 60 degrees: (1 - cos 60) / 2 of the sphere.
   EXPECT_NEAR(front.fractionOfArea, 0.25, 0.02);
-  for (const auto& v : front.mesh.vertices) EXPECT_LT(v.y(), -8.0);
+  for (const auto& v : front.mesh.vertices)
+    EXPECT_LT(v.y(), -8.0);
   // Two spheres one behind the other: the back one is hidden along the view.
   core::TriangleMesh two = sphere;
   const auto behind = icosphere(10.0, 3);
   const int offset = static_cast<int>(two.vertices.size());
-  for (const auto& v : behind.vertices) two.vertices.push_back(v + Eigen::Vector3d(0, 40, 0));
-  for (const auto& t : behind.triangles) two.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  for (const auto& v : behind.vertices)
+    two.vertices.push_back(v + Eigen::Vector3d(0, 40, 0));
+  for (const auto& t : behind.triangles)
+    two.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
   const auto visible = segmentation::accessibleSurface(two, o);
-  for (const auto& v : visible.mesh.vertices) EXPECT_LT(v.y(), 0.0) << "the sphere behind is hidden";
+  for (const auto& v : visible.mesh.vertices)
+    EXPECT_LT(v.y(), 0.0) << "the sphere behind is hidden";
   // Regions: a ball of 10 mm around a surface point keeps a cap.
   segmentation::AccessibleSurfaceOptions r;
   r.regions = {{"epicondyle", Eigen::Vector3d(20, 0, 0), 10.0}};
   const auto cap = segmentation::accessibleSurface(sphere, r);
-  for (const auto& v : cap.mesh.vertices) EXPECT_LT((v - Eigen::Vector3d(20, 0, 0)).norm(), 11.0);
+  for (const auto& v : cap.mesh.vertices)
+    EXPECT_LT((v - Eigen::Vector3d(20, 0, 0)).norm(), 11.0);
   EXPECT_GT(cap.areaMm2, 200.0);
   // Bad values.
   segmentation::AccessibleSurfaceOptions bad;
@@ -357,7 +398,8 @@ TEST(AccessibleSurface, ViewDirectionsAndRegions) {
 }
 
 TEST(MaskNrrd, HeaderGivesLpsGeometry) {
-  const CtImage ct = analyticCt({4, 3, 2}, {0.5, 0.5, 2.0}, [](const Eigen::Vector3d& p) { return p.x() > 0 ? 1000.0 : 0.0; });
+  const CtImage ct = analyticCt({4, 3, 2}, {0.5, 0.5, 2.0},
+                                [](const Eigen::Vector3d& p) { return p.x() > 0 ? 1000.0 : 0.0; });
   auto mask = segmentation::emptyMask(ct);
   mask.voxels[ct.index(3, 2, 1)] = 1;
   test::TempDir dir;

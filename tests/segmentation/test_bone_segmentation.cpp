@@ -1,9 +1,9 @@
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/random.hpp"
-#include "echoreg/segmentation/livewire_contours.hpp"
 #include "echoreg/segmentation/bone_mask.hpp"
 #include "echoreg/segmentation/bone_surface.hpp"
 #include "echoreg/segmentation/contour_surface.hpp"
+#include "echoreg/segmentation/livewire_contours.hpp"
 #include "echoreg/segmentation/surface_metrics.hpp"
 
 #include "simulated_knee.hpp"
@@ -38,14 +38,16 @@ Eigen::Vector3d insidePoint(const simulation::Bone& bone, double z) {
       }
     }
   }
-  if (n == 0) throw std::runtime_error("no inside point");
+  if (n == 0)
+    throw std::runtime_error("no inside point");
   // The inside point nearest the centroid.
   const Eigen::Vector3d c = sum / n;
   Eigen::Vector3d best = c;
   double bestD = 1e30;
   for (double y = b[0].y(); y <= b[1].y(); y += 1.0) {
     for (double x = b[0].x(); x <= b[1].x(); x += 1.0) {
-      if (locator.signedDistance({x, y, z}) < -3.0 && (Eigen::Vector3d(x, y, z) - c).norm() < bestD) {
+      if (locator.signedDistance({x, y, z}) < -3.0 &&
+          (Eigen::Vector3d(x, y, z) - c).norm() < bestD) {
         bestD = (Eigen::Vector3d(x, y, z) - c).norm();
         best = Eigen::Vector3d(x, y, z);
       }
@@ -71,13 +73,15 @@ TEST(BoneSegmentation, AutoFromSeedMatchesTheTruth) {
     co.zMaxMm = sim.kneeZMaxMm - 2.0;
     t0 = std::chrono::steady_clock::now();
     const auto c = segmentation::compareSurfaces(surface.mesh, bone.mesh, co);
-    std::cout << "[ measured ] " << simulation::boneName(id) << " auto: grow " << tGrow << " s, surface " << tSurf << " s, compare "
-              << secondsSince(t0) << " s; iso " << surface.isoHu << " (cortex " << surface.cortexHu << ", soft "
-              << surface.softTissueHu << "), " << surface.mesh.triangles.size() << " triangles, pieces "
-              << surface.components << " dropped " << surface.droppedComponents << "; MSD " << c.meanMm
-              << " (est->truth " << c.meanEstimateToTruthMm << ", truth->est " << c.meanTruthToEstimateMm
-              << ") p95 " << c.p95Mm << " max " << c.maxMm << " Dice " << c.dice << " vol " << c.volumeEstimateMm3
-              << " / " << c.volumeTruthMm3 << "\n";
+    std::cout << "[ measured ] " << simulation::boneName(id) << " auto: grow " << tGrow
+              << " s, surface " << tSurf << " s, compare " << secondsSince(t0) << " s; iso "
+              << surface.isoHu << " (cortex " << surface.cortexHu << ", soft "
+              << surface.softTissueHu << "), " << surface.mesh.triangles.size()
+              << " triangles, pieces " << surface.components << " dropped "
+              << surface.droppedComponents << "; MSD " << c.meanMm << " (est->truth "
+              << c.meanEstimateToTruthMm << ", truth->est " << c.meanTruthToEstimateMm << ") p95 "
+              << c.p95Mm << " max " << c.maxMm << " Dice " << c.dice << " vol "
+              << c.volumeEstimateMm3 << " / " << c.volumeTruthMm3 << "\n";
     EXPECT_LE(c.meanMm, 0.5);
     EXPECT_LE(c.p95Mm, 1.5);
     EXPECT_GE(c.dice, 0.97);
@@ -95,8 +99,10 @@ TEST(BoneSegmentation, TruthContoursToSurface) {
     const simulation::Bone& bone = sim.knee.bone(id);
     auto t0 = std::chrono::steady_clock::now();
     std::vector<segmentation::SliceContour> contours;
-    for (double x : segmentation::evenSlicePositions(bone.mesh, segmentation::SlicePlane::Sagittal, 40)) {
-      for (auto& loop : segmentation::planeSections(bone.mesh, segmentation::SlicePlane::Sagittal, x)) {
+    for (double x :
+         segmentation::evenSlicePositions(bone.mesh, segmentation::SlicePlane::Sagittal, 40)) {
+      for (auto& loop :
+           segmentation::planeSections(bone.mesh, segmentation::SlicePlane::Sagittal, x)) {
         segmentation::SliceContour c;
         c.positionMm = x;
         c.pointsLps = loop;
@@ -114,10 +120,11 @@ TEST(BoneSegmentation, TruthContoursToSurface) {
     co.zMaxMm = sim.kneeZMaxMm - 2.0;
     const auto c = segmentation::compareSurfaces(surface.mesh, bone.mesh, co);
     const auto cp = segmentation::compareSurfaces(plain.mesh, bone.mesh, co);
-    std::cout << "[ measured ] " << simulation::boneName(id) << " truth contours: " << contours.size() << " contours, mask " << tMask
-              << " s, total " << secondsSince(t0) << " s; refined MSD " << c.meanMm << " p95 " << c.p95Mm
-              << " Dice " << c.dice << "; mask only MSD " << cp.meanMm << " p95 " << cp.p95Mm << " Dice "
-              << cp.dice << "\n";
+    std::cout << "[ measured ] " << simulation::boneName(id)
+              << " truth contours: " << contours.size() << " contours, mask " << tMask
+              << " s, total " << secondsSince(t0) << " s; refined MSD " << c.meanMm << " p95 "
+              << c.p95Mm << " Dice " << c.dice << "; mask only MSD " << cp.meanMm << " p95 "
+              << cp.p95Mm << " Dice " << cp.dice << "\n";
     EXPECT_LE(c.meanMm, 0.5);
     EXPECT_LE(c.p95Mm, 1.5);
     EXPECT_GE(c.dice, 0.97);
@@ -131,8 +138,8 @@ namespace {
 // A simulated user: the truth's sagittal sections (clipped to the scanned slab), anchors every
 // ~12 mm and at the corners, each moved by noise of sigma 0.3 mm within the slice (along the
 // scan's end only: a click on the image's edge row stays on it).
-std::vector<echoreg::segmentation::AnchorSet> simulatedUserAnchors(const echoreg::core::TriangleMesh& truth, double zMin,
-                                                                   double zMax, std::uint64_t seed) {
+std::vector<echoreg::segmentation::AnchorSet> simulatedUserAnchors(
+    const echoreg::core::TriangleMesh& truth, double zMin, double zMax, std::uint64_t seed) {
   using namespace echoreg;
   segmentation::AnchorProposalOptions proposal;
   proposal.zMinMm = zMin;
@@ -143,7 +150,8 @@ std::vector<echoreg::segmentation::AnchorSet> simulatedUserAnchors(const echoreg
     for (auto& a : s.anchorsLps) {
       const bool onEnd = std::abs(a.z() - zMin) < 1e-9 || std::abs(a.z() - zMax) < 1e-9;
       a.y() += rng.normal(0.0, 0.3);
-      if (!onEnd) a.z() = std::clamp(a.z() + rng.normal(0.0, 0.3), zMin, zMax);
+      if (!onEnd)
+        a.z() = std::clamp(a.z() + rng.normal(0.0, 0.3), zMin, zMax);
     }
   }
   return sets;
@@ -164,7 +172,8 @@ TEST(BoneSegmentation, FromAnchorsMatchesTheTruth) {
       segmentation::straightenAtScanEnds(contours.back(), s, sim.kneeZMinMm, sim.kneeZMaxMm, 0.51);
       double worst = 0.0;
       for (const auto& p : contours.back().pointsLps) {
-        if (p.z() > sim.kneeZMinMm + 0.5 && p.z() < sim.kneeZMaxMm - 0.5) worst = std::max(worst, truth.closest(p).distance);
+        if (p.z() > sim.kneeZMinMm + 0.5 && p.z() < sim.kneeZMaxMm - 0.5)
+          worst = std::max(worst, truth.closest(p).distance);
       }
       worstContour = std::max(worstContour, worst);
     }
@@ -179,9 +188,11 @@ TEST(BoneSegmentation, FromAnchorsMatchesTheTruth) {
     co.zMaxMm = sim.kneeZMaxMm - 2.0;
     const auto c = segmentation::compareSurfaces(surface.mesh, bone.mesh, co);
     const auto cp = segmentation::compareSurfaces(plain.mesh, bone.mesh, co);
-    std::cout << "[ measured ] " << simulation::boneName(id) << " anchors: " << sets.size() << " contours (worst path point " << worstContour << " mm), live-wire " << tWire << " s, total " << total
-              << " s; refined MSD " << c.meanMm << " p95 " << c.p95Mm << " max " << c.maxMm << " Dice " << c.dice
-              << "; contours only MSD " << cp.meanMm << " p95 " << cp.p95Mm << " max " << cp.maxMm << " Dice " << cp.dice << "\n";
+    std::cout << "[ measured ] " << simulation::boneName(id) << " anchors: " << sets.size()
+              << " contours (worst path point " << worstContour << " mm), live-wire " << tWire
+              << " s, total " << total << " s; refined MSD " << c.meanMm << " p95 " << c.p95Mm
+              << " max " << c.maxMm << " Dice " << c.dice << "; contours only MSD " << cp.meanMm
+              << " p95 " << cp.p95Mm << " max " << cp.maxMm << " Dice " << cp.dice << "\n";
     EXPECT_LE(c.meanMm, 0.5);
     EXPECT_LE(c.p95Mm, 1.5);
     EXPECT_GE(c.dice, 0.97);
@@ -203,7 +214,8 @@ TEST(BoneSegmentation, TibiaWithFibulaAsOneModel) {
   const auto b = segmentation::growBone(sim.ct, insidePoint(fibula, z));
   const auto both = segmentation::unite(a.mask, b.mask);
   auto others = segmentation::unite(a.others, b.others);
-  for (std::size_t i = 0; i < others.voxels.size(); ++i) others.voxels[i] &= static_cast<std::uint8_t>(!both.voxels[i]);
+  for (std::size_t i = 0; i < others.voxels.size(); ++i)
+    others.voxels[i] &= static_cast<std::uint8_t>(!both.voxels[i]);
   const auto surface = segmentation::boneSurface(sim.ct, both, &others);
   EXPECT_TRUE(core::checkMesh(surface.mesh).closed());
   // Where the fibula's head nearly touches the tibia the two may join into one piece.
@@ -212,13 +224,16 @@ TEST(BoneSegmentation, TibiaWithFibulaAsOneModel) {
   EXPECT_TRUE(model.inside(insidePoint(tibia, z)));
   core::TriangleMesh truth = tibia.mesh;
   const int offset = static_cast<int>(truth.vertices.size());
-  truth.vertices.insert(truth.vertices.end(), fibula.mesh.vertices.begin(), fibula.mesh.vertices.end());
-  for (const auto& t : fibula.mesh.triangles) truth.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
+  truth.vertices.insert(truth.vertices.end(), fibula.mesh.vertices.begin(),
+                        fibula.mesh.vertices.end());
+  for (const auto& t : fibula.mesh.triangles)
+    truth.triangles.push_back({t[0] + offset, t[1] + offset, t[2] + offset});
   segmentation::SurfaceComparisonOptions co;
   co.zMinMm = sim.kneeZMinMm + 2.0;
   co.zMaxMm = sim.kneeZMaxMm - 2.0;
   const auto c = segmentation::compareSurfaces(surface.mesh, truth, co);
-  std::cout << "[ measured ] tibia+fibula auto: MSD " << c.meanMm << " p95 " << c.p95Mm << " Dice " << c.dice << "\n";
+  std::cout << "[ measured ] tibia+fibula auto: MSD " << c.meanMm << " p95 " << c.p95Mm << " Dice "
+            << c.dice << "\n";
   EXPECT_LE(c.meanMm, 0.5);
   EXPECT_LE(c.p95Mm, 1.5);
   EXPECT_GE(c.dice, 0.97);

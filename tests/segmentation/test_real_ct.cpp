@@ -20,7 +20,8 @@ namespace {
 using namespace echoreg;
 
 // Columns i0.., rows j0.. (ni x nj) of the lowest `count` slices.
-segmentation::CtImage crop(const segmentation::CtImage& ct, int i0, int j0, int ni, int nj, int count) {
+segmentation::CtImage crop(const segmentation::CtImage& ct, int i0, int j0, int ni, int nj,
+                           int count) {
   segmentation::CtImage out = ct;
   out.dimensions = {ni, nj, count};
   out.originMm = ct.voxelToLps(Eigen::Vector3d(i0, j0, 0));
@@ -29,7 +30,8 @@ segmentation::CtImage crop(const segmentation::CtImage& ct, int i0, int j0, int 
   out.hu.resize(out.voxelCount());
   for (int k = 0; k < count; ++k) {
     for (int j = 0; j < nj; ++j) {
-      for (int i = 0; i < ni; ++i) out.hu[out.index(i, j, k)] = ct.at(i0 + i, j0 + j, k);
+      for (int i = 0; i < ni; ++i)
+        out.hu[out.index(i, j, k)] = ct.at(i0 + i, j0 + j, k);
     }
   }
   return out;
@@ -46,8 +48,8 @@ TEST(RealCt, PelvisFromTwoSeeds) {
   const auto start = std::chrono::steady_clock::now();
   // The pelvis' part of the slices (x -168 to 169 mm, y -17 to 253 mm): the body's outline stays
   // outside the crop, as the whole image's border does.
-  const segmentation::CtImage ct =
-      crop(segmentation::readDicomSeries(test::sharedDataDir() + "/ct-abdomen"), 100, 150, 314, 252, 40);
+  const segmentation::CtImage ct = crop(
+      segmentation::readDicomSeries(test::sharedDataDir() + "/ct-abdomen"), 100, 150, 314, 252, 40);
   ASSERT_TRUE(ct.uniform());
   // Seeds in the right and the left iliac wing (found on the axial slice z = 91.9 mm).
   const Eigen::Vector3d right(-65.5, 133.4, 91.91), left(66.6, 144.2, 91.91);
@@ -60,14 +62,16 @@ TEST(RealCt, PelvisFromTwoSeeds) {
   const auto pelvis = segmentation::unite(a.mask, b.mask);
   const double volumeCm3 = static_cast<double>(pelvis.count()) * ct.spacingMm().prod() / 1000.0;
   segmentation::VoxelMask others = segmentation::unite(a.others, b.others);
-  for (std::size_t i = 0; i < others.voxels.size(); ++i) others.voxels[i] &= static_cast<std::uint8_t>(!pelvis.voxels[i]);
+  for (std::size_t i = 0; i < others.voxels.size(); ++i)
+    others.voxels[i] &= static_cast<std::uint8_t>(!pelvis.voxels[i]);
   const auto surface = segmentation::boneSurface(ct, pelvis, &others);
   const auto check = core::checkMesh(surface.mesh);
-  std::cout << "[ measured ] pelvis: " << volumeCm3 << " cm^3 (right " << a.volumeMm3 / 1000.0 << ", left "
-            << b.volumeMm3 / 1000.0 << "), surface " << check.triangles << " triangles " << check.volumeMm3 / 1000.0
-            << " cm^3, iso " << surface.isoHu << " HU (cortex " << surface.cortexHu << ", soft "
-            << surface.softTissueHu << "); "
-            << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() << " s\n";
+  std::cout << "[ measured ] pelvis: " << volumeCm3 << " cm^3 (right " << a.volumeMm3 / 1000.0
+            << ", left " << b.volumeMm3 / 1000.0 << "), surface " << check.triangles
+            << " triangles " << check.volumeMm3 / 1000.0 << " cm^3, iso " << surface.isoHu
+            << " HU (cortex " << surface.cortexHu << ", soft " << surface.softTissueHu << "); "
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
+            << " s\n";
   // A pelvis (both ilia and the sacrum over 12 cm): a few hundred cm^3, not a whole skeleton.
   EXPECT_GT(volumeCm3, 150.0);
   EXPECT_LT(volumeCm3, 600.0);
@@ -86,7 +90,8 @@ TEST(RealCt, PelvisFromTwoSeeds) {
   std::size_t above = 0;
   for (int k = static_cast<int>(std::ceil(crest.z())); k < ct.dimensions[2]; ++k) {
     for (int j = 0; j < ct.dimensions[1]; ++j) {
-      for (int i = 0; i < ct.dimensions[0]; ++i) above += pelvis.at(i, j, k) ? 1u : 0u;
+      for (int i = 0; i < ct.dimensions[0]; ++i)
+        above += pelvis.at(i, j, k) ? 1u : 0u;
     }
   }
   EXPECT_EQ(above, 0u);

@@ -42,7 +42,8 @@ Eigen::Vector3d insidePoint(const core::TriangleMesh& mesh, double z) {
   const Eigen::Vector3d c = sum / static_cast<double>(std::max<std::size_t>(inside.size(), 1));
   Eigen::Vector3d best = c;
   for (const auto& p : inside) {
-    if ((p - c).norm() < (best - c).norm() || best == c) best = p;
+    if ((p - c).norm() < (best - c).norm() || best == c)
+      best = p;
   }
   return best;
 }
@@ -51,14 +52,17 @@ class Segment : public ::testing::Test {
  protected:
   void SetUp() override {
     root_ = fixtureStudy();
-    if (root_.empty()) GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+    if (root_.empty())
+      GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
   }
 
   // Runs segment, checks the model, returns the comparison inside the knee group (2 mm in from
   // its end slices, where the model is capped).
-  segmentation::SurfaceComparison run(const std::string& bone, std::vector<std::string> mode, double* seconds) {
+  segmentation::SurfaceComparison run(const std::string& bone, std::vector<std::string> mode,
+                                      double* seconds) {
     const std::string model = dir_.file(bone + ".vtp");
-    std::vector<std::string> args{"segment", "--dicom", root_ + "/ct/series", "--bone", bone, "--out", model, "--json"};
+    std::vector<std::string> args{
+        "segment", "--dicom", root_ + "/ct/series", "--bone", bone, "--out", model, "--json"};
     args.insert(args.end(), mode.begin(), mode.end());
     const auto start = std::chrono::steady_clock::now();
     const auto r = runEchoreg(args);
@@ -71,8 +75,8 @@ class Segment : public ::testing::Test {
     segmentation::SurfaceComparisonOptions co;
     co.zMinMm = std::min(zFirst_, zLast_) + 2.0;
     co.zMaxMm = std::max(zFirst_, zLast_) - 2.0;
-    return segmentation::compareSurfaces(filters::readMesh(model), filters::readMesh(root_ + "/truth/" + bone + ".vtp"),
-                                         co);
+    return segmentation::compareSurfaces(filters::readMesh(model),
+                                         filters::readMesh(root_ + "/truth/" + bone + ".vtp"), co);
   }
 
   std::string root_;
@@ -80,9 +84,10 @@ class Segment : public ::testing::Test {
   double zFirst_ = 0.0, zLast_ = 0.0;
 };
 
-void expectTargets(const std::string& what, const segmentation::SurfaceComparison& c, double seconds) {
-  std::cout << "[ measured ] " << what << ": MSD " << c.meanMm << " mm, p95 " << c.p95Mm << " mm, max " << c.maxMm
-            << " mm, Dice " << c.dice << ", " << seconds << " s\n";
+void expectTargets(const std::string& what, const segmentation::SurfaceComparison& c,
+                   double seconds) {
+  std::cout << "[ measured ] " << what << ": MSD " << c.meanMm << " mm, p95 " << c.p95Mm
+            << " mm, max " << c.maxMm << " mm, Dice " << c.dice << ", " << seconds << " s\n";
   EXPECT_LE(c.meanMm, 0.5) << what;
   EXPECT_LE(c.p95Mm, 1.5) << what;
   EXPECT_GE(c.dice, 0.97) << what;
@@ -91,15 +96,17 @@ void expectTargets(const std::string& what, const segmentation::SurfaceCompariso
 TEST_F(Segment, FemurAndTibiaFromASeedAndFromAnchors) {
   for (const std::string bone : {"femur", "tibia"}) {
     const core::TriangleMesh truth = filters::readMesh(root_ + "/truth/" + bone + ".vtp");
-    // The knee group: z of the fixture's small protocol is the knee centre +-39.5 mm; the seed 15 mm
-    // inside its far end for this bone (found from the truth, as a user would click in the bone).
+    // The knee group: z of the fixture's small protocol is the knee centre +-39.5 mm; the seed 15
+    // mm inside its far end for this bone (found from the truth, as a user would click in the
+    // bone).
     double seconds = 0.0;
     // A first run finds the group's extent (and is the femur's / tibia's auto result).
     const double kneeZ = 0.5 * (core::bounds(filters::readMesh(root_ + "/truth/femur.vtp"))[0].z() +
                                 core::bounds(filters::readMesh(root_ + "/truth/tibia.vtp"))[1].z());
     const Eigen::Vector3d seed = insidePoint(truth, bone == "femur" ? kneeZ + 25.0 : kneeZ - 25.0);
-    const auto automatic = run(bone, {"--auto", "--seed", std::to_string(seed.x()), std::to_string(seed.y()),
-                                      std::to_string(seed.z())},
+    const auto automatic = run(bone,
+                               {"--auto", "--seed", std::to_string(seed.x()),
+                                std::to_string(seed.y()), std::to_string(seed.z())},
                                &seconds);
     expectTargets(bone + " --auto", automatic, seconds);
 
@@ -108,19 +115,23 @@ TEST_F(Segment, FemurAndTibiaFromASeedAndFromAnchors) {
     segmentation::AnchorProposalOptions proposal;
     proposal.zMinMm = std::min(zFirst_, zLast_);
     proposal.zMaxMm = std::max(zFirst_, zLast_);
-    auto sets = segmentation::proposeAnchors(truth, segmentation::SlicePlane::Sagittal, 40, proposal);
+    auto sets =
+        segmentation::proposeAnchors(truth, segmentation::SlicePlane::Sagittal, 40, proposal);
     core::Rng rng(bone == "femur" ? 21 : 22);
     for (auto& s : sets) {
       for (auto& a : s.anchorsLps) {
-        const bool onEnd = std::abs(a.z() - proposal.zMinMm) < 1e-9 || std::abs(a.z() - proposal.zMaxMm) < 1e-9;
+        const bool onEnd =
+            std::abs(a.z() - proposal.zMinMm) < 1e-9 || std::abs(a.z() - proposal.zMaxMm) < 1e-9;
         a.y() += rng.normal(0.0, 0.3);
-        if (!onEnd) a.z() = std::clamp(a.z() + rng.normal(0.0, 0.3), proposal.zMinMm, proposal.zMaxMm);
+        if (!onEnd)
+          a.z() = std::clamp(a.z() + rng.normal(0.0, 0.3), proposal.zMinMm, proposal.zMaxMm);
       }
     }
     const std::string anchors = dir_.file(bone + "_anchors.mrk.json");
     segmentation::writeAnchors(anchors, sets);
     const auto fromAnchors = run(bone, {"--anchors", anchors}, &seconds);
-    expectTargets(bone + " --anchors (" + std::to_string(sets.size()) + " contours)", fromAnchors, seconds);
+    expectTargets(bone + " --anchors (" + std::to_string(sets.size()) + " contours)", fromAnchors,
+                  seconds);
   }
 }
 

@@ -33,16 +33,17 @@ struct AccessibleSurfaceOptions {
 };
 
 struct AccessibleSurface {
-  core::TriangleMesh mesh;          ///< the kept triangles (an open surface), vertices compacted
-  std::vector<int> keptTriangles;   ///< their indices in the input mesh
+  core::TriangleMesh mesh;         ///< the kept triangles (an open surface), vertices compacted
+  std::vector<int> keptTriangles;  ///< their indices in the input mesh
   double areaMm2 = 0.0;
-  double fractionOfArea = 0.0;      ///< kept area / whole area
+  double fractionOfArea = 0.0;  ///< kept area / whole area
 };
 
 /// The kept part of `surface` (both restrictions apply when both are given). Throws
 /// std::invalid_argument for an empty surface, a zero direction, a non-positive radius or an
 /// angle outside (0, 90], or when nothing is kept.
-AccessibleSurface accessibleSurface(const core::TriangleMesh& surface, const AccessibleSurfaceOptions& options);
+AccessibleSurface accessibleSurface(const core::TriangleMesh& surface,
+                                    const AccessibleSurfaceOptions& options);
 
 /// Regions from a 3D Slicer markups file: every control point of its Fiducial markups, with
 /// `radiusMm` each. Throws FileError naming the file (see core::readMarkupPoints).

@@ -63,8 +63,8 @@ struct GrowOptions {
 };
 
 struct GrowResult {
-  VoxelMask mask;        ///< the grown bone, marrow filled
-  VoxelMask threshold;   ///< every bone voxel of the image (the hysteresis threshold)
+  VoxelMask mask;       ///< the grown bone, marrow filled
+  VoxelMask threshold;  ///< every bone voxel of the image (the hysteresis threshold)
   /// Bone voxels that belong to the other bones (nearer another component of the eroded mask):
   /// boneSurface's `exclude`.
   VoxelMask others;

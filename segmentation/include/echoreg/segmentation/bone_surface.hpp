@@ -42,7 +42,7 @@ struct BoneSurfaceResult {
   double isoHu = 0.0;
   double cortexHu = 0.0;
   double softTissueHu = 0.0;
-  int components = 0;       ///< closed pieces kept
+  int components = 0;  ///< closed pieces kept
   int droppedComponents = 0;
   bool decimated = false;
 };

@@ -22,8 +22,8 @@ int planeAxis(SlicePlane plane);
 /// The closed loops where the plane {p[axis] = positionMm} cuts the closed `mesh`, each a
 /// polygon (last point joins the first, not repeated), counter-clockwise in the plane's (u, v)
 /// axes (the two other LPS axes in order). Loops shorter than 3 points are dropped.
-std::vector<std::vector<Eigen::Vector3d>> planeSections(const core::TriangleMesh& mesh, SlicePlane plane,
-                                                        double positionMm);
+std::vector<std::vector<Eigen::Vector3d>> planeSections(const core::TriangleMesh& mesh,
+                                                        SlicePlane plane, double positionMm);
 
 /// `count` slice positions evenly over the extent of the mesh along the plane's normal (of its
 /// vertices within zMinMm <= z <= zMaxMm: the scanned part): the centres of `count` equal bins,
@@ -49,14 +49,16 @@ struct AnchorProposalOptions {
 };
 
 /// The polygon `loop` clipped to zMin <= z <= zMax (Sutherland-Hodgman against both planes).
-std::vector<Eigen::Vector3d> clipLoopZ(const std::vector<Eigen::Vector3d>& loop, double zMinMm, double zMaxMm);
+std::vector<Eigen::Vector3d> clipLoopZ(const std::vector<Eigen::Vector3d>& loop, double zMinMm,
+                                       double zMaxMm);
 
 /// Live-wire between two anchors that both lie on the same end of the scanned slab (within tolMm
 /// of zMinMm or zMaxMm) has no edge to follow: replaces that stretch of `contour` (the path of
 /// `anchors`, located by contour.anchorIndices) by the straight cut between the two anchors.
 /// Contours without anchor indices, or with a count that differs from the anchors', are left
 /// alone. Returns the number of stretches replaced.
-int straightenAtScanEnds(SliceContour& contour, const AnchorSet& anchors, double zMinMm, double zMaxMm, double tolMm);
+int straightenAtScanEnds(SliceContour& contour, const AnchorSet& anchors, double zMinMm,
+                         double zMaxMm, double tolMm);
 
 /// Anchors on each loop: every corner sharper than cornerDeg, then evenly by arc length between
 /// them (no gap longer than spacingMm), each moved to the sharpest turn nearby.
@@ -65,8 +67,8 @@ std::vector<Eigen::Vector3d> proposeLoopAnchors(const std::vector<Eigen::Vector3
 
 /// Anchor sets for `slices` planes evenly over the surface's extent: one set per loop with a
 /// perimeter of at least minPerimeterMm, labelled "<plane><index>-<loop>".
-std::vector<AnchorSet> proposeAnchors(const core::TriangleMesh& surface, SlicePlane plane, int slices,
-                                      const AnchorProposalOptions& options = {});
+std::vector<AnchorSet> proposeAnchors(const core::TriangleMesh& surface, SlicePlane plane,
+                                      int slices, const AnchorProposalOptions& options = {});
 
 struct ContourMaskOptions {
   /// Raster of the in-plane signed distance maps, mm.

@@ -28,14 +28,15 @@ struct SurfaceComparison {
   double maxMm = 0.0;   ///< Hausdorff distance of the samples
   double meanEstimateToTruthMm = 0.0;
   double meanTruthToEstimateMm = 0.0;
-  double dice = 0.0;    ///< 2 |A n B| / (|A| + |B|) inside the slab
+  double dice = 0.0;               ///< 2 |A n B| / (|A| + |B|) inside the slab
   double volumeEstimateMm3 = 0.0;  ///< inside the slab
   double volumeTruthMm3 = 0.0;
 };
 
 /// Compares `estimate` with `truth` (closed meshes, same frame). Throws std::invalid_argument when
 /// a mesh is empty or has no surface inside the slab.
-SurfaceComparison compareSurfaces(const core::TriangleMesh& estimate, const core::TriangleMesh& truth,
+SurfaceComparison compareSurfaces(const core::TriangleMesh& estimate,
+                                  const core::TriangleMesh& truth,
                                   const SurfaceComparisonOptions& options = {});
 
 }  // namespace echoreg::segmentation
