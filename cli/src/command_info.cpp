@@ -40,12 +40,12 @@ bool looksLikeCt(const std::string& path) {
   return in.read(magic, sizeof magic) && std::string(magic + 128, 4) == "DICM";
 }
 
-nlohmann::json vector3(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+nlohmann::ordered_json vector3(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
 
 // The CT description. spacing_mm[2] is the slice spacing of a uniform series; for several slice
 // groups it is the smallest step between consecutive slices (what resampleUniform uses by
 // default), and slice_groups gives every group's own spacing; for one slice it is 1.
-nlohmann::json describeCt(const segmentation::DicomSeriesRead& read) {
+nlohmann::ordered_json describeCt(const segmentation::DicomSeriesRead& read) {
   const segmentation::CtImage& image = read.image;
   double sliceSpacing = 1.0;
   if (image.uniform()) {
@@ -62,18 +62,18 @@ nlohmann::json describeCt(const segmentation::DicomSeriesRead& read) {
     low = *minIt;
     high = *maxIt;
   }
-  nlohmann::json info;
+  nlohmann::ordered_json info;
   info["kind"] = "ct";
   info["dimensions"] = {image.dimensions[0], image.dimensions[1], image.dimensions[2]};
   info["spacing_mm"] = {image.pixelSpacingMm.x(), image.pixelSpacingMm.y(), sliceSpacing};
   info["origin_mm"] = vector3(image.originMm);
-  nlohmann::json direction = nlohmann::json::array();
+  nlohmann::ordered_json direction = nlohmann::ordered_json::array();
   for (int r = 0; r < 3; ++r) {
     for (int c = 0; c < 3; ++c) direction.push_back(image.direction(r, c));
   }
   info["direction"] = direction;
   info["hu_range"] = {low, high};
-  nlohmann::json groups = nlohmann::json::array();
+  nlohmann::ordered_json groups = nlohmann::ordered_json::array();
   for (const segmentation::CtSliceGroup& g : image.groups) {
     groups.push_back({{"count", g.count}, {"spacing_mm", g.spacingMm}});
   }
@@ -88,7 +88,7 @@ nlohmann::json describeCt(const segmentation::DicomSeriesRead& read) {
   return info;
 }
 
-void printCtText(const nlohmann::json& info, std::ostream& out) {
+void printCtText(const nlohmann::ordered_json& info, std::ostream& out) {
   const auto& d = info["dimensions"];
   const auto& s = info["spacing_mm"];
   const auto& o = info["origin_mm"];
@@ -218,7 +218,7 @@ CommandAction addInfoCommand(CLI::App& app) {
     if (looksLikeCt(options->path)) {
       segmentation::DicomReadOptions read;
       read.seriesUid = options->series;
-      const nlohmann::json description = describeCt(segmentation::readDicomSeriesWithWarnings(options->path, read));
+      const nlohmann::ordered_json description = describeCt(segmentation::readDicomSeriesWithWarnings(options->path, read));
       if (options->json) {
         io.out << description.dump(2) << "\n";
       } else {

@@ -14,7 +14,7 @@
 #include "echoreg/segmentation/contour_surface.hpp"
 #include "echoreg/segmentation/dicom_series.hpp"
 #include "echoreg/segmentation/livewire_contours.hpp"
-#include "echoreg/segmentation/mask_nrrd.hpp"
+#include "echoreg/segmentation/nrrd_volume.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -337,7 +337,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   progress("writing", 1.0);
   filters::writeMesh(o.out, surface.mesh);
   if (!o.mask.empty())
-    seg::writeMaskNrrd(o.mask, region);
+    seg::writeNrrdVolume(o.mask, region.geometry, region.voxels);
   if (!o.anchorsOut.empty())
     seg::writeAnchors(o.anchorsOut, proposed);
   if (accessible)

@@ -20,8 +20,12 @@
 
 #include <Eigen/Geometry>
 
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -349,9 +353,9 @@ std::string describeSeries(const std::vector<SeriesGroup>& series) {
   std::string out;
   for (const SeriesGroup& s : series) {
     if (!out.empty()) out += "; ";
-    out += fmt::format("{} ({}, {} file{})", seriesLabel(s.summary.seriesInstanceUid),
-                       s.summary.modality.empty() ? "no modality" : s.summary.modality,
-                       s.summary.files, s.summary.files > 1 ? "s" : "");
+    out += fmt::format("{} ({}, {} file{}: {}{})", seriesLabel(s.summary.seriesInstanceUid),
+                       s.summary.modality.empty() ? "no modality" : s.summary.modality, s.summary.files,
+                       s.summary.files > 1 ? "s" : "", s.summary.firstFile, s.summary.files > 1 ? "..." : "");
   }
   return out;
 }
@@ -380,9 +384,20 @@ Selection selectSeries(const std::string& folder, const DicomReadOptions& option
   std::vector<std::string> skipped;
   std::vector<SeriesGroup> series = groupSeries(scan, &skipped);
   if (series.empty()) {
-    throw FileError(folder, fmt::format("holds no DICOM image ({} file{}{}{})", scan.headers.size(),
+    std::vector<std::string> subfolders;
+    if (!scan.singleFile) {
+      std::error_code ec;
+      for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec)) {
+        std::error_code typeError;
+        if (entry.is_directory(typeError)) subfolders.push_back(entry.path().filename().string());
+      }
+      std::sort(subfolders.begin(), subfolders.end());
+    }
+    throw FileError(folder, fmt::format("is a directory with no DICOM image ({} file{}{}{}{}{})", scan.headers.size(),
                                         scan.headers.size() == 1 ? "" : "s", skipped.empty() ? "" : "; ",
-                                        skipped.empty() ? "" : skipped.front()));
+                                        skipped.empty() ? "" : skipped.front(),
+                                        subfolders.empty() ? "" : "; subfolders are not searched, it has: ",
+                                        nameList(subfolders)));
   }
   const SeriesGroup* chosen = nullptr;
   if (!options.seriesUid.empty()) {
@@ -452,7 +467,10 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
       } else if ((*frames)[0] != 1.0) {
         multiFrame.push_back(h.name + " (" + h.frames + " frames)");
       }
-      if (h.samplesPerPixel != 1) colour.push_back(h.name);
+      if (h.samplesPerPixel != 1 ||
+          (!h.photometric.empty() && h.photometric != "MONOCHROME2" && h.photometric != "MONOCHROME1")) {
+        colour.push_back(h.name + (h.photometric.empty() ? "" : " (" + h.photometric + ")"));
+      }
       if (!h.position) noPosition.push_back(h.name);
       if (!h.orientation) noOrientation.push_back(h.name);
       if (!h.pixelSpacing) noSpacing.push_back(h.name);
@@ -465,7 +483,10 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
     if (!multiFrame.empty()) {
       fail("multi-frame images are not supported (export the series as one file per slice): " + nameList(multiFrame));
     }
-    if (!colour.empty()) fail("colour images (SamplesPerPixel > 1) are not CT slices: " + nameList(colour));
+    if (!colour.empty()) {
+      fail("colour or palette images (not MONOCHROME1/2 with one sample per pixel) are not CT slices: " +
+           nameList(colour));
+    }
     if (!badBits.empty()) {
       fail("unsupported pixel layout (BitsAllocated/BitsStored/HighBit): " + nameList(badBits));
     }
@@ -672,6 +693,21 @@ void convert(const char* data, std::size_t pixels, const Scratch::Key& key, Scra
     }
     return;
   }
+  // Integer rescale of unsigned values that cannot leave the int16 range (the usual CT: 12 or 16
+  // stored bits, slope 1, intercept -1024 or -1000): a plain loop the compiler vectorises.
+  const int intercept = static_cast<int>(key.intercept);
+  const std::int64_t largest = (std::int64_t{1} << key.bitsStored) - 1 + intercept;
+  if (key.bitsAllocated == 16 && key.slope == 1.0 && key.intercept == static_cast<double>(intercept) &&
+      key.pixelRepresentation == 0 && key.highBit + 1 == key.bitsStored && intercept >= -32768 &&
+      largest <= 32767) {
+    const auto mask = static_cast<std::uint16_t>((1u << key.bitsStored) - 1u);
+    for (std::size_t p = 0; p < pixels; ++p) {
+      std::uint16_t word = 0;
+      std::memcpy(&word, data + 2 * p, 2);
+      out[p] = static_cast<std::int16_t>(static_cast<int>(word & mask) + intercept);
+    }
+    return;
+  }
   if (!(scratch.key == key)) {
     const std::size_t size = std::size_t{1} << key.bitsAllocated;
     scratch.table.resize(size);
@@ -701,7 +737,56 @@ bool hostIsLittleEndian() {
   return first == 1;
 }
 
+/// Native little-endian pixel data (implicit or explicit VR) whose value offset the header scan
+/// found: read straight from the file into the thread's buffer, without GDCM parsing the file
+/// again and allocating the pixel data. The 12 bytes before the value are read too and must be
+/// the pixel data element's header (tag, VR OB/OW in explicit VR, a length covering the pixels);
+/// otherwise (an offset the scan got wrong, e.g. after a nested icon image) GDCM reads the file.
+/// True when done; false when this path does not apply.
+bool readNativeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out, Scratch& scratch) {
+  constexpr std::size_t kHeader = 12;
+  if (h.pixelDataOffset < kHeader || !hostIsLittleEndian() ||
+      (h.transferSyntax != "1.2.840.10008.1.2" && h.transferSyntax != "1.2.840.10008.1.2.1")) {
+    return false;
+  }
+  const bool explicitVr = h.transferSyntax == "1.2.840.10008.1.2.1";
+  const Scratch::Key key{h.bitsAllocated, h.bitsStored, h.highBit, h.pixelRepresentation, h.slope, h.intercept};
+  const std::size_t pixels = static_cast<std::size_t>(h.rows) * static_cast<std::size_t>(h.columns);
+  const std::size_t bytes = pixels * static_cast<std::size_t>(key.bitsAllocated / 8);
+  const int fd = ::open(h.path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) throw FileError(folder, h.name + ": cannot be opened: " + std::strerror(errno));
+  scratch.buffer.resize(kHeader + bytes);
+  std::size_t done = 0;
+  while (done < kHeader + bytes) {
+    const ssize_t n = ::pread(fd, scratch.buffer.data() + done, kHeader + bytes - done,
+                              static_cast<off_t>(h.pixelDataOffset - kHeader + done));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) break;
+    done += static_cast<std::size_t>(n);
+  }
+  ::close(fd);
+  const char* head = scratch.buffer.data();
+  const char tag[4] = {'\xe0', '\x7f', '\x10', '\x00'};
+  std::uint32_t length = 0;
+  std::memcpy(&length, head + 8, 4);
+  const bool headerFound =
+      done >= kHeader &&
+      (explicitVr ? std::memcmp(head, tag, 4) == 0 && (std::memcmp(head + 4, "OW", 2) == 0 ||
+                                                       std::memcmp(head + 4, "OB", 2) == 0)
+                  : std::memcmp(head + 4, tag, 4) == 0) &&
+      length != 0xffffffffu;
+  if (!headerFound) return false;
+  if (done != kHeader + bytes || length < bytes) {
+    throw FileError(folder, fmt::format("{}: truncated pixel data: {} bytes where {} x {} pixels of {} bits need {}",
+                                        h.name, std::min<std::size_t>(done - kHeader, length), h.columns, h.rows,
+                                        key.bitsAllocated, bytes));
+  }
+  convert(head + kHeader, pixels, key, scratch, out);
+  return true;
+}
+
 void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out, Scratch& scratch) {
+  if (readNativeSlice(folder, h, out, scratch)) return;
   gdcm::ImageReader reader;
   reader.SetFileName(h.path.c_str());
   bool read = false;

@@ -1,0 +1,506 @@
+// The DICOM series reader: synthetic series written by the simulator's writer (exact geometry,
+// groups and HU; every refusal names the files), the real CT series in ../shared/data checked
+// against pydicom and against GDCM's own decoding, and every broken file of dicom-bad.
+#include "echoreg/core/error.hpp"
+#include "echoreg/segmentation/dicom_series.hpp"
+#include "echoreg/simulation/ct.hpp"
+#include "test_support.hpp"
+
+#include <gdcmAttribute.h>
+#include <gdcmDataElement.h>
+#include <gdcmImage.h>
+#include <gdcmImageReader.h>
+#include <gdcmReader.h>
+#include <gdcmTag.h>
+#include <gdcmVR.h>
+#include <gdcmWriter.h>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace {
+
+namespace fs = std::filesystem;
+using echoreg::FileError;
+using echoreg::segmentation::CtImage;
+using echoreg::segmentation::DicomReadOptions;
+using echoreg::segmentation::DicomSeriesRead;
+using echoreg::segmentation::readDicomSeries;
+using echoreg::segmentation::readDicomSeriesWithWarnings;
+using echoreg::simulation::CtVolume;
+
+/// HU covering the whole stored range [-1024, 3071], different in every voxel of a small volume.
+std::int16_t pattern(int i, int j, int k) {
+  return static_cast<std::int16_t>((i * 37 + j * 101 + k * 613) % 4096 - 1024);
+}
+
+CtVolume volumeWithSlices(const std::vector<double>& z, int columns, int rows, double pixelMm) {
+  CtVolume v;
+  v.columns = columns;
+  v.rows = rows;
+  v.pixelSpacingMm = pixelMm;
+  v.firstPixelXYMm = {-10.5, 20.25};
+  v.sliceZMm = z;
+  v.sliceGroup.assign(z.size(), 0);
+  v.groupNames = {"test"};
+  v.sliceThicknessMm.assign(z.size(), 1.0);
+  v.hu.resize(z.size() * static_cast<std::size_t>(rows * columns));
+  for (int k = 0; k < v.slices(); ++k) {
+    for (int j = 0; j < rows; ++j) {
+      for (int i = 0; i < columns; ++i) v.hu[v.index(i, j, k)] = pattern(i, j, k);
+    }
+  }
+  return v;
+}
+
+void writeSeries(const std::string& folder, const CtVolume& volume) {
+  echoreg::simulation::DicomSeriesInfo info;
+  info.uidSeed = 11;
+  info.seriesDescription = "reader test";
+  echoreg::simulation::writeDicomSeries(folder, volume, info);
+}
+
+std::string fileName(int k) {  // the writer's names, k from 0
+  char name[32];
+  std::snprintf(name, sizeof name, "IM%06d.dcm", k + 1);
+  return name;
+}
+
+/// Rewrites one element of a DICOM file (through a temporary file).
+void editElement(const std::string& path, const gdcm::DataElement& element) {
+  gdcm::Reader reader;
+  reader.SetFileName(path.c_str());
+  ASSERT_TRUE(reader.Read()) << path;
+  reader.GetFile().GetDataSet().Replace(element);
+  gdcm::Writer writer;
+  writer.SetFile(reader.GetFile());
+  const std::string temporary = path + ".edit";
+  writer.SetFileName(temporary.c_str());
+  ASSERT_TRUE(writer.Write()) << temporary;
+  fs::rename(temporary, path);
+}
+
+void editString(const std::string& path, std::uint16_t group, std::uint16_t element, gdcm::VR vr,
+                std::string value) {
+  if (value.size() % 2 != 0) value.push_back(' ');
+  gdcm::DataElement de(gdcm::Tag(group, element));
+  de.SetVR(vr);
+  de.SetByteValue(value.data(), static_cast<std::uint32_t>(value.size()));
+  editElement(path, de);
+}
+
+/// The message of the FileError that reading `folder` throws ("" when it does not throw).
+std::string refusal(const std::string& folder, const DicomReadOptions& options = {}) {
+  try {
+    readDicomSeries(folder, options);
+  } catch (const FileError& e) {
+    EXPECT_EQ(e.path(), folder);
+    return e.what();
+  }
+  return "";
+}
+
+#define EXPECT_CONTAINS(text, part) \
+  EXPECT_NE(std::string(text).find(part), std::string::npos) << "expected \"" << (part) << "\" in: " << (text)
+
+TEST(DicomSeries, ThreeGroupsOfTheSimulatedProtocolGiveExactGeometryGroupsAndHu) {
+  echoreg::test::TempDir dir;
+  // The simulator's small protocol: 3 hip slices at 5 mm, 80 knee slices at 1 mm, 3 ankle slices
+  // at 5 mm, with large gaps between the groups; 256 x 256 pixels of 0.8 mm.
+  CtVolume volume = echoreg::simulation::ctGeometry(
+      echoreg::simulation::smallProtocol(0.0, -430.0, -830.0, Eigen::Vector2d(5.0, -3.0)));
+  volume.hu.resize(static_cast<std::size_t>(volume.slices()) * static_cast<std::size_t>(volume.rows * volume.columns));
+  for (int k = 0; k < volume.slices(); ++k) {
+    for (int j = 0; j < volume.rows; ++j) {
+      for (int i = 0; i < volume.columns; ++i) volume.hu[volume.index(i, j, k)] = pattern(i, j, k);
+    }
+  }
+  const std::string folder = dir.file("ct");
+  writeSeries(folder, volume);
+  std::ofstream(dir.file("ct/README.txt")) << "not DICOM\n";
+
+  int calls = 0, lastDone = 0;
+  DicomReadOptions options;
+  options.progress = [&](int done, int total) {
+    ++calls;
+    EXPECT_EQ(done, lastDone + 1);
+    EXPECT_EQ(total, 86);
+    lastDone = done;
+  };
+  const DicomSeriesRead read = readDicomSeriesWithWarnings(folder, options);
+  EXPECT_EQ(calls, 86);
+  const CtImage& image = read.image;
+  ASSERT_EQ(image.dimensions, (std::array<int, 3>{256, 256, 86}));
+  ASSERT_EQ(image.groups.size(), 3U);
+  EXPECT_EQ(image.groups[0].count, 3);
+  EXPECT_EQ(image.groups[1].count, 80);
+  EXPECT_EQ(image.groups[2].count, 3);
+  EXPECT_EQ(image.groups[1].firstSlice, 3);
+  EXPECT_NEAR(image.groups[0].spacingMm, 5.0, 1e-9);
+  EXPECT_NEAR(image.groups[1].spacingMm, 1.0, 1e-9);
+  EXPECT_NEAR(image.groups[2].spacingMm, 5.0, 1e-9);
+  EXPECT_FALSE(image.uniform());
+  EXPECT_TRUE(image.direction.isIdentity(0.0));
+  EXPECT_NEAR((image.originMm - volume.voxelCentreMm(0, 0, 0)).norm(), 0.0, 1e-9);
+  EXPECT_DOUBLE_EQ(image.pixelSpacingMm.x(), 0.8);
+  EXPECT_DOUBLE_EQ(image.pixelSpacingMm.y(), 0.8);
+  for (int k = 0; k < 86; ++k) {
+    EXPECT_NEAR(image.slicePositionsMm[static_cast<std::size_t>(k)],
+                volume.sliceZMm[static_cast<std::size_t>(k)] - volume.sliceZMm[0], 1e-9);
+    EXPECT_NEAR((image.voxelToLps(Eigen::Vector3d(7, 9, k)) - volume.voxelCentreMm(7, 9, k)).norm(), 0.0, 1e-9);
+  }
+  EXPECT_TRUE(image.hu == volume.hu);  // every voxel exactly
+  EXPECT_EQ(read.files.front(), "IM000001.dcm");
+  EXPECT_EQ(read.files.back(), "IM000086.dcm");
+  EXPECT_EQ(read.modality, "CT");
+  EXPECT_EQ(image.seriesInstanceUid, echoreg::simulation::derivedDicomUid(11, "series"));
+  ASSERT_EQ(read.warnings.size(), 1U);
+  EXPECT_CONTAINS(read.warnings[0], "README.txt");
+
+  const auto series = echoreg::segmentation::listDicomSeries(folder);
+  ASSERT_EQ(series.size(), 1U);
+  EXPECT_EQ(series[0].files, 86);
+  EXPECT_EQ(series[0].modality, "CT");
+  EXPECT_EQ(series[0].description, "reader test");
+  EXPECT_EQ(series[0].seriesInstanceUid, image.seriesInstanceUid);
+}
+
+class DicomSeriesRefusal : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    folder_ = dir_.file("series");
+    volume_ = volumeWithSlices({0, 2, 4, 6, 8, 10}, 4, 3, 0.5);
+    writeSeries(folder_, volume_);
+  }
+  std::string path(int k) const { return folder_ + "/" + fileName(k); }
+
+  echoreg::test::TempDir dir_;
+  std::string folder_;
+  CtVolume volume_;
+};
+
+TEST_F(DicomSeriesRefusal, TheGoodSeriesReadsTheSameWithAnyThreadCount) {
+  DicomReadOptions one;
+  one.threads = 1;
+  DicomReadOptions three;
+  three.threads = 3;
+  const CtImage a = readDicomSeries(folder_, one);
+  const CtImage b = readDicomSeries(folder_, three);
+  EXPECT_TRUE(a.hu == volume_.hu);
+  EXPECT_TRUE(a.hu == b.hu);
+  ASSERT_EQ(a.groups.size(), 1U);
+  EXPECT_NEAR(a.sliceSpacingMm(), 2.0, 1e-12);
+}
+
+TEST_F(DicomSeriesRefusal, ShuffledFileNamesStillSortByPosition) {
+  const std::vector<int> order{3, 0, 5, 1, 4, 2};  // new name "z<n>" for slice order[n]
+  for (std::size_t n = 0; n < order.size(); ++n) {
+    fs::rename(path(order[n]), folder_ + "/z" + std::to_string(n) + ".dcm");
+  }
+  const DicomSeriesRead read = readDicomSeriesWithWarnings(folder_);
+  EXPECT_TRUE(read.image.hu == volume_.hu);
+  EXPECT_EQ(read.files, (std::vector<std::string>{"z1.dcm", "z3.dcm", "z5.dcm", "z0.dcm", "z4.dcm", "z2.dcm"}));
+}
+
+TEST_F(DicomSeriesRefusal, EachSliceUsesItsOwnRescale) {
+  // Slice 2: intercept -1000 instead of -1024 (+24 HU); slice 4: slope 2 (stored x 2 - 1024).
+  editString(path(2), 0x0028, 0x1052, gdcm::VR::DS, "-1000");
+  editString(path(4), 0x0028, 0x1053, gdcm::VR::DS, "2");
+  const CtImage image = readDicomSeries(folder_);
+  for (int j = 0; j < 3; ++j) {
+    for (int i = 0; i < 4; ++i) {
+      EXPECT_EQ(image.at(i, j, 1), pattern(i, j, 1));
+      EXPECT_EQ(image.at(i, j, 2), pattern(i, j, 2) + 24);
+      EXPECT_EQ(image.at(i, j, 4), std::min(32767, 2 * (pattern(i, j, 4) + 1024) - 1024));
+    }
+  }
+}
+
+TEST_F(DicomSeriesRefusal, SignedStoredValuesAreSignExtended) {
+  // The same 12 stored bits read as signed: stored values from 2048 up are negative.
+  for (int k = 0; k < 6; ++k) {
+    gdcm::Attribute<0x0028, 0x0103> representation;
+    representation.SetValue(1);
+    editElement(path(k), representation.GetAsDataElement());
+  }
+  const CtImage image = readDicomSeries(folder_);
+  int negative = 0;
+  for (int k = 0; k < 6; ++k) {
+    for (int j = 0; j < 3; ++j) {
+      for (int i = 0; i < 4; ++i) {
+        const int stored = pattern(i, j, k) + 1024;
+        const int expected = (stored >= 2048 ? stored - 4096 : stored) - 1024;
+        negative += stored >= 2048 ? 1 : 0;
+        EXPECT_EQ(image.at(i, j, k), expected) << i << " " << j << " " << k;
+      }
+    }
+  }
+  EXPECT_GT(negative, 10);
+}
+
+TEST_F(DicomSeriesRefusal, PaletteImages) {
+  editString(path(1), 0x0028, 0x0004, gdcm::VR::CS, "PALETTE COLOR");
+  const std::string message = refusal(folder_);
+  EXPECT_CONTAINS(message, "palette");
+  EXPECT_CONTAINS(message, fileName(1) + " (PALETTE COLOR)");
+}
+
+TEST_F(DicomSeriesRefusal, MissingSlice) {
+  fs::remove(path(3));
+  const std::string message = refusal(folder_);
+  EXPECT_CONTAINS(message, "missing");
+  EXPECT_CONTAINS(message, fileName(2));
+  EXPECT_CONTAINS(message, fileName(4));
+}
+
+TEST_F(DicomSeriesRefusal, DuplicatePosition) {
+  fs::copy_file(path(2), folder_ + "/copy.dcm");
+  const std::string message = refusal(folder_);
+  EXPECT_CONTAINS(message, "duplicate");
+  EXPECT_CONTAINS(message, fileName(2));
+  EXPECT_CONTAINS(message, "copy.dcm");
+}
+
+TEST_F(DicomSeriesRefusal, OneSliceWithAnotherOrientation) {
+  editString(path(4), 0x0020, 0x0037, gdcm::VR::DS, "1\\0\\0\\0\\0.9961946981\\0.08715574275");
+  const std::string message = refusal(folder_);
+  EXPECT_CONTAINS(message, "mixed orientations");
+  EXPECT_CONTAINS(message, fileName(4));
+}
+
+TEST_F(DicomSeriesRefusal, GantryTiltFromPositions) {
+  // Every slice tilted alike (so orientations agree): positions drift along y with z.
+  for (int k = 0; k < 6; ++k) {
+    editString(path(k), 0x0020, 0x0037, gdcm::VR::DS, "1\\0\\0\\0\\0.9961946981\\0.08715574275");
+    const double z = 2.0 * k;
+    editString(path(k), 0x0020, 0x0032, gdcm::VR::DS, "-10.5\\20.25\\" + std::to_string(z));
+  }
+  const std::string message = refusal(folder_);
+  EXPECT_CONTAINS(message, "not stacked along their normal");
+  EXPECT_CONTAINS(message, fileName(0));
+}
+
+TEST_F(DicomSeriesRefusal, GantryTiltTag) {
+  for (int k = 0; k < 6; ++k) editString(path(k), 0x0018, 0x1120, gdcm::VR::DS, "12");
+  const std::string message = refusal(folder_);
+  EXPECT_CONTAINS(message, "gantry tilt");
+  EXPECT_CONTAINS(message, fileName(0));
+}
+
+TEST_F(DicomSeriesRefusal, DifferentPixelSpacingOrSize) {
+  editString(path(1), 0x0028, 0x0030, gdcm::VR::DS, "0.6\\0.6");
+  std::string message = refusal(folder_);
+  EXPECT_CONTAINS(message, "PixelSpacing");
+  EXPECT_CONTAINS(message, fileName(1));
+
+  editString(path(1), 0x0028, 0x0030, gdcm::VR::DS, "0.5\\0.5");
+  gdcm::Attribute<0x0028, 0x0010> rows;
+  rows.SetValue(2);
+  editElement(path(5), rows.GetAsDataElement());
+  message = refusal(folder_);
+  EXPECT_CONTAINS(message, "differ in size");
+  EXPECT_CONTAINS(message, fileName(5));
+}
+
+TEST_F(DicomSeriesRefusal, TruncatedPixelData) {
+  const std::uintmax_t size = fs::file_size(path(3));
+  fs::resize_file(path(3), size - 7);
+  const std::string message = refusal(folder_);
+  EXPECT_CONTAINS(message, "truncated");
+  EXPECT_CONTAINS(message, fileName(3));
+}
+
+TEST_F(DicomSeriesRefusal, MultiFrame) {
+  editString(path(2), 0x0028, 0x0008, gdcm::VR::IS, "2");
+  const std::string message = refusal(folder_);
+  EXPECT_CONTAINS(message, "multi-frame");
+  EXPECT_CONTAINS(message, fileName(2));
+}
+
+TEST_F(DicomSeriesRefusal, NoCtSeriesListsWhatThereIs) {
+  for (int k = 0; k < 6; ++k) editString(path(k), 0x0008, 0x0060, gdcm::VR::CS, "MR");
+  const std::string message = refusal(folder_);
+  EXPECT_CONTAINS(message, "no CT series");
+  EXPECT_CONTAINS(message, "(MR, 6 files: IM000001.dcm...)");
+  // Asked for by UID it reads, with a warning that the values are not HU.
+  DicomReadOptions options;
+  options.seriesUid = echoreg::simulation::derivedDicomUid(11, "series");
+  const DicomSeriesRead read = readDicomSeriesWithWarnings(folder_, options);
+  EXPECT_TRUE(read.image.hu == volume_.hu);
+  ASSERT_FALSE(read.warnings.empty());
+  EXPECT_CONTAINS(read.warnings.back(), "not Hounsfield units");
+  options.seriesUid = "1.2.3";
+  EXPECT_CONTAINS(refusal(folder_, options), "has no series 1.2.3");
+}
+
+TEST_F(DicomSeriesRefusal, NotDicomEmptyOrAbsent) {
+  EXPECT_CONTAINS(refusal(dir_.file("absent")), "does not exist");
+  fs::create_directory(dir_.file("empty"));
+  EXPECT_CONTAINS(refusal(dir_.file("empty")), "is a directory with no DICOM image");
+  std::ofstream(dir_.file("empty/notes.dcm")) << "hello";
+  EXPECT_CONTAINS(refusal(dir_.file("empty")), "notes.dcm");
+  EXPECT_CONTAINS(refusal(dir_.file("empty/notes.dcm")), "is not a DICOM file");
+  // A folder holding only the series' folder says so.
+  EXPECT_CONTAINS(refusal(dir_.path()), "subfolders are not searched");
+}
+
+TEST_F(DicomSeriesRefusal, OneFileIsAOneSliceImage) {
+  const CtImage image = readDicomSeries(path(2));
+  ASSERT_EQ(image.dimensions, (std::array<int, 3>{4, 3, 1}));
+  EXPECT_NEAR(image.originMm.z(), 4.0, 1e-12);
+  for (int j = 0; j < 3; ++j) {
+    for (int i = 0; i < 4; ++i) EXPECT_EQ(image.at(i, j, 0), pattern(i, j, 2));
+  }
+}
+
+// ---- real data ------------------------------------------------------------------------------
+
+/// pydicom's view of a folder or file (tests/segmentation/read_ct_reference.py); null if python3
+/// or pydicom is missing.
+nlohmann::json pydicomReference(const std::string& folder, const std::vector<std::string>& voxels) {
+  std::string command = "/usr/bin/python3 " ECHOREG_SEGMENTATION_TEST_DIR "/read_ct_reference.py '" + folder + "'";
+  for (const std::string& v : voxels) command += " " + v;
+  command += " 2>/dev/null";
+  std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
+  if (!pipe) return nullptr;
+  std::string out;
+  char buffer[4096];
+  std::size_t n = 0;
+  while ((n = std::fread(buffer, 1, sizeof buffer, pipe.get())) > 0) out.append(buffer, n);
+  if (out.empty()) return nullptr;
+  return nlohmann::json::parse(out);
+}
+
+TEST(DicomSeriesRealData, AbdomenMatchesPydicom) {
+  ECHOREG_REQUIRE_SHARED_FILE(first, "ct-abdomen/1-001.dcm");
+  const std::string folder = fs::path(first).parent_path().string();
+  const DicomSeriesRead read = readDicomSeriesWithWarnings(folder);
+  const CtImage& image = read.image;
+  ASSERT_EQ(image.dimensions, (std::array<int, 3>{512, 512, 134}));
+  ASSERT_EQ(image.groups.size(), 1U);
+  EXPECT_NEAR(image.sliceSpacingMm(), 3.0, 1e-6);
+  const auto [low, high] = std::minmax_element(image.hu.begin(), image.hu.end());
+  EXPECT_GE(*low, -1024);
+  EXPECT_LE(*low, -1000);  // air; intercept -1000 in this series
+  EXPECT_GT(*high, 1000);  // cortical bone
+
+  const nlohmann::json ref = pydicomReference(folder, {"100,200,0", "256,300,60", "300,350,133", "10,20,77"});
+  if (ref.is_null()) GTEST_SKIP() << "python3 with pydicom is not available";
+  for (int a = 0; a < 3; ++a) {
+    EXPECT_NEAR(image.originMm[a], ref["origin"][static_cast<std::size_t>(a)].get<double>(), 1e-9);
+    EXPECT_NEAR(image.direction(a, 0), ref["row"][static_cast<std::size_t>(a)].get<double>(), 1e-12);
+    EXPECT_NEAR(image.direction(a, 1), ref["column"][static_cast<std::size_t>(a)].get<double>(), 1e-12);
+    EXPECT_NEAR(image.direction(a, 2), ref["normal"][static_cast<std::size_t>(a)].get<double>(), 1e-12);
+  }
+  EXPECT_DOUBLE_EQ(image.pixelSpacingMm.x(), ref["spacing"][0].get<double>());
+  EXPECT_DOUBLE_EQ(image.pixelSpacingMm.y(), ref["spacing"][1].get<double>());
+  ASSERT_EQ(ref["positions"].size(), 134U);
+  for (std::size_t k = 0; k < 134; ++k) {
+    EXPECT_NEAR(image.slicePositionsMm[k], ref["positions"][k].get<double>(), 1e-9);
+    EXPECT_EQ(read.files[k], ref["files"][k].get<std::string>());
+  }
+  for (const auto& v : ref["voxels"]) {
+    EXPECT_EQ(image.at(v["i"], v["j"], v["k"]), static_cast<int>(v["hu"].get<double>())) << v.dump();
+  }
+}
+
+TEST(DicomSeriesRealData, Jpeg2000SeriesEqualsGdcmsOwnDecoding) {
+  ECHOREG_REQUIRE_SHARED_FILE(license, "ct-jpeg2000/LICENSE");
+  const std::string folder = fs::path(license).parent_path().string();
+  const DicomSeriesRead read = readDicomSeriesWithWarnings(folder);
+  const CtImage& image = read.image;
+  ASSERT_EQ(image.dimensions, (std::array<int, 3>{512, 512, 20}));
+  EXPECT_TRUE(image.seriesInstanceUid.empty());  // this export leaves it blank
+  ASSERT_EQ(image.groups.size(), 1U);
+  EXPECT_NEAR(image.sliceSpacingMm(), 2.0, 1e-9);
+  const auto [low, high] = std::minmax_element(image.hu.begin(), image.hu.end());
+  EXPECT_EQ(*low, -1024);
+  EXPECT_GT(*high, 1000);  // humeri
+  // Independently: GDCM's decoded buffer, 12-bit unsigned, with GDCM's slope and intercept, at
+  // the position GDCM reports for each file.
+  for (const int k : {0, 9, 19}) {
+    gdcm::ImageReader reader;
+    const std::string path = folder + "/" + read.files[static_cast<std::size_t>(k)];
+    reader.SetFileName(path.c_str());
+    ASSERT_TRUE(reader.Read());
+    const gdcm::Image& slice = reader.GetImage();
+    EXPECT_NEAR(slice.GetOrigin()[2], image.originMm.z() + image.slicePositionsMm[static_cast<std::size_t>(k)], 1e-9);
+    std::vector<char> buffer(slice.GetBufferLength());
+    ASSERT_EQ(buffer.size(), 512U * 512U * 2U);
+    ASSERT_TRUE(slice.GetBuffer(buffer.data()));
+    int differ = 0;
+    for (int j = 0; j < 512; ++j) {
+      for (int i = 0; i < 512; ++i) {
+        std::uint16_t stored = 0;
+        std::memcpy(&stored, buffer.data() + 2 * (j * 512 + i), 2);
+        const double hu = stored * slice.GetSlope() + slice.GetIntercept();
+        differ += image.at(i, j, k) != static_cast<int>(hu) ? 1 : 0;
+      }
+    }
+    EXPECT_EQ(differ, 0) << "slice " << k;
+  }
+}
+
+TEST(DicomSeriesRealData, EveryBadFileIsReadCorrectlyOrRefusedClearly) {
+  ECHOREG_REQUIRE_SHARED_FILE(ctSmall, "dicom-bad/CT_small.dcm");
+  const std::string folder = fs::path(ctSmall).parent_path().string();
+  int read = 0, refused = 0;
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder)) {
+    const std::string path = entry.path().string();
+    try {
+      const CtImage image = readDicomSeries(path);
+      ++read;
+      EXPECT_GT(image.voxelCount(), 0U) << path;
+      EXPECT_EQ(image.hu.size(), image.voxelCount()) << path;
+    } catch (const FileError& e) {
+      ++refused;
+      EXPECT_EQ(e.path(), path);
+      EXPECT_FALSE(e.problem().empty());
+    }
+  }
+  EXPECT_GE(read, 2);     // CT_small, JPEG-lossy
+  EXPECT_GE(refused, 8);  // the broken ones and the licence text
+  EXPECT_CONTAINS(refusal(folder + "/MR_truncated.dcm"), "truncated pixel data");
+  EXPECT_CONTAINS(refusal(folder + "/badVR.dcm"), "NumberOfFrames \"1A\"");
+
+  // The signed 16-bit CT: equal to pydicom.
+  const DicomSeriesRead small = readDicomSeriesWithWarnings(ctSmall);
+  ASSERT_EQ(small.image.dimensions, (std::array<int, 3>{128, 128, 1}));
+  EXPECT_TRUE(small.warnings.empty());
+  const nlohmann::json ref = pydicomReference(ctSmall, {"0,0,0", "64,64,0", "127,5,0", "30,100,0"});
+  if (!ref.is_null()) {
+    for (const auto& v : ref["voxels"]) {
+      EXPECT_EQ(small.image.at(v["i"], v["j"], v["k"]), static_cast<int>(v["hu"].get<double>())) << v.dump();
+    }
+    for (int a = 0; a < 3; ++a) {
+      EXPECT_NEAR(small.image.originMm[a], ref["origin"][static_cast<std::size_t>(a)].get<double>(), 1e-9);
+    }
+  }
+  // The lossy 12-bit JPEG decodes (NM, no patient geometry: said in the warnings).
+  const DicomSeriesRead lossy = readDicomSeriesWithWarnings(folder + "/JPEG-lossy.dcm");
+  EXPECT_EQ(lossy.image.dimensions, (std::array<int, 3>{256, 1024, 1}));
+  EXPECT_EQ(lossy.modality, "NM");
+  EXPECT_EQ(lossy.warnings.size(), 3U);
+  const auto [low, high] = std::minmax_element(lossy.image.hu.begin(), lossy.image.hu.end());
+  EXPECT_GE(*low, 0);
+  EXPECT_GT(*high, *low);
+  EXPECT_LT(*high, 4096);
+
+  // The folder as a whole: its only CT series is CT_small; the rest is named in the warnings.
+  const DicomSeriesRead whole = readDicomSeriesWithWarnings(folder);
+  EXPECT_TRUE(whole.image.hu == small.image.hu);
+  std::string warnings;
+  for (const std::string& w : whole.warnings) warnings += w + "\n";
+  EXPECT_CONTAINS(warnings, "no_meta.dcm");
+  EXPECT_CONTAINS(warnings, "MR_truncated");
+}
+
+}  // namespace
