@@ -4,7 +4,7 @@ BUILD_DIR := build/release
 ECHOREG := $(BUILD_DIR)/cli/echoreg
 DEMO_DIR := $(BUILD_DIR)/demo
 
-.PHONY: all deps configure build demo test bench clean
+.PHONY: all deps bench-deps configure build demo test bench clean
 
 all: build
 
@@ -43,7 +43,14 @@ demo: build
 test: build
 	@ctest --test-dir $(BUILD_DIR) --output-on-failure -j 2
 
-bench: build
+# The benchmarks also install the optional peers they compare with (OpenCV), then reconfigure so
+# that the build finds them.
+bench-deps:
+	@./scripts/install-deps --bench
+
+bench: bench-deps configure
+	@cmake $(BUILD_DIR) > /dev/null
+	@cmake --build $(BUILD_DIR)
 	@./bench/run_benchmarks.sh $(BUILD_DIR)
 
 clean:

@@ -34,7 +34,7 @@ if ! grep -q '^ECHOREG_BUILD_BENCH:BOOL=ON' "$build/CMakeCache.txt"; then
   exit 2
 fi
 cmake --build "$build" --target bench_signal_chain export_records bench_mesh_locator \
-  bench_simulation --parallel "${JOBS:-2}"
+  bench_simulation bench_livewire --parallel "${JOBS:-2}"
 bench="$build/bench/bench_signal_chain"
 export_records="$build/bench/export_records"
 mkdir -p "$out"
@@ -58,7 +58,8 @@ for preset in default mozes2008; do
 done
 "$python" "$here/compare_scipy.py" "$out" --preset default --preset mozes2008
 
-for program in bench_mesh_locator bench_simulation; do
+# bench_livewire prints its path agreement with OpenCV first (when built with OpenCV).
+for program in bench_mesh_locator bench_simulation bench_livewire; do
   echo
   echo "== $program"
   "$build/bench/$program" --benchmark_min_time="$min_time" --benchmark_repetitions="$repetitions" \

@@ -55,6 +55,19 @@ double distanceToEllipse(const Eigen::Vector2d& p, const Eigen::Vector2d& centre
   return best;
 }
 
+// Distance from a pixel to the ellipse in pixels, per axis: the smallest max(|dx|, |dy|) over the
+// ellipse's points (<= 1: the pixel's 3 x 3 neighbourhood, whatever the pixel size, reaches it).
+double pixelDistanceToEllipse(const Eigen::Vector2i& pixel, const Eigen::Vector2d& spacing,
+                              const Eigen::Vector2d& centre, double a, double b) {
+  double best = std::numeric_limits<double>::infinity();
+  for (int k = 0; k < 7200; ++k) {
+    const double t = 2.0 * kPi * k / 7200.0;
+    const Eigen::Vector2d e = centre + Eigen::Vector2d(a * std::cos(t), b * std::sin(t));
+    best = std::min(best, (e.cwiseQuotient(spacing) - pixel.cast<double>()).cwiseAbs().maxCoeff());
+  }
+  return best;
+}
+
 // The pixel nearest to the ellipse point at angle t.
 Eigen::Vector2i ellipsePixel(const Eigen::Vector2d& spacing, const Eigen::Vector2d& centre, double a,
                              double b, double t) {
@@ -63,65 +76,81 @@ Eigen::Vector2i ellipsePixel(const Eigen::Vector2d& spacing, const Eigen::Vector
                          static_cast<int>(std::lround(p.y() / spacing.y())));
 }
 
+// "Within one pixel": every path pixel's 3 x 3 neighbourhood reaches the true edge (a staircase
+// on a noisy edge may put a pixel centre up to ~1.06 pixels from a diagonal edge), and the mean
+// distance of the pixel centres from the edge is at most half a pixel. (Seeds 1-40 all pass.)
 TEST(LiveWire, ClosedContourFollowsANoisyBlurredCircleWithinOnePixel) {
   const Eigen::Vector2d spacing(1.0, 1.0);
   const Eigen::Vector2d centre(64.3, 61.7);
   const double radius = 30.0;
-  // Contrast 100, noise 15: a realistic CT bone/tissue edge is ~1000 HU over ~20 HU noise.
-  const std::vector<float> image = ellipseImage(128, 128, spacing, centre, radius, radius, 100.0, 15.0, 11);
-  LiveWire wire(image, 128, 128, spacing);
-  std::vector<Eigen::Vector2i> anchors;
-  for (int k = 0; k < 4; ++k)
-    anchors.push_back(ellipsePixel(spacing, centre, radius, radius, 0.3 + k * kPi / 2.0));
-  const ClosedLiveWire contour = closedLiveWire(wire, anchors);
-  ASSERT_EQ(contour.anchorIndices.size(), 4u);
-  ASSERT_EQ(contour.segmentCosts.size(), 4u);
-  // The closed path goes all around: about 2 pi r pixel steps (diagonals count once).
-  EXPECT_GT(contour.points.size(), 140u);
-  EXPECT_LT(contour.points.size(), 200u);
-  double worst = 0.0;
-  for (const auto& p : contour.points)
-    worst = std::max(worst, distanceToEllipse(p.cast<double>(), centre, radius, radius));
-  EXPECT_LE(worst, 1.0);
-  // Consecutive points are 8-neighbours, also across the closing link.
-  for (std::size_t i = 0; i < contour.points.size(); ++i) {
-    const Eigen::Vector2i d = contour.points[(i + 1) % contour.points.size()] - contour.points[i];
-    EXPECT_LE(d.cwiseAbs().maxCoeff(), 1) << i;
-    EXPECT_GT(d.cwiseAbs().maxCoeff(), 0) << i;
+  for (std::uint64_t seed = 11; seed < 16; ++seed) {
+    SCOPED_TRACE(seed);
+    // Contrast 100, noise 15 (a CT bone/tissue edge is ~1000 HU over ~20 HU of noise).
+    const std::vector<float> image =
+        ellipseImage(128, 128, spacing, centre, radius, radius, 100.0, 15.0, seed);
+    LiveWire wire(image, 128, 128, spacing);
+    std::vector<Eigen::Vector2i> anchors;
+    for (int k = 0; k < 4; ++k)
+      anchors.push_back(ellipsePixel(spacing, centre, radius, radius, 0.3 + k * kPi / 2.0));
+    const ClosedLiveWire contour = closedLiveWire(wire, anchors);
+    ASSERT_EQ(contour.anchorIndices.size(), 4u);
+    ASSERT_EQ(contour.segmentCosts.size(), 4u);
+    // The closed path goes all around: about 2 pi r pixel steps (diagonals count once).
+    EXPECT_GT(contour.points.size(), 140u);
+    EXPECT_LT(contour.points.size(), 200u);
+    double worst = 0.0;
+    double mean = 0.0;
+    for (const auto& p : contour.points) {
+      worst = std::max(worst, pixelDistanceToEllipse(p, spacing, centre, radius, radius));
+      mean += distanceToEllipse(p.cast<double>(), centre, radius, radius);
+    }
+    EXPECT_LE(worst, 1.0);
+    EXPECT_LE(mean / static_cast<double>(contour.points.size()), 0.5);
+    // Consecutive points are 8-neighbours, also across the closing link.
+    for (std::size_t i = 0; i < contour.points.size(); ++i) {
+      const Eigen::Vector2i d = contour.points[(i + 1) % contour.points.size()] - contour.points[i];
+      EXPECT_LE(d.cwiseAbs().maxCoeff(), 1) << i;
+      EXPECT_GT(d.cwiseAbs().maxCoeff(), 0) << i;
+    }
+    for (std::size_t k = 0; k < anchors.size(); ++k)
+      EXPECT_EQ(contour.points[contour.anchorIndices[k]], anchors[k]);
+    double sum = 0.0;
+    for (double c : contour.segmentCosts) sum += c;
+    EXPECT_NEAR(sum, contour.cost, 1e-9);
   }
-  for (std::size_t k = 0; k < anchors.size(); ++k)
-    EXPECT_EQ(contour.points[contour.anchorIndices[k]], anchors[k]);
-  double sum = 0.0;
-  for (double c : contour.segmentCosts) sum += c;
-  EXPECT_NEAR(sum, contour.cost, 1e-9);
 }
 
 TEST(LiveWire, PathBetweenTwoAnchorsFollowsAnEllipseNotTheChord) {
   const Eigen::Vector2d spacing(1.0, 1.0);
   const Eigen::Vector2d centre(50.0, 40.0);
-  const std::vector<float> image = ellipseImage(100, 80, spacing, centre, 35.0, 22.0, 100.0, 10.0, 5);
-  LiveWire wire(image, 100, 80, spacing);
-  const Eigen::Vector2i from = ellipsePixel(spacing, centre, 35.0, 22.0, 0.2);
-  const Eigen::Vector2i to = ellipsePixel(spacing, centre, 35.0, 22.0, 1.9);
-  wire.setAnchor(from);
-  const auto path = wire.pathTo(to);
-  ASSERT_GE(path.size(), 2u);
-  EXPECT_EQ(path.front(), from);
-  EXPECT_EQ(path.back(), to);
-  double worst = 0.0;
-  for (const auto& p : path) worst = std::max(worst, distanceToEllipse(p.cast<double>(), centre, 35.0, 22.0));
-  EXPECT_LE(worst, 1.0);
-  // The path's cost is its own cost under pathCost, and the straight chord costs more.
-  EXPECT_EQ(wire.pathCost(path).quantised, wire.costTo(to).quantised);
-  std::vector<Eigen::Vector2i> chord{from};
-  while (chord.back() != to) {
-    Eigen::Vector2i step = (to - chord.back()).cwiseSign();
-    chord.push_back(chord.back() + step);
+  for (std::uint64_t seed = 5; seed < 10; ++seed) {
+    SCOPED_TRACE(seed);
+    const std::vector<float> image = ellipseImage(100, 80, spacing, centre, 35.0, 22.0, 100.0, 10.0, seed);
+    LiveWire wire(image, 100, 80, spacing);
+    const Eigen::Vector2i from = ellipsePixel(spacing, centre, 35.0, 22.0, 0.2);
+    const Eigen::Vector2i to = ellipsePixel(spacing, centre, 35.0, 22.0, 1.9);
+    wire.setAnchor(from);
+    const auto path = wire.pathTo(to);
+    ASSERT_GE(path.size(), 2u);
+    EXPECT_EQ(path.front(), from);
+    EXPECT_EQ(path.back(), to);
+    double worst = 0.0;
+    double mean = 0.0;
+    for (const auto& p : path) {
+      worst = std::max(worst, pixelDistanceToEllipse(p, spacing, centre, 35.0, 22.0));
+      mean += distanceToEllipse(p.cast<double>(), centre, 35.0, 22.0);
+    }
+    EXPECT_LE(worst, 1.0);
+    EXPECT_LE(mean / static_cast<double>(path.size()), 0.5);
+    // The path's cost is its own cost under pathCost, and the straight chord costs more.
+    EXPECT_EQ(wire.pathCost(path).quantised, wire.costTo(to).quantised);
+    std::vector<Eigen::Vector2i> chord{from};
+    while (chord.back() != to) chord.push_back(chord.back() + (to - chord.back()).cwiseSign());
+    EXPECT_GT(wire.pathCost(chord).cost, wire.costTo(to).cost + 1.0);
+    // Stopping at the target gives the same optimal cost.
+    wire.setAnchor(from, to);
+    EXPECT_EQ(wire.costTo(to).quantised, wire.pathCost(path).quantised);
   }
-  EXPECT_GT(wire.pathCost(chord).cost, wire.costTo(to).cost + 1.0);
-  // Stopping at the target gives the same optimal cost.
-  wire.setAnchor(from, to);
-  EXPECT_EQ(wire.costTo(to).quantised, wire.pathCost(path).quantised);
 }
 
 // A plain Dijkstra with std::priority_queue on the links as pathCost sees them.
@@ -194,11 +223,17 @@ TEST(LiveWire, OptimalOnRandomImagesAgainstAPlainDijkstra) {
         }
       }
     }
-    // The quantised link costs are the local costs rounded.
-    const Eigen::Vector2i q = anchor.x() + 1 < w ? Eigen::Vector2i(anchor.x() + 1, anchor.y())
-                                                 : Eigen::Vector2i(anchor.x() - 1, anchor.y());
-    EXPECT_NEAR(wire.pathCost({anchor, q}).cost, wire.localCost(anchor, q),
-                0.5 / options.costResolution + 1e-12);
+    // Every precomputed link cost is the local cost rounded to the quantum.
+    for (int y = 0; y < h; ++y)
+      for (int x = 0; x < w; ++x)
+        for (int n = 0; n < 9; ++n) {
+          const Eigen::Vector2i p(x, y);
+          const Eigen::Vector2i q = p + Eigen::Vector2i(n % 3 - 1, n / 3 - 1);
+          if (q == p || !wire.contains(q)) continue;
+          ASSERT_EQ(wire.pathCost({p, q}).quantised,
+                    static_cast<std::uint64_t>(wire.localCost(p, q) * options.costResolution + 0.5))
+              << "seed " << seed << " link " << x << "," << y << " -> " << q.transpose();
+        }
   }
 }
 
@@ -264,27 +299,23 @@ TEST(LiveWire, AnisotropicSpacingIsHonoured) {
 
   // A circle of radius 18 mm on 0.5 x 1.25 mm pixels (an ellipse in pixels), contrast 100 over
   // noise 5, is followed within one pixel: every path pixel's 3 x 3 neighbourhood (in pixels,
-  // whatever their size) reaches the true edge. (At noise 10 the long runs of 0.5 mm links along
-  // the top and bottom stray up to 1.3 pixels: Live-Wire's per-link cost favours few links.)
+  // whatever their size) reaches the true edge. (Seeds 1-40: 39 pass, seed 25 strays 1.09 pixels;
+  // at noise 10 the long runs of 0.5 mm links along the top and bottom stray up to 1.3 pixels:
+  // the per-link costs fZ and fD favour few links, i.e. steps along the coarse axis.)
   const Eigen::Vector2d s(0.5, 1.25);
   const Eigen::Vector2d c(30.2, 29.6);
-  const std::vector<float> image = ellipseImage(120, 48, s, c, 18.0, 18.0, 100.0, 5.0, 3);
-  LiveWire wire(image, 120, 48, s);
-  std::vector<Eigen::Vector2i> anchors;
-  for (int k = 0; k < 5; ++k) anchors.push_back(ellipsePixel(s, c, 18.0, 18.0, 0.1 + k * 2.0 * kPi / 5.0));
-  const ClosedLiveWire contour = closedLiveWire(wire, anchors);
-  EXPECT_GT(contour.points.size(), 150u);
-  double worst = 0.0;
-  for (const auto& p : contour.points) {
-    double best = std::numeric_limits<double>::infinity();
-    for (int k = 0; k < 7200; ++k) {
-      const double t = 2.0 * kPi * k / 7200.0;
-      const Eigen::Vector2d e = c + 18.0 * Eigen::Vector2d(std::cos(t), std::sin(t));
-      best = std::min(best, (e.cwiseQuotient(s) - p.cast<double>()).cwiseAbs().maxCoeff());
-    }
-    worst = std::max(worst, best);
+  for (std::uint64_t seed = 3; seed < 8; ++seed) {
+    SCOPED_TRACE(seed);
+    const std::vector<float> image = ellipseImage(120, 48, s, c, 18.0, 18.0, 100.0, 5.0, seed);
+    LiveWire wire(image, 120, 48, s);
+    std::vector<Eigen::Vector2i> anchors;
+    for (int k = 0; k < 5; ++k) anchors.push_back(ellipsePixel(s, c, 18.0, 18.0, 0.1 + k * 2.0 * kPi / 5.0));
+    const ClosedLiveWire contour = closedLiveWire(wire, anchors);
+    EXPECT_GT(contour.points.size(), 150u);
+    double worst = 0.0;
+    for (const auto& p : contour.points) worst = std::max(worst, pixelDistanceToEllipse(p, s, c, 18.0, 18.0));
+    EXPECT_LE(worst, 1.0);
   }
-  EXPECT_LE(worst, 1.0);
 }
 
 TEST(LiveWire, BadInputIsRefused) {
