@@ -426,20 +426,15 @@ CommandAction addSegmentCommand(CLI::App& app) {
   auto o = std::make_shared<SegmentOptions>();
   CLI::App* cmd = app.add_subcommand(
       "segment",
-      "Segment one bone of a CT series into a closed surface model in CT patient coordinates "
-      "(LPS,\n"
-      "mm). --anchors: live-wire contours through the anchors of each slice (the dissertation's "
-      "40\n"
-      "sagittal slices), filled and interpolated between slices; --auto: bone grown from --seed\n"
-      "(hysteresis threshold, bones touching at a joint cut apart by a small opening, marrow "
-      "filled).\n"
-      "Either region is then refined by the CT itself: the model is the iso-surface half way "
-      "between\n"
-      "cortex and soft tissue inside a band around the region (sub-voxel; --no-refine keeps the\n"
-      "region's own smoothed surface). A series of several slice groups (hip 5 mm / knee 1 mm /\n"
-      "ankle 5 mm) is segmented in the group of the seed or of most anchors; the model is closed "
-      "at\n"
-      "the group's ends.");
+      "Segment one bone of a CT series into a closed surface model in CT patient\n"
+      "coordinates (LPS, mm). --anchors: live-wire contours through the anchors of each slice\n"
+      "(the dissertation's 40 sagittal slices), filled and interpolated between slices; --auto:\n"
+      "the bone grown from --seed (hysteresis threshold, marrow filled, bones touching at a\n"
+      "joint cut apart by a 2.4 mm erosion). Either region is then refined by the CT itself: the\n"
+      "model is the iso-surface half way between cortex and soft tissue inside a band around the\n"
+      "region (sub-voxel; --no-refine keeps the region's own smoothed surface). A series of\n"
+      "several slice groups (hip 5 mm / knee 1 mm / ankle 5 mm) is segmented in the group of the\n"
+      "seed or of most anchors; the model is closed at that group's ends.");
   cmd->add_option("--dicom", o->dicom, "DICOM series folder")->required();
   cmd->add_option("--series", o->series,
                   "SeriesInstanceUID to read (default: the CT series with most files)");
@@ -456,7 +451,8 @@ CommandAction addSegmentCommand(CLI::App& app) {
       ->expected(3)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd->add_option("--out", o->out, "Model to write (.vtp or .stl)")->required();
-  cmd->add_option("--mask", o->mask, "Write the region's mask as NRRD (LPS; 3D Slicer opens it)");
+  cmd->add_option("--mask", o->mask,
+                  "Write the region's mask as NRRD (uint8, LPS geometry; 3D Slicer opens it)");
   cmd->add_option("--plane", o->plane, "Plane of the proposed anchors' slices")
       ->check(CLI::IsMember({"sagittal", "coronal", "axial"}))
       ->capture_default_str();
