@@ -15,8 +15,8 @@ namespace echoreg::cli {
 int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   CLI::App app{
       "echoreg: register bones to CT with tracked A-mode ultrasound (Mozes 2008).\n"
-      "Commands available in this build: info, detect, simulate, calibrate, pivot, landmarks,\n"
-      "evaluate, register. segment, figure and study arrive with their issues.",
+      "Commands: info, detect, simulate, calibrate, pivot, segment, landmarks, register, evaluate,\n"
+      "figure, study. `echoreg study run DIR` is the main job: a study folder into a report.",
       "echoreg"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "echoreg 0.1.0");
@@ -33,6 +33,7 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   actions["landmarks"] = addLandmarksCommand(app);
   actions["evaluate"] = addEvaluateCommand(app);
   actions["register"] = addRegisterCommand(app);
+  actions["segment"] = addSegmentCommand(app);
 
   std::vector<std::string> reversed(args.rbegin(), args.rend());
   try {

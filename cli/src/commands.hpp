@@ -28,5 +28,6 @@ CommandAction addStudyCommand(CLI::App& app);
 CommandAction addLandmarksCommand(CLI::App& app);
 CommandAction addEvaluateCommand(CLI::App& app);
 CommandAction addRegisterCommand(CLI::App& app);
+CommandAction addSegmentCommand(CLI::App& app);
 
 }  // namespace echoreg::cli

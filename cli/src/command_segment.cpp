@@ -1,0 +1,512 @@
+// `echoreg segment`: a bone model from a CT series (Mozes 2008, section 4.3.1): from live-wire
+// contours through the user's anchors (the dissertation's way, 40 sagittal slices per bone), or
+// automatically from a seed point in the bone. Both end in the CT's own iso-surface around the
+// segmented region (sub-voxel), a closed model in CT patient coordinates (LPS), the mask as NRRD,
+// anchors proposed for the user to check, and optionally the surface accessible to a probe.
+#include "commands.hpp"
+
+#include "echoreg/core/error.hpp"
+#include "echoreg/core/mesh.hpp"
+#include "echoreg/filters/MeshIO.h"
+#include "echoreg/segmentation/accessible_surface.hpp"
+#include "echoreg/segmentation/bone_mask.hpp"
+#include "echoreg/segmentation/bone_surface.hpp"
+#include "echoreg/segmentation/contour_surface.hpp"
+#include "echoreg/segmentation/dicom_series.hpp"
+#include "echoreg/segmentation/livewire_contours.hpp"
+#include "echoreg/segmentation/nrrd_volume.hpp"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <ostream>
+#include <stdexcept>
+
+namespace echoreg::cli {
+
+namespace {
+
+namespace seg = echoreg::segmentation;
+
+struct SegmentOptions {
+  std::string dicom, bone, anchors, out, mask, plane = "sagittal", series, anchorsOut;
+  std::string accessibleOut, keepRegions;
+  bool automatic = false, withFibula = false, noRefine = false, json = false;
+  std::vector<double> seeds;
+  int slices = 40;
+  double isoHu = 0.0;
+  std::vector<double> thresholdHu;  // STRONG WEAK
+  double bandMm = 2.0;
+  int smoothing = 10;
+  int targetTriangles = 0;
+  double separationMm = 2.4;
+  double regionRadiusMm = 20.0;
+  std::vector<double> viewDirections;
+  double maxAngleDeg = 60.0;
+};
+
+nlohmann::json vec(const Eigen::Vector3d& v) {
+  return {v.x(), v.y(), v.z()};
+}
+
+// The folder an output goes into must exist before the work starts.
+void requireOutputFolder(const std::string& path) {
+  if (path.empty())
+    return;
+  const std::filesystem::path parent = std::filesystem::absolute(path).parent_path();
+  if (!std::filesystem::is_directory(parent)) {
+    throw FileError(path, "the output folder " + parent.string() + " does not exist");
+  }
+  if (std::filesystem::is_directory(path))
+    throw FileError(path, "is a folder, not a file");
+}
+
+class Progress {
+ public:
+  explicit Progress(const Streams& io) : io_(io) {}
+  void operator()(const std::string& stage, double fraction) {
+    if (!io_.errIsTerminal)
+      return;
+    const int percent = static_cast<int>(std::clamp(fraction, 0.0, 1.0) * 100.0);
+    if (stage == stage_ && percent == percent_)
+      return;
+    stage_ = stage;
+    percent_ = percent;
+    io_.err << fmt::format("\rsegment: {:<28} {:3d}%", stage, percent) << std::flush;
+  }
+  void done() {
+    if (io_.errIsTerminal && !stage_.empty())
+      io_.err << "\r" << std::string(45, ' ') << "\r" << std::flush;
+  }
+
+ private:
+  const Streams& io_;
+  std::string stage_;
+  int percent_ = -1;
+};
+
+double secondsSince(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+// The group holding most of `points` (-1 when none lies in any group).
+int majorityGroup(const seg::CtImage& ct, const std::vector<Eigen::Vector3d>& points) {
+  std::map<int, int> votes;
+  for (const auto& p : points) {
+    const int g = seg::groupContaining(ct, p);
+    if (g >= 0)
+      ++votes[g];
+  }
+  int best = -1, most = 0;
+  for (const auto& [g, n] : votes) {
+    if (n > most) {
+      best = g;
+      most = n;
+    }
+  }
+  return best;
+}
+
+// Wrong usage (exit 2), checked while parsing.
+void checkUsage(const SegmentOptions& o) {
+  if (o.automatic == !o.anchors.empty()) {
+    throw CLI::ValidationError("--anchors / --auto",
+                               "give exactly one of --anchors FILE and --auto --seed X Y Z");
+  }
+  if (o.automatic && (o.seeds.empty() || o.seeds.size() % 3 != 0)) {
+    throw CLI::ValidationError("--seed", "--auto needs --seed X Y Z (once per bone)");
+  }
+  if (!o.automatic && !o.seeds.empty())
+    throw CLI::ValidationError("--seed", "--seed goes with --auto");
+  const bool tibiaFibula = o.withFibula || o.bone == "tibia+fibula";
+  if (o.automatic && tibiaFibula && o.seeds.size() < 6) {
+    throw CLI::ValidationError(
+        "--seed",
+        "--bone tibia+fibula with --auto needs two seeds: --seed (tibia) --seed (fibula)");
+  }
+  if ((!o.keepRegions.empty() || !o.viewDirections.empty()) && o.accessibleOut.empty()) {
+    throw CLI::ValidationError("--accessible-out",
+                               "--keep-regions / --view-direction need --accessible-out FILE.vtp");
+  }
+  if (o.viewDirections.size() % 3 != 0)
+    throw CLI::ValidationError("--view-direction", "takes X Y Z");
+}
+
+int runSegment(const SegmentOptions& o, const Streams& io) {
+  const auto start = std::chrono::steady_clock::now();
+  const bool tibiaFibula = o.withFibula || o.bone == "tibia+fibula";
+  const std::string boneName = tibiaFibula ? "tibia+fibula" : o.bone;
+  seg::GrowOptions grow;
+  if (o.thresholdHu.size() == 2) {
+    grow.threshold.strongHu = o.thresholdHu[0];
+    grow.threshold.weakHu = o.thresholdHu[1];
+    if (grow.threshold.weakHu > grow.threshold.strongHu) {
+      throw std::invalid_argument(
+          fmt::format("--threshold-hu STRONG WEAK needs WEAK <= STRONG, got {} {}",
+                      o.thresholdHu[0], o.thresholdHu[1]));
+    }
+  }
+  grow.separationRadiusMm = o.separationMm;
+  const seg::SlicePlane plane = seg::parseSlicePlane(o.plane);
+  for (const std::string& path : {o.out, o.mask, o.anchorsOut, o.accessibleOut})
+    requireOutputFolder(path);
+  std::vector<seg::AnchorSet> anchorSets;
+  if (!o.anchors.empty())
+    anchorSets = seg::readAnchors(o.anchors);  // bad files fail before the CT is read
+  std::vector<seg::SurfaceRegion> regions;
+  if (!o.keepRegions.empty())
+    regions = seg::readSurfaceRegions(o.keepRegions, o.regionRadiusMm);
+
+  Progress progress(io);
+  nlohmann::json timings = nlohmann::json::object();
+  nlohmann::json warnings = nlohmann::json::array();
+
+  // 1. The CT.
+  auto t0 = std::chrono::steady_clock::now();
+  seg::DicomReadOptions read;
+  read.seriesUid = o.series;
+  read.progress = [&](int done, int total) {
+    progress("reading the CT", static_cast<double>(done) / total);
+  };
+  const seg::DicomSeriesRead series = seg::readDicomSeriesWithWarnings(o.dicom, read);
+  for (const std::string& w : series.warnings)
+    warnings.push_back(w);
+  const seg::CtImage& ct = series.image;
+  timings["read_s"] = secondsSince(t0);
+
+  // 2. The protocol group to segment in.
+  std::vector<Eigen::Vector3d> seeds;
+  for (std::size_t i = 0; i + 2 < o.seeds.size(); i += 3)
+    seeds.emplace_back(o.seeds[i], o.seeds[i + 1], o.seeds[i + 2]);
+  int group = 0;
+  if (o.automatic) {
+    group = seg::groupContaining(ct, seeds.front());
+    if (group < 0) {
+      throw FileError(
+          o.dicom, fmt::format("the seed ({:.1f}, {:.1f}, {:.1f}) mm lies outside the CT's slices "
+                               "(or in a gap between its slice groups)",
+                               seeds.front().x(), seeds.front().y(), seeds.front().z()));
+    }
+    for (const auto& s : seeds) {
+      if (seg::groupContaining(ct, s) != group) {
+        throw FileError(
+            o.dicom, fmt::format("the seeds lie in different slice groups of the CT (seed ({:.1f}, "
+                                 "{:.1f}, {:.1f}) mm); give seeds in one group",
+                                 s.x(), s.y(), s.z()));
+      }
+    }
+  } else {
+    std::vector<Eigen::Vector3d> points;
+    for (const auto& set : anchorSets)
+      points.insert(points.end(), set.anchorsLps.begin(), set.anchorsLps.end());
+    group = majorityGroup(ct, points);
+    if (group < 0)
+      throw FileError(o.anchors, "no anchor lies within the CT's slices");
+  }
+  const seg::CtImage volume =
+      ct.uniform() ? ct : seg::extractGroup(ct, static_cast<std::size_t>(group));
+  const seg::CtSliceGroup& used = ct.groups[static_cast<std::size_t>(group)];
+  const double zFirst = ct.voxelToLps(Eigen::Vector3d(0, 0, used.firstSlice)).z();
+  const double zLast = ct.voxelToLps(Eigen::Vector3d(0, 0, used.firstSlice + used.count - 1)).z();
+  const double zLow = std::min(zFirst, zLast), zHigh = std::max(zFirst, zLast);
+  if (!ct.uniform()) {
+    warnings.push_back(
+        fmt::format("the CT has {} slice groups; segmented in group {} ({} slices at {:.2f} mm, "
+                    "z {:.1f} to {:.1f} mm): the model is closed at that group's ends",
+                    ct.groups.size(), group, used.count, used.spacingMm, std::min(zFirst, zLast),
+                    std::max(zFirst, zLast)));
+  }
+
+  // 3. The region: grown from the seeds, or enclosed by the live-wire contours.
+  t0 = std::chrono::steady_clock::now();
+  seg::VoxelMask region, exclude;
+  nlohmann::json modeJson;
+  if (o.automatic) {
+    nlohmann::json seedsJson = nlohmann::json::array();
+    seg::VoxelMask others;
+    for (std::size_t s = 0; s < seeds.size(); ++s) {
+      grow.progress = [&](double f, const std::string& stage) {
+        progress(fmt::format("seed {}: {}", s + 1, stage), f);
+      };
+      seg::GrowResult grown;
+      try {
+        grown = seg::growBone(volume, seeds[s], grow);
+      } catch (const std::invalid_argument& e) {
+        throw FileError(o.dicom, e.what());
+      }
+      seedsJson.push_back(
+          {{"seed_mm", vec(seeds[s])}, {"seed_hu", grown.seedHu}, {"volume_mm3", grown.volumeMm3}});
+      region = s == 0 ? grown.mask : seg::unite(region, grown.mask);
+      others = s == 0 ? grown.others : seg::unite(others, grown.others);
+    }
+    exclude = others;  // the other bones, but not the bones asked for
+    for (std::size_t i = 0; i < exclude.voxels.size(); ++i)
+      exclude.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
+    modeJson = {{"mode", "auto"}, {"seeds", seedsJson}};
+  } else {
+    std::vector<seg::SliceContour> contours;
+    nlohmann::json contoursJson = nlohmann::json::array();
+    // Anchors on the scan's ends (within half a slice): the contour runs straight between them.
+    const double endTolerance = 0.5 * volume.spacingMm().z() + 0.01;
+    int straightened = 0;
+    for (std::size_t c = 0; c < anchorSets.size(); ++c) {
+      progress("live-wire contours",
+               static_cast<double>(c) / static_cast<double>(anchorSets.size()));
+      try {
+        contours.push_back(seg::liveWireContour(volume, anchorSets[c]));
+      } catch (const std::invalid_argument& e) {
+        throw FileError(o.anchors, e.what());
+      }
+      if (anchorSets[c].plane != seg::SlicePlane::Axial) {
+        straightened +=
+            seg::straightenAtScanEnds(contours.back(), anchorSets[c], zLow, zHigh, endTolerance);
+      }
+      contoursJson.push_back({{"label", anchorSets[c].label},
+                              {"plane", seg::slicePlaneName(anchorSets[c].plane)},
+                              {"position_mm", anchorSets[c].positionMm},
+                              {"anchors", anchorSets[c].anchorsLps.size()},
+                              {"points", contours.back().pointsLps.size()},
+                              {"cost", contours.back().cost}});
+    }
+    progress("filling the contours", 0.0);
+    try {
+      region = seg::contoursToMask(contours, volume);
+    } catch (const std::invalid_argument& e) {
+      throw FileError(o.anchors, e.what());
+    }
+    if (region.count() == 0)
+      throw FileError(o.anchors, "the contours enclose no voxel of the CT");
+    exclude = seg::otherBones(seg::thresholdBone(volume, grow.threshold), region, o.bandMm);
+    modeJson = {{"mode", "anchors"},
+                {"contours", contoursJson},
+                {"straight_cuts_at_scan_ends", straightened}};
+  }
+  timings["region_s"] = secondsSince(t0);
+
+  // 4. The surface.
+  t0 = std::chrono::steady_clock::now();
+  progress("surface", 0.0);
+  seg::BoneSurfaceOptions surfaceOptions;
+  surfaceOptions.isoHu = o.isoHu;
+  surfaceOptions.bandMm = o.bandMm;
+  surfaceOptions.smoothingIterations = o.smoothing;
+  surfaceOptions.targetTriangles = static_cast<std::size_t>(std::max(0, o.targetTriangles));
+  seg::BoneSurfaceResult surface;
+  try {
+    surface = o.noRefine ? seg::maskSurface(region, 0.6, surfaceOptions)
+                         : seg::boneSurface(volume, region, &exclude, surfaceOptions);
+  } catch (const std::invalid_argument& e) {
+    throw FileError(o.dicom, std::string("no surface: ") + e.what());
+  }
+  const core::MeshCheck check = core::checkMesh(surface.mesh);
+  if (!check.closed())
+    throw FileError(o.dicom, "the model is " + check.describe());
+  timings["surface_s"] = secondsSince(t0);
+
+  // 5. Anchors proposed on the model, and the accessible surface.
+  std::vector<seg::AnchorSet> proposed;
+  if (!o.anchorsOut.empty()) {
+    seg::AnchorProposalOptions proposal;
+    proposal.zMinMm = zLow;
+    proposal.zMaxMm = zHigh;
+    proposed = seg::proposeAnchors(surface.mesh, plane, o.slices, proposal);
+  }
+  std::unique_ptr<seg::AccessibleSurface> accessible;
+  if (!o.accessibleOut.empty()) {
+    seg::AccessibleSurfaceOptions ao;
+    ao.regions = regions;
+    for (std::size_t i = 0; i + 2 < o.viewDirections.size(); i += 3) {
+      ao.viewDirections.emplace_back(o.viewDirections[i], o.viewDirections[i + 1],
+                                     o.viewDirections[i + 2]);
+    }
+    ao.maxAngleDeg = o.maxAngleDeg;
+    try {
+      accessible =
+          std::make_unique<seg::AccessibleSurface>(seg::accessibleSurface(surface.mesh, ao));
+    } catch (const std::invalid_argument& e) {
+      throw FileError(o.accessibleOut, e.what());
+    }
+  }
+
+  // 6. Outputs (each written atomically; all the work is done before the first).
+  progress("writing", 1.0);
+  filters::writeMesh(o.out, surface.mesh);
+  if (!o.mask.empty())
+    seg::writeNrrdVolume(o.mask, region.geometry, region.voxels);
+  if (!o.anchorsOut.empty())
+    seg::writeAnchors(o.anchorsOut, proposed);
+  if (accessible)
+    filters::writeMesh(o.accessibleOut, accessible->mesh);
+  progress.done();
+  timings["total_s"] = secondsSince(start);
+
+  const Eigen::Vector3d spacing = volume.spacingMm();
+  nlohmann::json result = {{"bone", boneName},
+                           {"out", o.out},
+                           {"ct",
+                            {{"folder", o.dicom},
+                             {"series_uid", ct.seriesInstanceUid},
+                             {"slices", ct.dimensions[2]},
+                             {"groups", ct.groups.size()}}},
+                           {"group",
+                            {{"index", group},
+                             {"slices", used.count},
+                             {"spacing_mm", vec(spacing)},
+                             {"z_first_mm", zFirst},
+                             {"z_last_mm", zLast}}},
+                           {"mask",
+                            {{"voxels", region.count()},
+                             {"volume_mm3", static_cast<double>(region.count()) * spacing.prod()}}},
+                           {"surface",
+                            {{"refined_with_ct", !o.noRefine},
+                             {"iso_hu", surface.isoHu},
+                             {"cortex_hu", surface.cortexHu},
+                             {"soft_tissue_hu", surface.softTissueHu},
+                             {"triangles", check.triangles},
+                             {"vertices", check.vertices},
+                             {"area_mm2", check.areaMm2},
+                             {"volume_mm3", check.volumeMm3},
+                             {"closed", check.closed()},
+                             {"pieces", surface.components},
+                             {"dropped_pieces", surface.droppedComponents},
+                             {"decimated", surface.decimated}}},
+                           {"timings", timings},
+                           {"warnings", warnings}};
+  result.update(modeJson);
+  if (!o.mask.empty())
+    result["mask"]["out"] = o.mask;
+  if (!o.anchorsOut.empty()) {
+    std::size_t anchors = 0;
+    for (const auto& s : proposed)
+      anchors += s.anchorsLps.size();
+    result["anchors_out"] = {
+        {"file", o.anchorsOut}, {"contours", proposed.size()}, {"anchors", anchors}};
+  }
+  if (accessible) {
+    result["accessible"] = {{"file", o.accessibleOut},
+                            {"triangles", accessible->mesh.triangles.size()},
+                            {"area_mm2", accessible->areaMm2},
+                            {"fraction_of_area", accessible->fractionOfArea}};
+  }
+  if (o.json) {
+    io.out << result.dump(2) << "\n";
+  } else {
+    for (const auto& w : warnings)
+      io.err << "echoreg segment: note: " << w.get<std::string>() << "\n";
+    io.out << fmt::format(
+        "{}: {} ({}), {} triangles, {:.0f} mm^3, closed; iso-surface at {:.0f} HU (cortex {:.0f}, "
+        "soft tissue "
+        "{:.0f}); {:.1f} s\n",
+        o.out, boneName,
+        o.automatic ? "from the seed"
+                    : fmt::format("from {} live-wire contours", anchorSets.size()),
+        check.triangles, check.volumeMm3, surface.isoHu, surface.cortexHu, surface.softTissueHu,
+        secondsSince(start));
+    if (!o.anchorsOut.empty()) {
+      io.out << fmt::format("{}: {} contours of proposed anchors on {} {} slices\n", o.anchorsOut,
+                            proposed.size(), o.slices, o.plane);
+    }
+    if (accessible) {
+      io.out << fmt::format("{}: accessible surface, {:.0f} mm^2 ({:.0f} % of the model)\n",
+                            o.accessibleOut, accessible->areaMm2,
+                            100.0 * accessible->fractionOfArea);
+    }
+  }
+  return 0;
+}
+
+}  // namespace
+
+CommandAction addSegmentCommand(CLI::App& app) {
+  auto o = std::make_shared<SegmentOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "segment",
+      "Segment one bone of a CT series into a closed surface model in CT patient\n"
+      "coordinates (LPS, mm). --anchors: live-wire contours through the anchors of each slice\n"
+      "(the dissertation's 40 sagittal slices), filled and interpolated between slices; --auto:\n"
+      "the bone grown from --seed (hysteresis threshold, marrow filled, bones touching at a\n"
+      "joint cut apart by a 2.4 mm erosion). Either region is then refined by the CT itself: the\n"
+      "model is the iso-surface half way between cortex and soft tissue inside a band around the\n"
+      "region (sub-voxel; --no-refine keeps the region's own smoothed surface). A series of\n"
+      "several slice groups (hip 5 mm / knee 1 mm / ankle 5 mm) is segmented in the group of the\n"
+      "seed or of most anchors; the model is closed at that group's ends.");
+  cmd->add_option("--dicom", o->dicom, "DICOM series folder")->required();
+  cmd->add_option("--series", o->series,
+                  "SeriesInstanceUID to read (default: the CT series with most files)");
+  cmd->add_option("--bone", o->bone,
+                  "Name of the bone: femur, tibia, fibula, patella, tibia+fibula, or any name")
+      ->required();
+  cmd->add_flag("--with-fibula", o->withFibula,
+                "Model the tibia and the fibula as one (same as --bone tibia+fibula)");
+  cmd->add_option("--anchors", o->anchors,
+                  "Anchors: Slicer .mrk.json closed curves, or echoreg anchors JSON");
+  cmd->add_flag("--auto", o->automatic, "Grow the bone from --seed instead of live-wire contours");
+  cmd->add_option("--seed", o->seeds,
+                  "A point inside the bone X Y Z (LPS mm); repeat for tibia+fibula")
+      ->expected(3)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  cmd->add_option("--out", o->out, "Model to write (.vtp or .stl)")->required();
+  cmd->add_option("--mask", o->mask,
+                  "Write the region's mask as NRRD (uint8, LPS geometry; 3D Slicer opens it)");
+  cmd->add_option("--plane", o->plane, "Plane of the proposed anchors' slices")
+      ->check(CLI::IsMember({"sagittal", "coronal", "axial"}))
+      ->capture_default_str();
+  cmd->add_option("--slices", o->slices,
+                  "Number of slices of proposed anchors, evenly over the bone")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  cmd->add_option(
+      "--anchors-out", o->anchorsOut,
+      "Write anchors proposed on the model (Slicer .mrk.json closed curves) to edit and feed back "
+      "with --anchors");
+  cmd->add_option("--threshold-hu", o->thresholdHu,
+                  "Bone threshold STRONG WEAK, HU: voxels >= STRONG, and >= WEAK connected to them "
+                  "(default 600 200)")
+      ->expected(2);
+  cmd->add_option("--separation-mm", o->separationMm,
+                  "Radius of the erosion that separates bones touching at a joint, mm (0 = none)")
+      ->check(CLI::Range(0.0, 10.0))
+      ->capture_default_str();
+  cmd->add_option("--iso-hu", o->isoHu,
+                  "Iso level of the surface, HU (default: half way cortex - soft tissue)");
+  cmd->add_option("--band-mm", o->bandMm,
+                  "Band around the region in which the CT decides the surface, mm")
+      ->check(CLI::Range(0.5, 10.0))
+      ->capture_default_str();
+  cmd->add_flag("--no-refine", o->noRefine,
+                "The region's own surface (smoothed mask), not the CT's iso-surface");
+  cmd->add_option("--smoothing", o->smoothing, "Windowed-sinc smoothing iterations (0 = none)")
+      ->check(CLI::Range(0, 200))
+      ->capture_default_str();
+  cmd->add_option("--decimate", o->targetTriangles,
+                  "Decimate the model to about this many triangles (0 = keep all)")
+      ->check(CLI::Range(0, 100000000));
+  cmd->add_option("--accessible-out", o->accessibleOut,
+                  "Write the accessible part of the model (.vtp) for the registration");
+  cmd->add_option("--keep-regions", o->keepRegions,
+                  "Accessible part: points of a Slicer .mrk.json, each keeping the surface within "
+                  "--region-radius");
+  cmd->add_option("--region-radius", o->regionRadiusMm, "Radius of each kept region, mm")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  cmd->add_option("--view-direction", o->viewDirections,
+                  "Accessible part: a direction X Y Z from the bone toward the probe (repeatable); "
+                  "keeps the "
+                  "triangles facing it within --max-angle-deg with nothing of the bone in front")
+      ->expected(3)
+      ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  cmd->add_option("--max-angle-deg", o->maxAngleDeg,
+                  "Largest angle between a kept triangle's normal and a view direction")
+      ->check(CLI::Range(1.0, 90.0))
+      ->capture_default_str();
+  cmd->add_flag("--json", o->json, "Print the result as JSON");
+  cmd->callback([o] { checkUsage(*o); });
+  return [o](const Streams& io) { return runSegment(*o, io); };
+}
+
+}  // namespace echoreg::cli

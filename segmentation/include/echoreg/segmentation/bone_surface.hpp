@@ -1,0 +1,62 @@
+// Bone masks to closed surfaces in CT patient coordinates (LPS, mm). The surface is the
+// iso-surface of the CT itself at the half-way level between the bone's cortex and the soft
+// tissue around it, restricted to a thin band around a region (the grown mask, or the mask the
+// live-wire contours enclose): inside the band's interior the field is forced to the cortex's
+// value and outside the band to the soft tissue's, so marrow, other bones and the band's edges
+// cannot make surfaces, and the result is closed. Vertices are sub-voxel (trilinear
+// interpolation of HU, VTK flying edges), then smoothed (windowed sinc) and optionally
+// decimated. A mask alone (no CT) gives the discrete iso-surface of the smoothed mask instead.
+#pragma once
+
+#include "echoreg/core/mesh.hpp"
+#include "echoreg/segmentation/bone_mask.hpp"
+#include "echoreg/segmentation/ct_image.hpp"
+
+#include <cstddef>
+
+namespace echoreg::segmentation {
+
+struct BoneSurfaceOptions {
+  /// Iso level, HU; 0 chooses half way between the cortex (median of the region's voxels above
+  /// cortexMinHu, 1 mm or more inside it) and the soft tissue (median of the ring 1.5-3 mm
+  /// outside the region, bone excluded).
+  double isoHu = 0.0;
+  double cortexMinHu = 600.0;
+  /// The band around the region where the CT decides, mm; beyond it the field is soft tissue.
+  double bandMm = 2.0;
+  /// The region's interior deeper than this is forced to the cortex's value, mm.
+  double interiorMm = 1.5;
+  /// Windowed-sinc smoothing (Taubin): iterations (0: none) and pass band (0-2, lower smooths
+  /// more).
+  int smoothingIterations = 10;
+  double passBand = 0.1;
+  /// Decimate to about this many triangles when the surface has more (0: keep every triangle);
+  /// a decimation that would break the surface's closedness is not applied.
+  std::size_t targetTriangles = 0;
+  /// Closed pieces smaller than this are dropped (noise), mm^3.
+  double minComponentMm3 = 50.0;
+};
+
+struct BoneSurfaceResult {
+  core::TriangleMesh mesh;  ///< closed, wound outward, CT LPS mm
+  double isoHu = 0.0;
+  double cortexHu = 0.0;
+  double softTissueHu = 0.0;
+  int components = 0;  ///< closed pieces kept
+  int droppedComponents = 0;
+  bool decimated = false;
+};
+
+/// The CT iso-surface of the bone around `region` (see the file comment). `exclude` (optional,
+/// same grid) marks voxels of other bones: they count as soft tissue. `ct` must be uniform (one
+/// group). Throws std::invalid_argument for an empty region, grids that differ, a non-uniform
+/// CT, or a surface that comes out empty or not closed.
+BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const VoxelMask* exclude,
+                              const BoneSurfaceOptions& options = {});
+
+/// The surface of a mask alone: the 0.5 level of the mask blurred by a Gaussian of sigmaMm
+/// (no CT), smoothed and decimated as above. Throws std::invalid_argument for an empty mask.
+BoneSurfaceResult maskSurface(const VoxelMask& mask, double sigmaMm = 0.6,
+                              const BoneSurfaceOptions& options = {});
+
+}  // namespace echoreg::segmentation

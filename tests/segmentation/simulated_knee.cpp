@@ -1,0 +1,179 @@
+#include "simulated_knee.hpp"
+
+#include "echoreg/simulation/specimen.hpp"
+
+#include <unistd.h>
+#include <chrono>
+#include <cmath>
+#include <cstdint>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <memory>
+
+namespace echoreg::test {
+
+segmentation::CtImage toCtImage(const simulation::CtVolume& volume) {
+  segmentation::CtImage image;
+  image.dimensions = {volume.columns, volume.rows, volume.slices()};
+  image.originMm = volume.voxelCentreMm(0, 0, 0);
+  image.pixelSpacingMm = {volume.pixelSpacingMm, volume.pixelSpacingMm};
+  for (double z : volume.sliceZMm)
+    image.slicePositionsMm.push_back(z - volume.sliceZMm.front());
+  int first = 0;
+  for (int k = 1; k <= volume.slices(); ++k) {
+    const auto kk = static_cast<std::size_t>(k);
+    const bool breakHere =
+        k == volume.slices() || volume.sliceGroup[kk] != volume.sliceGroup[kk - 1];
+    if (!breakHere)
+      continue;
+    const int count = k - first;
+    const double spacing = count > 1 ? volume.sliceZMm[static_cast<std::size_t>(first + 1)] -
+                                           volume.sliceZMm[static_cast<std::size_t>(first)]
+                                     : 0.0;
+    image.groups.push_back({first, count, spacing});
+    first = k;
+  }
+  image.hu = volume.hu;
+  image.seriesInstanceUid = "simulated";
+  return image;
+}
+
+namespace {
+
+// The CT takes seconds to synthesise; ctest runs each test in its own process, so the volume is
+// cached in the tests' temporary folder, keyed by a checksum of the bone meshes it was made from
+// (a changed knee makes a new volume). Written under a temporary name and renamed.
+std::uint64_t checksum(const simulation::Knee& knee) {
+  std::uint64_t h = 1469598103934665603ULL;
+  auto mix = [&](double v) {
+    const auto q = static_cast<std::int64_t>(std::llround(v * 1e6));
+    h = (h ^ static_cast<std::uint64_t>(q)) * 1099511628211ULL;
+  };
+  for (const auto& bone : knee.bones) {
+    for (const auto& v : bone.mesh.vertices) {
+      mix(v.x());
+      mix(v.y());
+      mix(v.z());
+    }
+  }
+  return h;
+}
+
+std::string cachePath(std::uint64_t key) {
+  const char* base = std::getenv("ECHOREG_TEST_TMP");
+  const std::filesystem::path dir =
+      base ? std::filesystem::path(base) : std::filesystem::temp_directory_path() / "echoreg-tests";
+  std::error_code ec;
+  std::filesystem::create_directories(dir, ec);
+  return (dir / ("simulated-knee-ct-v1-" + std::to_string(key) + ".bin")).string();
+}
+
+template <class T>
+void put(std::ostream& o, const T& v) {
+  o.write(reinterpret_cast<const char*>(&v), sizeof v);
+}
+template <class T>
+bool get(std::istream& in, T& v) {
+  return static_cast<bool>(in.read(reinterpret_cast<char*>(&v), sizeof v));
+}
+
+bool loadCache(const std::string& path, SimulatedKnee& s) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in)
+    return false;
+  segmentation::CtImage& ct = s.ct;
+  std::uint64_t slices = 0;
+  if (!get(in, ct.dimensions) || !get(in, ct.originMm) || !get(in, ct.pixelSpacingMm) ||
+      !get(in, s.kneeZMinMm) || !get(in, s.kneeZMaxMm) || !get(in, slices) ||
+      slices != static_cast<std::uint64_t>(ct.dimensions[2])) {
+    return false;
+  }
+  ct.slicePositionsMm.resize(slices);
+  for (double& z : ct.slicePositionsMm)
+    get(in, z);
+  ct.hu.resize(ct.voxelCount());
+  in.read(reinterpret_cast<char*>(ct.hu.data()),
+          static_cast<std::streamsize>(ct.hu.size() * sizeof(std::int16_t)));
+  if (!in)
+    return false;
+  ct.groups = {
+      {0, ct.dimensions[2], ct.slicePositionsMm.size() > 1 ? ct.slicePositionsMm[1] : 0.0}};
+  ct.seriesInstanceUid = "simulated";
+  return true;
+}
+
+void saveCache(const std::string& path, const SimulatedKnee& s) {
+  const std::string temporary = path + ".tmp-" + std::to_string(::getpid());
+  {
+    std::ofstream o(temporary, std::ios::binary);
+    put(o, s.ct.dimensions);
+    put(o, s.ct.originMm);
+    put(o, s.ct.pixelSpacingMm);
+    put(o, s.kneeZMinMm);
+    put(o, s.kneeZMaxMm);
+    put(o, static_cast<std::uint64_t>(s.ct.slicePositionsMm.size()));
+    for (double z : s.ct.slicePositionsMm)
+      put(o, z);
+    o.write(reinterpret_cast<const char*>(s.ct.hu.data()),
+            static_cast<std::streamsize>(s.ct.hu.size() * sizeof(std::int16_t)));
+  }
+  std::error_code ec;
+  std::filesystem::rename(temporary, path, ec);
+  if (ec)
+    std::filesystem::remove(temporary, ec);
+}
+
+}  // namespace
+
+const SimulatedKnee& simulatedKnee() {
+  static const std::unique_ptr<SimulatedKnee> shared = [] {
+    const auto start = std::chrono::steady_clock::now();
+    auto s = std::make_unique<SimulatedKnee>();
+    simulation::KneeOptions options;
+    options.seed = 3;
+    options.meshResolutionMm = 1.2;
+    s->knee = simulation::buildKnee(options);
+    const double tKnee =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const std::string cache = cachePath(checksum(s->knee));
+    if (loadCache(cache, *s)) {
+      std::cout << "[ fixture  ] simulated knee CT " << s->ct.dimensions[0] << " x "
+                << s->ct.dimensions[1] << " x " << s->ct.dimensions[2] << " from " << cache
+                << " (bones " << tKnee << " s)\n";
+      return s;
+    }
+    simulation::SoftTissueOptions tissue;
+    tissue.seed = 3;
+    const simulation::Specimen specimen(s->knee, simulation::SpecimenKind::Cadaver, tissue);
+    const double tSpecimen =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const Eigen::Vector2d centre =
+        (0.5 * (s->knee.hipCentre + s->knee.kneeCentre)).head<2>() * 0.5 +
+        s->knee.kneeCentre.head<2>() * 0.5;
+    simulation::CtProtocol protocol = simulation::smallProtocol(
+        s->knee.hipCentre.z(), s->knee.kneeCentre.z(), s->knee.ankleCentre.z(), centre);
+    // The knee group only, over +-32 mm, on 144 x 144 pixels (115 mm) centred on the knee: every
+    // bone's section fits; the leg's skin lies outside the field of view (as in a tight scan).
+    protocol.groups = {protocol.groups[1]};
+    protocol.groups[0].firstZMm = s->knee.kneeCentre.z() - 32.0;
+    protocol.groups[0].lastZMm = s->knee.kneeCentre.z() + 32.0;
+    protocol.columns = 144;
+    protocol.rows = 144;
+    protocol.centreXYMm = s->knee.kneeCentre.head<2>();
+    const simulation::CtVolume volume = simulation::synthesizeCt(specimen, protocol, 3);
+    s->ct = toCtImage(volume);
+    s->kneeZMinMm = volume.sliceZMm.front();
+    s->kneeZMaxMm = volume.sliceZMm.back();
+    saveCache(cache, *s);
+    std::cout << "[ fixture  ] simulated knee CT " << volume.columns << " x " << volume.rows
+              << " x " << volume.slices() << " in "
+              << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
+              << " s (bones " << tKnee << " s, leg " << tSpecimen - tKnee << " s)\n";
+    return s;
+  }();
+  return *shared;
+}
+
+}  // namespace echoreg::test

@@ -1,0 +1,26 @@
+// A simulated knee CT in memory for the segmentation tests: the procedural knee of the simulator
+// (seed 3, 1.2 mm bone meshes as in a small study) in a cadaver leg, imaged with the small
+// protocol's pixels and knee group only (144 x 144 pixels of 0.8 mm centred on the knee, 1 mm
+// slices over +-32 mm). Built once per test program and shared; the CT (seconds to synthesise)
+// is cached in the tests' temporary folder under a checksum of the bones.
+#pragma once
+
+#include "echoreg/segmentation/ct_image.hpp"
+#include "echoreg/simulation/anatomy.hpp"
+#include "echoreg/simulation/ct.hpp"
+
+namespace echoreg::test {
+
+struct SimulatedKnee {
+  simulation::Knee knee;
+  segmentation::CtImage ct;                   ///< knee group only (uniform)
+  double kneeZMinMm = 0.0, kneeZMaxMm = 0.0;  ///< the first and last slice centres
+};
+
+/// The simulated CT as a CtImage (axial, identity direction, groups from the slice spacing).
+segmentation::CtImage toCtImage(const simulation::CtVolume& volume);
+
+/// The shared knee (built on first use).
+const SimulatedKnee& simulatedKnee();
+
+}  // namespace echoreg::test

@@ -1,0 +1,100 @@
+// Bone growth on a real CT (../shared/data/ct-abdomen: 512 x 512 pixels of 1.07 mm, 3 mm slices,
+// Philips, from the sacroiliac joints up to the thorax; the series holds no femoral heads). The
+// pelvis is grown from one seed in each ilium in the lowest 40 slices (z 86 to 203 mm), cropped
+// in-plane around it to keep the test short.
+#include "echoreg/core/mesh.hpp"
+#include "echoreg/core/mesh_locator.hpp"
+#include "echoreg/segmentation/bone_mask.hpp"
+#include "echoreg/segmentation/bone_surface.hpp"
+#include "echoreg/segmentation/dicom_series.hpp"
+
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <iostream>
+
+namespace {
+
+using namespace echoreg;
+
+// Columns i0.., rows j0.. (ni x nj) of the lowest `count` slices.
+segmentation::CtImage crop(const segmentation::CtImage& ct, int i0, int j0, int ni, int nj,
+                           int count) {
+  segmentation::CtImage out = ct;
+  out.dimensions = {ni, nj, count};
+  out.originMm = ct.voxelToLps(Eigen::Vector3d(i0, j0, 0));
+  out.slicePositionsMm.resize(static_cast<std::size_t>(count));
+  out.groups = {{0, count, ct.groups.front().spacingMm}};
+  out.hu.resize(out.voxelCount());
+  for (int k = 0; k < count; ++k) {
+    for (int j = 0; j < nj; ++j) {
+      for (int i = 0; i < ni; ++i)
+        out.hu[out.index(i, j, k)] = ct.at(i0 + i, j0 + j, k);
+    }
+  }
+  return out;
+}
+
+bool inMask(const segmentation::VoxelMask& mask, const Eigen::Vector3d& lps) {
+  const Eigen::Vector3d v = mask.geometry.lpsToVoxel(lps);
+  return mask.at(static_cast<int>(std::lround(v.x())), static_cast<int>(std::lround(v.y())),
+                 static_cast<int>(std::lround(v.z())));
+}
+
+TEST(RealCt, PelvisFromTwoSeeds) {
+  ECHOREG_REQUIRE_SHARED_FILE(first, "ct-abdomen/1-001.dcm");
+  const auto start = std::chrono::steady_clock::now();
+  // The pelvis' part of the slices (x -168 to 169 mm, y -17 to 253 mm): the body's outline stays
+  // outside the crop, as the whole image's border does.
+  const segmentation::CtImage ct = crop(
+      segmentation::readDicomSeries(test::sharedDataDir() + "/ct-abdomen"), 100, 150, 314, 252, 40);
+  ASSERT_TRUE(ct.uniform());
+  // Seeds in the right and the left iliac wing (found on the axial slice z = 91.9 mm).
+  const Eigen::Vector3d right(-65.5, 133.4, 91.91), left(66.6, 144.2, 91.91);
+  segmentation::GrowOptions options;
+  // 3 mm slices: the lumbosacral facets and the left sacroiliac joint bridge at 2.4 mm; 6 mm cuts
+  // the spine off at L5 / S1 (the thin iliac fossa comes back through the reassignment).
+  options.separationRadiusMm = 6.0;
+  const auto a = segmentation::growBone(ct, right, options);
+  const auto b = segmentation::growBone(ct, left, options);
+  const auto pelvis = segmentation::unite(a.mask, b.mask);
+  const double volumeCm3 = static_cast<double>(pelvis.count()) * ct.spacingMm().prod() / 1000.0;
+  segmentation::VoxelMask others = segmentation::unite(a.others, b.others);
+  for (std::size_t i = 0; i < others.voxels.size(); ++i)
+    others.voxels[i] &= static_cast<std::uint8_t>(!pelvis.voxels[i]);
+  const auto surface = segmentation::boneSurface(ct, pelvis, &others);
+  const auto check = core::checkMesh(surface.mesh);
+  std::cout << "[ measured ] pelvis: " << volumeCm3 << " cm^3 (right " << a.volumeMm3 / 1000.0
+            << ", left " << b.volumeMm3 / 1000.0 << "), surface " << check.triangles
+            << " triangles " << check.volumeMm3 / 1000.0 << " cm^3, iso " << surface.isoHu
+            << " HU (cortex " << surface.cortexHu << ", soft " << surface.softTissueHu << "); "
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
+            << " s\n";
+  // A pelvis (both ilia and the sacrum over 12 cm): a few hundred cm^3, not a whole skeleton.
+  EXPECT_GT(volumeCm3, 150.0);
+  EXPECT_LT(volumeCm3, 600.0);
+  EXPECT_TRUE(check.closed()) << check.describe();
+  // Inside: both wings near the seeds and higher up, the sacrum's midline.
+  EXPECT_TRUE(inMask(pelvis, right));
+  EXPECT_TRUE(inMask(pelvis, left));
+  // Not inside: gluteal muscle beside the right wing, the bowel in front of the sacrum, the
+  // psoas, and the L5 vertebral body (a separate bone).
+  EXPECT_FALSE(inMask(pelvis, {-124.6, 144.2, 91.91}));
+  EXPECT_FALSE(inMask(pelvis, {0.0, 60.0, 91.91}));
+  EXPECT_FALSE(inMask(pelvis, {-44.0, 90.0, 127.91}));
+  EXPECT_FALSE(inMask(pelvis, {0.0, 106.5, 145.91}));
+  // Nothing above the iliac crests (z 175 mm and up holds only vertebrae and soft tissue).
+  const Eigen::Vector3d crest = ct.lpsToVoxel({0, 0, 175.0});
+  std::size_t above = 0;
+  for (int k = static_cast<int>(std::ceil(crest.z())); k < ct.dimensions[2]; ++k) {
+    for (int j = 0; j < ct.dimensions[1]; ++j) {
+      for (int i = 0; i < ct.dimensions[0]; ++i)
+        above += pelvis.at(i, j, k) ? 1u : 0u;
+    }
+  }
+  EXPECT_EQ(above, 0u);
+}
+
+}  // namespace
