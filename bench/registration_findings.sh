@@ -70,10 +70,12 @@ Bone() { if [ "$1" = femur ]; then echo Femur; else echo Tibia; fi; }
 # A registration that does not converge is kept (exit 1 is reported, not fatal).
 register() {
   local s="$work/$1" bone="$2" model="$3" out="$4"; shift 4
+  local pair
+  read -r -a pair < <(dwells "$bone")
   "$echoreg" register --model "$model" --bone "$(Bone "$bone")" \
     --landmarks-ct "$s/ct/landmarks.mrk.json" --landmarks-capture "$s/captures/landmarks.igs.mha" \
     --stylus-tip-to-stylus "$s/results/stylus_tip.json" --landmark-labels "$(labels "$bone")" \
-    --landmark-dwells $(dwells "$bone") --out "$out" "$@" > /dev/null 2>> "$work/register.log" || echo "not converged: $out" >> "$work/register.log"
+    --landmark-dwells "${pair[@]}" --out "$out" "$@" > /dev/null 2>> "$work/register.log" || echo "not converged: $out" >> "$work/register.log"
 }
 
 # evaluate STUDY BONE CSV ESTIMATES...: errors against the truth, at the knee centre.
