@@ -15,7 +15,7 @@
 # Translations are the displacement of the true knee centre (evaluate --centre).
 #
 #   bench/registration_findings.sh [BUILD_DIR] [WORK_DIR] [SEED]
-#       (default build/release, BUILD_DIR/findings, 2008; about 3 minutes on 2 cores)
+#       (default build/release, BUILD_DIR/findings, 2008; 2 min 12 s on 2 cores from scratch)
 # Prints Markdown tables (also written to WORK_DIR/findings.md).
 set -euo pipefail
 build="${1:-build/release}"
