@@ -1,6 +1,7 @@
 // `echoreg figure registration|calibration|signals|boxplot ... --out FIG.png`: the publication
 // figures, rendered off-screen (render/, OSMesa: no X server needed).
 #include "commands.hpp"
+#include "csv_table.hpp"
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/mesh.hpp"
@@ -27,70 +28,10 @@ namespace echoreg::cli {
 
 namespace {
 
-std::vector<std::string> splitCsvLine(const std::string& line) {
-  std::vector<std::string> cells;
-  std::string cell;
-  std::istringstream in(line);
-  while (std::getline(in, cell, ',')) {
-    while (!cell.empty() && (cell.back() == '\r' || cell.back() == ' ')) cell.pop_back();
-    cells.push_back(cell);
-  }
-  if (!line.empty() && line.back() == ',') cells.emplace_back();
-  return cells;
-}
-
-/// A CSV table of named columns (header row first).
-struct CsvTable {
-  std::vector<std::string> header;
-  std::vector<std::vector<std::string>> rows;
-  int column(const std::string& name) const {
-    for (std::size_t i = 0; i < header.size(); ++i) {
-      if (header[i] == name) return static_cast<int>(i);
-    }
-    return -1;
-  }
-};
-
-CsvTable readCsv(const std::string& path) {
-  std::ifstream in(path);
-  if (!in) throw FileError(path, "cannot open the CSV file");
-  CsvTable table;
-  std::string line;
-  if (!std::getline(in, line)) throw FileError(path, "is empty (no header row)");
-  table.header = splitCsvLine(line);
-  int lineNumber = 1;
-  while (std::getline(in, line)) {
-    ++lineNumber;
-    if (line.empty() || line == "\r") continue;
-    auto cells = splitCsvLine(line);
-    if (cells.size() != table.header.size()) {
-      throw FileError(path, fmt::format("line {} has {} cells, the header {}", lineNumber,
-                                        cells.size(), table.header.size()));
-    }
-    table.rows.push_back(std::move(cells));
-  }
-  return table;
-}
-
-double parseNumber(const std::string& text, const std::string& path, std::size_t row,
-                   const std::string& column) {
-  std::size_t used = 0;
-  double value = 0.0;
-  try {
-    value = std::stod(text, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != text.size() || !std::isfinite(value)) {
-    throw FileError(path, fmt::format("row {}: {} \"{}\" is not a number", row + 2, column, text));
-  }
-  return value;
-}
-
 /// Points of a CSV with columns x,y,z or x_mm,y_mm,z_mm (`echoreg detect`'s output: rows without
 /// a point are skipped).
 std::vector<Eigen::Vector3d> readPointsCsv(const std::string& path) {
-  const CsvTable table = readCsv(path);
+  const CsvTable table = readCsvTable(path);
   std::array<int, 3> columns{table.column("x"), table.column("y"), table.column("z")};
   if (columns[0] < 0) columns = {table.column("x_mm"), table.column("y_mm"), table.column("z_mm")};
   if (columns[0] < 0 || columns[1] < 0 || columns[2] < 0) {
@@ -102,7 +43,7 @@ std::vector<Eigen::Vector3d> readPointsCsv(const std::string& path) {
     if (row[static_cast<std::size_t>(columns[0])].empty()) continue;  // a frame without a point
     Eigen::Vector3d p;
     for (int a = 0; a < 3; ++a) {
-      p[a] = parseNumber(row[static_cast<std::size_t>(columns[static_cast<std::size_t>(a)])], path, r,
+      p[a] = parseCsvNumber(row[static_cast<std::size_t>(columns[static_cast<std::size_t>(a)])], path, r + 2,
                          table.header[static_cast<std::size_t>(columns[static_cast<std::size_t>(a)])]);
     }
     points.push_back(p);
@@ -480,7 +421,7 @@ CommandAction addBoxplotFigure(CLI::App* parent) {
         column = file.substr(colon + 1);
         file = file.substr(0, colon);
       }
-      const CsvTable table = readCsv(file);
+      const CsvTable table = readCsvTable(file);
       const int c = table.column(column);
       if (c < 0) throw FileError(file, "has no column \"" + column + "\"");
       render::BoxGroup group;
@@ -488,7 +429,7 @@ CommandAction addBoxplotFigure(CLI::App* parent) {
       for (std::size_t r = 0; r < table.rows.size(); ++r) {
         const std::string& cell = table.rows[r][static_cast<std::size_t>(c)];
         if (cell.empty() || table.rows[r][0] == "mean_abs") continue;  // evaluate's summary row
-        group.values.push_back(parseNumber(cell, file, r, column));
+        group.values.push_back(parseCsvNumber(cell, file, r + 2, column));
       }
       if (group.values.empty()) throw FileError(file, "has no value in column \"" + column + "\"");
       groups.push_back(std::move(group));

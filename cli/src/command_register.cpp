@@ -3,6 +3,7 @@
 // (the hybrid registration), started from an initial transform or from landmarks touched with
 // the stylus. docs/registration.md.
 #include "commands.hpp"
+#include "csv_table.hpp"
 
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/dwell.hpp"
@@ -39,21 +40,6 @@ nlohmann::json vec(const Eigen::Vector3d& v) {
   return {v.x(), v.y(), v.z()};
 }
 
-std::vector<std::string> splitCommas(const std::string& text) {
-  std::vector<std::string> out;
-  std::stringstream ss(text);
-  std::string cell;
-  while (std::getline(ss, cell, ',')) {
-    while (!cell.empty() && (cell.back() == '\r' || cell.back() == ' '))
-      cell.pop_back();
-    while (!cell.empty() && cell.front() == ' ')
-      cell.erase(cell.begin());
-    out.push_back(cell);
-  }
-  if (!text.empty() && text.back() == ',')
-    out.emplace_back();
-  return out;
-}
 
 struct RegisterOptions {
   std::string model, bone = "Femur", out;
@@ -75,6 +61,7 @@ struct RegisterOptions {
   double minSpreadMm = 1.0;
   std::string method = "robust", loss = "huber";
   bool fitSpeed = false;
+  bool openEnds = false;
   int restarts = 0;
   int axisStarts = 12;
   std::uint64_t seed = 1;
@@ -82,21 +69,6 @@ struct RegisterOptions {
   bool json = false;
 };
 
-double parseNumber(const std::string& cell, const std::string& path, std::size_t line,
-                   const std::string& column) {
-  std::size_t used = 0;
-  double value = 0.0;
-  try {
-    value = std::stod(cell, &used);
-  } catch (const std::exception&) {
-    used = 0;
-  }
-  if (used == 0 || used != cell.size() || !std::isfinite(value)) {
-    throw FileError(path,
-                    fmt::format("line {}: column {} is not a number: '{}'", line, column, cell));
-  }
-  return value;
-}
 
 // Points from a CSV: x,y,z (or echoreg detect's x_mm,y_mm,z_mm, accepted rows only), optionally
 // ox,oy,oz,dx,dy,dz,depth_mm (the beam, same frame).
@@ -109,7 +81,7 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
   std::string line;
   if (!std::getline(in, line))
     throw FileError(path, "is empty (expected a header x,y,z,...)");
-  const std::vector<std::string> header = splitCommas(line);
+  const std::vector<std::string> header = splitCsvLine(line);
   std::map<std::string, std::size_t> column;
   for (std::size_t i = 0; i < header.size(); ++i)
     column[header[i]] = i;
@@ -138,7 +110,7 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
     ++lineNumber;
     if (line.empty() || line == "\r")
       continue;
-    const std::vector<std::string> cells = splitCommas(line);
+    const std::vector<std::string> cells = splitCsvLine(line);
     const auto cell = [&](const std::string& name) -> const std::string& {
       const std::size_t at = column.at(name);
       if (at >= cells.size())
@@ -152,14 +124,14 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
         continue;  // echoreg detect leaves rejected frames' points empty
       throw FileError(path, fmt::format("line {}: no point", lineNumber));
     }
-    const Eigen::Vector3d p(parseNumber(cell(xyz[0]), path, lineNumber, xyz[0]),
-                            parseNumber(cell(xyz[1]), path, lineNumber, xyz[1]),
-                            parseNumber(cell(xyz[2]), path, lineNumber, xyz[2]));
+    const Eigen::Vector3d p(parseCsvNumber(cell(xyz[0]), path, lineNumber, xyz[0]),
+                            parseCsvNumber(cell(xyz[1]), path, lineNumber, xyz[1]),
+                            parseCsvNumber(cell(xyz[2]), path, lineNumber, xyz[2]));
     core::SurfacePoint point;
     if (withBeam) {
       double v[7];
       for (std::size_t k = 0; k < 7; ++k)
-        v[k] = parseNumber(cell(beam[k]), path, lineNumber, beam[k]);
+        v[k] = parseCsvNumber(cell(beam[k]), path, lineNumber, beam[k]);
       const Eigen::Vector3d origin(v[0], v[1], v[2]), direction(v[3], v[4], v[5]);
       if (std::abs(direction.norm() - 1.0) > 1e-3) {
         throw FileError(path,
@@ -288,7 +260,7 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
         chosen.push_back(p);  // the hip is no dwell
     }
   } else {
-    for (const std::string& label : splitCommas(o.landmarkLabels)) {
+    for (const std::string& label : splitCsvLine(o.landmarkLabels)) {
       const auto found = std::find_if(all.begin(), all.end(),
                                       [&](const core::MarkupPoint& p) { return p.label == label; });
       if (found == all.end()) {
@@ -434,8 +406,19 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
 
   // The model first: a bad model fails before the long detection.
   std::unique_ptr<core::SurfaceRegistration> model;
+  int capTriangles = 0;
   try {
-    model = std::make_unique<core::SurfaceRegistration>(filters::readMesh(o.model));
+    core::TriangleMesh mesh = filters::readMesh(o.model);
+    if (o.openEnds) {
+      options.excludedTriangles = core::scanEndCaps(mesh);
+      capTriangles = static_cast<int>(
+          std::count(options.excludedTriangles.begin(), options.excludedTriangles.end(), true));
+      if (capTriangles == 0) {
+        throw FileError(o.model, "--open-ends: the model has no flat cap at its lowest or highest z "
+                                 "(was it cut by the scan range?)");
+      }
+    }
+    model = std::make_unique<core::SurfaceRegistration>(std::move(mesh));
   } catch (const std::invalid_argument& e) {
     throw FileError(o.model, e.what());
   }
@@ -543,6 +526,8 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
         {{"label", landmarks[i].name}, {"residual_mm", r.landmarkResidualsMm[i]}});
   out.extra = {{"rms_mm", r.rmsMm},
                {"rms_over", "inliers"},
+               {"excluded_cap_triangles", capTriangles},
+               {"points_beyond_model", r.pointsBeyondModel},
                {"rms_all_mm", r.rmsAllMm},
                {"points_used", r.pointsUsed},
                {"points_rejected", r.pointsRejected},
@@ -710,6 +695,9 @@ CommandAction addRegisterCommand(CLI::App& app) {
   cmd->add_option("--loss", o->loss, "robust: huber, cauchy, tukey or trim (10 %)")
       ->check(CLI::IsMember({"huber", "cauchy", "tukey", "trim"}))
       ->capture_default_str();
+  cmd->add_flag("--open-ends", o->openEnds,
+                "The model was cut by the CT's scan range (echoreg segment closes it with flat caps at "
+                "its lowest and highest z): points closest to those caps are not used");
   cmd->add_flag("--fit-speed-of-sound", o->fitSpeed,
                 "robust: fit the speed-of-sound scale along each beam");
   cmd->add_option("--restarts", o->restarts,

@@ -40,11 +40,14 @@ struct Correspondence {
   Eigen::Vector3d foot = Eigen::Vector3d::Zero();
   Eigen::Vector3d normal = Eigen::Vector3d::UnitZ();  // unit; the distance's gradient, outward
   double signedDistance = 0.0;                        // n . (y - foot)
+  bool excluded = false;  // the closest point lies on a triangle that is not bone (a scan cap)
 };
 
-Correspondence correspond(const MeshLocator& locator, const Eigen::Vector3d& y) {
+Correspondence correspond(const MeshLocator& locator, const Eigen::Vector3d& y,
+                          const std::vector<bool>& excluded = {}) {
   const ClosestPoint closest = locator.closest(y);
   Correspondence c;
+  c.excluded = !excluded.empty() && excluded[static_cast<std::size_t>(closest.triangle)];
   c.foot = closest.point;
   const Eigen::Vector3d faceNormal = triangleNormal(locator.mesh(), closest.triangle);
   const Eigen::Vector3d d = y - closest.point;
@@ -190,9 +193,19 @@ struct Solution {
 std::vector<double> whitenedAbs(const std::vector<SurfacePoint>& points,
                                 const std::vector<Correspondence>& c) {
   std::vector<double> z(points.size());
-  for (std::size_t i = 0; i < points.size(); ++i)
-    z[i] = std::abs(c[i].signedDistance - points[i].surfaceOffsetMm) / points[i].sigmaMm;
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    z[i] = c[i].excluded ? 1e6
+                         : std::abs(c[i].signedDistance - points[i].surfaceOffsetMm) / points[i].sigmaMm;
+  }
   return z;
+}
+
+// Points whose closest point lies on an excluded triangle are never inliers.
+std::vector<bool> dropExcluded(std::vector<bool> inlier, const std::vector<Correspondence>& c) {
+  for (std::size_t i = 0; i < inlier.size(); ++i) {
+    if (c[i].excluded) inlier[i] = false;
+  }
+  return inlier;
 }
 
 std::vector<bool> selectInliers(const std::vector<double>& z, const SurfaceRegistrationOptions& o) {
@@ -235,13 +248,15 @@ Eigen::Isometry3d increment(const double* pose, const Eigen::Vector3d& centroid,
 double objective(const MeshLocator& locator, const std::vector<SurfacePoint>& points,
                  const std::vector<LandmarkPair>& landmarks, const std::vector<bool>& inlier,
                  const ceres::LossFunction* loss, bool useLandmarks, const Eigen::Isometry3d& t,
-                 double scale) {
+                 double scale, const SurfaceRegistrationOptions& o) {
   double cost = 0.0;
   for (std::size_t i = 0; i < points.size(); ++i) {
     if (!inlier[i])
       continue;
-    const Correspondence c = correspond(locator, t * points[i].at(scale));
-    const double z = (c.signedDistance - points[i].surfaceOffsetMm) / points[i].sigmaMm;
+    const Correspondence c = correspond(locator, t * points[i].at(scale), o.excludedTriangles);
+    // A point moved onto an excluded triangle costs as much as a gated outlier.
+    const double z = c.excluded ? o.gateSigmas
+                                : (c.signedDistance - points[i].surfaceOffsetMm) / points[i].sigmaMm;
     double rho[3] = {z * z, 1.0, 0.0};
     if (loss != nullptr)
       loss->Evaluate(z * z, rho);
@@ -274,14 +289,14 @@ Solution solveRobust(const MeshLocator& locator, const std::vector<SurfacePoint>
     std::vector<Eigen::Vector3d> y(points.size());
     for (std::size_t i = 0; i < points.size(); ++i) {
       y[i] = s.transform * points[i].at(s.scale);
-      c[i] = correspond(locator, y[i]);
+      c[i] = correspond(locator, y[i], o.excludedTriangles);
       centroid += y[i];
     }
     centroid /= static_cast<double>(points.size());
-    s.inlier = selectInliers(whitenedAbs(points, c), o);
+    s.inlier = dropExcluded(selectInliers(whitenedAbs(points, c), o), c);
     const auto costAt = [&](const Eigen::Isometry3d& t, double scale) {
       return objective(locator, points, landmarks, s.inlier, lossForCost.get(), useLandmarks, t,
-                       scale);
+                       scale, o);
     };
     const double before = costAt(s.transform, s.scale);
 
@@ -320,11 +335,17 @@ Solution solveRobust(const MeshLocator& locator, const std::vector<SurfacePoint>
             nullptr, pose);
       }
     }
-    if (!o.fitSpeedOfSound) {
-      problem.SetParameterBlockConstant(&scale);
-    } else {
-      problem.SetParameterLowerBound(&scale, 0, o.minSpeedScale);
-      problem.SetParameterUpperBound(&scale, 0, o.maxSpeedScale);
+    // No inlier left (every point gated or beyond the model) and no landmark: nothing to solve.
+    if (!problem.HasParameterBlock(pose))
+      break;
+    // The scale's block exists only when an inlier residual was added.
+    if (problem.HasParameterBlock(&scale)) {
+      if (!o.fitSpeedOfSound) {
+        problem.SetParameterBlockConstant(&scale);
+      } else {
+        problem.SetParameterLowerBound(&scale, 0, o.minSpeedScale);
+        problem.SetParameterUpperBound(&scale, 0, o.maxSpeedScale);
+      }
     }
     ceres::Solver::Summary summary;
     ceres::Solve(solver, &problem, &summary);
@@ -506,6 +527,37 @@ SurfacePoint beamSurfacePoint(const Eigen::Vector3d& origin, const Eigen::Vector
   return p;
 }
 
+std::vector<bool> scanEndCaps(const TriangleMesh& mesh, double toleranceMm) {
+  std::vector<bool> caps(mesh.triangles.size(), false);
+  if (mesh.triangles.empty()) return caps;
+  const auto box = bounds(mesh);
+  const double cosLimit = std::cos(10.0 * kPi / 180.0);
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    bool low = true;
+    bool high = true;
+    for (int k = 0; k < 3; ++k) {
+      const double z = mesh.vertices[static_cast<std::size_t>(mesh.triangles[t][static_cast<std::size_t>(k)])].z();
+      low = low && z <= box[0].z() + toleranceMm;
+      high = high && z >= box[1].z() - toleranceMm;
+    }
+    if (!low && !high) continue;
+    const Eigen::Vector3d n = triangleNormal(mesh, static_cast<int>(t));
+    caps[t] = std::abs(n.z()) >= cosLimit;
+  }
+  // The rim too: the triangles touching a cap, so that a point beyond the scan whose closest
+  // point is the cap's edge is excluded whichever of the edge's triangles the search reports.
+  std::vector<bool> capVertex(mesh.vertices.size(), false);
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    if (!caps[t]) continue;
+    for (int v : mesh.triangles[t]) capVertex[static_cast<std::size_t>(v)] = true;
+  }
+  std::vector<bool> excluded = caps;
+  for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
+    for (int v : mesh.triangles[t]) excluded[t] = excluded[t] || capVertex[static_cast<std::size_t>(v)];
+  }
+  return excluded;
+}
+
 SurfaceRegistration::SurfaceRegistration(TriangleMesh model)
     : locator_([&] {
         require(!model.empty(), "the model has no triangles");
@@ -520,6 +572,9 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
     const std::vector<SurfacePoint>& points, const std::vector<LandmarkPair>& landmarks,
     const SurfaceRegistrationOptions& options) const {
   validate(points, landmarks, options);
+  require(options.excludedTriangles.empty() ||
+              options.excludedTriangles.size() == locator_.mesh().triangles.size(),
+          "excluded triangles: one flag per triangle of the model is needed");
   const bool robust = options.method == SurfaceMethod::Robust;
 
   // The starts: the initial pose, rotations of it about the axis, random perturbations.
@@ -567,7 +622,7 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
     const Solution s = robust ? solveRobust(locator_, points, landmarks, options, start)
                               : solvePlain(locator_, points, options, start);
     for (std::size_t i = 0; i < points.size(); ++i)
-      c[i] = correspond(locator_, s.transform * points[i].at(s.scale));
+      c[i] = correspond(locator_, s.transform * points[i].at(s.scale), options.excludedTriangles);
     const double cost = truncatedCost(points, c, landmarks, s.transform, options);
     if (cost < bestCost) {
       bestCost = cost;
@@ -582,9 +637,10 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
   result.starts = static_cast<int>(starts.size());
   result.cost = bestCost;
   for (std::size_t i = 0; i < points.size(); ++i)
-    c[i] = correspond(locator_, chosen.transform * points[i].at(chosen.scale));
+    c[i] = correspond(locator_, chosen.transform * points[i].at(chosen.scale),
+                      options.excludedTriangles);
   // Inliers at the end: the robust gate (or the trim) at the solution; plain keeps every point.
-  result.inlier = robust ? selectInliers(whitenedAbs(points, c), options)
+  result.inlier = robust ? dropExcluded(selectInliers(whitenedAbs(points, c), options), c)
                          : std::vector<bool>(points.size(), true);
   double sumIn = 0.0, sumAll = 0.0;
   result.residualsMm.resize(points.size());
@@ -603,9 +659,13 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
   for (const LandmarkPair& l : landmarks)
     result.landmarkResidualsMm.push_back((chosen.transform * l.bone - l.model).norm());
 
+  // Points closest to an excluded triangle (beyond the scanned part of the model) are not
+  // counted against the inlier fraction: nothing there could match them.
+  for (const Correspondence& ci : c) result.pointsBeyondModel += ci.excluded ? 1 : 0;
   const int minimumInliers = std::max(
-      3,
-      static_cast<int>(std::ceil(options.minInlierFraction * static_cast<double>(points.size()))));
+      3, static_cast<int>(std::ceil(options.minInlierFraction *
+                                    static_cast<double>(points.size() -
+                                                        static_cast<std::size_t>(result.pointsBeyondModel)))));
   const int constraints =
       result.pointsUsed +
       (robust && options.useLandmarks ? 3 * static_cast<int>(landmarks.size()) : 0);
@@ -623,8 +683,9 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
         "did not settle within " + std::to_string(options.maxIterations) + " iterations";
   } else if (result.pointsUsed < minimumInliers) {
     result.message = "only " + std::to_string(result.pointsUsed) + " of " +
-                     std::to_string(points.size()) + " points lie near the surface (at least " +
-                     std::to_string(minimumInliers) + " needed)";
+                     std::to_string(points.size() - static_cast<std::size_t>(result.pointsBeyondModel)) +
+                     " points lie near the surface (at least " + std::to_string(minimumInliers) +
+                     " needed)";
   } else if (result.rmsMm > options.maxRmsMm) {
     result.message = "the points end far from the surface: RMS " + number(result.rmsMm, "%.3g") +
                      " mm over the inliers, above the limit " + number(options.maxRmsMm, "%.3g") +

@@ -367,3 +367,81 @@ TEST(SurfaceRegistration, TwoLandmarkPoseAndSpread) {
 
 }  // namespace
 }  // namespace echoreg::core
+
+namespace echoreg::core {
+namespace {
+
+// A closed tube of lumpy, tapering cross-section from z0 to z1 with flat end caps: the long one
+// is the bone, the short one the same bone as a scan of z0..z1 cut it.
+TriangleMesh lumpyTube(double z0, double z1) {
+  TriangleMesh mesh;
+  const int segments = 72;
+  const int rings = static_cast<int>(std::round((z1 - z0) / 2.0)) + 1;
+  auto radius = [](double theta, double z) {
+    return 22.0 + 4.0 * std::cos(theta) + 3.0 * std::sin(2.0 * theta) + 0.12 * z +
+           4.0 * std::sin(0.15 * z + 2.0 * theta);
+  };
+  for (int k = 0; k < rings; ++k) {
+    const double z = z0 + (z1 - z0) * k / (rings - 1);
+    for (int s = 0; s < segments; ++s) {
+      const double theta = 2.0 * kPi * s / segments;
+      const double r = radius(theta, z);
+      mesh.vertices.push_back({r * std::cos(theta), r * std::sin(theta), z});
+    }
+  }
+  const int bottom = static_cast<int>(mesh.vertices.size());
+  mesh.vertices.push_back({0, 0, z0});
+  const int top = bottom + 1;
+  mesh.vertices.push_back({0, 0, z1});
+  auto at = [&](int k, int s) { return k * segments + (s % segments); };
+  for (int k = 0; k + 1 < rings; ++k) {
+    for (int s = 0; s < segments; ++s) {
+      mesh.triangles.push_back({at(k, s), at(k, s + 1), at(k + 1, s + 1)});
+      mesh.triangles.push_back({at(k, s), at(k + 1, s + 1), at(k + 1, s)});
+    }
+  }
+  for (int s = 0; s < segments; ++s) {
+    mesh.triangles.push_back({bottom, at(0, s + 1), at(0, s)});
+    mesh.triangles.push_back({top, at(rings - 1, s), at(rings - 1, s + 1)});
+  }
+  if (checkMesh(mesh).volumeMm3 < 0.0) flipWinding(mesh);
+  return mesh;
+}
+
+TEST(SurfaceRegistration, PointsBeyondAScanCutModelAreNotMatchedToItsCaps) {
+  const TriangleMesh bone = lumpyTube(-70.0, 70.0);
+  const TriangleMesh scanned = lumpyTube(-20.0, 20.0);
+  const std::vector<bool> caps = scanEndCaps(scanned);
+  // The two fans of the caps (72 triangles each) and their rims (2 x 144 side-wall triangles).
+  EXPECT_EQ(std::count(caps.begin(), caps.end(), true), 144 + 288);
+  const std::vector<bool> boneCaps = scanEndCaps(bone);
+  EXPECT_EQ(std::count(boneCaps.begin(), boneCaps.end(), true), 144 + 288);
+
+  // Beams on the bone's side wall over z -60..60: two thirds of them lie beyond the scan.
+  const Eigen::Isometry3d truth = truthPose();
+  std::vector<SurfacePoint> points;
+  for (const SurfacePoint& p : beams(bone, truth, 400, 11)) {
+    const double z = (truth * p.at(1.0)).z();
+    if (std::abs(z) < 60.0) points.push_back(p);
+  }
+  SurfaceRegistrationOptions options;
+  options.initial = perturbed(truth, 3.0, 3.0);
+  const SurfaceRegistration model(scanned);
+  const SurfaceRegistrationResult plain = model.registerPoints(points, {}, options);
+  options.excludedTriangles = caps;
+  const SurfaceRegistrationResult cut = model.registerPoints(points, {}, options);
+  ASSERT_TRUE(cut.converged) << cut.message;
+  EXPECT_LT(errorAt(truth, cut.transform, Eigen::Vector3d::Zero()), 1e-4);
+  EXPECT_GT(cut.pointsBeyondModel, static_cast<int>(points.size()) / 2);
+  EXPECT_EQ(cut.pointsUsed + cut.pointsBeyondModel, static_cast<int>(points.size()));
+  // Without the caps excluded the points beyond the scan pull the model along its axis (or the
+  // fit is refused): either way not the exact answer.
+  EXPECT_TRUE(!plain.converged || errorAt(truth, plain.transform, Eigen::Vector3d::Zero()) > 0.01)
+      << errorAt(truth, plain.transform, Eigen::Vector3d::Zero());
+  options.excludedTriangles = {true, false};
+  EXPECT_NE(thrownMessage([&] { model.registerPoints(points, {}, options); }).find("one flag per triangle"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace echoreg::core

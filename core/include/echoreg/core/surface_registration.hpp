@@ -119,7 +119,17 @@ struct SurfaceRegistrationOptions {
   /// converged = false when, at every start, the points' median distance to the surface exceeds
   /// this (wrong frame, wrong model or a wild start: any fit from there would be a guess).
   double maxStartDistanceMm = 30.0;
+  /// Triangles of the model that are not bone surface (empty, or one flag per triangle): e.g. the
+  /// flat caps where the CT's scan range cut a segmented model. A point whose closest point lies
+  /// on one is not used (robust method): beyond the scan it has nothing to match.
+  std::vector<bool> excludedTriangles;
 };
+
+/// The flat end caps of a model cut by the scan range: triangles whose three vertices lie within
+/// `toleranceMm` of the model's lowest or highest z and whose normal is within 10 degrees of z,
+/// and the ring of triangles touching them (the rim), as SurfaceRegistrationOptions'
+/// excludedTriangles.
+std::vector<bool> scanEndCaps(const TriangleMesh& mesh, double toleranceMm = 0.5);
 
 struct SurfaceRegistrationResult {
   Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();  ///< bone -> model
@@ -129,6 +139,8 @@ struct SurfaceRegistrationResult {
   double rmsAllMm = 0.0;
   int pointsUsed = 0;
   int pointsRejected = 0;
+  /// Of the rejected: points closest to an excluded triangle (beyond the scanned model).
+  int pointsBeyondModel = 0;
   double speedOfSoundScale = 1.0;  ///< s = c_true / c_assumed (1 unless fitted)
   int iterations = 0;              ///< outer iterations of the chosen start
   int starts = 1;                  ///< starts tried
