@@ -324,7 +324,7 @@ CtProtocol dissertationProtocol(double hipZ, double kneeZ, double ankleZ,
 
 CtProtocol smallProtocol(double hipZ, double kneeZ, double ankleZ, Eigen::Vector2d centreXY) {
   CtProtocol protocol = protocolFromGroups(
-      {centredGroup("hip", hipZ, 15.0, 5.0), centredGroup("knee", kneeZ, 80.0, 1.0),
+      {centredGroup("hip", hipZ, 15.0, 5.0), centredGroup("knee", kneeZ, 160.0, 1.0),
        centredGroup("ankle", ankleZ, 15.0, 5.0)},
       centreXY);
   protocol.columns = 256;

@@ -2,6 +2,7 @@
 
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/random.hpp"
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/filters/MeshIO.h"
@@ -19,6 +20,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 #include <stdexcept>
 #include <thread>
 #include <tuple>
@@ -307,7 +309,7 @@ struct Region {
   double weight;
 };
 
-std::vector<Region> ultrasoundRegions(BoneId bone, FemurRegions femurRegions) {
+std::vector<Region> ultrasoundRegionsUnclamped(BoneId bone, FemurRegions femurRegions) {
   // The areas the dissertation's Fig. 4.8 (c, d) shows reachable through the skin.
   if (bone == BoneId::Femur) {
     std::vector<Region> regions{
@@ -323,6 +325,17 @@ std::vector<Region> ultrasoundRegions(BoneId bone, FemurRegions femurRegions) {
           {"anteromedial_tibia", BoneId::Tibia, Segment::Shank, 45, 130, -75, -20, 0.35},
           {"medial_proximal_tibia", BoneId::Tibia, Segment::Shank, 8, 40, -115, -70, 0.2},
           {"lateral_proximal_tibia", BoneId::Tibia, Segment::Shank, 8, 45, 55, 110, 0.3}};
+}
+
+// The regions within `maxFromKneeMm` of the knee centre: the sweeps stay where the CT's knee
+// group scans (a point beyond the scan has no model to match).
+std::vector<Region> ultrasoundRegions(BoneId bone, FemurRegions femurRegions, double maxFromKneeMm) {
+  std::vector<Region> regions;
+  for (Region r : ultrasoundRegionsUnclamped(bone, femurRegions)) {
+    r.h1 = std::min(r.h1, maxFromKneeMm);
+    if (r.h1 - r.h0 >= 5.0) regions.push_back(r);
+  }
+  return regions;
 }
 
 // The first hit of a ray with a sphere (centre c, radius r), t > 0.
@@ -703,7 +716,9 @@ class StudyBuilder {
     }
     const double nominalStandoff = phantom ? 22.0 : (o_.standoff == Standoff::None ? 0.0 : 10.0);
 
-    const std::vector<Region> regions = ultrasoundRegions(bone, o_.femurRegions);
+    // The knee group scans 80 mm (small) or 100 mm (full) either side of the joint line.
+    const double scannedFromKneeMm = (o_.size == StudySize::Small ? 80.0 : 100.0) - 5.0;
+    const std::vector<Region> regions = ultrasoundRegions(bone, o_.femurRegions, scannedFromKneeMm);
     std::size_t targetIndex = 0;
     for (std::size_t b = 0; b < specimen_.knee().bones.size(); ++b) {
       if (specimen_.knee().bones[b].id == bone)
@@ -1221,6 +1236,29 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
                        {"captures", "truth/captures"}};
   manifest["bones"]["femur"]["model"] = "truth/femur.vtp";
   manifest["bones"]["tibia"]["model"] = "truth/tibia.vtp";
+  // Where a user would click to segment each bone from the CT (`echoreg study run --segment`):
+  // a point on the bone's long axis 25 mm from the joint line, inside the knee's 1 mm group.
+  auto seedOf = [&](BoneId id, double dz) -> std::optional<Eigen::Vector3d> {
+    const Bone& bone = knee.bone(id);
+    const Eigen::Vector3d d = bone.axisDistal;
+    const Eigen::Vector3d axis = bone.axisProximal - bone.axisDistal;
+    if (std::abs(axis.z()) < 1e-6) return std::nullopt;
+    const double t = (knee.kneeCentre.z() + dz - d.z()) / axis.z();
+    const Eigen::Vector3d seed = d + t * axis;
+    if (!core::MeshLocator(bone.mesh).inside(seed)) return std::nullopt;
+    return seed;
+  };
+  if (const auto seed = seedOf(BoneId::Femur, 25.0)) {
+    manifest["bones"]["femur"]["segment"] = {{"seeds_ct", {vectorJson(*seed)}}};
+  }
+  if (const auto seed = seedOf(BoneId::Tibia, -25.0)) {
+    nlohmann::json seeds = {vectorJson(*seed)};
+    if (options.fibulaInTibiaModel) {
+      if (const auto fibula = seedOf(BoneId::Fibula, -25.0)) seeds.push_back(vectorJson(*fibula));
+    }
+    manifest["bones"]["tibia"]["segment"] = {{"seeds_ct", seeds},
+                                             {"with_fibula", options.fibulaInTibiaModel}};
+  }
   writeText(root + "/study.json", manifest.dump(2) + "\n");
 
   // Publish.

@@ -113,7 +113,7 @@ std::string refusal(const std::string& folder, const DicomReadOptions& options =
 
 TEST(DicomSeries, ThreeGroupsOfTheSimulatedProtocolGiveExactGeometryGroupsAndHu) {
   echoreg::test::TempDir dir;
-  // The simulator's small protocol: 3 hip slices at 5 mm, 80 knee slices at 1 mm, 3 ankle slices
+  // The simulator's small protocol: 3 hip slices at 5 mm, 160 knee slices at 1 mm, 3 ankle slices
   // at 5 mm, with large gaps between the groups; 256 x 256 pixels of 0.8 mm.
   CtVolume volume = echoreg::simulation::ctGeometry(
       echoreg::simulation::smallProtocol(0.0, -430.0, -830.0, Eigen::Vector2d(5.0, -3.0)));
@@ -132,16 +132,16 @@ TEST(DicomSeries, ThreeGroupsOfTheSimulatedProtocolGiveExactGeometryGroupsAndHu)
   options.progress = [&](int done, int total) {
     ++calls;
     EXPECT_EQ(done, lastDone + 1);
-    EXPECT_EQ(total, 86);
+    EXPECT_EQ(total, 166);
     lastDone = done;
   };
   const DicomSeriesRead read = readDicomSeriesWithWarnings(folder, options);
-  EXPECT_EQ(calls, 86);
+  EXPECT_EQ(calls, 166);
   const CtImage& image = read.image;
-  ASSERT_EQ(image.dimensions, (std::array<int, 3>{256, 256, 86}));
+  ASSERT_EQ(image.dimensions, (std::array<int, 3>{256, 256, 166}));
   ASSERT_EQ(image.groups.size(), 3U);
   EXPECT_EQ(image.groups[0].count, 3);
-  EXPECT_EQ(image.groups[1].count, 80);
+  EXPECT_EQ(image.groups[1].count, 160);
   EXPECT_EQ(image.groups[2].count, 3);
   EXPECT_EQ(image.groups[1].firstSlice, 3);
   EXPECT_NEAR(image.groups[0].spacingMm, 5.0, 1e-9);
@@ -152,14 +152,14 @@ TEST(DicomSeries, ThreeGroupsOfTheSimulatedProtocolGiveExactGeometryGroupsAndHu)
   EXPECT_NEAR((image.originMm - volume.voxelCentreMm(0, 0, 0)).norm(), 0.0, 1e-9);
   EXPECT_DOUBLE_EQ(image.pixelSpacingMm.x(), 0.8);
   EXPECT_DOUBLE_EQ(image.pixelSpacingMm.y(), 0.8);
-  for (int k = 0; k < 86; ++k) {
+  for (int k = 0; k < 166; ++k) {
     EXPECT_NEAR(image.slicePositionsMm[static_cast<std::size_t>(k)],
                 volume.sliceZMm[static_cast<std::size_t>(k)] - volume.sliceZMm[0], 1e-9);
     EXPECT_NEAR((image.voxelToLps(Eigen::Vector3d(7, 9, k)) - volume.voxelCentreMm(7, 9, k)).norm(), 0.0, 1e-9);
   }
   EXPECT_TRUE(image.hu == volume.hu);  // every voxel exactly
   EXPECT_EQ(read.files.front(), "IM000001.dcm");
-  EXPECT_EQ(read.files.back(), "IM000086.dcm");
+  EXPECT_EQ(read.files.back(), "IM000166.dcm");
   EXPECT_EQ(read.modality, "CT");
   EXPECT_EQ(image.seriesInstanceUid, echoreg::simulation::derivedDicomUid(11, "series"));
   ASSERT_EQ(read.warnings.size(), 1U);
@@ -167,7 +167,7 @@ TEST(DicomSeries, ThreeGroupsOfTheSimulatedProtocolGiveExactGeometryGroupsAndHu)
 
   const auto series = echoreg::segmentation::listDicomSeries(folder);
   ASSERT_EQ(series.size(), 1U);
-  EXPECT_EQ(series[0].files, 86);
+  EXPECT_EQ(series[0].files, 166);
   EXPECT_EQ(series[0].modality, "CT");
   EXPECT_EQ(series[0].description, "reader test");
   EXPECT_EQ(series[0].seriesInstanceUid, image.seriesInstanceUid);

@@ -344,7 +344,7 @@ TEST(CtSynthesis, FieldErrorsPropagate) {
 TEST(CtProtocol, GroupsGiveSlicesAtTheRightZAndThickness) {
   const CtProtocol small = smallProtocol(300.0, 0.0, -350.0, {5.0, -20.0});
   const CtVolume v = ctGeometry(small);
-  ASSERT_EQ(v.slices(), 3 + 80 + 3);
+  ASSERT_EQ(v.slices(), 3 + 160 + 3);
   ASSERT_EQ(v.groupNames, (std::vector<std::string>{"ankle", "knee", "hip"}));
   EXPECT_EQ(v.columns, 256);
   EXPECT_DOUBLE_EQ(v.pixelSpacingMm, 0.8);
@@ -354,11 +354,11 @@ TEST(CtProtocol, GroupsGiveSlicesAtTheRightZAndThickness) {
     EXPECT_NEAR(v.sliceZMm[static_cast<std::size_t>(s)], -355.0 + 5.0 * s, 1e-9);
     EXPECT_EQ(v.sliceThicknessMm[static_cast<std::size_t>(s)], 5.0);
     EXPECT_EQ(v.sliceGroup[static_cast<std::size_t>(s)], 0);
-    EXPECT_NEAR(v.sliceZMm[static_cast<std::size_t>(83 + s)], 295.0 + 5.0 * s, 1e-9);
-    EXPECT_EQ(v.sliceThicknessMm[static_cast<std::size_t>(83 + s)], 5.0);
+    EXPECT_NEAR(v.sliceZMm[static_cast<std::size_t>(163 + s)], 295.0 + 5.0 * s, 1e-9);
+    EXPECT_EQ(v.sliceThicknessMm[static_cast<std::size_t>(163 + s)], 5.0);
   }
-  for (int s = 0; s < 80; ++s) {
-    EXPECT_NEAR(v.sliceZMm[static_cast<std::size_t>(3 + s)], -39.5 + s, 1e-9);
+  for (int s = 0; s < 160; ++s) {
+    EXPECT_NEAR(v.sliceZMm[static_cast<std::size_t>(3 + s)], -79.5 + s, 1e-9);
     EXPECT_EQ(v.sliceThicknessMm[static_cast<std::size_t>(3 + s)], 1.0);
     EXPECT_EQ(v.sliceGroup[static_cast<std::size_t>(3 + s)], 1);
   }

@@ -129,12 +129,12 @@ TEST(StudyVariants, FixtureCtReadsBackIndependently) {
   }
   const nlohmann::json geometry = nlohmann::json::parse(geometryText);
   const nlohmann::json& slices = geometry.at("slices");
-  ASSERT_EQ(slices.size(), 86u);
+  ASSERT_EQ(slices.size(), 166u);
   std::map<double, int> thicknesses;
   for (const nlohmann::json& s : slices)
     ++thicknesses[s.at("thickness").get<double>()];
   EXPECT_EQ(thicknesses[5.0], 6);   // hip and ankle: 3 slices at 5 mm each
-  EXPECT_EQ(thicknesses[1.0], 80);  // knee: 80 slices at 1 mm
+  EXPECT_EQ(thicknesses[1.0], 160);  // knee: 160 slices at 1 mm
   // Voxels: deep inside the femoral condyles (cancellous) and far from any bone (air).
   const core::MeshLocator femur(filters::readMesh(root + "/truth/femur.vtp"));
   const nlohmann::json points = readJson(root + "/truth/points.json");

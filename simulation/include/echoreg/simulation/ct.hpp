@@ -62,7 +62,8 @@ struct CtProtocol {
 /// in. Throws std::invalid_argument when the groups would overlap.
 CtProtocol dissertationProtocol(double hipZ, double kneeZ, double ankleZ, Eigen::Vector2d centreXY);
 
-/// Small enough for unit tests: 256 x 256 pixels of 0.8 mm, knee +-40 mm at 1 mm (80 slices), hip
+/// Small enough for unit tests: 256 x 256 pixels of 0.8 mm, knee +-80 mm at 1 mm (160 slices: the
+/// small study's sweeps stay within 75 mm of the joint line, all scanned), hip
 /// and ankle 3 slices at 5 mm each (centred on the joint). Same noise and blur as the full one.
 CtProtocol smallProtocol(double hipZ, double kneeZ, double ankleZ, Eigen::Vector2d centreXY);
 
