@@ -4,12 +4,16 @@
 // (results/report.md, report.html, results.json). Steps whose inputs did not change are not run
 // again (study_runner.hpp).
 #include "commands.hpp"
+#include "csv_table.hpp"
 #include "report.hpp"
 #include "study_runner.hpp"
 
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/markups.hpp"
+#include "echoreg/core/mesh.hpp"
+#include "echoreg/filters/MeshIO.h"
+#include "echoreg/segmentation/surface_metrics.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -31,6 +35,7 @@ namespace fs = std::filesystem;
 struct StudyOptions {
   std::string dir;
   bool force = false;
+  bool givenModels = false;
   bool json = false;
 };
 
@@ -226,6 +231,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   struct BoneRun {
     std::string name;
     std::string model;
+    bool segmented = false;
     std::vector<std::string> points;
     std::vector<std::string> ultrasound;  // registration files
     std::string mechanical;
@@ -250,7 +256,32 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       run.name = bone;
       const std::string Bone = capitalised(bone);
       const std::string marker = Bone + "ToTracker";
-      run.model = manifest.file("/bones/" + bone + "/model");
+      // The model: segmented from the CT when the manifest gives seeds (unless --given-models),
+      // else the manifest's model.
+      const nlohmann::json seeds = manifest.at("/bones/" + bone + "/segment/seeds_ct");
+      const std::string ctFolder = manifest.file("/ct/dicom", false);
+      if (!o.givenModels && seeds.is_array() && !seeds.empty() && !ctFolder.empty()) {
+        fs::create_directories(results + "/models", ec);
+        run.model = fmt::format("{}/models/{}.vtp", results, bone);
+        run.segmented = true;
+        std::vector<std::string> args = {"segment", "--dicom", ctFolder, "--bone", bone, "--auto"};
+        for (const auto& seed : seeds) {
+          if (!seed.is_array() || seed.size() != 3) {
+            throw FileError(manifest.dir() + "/study.json", "bones." + bone + ".segment.seeds_ct: "
+                                                            "each seed is [x, y, z]");
+          }
+          args.push_back("--seed");
+          for (const auto& v : seed) args.push_back(fmt::format("{}", v.get<double>()));
+        }
+        if (manifest.at("/bones/" + bone + "/segment/with_fibula") == nlohmann::json(true)) {
+          args.push_back("--with-fibula");
+        }
+        args.insert(args.end(), {"--out", run.model});
+        stage.push_back({"segment-" + bone, bone + " model segmented from the CT", args, {ctFolder},
+                         {run.model}, true});
+      } else {
+        run.model = manifest.file("/bones/" + bone + "/model");
+      }
       // The start: the landmarks touched on this bone (+ the hip centre for the femur).
       std::vector<std::string> start;
       std::vector<std::string> startInputs;
@@ -297,6 +328,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         std::vector<std::string> reg = {"register", "--model", run.model, "--bone", Bone, "--capture",
                                         path, "--calibration", calibration, "--preset", preset,
                                         "--fit-speed-of-sound", "--out", out};
+        if (run.segmented) reg.push_back("--open-ends");  // cut by the scan range
         reg.insert(reg.end(), speed.begin(), speed.end());
         reg.insert(reg.end(), start.begin(), start.end());
         std::vector<std::string> inputs = {run.model, path, calibration};
@@ -313,6 +345,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
             "register", "--model", run.model, "--bone", Bone, "--stylus-points", mech,
             "--stylus-tip-radius",
             fmt::format("{}", entry.value("mechanical_tip_radius_mm", 0.0)), "--out", run.mechanical};
+        if (run.segmented) reg.push_back("--open-ends");
         if (std::find(start.begin(), start.end(), "--stylus-tip-to-stylus") == start.end()) {
           reg.insert(reg.end(), {"--stylus-tip-to-stylus", stylusTip});
         }
@@ -390,6 +423,76 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     runSteps(stage);
   }
 
+  // --- Signals and statistics figures ---------------------------------------------------------
+  std::vector<std::pair<std::string, std::string>> signalFigures;  // file, caption
+  std::string residualFigure;
+  if (failure.empty() && !boneRuns.empty()) {
+    stage.clear();
+    const BoneRun& first = boneRuns.front();
+    const std::string capture = manifest.resolve(
+        manifest.at("/bones/" + first.name + "/ultrasound/0").get<std::string>());
+    if (!first.points.empty() && fs::exists(first.points.front())) {
+      const CsvTable table = readCsvTable(first.points.front());
+      const int status = table.column("status");
+      const int reason = table.column("reason");
+      const int frame = table.column("frame");
+      std::string accepted, rejected;
+      for (const auto& row : table.rows) {
+        if (status < 0 || frame < 0 || reason < 0) break;
+        const std::string& st = row[static_cast<std::size_t>(status)];
+        if (accepted.empty() && st == "accepted") accepted = row[static_cast<std::size_t>(frame)];
+        if (rejected.empty() && st == "rejected" && row[static_cast<std::size_t>(reason)] == "not-bone") {
+          rejected = row[static_cast<std::size_t>(frame)];
+        }
+      }
+      for (const auto& [which, f] : {std::pair<std::string, std::string>{"accepted", accepted},
+                                     {"rejected", rejected}}) {
+        if (f.empty()) continue;
+        const std::string out = fmt::format("{}/figures/signals_{}_{}.png", results, first.name, which);
+        stage.push_back({fmt::format("figure-signals-{}", which),
+                         fmt::format("signals figure ({} frame)", which),
+                         {"figure", "signals", "--capture", capture, "--frame", f, "--preset",
+                          "mozes2008", "--preset", preset, "--title",
+                          fmt::format("{} sweep, frame {} ({} by the study's detection)", first.name, f, which),
+                          "--out", out},
+                         {capture}, {out}, false});
+        signalFigures.push_back(
+            {out, fmt::format("Frame {} of the {} sweep, {} by the study's detection: the raw "
+                              "A-line, then the envelope, threshold, peaks and verdict of the "
+                              "dissertation's chain (mozes2008) and of the study's preset ({}), as "
+                              "Figs. 5.10-5.29.", f, first.name, which, preset)});
+      }
+    }
+    // The ultrasound points' distances to the model after each bone's first registration.
+    std::vector<std::string> groups;
+    std::vector<std::string> inputs;
+    for (const BoneRun& run : boneRuns) {
+      if (run.ultrasound.empty() || !fs::exists(run.ultrasound.front())) continue;
+      const nlohmann::json reg = readJsonFile(run.ultrasound.front());
+      const std::string csv = fmt::format("{}/evaluation/{}_residuals.csv", results, run.name);
+      AtomicFile file(csv);
+      file.stream() << "point,residual_mm,abs_residual_mm,inlier\n";
+      int i = 0;
+      for (const auto& point : reg.value("points", nlohmann::json::array())) {
+        const double r = point.value("residual_mm", 0.0);
+        file.stream() << fmt::format("{},{:.4f},{:.4f},{}\n", i++, r, std::abs(r),
+                                     point.value("inlier", false) ? 1 : 0);
+      }
+      file.commit();
+      groups.insert(groups.end(), {"--group", run.name + "=" + csv});
+      inputs.push_back(csv);
+    }
+    if (groups.size() >= 2) {
+      residualFigure = results + "/figures/residuals.png";
+      std::vector<std::string> args = {"figure", "boxplot", "--column", "abs_residual_mm",
+                                       "--title", "Distance of the ultrasound points to the model after registration",
+                                       "--ylabel", "|distance| (mm)", "--out", residualFigure};
+      args.insert(args.end(), groups.begin(), groups.end());
+      stage.push_back({"figure-residuals", "residuals box plot", args, inputs, {residualFigure}, false});
+    }
+    runSteps(stage);
+  }
+
   // --- Report ----------------------------------------------------------------------------------
   Report report;
   nlohmann::json numbers;
@@ -421,15 +524,143 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                     "(green < 0.5 mm, yellow 0.5-1.0 mm, red > 1.0 mm), as Figs. 5.1-5.5.");
     }
   }
+  // Segmentation accuracy against the simulation's truth (within the model's slab).
+  {
+    std::vector<std::vector<std::string>> rows;
+    nlohmann::json seg = nlohmann::json::object();
+    for (const BoneRun& run : boneRuns) {
+      if (!run.segmented || !fs::exists(run.model)) continue;
+      const std::string truthModel = manifest.file("/truth/" + run.name, false);
+      if (truthModel.empty() || !fs::exists(truthModel)) continue;
+      const core::TriangleMesh model = filters::readMesh(run.model);
+      const core::TriangleMesh truth = filters::readMesh(truthModel);
+      const auto box = core::bounds(model);
+      segmentation::SurfaceComparisonOptions options;
+      options.zMinMm = box[0].z() + 2.0;  // the model is closed at its scan's ends
+      options.zMaxMm = box[1].z() - 2.0;
+      const segmentation::SurfaceComparison c = segmentation::compareSurfaces(model, truth, options);
+      rows.push_back({run.name, number(c.meanMm, 3), number(c.p95Mm, 3), number(c.maxMm, 2),
+                      number(c.dice, 4)});
+      seg[run.name] = {{"mean_surface_distance_mm", c.meanMm}, {"p95_mm", c.p95Mm},
+                       {"max_mm", c.maxMm}, {"dice", c.dice}, {"z_range_mm", {options.zMinMm, options.zMaxMm}}};
+    }
+    if (!rows.empty()) {
+      report.heading("Segmentation of the CT");
+      report.paragraph("Each bone grown from the manifest's seed and refined by the CT's own "
+                       "iso-surface (echoreg segment --auto), compared with the simulation's true "
+                       "surface over the scanned knee group (2 mm inside its ends).");
+      report.table({"bone", "mean surface distance (mm)", "95th percentile (mm)", "max (mm)", "Dice"}, rows);
+      numbers["segmentation"] = seg;
+    }
+  }
+
+  // Registrations: each bone's results and its errors (Tables 5.3-5.7).
+  auto evaluationTable = [&](const std::string& csv) {
+    const CsvTable table = readCsvTable(csv);
+    std::vector<std::string> header;
+    for (const std::string& h : table.header) {
+      std::string name = h;
+      if (name.rfind("target_", 0) == 0) name = "error at " + name.substr(7);
+      for (const char* unit : {"_mm", "_deg"}) {
+        const auto at = name.rfind(unit);
+        if (at != std::string::npos && at + std::string(unit).size() == name.size()) {
+          name = name.substr(0, at) + (std::string(unit) == "_mm" ? " (mm)" : " (deg)");
+        }
+      }
+      header.push_back(name);
+    }
+    std::vector<std::vector<std::string>> rows;
+    nlohmann::json json = nlohmann::json::array();
+    for (const auto& row : table.rows) {
+      std::vector<std::string> cells{row[0] == "mean_abs" ? "mean of absolute values" : row[0]};
+      nlohmann::json entry = {{"estimate", row[0]}};
+      for (std::size_t c = 1; c < row.size(); ++c) {
+        const double v = parseCsvNumber(row[c], csv, 0, table.header[c]);
+        cells.push_back(number(v, 2));
+        entry[table.header[c]] = v;
+      }
+      rows.push_back(cells);
+      json.push_back(entry);
+    }
+    report.table(header, rows);
+    return json;
+  };
+  nlohmann::json registrations = nlohmann::json::object();
+  for (const BoneRun& run : boneRuns) {
+    report.heading("Registration of the " + run.name);
+    std::vector<std::vector<std::string>> rows;
+    nlohmann::json list = nlohmann::json::array();
+    std::vector<std::string> files = run.ultrasound;
+    if (!run.mechanical.empty()) files.push_back(run.mechanical);
+    for (const std::string& file : files) {
+      const std::string name = fs::path(file).stem().string();
+      if (!fs::exists(file)) {
+        rows.push_back({name, "failed", "", "", "", "", ""});
+        list.push_back({{"name", name}, {"failed", true}});
+        continue;
+      }
+      const nlohmann::json r = readJsonFile(file);
+      rows.push_back({name, r.value("converged", false) ? "yes" : "NO", number(r.value("rms_mm", 0.0), 3),
+                      fmt::format("{}", r.value("points_used", 0)),
+                      fmt::format("{}", r.value("points_rejected", 0)),
+                      number(r.value("speed_of_sound_scale", 1.0), 4),
+                      fmt::format("{}", r.value("iterations", 0))});
+      list.push_back({{"name", name}, {"file", fs::relative(file, results).generic_string()},
+                      {"converged", r.value("converged", false)}, {"rms_mm", r.value("rms_mm", 0.0)},
+                      {"points_used", r.value("points_used", 0)},
+                      {"points_rejected", r.value("points_rejected", 0)},
+                      {"speed_of_sound_scale", r.value("speed_of_sound_scale", 1.0)},
+                      {"iterations", r.value("iterations", 0)}, {"matrix", r.at("matrix")}});
+    }
+    report.paragraph(fmt::format("Model: {}{}.", fs::relative(run.model, manifest.dir()).generic_string(),
+                                 run.segmented ? " (segmented from the CT)" : " (given by the manifest)"));
+    report.table({"registration", "converged", "RMS (mm, Eq. 4.4)", "points used", "points rejected",
+                  "speed-of-sound scale", "iterations"}, rows);
+    nlohmann::json entry = {{"registrations", list}};
+    if (!run.evaluationMechanical.empty() && fs::exists(run.evaluationMechanical)) {
+      report.paragraph("Ultrasound against the mechanical-probe registration (Eq. 4.5, in CT space: "
+                       "translations along CT x, y, z of the knee centre, rotations about them):");
+      entry["against_mechanical"] = evaluationTable(run.evaluationMechanical);
+    }
+    if (!run.evaluationTruth.empty() && fs::exists(run.evaluationTruth)) {
+      report.paragraph("Against the simulation's true registration:");
+      entry["against_truth"] = evaluationTable(run.evaluationTruth);
+    }
+    if (!run.figure.empty() && fs::exists(run.figure)) {
+      report.figure(fs::relative(run.figure, results).generic_string(),
+                    fmt::format("The {}'s ultrasound points mapped by the reference registration "
+                                "(Eq. 4.6), coloured by their distance to the model: green < 3 mm, "
+                                "yellow 3-5 mm, red > 5 mm (Figs. 5.6-5.9, 5.30-5.35).", run.name));
+    }
+    registrations[run.name] = entry;
+  }
+  if (!boneRuns.empty()) numbers["registrations"] = registrations;
+  if (!signalFigures.empty() || !residualFigure.empty()) report.heading("Signals and statistics");
+  for (const auto& [file, caption] : signalFigures) {
+    if (fs::exists(file)) report.figure(fs::relative(file, results).generic_string(), caption);
+  }
+  if (!residualFigure.empty() && fs::exists(residualFigure)) {
+    report.figure(fs::relative(residualFigure, results).generic_string(),
+                  "Distances of each bone's ultrasound points to its model after registration, "
+                  "with the one-way ANOVA between the bones (as Figs. 6.1, 6.3, 6.7-6.9).");
+  }
+  report.heading("For 3D Slicer");
+  report.paragraph("Models (.vtp) in results/models (or the manifest's), transforms as .tfm beside "
+                   "each JSON in results/registrations (drag onto the model's transform), "
+                   "the evaluation targets as .mrk.json in results/.");
   report.heading("Steps");
+  report.paragraph("Each step is one echoreg command; a step whose command line and input files "
+                   "did not change since the last run is up to date and shows its last time.");
   std::vector<std::vector<std::string>> rows;
   nlohmann::json stepsJson = nlohmann::json::array();
   for (const StepOutcome& s : outcomes) {
-    rows.push_back({s.title, statusName(s.status), number(s.seconds, 2)});
+    std::string note = s.message;
+    for (char& c : note) c = c == '\n' ? ' ' : c;
+    rows.push_back({s.title, statusName(s.status), number(s.seconds, 2), note});
     stepsJson.push_back({{"id", s.id}, {"title", s.title}, {"status", statusName(s.status)},
                          {"seconds", s.seconds}});
   }
-  report.table({"step", "status", "time (s)"}, rows);
+  report.table({"step", "status", "time (s)", "message"}, rows);
   numbers["steps"] = stepsJson;
   const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   numbers["seconds"] = total;
@@ -476,6 +707,8 @@ CommandAction addStudyCommand(CLI::App& app) {
       "inputs did not change since the last run are not run again (--force runs all).");
   run->add_option("dir", o->dir, "Study folder (holds study.json)")->required();
   run->add_flag("--force", o->force, "Run every step again");
+  run->add_flag("--given-models", o->givenModels,
+                "Use the manifest's bone models instead of segmenting the CT from its seeds");
   run->add_flag("--json", o->json, "Print every number of the report as JSON");
   return [o](const Streams& streams) { return runStudy(*o, streams); };
 }
