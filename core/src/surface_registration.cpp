@@ -5,7 +5,9 @@
 
 #include <ceres/ceres.h>
 #include <ceres/rotation.h>
+#include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
+#include <Eigen/LU>
 
 #include <algorithm>
 #include <cmath>
@@ -618,15 +620,37 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
   double bestCost = std::numeric_limits<double>::infinity();
   Solution chosen;
   std::vector<Correspondence> c(points.size());
+  std::vector<std::pair<Eigen::Isometry3d, double>> solutions;  // every start's end and cost
   for (const Eigen::Isometry3d& start : starts) {
     const Solution s = robust ? solveRobust(locator_, points, landmarks, options, start)
                               : solvePlain(locator_, points, options, start);
     for (std::size_t i = 0; i < points.size(); ++i)
       c[i] = correspond(locator_, s.transform * points[i].at(s.scale), options.excludedTriangles);
     const double cost = truncatedCost(points, c, landmarks, s.transform, options);
+    solutions.push_back({s.transform, cost});
     if (cost < bestCost) {
       bestCost = cost;
       chosen = s;
+    }
+  }
+  // Another start ending elsewhere at nearly the best cost: the data cannot tell the two apart.
+  std::string ambiguity;
+  {
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    for (const SurfacePoint& p : points) centroid += chosen.transform * p.at(chosen.scale);
+    centroid /= static_cast<double>(points.size());
+    for (const auto& [transform, cost] : solutions) {
+      if (cost > options.ambiguityCostRatio * bestCost + 1e-9) continue;
+      const Eigen::Isometry3d d = transform * chosen.transform.inverse();
+      const double angle = Eigen::AngleAxisd(d.linear()).angle() * 180.0 / kPi;
+      const double shift = (d * centroid - centroid).norm();
+      if (angle > options.ambiguityDeg || shift > options.ambiguityMm) {
+        ambiguity = "another start ends " + number(angle, "%.3g") + " deg / " + number(shift, "%.3g") +
+                    " mm away at a cost within " + number(options.ambiguityCostRatio, "%.3g") +
+                    " x the best: the points cannot tell the two poses apart; add landmarks (e.g. the "
+                    "hip centre) or points on other regions";
+        break;
+      }
     }
   }
 
@@ -659,6 +683,64 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
   for (const LandmarkPair& l : landmarks)
     result.landmarkResidualsMm.push_back((chosen.transform * l.bone - l.model).norm());
 
+  // How well the solution is determined: the Gauss-Newton matrix of the whitened point-to-plane
+  // residuals (and landmarks) over a rotation w about the inliers' centroid, a translation v and,
+  // when fitted, the scale s: d r_i = ((y_i - c) x n_i) . w + n_i . v + n_i . (R b_i) ds.
+  {
+    const bool withScale = robust && options.fitSpeedOfSound;
+    const int dims = withScale ? 7 : 6;
+    Eigen::MatrixXd h = Eigen::MatrixXd::Zero(dims, dims);
+    Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
+    int used = 0;
+    for (std::size_t i = 0; i < points.size(); ++i) {
+      if (!result.inlier[i]) continue;
+      centroid += chosen.transform * points[i].at(chosen.scale);
+      ++used;
+    }
+    if (used > 0) {
+      centroid /= used;
+      for (std::size_t i = 0; i < points.size(); ++i) {
+        if (!result.inlier[i]) continue;
+        const Eigen::Vector3d y = chosen.transform * points[i].at(chosen.scale);
+        Eigen::VectorXd j(dims);
+        j.head<3>() = (y - centroid).cross(c[i].normal);
+        j.segment<3>(3) = c[i].normal;
+        if (withScale) {
+          j(6) = points[i].hasBeam
+                     ? c[i].normal.dot(chosen.transform.linear() * (points[i].depthMm * points[i].beamDirection))
+                     : 0.0;
+        }
+        j /= points[i].sigmaMm;
+        h += j * j.transpose();
+      }
+      if (robust && options.useLandmarks) {
+        for (const LandmarkPair& l : landmarks) {
+          const Eigen::Vector3d r = chosen.transform * l.bone - centroid;
+          for (int a = 0; a < 3; ++a) {
+            Eigen::VectorXd j = Eigen::VectorXd::Zero(dims);
+            const Eigen::Vector3d e = Eigen::Vector3d::Unit(a);
+            j.head<3>() = r.cross(e);  // d(w x r)_a / dw = (r x e_a)
+            j(3 + a) = 1.0;
+            j /= l.sigmaMm;
+            h += j * j.transpose();
+          }
+        }
+      }
+      const Eigen::FullPivLU<Eigen::MatrixXd> lu(h);
+      if (!lu.isInvertible()) {
+        result.rotationSigmaDeg = std::numeric_limits<double>::infinity();
+        result.translationSigmaMm = std::numeric_limits<double>::infinity();
+      } else {
+        const Eigen::MatrixXd cov = lu.inverse();
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> rot(cov.topLeftCorner<3, 3>());
+        const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> tra(cov.block<3, 3>(3, 3));
+        result.rotationSigmaDeg = std::sqrt(std::max(0.0, rot.eigenvalues()(2))) * 180.0 / kPi;
+        result.weakestAxis = rot.eigenvectors().col(2);
+        result.translationSigmaMm = std::sqrt(std::max(0.0, tra.eigenvalues()(2)));
+      }
+    }
+  }
+
   // Points closest to an excluded triangle (beyond the scanned part of the model) are not
   // counted against the inlier fraction: nothing there could match them.
   for (const Correspondence& ci : c) result.pointsBeyondModel += ci.excluded ? 1 : 0;
@@ -686,6 +768,17 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
                      std::to_string(points.size() - static_cast<std::size_t>(result.pointsBeyondModel)) +
                      " points lie near the surface (at least " + std::to_string(minimumInliers) +
                      " needed)";
+  } else if (!ambiguity.empty()) {
+    result.message = ambiguity;
+  } else if (robust && (result.rotationSigmaDeg > options.maxRotationSigmaDeg ||
+                        result.translationSigmaMm > options.maxTranslationSigmaMm)) {
+    const Eigen::Vector3d& a = result.weakestAxis;
+    result.message = "the points leave the pose undetermined: rotation +-" +
+                     number(result.rotationSigmaDeg, "%.3g") + " deg (1 sigma) about (" +
+                     number(a.x(), "%.2f") + ", " + number(a.y(), "%.2f") + ", " +
+                     number(a.z(), "%.2f") + "), translation +-" +
+                     number(result.translationSigmaMm, "%.3g") +
+                     " mm; add landmarks (e.g. the hip centre) or points on other regions";
   } else if (result.rmsMm > options.maxRmsMm) {
     result.message = "the points end far from the surface: RMS " + number(result.rmsMm, "%.3g") +
                      " mm over the inliers, above the limit " + number(options.maxRmsMm, "%.3g") +

@@ -123,6 +123,16 @@ struct SurfaceRegistrationOptions {
   /// flat caps where the CT's scan range cut a segmented model. A point whose closest point lies
   /// on one is not used (robust method): beyond the scan it has nothing to match.
   std::vector<bool> excludedTriangles;
+  /// Not converged when the solution leaves a rotation less determined than this (1 sigma, deg)
+  /// or a translation less determined than maxTranslationSigmaMm (see the result).
+  double maxRotationSigmaDeg = 3.0;
+  double maxTranslationSigmaMm = 3.0;
+  /// Not converged when another start ends more than ambiguityDeg / ambiguityMm (at the points'
+  /// centroid) from the chosen pose with a truncated cost within ambiguityCostRatio x the best:
+  /// two poses the points cannot tell apart (the femur from its two epicondyles alone).
+  double ambiguityCostRatio = 1.5;
+  double ambiguityDeg = 3.0;
+  double ambiguityMm = 3.0;
 };
 
 /// The flat end caps of a model cut by the scan range: triangles whose three vertices lie within
@@ -145,6 +155,15 @@ struct SurfaceRegistrationResult {
   int iterations = 0;              ///< outer iterations of the chosen start
   int starts = 1;                  ///< starts tried
   double cost = 0.0;               ///< truncated robust cost of the chosen start (see docs)
+  /// How well the inliers (and landmarks) determine the pose: the 1-sigma uncertainty, from the
+  /// inverse Gauss-Newton matrix of the whitened residuals, of the worst-determined rotation
+  /// (degrees, about `weakestAxis`, through the points' centroid) and of the worst-determined
+  /// translation (mm). A surface patch that can slide along itself (the condyles turning about
+  /// the transepicondylar axis) shows here; beyond maxRotationSigmaDeg / maxTranslationSigmaMm
+  /// the result is not converged.
+  double rotationSigmaDeg = 0.0;
+  double translationSigmaMm = 0.0;
+  Eigen::Vector3d weakestAxis = Eigen::Vector3d::UnitX();  ///< model frame
   bool converged = false;
   std::string message;  ///< why not converged ("" when converged)
   /// Per input point: signed distance to the surface after registration minus its offset (mm,
