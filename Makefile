@@ -17,28 +17,15 @@ configure: deps
 build: configure
 	@cmake --build $(BUILD_DIR)
 
-# The small sample study, simulated by echoreg itself, then the steps that exist so far run on
-# it: the stylus tip by pivoting, the transducer's calibration on the sphere (speed of sound
-# fitted), and the bone sweeps turned into points in each bone tracker's frame with that
-# calibration. Registration, figures and the report come with their issues.
-DEMO_CAL := $(DEMO_DIR)/results/calibration.json
+# The users' main job on the bundled sample study: the small study simulated by echoreg itself
+# (with its ground truth), then `echoreg study run` end to end (stylus pivot, calibration, hip
+# centre, CT segmentation, detection, registrations from ultrasound and from the mechanical probe,
+# evaluation, figures) into results/report.html, report.md and results.json.
 demo: build
 	@rm -rf $(DEMO_DIR)
 	@mkdir -p $(dir $(DEMO_DIR))
 	@$(ECHOREG) simulate --out $(DEMO_DIR) --size small --seed 2008
-	@mkdir -p $(DEMO_DIR)/results
-	@$(ECHOREG) pivot --capture $(DEMO_DIR)/captures/stylus_pivot.igs.mha --out $(DEMO_DIR)/results/stylus_tip.json
-	@$(ECHOREG) calibrate --sphere-capture $(DEMO_DIR)/captures/calibration_sphere_stylus.igs.mha \
-	  --stylus-tip-to-stylus $(DEMO_DIR)/results/stylus_tip.json --stylus-tip-radius 1.5 \
-	  --capture $(DEMO_DIR)/captures/calibration_shots.igs.mha --sphere-radius 25.4 \
-	  --initial $$(/usr/bin/python3 -c "import json; print(*json.load(open('$(DEMO_DIR)/study.json'))['calibration']['initial_beam_to_probe_mm'])") \
-	  --window-mm 14 34 --fit-speed-of-sound --out $(DEMO_CAL)
-	@$(ECHOREG) detect $(DEMO_DIR)/captures/femur_ultrasound.igs.mha --pose ProbeToTracker \
-	  --reference FemurToTracker --beam-to-probe $(DEMO_CAL) --out $(DEMO_DIR)/results/femur_points.csv
-	@$(ECHOREG) detect $(DEMO_DIR)/captures/tibia_ultrasound.igs.mha --pose ProbeToTracker \
-	  --reference TibiaToTracker --beam-to-probe $(DEMO_CAL) --out $(DEMO_DIR)/results/tibia_points.csv
-	@echo "demo: study in $(abspath $(DEMO_DIR)) (study.json, ct/, captures/, truth/);" \
-	  "calibration and bone points in $(abspath $(DEMO_DIR))/results/"
+	@$(ECHOREG) study run $(DEMO_DIR)
 
 test: build
 	@ctest --test-dir $(BUILD_DIR) --output-on-failure -j 2

@@ -474,9 +474,10 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       file.stream() << "point,residual_mm,abs_residual_mm,inlier\n";
       int i = 0;
       for (const auto& point : reg.value("points", nlohmann::json::array())) {
+        // The points the registration used (the rejected ones are counted in its table).
+        if (!point.value("inlier", false)) continue;
         const double r = point.value("residual_mm", 0.0);
-        file.stream() << fmt::format("{},{:.4f},{:.4f},{}\n", i++, r, std::abs(r),
-                                     point.value("inlier", false) ? 1 : 0);
+        file.stream() << fmt::format("{},{:.4f},{:.4f},1\n", i++, r, std::abs(r));
       }
       file.commit();
       groups.insert(groups.end(), {"--group", run.name + "=" + csv});
@@ -485,7 +486,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     if (groups.size() >= 2) {
       residualFigure = results + "/figures/residuals.png";
       std::vector<std::string> args = {"figure", "boxplot", "--column", "abs_residual_mm",
-                                       "--title", "Distance of the ultrasound points to the model after registration",
+                                       "--title", "Distance of the ultrasound points used to the model after registration",
                                        "--ylabel", "|distance| (mm)", "--out", residualFigure};
       args.insert(args.end(), groups.begin(), groups.end());
       stage.push_back({"figure-residuals", "residuals box plot", args, inputs, {residualFigure}, false});
@@ -641,8 +642,9 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   }
   if (!residualFigure.empty() && fs::exists(residualFigure)) {
     report.figure(fs::relative(residualFigure, results).generic_string(),
-                  "Distances of each bone's ultrasound points to its model after registration, "
-                  "with the one-way ANOVA between the bones (as Figs. 6.1, 6.3, 6.7-6.9).");
+                  "Distances of each bone's ultrasound points (those the registration used) to its "
+                  "model after registration, with the one-way ANOVA between the bones (as Figs. "
+                  "6.1, 6.3, 6.7-6.9).");
   }
   report.heading("For 3D Slicer");
   report.paragraph("Models (.vtp) in results/models (or the manifest's), transforms as .tfm beside "
