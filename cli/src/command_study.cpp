@@ -425,6 +425,10 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
 
   // --- Signals and statistics figures ---------------------------------------------------------
   std::vector<std::pair<std::string, std::string>> signalFigures;  // file, caption
+  struct DetectionRate {
+    std::string bone, setting, csv, capture;
+  };
+  std::vector<DetectionRate> detectionRates;
   std::string residualFigure;
   if (failure.empty() && !boneRuns.empty()) {
     stage.clear();
@@ -461,6 +465,34 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                               "A-line, then the envelope, threshold, peaks and verdict of the "
                               "dissertation's chain (mozes2008) and of the study's preset ({}), as "
                               "Figs. 5.10-5.29.", f, first.name, which, preset)});
+      }
+    }
+    // Table 6.1: the single-signal chain's detection rates under several filter settings, on
+    // every ultrasound sweep, against the simulation's truth (when it has one).
+    const std::string shots = manifest.file("/truth/shots", false);
+    if (!shots.empty() && fs::exists(shots)) {
+      fs::create_directories(results + "/detection", ec);
+      const std::vector<std::pair<std::string, std::vector<std::string>>> settings = {
+          {"mozes2008, cutoff 0.005", {"--preset", "mozes2008", "--cutoff", "0.005"}},
+          {"mozes2008, cutoff 0.01", {"--preset", "mozes2008", "--cutoff", "0.01"}},
+          {"mozes2008, cutoff 0.02", {"--preset", "mozes2008", "--cutoff", "0.02"}},
+          {preset + " (the study's)", {"--preset", preset}}};
+      for (const BoneRun& run : boneRuns) {
+        const std::string sweep = manifest.resolve(
+            manifest.at("/bones/" + run.name + "/ultrasound/0").get<std::string>());
+        for (std::size_t k = 0; k < settings.size(); ++k) {
+          const std::string out = fmt::format("{}/detection/{}_setting_{}.csv", results, run.name, k + 1);
+          std::vector<std::string> args = {"detect", sweep, "--history", "1", "--min-spread-mm", "0",
+                                           "--out", out};
+          args.insert(args.end(), settings[k].second.begin(), settings[k].second.end());
+          if (const auto c = manifest.at("/detection/speed_of_sound_mps"); c.is_number()) {
+            args.insert(args.end(), {"--speed-of-sound", fmt::format("{}", c.get<double>())});
+          }
+          stage.push_back({fmt::format("detect-rates-{}-{}", run.name, k + 1),
+                           fmt::format("{}: detection rates, {}", run.name, settings[k].first), args,
+                           {sweep}, {out}, false});
+          detectionRates.push_back({run.name, settings[k].first, out, sweep});
+        }
       }
     }
     // The ultrasound points' distances to the model after each bone's first registration.
@@ -636,6 +668,55 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     registrations[run.name] = entry;
   }
   if (!boneRuns.empty()) numbers["registrations"] = registrations;
+  if (!detectionRates.empty()) {
+    // Truth per frame of each capture: should a correct detector accept it?
+    const CsvTable truth = readCsvTable(manifest.file("/truth/shots"));
+    const int capCol = truth.column("capture"), frameCol = truth.column("frame"),
+              acceptCol = truth.column("should_accept");
+    std::map<std::pair<std::string, std::string>, bool> shouldAccept;
+    for (const auto& row : truth.rows) {
+      shouldAccept[{row[static_cast<std::size_t>(capCol)], row[static_cast<std::size_t>(frameCol)]}] =
+          row[static_cast<std::size_t>(acceptCol)] == "1";
+    }
+    std::vector<std::vector<std::string>> rows;
+    nlohmann::json rates = nlohmann::json::array();
+    for (const DetectionRate& d : detectionRates) {
+      if (!fs::exists(d.csv)) continue;
+      const CsvTable detected = readCsvTable(d.csv);
+      const int f = detected.column("frame"), st = detected.column("status"), why = detected.column("reason");
+      const std::string name = fs::path(d.capture).filename().string();
+      int bone = 0, notBone = 0, falseNegative = 0, falsePositive = 0;
+      for (const auto& row : detected.rows) {
+        if (row[static_cast<std::size_t>(why)] == "invalid-pose") continue;
+        const auto it = shouldAccept.find({name, row[static_cast<std::size_t>(f)]});
+        if (it == shouldAccept.end()) continue;
+        const bool accepted = row[static_cast<std::size_t>(st)] == "accepted";
+        if (it->second) {
+          ++bone;
+          falseNegative += accepted ? 0 : 1;
+        } else {
+          ++notBone;
+          falsePositive += accepted ? 1 : 0;
+        }
+      }
+      const double fn = bone > 0 ? 100.0 * falseNegative / bone : 0.0;
+      const double fp = notBone > 0 ? 100.0 * falsePositive / notBone : 0.0;
+      rows.push_back({d.bone, d.setting, fmt::format("{}", bone), fmt::format("{}", notBone),
+                      number(fn, 1), number(fp, 1)});
+      rates.push_back({{"bone", d.bone}, {"setting", d.setting}, {"bone_frames", bone},
+                       {"other_frames", notBone}, {"false_negative_pct", fn}, {"false_positive_pct", fp}});
+    }
+    if (!rows.empty()) {
+      report.heading("Detection rates (Table 6.1)");
+      report.paragraph("Each A-line judged alone (no inter-signal filter) under the dissertation's "
+                       "chain at three low-pass cutoffs and under the study's preset, against the "
+                       "simulation's truth: false negatives among the frames a correct detector should "
+                       "accept, false positives among the others.");
+      report.table({"bone", "setting", "bone frames", "other frames", "false negatives (%)",
+                    "false positives (%)"}, rows);
+      numbers["detection_rates"] = rates;
+    }
+  }
   if (!signalFigures.empty() || !residualFigure.empty()) report.heading("Signals and statistics");
   for (const auto& [file, caption] : signalFigures) {
     if (fs::exists(file)) report.figure(fs::relative(file, results).generic_string(), caption);

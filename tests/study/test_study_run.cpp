@@ -1,0 +1,135 @@
+// `echoreg study run` on a copy of the fixture study: the whole job end to end (segmentation from
+// the manifest's seeds, calibration, registrations, evaluation, figures, report), a second run
+// that finds every step up to date, a change that re-runs exactly the steps downstream of it, and
+// failures that name the step and the file.
+#include "study_checks.hpp"
+
+#include "cli_test_support.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <string>
+
+namespace echoreg::simulation {
+namespace {
+
+namespace fs = std::filesystem;
+using test::runEchoreg;
+
+std::map<std::string, std::string> stepStatuses(const nlohmann::json& results) {
+  std::map<std::string, std::string> statuses;
+  for (const auto& step : results.at("steps")) {
+    statuses[step.at("id").get<std::string>()] = step.at("status").get<std::string>();
+  }
+  return statuses;
+}
+
+double errorAt(const nlohmann::json& rows, const std::string& estimate, const std::string& column) {
+  for (const auto& row : rows) {
+    if (row.at("estimate") == estimate) return row.at(column).get<double>();
+  }
+  ADD_FAILURE() << "no row " << estimate;
+  return 1e9;
+}
+
+TEST(StudyRun, RunsTheWholeStudyThenOnlyWhatAChangeAffects) {
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty()) GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  test::TempDir dir;
+  const std::string study = dir.file("study");
+  fs::copy(fixture, study, fs::copy_options::recursive);
+  fs::remove_all(study + "/results");
+
+  // 1. The whole job.
+  test::CommandResult r = runEchoreg({"study", "run", study});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("results/report.html"), std::string::npos) << r.out;
+  for (const char* file : {"report.md", "report.html", "results.json", "models/femur.vtp",
+                           "models/tibia.vtp", "registrations/femur_ultrasound_1.tfm",
+                           "figures/calibration.png", "figures/femur_registration.png",
+                           "figures/tibia_registration.png", "figures/residuals.png"}) {
+    EXPECT_TRUE(fs::is_regular_file(study + "/results/" + file)) << file;
+  }
+  const nlohmann::json first = readJson(study + "/results/results.json");
+  for (const auto& [id, status] : stepStatuses(first)) EXPECT_EQ(status, "ran") << id;
+  // The numbers: segmentation against the truth, registrations against the truth at the knee.
+  EXPECT_GT(first.at("segmentation").at("femur").at("dice").get<double>(), 0.99);
+  EXPECT_GT(first.at("segmentation").at("tibia").at("dice").get<double>(), 0.99);
+  for (const char* bone : {"femur", "tibia"}) {
+    const nlohmann::json& truth = first.at("registrations").at(bone).at("against_truth");
+    const double us = errorAt(truth, std::string(bone) + "_ultrasound_1.json", "target_knee_centre_mm");
+    const double mech = errorAt(truth, std::string(bone) + "_mechanical.json", "target_knee_centre_mm");
+    std::cout << bone << ": knee centre error, ultrasound " << us << " mm, mechanical " << mech << " mm\n";
+    EXPECT_LT(us, 2.0) << bone;
+    EXPECT_LT(mech, 1.5) << bone;
+  }
+  EXPECT_LT(first.at("calibration").at("rms_mm").get<double>(), 0.5);
+  const std::string report = [&] {
+    std::ifstream in(study + "/results/report.md");
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }();
+  EXPECT_NE(report.find("## Registration of the femur"), std::string::npos);
+  EXPECT_NE(report.find("(Table 6.1)"), std::string::npos);
+  EXPECT_NE(report.find("figures/femur_registration.png"), std::string::npos);
+
+  // 2. Nothing changed: every step is up to date, the outputs untouched.
+  const auto modelTime = fs::last_write_time(study + "/results/models/femur.vtp");
+  r = runEchoreg({"study", "run", study});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  for (const auto& [id, status] : stepStatuses(readJson(study + "/results/results.json"))) {
+    EXPECT_EQ(status, "up to date") << id;
+  }
+  EXPECT_EQ(fs::last_write_time(study + "/results/models/femur.vtp"), modelTime);
+
+  // 3. A different calibration window: the calibration and what depends on it run again; the
+  // stylus pivot, the hip centre and the segmentations do not.
+  nlohmann::json manifest = readJson(study + "/study.json");
+  manifest["calibration"]["window_mm"] = {13.0, 35.0};
+  std::ofstream(study + "/study.json") << manifest.dump(2);
+  r = runEchoreg({"study", "run", study});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto third = stepStatuses(readJson(study + "/results/results.json"));
+  for (const char* id : {"pivot-stylus", "pivot-hip", "segment-femur", "segment-tibia"}) {
+    EXPECT_EQ(third.at(id), "up to date") << id;
+  }
+  for (const char* id : {"calibrate", "detect-femur-1", "register-femur-ultrasound-1"}) {
+    EXPECT_EQ(third.at(id), "ran") << id;
+  }
+}
+
+TEST(StudyRun, FailuresNameTheStepAndTheFile) {
+  test::TempDir dir;
+  // Not a study.
+  test::CommandResult r = runEchoreg({"study", "run", dir.path()});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("study.json"), std::string::npos) << r.err;
+  std::ofstream(dir.file("study.json")) << R"({"format": "something else"})";
+  r = runEchoreg({"study", "run", dir.path()});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("not an echoreg study manifest"), std::string::npos) << r.err;
+
+  // A study whose calibration capture is broken: the calibration step fails, named with its file;
+  // the report says where the study stopped.
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty()) GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  const std::string study = dir.file("study");
+  fs::create_directories(study + "/captures");
+  fs::copy(fixture + "/study.json", study + "/study.json");
+  fs::copy(fixture + "/captures/stylus_pivot.igs.mha", study + "/captures/stylus_pivot.igs.mha");
+  fs::copy(fixture + "/captures/calibration_sphere_stylus.igs.mha",
+           study + "/captures/calibration_sphere_stylus.igs.mha");
+  std::ofstream(study + "/captures/calibration_shots.igs.mha") << "ObjectType = Image\nNDims = 3\n";
+  r = runEchoreg({"study", "run", study});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("transducer calibration"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("calibration_shots.igs.mha"), std::string::npos) << r.err;
+  EXPECT_TRUE(fs::is_regular_file(study + "/results/report.md"));
+}
+
+}  // namespace
+}  // namespace echoreg::simulation
