@@ -63,34 +63,6 @@ std::vector<render::View> parseViews(const std::vector<std::string>& names) {
   return views;
 }
 
-core::TriangleMesh uvSphere(const Eigen::Vector3d& centre, double radius) {
-  core::TriangleMesh mesh;
-  const int rings = 36;
-  const int segments = 72;
-  mesh.vertices.push_back(centre + Eigen::Vector3d(0, 0, radius));
-  for (int r = 1; r < rings; ++r) {
-    const double theta = M_PI * r / rings;
-    for (int s = 0; s < segments; ++s) {
-      const double phi = 2.0 * M_PI * s / segments;
-      mesh.vertices.push_back(centre + radius * Eigen::Vector3d(std::sin(theta) * std::cos(phi),
-                                                                std::sin(theta) * std::sin(phi),
-                                                                std::cos(theta)));
-    }
-  }
-  mesh.vertices.push_back(centre - Eigen::Vector3d(0, 0, radius));
-  const int south = static_cast<int>(mesh.vertices.size()) - 1;
-  auto at = [&](int r, int s) { return 1 + (r - 1) * segments + (s % segments); };
-  for (int s = 0; s < segments; ++s) mesh.triangles.push_back({0, at(1, s), at(1, s + 1)});
-  for (int r = 1; r < rings - 1; ++r) {
-    for (int s = 0; s < segments; ++s) {
-      mesh.triangles.push_back({at(r, s), at(r + 1, s), at(r + 1, s + 1)});
-      mesh.triangles.push_back({at(r, s), at(r + 1, s + 1), at(r, s + 1)});
-    }
-  }
-  for (int s = 0; s < segments; ++s) mesh.triangles.push_back({south, at(rings - 1, s + 1), at(rings - 1, s)});
-  return mesh;
-}
-
 struct SurfaceOptions {
   std::string out;
   std::string title;
@@ -239,7 +211,7 @@ CommandAction addCalibrationFigure(CLI::App* parent) {
     const Eigen::Vector3d c(centre[0], centre[1], centre[2]);
     const double radius = doc["sphere_radius_mm"].get<double>();
     render::SurfaceFigure figure;
-    figure.surface = uvSphere(c, radius);
+    figure.surface = core::uvSphere(c, radius);
     figure.surfaceRgb = {0.80, 0.84, 0.90};
     std::vector<double> signedValues;
     for (const auto& shot : doc["shots"]) {

@@ -1,8 +1,10 @@
 #include "echoreg/core/mesh.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 #include <utility>
 
 namespace echoreg::core {
@@ -107,6 +109,38 @@ Eigen::Vector3d triangleNormal(const TriangleMesh& mesh, int index) {
   const Eigen::Vector3d& b = mesh.vertices[static_cast<std::size_t>(tri[1])];
   const Eigen::Vector3d& c = mesh.vertices[static_cast<std::size_t>(tri[2])];
   return (b - a).cross(c - a).normalized();
+}
+
+TriangleMesh uvSphere(const Eigen::Vector3d& centre, double radius, int rings, int segments) {
+  if (!(radius > 0.0) || rings < 2 || segments < 3) {
+    throw std::invalid_argument("uvSphere: needs radius > 0, rings >= 2 and segments >= 3");
+  }
+  constexpr double kPi = 3.14159265358979323846;
+  TriangleMesh mesh;
+  mesh.vertices.push_back(centre + Eigen::Vector3d(0, 0, radius));
+  for (int r = 1; r < rings; ++r) {
+    const double theta = kPi * r / rings;
+    for (int s = 0; s < segments; ++s) {
+      const double phi = 2.0 * kPi * s / segments;
+      mesh.vertices.push_back(centre + radius * Eigen::Vector3d(std::sin(theta) * std::cos(phi),
+                                                                std::sin(theta) * std::sin(phi),
+                                                                std::cos(theta)));
+    }
+  }
+  mesh.vertices.push_back(centre - Eigen::Vector3d(0, 0, radius));
+  const int south = static_cast<int>(mesh.vertices.size()) - 1;
+  const auto at = [&](int r, int s) { return 1 + (r - 1) * segments + (s % segments); };
+  for (int s = 0; s < segments; ++s) mesh.triangles.push_back({0, at(1, s), at(1, s + 1)});
+  for (int r = 1; r < rings - 1; ++r) {
+    for (int s = 0; s < segments; ++s) {
+      mesh.triangles.push_back({at(r, s), at(r + 1, s), at(r + 1, s + 1)});
+      mesh.triangles.push_back({at(r, s), at(r + 1, s + 1), at(r, s + 1)});
+    }
+  }
+  for (int s = 0; s < segments; ++s) {
+    mesh.triangles.push_back({south, at(rings - 1, s + 1), at(rings - 1, s)});
+  }
+  return mesh;
 }
 
 }  // namespace echoreg::core

@@ -54,30 +54,7 @@ void expectMatchesBaseline(const std::string& png, const std::string& name) {
 
 // A 30 mm sphere standing in for a bone.
 void writeSphereModel(const std::string& path) {
-  echoreg::core::TriangleMesh mesh;
-  const int rings = 24;
-  const int segments = 48;
-  const double r = 30.0;
-  mesh.vertices.push_back({0, 0, r});
-  for (int i = 1; i < rings; ++i) {
-    const double theta = M_PI * i / rings;
-    for (int s = 0; s < segments; ++s) {
-      const double phi = 2 * M_PI * s / segments;
-      mesh.vertices.push_back({r * std::sin(theta) * std::cos(phi), r * std::sin(theta) * std::sin(phi),
-                               r * std::cos(theta)});
-    }
-  }
-  mesh.vertices.push_back({0, 0, -r});
-  const int south = static_cast<int>(mesh.vertices.size()) - 1;
-  auto at = [&](int i, int s) { return 1 + (i - 1) * segments + (s % segments); };
-  for (int s = 0; s < segments; ++s) mesh.triangles.push_back({0, at(1, s), at(1, s + 1)});
-  for (int i = 1; i < rings - 1; ++i) {
-    for (int s = 0; s < segments; ++s) {
-      mesh.triangles.push_back({at(i, s), at(i + 1, s), at(i + 1, s + 1)});
-      mesh.triangles.push_back({at(i, s), at(i + 1, s + 1), at(i, s + 1)});
-    }
-  }
-  for (int s = 0; s < segments; ++s) mesh.triangles.push_back({south, at(rings - 1, s + 1), at(rings - 1, s)});
+  const echoreg::core::TriangleMesh mesh = echoreg::core::uvSphere(Eigen::Vector3d::Zero(), 30.0, 24, 48);
   echoreg::filters::writeMesh(path, mesh);
 }
 

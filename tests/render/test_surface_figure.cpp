@@ -12,34 +12,6 @@ namespace {
 using echoreg::render::ColourBand;
 using echoreg::render::SurfaceFigure;
 
-// A closed octahedron-like bone stand-in: a UV sphere of radius 25 mm.
-echoreg::core::TriangleMesh sphereMesh(double radius) {
-  echoreg::core::TriangleMesh mesh;
-  const int rings = 24;
-  const int segments = 48;
-  mesh.vertices.push_back({0, 0, radius});
-  for (int r = 1; r < rings; ++r) {
-    const double theta = M_PI * r / rings;
-    for (int s = 0; s < segments; ++s) {
-      const double phi = 2 * M_PI * s / segments;
-      mesh.vertices.push_back({radius * std::sin(theta) * std::cos(phi),
-                               radius * std::sin(theta) * std::sin(phi), radius * std::cos(theta)});
-    }
-  }
-  mesh.vertices.push_back({0, 0, -radius});
-  const int south = static_cast<int>(mesh.vertices.size()) - 1;
-  auto at = [&](int r, int s) { return 1 + (r - 1) * segments + (s % segments); };
-  for (int s = 0; s < segments; ++s) mesh.triangles.push_back({0, at(1, s), at(1, s + 1)});
-  for (int r = 1; r < rings - 1; ++r) {
-    for (int s = 0; s < segments; ++s) {
-      mesh.triangles.push_back({at(r, s), at(r + 1, s), at(r + 1, s + 1)});
-      mesh.triangles.push_back({at(r, s), at(r + 1, s + 1), at(r, s + 1)});
-    }
-  }
-  for (int s = 0; s < segments; ++s) mesh.triangles.push_back({south, at(rings - 1, s + 1), at(rings - 1, s)});
-  return mesh;
-}
-
 TEST(SurfaceFigure, BandsFollowTheDissertation) {
   const auto bands = echoreg::render::registrationBands();
   ASSERT_EQ(bands.size(), 3u);
@@ -52,7 +24,7 @@ TEST(SurfaceFigure, BandsFollowTheDissertation) {
 
 TEST(SurfaceFigure, PointsAreDrawnInTheirBandColours) {
   SurfaceFigure figure;
-  figure.surface = sphereMesh(25.0);
+  figure.surface = echoreg::core::uvSphere(Eigen::Vector3d::Zero(), 25.0, 24, 48);
   // One point in front of the sphere (towards anterior, -y), coloured red (8 mm off).
   figure.points = {{0, -33, 0}};
   figure.valuesMm = {8.0};
