@@ -785,9 +785,11 @@ CommandAction addStudyCommand(CLI::App& app) {
   auto o = std::make_shared<StudyOptions>();
   CLI::App* run = cmd->add_subcommand(
       "run",
-      "Runs the study: stylus pivot, calibration, detection, registrations, evaluation and\n"
-      "figures, then writes DIR/results/report.html, report.md and results.json. Steps whose\n"
-      "inputs did not change since the last run are not run again (--force runs all).");
+      "Runs the study: stylus pivot, calibration, hip centre, the bones segmented from the CT\n"
+      "(the manifest's seeds), detection, registrations from ultrasound and from the mechanical\n"
+      "probe, evaluation, figures; then writes DIR/results/report.html, report.md and\n"
+      "results.json (docs/study.md). Steps whose command line and input files did not change\n"
+      "since the last run are not run again (--force runs all). Progress on a terminal.");
   run->add_option("dir", o->dir, "Study folder (holds study.json)")->required();
   run->add_flag("--force", o->force, "Run every step again");
   run->add_flag("--given-models", o->givenModels,
