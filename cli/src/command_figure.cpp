@@ -144,6 +144,7 @@ struct RegistrationOptions : SurfaceOptions {
   std::string model;
   std::string points;
   std::string transform;
+  std::vector<std::string> context;
 };
 
 CommandAction addRegistrationFigure(CLI::App* parent) {
@@ -158,12 +159,15 @@ CommandAction addRegistrationFigure(CLI::App* parent) {
                   "(the output of `echoreg detect --reference`)")->required();
   cmd->add_option("--transform", o->transform,
                   "Registration mapping the points' frame to CT, e.g. FemurToCT.json")->required();
+  cmd->add_option("--context", o->context,
+                  "Neighbouring models drawn translucent (CT coordinates), e.g. the patella; repeat");
   addSurfaceOptions(cmd, *o, 3.0, 5.0, 1.5);
   addCropOption(cmd, *o, 30.0);
   return [o, cmd](const Streams& streams) {
     (void)cmd;
     render::SurfaceFigure figure;
     figure.surface = filters::readMesh(o->model);
+    for (const std::string& path : o->context) figure.context.push_back(filters::readMesh(path));
     const TransformFile transform = readTransformFile(o->transform, "", "CT");
     const Eigen::Isometry3d toCt(transform.matrix);
     const core::MeshLocator locator(figure.surface);

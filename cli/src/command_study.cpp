@@ -411,14 +411,22 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       const std::string reference = !run.mechanical.empty() && fs::exists(run.mechanical)
                                         ? run.mechanical : estimates.front();
       run.figure = fmt::format("{}/figures/{}_registration.png", results, run.name);
+      std::vector<std::string> figureArgs = {
+          "figure", "registration", "--model", run.model, "--points", run.points.front(),
+          "--transform", reference, "--title",
+          fmt::format("{}: ultrasound points through the {} registration", Bone,
+                      reference == run.mechanical ? "mechanical-probe" : "ultrasound"),
+          "--out", run.figure};
+      std::vector<std::string> figureInputs = {run.model, run.points.front(), reference};
+      // The patella beside the femur (a simulated study's truth): where its stray echoes land.
+      if (const std::string patella = manifest.file("/truth/patella", false);
+          run.name == "femur" && !patella.empty() && fs::exists(patella)) {
+        figureArgs.insert(figureArgs.end(), {"--context", patella});
+        figureInputs.push_back(patella);
+      }
       stage.push_back({fmt::format("figure-{}-registration", run.name),
                        fmt::format("{}: registration figure", run.name),
-                       {"figure", "registration", "--model", run.model, "--points", run.points.front(),
-                        "--transform", reference, "--title",
-                        fmt::format("{}: ultrasound points through the {} registration", Bone,
-                                    reference == run.mechanical ? "mechanical-probe" : "ultrasound"),
-                        "--out", run.figure},
-                       {run.model, run.points.front(), reference}, {run.figure}, false});
+                       figureArgs, figureInputs, {run.figure}, false});
     }
     runSteps(stage);
   }
@@ -663,7 +671,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       report.figure(fs::relative(run.figure, results).generic_string(),
                     fmt::format("The {}'s ultrasound points mapped by the reference registration "
                                 "(Eq. 4.6), coloured by their distance to the model: green < 3 mm, "
-                                "yellow 3-5 mm, red > 5 mm (Figs. 5.6-5.9, 5.30-5.35).", run.name));
+                                "yellow 3-5 mm, red > 5 mm (Figs. 5.6-5.9, 5.30-5.35); the patella, "
+                                "when the study has it, translucent blue.", run.name));
     }
     registrations[run.name] = entry;
   }

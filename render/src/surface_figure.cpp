@@ -123,18 +123,29 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
     lo = lo.cwiseMin(p - Eigen::Vector3d::Constant(figure.pointRadiusMm));
     hi = hi.cwiseMax(p + Eigen::Vector3d::Constant(figure.pointRadiusMm));
   }
-  if (figure.cropMarginMm > 0.0 && !figure.points.empty()) {
-    const Eigen::Vector3d boxLo = lo - Eigen::Vector3d::Constant(figure.cropMarginMm);
-    const Eigen::Vector3d boxHi = hi + Eigen::Vector3d::Constant(figure.cropMarginMm);
-    shown.triangles.clear();
-    for (const auto& t : figure.surface.triangles) {
+  const bool crop = figure.cropMarginMm > 0.0 && !figure.points.empty();
+  const Eigen::Vector3d boxLo = lo - Eigen::Vector3d::Constant(figure.cropMarginMm);
+  const Eigen::Vector3d boxHi = hi + Eigen::Vector3d::Constant(figure.cropMarginMm);
+  // The triangles of `mesh` inside the crop box (all of them without cropping).
+  const auto cropped = [&](const core::TriangleMesh& mesh) {
+    core::TriangleMesh out = mesh;
+    if (!crop) return out;
+    out.triangles.clear();
+    for (const auto& t : mesh.triangles) {
       bool inside = true;
       for (int c = 0; c < 3 && inside; ++c) {
-        const Eigen::Vector3d& v = figure.surface.vertices[static_cast<std::size_t>(t[static_cast<std::size_t>(c)])];
+        const Eigen::Vector3d& v = mesh.vertices[static_cast<std::size_t>(t[static_cast<std::size_t>(c)])];
         inside = (v.array() >= boxLo.array()).all() && (v.array() <= boxHi.array()).all();
       }
-      if (inside) shown.triangles.push_back(t);
+      if (inside) out.triangles.push_back(t);
     }
+    return out;
+  };
+  shown = cropped(figure.surface);
+  std::vector<vtkSmartPointer<vtkPolyData>> contextData;
+  for (const core::TriangleMesh& mesh : figure.context) {
+    const core::TriangleMesh part = cropped(mesh);
+    if (!part.triangles.empty()) contextData.push_back(toPolyData(part));
   }
   for (const auto& t : shown.triangles) {
     for (int c = 0; c < 3; ++c) {
@@ -194,6 +205,16 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
       actor->SetMapper(mapper);
       actor->GetProperty()->SetColor(figure.surfaceRgb[0], figure.surfaceRgb[1], figure.surfaceRgb[2]);
       actor->GetProperty()->SetSpecular(0.15);
+      renderer->AddActor(actor);
+    }
+    for (const auto& data : contextData) {
+      vtkNew<vtkPolyDataMapper> mapper;
+      mapper->SetInputData(data);
+      mapper->ScalarVisibilityOff();
+      vtkNew<vtkActor> actor;
+      actor->SetMapper(mapper);
+      actor->GetProperty()->SetColor(0.62, 0.70, 0.85);
+      actor->GetProperty()->SetOpacity(0.35);
       renderer->AddActor(actor);
     }
     if (!figure.points.empty()) {

@@ -40,6 +40,9 @@ const char* viewName(View view);
 struct SurfaceFigure {
   core::TriangleMesh surface;           ///< CT coordinates (LPS, mm)
   std::array<double, 3> surfaceRgb{0.89, 0.85, 0.79};  ///< bone
+  /// Neighbouring surfaces drawn translucent for context (e.g. the patella in front of the femur,
+  /// where stray echoes land), cropped like the surface; they do not move the cameras.
+  std::vector<core::TriangleMesh> context;
   std::vector<Eigen::Vector3d> points;  ///< CT coordinates
   std::vector<double> valuesMm;         ///< per point, the value coloured (distance to surface)
   std::vector<ColourBand> bands = registrationBands();
