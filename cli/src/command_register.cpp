@@ -673,8 +673,9 @@ CommandAction addRegisterCommand(CLI::App& app) {
       ->group("Start");
   cmd->add_option("--hip-centre", o->hipCentre,
                   "Femur: HipCentreTo<Bone> JSON (echoreg pivot --marker FemurToTracker), paired "
-                  "with the CT "
-                  "landmark --hip-label as one more landmark")
+                  "with the CT landmark --hip-label as one more landmark. Give it: from the two "
+                  "epicondyles alone the rotation about their line rests on the distal femur's "
+                  "round condyles, which can fit a wrong rotation well (docs/registration.md)")
       ->group("Start");
   cmd->add_option("--hip-label", o->hipLabel, "CT landmark of the hip centre")
       ->capture_default_str()
