@@ -551,6 +551,18 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
     out.extra["speed_of_sound_mps"] = speedOfSound * r.speedOfSoundScale;
   if (!r.converged)
     out.extra["message"] = r.message;
+  // A start from two landmarks leaves the rotation about their line to the surface points: on a
+  // round surface (the femur's condyles) a wrong rotation can fit them as well as the right one,
+  // and no fit statistic shows it. Said in the result and on stderr, never silently.
+  std::vector<std::string> warnings;
+  if (options.searchAboutAxis) {
+    warnings.push_back(
+        "started from two landmarks: the rotation about their line rests on the surface points "
+        "alone, which a round surface cannot always fix (docs/registration.md, finding b); " +
+        std::string(o.bone == "Femur" ? "give --hip-centre" : "give a third landmark") +
+        " to tie it down");
+  }
+  out.extra["warnings"] = warnings;
   const std::string tfm = writeTransformFile(o.out, out);
   if (o.json) {
     nlohmann::json summary = out.extra;
@@ -566,6 +578,8 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
         o.out, o.bone, r.rmsMm, r.pointsUsed, r.rmsAllMm, points.size(), r.pointsRejected,
         r.speedOfSoundScale, r.iterations, r.starts, r.converged ? "" : ", NOT CONVERGED");
   }
+  for (const std::string& warning : warnings)
+    io.err << "echoreg register: warning: " << warning << "\n";
   if (!r.converged) {
     io.err << fmt::format(
         "echoreg register: {}: not converged: {} (written with \"converged\": false)\n", o.out,
