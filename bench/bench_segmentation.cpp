@@ -14,6 +14,7 @@
 #include "echoreg/segmentation/livewire_contours.hpp"
 #include "echoreg/segmentation/surface_metrics.hpp"
 
+#include "mesh_test_support.hpp"
 #include "simulated_knee.hpp"
 #include "test_support.hpp"
 
@@ -29,28 +30,8 @@ const simulation::Bone& femur() {
 
 // The femur's seed: 15 mm below the group's top, the inside point nearest its section's centroid.
 Eigen::Vector3d femurSeed() {
-  static const Eigen::Vector3d seed = [] {
-    const core::MeshLocator locator(femur().mesh);
-    const double z = test::simulatedKnee().kneeZMaxMm - 15.0;
-    const auto b = core::bounds(femur().mesh);
-    std::vector<Eigen::Vector3d> inside;
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-    for (double y = b[0].y(); y <= b[1].y(); y += 1.0) {
-      for (double x = b[0].x(); x <= b[1].x(); x += 1.0) {
-        if (locator.signedDistance({x, y, z}) < -3.0) {
-          inside.emplace_back(x, y, z);
-          sum += inside.back();
-        }
-      }
-    }
-    const Eigen::Vector3d c = sum / static_cast<double>(inside.size());
-    Eigen::Vector3d best = inside.front();
-    for (const auto& p : inside) {
-      if ((p - c).norm() < (best - c).norm())
-        best = p;
-    }
-    return best;
-  }();
+  static const Eigen::Vector3d seed =
+      *test::insidePointNearCentroid(femur().mesh, test::simulatedKnee().kneeZMaxMm - 15.0);
   return seed;
 }
 

@@ -63,6 +63,12 @@ std::vector<render::View> parseViews(const std::vector<std::string>& names) {
   return views;
 }
 
+// --width and --height of a figure, in pixels from `minimum` to 8192.
+void addSizeOptions(CLI::App* cmd, int& width, int& height, int minimum) {
+  cmd->add_option("--width", width, "Image width, pixels")->capture_default_str()->check(CLI::Range(minimum, 8192));
+  cmd->add_option("--height", height, "Image height, pixels")->capture_default_str()->check(CLI::Range(minimum, 8192));
+}
+
 struct SurfaceOptions {
   std::string out;
   std::string title;
@@ -87,8 +93,7 @@ void addSurfaceOptions(CLI::App* cmd, SurfaceOptions& o, double green, double re
   cmd->add_option("--point-radius", o.pointRadius, "Radius of the point spheres, mm")->capture_default_str();
   cmd->add_option("--views", o.views, "Views: coronal, sagittal, transverse (named from the CT axes)")
       ->delimiter(',')->capture_default_str();
-  cmd->add_option("--width", o.width, "Image width, pixels")->capture_default_str()->check(CLI::Range(200, 8192));
-  cmd->add_option("--height", o.height, "Image height, pixels")->capture_default_str()->check(CLI::Range(200, 8192));
+  addSizeOptions(cmd, o.width, o.height, 200);
   cmd->add_flag("--json", o.json, "Print the figure's numbers as JSON");
 }
 
@@ -267,8 +272,7 @@ CommandAction addSignalsFigure(CLI::App* parent) {
       ->capture_default_str();
   cmd->add_option("--out", o->out, "PNG to write")->required();
   cmd->add_option("--title", o->title, "Title over the figure");
-  cmd->add_option("--width", o->width, "Image width, pixels")->capture_default_str()->check(CLI::Range(300, 8192));
-  cmd->add_option("--height", o->height, "Image height, pixels")->capture_default_str()->check(CLI::Range(300, 8192));
+  addSizeOptions(cmd, o->width, o->height, 300);
   cmd->add_flag("--json", o->json, "Print each setting's verdict as JSON");
   return [o](const Streams& streams) {
     const Sequence sequence = readSequence(o->capture);
@@ -380,8 +384,7 @@ CommandAction addBoxplotFigure(CLI::App* parent) {
   cmd->add_option("--out", o->out, "PNG to write")->required();
   cmd->add_option("--title", o->title, "Title over the figure");
   cmd->add_option("--ylabel", o->yLabel, "Label of the value axis (default: the column)");
-  cmd->add_option("--width", o->width, "Image width, pixels")->capture_default_str()->check(CLI::Range(300, 8192));
-  cmd->add_option("--height", o->height, "Image height, pixels")->capture_default_str()->check(CLI::Range(300, 8192));
+  addSizeOptions(cmd, o->width, o->height, 300);
   cmd->add_flag("--json", o->json, "Print the groups' summaries and the ANOVA as JSON");
   return [o](const Streams& streams) {
     std::vector<render::BoxGroup> groups;

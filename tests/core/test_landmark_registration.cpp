@@ -26,15 +26,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
-template <typename Call>
-std::string thrownMessage(Call call) {
-  try {
-    call();
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::thrownMessage;
 
 Eigen::Isometry3d someTransform() {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();

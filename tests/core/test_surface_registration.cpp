@@ -7,6 +7,8 @@
 #include "echoreg/core/surface_registration.hpp"
 #include "mesh_test_support.hpp"
 
+#include "test_support.hpp"
+
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -21,15 +23,7 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180.0;
 
-template <typename Call>
-std::string thrownMessage(Call call) {
-  try {
-    call();
-  } catch (const std::invalid_argument& e) {
-    return e.what();
-  }
-  return "";
-}
+using test::thrownMessage;
 
 // A lumpy egg (no symmetry): an icosphere mapped radially by a positive function, then stretched.
 TriangleMesh lumpyShape() {

@@ -3,6 +3,7 @@
 // a simulated user placed (--anchors), against the truth inside the knee group. Targets (issue 5):
 // mean symmetric surface distance <= 0.5 mm, 95th percentile <= 1.5 mm, Dice >= 0.97.
 #include "cli_test_support.hpp"
+#include "mesh_test_support.hpp"
 #include "study_checks.hpp"
 #include "test_support.hpp"
 
@@ -26,26 +27,9 @@ using test::runEchoreg;
 
 // The inside point of `mesh` nearest the centroid of its section at height z (3 mm or more deep).
 Eigen::Vector3d insidePoint(const core::TriangleMesh& mesh, double z) {
-  const core::MeshLocator locator(mesh);
-  const auto b = core::bounds(mesh);
-  std::vector<Eigen::Vector3d> inside;
-  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  for (double y = b[0].y(); y <= b[1].y(); y += 1.0) {
-    for (double x = b[0].x(); x <= b[1].x(); x += 1.0) {
-      if (locator.signedDistance({x, y, z}) < -3.0) {
-        inside.emplace_back(x, y, z);
-        sum += inside.back();
-      }
-    }
-  }
-  EXPECT_FALSE(inside.empty());
-  const Eigen::Vector3d c = sum / static_cast<double>(std::max<std::size_t>(inside.size(), 1));
-  Eigen::Vector3d best = c;
-  for (const auto& p : inside) {
-    if ((p - c).norm() < (best - c).norm() || best == c)
-      best = p;
-  }
-  return best;
+  const std::optional<Eigen::Vector3d> p = test::insidePointNearCentroid(mesh, z);
+  EXPECT_TRUE(p.has_value()) << "no point 3 mm inside at z " << z;
+  return p.value_or(Eigen::Vector3d::Zero());
 }
 
 class Segment : public ::testing::Test {

@@ -1,10 +1,14 @@
 #include "mesh_test_support.hpp"
 
+#include "echoreg/core/mesh_locator.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
 #include <map>
+#include <optional>
 #include <utility>
+#include <vector>
 
 namespace echoreg::test {
 
@@ -140,6 +144,29 @@ double windingNumber(const core::TriangleMesh& mesh, const Eigen::Vector3d& poin
     sum += 2.0 * std::atan2(numerator, denominator);
   }
   return sum / (4.0 * 3.14159265358979323846);
+}
+
+std::optional<Eigen::Vector3d> insidePointNearCentroid(const core::TriangleMesh& mesh, double z,
+                                                       double depthMm) {
+  const core::MeshLocator locator(mesh);
+  const auto b = core::bounds(mesh);
+  std::vector<Eigen::Vector3d> inside;
+  Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  for (double y = b[0].y(); y <= b[1].y(); y += 1.0) {
+    for (double x = b[0].x(); x <= b[1].x(); x += 1.0) {
+      if (locator.signedDistance({x, y, z}) < -depthMm) {
+        inside.emplace_back(x, y, z);
+        sum += inside.back();
+      }
+    }
+  }
+  if (inside.empty()) return std::nullopt;
+  const Eigen::Vector3d c = sum / static_cast<double>(inside.size());
+  Eigen::Vector3d best = inside.front();
+  for (const auto& p : inside) {
+    if ((p - c).norm() < (best - c).norm()) best = p;
+  }
+  return best;
 }
 
 }  // namespace echoreg::test

@@ -34,4 +34,9 @@ std::optional<BruteHit> bruteFirstHit(const core::TriangleMesh& mesh, const Eige
 /// inside a closed outward-wound surface, about 0 outside.
 double windingNumber(const core::TriangleMesh& mesh, const Eigen::Vector3d& point);
 
+/// A seed inside a closed mesh: on a 1 mm grid of its section at height z, the point at least
+/// `depthMm` inside that lies nearest the centroid of all such points; nullopt when none is.
+std::optional<Eigen::Vector3d> insidePointNearCentroid(const core::TriangleMesh& mesh, double z,
+                                                       double depthMm = 3.0);
+
 }  // namespace echoreg::test

@@ -1,9 +1,21 @@
 // Helpers shared by the test programs: the shared-data folder and fresh temporary folders.
 #pragma once
 
+#include <stdexcept>
 #include <string>
 
 namespace echoreg::test {
+
+/// What `call()` throws as std::invalid_argument, or "" when it throws nothing.
+template <typename Call>
+std::string thrownMessage(Call call) {
+  try {
+    call();
+  } catch (const std::invalid_argument& e) {
+    return e.what();
+  }
+  return "";
+}
 
 /// The folder of ../shared/data, or "" when it is absent (tests then GTEST_SKIP with a message).
 std::string sharedDataDir();
