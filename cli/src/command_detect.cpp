@@ -53,21 +53,47 @@ const std::vector<Tunable>& tunables() {
   static const std::vector<Tunable> list{
       {"envelope", "Envelope", "Envelope: mozes | hann | stddev | hilbert (default hann)", std::string(),
        [](P& p, const V& v) { p.envelope.method = parseEnvelopeMethod(as<std::string>(v)); }},
-      {"ring-down", "Envelope", "Samples zeroed at the start (ring-down), default 200", 0,
-       [](P& p, const V& v) { p.envelope.ringDownSamples = as<int>(v); }},
+      {"transducer-frequency", "Envelope",
+       "Transducer centre frequency, Hz (default: capture header, else measured from the "
+       "capture's spectrum); sets the high-pass, the envelope window and the hilbert band",
+       0.0,
+       [](P& p, const V& v) {
+         p.transducerFrequencyHz = as<double>(v);
+         p.envelope.transducerFrequencyHz = as<double>(v);
+       }},
+      {"ring-down", "Envelope",
+       "Samples of ring-down at the start of each record (default: measured where the median "
+       "record's burst ends; mozes2008 and calibration: 200)",
+       0,
+       [](P& p, const V& v) {
+         p.adapt.ringDown = false;
+         p.envelope.ringDownSamples = as<int>(v);
+       }},
+      {"high-pass", "Envelope",
+       "Conditioning high-pass corner, Hz, 0 = remove the mean only (default: half the "
+       "transducer frequency; mozes2008: 0)",
+       0.0,
+       [](P& p, const V& v) {
+         p.adapt.highPassOfTransducer = 0.0;
+         p.adapt.highPassHz = as<double>(v);
+         p.envelope.highPassSamples = 0;
+       }},
       {"butterworth-order", "Envelope", "mozes: Butterworth order 1..12, default 2", 0,
        [](P& p, const V& v) { p.envelope.butterworthOrder = as<int>(v); }},
       {"cutoff", "Envelope", "mozes: cutoff as a fraction of Nyquist, default 0.01", 0.0,
        [](P& p, const V& v) { p.envelope.cutoffNormalized = as<double>(v); }},
       {"causal", "Envelope",
        "mozes: one causal pass as the dissertation (delays peaks by 45 samples, 0.69 mm at "
-       "50 MHz/1540 m/s, for order 2 at 0.01); default zero-phase",
+       "50 MHz/1540 m/s, for order 2 at 0.01); --causal=false is zero-phase (the default)",
        false, [](P& p, const V& v) { p.envelope.zeroPhase = !as<bool>(v); }},
       {"envelope-window", "Envelope",
-       "hann/stddev: window in samples (default preset: 7; PLUS uses 153 at 420 MHz)", 0,
-       [](P& p, const V& v) { p.envelope.windowSamples = as<int>(v); }},
-      {"transducer-frequency", "Envelope", "hilbert: band centre, Hz, default 9e6", 0.0,
-       [](P& p, const V& v) { p.envelope.transducerFrequencyHz = as<double>(v); }},
+       "hann/stddev: window in samples (default: 1.25 transducer periods, 7 for 9 MHz at "
+       "50 MHz; PLUS uses 153 at 420 MHz)",
+       0,
+       [](P& p, const V& v) {
+         p.adapt.envelopeCycles = 0.0;
+         p.envelope.windowSamples = as<int>(v);
+       }},
       {"relative-bandwidth", "Envelope", "hilbert: -6 dB band / centre, default 0.8", 0.0,
        [](P& p, const V& v) { p.envelope.relativeBandwidth = as<double>(v); }},
       {"smoothing", "Envelope", "hilbert: box smoothing in samples, default 5", 0,
@@ -87,8 +113,31 @@ const std::vector<Tunable>& tunables() {
          p.windowMinMm = as<std::vector<double>>(v).at(0);
          p.windowMaxMm = as<std::vector<double>>(v).at(1);
        }},
-      {"peaks", "Peaks", "Policy: bone (default) | single | double | window-max | first | max",
+      {"peaks", "Peaks",
+       "Policy: prominence (default) | bone | single | double | window-max | first | max",
        std::string(), [](P& p, const V& v) { p.peaks.policy = parsePeakPolicy(as<std::string>(v)); }},
+      {"echo-snr", "Prominence policy", "prominence: min peak / noise floor (8)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.minSnr = as<double>(v); }},
+      {"echo-over-median", "Prominence policy", "prominence: min peak / median envelope (3)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.minOverMedian = as<double>(v); }},
+      {"echo-prominence", "Prominence policy", "prominence: min prominence / peak, (0, 1] (0.5)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.minProminence = as<double>(v); }},
+      {"echo-max-rise", "Prominence policy",
+       "prominence: max leading edge, transducer periods (4)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.maxRiseCycles = as<double>(v); }},
+      {"echo-contrast", "Prominence policy", "prominence: min peak / median before it (2)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.minContrast = as<double>(v); }},
+      {"echo-region-mm", "Prominence policy", "prominence: before/after region, mm (2)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.regionMm = as<double>(v); }},
+      {"echo-wall-step", "Prominence policy",
+       "prominence: median after / before an echo at which it is a wall (skin, membrane) (3)",
+       0.0, [](P& p, const V& v) { p.peaks.prominence.wallStep = as<double>(v); }},
+      {"echo-air-reverberation", "Prominence policy",
+       "prominence: a second bounce this strong (x peak) means air, an uncoupled probe (0.6)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.airReverberation = as<double>(v); }},
+      {"echo-similar", "Prominence policy",
+       "prominence: echoes within this fraction of the strongest compete on depth (0.6)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.similarRatio = as<double>(v); }},
       {"no-subsample", "Peaks", "Report the integer sample of the peak (no parabola)", false,
        [](P& p, const V& v) { p.peaks.subsample = !as<bool>(v); }},
       {"bone-region-mm", "Bone policy", "bone: tissue/shadow region length, mm (3)", 0.0,
@@ -111,13 +160,25 @@ const std::vector<Tunable>& tunables() {
        [](P& p, const V& v) { p.depth.delayS = as<double>(v); }},
       {"speed-of-sound", "Depth", "m/s; default: capture header, else 1540", 0.0,
        [](P& p, const V& v) { p.depth.speedOfSoundMps = as<double>(v); }},
-      {"history", "Inter-signal", "Temporal filter: consecutive agreeing frames, default 3 (1 = off)", 0,
+      {"temporal", "Inter-signal",
+       "Temporal filter: neighbours (default: each depth against the frames nearest in time) | "
+       "run (the dissertation's consecutive 3D run)",
+       std::string(),
+       [](P& p, const V& v) { p.interSignal.temporal = parseTemporalMode(as<std::string>(v)); }},
+      {"history", "Inter-signal",
+       "Temporal filter: frames that must agree, this one included (default 2; run: 3; 1 = off)", 0,
        [](P& p, const V& v) { p.interSignal.history = as<int>(v); }},
       {"consistency-mm", "Inter-signal", "Temporal filter: agreement, mm, default 0.5", 0.0,
        [](P& p, const V& v) { p.interSignal.consistencyMm = as<double>(v); }},
+      {"max-depth-rate", "Inter-signal",
+       "neighbours: how fast the depth may change, mm/s, default 60", 0.0,
+       [](P& p, const V& v) { p.interSignal.maxDepthRateMmPerS = as<double>(v); }},
+      {"max-gap", "Inter-signal", "neighbours: longest time to a neighbour, s, default 0.2", 0.0,
+       [](P& p, const V& v) { p.interSignal.maxGapS = as<double>(v); }},
       {"min-spread-mm", "Inter-signal",
-       "Spatial filter: min distance between points, mm, default 1 (0 = off)", 0.0,
-       [](P& p, const V& v) { p.interSignal.minSpreadMm = as<double>(v); }},
+       "Spatial filter on tracked points (--pose): min distance between points, mm, default 1 "
+       "(0 = off)",
+       0.0, [](P& p, const V& v) { p.interSignal.minSpreadMm = as<double>(v); }},
   };
   return list;
 }
@@ -146,8 +207,10 @@ void addTunableFlags(CLI::App* cmd, TunableSettings& settings) {
         [&](const auto& type) -> CLI::Option* {
           using T = std::decay_t<decltype(type)>;
           if constexpr (std::is_same_v<T, bool>) {
-            return cmd->add_flag_callback(flag, [&settings, name] { settings[name] = true; },
-                                          tunable.help);
+            // --causal, --causal=true and --causal=false all mean what they say.
+            return cmd->add_flag_function(
+                flag, [&settings, name](std::int64_t count) { settings[name] = count > 0; },
+                tunable.help);
           } else {
             return cmd->add_option_function<T>(
                 flag, [&settings, name](const T& value) { settings[name] = value; }, tunable.help);
@@ -189,13 +252,32 @@ void mergeParamsFile(const std::string& file, std::string& preset, TunableSettin
           [&value = value](const auto& type) -> TunableValue {
             using T = std::decay_t<decltype(type)>;
             if constexpr (std::is_same_v<T, int>) {
+              // 30 and 30.0 are the same count of samples; 30.5 is not a count.
+              if (value.is_number_float()) {
+                const double number = value.get<double>();
+                if (!(std::floor(number) == number) || std::fabs(number) > 1e9) {
+                  throw nlohmann::json::type_error::create(302, "", nullptr);
+                }
+                return static_cast<int>(number);
+              }
               if (!value.is_number_integer()) throw nlohmann::json::type_error::create(302, "", nullptr);
             }
             return value.get<T>();
           },
           tunable->type);
     } catch (const nlohmann::json::exception&) {
-      throw FileError(file, fmt::format("parameter \"{}\" has the wrong type", key));
+      const char* expected = std::visit(
+          [](const auto& type) -> const char* {
+            using T = std::decay_t<decltype(type)>;
+            if constexpr (std::is_same_v<T, int>) return "a whole number";
+            if constexpr (std::is_same_v<T, double>) return "a number";
+            if constexpr (std::is_same_v<T, bool>) return "true or false";
+            if constexpr (std::is_same_v<T, std::string>) return "a string";
+            return "[min, max]";
+          },
+          tunable->type);
+      throw FileError(file, fmt::format("parameter \"{}\" must be {}, found {}", key, expected,
+                                        value.dump()));
     }
     if (key == "window-mm" && as<std::vector<double>>(settings[key]).size() != 2) {
       throw FileError(file, "parameter \"window-mm\" must be [min, max] in mm");
@@ -261,7 +343,15 @@ nlohmann::json summary(const SequenceDetection& detection, const DetectionParams
           {"peaks", std::string(peakPolicyName(params.peaks.policy))},
           {"sampling_frequency_hz", params.depth.samplingFrequencyHz},
           {"delay_s", params.depth.delayS},
-          {"speed_of_sound_mps", params.depth.speedOfSoundMps}};
+          {"speed_of_sound_mps", params.depth.speedOfSoundMps},
+          {"echoes_before_inter_signal", detection.echoes},
+          {"transducer_frequency_hz", detection.analysis.transducerFrequencyHz},
+          {"transducer_frequency_source", detection.analysis.transducerFrequencySource},
+          {"ring_down_samples", detection.analysis.ringDownSamples},
+          {"ring_down_source", detection.analysis.ringDownSource},
+          {"high_pass_samples", detection.analysis.highPassSamples},
+          {"envelope_window_samples", detection.analysis.envelopeWindowSamples},
+          {"warnings", detectionWarnings(detection)}};
 }
 
 }  // namespace
@@ -315,8 +405,11 @@ CommandAction addDetectCommand(CLI::App& app) {
       throw FileError(o->capture, e.what());
     }
     writeCsv(detection, !points.poseTransform.empty(), o->out);
+    for (const std::string& warning : detectionWarnings(detection)) {
+      io.err << "echoreg detect: warning: " << warning << "\n";
+    }
     if (o->json) {
-      io.out << summary(detection, params, *o, preset).dump(2) << "\n";
+      io.out << summary(detection, detection.params, *o, preset).dump(2) << "\n";
     } else {
       io.out << fmt::format("{}: {} of {} frames accepted", o->out, detection.accepted,
                             detection.frames.size());

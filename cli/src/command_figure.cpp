@@ -305,6 +305,8 @@ CommandAction addSignalsFigure(CLI::App* parent) {
       DetectionParams params = detectionPreset(o->presets[s]);
       params.depth = depthFromSequence(sequence, params.depth);
       params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
+      // What the preset measures from the capture (ring-down, transducer band), as detect does.
+      params = adaptToSequence(sequence, params);
       SignalDetector detector(params);
       const SignalDetection detection = detector.detect(samples.data(), static_cast<int>(samples.size()));
       render::PlotPanel panel;

@@ -1,6 +1,10 @@
 #include "echoreg/core/detection.hpp"
 
+#include <unsupported/Eigen/FFT>
+
+#include <algorithm>
 #include <cmath>
+#include <complex>
 #include <stdexcept>
 #include <string>
 
@@ -9,19 +13,48 @@ namespace echoreg {
 namespace {
 
 void require(bool condition, const std::string& message) {
-  if (!condition) throw std::invalid_argument(message);
+  if (!condition)
+    throw std::invalid_argument(message);
+}
+
+std::string fmt_transducer_fallback(double hz) {
+  return "the capture's spectrum shows no transducer band between 1 MHz and 0.45 x the sampling "
+         "frequency; assuming " +
+         std::to_string(hz / 1e6) + " MHz (give --transducer-frequency)";
 }
 
 }  // namespace
 
-std::vector<std::string> detectionPresetNames() { return {"default", "mozes2008", "calibration"}; }
+std::vector<std::string> detectionPresetNames() {
+  return {"default", "mozes2008", "calibration", "shadow"};
+}
 
 DetectionParams detectionPreset(std::string_view name) {
   DetectionParams params;
   if (name == "default") {
-    // Specimens: a short Hann envelope (7 samples, 0.14 us: shorter than a 9 MHz pulse, so an
-    // echo's peak is not averaged down into the speckle) and the bone policy, which looks for the
-    // deepest echo with tissue in front of it and a shadow behind it.
+    // Any probe and digitiser, any anatomy: everything that depends on the hardware is measured
+    // from the capture (adaptToCapture). The record is conditioned by a high-pass at half the
+    // transducer frequency (DC offsets and the slow baseline drift of real front ends go), the
+    // envelope is a Hann average over 1.25 periods of the transducer (7 samples for 9 MHz at
+    // 50 MHz: shorter than a pulse, so an echo is not averaged into the speckle), the ring-down
+    // ends where the median record's burst does, and the prominence policy picks the echo from
+    // the record's own statistics. The temporal filter compares each depth with its neighbours
+    // in time, allowing the bone to move; the spatial filter runs on tracked points only.
+    params.envelope.method = EnvelopeMethod::Hann;
+    params.envelope.windowSamples = 7;
+    params.envelope.ringDownSamples = 0;
+    params.adapt.ringDown = true;
+    params.adapt.highPassOfTransducer = 0.5;
+    params.adapt.envelopeCycles = 1.25;
+    params.peaks.policy = PeakPolicy::Prominence;
+    params.interSignal.temporal = TemporalMode::Neighbours;
+    params.interSignal.history = 2;
+    return params;
+  }
+  if (name == "shadow") {
+    // echoreg 0.x's default, kept for comparison: a 7-sample Hann envelope after a 200-sample
+    // ring-down and the bone policy (tissue before, an acoustic shadow behind), with the
+    // dissertation's run filter.
     params.envelope.method = EnvelopeMethod::Hann;
     params.envelope.windowSamples = 7;
     params.envelope.ringDownSamples = 200;
@@ -55,16 +88,40 @@ DetectionParams detectionPreset(std::string_view name) {
     return params;
   }
   throw std::invalid_argument("unknown preset '" + std::string(name) +
-                              "' (expected default, mozes2008 or calibration)");
+                              "' (expected default, mozes2008, calibration or shadow)");
 }
 
 void validate(const DetectionParams& params) {
   validate(params.envelope);
-  require(params.depth.samplingFrequencyHz > 0.0 && std::isfinite(params.depth.samplingFrequencyHz),
-          "sampling frequency must be > 0 Hz");
-  require(params.depth.speedOfSoundMps > 0.0 && std::isfinite(params.depth.speedOfSoundMps),
-          "speed of sound must be > 0 m/s");
-  require(std::isfinite(params.depth.delayS), "delay must be finite");
+  const double fs = params.depth.samplingFrequencyHz;
+  require(std::isfinite(fs) && fs >= 1e5 && fs <= 1e11,
+          "sampling frequency must be between 100 kHz and 100 GHz");
+  const double c = params.depth.speedOfSoundMps;
+  require(std::isfinite(c) && c >= 300.0 && c <= 6000.0,
+          "speed of sound must be between 300 and 6000 m/s (soft tissue 1450-1600, water 1480)");
+  require(std::isfinite(params.depth.delayS) && params.depth.delayS >= 0.0 &&
+              params.depth.delayS <= 1e-3,
+          "delay must be between 0 and 1 ms (the time from the pulse to sample 0; a negative "
+          "delay would put samples before the pulse, at negative depths)");
+  if (params.transducerFrequencyHz) {
+    require(std::isfinite(*params.transducerFrequencyHz) && *params.transducerFrequencyHz > 0.0 &&
+                *params.transducerFrequencyHz < fs / 2.0,
+            "transducer frequency must be between 0 and half the sampling frequency");
+  }
+  require(params.adapt.highPassOfTransducer >= 0.0 && params.adapt.highPassOfTransducer < 2.0,
+          "high-pass fraction of the transducer frequency must be in [0, 2)");
+  require(std::isfinite(params.adapt.highPassHz) && params.adapt.highPassHz >= 0.0 &&
+              params.adapt.highPassHz < fs / 2.0,
+          "high-pass corner must be between 0 (off) and half the sampling frequency");
+  require(params.adapt.envelopeCycles >= 0.0 && params.adapt.envelopeCycles <= 100.0,
+          "envelope window in transducer periods must be in [0, 100]");
+  require(params.interSignal.maxDepthRateMmPerS >= 0.0 &&
+              std::isfinite(params.interSignal.maxDepthRateMmPerS),
+          "maximum depth rate must be >= 0 mm/s");
+  require(params.interSignal.maxGapS > 0.0 && std::isfinite(params.interSignal.maxGapS),
+          "maximum gap must be > 0 s");
+  require(params.interSignal.frameRateHz > 0.0 && std::isfinite(params.interSignal.frameRateHz),
+          "frame rate must be > 0 Hz");
   if (params.windowMinMm && params.windowMaxMm) {
     require(*params.windowMinMm < *params.windowMaxMm, "window min must be below window max");
   }
@@ -77,6 +134,13 @@ void validate(const DetectionParams& params) {
 PeakParams resolvePeakParams(const DetectionParams& params) {
   PeakParams peaks = params.peaks;
   peaks.mmPerSample = params.depth.mmPerSample();
+  const double fs = params.depth.samplingFrequencyHz;
+  const double transducer =
+      params.transducerFrequencyHz.value_or(params.envelope.transducerFrequencyHz);
+  if (transducer > 0.0)
+    peaks.samplesPerCycle = fs / transducer;
+  peaks.emissionSample = -params.depth.delayS * fs;
+  peaks.ringDownEnd = std::max(peaks.ringDownEnd, params.envelope.ringDownSamples);
   if (params.windowMinMm) {
     peaks.windowBegin = static_cast<int>(std::ceil(params.depth.sampleIndex(*params.windowMinMm)));
   }
@@ -97,7 +161,8 @@ SignalDetection SignalDetector::detect(const float* samples, int count) {
   envelopeDetector_.compute(samples, count, envelope_.data());
   SignalDetection detection;
   detection.peaks = findPeaks(params_.peaks, envelope_.data(), count);
-  if (detection.accepted()) detection.depthMm = params_.depth.depthMm(detection.peaks.sampleIndex);
+  if (detection.accepted())
+    detection.depthMm = params_.depth.depthMm(detection.peaks.sampleIndex);
   return detection;
 }
 
@@ -117,16 +182,344 @@ RejectReason InterSignalFilter::judge(const Eigen::Vector3d& pointMm) {
   run_.erase(run_.begin(), run_.end() - static_cast<std::ptrdiff_t>(agreeing));
   run_.push_back(pointMm);
   const auto history = static_cast<std::size_t>(params_.history);
-  if (run_.size() > history) run_.erase(run_.begin());
-  if (run_.size() < history) return RejectReason::Inconsistent;
+  if (run_.size() > history)
+    run_.erase(run_.begin());
+  if (run_.size() < history)
+    return RejectReason::Inconsistent;
 
   if (params_.minSpreadMm > 0.0) {
     for (const Eigen::Vector3d& accepted : accepted_) {
-      if ((accepted - pointMm).norm() < params_.minSpreadMm) return RejectReason::TooClose;
+      if ((accepted - pointMm).norm() < params_.minSpreadMm)
+        return RejectReason::TooClose;
     }
   }
   accepted_.push_back(pointMm);
   return RejectReason::None;
+}
+
+std::string_view temporalModeName(TemporalMode mode) {
+  switch (mode) {
+    case TemporalMode::Run:
+      return "run";
+    case TemporalMode::Neighbours:
+      return "neighbours";
+  }
+  return "?";
+}
+
+TemporalMode parseTemporalMode(std::string_view name) {
+  if (name == "run")
+    return TemporalMode::Run;
+  if (name == "neighbours")
+    return TemporalMode::Neighbours;
+  throw std::invalid_argument("unknown temporal filter '" + std::string(name) +
+                              "' (expected run or neighbours)");
+}
+
+std::vector<RejectReason> applyInterSignal(const InterSignalParams& params,
+                                           const std::vector<InterSignalInput>& frames,
+                                           bool tracked) {
+  std::vector<RejectReason> verdict(frames.size(), RejectReason::None);
+  std::vector<Eigen::Vector3d> accepted;
+  const auto spread = [&](const Eigen::Vector3d& point) {
+    if (!tracked || params.minSpreadMm <= 0.0)
+      return RejectReason::None;
+    for (const Eigen::Vector3d& other : accepted) {
+      if ((other - point).norm() < params.minSpreadMm)
+        return RejectReason::TooClose;
+    }
+    accepted.push_back(point);
+    return RejectReason::None;
+  };
+
+  if (params.temporal == TemporalMode::Run) {
+    InterSignalParams run = params;
+    if (!tracked)
+      run.minSpreadMm = 0.0;
+    InterSignalFilter filter(run);
+    for (std::size_t f = 0; f < frames.size(); ++f) {
+      if (frames[f].detected) {
+        verdict[f] = filter.judge(frames[f].pointMm);
+      } else {
+        filter.breakRun();
+      }
+    }
+    return verdict;
+  }
+
+  // Neighbours: the detected frames in order, with their times.
+  std::vector<std::size_t> detected;
+  for (std::size_t f = 0; f < frames.size(); ++f) {
+    if (frames[f].detected)
+      detected.push_back(f);
+  }
+  const auto timeOf = [&](std::size_t f) {
+    return frames[f].timestampS ? *frames[f].timestampS
+                                : static_cast<double>(f) / params.frameRateHz;
+  };
+  const int wanted = params.history - 1;
+  for (std::size_t k = 0; k < detected.size(); ++k) {
+    const std::size_t f = detected[k];
+    bool keep = wanted <= 0;
+    if (!keep) {
+      int agreeing = 0;
+      const auto agrees = [&](std::size_t g) {
+        const double dt = std::fabs(timeOf(g) - timeOf(f));
+        if (dt > params.maxGapS)
+          return false;
+        const double allowed = params.consistencyMm + params.maxDepthRateMmPerS * dt;
+        return std::fabs(frames[g].depthMm - frames[f].depthMm) <= allowed;
+      };
+      for (int step = 1; step <= wanted && k >= static_cast<std::size_t>(step); ++step) {
+        if (agrees(detected[k - static_cast<std::size_t>(step)]))
+          ++agreeing;
+      }
+      for (int step = 1; step <= wanted && k + static_cast<std::size_t>(step) < detected.size();
+           ++step) {
+        if (agrees(detected[k + static_cast<std::size_t>(step)]))
+          ++agreeing;
+      }
+      keep = agreeing >= wanted;
+    }
+    verdict[f] = keep ? spread(frames[f].pointMm) : RejectReason::Inconsistent;
+  }
+  return verdict;
+}
+
+namespace {
+
+// Indices of up to `wanted` records spread evenly over `count`.
+std::vector<int> spreadIndices(int count, int wanted) {
+  std::vector<int> indices;
+  const int n = std::min(count, wanted);
+  for (int k = 0; k < n; ++k) {
+    indices.push_back(static_cast<int>((static_cast<long long>(k) * count) / n));
+  }
+  return indices;
+}
+
+constexpr int kAnalysedRecords = 64;
+// A capture in which at least this share of the analysed records shows bone with its shadow is
+// judged with the shadow required.
+constexpr double kShadowCaptureShare = 0.2;
+
+}  // namespace
+
+double estimateTransducerFrequencyHz(int recordCount, int samples, const RecordSource& record,
+                                     double samplingFrequencyHz) {
+  if (recordCount <= 0 || samples < 16)
+    return 0.0;
+  int fftSize = 1;
+  while (fftSize < samples)
+    fftSize *= 2;
+  EnvelopeParams conditioning;
+  conditioning.samplingFrequencyHz = samplingFrequencyHz;
+  const int highPass = highPassLength(1e6, samplingFrequencyHz);
+  std::vector<double> power(static_cast<std::size_t>(fftSize / 2 + 1), 0.0);
+  std::vector<float> raw, input(static_cast<std::size_t>(fftSize), 0.F);
+  std::vector<std::complex<float>> spectrum;
+  Eigen::FFT<float> fft;
+  for (int index : spreadIndices(recordCount, kAnalysedRecords)) {
+    record(index, raw);
+    // A 1 MHz high-pass (moving average removed) so that baseline drift does not dominate.
+    const int length = std::min(highPass, samples);
+    const int before = (length - 1) / 2;
+    double sum = 0.0;
+    int begin = 0, end = 0;
+    for (int i = 0; i < samples; ++i) {
+      const int wantEnd = std::min(samples, i + length - before);
+      const int wantBegin = std::max(0, i - before);
+      for (; end < wantEnd; ++end)
+        sum += raw[static_cast<std::size_t>(end)];
+      for (; begin < wantBegin; ++begin)
+        sum -= raw[static_cast<std::size_t>(begin)];
+      input[static_cast<std::size_t>(i)] =
+          static_cast<float>(raw[static_cast<std::size_t>(i)] - sum / (end - begin));
+    }
+    fft.fwd(spectrum, input);
+    for (std::size_t k = 0; k < power.size(); ++k)
+      power[k] += std::norm(spectrum[k]);
+  }
+  const double binHz = samplingFrequencyHz / fftSize;
+  const auto lo = static_cast<std::size_t>(std::ceil(1e6 / binHz));
+  const auto hi = std::min(power.size() - 1, static_cast<std::size_t>(0.45 * fftSize));
+  if (lo >= hi)
+    return 0.0;
+  // Smooth over +-0.25 MHz, then take the peak and the power-weighted mean of the bins above a
+  // quarter of it around the peak.
+  const int half = std::max(1, static_cast<int>(std::lround(0.25e6 / binHz)));
+  std::vector<double> smooth(power.size(), 0.0);
+  for (std::size_t k = lo; k <= hi; ++k) {
+    double total = 0.0;
+    int n = 0;
+    for (int d = -half; d <= half; ++d) {
+      const long long j = static_cast<long long>(k) + d;
+      if (j < static_cast<long long>(lo) || j > static_cast<long long>(hi))
+        continue;
+      total += power[static_cast<std::size_t>(j)];
+      ++n;
+    }
+    smooth[k] = total / n;
+  }
+  std::size_t peak = lo;
+  for (std::size_t k = lo; k <= hi; ++k) {
+    if (smooth[k] > smooth[peak])
+      peak = k;
+  }
+  if (!(smooth[peak] > 0.0))
+    return 0.0;
+  std::size_t left = peak, right = peak;
+  while (left > lo && smooth[left - 1] >= 0.25 * smooth[peak])
+    --left;
+  while (right < hi && smooth[right + 1] >= 0.25 * smooth[peak])
+    ++right;
+  double weighted = 0.0, total = 0.0;
+  for (std::size_t k = left; k <= right; ++k) {
+    weighted += smooth[k] * static_cast<double>(k);
+    total += smooth[k];
+  }
+  return weighted / total * binHz;
+}
+
+DetectionParams adaptToCapture(const DetectionParams& given, int recordCount, int samples,
+                               const RecordSource& record, std::optional<double> headerFrequencyHz,
+                               CaptureAnalysis* analysis) {
+  DetectionParams params = given;
+  CaptureAnalysis local;
+  CaptureAnalysis& out = analysis ? *analysis : local;
+  out = CaptureAnalysis{};
+  const double fs = params.depth.samplingFrequencyHz;
+  params.envelope.samplingFrequencyHz = fs;
+
+  const bool needFrequency = params.adapt.highPassOfTransducer > 0.0 ||
+                             params.adapt.envelopeCycles > 0.0 ||
+                             params.peaks.policy == PeakPolicy::Prominence;
+  if (params.transducerFrequencyHz) {
+    out.transducerFrequencyHz = *params.transducerFrequencyHz;
+    out.transducerFrequencySource = "given";
+  } else if (headerFrequencyHz && *headerFrequencyHz > 0.0 && *headerFrequencyHz < fs / 2.0) {
+    out.transducerFrequencyHz = *headerFrequencyHz;
+    out.transducerFrequencySource = "header";
+  } else if (needFrequency && recordCount > 0) {
+    out.transducerFrequencyHz = estimateTransducerFrequencyHz(recordCount, samples, record, fs);
+    out.transducerFrequencySource = "spectrum";
+    if (out.transducerFrequencyHz <= 0.0) {
+      out.transducerFrequencyHz = std::min(9e6, 0.2 * fs);
+      out.warnings.push_back(fmt_transducer_fallback(out.transducerFrequencyHz));
+    }
+  }
+  if (out.transducerFrequencyHz > 0.0) {
+    params.transducerFrequencyHz = out.transducerFrequencyHz;
+    params.envelope.transducerFrequencyHz = std::min(out.transducerFrequencyHz, 0.49 * fs);
+    const double cycle = fs / out.transducerFrequencyHz;
+    if (params.adapt.highPassOfTransducer > 0.0) {
+      params.envelope.highPassSamples =
+          highPassLength(params.adapt.highPassOfTransducer * out.transducerFrequencyHz, fs);
+    }
+    if (params.adapt.envelopeCycles > 0.0) {
+      params.envelope.windowSamples =
+          std::max(1, static_cast<int>(std::lround(params.adapt.envelopeCycles * cycle)));
+    }
+  }
+  if (params.adapt.highPassHz > 0.0) {
+    params.envelope.highPassSamples = highPassLength(params.adapt.highPassHz, fs);
+  }
+  out.highPassSamples = params.envelope.highPassSamples;
+  out.envelopeWindowSamples = params.envelope.windowSamples;
+
+  if (params.adapt.ringDown && recordCount > 0 && samples > 0) {
+    // The median envelope over records spread through the capture: the ring-down is the same in
+    // every record, echoes and speckle are not.
+    EnvelopeParams envelope = params.envelope;
+    envelope.ringDownSamples = 0;
+    EnvelopeDetector detector(envelope);
+    const std::vector<int> indices = spreadIndices(recordCount, kAnalysedRecords);
+    std::vector<std::vector<float>> envelopes;
+    std::vector<float> raw;
+    for (int index : indices) {
+      record(index, raw);
+      std::vector<float> e(static_cast<std::size_t>(samples));
+      detector.compute(raw.data(), samples, e.data());
+      envelopes.push_back(std::move(e));
+    }
+    std::vector<float> median(static_cast<std::size_t>(samples));
+    std::vector<float> column(envelopes.size());
+    for (int i = 0; i < samples; ++i) {
+      for (std::size_t r = 0; r < envelopes.size(); ++r)
+        column[r] = envelopes[r][static_cast<std::size_t>(i)];
+      auto middle = column.begin() + static_cast<std::ptrdiff_t>(column.size() / 2);
+      std::nth_element(column.begin(), middle, column.end());
+      median[static_cast<std::size_t>(i)] = *middle;
+    }
+    // The level the record settles to: the median of its second half.
+    std::vector<float> tail(median.begin() + samples / 2, median.end());
+    std::nth_element(tail.begin(), tail.begin() + static_cast<std::ptrdiff_t>(tail.size() / 2),
+                     tail.end());
+    const double settled = tail.empty() ? 0.0 : tail[tail.size() / 2];
+    const double cycle = out.transducerFrequencyHz > 0.0 ? fs / out.transducerFrequencyHz : 5.0;
+    // The burst peaks within a few periods of the start (plus the envelope's own spread), or
+    // within the first microsecond.
+    const int head = std::clamp(
+        std::max(static_cast<int>(std::lround(4.0 * cycle)) + params.envelope.windowSamples,
+                 static_cast<int>(std::lround(1e-6 * fs))),
+        std::min(4, samples), std::max(std::min(4, samples), samples / 4));
+    const auto burstPeak = std::max_element(median.begin(), median.begin() + head);
+    int ringDown = 0;
+    if (*burstPeak > 8.0 * settled && *burstPeak > 0.F) {
+      const double level = 0.5 * *burstPeak;
+      int i = static_cast<int>(burstPeak - median.begin());
+      while (i < samples && median[static_cast<std::size_t>(i)] >= level)
+        ++i;
+      ringDown = std::min(samples, i + static_cast<int>(std::lround(cycle)));
+    }
+    params.envelope.ringDownSamples = params.peaks.policy == PeakPolicy::Prominence ? 0 : ringDown;
+    params.peaks.ringDownEnd = ringDown;
+    out.ringDownSamples = ringDown;
+    out.ringDownSource = "measured";
+  } else {
+    out.ringDownSamples = params.envelope.ringDownSamples;
+    out.ringDownSource = "given";
+    if (params.peaks.policy == PeakPolicy::Prominence) {
+      // The prominence policy reads the envelope through the ring-down (so that an echo on its
+      // tail keeps its prominence) and starts looking after it.
+      params.peaks.ringDownEnd = params.envelope.ringDownSamples;
+      params.envelope.ringDownSamples = 0;
+    }
+  }
+  // The shadow rule for the whole capture: where bone under tissue casts a shadow in many
+  // records, the shadow is required of every record (the bone policy, proven on specimens);
+  // elsewhere (shallow bone in vivo whose cortex rings, a phantom in water) each record is
+  // judged by the signature behind its echo, a shadow or the cortex's ringing.
+  if (params.peaks.policy == PeakPolicy::Prominence &&
+      params.peaks.prominence.shadow == ShadowRule::Auto && recordCount > 0 &&
+      out.ringDownSamples < samples) {
+    DetectionParams trial = params;
+    trial.peaks.prominence.shadow = ShadowRule::Required;
+    SignalDetector detector(trial);
+    std::vector<float> raw;
+    const std::vector<int> indices = spreadIndices(recordCount, kAnalysedRecords);
+    int shadowed = 0;
+    for (int index : indices) {
+      record(index, raw);
+      if (detector.detect(raw.data(), samples).accepted())
+        ++shadowed;
+    }
+    out.shadowShare = static_cast<double>(shadowed) / static_cast<double>(indices.size());
+    if (out.shadowShare >= kShadowCaptureShare) {
+      params.peaks.prominence.shadow = ShadowRule::Required;
+    }
+  }
+  out.shadowRule = std::string(shadowRuleName(params.peaks.prominence.shadow));
+  if (out.ringDownSamples >= samples && samples > 0) {
+    throw std::invalid_argument("the ring-down (" + std::to_string(out.ringDownSamples) +
+                                " samples) covers the whole " + std::to_string(samples) +
+                                "-sample record");
+  }
+  if (samples > 0 && out.ringDownSamples > samples / 2) {
+    out.warnings.push_back("the ring-down covers " + std::to_string(out.ringDownSamples) + " of " +
+                           std::to_string(samples) + " samples");
+  }
+  return params;
 }
 
 }  // namespace echoreg

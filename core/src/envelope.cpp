@@ -17,17 +17,22 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 
 void require(bool condition, const std::string& message) {
-  if (!condition) throw std::invalid_argument(message);
+  if (!condition)
+    throw std::invalid_argument(message);
 }
 
 }  // namespace
 
 std::string_view envelopeMethodName(EnvelopeMethod method) {
   switch (method) {
-    case EnvelopeMethod::Mozes: return "mozes";
-    case EnvelopeMethod::Hann: return "hann";
-    case EnvelopeMethod::StdDev: return "stddev";
-    case EnvelopeMethod::Hilbert: return "hilbert";
+    case EnvelopeMethod::Mozes:
+      return "mozes";
+    case EnvelopeMethod::Hann:
+      return "hann";
+    case EnvelopeMethod::StdDev:
+      return "stddev";
+    case EnvelopeMethod::Hilbert:
+      return "hilbert";
   }
   return "?";
 }
@@ -35,7 +40,8 @@ std::string_view envelopeMethodName(EnvelopeMethod method) {
 EnvelopeMethod parseEnvelopeMethod(std::string_view name) {
   for (auto method : {EnvelopeMethod::Mozes, EnvelopeMethod::Hann, EnvelopeMethod::StdDev,
                       EnvelopeMethod::Hilbert}) {
-    if (name == envelopeMethodName(method)) return method;
+    if (name == envelopeMethodName(method))
+      return method;
   }
   throw std::invalid_argument("unknown envelope '" + std::string(name) +
                               "' (expected mozes, hann, stddev or hilbert)");
@@ -43,6 +49,8 @@ EnvelopeMethod parseEnvelopeMethod(std::string_view name) {
 
 void validate(const EnvelopeParams& p) {
   require(p.ringDownSamples >= 0, "ring-down samples must be >= 0");
+  require(p.highPassSamples == 0 || p.highPassSamples >= 2,
+          "high-pass length must be 0 (demean only) or >= 2 samples");
   require(p.butterworthOrder >= 1 && p.butterworthOrder <= 12, "Butterworth order must be 1..12");
   require(p.cutoffNormalized > 0.0 && p.cutoffNormalized < 1.0,
           "cutoff must be in (0, 1) of Nyquist");
@@ -56,34 +64,74 @@ void validate(const EnvelopeParams& p) {
   require(p.smoothingSamples >= 1, "smoothing must be >= 1 sample");
 }
 
+int highPassLength(double cornerHz, double samplingFrequencyHz) {
+  require(cornerHz > 0.0 && std::isfinite(cornerHz), "high-pass corner must be > 0 Hz");
+  require(samplingFrequencyHz > 0.0 && std::isfinite(samplingFrequencyHz),
+          "sampling frequency must be > 0 Hz");
+  const double length = std::min(1.5 * samplingFrequencyHz / cornerHz, 1e6);
+  int odd = static_cast<int>(std::lround(length));
+  if (odd % 2 == 0)
+    ++odd;
+  return std::max(odd, 3);
+}
+
 struct EnvelopeDetector::Impl {
   EnvelopeParams params;
   IirCoefficients butterworth;
-  std::vector<float> centred;       // demeaned, ring-down zeroed record
-  std::vector<double> prefixA;      // prefix sums for the O(1) moving windows
+  std::vector<float> centred;   // demeaned, ring-down zeroed record
+  std::vector<double> prefixA;  // prefix sums for the O(1) moving windows
   std::vector<double> prefixB;
   std::vector<double> prefixC;
-  std::vector<double> cosTable;     // Hann: cos/sin(theta * m) for the sample index m
+  std::vector<double> cosTable;  // Hann: cos/sin(theta * m) for the sample index m
   std::vector<double> sinTable;
-  std::vector<float> hannWeights;   // Hann, short windows: normalised weights
-  std::vector<float> padded;        // Hann, short windows: zero-padded |x|
+  std::vector<float> hannWeights;  // Hann, short windows: normalised weights
+  std::vector<float> padded;       // Hann, short windows: zero-padded |x|
   Eigen::FFT<float> fft;
   std::vector<std::complex<float>> spectrum;
   std::vector<std::complex<float>> analytic;
   std::vector<float> magnitude;
-  std::vector<float> bandGain;      // Hilbert: one-sided band weights per FFT bin
+  std::vector<float> bandGain;  // Hilbert: one-sided band weights per FFT bin
   int bandSize = 0;
 
   void centre(const float* samples, int count) {
     centred.resize(static_cast<std::size_t>(count));
-    const auto mean = static_cast<float>(detail::sumOfSamples(samples, count) / count);
     const int ringDown = std::min(params.ringDownSamples, count);
-    for (int i = 0; i < ringDown; ++i) centred[static_cast<std::size_t>(i)] = 0.F;
-    for (int i = ringDown; i < count; ++i) centred[static_cast<std::size_t>(i)] = samples[i] - mean;
+    if (params.highPassSamples > 0) {
+      highPass(samples, count, centred.data());
+    } else {
+      const auto mean = static_cast<float>(detail::sumOfSamples(samples, count) / count);
+      for (int i = ringDown; i < count; ++i)
+        centred[static_cast<std::size_t>(i)] = samples[i] - mean;
+    }
+    for (int i = 0; i < ringDown; ++i)
+      centred[static_cast<std::size_t>(i)] = 0.F;
+  }
+
+  // out = x - (centred moving average of x over highPassSamples, clipped to the record): the
+  // running sum of a window that slides one sample per output, in double so that a long record
+  // of 16-bit codes loses nothing.
+  void highPass(const float* samples, int count, float* out) const {
+    const int length = std::min(params.highPassSamples, count);
+    const int before = (length - 1) / 2;
+    const int after = length - 1 - before;
+    double sum = 0.0;
+    int begin = 0, end = 0;  // window [begin, end)
+    for (; end < std::min(after, count); ++end)
+      sum += samples[end];
+    for (int i = 0; i < count; ++i) {
+      const int wantEnd = std::min(count, i + after + 1);
+      const int wantBegin = std::max(0, i - before);
+      for (; end < wantEnd; ++end)
+        sum += samples[end];
+      for (; begin < wantBegin; ++begin)
+        sum -= samples[begin];
+      out[i] = static_cast<float>(samples[i] - sum / (end - begin));
+    }
   }
 
   void mozes(int count, float* out) {
-    for (int i = 0; i < count; ++i) out[i] = std::fabs(centred[static_cast<std::size_t>(i)]);
+    for (int i = 0; i < count; ++i)
+      out[i] = std::fabs(centred[static_cast<std::size_t>(i)]);
     if (params.zeroPhase) {
       filterZeroPhase(butterworth, out, count, out);
     } else {
@@ -104,7 +152,8 @@ struct EnvelopeDetector::Impl {
     if (hannWeights.size() != static_cast<std::size_t>(window)) {
       hannWeights.resize(static_cast<std::size_t>(window));
       double sum = 0.0;
-      for (int k = 0; k < window; ++k) sum += 0.5 - 0.5 * std::cos(2.0 * kPi * (k + 1) / (window + 1));
+      for (int k = 0; k < window; ++k)
+        sum += 0.5 - 0.5 * std::cos(2.0 * kPi * (k + 1) / (window + 1));
       for (int k = 0; k < window; ++k) {
         hannWeights[static_cast<std::size_t>(k)] =
             static_cast<float>((0.5 - 0.5 * std::cos(2.0 * kPi * (k + 1) / (window + 1))) / sum);
@@ -115,7 +164,8 @@ struct EnvelopeDetector::Impl {
     const int ringDown = std::min(params.ringDownSamples, count);
     float* rectified = padded.data() + h;
     std::fill(padded.begin(), padded.begin() + h + ringDown, 0.F);
-    for (int i = ringDown; i < count; ++i) rectified[i] = std::fabs(samples[i] - mean);
+    for (int i = ringDown; i < count; ++i)
+      rectified[i] = std::fabs(samples[i] - mean);
     std::fill(padded.begin() + h + count, padded.end(), 0.F);
     hannPasses(padded.data(), hannWeights.data(), window, count, out);
   }
@@ -128,7 +178,8 @@ struct EnvelopeDetector::Impl {
     for (int k = 0; k < window; ++k) {
       const float weight = weights[k];
       const float* shifted = source + k;
-      for (int i = 0; i < count; ++i) out[i] += weight * shifted[i];
+      for (int i = 0; i < count; ++i)
+        out[i] += weight * shifted[i];
     }
   }
 
@@ -151,7 +202,8 @@ struct EnvelopeDetector::Impl {
     prefixB.assign(n + 1, 0.0);
     prefixC.assign(n + 1, 0.0);
     std::size_t m = 0;
-    for (std::size_t j = 0; m < n; ++m, j = (j + 1 == static_cast<std::size_t>(period) ? 0 : j + 1)) {
+    for (std::size_t j = 0; m < n;
+         ++m, j = (j + 1 == static_cast<std::size_t>(period) ? 0 : j + 1)) {
       const double a = std::fabs(centred[m]);
       prefixA[m + 1] = prefixA[m] + a;
       prefixB[m + 1] = prefixB[m] + a * cosTable[j];
@@ -173,7 +225,8 @@ struct EnvelopeDetector::Impl {
       const auto phase = static_cast<std::size_t>(shift);
       const double weighted = 0.5 * s0 - 0.5 * (cosTable[phase] * sc + sinTable[phase] * ss);
       out[i] = static_cast<float>(std::max(0.0, weighted) * norm);
-      if (++shift == period) shift = 0;
+      if (++shift == period)
+        shift = 0;
     }
   }
 
@@ -199,7 +252,8 @@ struct EnvelopeDetector::Impl {
   }
 
   void prepareBand(int fftSize) {
-    if (bandSize == fftSize) return;
+    if (bandSize == fftSize)
+      return;
     bandSize = fftSize;
     bandGain.assign(static_cast<std::size_t>(fftSize), 0.F);
     const double centreHz = params.transducerFrequencyHz;
@@ -220,30 +274,35 @@ struct EnvelopeDetector::Impl {
 
   void hilbert(int count, float* out) {
     int fftSize = 1;
-    while (fftSize < count) fftSize *= 2;
+    while (fftSize < count)
+      fftSize *= 2;
     prepareBand(fftSize);
     const auto size = static_cast<std::size_t>(fftSize);
     analytic.assign(size, {0.F, 0.F});
-    for (int i = 0; i < count; ++i) analytic[static_cast<std::size_t>(i)] = centred[static_cast<std::size_t>(i)];
+    for (int i = 0; i < count; ++i)
+      analytic[static_cast<std::size_t>(i)] = centred[static_cast<std::size_t>(i)];
     fft.fwd(spectrum, analytic);
-    for (std::size_t k = 0; k < size; ++k) spectrum[k] *= bandGain[k];
+    for (std::size_t k = 0; k < size; ++k)
+      spectrum[k] *= bandGain[k];
     fft.inv(analytic, spectrum);
     magnitude.resize(static_cast<std::size_t>(count));
-    for (int i = 0; i < count; ++i) magnitude[static_cast<std::size_t>(i)] = std::abs(analytic[static_cast<std::size_t>(i)]);
+    for (int i = 0; i < count; ++i)
+      magnitude[static_cast<std::size_t>(i)] = std::abs(analytic[static_cast<std::size_t>(i)]);
     boxAverage(magnitude.data(), count, params.smoothingSamples, out);
   }
 
   void boxAverage(const float* in, int count, int window, float* out) {
     const auto n = static_cast<std::size_t>(count);
     prefixA.assign(n + 1, 0.0);
-    for (std::size_t m = 0; m < n; ++m) prefixA[m + 1] = prefixA[m] + in[m];
+    for (std::size_t m = 0; m < n; ++m)
+      prefixA[m + 1] = prefixA[m] + in[m];
     const int h = (window - 1) / 2;
     for (int i = 0; i < count; ++i) {
       const int begin = std::max(0, i - h);
       const int end = std::min(count, i - h + window);
-      out[i] = static_cast<float>((prefixA[static_cast<std::size_t>(end)] -
-                                   prefixA[static_cast<std::size_t>(begin)]) /
-                                  (end - begin));
+      out[i] = static_cast<float>(
+          (prefixA[static_cast<std::size_t>(end)] - prefixA[static_cast<std::size_t>(begin)]) /
+          (end - begin));
     }
   }
 };
@@ -260,22 +319,38 @@ EnvelopeDetector::~EnvelopeDetector() = default;
 EnvelopeDetector::EnvelopeDetector(EnvelopeDetector&&) noexcept = default;
 EnvelopeDetector& EnvelopeDetector::operator=(EnvelopeDetector&&) noexcept = default;
 
-const EnvelopeParams& EnvelopeDetector::params() const { return impl_->params; }
+const EnvelopeParams& EnvelopeDetector::params() const {
+  return impl_->params;
+}
 
 void EnvelopeDetector::compute(const float* samples, int count, float* envelope) {
-  if (count <= 0) return;
+  if (count <= 0)
+    return;
   if (impl_->params.method == EnvelopeMethod::Hann &&
-      impl_->params.windowSamples <= Impl::kDirectHannMaxWindow) {
+      impl_->params.windowSamples <= Impl::kDirectHannMaxWindow &&
+      impl_->params.highPassSamples == 0) {
     const auto mean = static_cast<float>(detail::sumOfSamples(samples, count) / count);
     impl_->hannDirect(samples, count, mean, envelope);
     return;
   }
   impl_->centre(samples, count);
   switch (impl_->params.method) {
-    case EnvelopeMethod::Mozes: impl_->mozes(count, envelope); break;
-    case EnvelopeMethod::Hann: impl_->hann(count, envelope); break;
-    case EnvelopeMethod::StdDev: impl_->stddev(count, envelope); break;
-    case EnvelopeMethod::Hilbert: impl_->hilbert(count, envelope); break;
+    case EnvelopeMethod::Mozes:
+      impl_->mozes(count, envelope);
+      break;
+    case EnvelopeMethod::Hann:
+      if (impl_->params.windowSamples <= Impl::kDirectHannMaxWindow) {
+        impl_->hannDirect(impl_->centred.data(), count, 0.F, envelope);
+      } else {
+        impl_->hann(count, envelope);
+      }
+      break;
+    case EnvelopeMethod::StdDev:
+      impl_->stddev(count, envelope);
+      break;
+    case EnvelopeMethod::Hilbert:
+      impl_->hilbert(count, envelope);
+      break;
   }
 }
 

@@ -27,10 +27,11 @@ struct MetaImageType {
   std::string_view name;
   ElementType type;
 };
-constexpr std::array<MetaImageType, 5> kMetaImageTypes{{
+constexpr std::array<MetaImageType, 6> kMetaImageTypes{{
     {"MET_UCHAR", ElementType::UInt8},
     {"MET_CHAR", ElementType::Int8},
     {"MET_SHORT", ElementType::Int16},
+    {"MET_USHORT", ElementType::UInt16},
     {"MET_FLOAT", ElementType::Float32},
     {"MET_OTHER", ElementType::None},
 }};
@@ -122,7 +123,7 @@ ElementType parseElementType(const std::string& path, std::string_view name) {
       return known.type;
   }
   throw FileError(path, "unknown element type " + quote(name) +
-                            " (supported: MET_UCHAR, MET_CHAR, MET_SHORT, MET_FLOAT, MET_OTHER)");
+                            " (supported: MET_UCHAR, MET_CHAR, MET_SHORT, MET_USHORT, MET_FLOAT, MET_OTHER)");
 }
 
 std::string_view metaImageTypeName(ElementType type) {

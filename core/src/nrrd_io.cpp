@@ -20,7 +20,7 @@ struct NrrdType {
   ElementType type;
 };
 // Every spelling NRRD allows for the supported types; the first of each is the one written.
-constexpr std::array<NrrdType, 14> kNrrdTypes{{
+constexpr std::array<NrrdType, 19> kNrrdTypes{{
     {"uint8", ElementType::UInt8},
     {"uchar", ElementType::UInt8},
     {"unsigned char", ElementType::UInt8},
@@ -34,6 +34,11 @@ constexpr std::array<NrrdType, 14> kNrrdTypes{{
     {"signed short", ElementType::Int16},
     {"signed short int", ElementType::Int16},
     {"int16_t", ElementType::Int16},
+    {"uint16", ElementType::UInt16},
+    {"ushort", ElementType::UInt16},
+    {"unsigned short", ElementType::UInt16},
+    {"unsigned short int", ElementType::UInt16},
+    {"uint16_t", ElementType::UInt16},
     {"float", ElementType::Float32},
 }};
 
@@ -162,7 +167,7 @@ ElementType parseType(const std::string& path, std::string_view name) {
       return known.type;
   }
   throw FileError(
-      path, "unknown element type " + quote(name) + " (supported: uint8, int8, int16, float)");
+      path, "unknown element type " + quote(name) + " (supported: uint8, int8, int16, uint16, float)");
 }
 
 std::string_view nrrdTypeName(ElementType type) {

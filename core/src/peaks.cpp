@@ -13,15 +13,18 @@ namespace echoreg {
 namespace {
 
 void require(bool condition, const std::string& message) {
-  if (!condition) throw std::invalid_argument(message);
+  if (!condition)
+    throw std::invalid_argument(message);
 }
 
 // Parabola through the peak and its neighbours: the vertex offset, within half a sample.
 double refinedIndex(const float* envelope, int count, int index) {
-  if (index <= 0 || index >= count - 1) return index;
+  if (index <= 0 || index >= count - 1)
+    return index;
   const double left = envelope[index - 1], centre = envelope[index], right = envelope[index + 1];
   const double curvature = left - 2.0 * centre + right;
-  if (curvature >= 0.0) return index;
+  if (curvature >= 0.0)
+    return index;
   const double offset = 0.5 * (left - right) / curvature;
   return index + std::clamp(offset, -0.5, 0.5);
 }
@@ -33,14 +36,19 @@ float selectKth(float* values, int n, int k) {
   int low = 0, high = n - 1;
   while (high > low) {
     const int middle = low + (high - low) / 2;
-    if (values[middle] < values[low]) std::swap(values[middle], values[low]);
-    if (values[high] < values[low]) std::swap(values[high], values[low]);
-    if (values[high] < values[middle]) std::swap(values[high], values[middle]);
+    if (values[middle] < values[low])
+      std::swap(values[middle], values[low]);
+    if (values[high] < values[low])
+      std::swap(values[high], values[low]);
+    if (values[high] < values[middle])
+      std::swap(values[high], values[middle]);
     const float pivot = values[middle];
     int i = low, j = high;
     while (i <= j) {
-      while (values[i] < pivot) ++i;
-      while (pivot < values[j]) --j;
+      while (values[i] < pivot)
+        ++i;
+      while (pivot < values[j])
+        --j;
       if (i <= j) {
         std::swap(values[i], values[j]);
         ++i;
@@ -64,10 +72,13 @@ float rankSelect(const float* values, int n, int k) {
   for (int i = 0; i < n; ++i) {
     const float candidate = values[i];
     int below = 0, equalBefore = 0;
-    for (int j = 0; j < n; ++j) below += values[j] < candidate ? 1 : 0;
-    for (int j = 0; j < i; ++j) equalBefore += values[j] == candidate ? 1 : 0;
+    for (int j = 0; j < n; ++j)
+      below += values[j] < candidate ? 1 : 0;
+    for (int j = 0; j < i; ++j)
+      equalBefore += values[j] == candidate ? 1 : 0;
     // Ties take consecutive ranks in index order, so exactly one value has rank k.
-    if (below + equalBefore == k) return candidate;
+    if (below + equalBefore == k)
+      return candidate;
   }
   return values[k];
 }
@@ -78,9 +89,11 @@ float rankSelect(const float* values, int n, int k) {
 double medianOf(const float* envelope, int count, int begin, int end, std::vector<float>& scratch) {
   begin = std::max(begin, 0);
   end = std::min(end, count);
-  if (end <= begin) return -1.0;
+  if (end <= begin)
+    return -1.0;
   scratch.clear();
-  for (int i = begin; i < end; i += 8) scratch.push_back(envelope[i]);
+  for (int i = begin; i < end; i += 8)
+    scratch.push_back(envelope[i]);
   const int n = static_cast<int>(scratch.size());
   return n <= 48 ? rankSelect(scratch.data(), n, n / 2) : selectKth(scratch.data(), n, n / 2);
 }
@@ -89,8 +102,10 @@ double medianOf(const float* envelope, int count, int begin, int end, std::vecto
 int halfMaximumWidth(const float* envelope, int count, int index) {
   const float half = envelope[index] * 0.5F;
   int left = index, right = index;
-  while (left > 0 && envelope[left - 1] > half) --left;
-  while (right < count - 1 && envelope[right + 1] > half) ++right;
+  while (left > 0 && envelope[left - 1] > half)
+    --left;
+  while (right < count - 1 && envelope[right + 1] > half)
+    ++right;
   return right - left + 1;
 }
 
@@ -109,9 +124,11 @@ float blockMax8(const float* values) {
 double noiseFloorOf(const float* envelope, int count, std::vector<float>& scratch) {
   scratch.clear();
   for (int i = 0; i < count; i += 32) {
-    if (envelope[i] > 0.F) scratch.push_back(envelope[i]);
+    if (envelope[i] > 0.F)
+      scratch.push_back(envelope[i]);
   }
-  if (scratch.empty()) return 0.0;
+  if (scratch.empty())
+    return 0.0;
   const int n = static_cast<int>(scratch.size());
   return selectKth(scratch.data(), n, n / 10);
 }
@@ -123,9 +140,11 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
                       std::vector<float>& scratch) {
   // Cheap screen first: with tissue at least minTissueOverNoise x the noise floor before it and
   // the peak minContrast x above that, the peak must clear their product of the noise floor.
-  if (peak.value < bone.minContrast * bone.minTissueOverNoise * noiseFloor) return false;
+  if (peak.value < bone.minContrast * bone.minTissueOverNoise * noiseFloor)
+    return false;
   const int widthSamples = halfMaximumWidth(envelope, count, peak.index);
-  if (widthSamples * mmPerSample > bone.maxWidthMm) return false;
+  if (widthSamples * mmPerSample > bone.maxWidthMm)
+    return false;
   const int region = std::max(1, static_cast<int>(std::lround(bone.regionMm / mmPerSample)));
   const int gap = static_cast<int>(std::lround(bone.gapMm / mmPerSample));
   const int beforeBegin = peak.index - gap - region;
@@ -133,13 +152,16 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
   const int afterBegin = peak.index + gap + 1;
   const int afterEnd = afterBegin + region;
   // A shadow needs room behind the echo to be seen; require half a region at least.
-  if (std::min(afterEnd, count) - afterBegin < region / 2) return false;
+  if (std::min(afterEnd, count) - afterBegin < region / 2)
+    return false;
   const double before = medianOf(envelope, count, beforeBegin, beforeEnd, scratch);
   // Bone lies under soft tissue: its speckle stands above the noise floor before the echo. Skin
   // and standoff-wall echoes have water in front of them.
-  if (before < 0.0 || before < bone.minTissueOverNoise * noiseFloor) return false;
+  if (before < 0.0 || before < bone.minTissueOverNoise * noiseFloor)
+    return false;
   const double tiny = 1e-12;
-  if (peak.value < bone.minContrast * std::max(before, tiny)) return false;
+  if (peak.value < bone.minContrast * std::max(before, tiny))
+    return false;
   // The shadow starts right behind bone: test the near half of the region on its own too, so an
   // echo a millimetre or two above the bone (a fascia) does not borrow the bone's shadow.
   const auto isShadow = [&](int begin, int end) {
@@ -152,42 +174,344 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
   return isShadow(afterBegin, afterBegin + region / 2) && isShadow(afterBegin, afterEnd);
 }
 
+// ---- The prominence policy ---------------------------------------------------------------------
+
+// Percentiles of envelope[begin, count) from every 16th sample: (10th, 50th).
+std::pair<double, double> floorAndMedian(const float* envelope, int count, int begin,
+                                         std::vector<float>& scratch) {
+  scratch.clear();
+  for (int i = std::max(begin, 0); i < count; i += 16)
+    scratch.push_back(envelope[i]);
+  if (scratch.empty())
+    return {0.0, 0.0};
+  const int n = static_cast<int>(scratch.size());
+  const double median = selectKth(scratch.data(), n, n / 2);
+  const double floor = selectKth(scratch.data(), n / 2 + 1, n / 10);
+  return {floor, median};
+}
+
+struct EchoCandidate {
+  int index = 0;
+  float value = 0.F;
+  double prominence = 0.0;
+  int peak = -1;  // index into PeakResult::peaks (the prominent ones)
+  bool passed = false;
+  bool shadowed = false;
+  bool ringing = false;       // the envelope stays above ringingFraction of it behind it
+  bool reverberates = false;  // a later echo is its reverberation
+  double contrast = 0.0;      // peak / median before it
+};
+
+// Topographic prominence of the local maximum at `index` within [lo, hi): the height above the
+// higher of the lowest points between it and the nearest higher sample on each side (or the end).
+double prominenceOf(const float* envelope, int lo, int hi, int index) {
+  const float value = envelope[index];
+  float leftMin = value, rightMin = value;
+  for (int i = index - 1; i >= lo && envelope[i] <= value; --i)
+    leftMin = std::min(leftMin, envelope[i]);
+  for (int i = index + 1; i < hi && envelope[i] <= value; ++i)
+    rightMin = std::min(rightMin, envelope[i]);
+  return value - std::max(leftMin, rightMin);
+}
+
+// The largest envelope value within `radius` samples of `centre` (0 outside the record).
+float maxAround(const float* envelope, int count, double centre, int radius) {
+  const int c = static_cast<int>(std::lround(centre));
+  const int begin = std::max(0, c - radius), end = std::min(count, c + radius + 1);
+  float best = 0.F;
+  for (int i = begin; i < end; ++i)
+    best = std::max(best, envelope[i]);
+  return best;
+}
+
+void prominencePolicy(const PeakParams& params, const float* envelope, int count, int windowBegin,
+                      int windowEnd, PeakResult& result) {
+  const ProminenceParams& e = params.prominence;
+  const int ringDown = std::clamp(params.ringDownEnd, 0, count);
+  std::vector<float> scratch;
+  const auto [noiseFloor, median] = floorAndMedian(envelope, count, ringDown, scratch);
+  const double tiny = 1e-12;
+  const double threshold = std::max({e.minSnr * noiseFloor, e.minOverMedian * median, tiny});
+  result.threshold = threshold;
+  const auto level = static_cast<float>(threshold);
+
+  const int begin = std::max(windowBegin, ringDown);
+  const int end = windowEnd;
+  const bool windowInRingDown = params.windowBegin.has_value() && windowBegin < ringDown;
+  result.reason =
+      windowInRingDown && end <= ringDown ? RejectReason::InRingDown : RejectReason::NoPeak;
+  if (end <= begin)
+    return;
+
+  // Local maxima above the level inside [begin, end), judged on the whole envelope (a window's
+  // edge is a candidate only where the envelope really peaks).
+  std::vector<EchoCandidate> candidates;
+  for (int i = begin; i < end;) {
+    if (!(envelope[i] > level)) {
+      while (i + 8 <= end && blockMax8(envelope + i) <= level)
+        i += 8;
+      if (i < end && !(envelope[i] > level))
+        ++i;
+      continue;
+    }
+    const float left = i > 0 ? envelope[i - 1] : -1.F;
+    const float right = i + 1 < count ? envelope[i + 1] : -1.F;
+    if (envelope[i] >= left && envelope[i] > right) {
+      EchoCandidate candidate;
+      candidate.index = i;
+      candidate.value = envelope[i];
+      candidates.push_back(candidate);
+    }
+    ++i;
+  }
+  if (candidates.empty()) {
+    if (windowInRingDown)
+      result.reason = RejectReason::InRingDown;
+    return;
+  }
+
+  const double mmPerSample = params.mmPerSample;
+  const int region = std::max(4, static_cast<int>(std::lround(e.regionMm / mmPerSample)));
+  const int gap = std::max(1, static_cast<int>(std::lround(params.samplesPerCycle)));
+  const int maxRise =
+      std::max(2, static_cast<int>(std::lround(e.maxRiseCycles * params.samplesPerCycle)));
+  const int reverbRadius = std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
+  int airAt = count;  // the first air interface, if any
+  for (EchoCandidate& c : candidates) {
+    if (c.index > airAt)
+      break;
+    c.prominence = prominenceOf(envelope, ringDown, count, c.index);
+    Peak peak;
+    peak.index = c.index;
+    peak.value = c.value;
+    // The echo's extent at half its prominence, for the CSV's peak list and the leading edge.
+    const float half = static_cast<float>(c.value - 0.5 * c.prominence);
+    int left = c.index, right = c.index;
+    while (left > ringDown && envelope[left - 1] > half)
+      --left;
+    while (right + 1 < count && envelope[right + 1] > half)
+      ++right;
+    peak.runBegin = left;
+    peak.runEnd = right + 1;
+    if (c.prominence < e.minProminence * c.value)
+      continue;
+    c.peak = static_cast<int>(result.peaks.size());
+    result.peaks.push_back(peak);
+    if (c.index - left > maxRise) {  // a slow rise: a burst of noise, not a pulse
+      continue;
+    }
+    // What lies before and after the echo, beyond its own extent.
+    const double before =
+        medianOf(envelope, count, std::max(ringDown, left - gap - region), left - gap, scratch);
+    const double after = medianOf(envelope, count, right + gap, right + gap + region, scratch);
+    if (before >= 0.0 && c.value < e.minContrast * std::max(before, tiny)) {
+      continue;
+    }
+    // A wall (skin, standoff membrane): the envelope steps up from quiet water before it to the
+    // tissue's speckle after it. Bone is followed by its shadow, or (shallow in vivo) by
+    // reverberation no stronger than the tissue before it.
+    // Bone whose cortex rings keeps the envelope above half its echo behind it; the speckle
+    // behind a wall stays well below the wall's echo.
+    const bool wall = before >= 0.0 && left - gap - ringDown >= region / 2 &&
+                      after >= e.wallStep * std::max(before, tiny) && after < 0.4 * c.value;
+    if (wall) {
+      continue;
+    }
+    // An air interface sends its echo back almost whole: a second bounce at twice the time of
+    // flight at airReverberation of the first or more. Bone returns half the energy at most.
+    const double flight = c.index - params.emissionSample;
+    const double second = params.emissionSample + 2.0 * flight;
+    // The second bounce is weaker than the first (a stronger echo there is an echo of its own);
+    // where the record reaches, a third one follows.
+    const double third = params.emissionSample + 3.0 * flight;
+    const float secondValue =
+        second + reverbRadius < count ? maxAround(envelope, count, second, reverbRadius) : 0.F;
+    const float thirdValue = maxAround(envelope, count, third, reverbRadius);
+    // Air: nothing lies between the bounces (behind shallow bone in vivo the cortex's own
+    // echoes and the reverberation keep the envelope up).
+    const double between =
+        medianOf(envelope, count, right + gap, static_cast<int>(second) - reverbRadius, scratch);
+    const bool air = secondValue >= e.airReverberation * c.value && secondValue <= c.value &&
+                     (third + reverbRadius >= count ||
+                      thirdValue >= e.airReverberation * e.airReverberation * secondValue) &&
+                     between >= 0.0 && between <= 0.1 * c.value;
+    if (air) {
+      // Nothing gets through air: every echo behind it is a reverberation.
+      airAt = std::min(airAt, c.index);
+      continue;
+    }
+    c.passed = true;
+    const auto isShadow = [&](int from, int to) {
+      const double behind = medianOf(envelope, count, from, to, scratch);
+      return behind >= 0.0 && (before >= e.shadowRatio * std::max(behind, tiny) ||
+                               behind <= e.shadowNoiseFactor * noiseFloor);
+    };
+    // A shadow needs room behind the echo to be seen.
+    c.contrast = before >= 0.0 ? c.value / std::max(before, tiny) : 1e9;
+    c.shadowed = c.contrast >= e.shadowContrast && count - (right + gap) >= region / 2 &&
+                 before >= 0.0 && isShadow(right + gap, right + gap + region / 2) &&
+                 isShadow(right + gap, right + gap + region);
+    // Shallow bone in vivo: its cortex rings, the envelope behind it stays near its own height
+    // (behind a fascia or the skin, the tissue's speckle is far below the echo).
+    const double nearAfter =
+        medianOf(envelope, count, right + gap, right + gap + region / 2, scratch);
+    c.ringing = nearAfter >= e.ringingFraction * c.value;
+  }
+
+  // A reverberation: at twice or three times the time of flight of a shallower echo at least
+  // twice as strong, or one spacing behind a pair of them (each bounce loses more than half).
+  const auto isSource = [&](std::size_t a, std::size_t k) {
+    return candidates[a].peak >= 0 && candidates[a].value >= 2.F * candidates[k].value;
+  };
+  // The source of k's reverberation (the head of the train), or -1.
+  const auto reverberationSource = [&](std::size_t k) -> int {
+    const double t = candidates[k].index - params.emissionSample;
+    for (std::size_t a = 0; a < k; ++a) {
+      const double ta = candidates[a].index - params.emissionSample;
+      if (!isSource(a, k))
+        continue;
+      if (std::fabs(t - 2.0 * ta) <= reverbRadius || std::fabs(t - 3.0 * ta) <= reverbRadius) {
+        return static_cast<int>(a);
+      }
+      for (std::size_t b = 0; b < a; ++b) {
+        const double tb = candidates[b].index - params.emissionSample;
+        if (!isSource(b, k))
+          continue;
+        if (std::fabs((t - ta) - (ta - tb)) <= reverbRadius)
+          return static_cast<int>(b);
+      }
+    }
+    return -1;
+  };
+  const auto isReverberation = [&](std::size_t k) {
+    const int source = reverberationSource(k);
+    if (source < 0)
+      return false;
+    candidates[static_cast<std::size_t>(source)].reverberates = true;
+    return true;
+  };
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    if (candidates[k].peak >= 0 && isReverberation(k) && candidates[k].passed) {
+      candidates[k].passed = false;
+    }
+  }
+
+  // Bone: an echo with bone's signature behind it, a shadow or the cortex's ringing. The
+  // strongest, unless a deeper one of similar strength stands apart from it (a fascia or a strong
+  // interface lies above bone, not below it; what follows an echo without the envelope falling
+  // between them is its own tail or ringing). ShadowRule::Ignored also takes echoes without
+  // either signature (the strongest).
+  const auto eligible = [&](const EchoCandidate& c) {
+    return c.passed && (c.shadowed || c.ringing || e.shadow == ShadowRule::Ignored);
+  };
+  int chosen = -1;
+  float best = 0.F;
+  for (std::size_t k = 0; k < candidates.size(); ++k) {
+    if (eligible(candidates[k]) && candidates[k].value > best) {
+      best = candidates[k].value;
+      chosen = static_cast<int>(k);
+    }
+  }
+  if (chosen < 0) {
+    result.reason = windowInRingDown ? RejectReason::InRingDown : RejectReason::NotBone;
+    return;
+  }
+  const EchoCandidate& strongest = candidates[static_cast<std::size_t>(chosen)];
+  for (std::size_t k = candidates.size(); k-- > static_cast<std::size_t>(chosen) + 1;) {
+    const EchoCandidate& deeper = candidates[k];
+    if (!eligible(deeper) || deeper.value < e.similarRatio * best)
+      continue;
+    const float valley = *std::min_element(envelope + strongest.index, envelope + deeper.index);
+    if (valley > 0.3F * std::min(strongest.value, deeper.value))
+      continue;
+    chosen = static_cast<int>(k);
+    break;
+  }
+  result.selected = candidates[static_cast<std::size_t>(chosen)].peak;
+  result.reason = RejectReason::None;
+  const int index = candidates[static_cast<std::size_t>(chosen)].index;
+  result.sampleIndex = params.subsample ? refinedIndex(envelope, count, index) : index;
+}
+
 }  // namespace
 
 std::string_view rejectReasonName(RejectReason reason) {
   switch (reason) {
-    case RejectReason::None: return "";
-    case RejectReason::NoPeak: return "no-peak";
-    case RejectReason::TooManyPeaks: return "too-many-peaks";
-    case RejectReason::TooFewPeaks: return "too-few-peaks";
-    case RejectReason::OutsideWindow: return "outside-window";
-    case RejectReason::NotBone: return "not-bone";
-    case RejectReason::Inconsistent: return "inconsistent";
-    case RejectReason::TooClose: return "too-close";
-    case RejectReason::InvalidPose: return "invalid-pose";
+    case RejectReason::None:
+      return "";
+    case RejectReason::NoPeak:
+      return "no-peak";
+    case RejectReason::TooManyPeaks:
+      return "too-many-peaks";
+    case RejectReason::TooFewPeaks:
+      return "too-few-peaks";
+    case RejectReason::OutsideWindow:
+      return "outside-window";
+    case RejectReason::NotBone:
+      return "not-bone";
+    case RejectReason::Inconsistent:
+      return "inconsistent";
+    case RejectReason::TooClose:
+      return "too-close";
+    case RejectReason::InvalidPose:
+      return "invalid-pose";
+    case RejectReason::InRingDown:
+      return "in-ring-down";
   }
   return "?";
 }
 
+std::string_view shadowRuleName(ShadowRule rule) {
+  switch (rule) {
+    case ShadowRule::Auto:
+      return "auto";
+    case ShadowRule::Required:
+      return "required";
+    case ShadowRule::Ignored:
+      return "ignored";
+  }
+  return "?";
+}
+
+ShadowRule parseShadowRule(std::string_view name) {
+  for (auto rule : {ShadowRule::Auto, ShadowRule::Required, ShadowRule::Ignored}) {
+    if (name == shadowRuleName(rule))
+      return rule;
+  }
+  throw std::invalid_argument("unknown shadow rule '" + std::string(name) +
+                              "' (expected auto, required or ignored)");
+}
+
 std::string_view peakPolicyName(PeakPolicy policy) {
   switch (policy) {
-    case PeakPolicy::Single: return "single";
-    case PeakPolicy::Double: return "double";
-    case PeakPolicy::WindowMax: return "window-max";
-    case PeakPolicy::First: return "first";
-    case PeakPolicy::Max: return "max";
-    case PeakPolicy::Bone: return "bone";
+    case PeakPolicy::Single:
+      return "single";
+    case PeakPolicy::Double:
+      return "double";
+    case PeakPolicy::WindowMax:
+      return "window-max";
+    case PeakPolicy::First:
+      return "first";
+    case PeakPolicy::Max:
+      return "max";
+    case PeakPolicy::Bone:
+      return "bone";
+    case PeakPolicy::Prominence:
+      return "prominence";
   }
   return "?";
 }
 
 PeakPolicy parsePeakPolicy(std::string_view name) {
-  for (auto policy : {PeakPolicy::Single, PeakPolicy::Double, PeakPolicy::WindowMax,
-                      PeakPolicy::First, PeakPolicy::Max, PeakPolicy::Bone}) {
-    if (name == peakPolicyName(policy)) return policy;
+  for (auto policy :
+       {PeakPolicy::Single, PeakPolicy::Double, PeakPolicy::WindowMax, PeakPolicy::First,
+        PeakPolicy::Max, PeakPolicy::Bone, PeakPolicy::Prominence}) {
+    if (name == peakPolicyName(policy))
+      return policy;
   }
-  throw std::invalid_argument("unknown peak policy '" + std::string(name) +
-                              "' (expected single, double, window-max, first, max or bone)");
+  throw std::invalid_argument(
+      "unknown peak policy '" + std::string(name) +
+      "' (expected single, double, window-max, first, max, bone or prominence)");
 }
 
 void validate(const PeakParams& p) {
@@ -205,11 +529,65 @@ void validate(const PeakParams& p) {
   require(p.bone.maxWidthMm > 0.0, "bone echo width must be > 0 mm");
   require(p.bone.noiseFloorFactor >= 0.0, "bone noise floor factor must be >= 0");
   require(p.bone.minTissueOverNoise >= 0.0, "bone tissue-over-noise ratio must be >= 0");
+  const ProminenceParams& e = p.prominence;
+  require(e.minSnr > 1.0 && std::isfinite(e.minSnr), "echo SNR must be > 1");
+  require(e.minOverMedian >= 1.0 && std::isfinite(e.minOverMedian),
+          "echo over median must be >= 1");
+  require(e.minProminence > 0.0 && e.minProminence <= 1.0, "echo prominence must be in (0, 1]");
+  require(e.maxRiseCycles > 0.0 && std::isfinite(e.maxRiseCycles), "echo rise must be > 0 cycles");
+  require(e.minContrast >= 1.0 && std::isfinite(e.minContrast), "echo contrast must be >= 1");
+  require(e.regionMm > 0.0 && std::isfinite(e.regionMm), "echo region must be > 0 mm");
+  require(e.wallStep > 1.0 && std::isfinite(e.wallStep), "wall step must be > 1");
+  require(e.airReverberation > 0.0 && e.airReverberation <= 1.0,
+          "air reverberation ratio must be in (0, 1]");
+  require(e.similarRatio > 0.0 && e.similarRatio <= 1.0, "similar-echo ratio must be in (0, 1]");
+  require(e.shadowRatio > 1.0 && std::isfinite(e.shadowRatio), "echo shadow ratio must be > 1");
+  require(e.shadowContrast >= 1.0 && std::isfinite(e.shadowContrast),
+          "echo shadow contrast must be >= 1");
+  require(e.ringingFraction > 0.0 && e.ringingFraction <= 1.0,
+          "echo ringing fraction must be in (0, 1]");
+  require(e.shadowNoiseFactor >= 0.0 && std::isfinite(e.shadowNoiseFactor),
+          "echo shadow noise factor must be >= 0");
+  require(p.ringDownEnd >= 0, "ring-down end must be >= 0");
+  require(p.samplesPerCycle > 0.0 && std::isfinite(p.samplesPerCycle),
+          "samples per transducer cycle must be > 0");
+  require(std::isfinite(p.emissionSample), "emission sample must be finite");
 }
 
 PeakResult findPeaks(const PeakParams& params, const float* envelope, int count) {
   PeakResult result;
-  if (count <= 0) return result;
+  if (count <= 0)
+    return result;
+  if (params.policy == PeakPolicy::Prominence && params.prominence.shadow == ShadowRule::Required) {
+    // Bone under tissue with its shadow: the bone policy on the record after the ring-down.
+    const int ringDown = std::clamp(params.ringDownEnd, 0, count);
+    PeakParams bone = params;
+    bone.policy = PeakPolicy::Bone;
+    bone.ringDownEnd = 0;
+    if (bone.windowBegin)
+      bone.windowBegin = std::max(0, *bone.windowBegin - ringDown);
+    if (bone.windowEnd)
+      bone.windowEnd = std::max(0, *bone.windowEnd - ringDown);
+    PeakResult shifted = findPeaks(bone, envelope + ringDown, count - ringDown);
+    for (Peak& peak : shifted.peaks) {
+      peak.index += ringDown;
+      peak.runBegin += ringDown;
+      peak.runEnd += ringDown;
+    }
+    if (shifted.accepted())
+      shifted.sampleIndex += ringDown;
+    if (!shifted.accepted() && params.windowBegin && *params.windowBegin < ringDown &&
+        (shifted.reason == RejectReason::NoPeak || shifted.reason == RejectReason::OutsideWindow)) {
+      shifted.reason = RejectReason::InRingDown;
+    }
+    return shifted;
+  }
+  if (params.policy == PeakPolicy::Prominence) {
+    const int begin = std::clamp(params.windowBegin.value_or(0), 0, count);
+    const int end = std::clamp(params.windowEnd.value_or(count), 0, count);
+    prominencePolicy(params, envelope, count, begin, end, result);
+    return result;
+  }
 
   if (params.thresholdMode == ThresholdMode::FactorOfMean) {
     result.threshold = params.thresholdFactor * detail::sumOfSamples(envelope, count) / count;
@@ -226,8 +604,10 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
   for (int i = 0; i < count;) {
     if (!(envelope[i] > threshold)) {
       // Most of a record lies below the threshold: skip it eight samples at a time.
-      while (i + 8 <= count && blockMax8(envelope + i) <= threshold) i += 8;
-      if (i < count && !(envelope[i] > threshold)) ++i;
+      while (i + 8 <= count && blockMax8(envelope + i) <= threshold)
+        i += 8;
+      if (i < count && !(envelope[i] > threshold))
+        ++i;
       continue;
     }
     Peak peak;
@@ -255,7 +635,11 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
     result.sampleIndex = params.subsample ? refinedIndex(envelope, count, index) : index;
   };
   const int found = static_cast<int>(result.peaks.size());
-  const RejectReason nothing = anyOutside ? RejectReason::OutsideWindow : RejectReason::NoPeak;
+  // A window that starts inside the ring-down may hide its echo there: say so.
+  const bool windowInRingDown = params.windowBegin && *params.windowBegin < params.ringDownEnd;
+  const RejectReason nothing = windowInRingDown ? RejectReason::InRingDown
+                               : anyOutside     ? RejectReason::OutsideWindow
+                                                : RejectReason::NoPeak;
 
   switch (params.policy) {
     case PeakPolicy::WindowMax: {
@@ -272,7 +656,8 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       int selected = 0;
       for (; selected < found; ++selected) {
         const Peak& p = result.peaks[static_cast<std::size_t>(selected)];
-        if (index >= p.runBegin && index < p.runEnd) break;
+        if (index >= p.runBegin && index < p.runEnd)
+          break;
       }
       if (selected == found) {  // the run's maximum lies outside the window
         Peak clipped;
@@ -313,12 +698,14 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
         result.reason = nothing;
         break;
       }
-      const auto strongest = std::max_element(
-          result.peaks.begin(), result.peaks.end(),
-          [](const Peak& a, const Peak& b) { return a.value < b.value; });
+      const auto strongest =
+          std::max_element(result.peaks.begin(), result.peaks.end(),
+                           [](const Peak& a, const Peak& b) { return a.value < b.value; });
       accept(static_cast<int>(strongest - result.peaks.begin()), strongest->index);
       break;
     }
+    case PeakPolicy::Prominence:
+      break;  // handled above
     case PeakPolicy::Bone: {
       if (found == 0) {
         result.reason = nothing;

@@ -49,6 +49,8 @@ std::string_view elementTypeName(ElementType type) {
       return "int8";
     case ElementType::Int16:
       return "int16";
+    case ElementType::UInt16:
+      return "uint16";
     case ElementType::Float32:
       return "float";
   }
@@ -64,6 +66,7 @@ std::size_t elementSize(ElementType type) {
     case ElementType::Int8:
       return 1;
     case ElementType::Int16:
+    case ElementType::UInt16:
       return 2;
     case ElementType::Float32:
       return 4;
@@ -98,6 +101,9 @@ void Sequence::frameSamples(std::size_t frame, std::vector<float>& out) const {
       break;
     case ElementType::Int16:
       convertSamples<std::int16_t>(data, out);
+      break;
+    case ElementType::UInt16:
+      convertSamples<std::uint16_t>(data, out);
       break;
     case ElementType::Float32:
       convertSamples<float>(data, out);
@@ -352,6 +358,8 @@ bool applyAcquisitionEntry(const std::string& path, const HeaderEntry& entry,
                                       ? &acquisition.samplingFrequencyHz
                                   : entry.key == kDelayKey        ? &acquisition.delayS
                                   : entry.key == kSpeedOfSoundKey ? &acquisition.speedOfSoundMps
+                                  : entry.key == kTransducerFrequencyKey
+                                      ? &acquisition.transducerFrequencyHz
                                                                   : nullptr;
   if (target == nullptr)
     return false;
@@ -779,7 +787,7 @@ std::optional<FrameKey> parseFrameKey(std::string_view key) {
 
 bool isEchoregKey(std::string_view key) {
   return key == kSamplingFrequencyKey || key == kDelayKey || key == kSpeedOfSoundKey ||
-         key == kTransducerKey;
+         key == kTransducerKey || key == kTransducerFrequencyKey;
 }
 
 // ---- Output -------------------------------------------------------------------------------------
@@ -842,6 +850,7 @@ std::vector<TextEntry> metadataEntries(const Sequence& sequence) {
     entries.push_back(std::move(entry));
   };
   appendNumber(kSamplingFrequencyKey, acquisition.samplingFrequencyHz);
+  appendNumber(kTransducerFrequencyKey, acquisition.transducerFrequencyHz);
   appendNumber(kDelayKey, acquisition.delayS);
   appendNumber(kSpeedOfSoundKey, acquisition.speedOfSoundMps);
   if (!acquisition.transducer.empty()) {

@@ -43,6 +43,7 @@ inline constexpr std::string_view kSamplingFrequencyKey = "EchoregSamplingFreque
 inline constexpr std::string_view kDelayKey = "EchoregDelayS";
 inline constexpr std::string_view kSpeedOfSoundKey = "EchoregSpeedOfSoundMps";
 inline constexpr std::string_view kTransducerKey = "EchoregTransducer";
+inline constexpr std::string_view kTransducerFrequencyKey = "EchoregTransducerFrequencyHz";
 
 // ---- Text ---------------------------------------------------------------------------------------
 

@@ -27,6 +27,8 @@ int vtkScalarType(echoreg::ElementType type) {
       return VTK_SIGNED_CHAR;
     case echoreg::ElementType::Int16:
       return VTK_SHORT;
+    case echoreg::ElementType::UInt16:
+      return VTK_UNSIGNED_SHORT;
     case echoreg::ElementType::Float32:
       return VTK_FLOAT;
     case echoreg::ElementType::None:

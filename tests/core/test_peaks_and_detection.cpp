@@ -99,7 +99,7 @@ TEST(Detection, EverySingleSignalRejectionReason) {
   windowed.peaks.policy = PeakPolicy::WindowMax;
   EXPECT_EQ(reasonOf(windowed, one), RejectReason::OutsideWindow);
   // not-bone: an echo in water (no tissue speckle before it) is not bone.
-  DetectionParams bone = detectionPreset("default");
+  DetectionParams bone = detectionPreset("shadow");
   EXPECT_EQ(reasonOf(bone, one), RejectReason::NotBone);
 }
 
@@ -112,7 +112,7 @@ TEST(Detection, BonePolicyFindsBoneBehindAStrongerFascia) {
   std::normal_distribution<double> amplitude(0.0, 8.0);
   for (double s = 610.0; s < 1690.0; s += 3.0) specs.push_back({s, amplitude(rng)});
   const auto x = test::makeEchoRecord(4096, specs, pulse, 128.0, 0.5, 3);
-  SignalDetector detector(detectionPreset("default"));
+  SignalDetector detector(detectionPreset("shadow"));
   const SignalDetection d = detector.detect(x.data(), 4096);
   ASSERT_TRUE(d.accepted()) << rejectReasonName(d.peaks.reason);
   EXPECT_NEAR(d.peaks.sampleIndex, 1700.0, 1.0);
@@ -154,11 +154,11 @@ TEST(InterSignal, SpatialSpreadDropsPointsTooCloseToAnAcceptedOne) {
 TEST(Detection, PresetsAndValidation) {
   for (const auto& name : detectionPresetNames()) EXPECT_NO_THROW(validate(detectionPreset(name)));
   EXPECT_THROW(detectionPreset("fastest"), std::invalid_argument);
-  DetectionParams params = detectionPreset("default");
+  DetectionParams params = detectionPreset("shadow");
   params.windowMinMm = 20.0;
   params.windowMaxMm = 10.0;
   EXPECT_THROW(validate(params), std::invalid_argument);
-  params = detectionPreset("default");
+  params = detectionPreset("shadow");
   params.depth.speedOfSoundMps = 0.0;
   EXPECT_THROW(SignalDetector{params}, std::invalid_argument);
   EXPECT_EQ(parsePeakPolicy("window-max"), PeakPolicy::WindowMax);

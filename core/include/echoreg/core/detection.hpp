@@ -8,6 +8,7 @@
 
 #include <Eigen/Core>
 
+#include <functional>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -16,24 +17,72 @@
 
 namespace echoreg {
 
-/// Inter-signal filters. Temporal consistency: a point is accepted once `history` consecutive
-/// detected frames (this one included) lie within `consistencyMm` of this one; a frame with no
-/// detection breaks the run. Spatial spread: a point closer than `minSpreadMm` to an already
-/// accepted point is dropped. Points are 3D: in a tracked frame when poses are present, else
-/// (0, 0, depth) in Beam.
+/// How the temporal filter judges a frame.
+enum class TemporalMode {
+  /// The dissertation's: a point is accepted once `history` consecutive detected frames (this one
+  /// included) lie within `consistencyMm` of it in 3D; a frame with no detection breaks the run.
+  Run,
+  /// A depth is accepted when at least `history - 1` of the detected frames nearest in time
+  /// (before or after it, at most `maxGapS` away) agree with it within consistencyMm +
+  /// maxDepthRateMmPerS x their time apart: an echo that jumps alone is dropped, a bone moving
+  /// under a sweep or a breathing leg is kept, and a missed frame does not reset anything.
+  Neighbours,
+};
+
+/// "run", "neighbours".
+std::string_view temporalModeName(TemporalMode mode);
+/// Parses a name of temporalModeName; throws std::invalid_argument listing the valid names.
+TemporalMode parseTemporalMode(std::string_view name);
+
+/// Inter-signal filters. Temporal consistency (see TemporalMode). Spatial spread: a point closer
+/// than `minSpreadMm` to an already accepted point is dropped; it runs only on tracked points
+/// (a pose transform), since without poses (0, 0, depth) of a transducer that does not move says
+/// nothing about where the beam was. Points are 3D: in a tracked frame when poses are present,
+/// else (0, 0, depth) in Beam.
 struct InterSignalParams {
   int history = 3;             ///< >= 1; 1 switches the temporal filter off
   double consistencyMm = 0.5;  ///< > 0
   double minSpreadMm = 1.0;    ///< >= 0; 0 switches the spatial filter off
+  TemporalMode temporal = TemporalMode::Run;
+  /// Neighbours: how fast the depth may change, mm/s (>= 0), and the longest time to a neighbour
+  /// that still counts, s (> 0). Frames without timestamps are taken 1/`frameRateHz` apart.
+  double maxDepthRateMmPerS = 60.0;
+  double maxGapS = 0.2;
+  double frameRateHz = 50.0;
 };
 
 /// Field-by-field equality (a new field must be added here, or this stops compiling).
 inline bool operator==(const InterSignalParams& a, const InterSignalParams& b) {
-  const auto& [historyA, consistencyA, spreadA] = a;
-  const auto& [historyB, consistencyB, spreadB] = b;
-  return std::tie(historyA, consistencyA, spreadA) == std::tie(historyB, consistencyB, spreadB);
+  const auto& [historyA, consistencyA, spreadA, temporalA, rateA, gapA, fpsA] = a;
+  const auto& [historyB, consistencyB, spreadB, temporalB, rateB, gapB, fpsB] = b;
+  return std::tie(temporalA, historyA, consistencyA, rateA, gapA, fpsA, spreadA) ==
+         std::tie(temporalB, historyB, consistencyB, rateB, gapB, fpsB, spreadB);
 }
-inline bool operator!=(const InterSignalParams& a, const InterSignalParams& b) { return !(a == b); }
+inline bool operator!=(const InterSignalParams& a, const InterSignalParams& b) {
+  return !(a == b);
+}
+
+/// What the chain measures from the capture itself before it runs (adaptToCapture), where the
+/// user gave nothing: the ring-down, the conditioning high-pass and the envelope window, all from
+/// the transducer's frequency (flag, capture header, or the capture's own spectrum).
+struct CaptureAdaptation {
+  /// Measure where the ring-down burst of the median record ends (else envelope.ringDownSamples).
+  bool ringDown = false;
+  /// > 0: condition with a high-pass whose corner is this fraction of the transducer frequency.
+  double highPassOfTransducer = 0.0;
+  /// > 0: condition with a high-pass whose corner is this many Hz (wins over the fraction). With
+  /// neither, envelope.highPassSamples is used as given (0: the record's mean removed only).
+  double highPassHz = 0.0;
+  /// > 0: Hann/StdDev window of this many transducer periods (else envelope.windowSamples).
+  double envelopeCycles = 0.0;
+};
+
+/// Field-by-field equality (a new field must be added here, or this stops compiling).
+inline bool operator==(const CaptureAdaptation& a, const CaptureAdaptation& b) {
+  const auto& [ringA, highA, hzA, cyclesA] = a;
+  const auto& [ringB, highB, hzB, cyclesB] = b;
+  return std::tie(ringA, highA, hzA, cyclesA) == std::tie(ringB, highB, hzB, cyclesB);
+}
 
 /// Every parameter of the chain. Window limits are depths (mm) and become sample indices through
 /// `depth` when the chain is built.
@@ -44,7 +93,46 @@ struct DetectionParams {
   InterSignalParams interSignal;
   std::optional<double> windowMinMm;
   std::optional<double> windowMaxMm;
+  CaptureAdaptation adapt;
+  /// The transducer's centre frequency when the user gave it (else the capture header's, else
+  /// measured from the capture's spectrum when something needs it).
+  std::optional<double> transducerFrequencyHz;
 };
+
+/// What adaptToCapture measured and decided, for the summary.
+struct CaptureAnalysis {
+  double transducerFrequencyHz = 0.0;
+  std::string transducerFrequencySource;  ///< "given", "header", "spectrum" or "" (not needed)
+  int ringDownSamples = 0;
+  std::string ringDownSource;  ///< "given" or "measured"
+  int highPassSamples = 0;
+  int envelopeWindowSamples = 0;
+  /// Prominence policy: the shadow rule chosen for the capture, and the share of the analysed
+  /// records in which bone cast a shadow (>= 20 %: "required", else "ignored").
+  std::string shadowRule;
+  double shadowShare = 0.0;
+  std::vector<std::string> warnings;
+};
+
+/// The record source adaptToCapture reads: `count` records, record(i, out) fills out with the
+/// i-th record's samples (all of one length).
+using RecordSource = std::function<void(int, std::vector<float>&)>;
+
+/// Resolves the capture-dependent parameters of `params` (CaptureAdaptation) on up to 64 records
+/// spread over the capture: the transducer frequency (given > `headerFrequencyHz` > the peak of
+/// the records' mean power spectrum between 1 MHz and 0.45 fs, after a 1 MHz high-pass), the
+/// high-pass and envelope lengths from it, and the ring-down as the first sample after the
+/// median record's initial burst where its envelope falls below half the burst's peak (-6 dB)
+/// (none when the record does not start in a burst). Throws std::invalid_argument for a ring-down
+/// that covers the whole record. Fills `analysis` when given.
+DetectionParams adaptToCapture(const DetectionParams& params, int recordCount, int samples,
+                               const RecordSource& record, std::optional<double> headerFrequencyHz,
+                               CaptureAnalysis* analysis = nullptr);
+
+/// The transducer frequency of records: the peak of their mean power spectrum (see above); 0 when
+/// the records hold no energy in the band.
+double estimateTransducerFrequencyHz(int recordCount, int samples, const RecordSource& record,
+                                     double samplingFrequencyHz);
 
 /// "default" (specimens: hann envelope and the bone policy), "mozes2008" (the dissertation's
 /// chain as it was: causal Butterworth order 2 at 0.01, threshold 1.5 x mean, exactly two
@@ -83,7 +171,24 @@ class SignalDetector {
 /// The peak parameters with the window converted from mm to sample indices.
 PeakParams resolvePeakParams(const DetectionParams& params);
 
-/// Temporal consistency and spatial spread over consecutive frames, fed in frame order.
+/// One frame's single-signal result as the inter-signal filters see it.
+struct InterSignalInput {
+  bool detected = false;  ///< the single-signal chain accepted it, with a valid pose
+  double depthMm = 0.0;
+  Eigen::Vector3d pointMm = Eigen::Vector3d::Zero();
+  std::optional<double> timestampS;
+};
+
+/// Temporal consistency and spatial spread over a whole capture (any TemporalMode; Neighbours
+/// looks ahead as well as back). Returns, per frame, None, Inconsistent or TooClose for detected
+/// frames (and None for the others, which the caller has already judged). `tracked`: the points
+/// are tracked 3D points, so the spatial filter runs.
+std::vector<RejectReason> applyInterSignal(const InterSignalParams& params,
+                                           const std::vector<InterSignalInput>& frames,
+                                           bool tracked);
+
+/// Temporal consistency (Run mode) and spatial spread over consecutive frames, fed in frame
+/// order.
 class InterSignalFilter {
  public:
   explicit InterSignalFilter(const InterSignalParams& params);

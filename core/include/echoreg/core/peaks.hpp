@@ -23,10 +23,11 @@ enum class RejectReason {
   Inconsistent,   ///< temporal filter: not yet `history` frames agreeing
   TooClose,       ///< spatial filter: closer than the minimum spread to an accepted point
   InvalidPose,    ///< a pose needed for the point is missing or not OK
+  InRingDown,     ///< the processing window starts inside the ring-down, and no echo came after it
 };
 
 /// "", "no-peak", "too-many-peaks", "too-few-peaks", "outside-window", "not-bone",
-/// "inconsistent", "too-close", "invalid-pose".
+/// "inconsistent", "too-close", "invalid-pose", "in-ring-down".
 std::string_view rejectReasonName(RejectReason reason);
 
 enum class ThresholdMode {
@@ -35,15 +36,17 @@ enum class ThresholdMode {
 };
 
 enum class PeakPolicy {
-  Single,     ///< exactly one peak (phantom in water)
-  Double,     ///< exactly two; the second is bone (standoff/skin, then bone)
-  WindowMax,  ///< the largest value inside the window, if above the threshold (calibration)
-  First,      ///< the shallowest peak
-  Max,        ///< the strongest peak
-  Bone,       ///< the deepest peak with a bone's signature (see BoneEchoParams)
+  Single,      ///< exactly one peak (phantom in water)
+  Double,      ///< exactly two; the second is bone (standoff/skin, then bone)
+  WindowMax,   ///< the largest value inside the window, if above the threshold (calibration)
+  First,       ///< the shallowest peak
+  Max,         ///< the strongest peak
+  Bone,        ///< the deepest peak with a bone's signature (see BoneEchoParams)
+  Prominence,  ///< the strongest prominent echo that is not a wall or a reverberation (see
+               ///< ProminenceParams)
 };
 
-/// "single", "double", "window-max", "first", "max", "bone".
+/// "single", "double", "window-max", "first", "max", "bone", "prominence".
 std::string_view peakPolicyName(PeakPolicy policy);
 /// Parses a name of peakPolicyName; throws std::invalid_argument listing the valid names.
 PeakPolicy parsePeakPolicy(std::string_view name);
@@ -72,6 +75,65 @@ struct BoneEchoParams {
   double minTissueOverNoise = 1.5;
 };
 
+/// The prominence policy (the default), decided from the statistics of the record itself rather
+/// than from fixed regions: the noise floor (10th percentile of the envelope after the ring-down)
+/// and the record's median level, each echo's prominence (its height above the higher of the two
+/// valleys that separate it from stronger echoes or the record's ends, as scipy.signal's
+/// find_peaks defines it), its leading edge, and what lies just before and after it.
+///
+/// An echo is a candidate when it is a local maximum at least `minSnr` x the noise floor and
+/// `minOverMedian` x the median, with a prominence of at least `minProminence` of its height and
+/// a leading edge (half prominence to the peak) of at most `maxRiseCycles` periods of the
+/// transducer frequency: a pulse, not a burst of electrical noise. It is rejected as a wall
+/// (skin or standoff membrane: quiet water in front, the tissue's speckle behind) when the median
+/// envelope after it is `wallStep` x the median before it or more, as
+/// an air interface (an uncoupled probe) when its own echo returns at twice its time of flight at
+/// `airReverberation` of its height or more (bone reflects half the energy at most, so its second
+/// bounce is far weaker), and as speckle when it is below `minContrast` x the envelope before it.
+/// Of the candidates within `similarRatio` of the strongest, the deepest that is not a
+/// reverberation of a shallower one (at twice its time, or one spacing behind a pair) is bone: a
+/// fascia or the skin lies above bone, never behind it.
+/// How the prominence policy uses the acoustic shadow behind bone.
+enum class ShadowRule {
+  /// Per record: the deepest candidate followed by a shadow if there is one, else the strongest.
+  /// adaptToCapture turns Auto into Required or Ignored for a whole capture.
+  Auto,
+  /// Bone must cast a shadow (specimens under several mm of tissue, phantoms in water): the
+  /// deepest shadowed candidate, else not-bone.
+  Required,
+  /// Shallow bone in vivo, where reverberation and the cortex's own echoes keep the envelope up
+  /// behind the bone: the strongest candidate (deeper ones of similar strength first).
+  Ignored,
+};
+
+/// "auto", "required", "ignored".
+std::string_view shadowRuleName(ShadowRule rule);
+/// Parses a name of shadowRuleName; throws std::invalid_argument listing the valid names.
+ShadowRule parseShadowRule(std::string_view name);
+
+struct ProminenceParams {
+  double minSnr = 8.0;             ///< peak / noise floor (> 1)
+  double minOverMedian = 3.0;      ///< peak / median of the envelope after the ring-down (>= 1)
+  double minProminence = 0.5;      ///< prominence / peak height, (0, 1]
+  double maxRiseCycles = 3.0;      ///< leading edge, transducer periods (> 0)
+  double minContrast = 2.0;        ///< peak / median of the envelope before it (>= 1)
+  double regionMm = 2.0;           ///< before/after regions, mm (> 0), clipped to the record
+  double wallStep = 3.0;           ///< median after / median before at which it is a wall (> 1)
+  double airReverberation = 0.35;  ///< second bounce / peak at or above which it is air, (0, 1]
+  double similarRatio = 0.6;       ///< echoes this close to the strongest compete on depth, (0, 1]
+  ShadowRule shadow = ShadowRule::Auto;
+  /// Shadow: the median envelope after the echo (over the near half of the region and all of it)
+  /// is at most 1 / `shadowRatio` of the median before it (> 1), or within `shadowNoiseFactor`
+  /// of the noise floor (>= 0).
+  double shadowRatio = 2.0;
+  double shadowNoiseFactor = 1.2;
+  /// A shadowed echo must be this many times the median before it (>= 1).
+  double shadowContrast = 3.5;
+  /// Ringing: the median envelope over the near half of the region behind the echo is at least
+  /// this fraction of the echo, (0, 1].
+  double ringingFraction = 0.4;
+};
+
 struct PeakParams {
   ThresholdMode thresholdMode = ThresholdMode::FactorOfMean;
   double thresholdFactor = 1.5;  ///< FactorOfMean: multiple of the mean (> 0)
@@ -81,6 +143,15 @@ struct PeakParams {
   std::optional<int> windowEnd;
   PeakPolicy policy = PeakPolicy::Bone;
   BoneEchoParams bone;
+  ProminenceParams prominence;
+  /// First sample after the ring-down: the prominence policy looks for echoes from here on (the
+  /// envelope before it is the transducer's own); 0 for none.
+  int ringDownEnd = 0;
+  /// Samples per period of the transducer frequency (the prominence policy's leading edge and
+  /// reverberation tolerance), > 0.
+  double samplesPerCycle = 5.5;
+  /// Sample index of the moment of emission (negative: -delay x fs), for reverberation times.
+  double emissionSample = 0.0;
   /// Refine the chosen peak to a fraction of a sample with a parabola through its neighbours.
   bool subsample = true;
   /// Millimetres per sample, for the bone policy's lengths (DepthConversion::mmPerSample()).
@@ -97,13 +168,29 @@ inline bool operator==(const BoneEchoParams& a, const BoneEchoParams& b) {
   return std::tie(regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA) ==
          std::tie(regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB);
 }
-inline bool operator==(const PeakParams& a, const PeakParams& b) {
-  const auto& [modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, subsampleA, mmA] = a;
-  const auto& [modeB, factorB, ofMaxB, beginB, endB, policyB, boneB, subsampleB, mmB] = b;
-  return std::tie(modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, subsampleA, mmA) ==
-         std::tie(modeB, factorB, ofMaxB, beginB, endB, policyB, boneB, subsampleB, mmB);
+inline bool operator==(const ProminenceParams& a, const ProminenceParams& b) {
+  const auto& [snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
+               ratioA, noiseA, shadowContrastA, ringingA] = a;
+  const auto& [snrB, medianB, promB, riseB, contrastB, regionB, wallB, airB, similarB, shadowB,
+               ratioB, noiseB, shadowContrastB, ringingB] = b;
+  return std::tie(snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
+                  ratioA, noiseA, shadowContrastA, ringingA) ==
+         std::tie(snrB, medianB, promB, riseB, contrastB, regionB, wallB, airB, similarB, shadowB,
+                  ratioB, noiseB, shadowContrastB, ringingB);
 }
-inline bool operator!=(const PeakParams& a, const PeakParams& b) { return !(a == b); }
+inline bool operator==(const PeakParams& a, const PeakParams& b) {
+  const auto& [modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, promA, ringA, cycleA,
+               emissionA, subsampleA, mmA] = a;
+  const auto& [modeB, factorB, ofMaxB, beginB, endB, policyB, boneB, promB, ringB, cycleB,
+               emissionB, subsampleB, mmB] = b;
+  return std::tie(modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, promA, ringA, cycleA,
+                  emissionA, subsampleA, mmA) == std::tie(modeB, factorB, ofMaxB, beginB, endB,
+                                                          policyB, boneB, promB, ringB, cycleB,
+                                                          emissionB, subsampleB, mmB);
+}
+inline bool operator!=(const PeakParams& a, const PeakParams& b) {
+  return !(a == b);
+}
 
 struct Peak {
   int index = 0;      ///< sample index of the maximum of the run
@@ -116,8 +203,8 @@ struct PeakResult {
   double threshold = 0.0;
   std::vector<Peak> peaks;  ///< every peak above the threshold (inside the window when one is set)
   RejectReason reason = RejectReason::NoPeak;
-  int selected = -1;                ///< index into peaks of the chosen peak, -1 when rejected
-  double sampleIndex = 0.0;         ///< chosen peak's (fractional) sample index
+  int selected = -1;         ///< index into peaks of the chosen peak, -1 when rejected
+  double sampleIndex = 0.0;  ///< chosen peak's (fractional) sample index
   bool accepted() const { return reason == RejectReason::None; }
 };
 

@@ -22,9 +22,9 @@
 namespace echoreg {
 
 /// Pixel element types of an A-line capture. None is a tracker-only sequence.
-enum class ElementType { None, UInt8, Int8, Int16, Float32 };
+enum class ElementType { None, UInt8, Int8, Int16, UInt16, Float32 };
 
-/// "none", "uint8", "int8", "int16", "float".
+/// "none", "uint8", "int8", "int16", "uint16", "float".
 std::string_view elementTypeName(ElementType type);
 /// Bytes per element (0 for None).
 std::size_t elementSize(ElementType type);
@@ -47,9 +47,11 @@ struct SequenceFrame {
 };
 
 /// Acquisition settings echoreg stores in its own header keys (EchoregSamplingFrequencyHz,
-/// EchoregDelayS, EchoregSpeedOfSoundMps, EchoregTransducer).
+/// EchoregDelayS, EchoregSpeedOfSoundMps, EchoregTransducer, EchoregTransducerFrequencyHz).
 struct AcquisitionSettings {
   std::optional<double> samplingFrequencyHz;
+  /// The transducer's centre frequency, when the capture says it.
+  std::optional<double> transducerFrequencyHz;
   std::optional<double> delayS;
   std::optional<double> speedOfSoundMps;
   std::string transducer;

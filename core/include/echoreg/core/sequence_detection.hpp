@@ -39,9 +39,9 @@ struct FrameDetection {
   std::optional<double> timestampS;
   RejectReason reason = RejectReason::NoPeak;
   int peakCount = 0;
-  std::optional<double> sampleIndex;      ///< the chosen peak, also when a later filter rejected it
-  std::optional<double> depthMm;          ///< only when accepted
-  std::optional<Eigen::Vector3d> pointMm; ///< only when accepted
+  std::optional<double> sampleIndex;  ///< the chosen peak, also when a later filter rejected it
+  std::optional<double> depthMm;      ///< only when accepted
+  std::optional<Eigen::Vector3d> pointMm;  ///< only when accepted
   bool accepted() const { return reason == RejectReason::None; }
 };
 
@@ -49,15 +49,37 @@ struct SequenceDetection {
   std::vector<FrameDetection> frames;
   int accepted = 0;
   std::map<std::string, int> rejectedByReason;  ///< reason name -> count
+  /// The parameters as run (after adaptToCapture) and what was measured from the capture.
+  DetectionParams params;
+  CaptureAnalysis analysis;
+  /// Frames the single-signal chain accepted (before the inter-signal filters).
+  int echoes = 0;
 };
+
+/// What a user should know about a detection, one sentence each: what adaptToCapture warned of,
+/// a processing window that starts inside the ring-down, an inter-signal filter that removed more
+/// than half of the echoes, and, when fewer than 20 % of the frames were accepted, the dominant
+/// reason with the setting most likely to blame.
+std::vector<std::string> detectionWarnings(const SequenceDetection& detection);
+
+/// adaptToCapture on a sequence's records, with its header's transducer frequency.
+DetectionParams adaptToSequence(const Sequence& sequence, const DetectionParams& params,
+                                CaptureAnalysis* analysis = nullptr);
+
+/// Throws std::invalid_argument unless the sequence holds one A-line per frame (frames of N x 1
+/// samples): a holder of many transducers stored as rows of one frame is refused until echoreg
+/// reads them.
+void requireSingleALineFrames(const Sequence& sequence);
 
 /// The depth conversion a capture implies: echoreg's acquisition header keys where present,
 /// `fallback` otherwise.
 DepthConversion depthFromSequence(const Sequence& sequence, const DepthConversion& fallback);
 
-/// Runs the chain on every frame of an A-line sequence. `progress(done, total)` is called now and
-/// then when given. Throws std::invalid_argument for bad parameters, for a sequence without
-/// pixels, or for a pose/reference transform the sequence does not have (listing those it has).
+/// Runs the chain on every frame of an A-line sequence: adaptToSequence, the single-signal chain
+/// on every frame, then the inter-signal filters (applyInterSignal). `progress(done, total)` is
+/// called now and then when given. Throws std::invalid_argument for bad parameters, for a
+/// sequence without pixels or with several rows per frame, or for a pose/reference transform the
+/// sequence does not have (listing those it has).
 SequenceDetection detectSequence(const Sequence& sequence, const DetectionParams& params,
                                  const PointFrameOptions& points = {},
                                  const std::function<void(int, int)>& progress = {});

@@ -1,0 +1,250 @@
+// The default chain's measurements from the capture (transducer frequency, ring-down, shadow
+// rule), its conditioning high-pass, the prominence policy's edge cases and the neighbours
+// temporal filter. Records are built from explicit echoes (tests/support/aline_generator's
+// makeEchoRecord) so every expectation follows from what was put in.
+#include "aline_generator.hpp"
+
+#include "echoreg/core/detection.hpp"
+#include "echoreg/core/envelope.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+#include <stdexcept>
+#include <vector>
+
+namespace echoreg {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+// Records of one capture: a ring-down burst at the start (the same in every record), a bone echo
+// that moves, a slow baseline and a DC offset of a 12-bit left-justified digitiser.
+std::vector<std::vector<float>> capture(double transducerHz, int records, double ringDownEnd,
+                                        double baselineCodes) {
+  test::PulseModel pulse;
+  pulse.samplingFrequencyHz = 50e6;
+  pulse.centreFrequencyHz = transducerHz;
+  std::vector<std::vector<float>> out;
+  for (int r = 0; r < records; ++r) {
+    std::vector<test::EchoSpec> echoes;
+    for (double s = 2.0; s < ringDownEnd; s += 4.0)
+      echoes.push_back({s, 20000.0});
+    echoes.push_back({400.0 + 3.0 * r, 4000.0});
+    std::vector<float> x =
+        test::makeEchoRecord(1500, echoes, pulse, 80.0, 30.0, static_cast<std::uint64_t>(r + 1));
+    for (std::size_t i = 0; i < x.size(); ++i) {
+      const double drift =
+          baselineCodes * std::sin(2.0 * kPi * 0.1e6 * static_cast<double>(i) / 50e6 + r);
+      // Left-justified 12 bits: multiples of 16.
+      x[i] = static_cast<float>(16.0 * std::round((x[i] + drift) / 16.0));
+    }
+    out.push_back(std::move(x));
+  }
+  return out;
+}
+
+RecordSource sourceOf(const std::vector<std::vector<float>>& records) {
+  return [&records](int i, std::vector<float>& out) { out = records[static_cast<std::size_t>(i)]; };
+}
+
+TEST(CaptureAdaptation, TransducerFrequencyFromTheSpectrum) {
+  for (double hz : {3.5e6, 7.2e6, 12e6}) {
+    const auto records = capture(hz, 20, 0.0, 2000.0);
+    const double estimate = estimateTransducerFrequencyHz(20, 1500, sourceOf(records), 50e6);
+    EXPECT_NEAR(estimate, hz, 0.1 * hz) << hz;
+  }
+}
+
+TEST(CaptureAdaptation, RingDownEndsWhereTheBurstDoes) {
+  const auto records = capture(7e6, 40, 30.0, 0.0);
+  CaptureAnalysis analysis;
+  const DetectionParams params = adaptToCapture(detectionPreset("default"), 40, 1500,
+                                                sourceOf(records), std::nullopt, &analysis);
+  EXPECT_EQ(analysis.ringDownSource, "measured");
+  // The burst's last pulse is centred at sample 26 and lasts about a pulse more; one period of
+  // margin (7 samples) follows.
+  EXPECT_GE(analysis.ringDownSamples, 28);
+  EXPECT_LE(analysis.ringDownSamples, 60);
+  EXPECT_EQ(params.peaks.ringDownEnd, analysis.ringDownSamples);
+  EXPECT_EQ(analysis.transducerFrequencySource, "spectrum");
+  EXPECT_NEAR(analysis.transducerFrequencyHz, 7e6, 0.7e6);
+  // High-pass over 1.5 periods of half the transducer frequency, envelope over 1.25 periods.
+  EXPECT_NEAR(analysis.highPassSamples, 1.5 * 50e6 / 3.5e6, 2.0);
+  EXPECT_NEAR(analysis.envelopeWindowSamples, 1.25 * 50e6 / 7e6, 1.0);
+}
+
+TEST(CaptureAdaptation, NoRingDownWhenTheRecordDoesNotStartInABurst) {
+  const auto records = capture(7e6, 40, 0.0, 0.0);
+  CaptureAnalysis analysis;
+  adaptToCapture(detectionPreset("default"), 40, 1500, sourceOf(records), std::nullopt, &analysis);
+  EXPECT_EQ(analysis.ringDownSamples, 0);
+}
+
+TEST(CaptureAdaptation, GivenValuesWinAndARingDownLongerThanTheRecordIsRefused) {
+  const auto records = capture(7e6, 10, 30.0, 0.0);
+  DetectionParams given = detectionPreset("default");
+  given.transducerFrequencyHz = 5e6;
+  given.adapt.ringDown = false;
+  given.envelope.ringDownSamples = 100;
+  CaptureAnalysis analysis;
+  const DetectionParams params = adaptToCapture(given, 10, 1500, sourceOf(records), 9e6, &analysis);
+  EXPECT_EQ(analysis.transducerFrequencySource, "given");
+  EXPECT_DOUBLE_EQ(analysis.transducerFrequencyHz, 5e6);
+  EXPECT_EQ(params.peaks.ringDownEnd, 100);
+  EXPECT_EQ(params.envelope.ringDownSamples, 0);  // the prominence policy reads through it
+  DetectionParams header = detectionPreset("default");
+  adaptToCapture(header, 10, 1500, sourceOf(records), 9e6, &analysis);
+  EXPECT_EQ(analysis.transducerFrequencySource, "header");
+  given.envelope.ringDownSamples = 1500;
+  EXPECT_THROW(adaptToCapture(given, 10, 1500, sourceOf(records), std::nullopt),
+               std::invalid_argument);
+}
+
+TEST(CaptureAdaptation, HighPassRemovesTheBaselineAndKeepsTheEcho) {
+  EnvelopeParams params;
+  params.samplingFrequencyHz = 50e6;
+  params.highPassSamples = highPassLength(3.5e6, 50e6);
+  EXPECT_EQ(params.highPassSamples % 2, 1);
+  EnvelopeDetector detector(params);
+  const int n = 1500;
+  std::vector<float> drift(n), tone(n), envelope(n);
+  for (int i = 0; i < n; ++i) {
+    drift[i] = static_cast<float>(100.0 + 3000.0 * std::sin(2.0 * kPi * 0.1e6 * i / 50e6));
+    tone[i] = static_cast<float>(1000.0 * std::sin(2.0 * kPi * 7e6 * i / 50e6));
+  }
+  detector.compute(drift.data(), n, envelope.data());
+  double worst = 0.0;
+  for (int i = 100; i < n - 100; ++i)
+    worst = std::max(worst, static_cast<double>(envelope[i]));
+  EXPECT_LT(worst, 3000.0 * 0.01);  // 0.1 MHz drops by more than 40 dB
+  detector.compute(tone.data(), n, envelope.data());
+  double mean = 0.0;
+  for (int i = 100; i < n - 100; ++i)
+    mean += envelope[i];
+  mean /= n - 200;
+  EXPECT_NEAR(mean, 1000.0 * 2.0 / kPi, 60.0);  // |sin| averages 2/pi: 7 MHz passes
+}
+
+TEST(ProminencePolicy, AWindowEdgeOnAStrongerEchoTailIsNoEcho) {
+  // A strong echo just before the window: its falling tail enters the window, which holds only
+  // a weak echo. The edge sample is not a local maximum, so it is never returned.
+  test::PulseModel pulse;
+  const auto x = test::makeEchoRecord(4096, {{1000.0, 100.0}, {1300.0, 12.0}}, pulse, 0.0, 0.2, 1);
+  DetectionParams params = detectionPreset("default");
+  params.peaks.prominence.shadow = ShadowRule::Ignored;
+  params.envelope.windowSamples = 7;
+  params.windowMinMm = DepthConversion{}.depthMm(1004.0);
+  params.windowMaxMm = DepthConversion{}.depthMm(2000.0);
+  SignalDetector detector(params);
+  const SignalDetection d = detector.detect(x.data(), 4096);
+  ASSERT_TRUE(d.accepted()) << rejectReasonName(d.peaks.reason);
+  EXPECT_NEAR(d.peaks.sampleIndex, 1300.0, 2.0);
+  // The dissertation-era window-max returns the edge.
+  params.peaks.policy = PeakPolicy::WindowMax;
+  SignalDetector windowMax(params);
+  EXPECT_LT(windowMax.detect(x.data(), 4096).peaks.sampleIndex, 1010.0);
+}
+
+TEST(ProminencePolicy, AWindowInsideTheRingDownSaysSo) {
+  test::PulseModel pulse;
+  const auto x = test::makeEchoRecord(4096, {{30.0, 200.0}, {2000.0, 40.0}}, pulse, 0.0, 0.2, 1);
+  DetectionParams params = detectionPreset("default");
+  params.peaks.ringDownEnd = 150;
+  params.windowMinMm = 0.5;
+  params.windowMaxMm = 2.0;  // samples 32-130: all inside the ring-down
+  SignalDetector detector(params);
+  EXPECT_EQ(detector.detect(x.data(), 4096).peaks.reason, RejectReason::InRingDown);
+  EXPECT_EQ(rejectReasonName(RejectReason::InRingDown), "in-ring-down");
+}
+
+TEST(ProminencePolicy, UncoupledProbeIsNotBone) {
+  // Air behind the standoff: the membrane's echo comes back at half strength at twice and three
+  // times its time of flight, with nothing between.
+  test::PulseModel pulse;
+  const auto x = test::makeEchoRecord(
+      4096, {{500.0, 100.0}, {1000.0, 50.0}, {1500.0, 25.0}, {2000.0, 12.0}}, pulse, 128.0, 0.3, 2);
+  DetectionParams params = detectionPreset("default");
+  params.peaks.prominence.shadow = ShadowRule::Ignored;
+  SignalDetector detector(params);
+  EXPECT_FALSE(detector.detect(x.data(), 4096).accepted());
+  // Bone in water reflects half: its second bounce is a fifth, and it is accepted.
+  const auto bone =
+      test::makeEchoRecord(4096, {{500.0, 100.0}, {1000.0, 20.0}}, pulse, 128.0, 0.3, 2);
+  const SignalDetection d = detector.detect(bone.data(), 4096);
+  ASSERT_TRUE(d.accepted()) << rejectReasonName(d.peaks.reason);
+  EXPECT_NEAR(d.peaks.sampleIndex, 500.0, 2.0);
+}
+
+TEST(InterSignal, NeighboursKeepAMovingBoneAndDropALoneJump) {
+  InterSignalParams params;
+  params.temporal = TemporalMode::Neighbours;
+  params.history = 2;
+  std::vector<InterSignalInput> frames;
+  // A bone rising at 40 mm/s at 100 Hz (0.4 mm per frame), one outlier, one missed frame.
+  for (int f = 0; f < 20; ++f) {
+    InterSignalInput in;
+    in.detected = f != 12;
+    in.depthMm = 10.0 + 0.4 * f + (f == 7 ? 5.0 : 0.0);
+    in.pointMm = {0.0, 0.0, in.depthMm};
+    in.timestampS = 0.01 * f;
+    frames.push_back(in);
+  }
+  const std::vector<RejectReason> verdict = applyInterSignal(params, frames, false);
+  for (int f = 0; f < 20; ++f) {
+    if (f == 12)
+      continue;
+    EXPECT_EQ(verdict[static_cast<std::size_t>(f)],
+              f == 7 ? RejectReason::Inconsistent : RejectReason::None)
+        << "frame " << f;
+  }
+  // The dissertation's run filter loses most of the same sweep.
+  params.temporal = TemporalMode::Run;
+  params.history = 3;
+  const std::vector<RejectReason> run = applyInterSignal(params, frames, false);
+  int kept = 0;
+  for (RejectReason r : run)
+    kept += r == RejectReason::None ? 1 : 0;
+  EXPECT_LT(kept, 10);
+}
+
+TEST(InterSignal, SpatialSpreadOnlyOnTrackedPoints) {
+  InterSignalParams params;
+  params.temporal = TemporalMode::Neighbours;
+  params.history = 1;
+  params.minSpreadMm = 1.0;
+  std::vector<InterSignalInput> frames(5);
+  for (auto& f : frames) {
+    f.detected = true;
+    f.depthMm = 5.0;
+    f.pointMm = {0.0, 0.0, 5.0};
+  }
+  int kept = 0;
+  for (RejectReason r : applyInterSignal(params, frames, false))
+    kept += r == RejectReason::None;
+  EXPECT_EQ(kept, 5);  // a transducer that does not move, no poses: nothing to spread
+  kept = 0;
+  for (RejectReason r : applyInterSignal(params, frames, true))
+    kept += r == RejectReason::None;
+  EXPECT_EQ(kept, 1);
+}
+
+TEST(Detection, BoundsOnTheAcquisitionFacts) {
+  DetectionParams params = detectionPreset("default");
+  params.depth.delayS = -0.001;
+  EXPECT_THROW(validate(params), std::invalid_argument);
+  params.depth.delayS = 1e300;
+  EXPECT_THROW(validate(params), std::invalid_argument);
+  params.depth.delayS = 2e-6;
+  params.depth.speedOfSoundMps = 1e308;
+  try {
+    validate(params);
+    ADD_FAILURE() << "1e308 m/s accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("speed of sound"), std::string::npos) << e.what();
+  }
+}
+
+}  // namespace
+}  // namespace echoreg
