@@ -544,7 +544,7 @@ class CaptureSynth {
   void drawRingDown(double endLo, double endHi, double tailLo, double tailHi, double decayLoMm,
                     double decayHiMm) {
     p_.burstEnd = rng_.logUni(endLo, endHi);
-    p_.burstAmp = rng_.uni(0.5, 1.8);
+    p_.burstAmp = rng_.uni(0.7, 2.0);
     p_.ringFreq = p_.fc * rng_.uni(0.93, 1.07);
     p_.ringPhase = rng_.uni(0.0, 2.0 * kPi);
     p_.tailAmp = rng_.logUni(tailLo, tailHi);
@@ -706,6 +706,7 @@ class CaptureSynth {
     }
     p_.burstNoiseProb = 0.03;
     p_.handHeld = rng_.chance(0.5);
+    limitGain();
     scenarioSpecifics();
   }
 
@@ -735,6 +736,7 @@ class CaptureSynth {
     p_.handHeld = false;
     windowMin_ = rng_.uni(0.3, 1.0);
     windowMax_ = rng_.uni(12.0, 18.0);
+    limitGain();
     scenarioSpecifics();
   }
 
@@ -772,7 +774,18 @@ class CaptureSynth {
     p_.ghostDouble = 0.0;
     p_.burstNoiseProb = 0.0;
     p_.handHeld = rng_.chance(0.5);
+    limitGain();
     scenarioSpecifics();
+  }
+
+  /// The gain is set so the speckle near the skin (brightest without a full TGC) stays within
+  /// the ADC's range: 3x its RMS under 0.35 of full scale.
+  void limitGain() {
+    const double nearRms = p_.boneAmp * p_.speckleToBone * std::max(1.0, p_.skinLevel) *
+                           std::max(1.0, depthFactor(0.0));
+    if (3.0 * nearRms > 0.35) {
+      p_.boneAmp *= 0.35 / (3.0 * nearRms);
+    }
   }
 
   void scenarioSpecifics() {
