@@ -310,7 +310,17 @@ class PulseBank {
 
 // ---------------------------------------------------------------------------------------------
 
-enum class Scenario { Bone, Uncoupled, NoSkin, BeyondRecord, FasciaAsStrong, Noise };
+// BoneObliqueProne: a bone capture held at a steep angle (a strapped transducer) or swept with
+// large tilts; it becomes Bone once drawn.
+enum class Scenario {
+  Bone,
+  Uncoupled,
+  NoSkin,
+  BeyondRecord,
+  FasciaAsStrong,
+  Noise,
+  BoneObliqueProne
+};
 
 struct FrameGeom {
   double standoffMm = 0.0;  // physical path through the standoff
@@ -369,8 +379,9 @@ struct Params {
   double strongFasciaFraction = 0.5;                  // FasciaAsStrong: where in the tissue
   // Behind the bone.
   double cortexMm = 2.0, cCortex = 3800.0, cortexRatio = 0.15;
-  double reverbFirst = 0.2, reverbRatio = 0.4, reverbSpacingMm = 0.5;
+  double reverbFirst = 0.2, reverbRatio = 0.4, reverbSpacingMm = 0.5, reverbPhaseJitter = 0.4;
   bool strongReverb = false;
+  bool reverbCoherent = false;  // the reverberation's echoes in phase (a ringing tail)
   double diffuseReverb = 0.0, diffuseReverbMm = 2.0;
   double ghostStandoff = 0.0, ghostDouble = 0.0;
   double noSkinWaterMm = 100.0;
@@ -441,7 +452,8 @@ class CaptureSynth {
                bool keepClean)
       : rng_(seed), frames_(frames), keepClean_(keepClean) {
     p_.profile = profile;
-    p_.scenario = scenario;
+    p_.scenario = scenario == Scenario::BoneObliqueProne ? Scenario::Bone : scenario;
+    obliqueProne_ = scenario == Scenario::BoneObliqueProne;
     t0_ = rng_.uni(0.0, 100.0);
     if (profile == "randomised") {
       drawRandomised();
@@ -608,10 +620,17 @@ class CaptureSynth {
     p_.reverbSpacingMm = rng_.uni(0.3, 1.2);
     p_.strongReverb = strongReverbAllowed && rng_.chance(strongProb);
     if (p_.strongReverb) {
-      p_.reverbFirst = rng_.uni(0.55, 0.9);
-      p_.reverbRatio = rng_.uni(0.8, 0.93);
-      p_.reverbSpacingMm = rng_.uni(0.15, 0.6);
-      p_.diffuseReverb = rng_.uni(0.3, 0.6);
+      // Echoes closer than the pulse is long, merging into a tail that halves over 2.5-5 mm.
+      const double fwhmMm = 0.882 / (p_.fbw * p_.fc) * p_.cAssumed / 2.0 * 1e3;
+      const double spacing = rng_.uni(0.3, 0.6);
+      p_.reverbSpacingMm = spacing * fwhmMm;
+      p_.reverbRatio = std::pow(0.5, p_.reverbSpacingMm / rng_.uni(3.0, 6.0));
+      // In phase with each other (a ringing of the cortex), overlapping echoes add up to about
+      // 1.06 / spacing times one of them: the tail starts at 0.75-1 of the bone echo.
+      p_.reverbFirst = rng_.uni(0.75, 1.0) * spacing / 1.064;
+      p_.reverbCoherent = true;
+      p_.reverbPhaseJitter = 0.15;
+      p_.diffuseReverb = rng_.uni(0.1, 0.25);
       p_.diffuseReverbMm = rng_.uni(2.0, 5.0);
     }
   }
@@ -715,6 +734,7 @@ class CaptureSynth {
     drawProbe(7.0, 7.6, 0.5, 0.8);
     p_.fs = 50e6;
     setStorage(SampleStorage::Int16, 12, true);
+    p_.dc = std::abs(p_.dc);
     drawRingDown(22.0 / 50e6, 28.0 / 50e6, 2000.0 / 32768.0, 4000.0 / 32768.0, 2.5, 3.5);
     p_.tailOscFraction = rng_.uni(0.2, 0.7);
     drawDrift(1000.0, 3000.0);
@@ -728,7 +748,7 @@ class CaptureSynth {
     p_.shadow = rng_.logUni(0.05, 0.4);
     drawBehindBone(true, 0.8);
     p_.ghostDouble = rng_.uni(0.02, 0.12);
-    if (rng_.chance(0.4)) {
+    if (rng_.chance(0.5)) {
       p_.similarRatio = rng_.uni(0.6, 1.25);
       p_.similarAboveMm = rng_.uni(0.8, 3.0);
     }
@@ -823,6 +843,7 @@ class CaptureSynth {
         }
         break;
       case Scenario::Bone:
+      case Scenario::BoneObliqueProne:
         break;
     }
     // The acquisition delay: often 0, sometimes inside the burst, sometimes past it.
@@ -859,10 +880,10 @@ class CaptureSynth {
     const double curvY = 1.0 / (2.0 * rng_.uni(30.0, 200.0));
     const double t0 = p_.tissueMm;
     // Tilt about y (in the sweep plane) and roll about x: slow wander + tremor.
-    const int tiltKind = rng_.pick({0.75, 0.2, 0.05});
+    const int tiltKind = obliqueProne_ ? 2 : rng_.pick({0.78, 0.22});
     const double tiltAmp = tiltKind == 0
-                               ? rng_.uni(0.0, 4.0)
-                               : (tiltKind == 1 ? rng_.uni(4.0, 12.0) : rng_.uni(12.0, 22.0));
+                               ? rng_.uni(0.0, 3.0)
+                               : (tiltKind == 1 ? rng_.uni(3.0, 8.0) : rng_.uni(10.0, 20.0));
     const double tiltBase = rng_.uni(-3.0, 3.0), rollBase = rng_.uni(-2.0, 2.0);
     const double tiltF = rng_.uni(0.3, 2.0), tiltPh = rng_.uni(0.0, 2.0 * kPi);
     double tremF[4], tremPh[4];
@@ -940,7 +961,7 @@ class CaptureSynth {
 
   void drawHolder() {
     // Strapped to the leg: a fixed angle, the soft tissue moving the bone a little.
-    const bool oblique = rng_.chance(0.1);
+    const bool oblique = obliqueProne_;
     const double theta = oblique ? rng_.uni(8.0, 20.0) : rng_.uni(0.0, 4.0);
     double depth = 0.0, rate = 0.0, xi = 0.0;
     const double breathAmp = rng_.uni(0.02, 0.15), breathF = rng_.uni(0.2, 1.2);
@@ -1319,9 +1340,14 @@ class CaptureSynth {
         const double a = p_.boneAmp * p_.skinEchoRatio;
         others.push_back(Echo{l.tStandoff, a, p_.bonePhase + 2.0, 0.0});
         if (p_.standoffType == "water") {
-          others.push_back(Echo{2.0 * l.tStandoff, a * p_.standoffMultipleRatio, 1.0, 0.0});
-          others.push_back(Echo{3.0 * l.tStandoff,
-                                a * p_.standoffMultipleRatio * p_.standoffMultipleRatio, 2.0, 0.0});
+          // Multiples of the water path; the specimen profile keeps only noise behind the bone.
+          const bool clearBehind = p_.profile == "specimen-standoff";
+          for (int r = 2; r <= 3; ++r) {
+            if (!clearBehind || r * l.tStandoff < tBone) {
+              others.push_back(Echo{r * l.tStandoff, a * std::pow(p_.standoffMultipleRatio, r - 1),
+                                    1.0 * r, 0.0});
+            }
+          }
         }
       }
       if (l.fatMm > 0.5 && p_.fasciaRatio > 0.0) {
@@ -1381,10 +1407,11 @@ class CaptureSynth {
       if (p_.reverbFirst > 0.0) {
         double a = boneAmp * p_.reverbFirst * std::pow(10.0, 0.04 * rng_.normal());
         const double dt = twoWayTime(p_.reverbSpacingMm, p_.cAssumed);
-        for (int r = 1; a > 0.03 * boneAmp && r < 60; ++r, a *= p_.reverbRatio) {
-          const double jitterT = dt * 0.15 * rng_.normal();
-          addEchoTo(own, Echo{tBone + r * dt + jitterT, a, phase + 1.3 * r + 0.4 * rng_.normal(),
-                              boneDepth});
+        for (int r = 1; a > 0.03 * boneAmp && r < 600; ++r, a *= p_.reverbRatio) {
+          const double jitterT = dt * (p_.reverbCoherent ? 0.03 : 0.15) * rng_.normal();
+          const double step = p_.reverbCoherent ? -2.0 * kPi * p_.fc * dt : 1.3;
+          addEchoTo(own, Echo{tBone + r * dt + jitterT, a,
+                              phase + step * r + p_.reverbPhaseJitter * rng_.normal(), boneDepth});
         }
       }
       if (p_.diffuseReverb > 0.0) {
@@ -1589,8 +1616,8 @@ class CaptureSynth {
                           : p_.storage == SampleStorage::Int8  ? "int8"
                           : p_.storage == SampleStorage::Int16 ? "int16"
                                                                : "uint16";
-    const char* scen[] = {"bone", "uncoupled", "no-skin", "bone-beyond-record", "fascia-as-strong",
-                          "noise"};
+    const char* scen[] = {"bone",  "uncoupled", "no-skin", "bone-beyond-record", "fascia-as-strong",
+                          "noise", "bone"};
     char buf[512];
     std::snprintf(buf, sizeof buf,
                   "%s: %.2f MHz %.0f%% %s pulse, fs %.1f MHz, %d samples, %d-bit%s in %s, dc %.0f, "
@@ -1614,6 +1641,7 @@ class CaptureSynth {
   std::unique_ptr<PulseBank> bank_;
   std::vector<std::vector<double>> templates_;
   int margin_ = 0;
+  bool obliqueProne_ = false;
   std::vector<double> ringC_, ringS_, tailBase_, recovery_, lens_;
   std::vector<double> driftS_[3], driftC_[3];
   double t0_ = 0.0;
@@ -1625,16 +1653,17 @@ class CaptureSynth {
 Scenario scenarioOf(const std::string& profile, std::uint64_t seed, int c) {
   std::vector<std::pair<Scenario, int>> block;
   if (profile == "invivo-holder") {
-    block = {{Scenario::Bone, 17}, {Scenario::Uncoupled, 1}, {Scenario::Noise, 2}};
-  } else if (profile == "specimen-standoff") {
-    block = {{Scenario::Bone, 14},
+    block = {{Scenario::Bone, 15},
+             {Scenario::BoneObliqueProne, 2},
              {Scenario::Uncoupled, 1},
-             {Scenario::NoSkin, 1},
-             {Scenario::FasciaAsStrong, 2},
              {Scenario::Noise, 2}};
+  } else if (profile == "specimen-standoff") {
+    block = {{Scenario::Bone, 12},  {Scenario::BoneObliqueProne, 2}, {Scenario::Uncoupled, 1},
+             {Scenario::NoSkin, 1}, {Scenario::FasciaAsStrong, 2},   {Scenario::Noise, 2}};
   } else {
-    block = {{Scenario::Bone, 20},        {Scenario::Uncoupled, 1},      {Scenario::NoSkin, 1},
-             {Scenario::BeyondRecord, 1}, {Scenario::FasciaAsStrong, 1}, {Scenario::Noise, 1}};
+    block = {{Scenario::Bone, 18},  {Scenario::BoneObliqueProne, 2}, {Scenario::Uncoupled, 1},
+             {Scenario::NoSkin, 1}, {Scenario::BeyondRecord, 1},     {Scenario::FasciaAsStrong, 1},
+             {Scenario::Noise, 1}};
   }
   std::vector<Scenario> order;
   for (const auto& [scenario, count] : block) {
