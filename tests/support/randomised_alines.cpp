@@ -161,7 +161,8 @@ class PulseBank {
         asym_(asym),
         k_(gammaK),
         fs_(fsHz),
-        aNp_(attenuationDbPerCmMHz / 8.685889638) {}
+        aNp_(attenuationDbPerCmMHz / 8.685889638),
+        lowRollOff_(0.6 * fcHz * (1.0 - fractionalBandwidth / 2.0)) {}
 
   /// The pulse after zTissueMm of soft tissue (binned by 1 mm).
   const Pulse& at(double zTissueMm) {
@@ -234,7 +235,10 @@ class PulseBank {
       const double fIdx =
           k <= m / 2 ? static_cast<double>(k) : static_cast<double>(k) - static_cast<double>(m);
       const double fMHz = std::abs(fIdx) * fsF / static_cast<double>(m) / 1e6;
-      double h = std::exp(-aNp_ * fMHz * zCm);
+      // The transducer's low-frequency roll-off (no response at DC, -35 dB at a third of its
+      // lower band edge), then the tissue.
+      const double r4 = std::pow(fMHz * 1e6 / lowRollOff_, 4.0);
+      double h = r4 / (1.0 + r4) * std::exp(-aNp_ * fMHz * zCm);
       if (fIdx < 0.0 || (k == m / 2)) {
         h = 0.0;
       } else if (k > 0) {
@@ -304,7 +308,7 @@ class PulseBank {
   }
 
   PulseShape shape_;
-  double fc_, bw_, asym_, k_, fs_, aNp_;
+  double fc_, bw_, asym_, k_, fs_, aNp_, lowRollOff_;
   std::map<int, Pulse> cache_;
 };
 
