@@ -9,6 +9,42 @@
 //
 // Units: samples are stored ADC codes (as float); amplitudes in the truth fields are in the same
 // codes (relative to dcOffset); times in seconds; depths in mm.
+//
+// What is drawn (per capture unless said otherwise):
+//  - probe 3.5-15 MHz, -6 dB fractional bandwidth 40-90 %, pulse gaussian, asymmetric (fast rise,
+//    slow decay) or gamma-shaped, with a low-frequency roll-off; sampling 20-100 MHz and at least
+//    2.5x the upper band edge; 1000-12000 samples; uint8 (0 V at 128), int8, 12-bit left-justified
+//    int16 (multiples of 16, DC offset 50-110 codes), int16 or uint16; clipping at the range;
+//    delay 0 (40 %), inside the burst, or up to 3 us; assumed speed of sound 1480-1580 m/s while
+//    the layers have their own (water ~1482, gel 1500-1540, skin ~1600, fat ~1450, muscle ~1580).
+//  - ring-down: a burst of 0.2-4 us (often saturating) at the probe's frequency, then a tail
+//    (oscillating and unipolar) of 2-50 % of full scale decaying to 5 % over 1-4 mm; a baseline
+//    wander (1-3 sinusoids of 0.05-1 MHz and a recovery exponential, +-1000-3000 codes on the
+//    16-bit scale) in 65 % of captures.
+//  - standoff none, gel 1-3 mm or water 5-20 mm (nearly echo-free, a skin echo at its end, and
+//    multiples at 2x and 3x its time); soft tissue 0-40 mm (skin, fat, muscle with their own
+//    speckle levels, septa, striations, a fat/muscle fascia); attenuation 0.5-1 dB/cm/MHz round
+//    trip, applied to each echo's spectrum (so deep echoes are lower in frequency), with a partial
+//    gain ramp in half of the captures; bone 1-60 mm from the face.
+//  - the bone echo 20-42 dB above the muscle speckle at its depth; behind it a shadow (3-35 % of
+//    the speckle), an endosteal echo, a weak reverberation train, or (30 % of captures, 80 % in
+//    vivo) a ringing of the cortex that keeps the envelope above half the bone echo for mm; a
+//    second echo of similar strength 1-6 mm above the bone in 25 % of captures.
+//  - incidence: the specular bone echo falls as exp(-(angle/theta0)^2), theta0 5-9 degrees, down
+//    to a floor 25-40 dB below; the shadow stays.
+//  - negatives: probe in air (ring-down and its reverberation inside the face), water with nothing
+//    in it (no skin echo), bone beyond the record, a fascia as strong as bone with tissue behind
+//    it and no bone, electrical noise over the whole trace; per frame: noise bursts of 0.5-5 us
+//    over the bone, loss of contact in sweeps.
+//  - motion: hand-held sweeps (100 Hz, 10-50 mm/s along a gently curved bone, tilt wander and
+//    tremor, a tracked pose per frame) or a strapped holder (45 Hz, the bone moving < 0.3 mm a
+//    frame, with occasional 1-2 mm jumps when the muscle contracts).
+// The label: contrast = bone echo envelope peak / max(strongest ring-down, speckle, noise or other
+// echo within its half-maximum width, 90th percentile of the speckle and noise envelope from 4 mm
+// above to 2 mm below it); positive >= kClearContrast, negative < kLostContrast, else ambiguous.
+// The shares of scenarios are drawn without replacement in blocks (see the .cpp), so a set of
+// 40 captures has about the profile's shares: positives about 57 % (randomised), 70 % (in vivo),
+// 50 % (specimen).
 #pragma once
 
 #include <Eigen/Core>
