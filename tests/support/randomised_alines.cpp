@@ -388,7 +388,6 @@ struct Params {
   bool reverbCoherent = false;  // the reverberation's echoes in phase (a ringing tail)
   double diffuseReverb = 0.0, diffuseReverbMm = 2.0;
   double ghostStandoff = 0.0, ghostDouble = 0.0;
-  double noSkinWaterMm = 100.0;
   // Oblique incidence.
   double theta0Deg = 7.0, obliqueFloorDb = 35.0;
   // Per-frame events.
@@ -828,7 +827,6 @@ class CaptureSynth {
         p_.standoffType = "water";
         p_.cStandoff = rng_.uni(1478.0, 1490.0);
         p_.standoffMm = 0.0;  // no wall echo: the water extends past the record
-        p_.noSkinWaterMm = 1e3;
         break;
       case Scenario::BeyondRecord:
         p_.tissueMm = std::max(p_.tissueMm, rng_.uni(20.0, 45.0));
@@ -1562,7 +1560,8 @@ class CaptureSynth {
 
   /// The expert's judgement: the bone echo's peak over (1) the strongest clutter at the bone
   /// (ring-down, other echoes, speckle, noise within its half-maximum width) and (2) the 90th
-  /// percentile of the speckle and noise envelope 4 mm above to 2 mm below it.
+  /// percentile of the speckle and noise envelope 4 mm above to 2 mm below it, (3) that of the
+  /// quantisation noise.
   void label(RandomisedFrame& f, double peak, double halfWidth, double boneAmp,
              const std::vector<double>& ring, const std::vector<double>& diff,
              const std::vector<double>& other) {
@@ -1596,7 +1595,9 @@ class CaptureSynth {
       std::nth_element(around.begin(), around.begin() + static_cast<long>(q), around.end());
       context = around[q];
     }
-    const double contrast = boneAmp / std::max({spot, context, 1e-12});
+    // Quantisation adds its own noise (step^2 / 12): its envelope's 90th percentile is a floor.
+    const double quantisation = 2.15 * p_.step / std::sqrt(12.0) / p_.halfRange;
+    const double contrast = boneAmp / std::max({spot, context, quantisation, 1e-12});
     f.boneContrast = contrast;
     f.boneSample = peak;
     f.boneDepthMm = (peak / p_.fs + p_.delay) * p_.cAssumed / 2.0 * 1000.0;
