@@ -1386,7 +1386,7 @@ class CaptureSynth {
       }
     }
     for (const Echo& e : others) {
-      addEchoTo(other, e);
+      addEcho(other, e);
     }
 
     // The bone.
@@ -1400,11 +1400,11 @@ class CaptureSynth {
       obliqueLossDb = -20.0 * std::log10(oblique);
       const double phase = p_.bonePhase + 0.1 * rng_.normal();
       const Echo primary{tBone, boneAmp, phase, boneDepth};
-      addEchoTo(bone, primary);
+      addEcho(bone, primary);
       // Cortical (endosteal) echo and reverberation trains, scaled with the primary.
       if (p_.cortexRatio > 0.0) {
-        addEchoTo(own, Echo{tBone + twoWayTime(p_.cortexMm, p_.cCortex), boneAmp * p_.cortexRatio,
-                            phase + kPi, boneDepth});
+        addEcho(own, Echo{tBone + twoWayTime(p_.cortexMm, p_.cCortex), boneAmp * p_.cortexRatio,
+                          phase + kPi, boneDepth});
       }
       if (p_.reverbFirst > 0.0) {
         double a = boneAmp * p_.reverbFirst * std::pow(10.0, 0.04 * rng_.normal());
@@ -1412,8 +1412,8 @@ class CaptureSynth {
         for (int r = 1; a > 0.03 * boneAmp && r < 600; ++r, a *= p_.reverbRatio) {
           const double jitterT = dt * (p_.reverbCoherent ? 0.03 : 0.15) * rng_.normal();
           const double step = p_.reverbCoherent ? -2.0 * kPi * p_.fc * dt : 1.3;
-          addEchoTo(own, Echo{tBone + r * dt + jitterT, a,
-                              phase + step * r + p_.reverbPhaseJitter * rng_.normal(), boneDepth});
+          addEcho(own, Echo{tBone + r * dt + jitterT, a,
+                            phase + step * r + p_.reverbPhaseJitter * rng_.normal(), boneDepth});
         }
       }
       if (p_.diffuseReverb > 0.0) {
@@ -1431,12 +1431,11 @@ class CaptureSynth {
       reverbFrame = p_.strongReverb;
       // Multiples: bone via the skin wall, and bone-face-bone.
       if (p_.ghostStandoff > 0.0 && g.standoffMm > 0.0) {
-        addEchoTo(own,
-                  Echo{tBone + l.tStandoff, boneAmp * p_.ghostStandoff, phase + kPi, boneDepth});
+        addEcho(own, Echo{tBone + l.tStandoff, boneAmp * p_.ghostStandoff, phase + kPi, boneDepth});
       }
       if (p_.ghostDouble > 0.0) {
-        addEchoTo(own, Echo{2.0 * tBone, boneAmp * p_.ghostDouble * depthFactor(2.0 * boneDepth),
-                            phase + kPi, 2.0 * boneDepth});
+        addEcho(own, Echo{2.0 * tBone, boneAmp * p_.ghostDouble * depthFactor(2.0 * boneDepth),
+                          phase + kPi, 2.0 * boneDepth});
       }
       f.boneTrueDepthMm = g.standoffMm + g.tissueMm;
       f.incidenceDeg = g.incidenceDeg;
@@ -1538,8 +1537,6 @@ class CaptureSynth {
     }
     return f;
   }
-
-  void addEchoTo(std::vector<double>& x, const Echo& e) { addEcho(x, e); }
 
   static void smoothInPlace(std::vector<double>& v, int half) {
     if (half <= 0 || v.empty()) {
