@@ -339,6 +339,10 @@ TEST(RandomisedAlines, PosesAreRigidAndSweepsMoveLikeAHand) {
         EXPECT_LT((r.transpose() * r - Eigen::Matrix3d::Identity()).norm(), 1e-9);
         EXPECT_NEAR(r.determinant(), 1.0, 1e-9);
         EXPECT_EQ(f.probeToTracker.row(3), Eigen::RowVector4d(0.0, 0.0, 0.0, 1.0));
+        if (k > 0 && f.boneTrueDepthMm >= 0.0 && c.frames[k - 1].boneTrueDepthMm >= 0.0) {
+          // The bone surface is gently curved: its depth changes smoothly along the sweep.
+          EXPECT_LT(std::abs(f.boneTrueDepthMm - c.frames[k - 1].boneTrueDepthMm), 0.5);
+        }
         if (k > 0) {
           const Eigen::Vector3d step =
               f.probeToTracker.block<3, 1>(0, 3) - c.frames[k - 1].probeToTracker.block<3, 1>(0, 3);
