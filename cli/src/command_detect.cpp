@@ -3,19 +3,19 @@
 
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
-#include "echoreg/core/transform_file.hpp"
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/sequence_detection.hpp"
+#include "echoreg/core/transform_file.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
-#include <functional>
-#include <map>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <map>
 #include <memory>
 #include <optional>
 #include <ostream>
@@ -51,7 +51,8 @@ const std::vector<Tunable>& tunables() {
   using P = DetectionParams;
   using V = TunableValue;
   static const std::vector<Tunable> list{
-      {"envelope", "Envelope", "Envelope: mozes | hann | stddev | hilbert (default hann)", std::string(),
+      {"envelope", "Envelope", "Envelope: mozes | hann | stddev | hilbert (default hann)",
+       std::string(),
        [](P& p, const V& v) { p.envelope.method = parseEnvelopeMethod(as<std::string>(v)); }},
       {"transducer-frequency", "Envelope",
        "Transducer centre frequency, Hz (default: capture header, else measured from the "
@@ -115,26 +116,34 @@ const std::vector<Tunable>& tunables() {
        }},
       {"peaks", "Peaks",
        "Policy: prominence (default) | bone | single | double | window-max | first | max",
-       std::string(), [](P& p, const V& v) { p.peaks.policy = parsePeakPolicy(as<std::string>(v)); }},
+       std::string(),
+       [](P& p, const V& v) { p.peaks.policy = parsePeakPolicy(as<std::string>(v)); }},
       {"echo-snr", "Prominence policy", "prominence: min peak / noise floor (8)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.minSnr = as<double>(v); }},
       {"echo-over-median", "Prominence policy", "prominence: min peak / median envelope (3)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.minOverMedian = as<double>(v); }},
-      {"echo-prominence", "Prominence policy", "prominence: min prominence / peak, (0, 1] (0.5)", 0.0,
-       [](P& p, const V& v) { p.peaks.prominence.minProminence = as<double>(v); }},
-      {"echo-max-rise", "Prominence policy",
-       "prominence: max leading edge, transducer periods (4)", 0.0,
-       [](P& p, const V& v) { p.peaks.prominence.maxRiseCycles = as<double>(v); }},
+      {"echo-prominence", "Prominence policy", "prominence: min prominence / peak, (0, 1] (0.5)",
+       0.0, [](P& p, const V& v) { p.peaks.prominence.minProminence = as<double>(v); }},
+      {"echo-max-rise", "Prominence policy", "prominence: max leading edge, transducer periods (3)",
+       0.0, [](P& p, const V& v) { p.peaks.prominence.maxRiseCycles = as<double>(v); }},
       {"echo-contrast", "Prominence policy", "prominence: min peak / median before it (2)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.minContrast = as<double>(v); }},
       {"echo-region-mm", "Prominence policy", "prominence: before/after region, mm (2)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.regionMm = as<double>(v); }},
       {"echo-wall-step", "Prominence policy",
-       "prominence: median after / before an echo at which it is a wall (skin, membrane) (3)",
-       0.0, [](P& p, const V& v) { p.peaks.prominence.wallStep = as<double>(v); }},
+       "prominence: median after / before an echo at which it is a wall (skin, membrane) (3)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.wallStep = as<double>(v); }},
       {"echo-air-reverberation", "Prominence policy",
-       "prominence: a second bounce this strong (x peak) means air, an uncoupled probe (0.6)", 0.0,
+       "prominence: a second bounce this strong (x peak) means air, an uncoupled probe (0.35)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.airReverberation = as<double>(v); }},
+      {"echo-shadow", "Prominence policy",
+       "prominence: auto (default: required where bone casts a shadow in a fifth of the "
+       "capture, else each echo by its own shadow or ringing) | required | ignored",
+       std::string(),
+       [](P& p, const V& v) { p.peaks.prominence.shadow = parseShadowRule(as<std::string>(v)); }},
+      {"echo-ringing", "Prominence policy",
+       "prominence: ringing = the envelope behind the echo stays above this fraction of it (0.4)",
+       0.0, [](P& p, const V& v) { p.peaks.prominence.ringingFraction = as<double>(v); }},
       {"echo-similar", "Prominence policy",
        "prominence: echoes within this fraction of the strongest compete on depth (0.6)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.similarRatio = as<double>(v); }},
@@ -150,8 +159,8 @@ const std::vector<Tunable>& tunables() {
        [](P& p, const V& v) { p.peaks.bone.minContrast = as<double>(v); }},
       {"bone-max-width-mm", "Bone policy", "bone: max echo width at half maximum, mm (1)", 0.0,
        [](P& p, const V& v) { p.peaks.bone.maxWidthMm = as<double>(v); }},
-      {"bone-noise-factor", "Bone policy", "bone: shadow within this x noise floor counts (1.2)", 0.0,
-       [](P& p, const V& v) { p.peaks.bone.noiseFloorFactor = as<double>(v); }},
+      {"bone-noise-factor", "Bone policy", "bone: shadow within this x noise floor counts (1.2)",
+       0.0, [](P& p, const V& v) { p.peaks.bone.noiseFloorFactor = as<double>(v); }},
       {"bone-tissue-over-noise", "Bone policy", "bone: min tissue median / noise floor (1.5)", 0.0,
        [](P& p, const V& v) { p.peaks.bone.minTissueOverNoise = as<double>(v); }},
       {"sampling-frequency", "Depth", "Hz; default: capture header, else 50e6", 0.0,
@@ -217,36 +226,44 @@ void addTunableFlags(CLI::App* cmd, TunableSettings& settings) {
           }
         },
         tunable.type);
-    if (std::holds_alternative<std::vector<double>>(tunable.type)) option->expected(2);
+    if (std::holds_alternative<std::vector<double>>(tunable.type))
+      option->expected(2);
     option->group(tunable.group);
   }
 }
 
 // Fills the tunables not given as flags from a --params file; unknown keys are errors.
 void mergeParamsFile(const std::string& file, std::string& preset, TunableSettings& settings) {
-  if (std::filesystem::is_directory(file)) throw FileError(file, "is a directory, expected a JSON file");
+  if (std::filesystem::is_directory(file))
+    throw FileError(file, "is a directory, expected a JSON file");
   std::ifstream in(file);
-  if (!in) throw FileError(file, "cannot be opened");
+  if (!in)
+    throw FileError(file, "cannot be opened");
   nlohmann::json params;
   try {
     params = nlohmann::json::parse(in);
   } catch (const nlohmann::json::parse_error& e) {
     throw FileError(file, std::string("is not valid JSON: ") + e.what());
   }
-  if (!params.is_object()) throw FileError(file, "must hold a JSON object of parameters");
+  if (!params.is_object())
+    throw FileError(file, "must hold a JSON object of parameters");
   for (const auto& [key, value] : params.items()) {
     if (key == "preset") {
-      if (!value.is_string()) throw FileError(file, "parameter \"preset\" must be a string");
-      if (preset.empty()) preset = value.get<std::string>();
+      if (!value.is_string())
+        throw FileError(file, "parameter \"preset\" must be a string");
+      if (preset.empty())
+        preset = value.get<std::string>();
       continue;
     }
     const auto& list = tunables();
     const auto tunable = std::find_if(list.begin(), list.end(),
                                       [&key = key](const Tunable& t) { return key == t.name; });
     if (tunable == list.end()) {
-      throw FileError(file, fmt::format("unknown parameter \"{}\" (see echoreg detect --help)", key));
+      throw FileError(file,
+                      fmt::format("unknown parameter \"{}\" (see echoreg detect --help)", key));
     }
-    if (settings.count(key) != 0) continue;  // the flag wins
+    if (settings.count(key) != 0)
+      continue;  // the flag wins
     try {
       settings[key] = std::visit(
           [&value = value](const auto& type) -> TunableValue {
@@ -260,7 +277,8 @@ void mergeParamsFile(const std::string& file, std::string& preset, TunableSettin
                 }
                 return static_cast<int>(number);
               }
-              if (!value.is_number_integer()) throw nlohmann::json::type_error::create(302, "", nullptr);
+              if (!value.is_number_integer())
+                throw nlohmann::json::type_error::create(302, "", nullptr);
             }
             return value.get<T>();
           },
@@ -269,15 +287,19 @@ void mergeParamsFile(const std::string& file, std::string& preset, TunableSettin
       const char* expected = std::visit(
           [](const auto& type) -> const char* {
             using T = std::decay_t<decltype(type)>;
-            if constexpr (std::is_same_v<T, int>) return "a whole number";
-            if constexpr (std::is_same_v<T, double>) return "a number";
-            if constexpr (std::is_same_v<T, bool>) return "true or false";
-            if constexpr (std::is_same_v<T, std::string>) return "a string";
+            if constexpr (std::is_same_v<T, int>)
+              return "a whole number";
+            if constexpr (std::is_same_v<T, double>)
+              return "a number";
+            if constexpr (std::is_same_v<T, bool>)
+              return "true or false";
+            if constexpr (std::is_same_v<T, std::string>)
+              return "a string";
             return "[min, max]";
           },
           tunable->type);
-      throw FileError(file, fmt::format("parameter \"{}\" must be {}, found {}", key, expected,
-                                        value.dump()));
+      throw FileError(
+          file, fmt::format("parameter \"{}\" must be {}, found {}", key, expected, value.dump()));
     }
     if (key == "window-mm" && as<std::vector<double>>(settings[key]).size() != 2) {
       throw FileError(file, "parameter \"window-mm\" must be [min, max] in mm");
@@ -294,7 +316,8 @@ DetectionParams resolveParams(const std::string& preset, const TunableSettings& 
   params.depth = depthFromSequence(sequence, params.depth);
   for (const Tunable& tunable : tunables()) {
     const auto given = settings.find(tunable.name);
-    if (given != settings.end()) tunable.apply(params, given->second);
+    if (given != settings.end())
+      tunable.apply(params, given->second);
   }
   params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
   validate(params);
@@ -309,12 +332,13 @@ void writeCsv(const SequenceDetection& detection, bool withPoints, const std::st
   AtomicFile file(path);
   std::ostream& csv = file.stream();
   csv << "frame,timestamp_s,status,reason,peaks,sample_index,depth_mm";
-  if (withPoints) csv << ",x_mm,y_mm,z_mm";
+  if (withPoints)
+    csv << ",x_mm,y_mm,z_mm";
   csv << "\n";
   for (const FrameDetection& f : detection.frames) {
-    csv << f.frame << ',' << (f.timestampS ? fmt::format("{}", *f.timestampS) : std::string()) << ','
-        << (f.accepted() ? "accepted" : "rejected") << ',' << rejectReasonName(f.reason) << ','
-        << f.peakCount << ',' << optionalNumber(f.sampleIndex, 3) << ','
+    csv << f.frame << ',' << (f.timestampS ? fmt::format("{}", *f.timestampS) : std::string())
+        << ',' << (f.accepted() ? "accepted" : "rejected") << ',' << rejectReasonName(f.reason)
+        << ',' << f.peakCount << ',' << optionalNumber(f.sampleIndex, 3) << ','
         << optionalNumber(f.depthMm, 4);
     if (withPoints) {
       if (f.pointMm) {
@@ -331,7 +355,8 @@ void writeCsv(const SequenceDetection& detection, bool withPoints, const std::st
 nlohmann::json summary(const SequenceDetection& detection, const DetectionParams& params,
                        const DetectOptions& options, const std::string& preset) {
   nlohmann::json rejected = nlohmann::json::object();
-  for (const auto& [reason, count] : detection.rejectedByReason) rejected[reason] = count;
+  for (const auto& [reason, count] : detection.rejectedByReason)
+    rejected[reason] = count;
   return {{"capture", options.capture},
           {"out", options.out},
           {"preset", preset.empty() ? "default" : preset},
@@ -350,6 +375,8 @@ nlohmann::json summary(const SequenceDetection& detection, const DetectionParams
           {"ring_down_samples", detection.analysis.ringDownSamples},
           {"ring_down_source", detection.analysis.ringDownSource},
           {"high_pass_samples", detection.analysis.highPassSamples},
+          {"shadow_rule", detection.analysis.shadowRule},
+          {"shadow_share", detection.analysis.shadowShare},
           {"envelope_window_samples", detection.analysis.envelopeWindowSamples},
           {"warnings", detectionWarnings(detection)}};
 }
@@ -362,26 +389,35 @@ CommandAction addDetectCommand(CLI::App& app) {
       "detect",
       "Find the bone (or sphere) echo in every A-line of a capture: envelope, peaks, depth,\n"
       "then the temporal and spatial inter-signal filters. Writes one CSV row per frame:\n"
-      "frame,timestamp_s,status,reason,peaks,sample_index,depth_mm (+ x_mm,y_mm,z_mm with --pose).\n"
+      "frame,timestamp_s,status,reason,peaks,sample_index,depth_mm (+ x_mm,y_mm,z_mm with "
+      "--pose).\n"
       "Parameter precedence: flags > --params file > capture header > --preset. docs/detection.md\n"
       "documents every parameter.");
-  cmd->add_option("capture", o->capture, "A-line capture (PLUS sequence: .igs.mha, .mhd, .igs.nrrd)")->required();
+  cmd->add_option("capture", o->capture,
+                  "A-line capture (PLUS sequence: .igs.mha, .mhd, .igs.nrrd)")
+      ->required();
   cmd->add_option("--out", o->out, "CSV to write (written whole or not at all)")->required();
-  cmd->add_option("--params", o->paramsFile, "JSON object of parameters named as the flags, without dashes");
+  cmd->add_option("--params", o->paramsFile,
+                  "JSON object of parameters named as the flags, without dashes");
   cmd->add_flag("--json", o->json, "Print a JSON summary: frames, accepted, rejected by reason");
-  cmd->add_option("--preset", o->preset,
-                  "default (specimens: hann + bone policy), mozes2008 (the dissertation's chain as it "
-                  "was), calibration (window-max in water)");
+  cmd->add_option(
+      "--preset", o->preset,
+      "default (specimens: hann + bone policy), mozes2008 (the dissertation's chain as it "
+      "was), calibration (window-max in water)");
   addTunableFlags(cmd, o->settings);
-  cmd->add_option("--pose", o->pose, "Transform giving 3D points, e.g. ProbeToTracker")->group("Points");
-  cmd->add_option("--reference", o->reference, "Express points in this frame, e.g. FemurToTracker")->group("Points");
-  cmd->add_option("--beam-to-probe", o->beamToProbeFile, "BeamToProbe transform JSON (default identity)")
+  cmd->add_option("--pose", o->pose, "Transform giving 3D points, e.g. ProbeToTracker")
+      ->group("Points");
+  cmd->add_option("--reference", o->reference, "Express points in this frame, e.g. FemurToTracker")
+      ->group("Points");
+  cmd->add_option("--beam-to-probe", o->beamToProbeFile,
+                  "BeamToProbe transform JSON (default identity)")
       ->group("Points");
 
   return [o](const Streams& io) {
     std::string preset = o->preset;
     TunableSettings settings = o->settings;
-    if (!o->paramsFile.empty()) mergeParamsFile(o->paramsFile, preset, settings);
+    if (!o->paramsFile.empty())
+      mergeParamsFile(o->paramsFile, preset, settings);
     const Sequence sequence = readSequence(o->capture);
     const DetectionParams params = [&] {
       try {
@@ -393,14 +429,17 @@ CommandAction addDetectCommand(CLI::App& app) {
     PointFrameOptions points;
     points.poseTransform = o->pose;
     points.referenceTransform = o->reference;
-    if (!o->beamToProbeFile.empty()) points.beamToProbe = readTransformFile(o->beamToProbeFile, "Beam", "Probe").matrix;
+    if (!o->beamToProbeFile.empty())
+      points.beamToProbe = readTransformFile(o->beamToProbeFile, "Beam", "Probe").matrix;
     SequenceDetection detection;
     try {
       const bool showProgress = io.errIsTerminal && sequence.frameCount() > 2000;
       detection = detectSequence(sequence, params, points, [&](int done, int total) {
-        if (showProgress) io.err << fmt::format("\rdetect: {}/{} frames", done, total) << std::flush;
+        if (showProgress)
+          io.err << fmt::format("\rdetect: {}/{} frames", done, total) << std::flush;
       });
-      if (showProgress) io.err << "\n";
+      if (showProgress)
+        io.err << "\n";
     } catch (const std::invalid_argument& e) {
       throw FileError(o->capture, e.what());
     }

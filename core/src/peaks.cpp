@@ -224,6 +224,50 @@ float maxAround(const float* envelope, int count, double centre, int radius) {
   return best;
 }
 
+// An air interface (a probe uncoupled, a standoff in air) sends its echo back almost whole, again
+// and again: a train of echoes at one spacing, each at least `ratio` of the one before (and no
+// stronger), with nothing between them. Bone returns half the energy at most, so its second
+// bounce is a quarter of the echo or less, and tissue fills the gaps with speckle.
+bool isAirTrain(const float* envelope, int count, int index, double ratio, int radius,
+                std::vector<float>& scratch) {
+  const float value = envelope[index];
+  const auto quiet = static_cast<float>(0.15 * value);
+  int k = index;
+  while (k < count && envelope[k] > quiet)
+    ++k;  // the end of this echo
+  int next = k;
+  while (next < count && envelope[next] < ratio * value)
+    ++next;
+  if (next >= count)
+    return false;
+  while (next + 1 < count && envelope[next + 1] > envelope[next])
+    ++next;  // its peak
+  const float second = envelope[next];
+  if (second > value)
+    return false;  // a stronger echo is an echo of its own
+  const int spacing = next - index;
+  if (spacing < 2 * radius)
+    return false;
+  const double between = medianOf(envelope, count, k, next - radius, scratch);
+  if (between < 0.0 || between > quiet)
+    return false;
+  // Each bounce loses the same share: the third (and the fourth, where the record reaches) at
+  // the same spacing and in proportion, within a factor of two.
+  const double first = second / value;
+  float previous = second;
+  for (int bounce = 2; bounce <= 3; ++bounce) {
+    const int at = index + bounce * spacing;
+    if (at + radius >= count)
+      return bounce == 3;  // the record ends: two bounces seen are enough
+    const float echo = maxAround(envelope, count, at, radius);
+    const double share = echo / std::max(previous, 1e-12F);
+    if (share < ratio || share > 1.0 || share < 0.5 * first || share > 2.0 * first)
+      return false;
+    previous = echo;
+  }
+  return true;
+}
+
 void prominencePolicy(const PeakParams& params, const float* envelope, int count, int windowBegin,
                       int windowEnd, PeakResult& result) {
   const ProminenceParams& e = params.prominence;
@@ -317,24 +361,8 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     if (wall) {
       continue;
     }
-    // An air interface sends its echo back almost whole: a second bounce at twice the time of
-    // flight at airReverberation of the first or more. Bone returns half the energy at most.
-    const double flight = c.index - params.emissionSample;
-    const double second = params.emissionSample + 2.0 * flight;
-    // The second bounce is weaker than the first (a stronger echo there is an echo of its own);
-    // where the record reaches, a third one follows.
-    const double third = params.emissionSample + 3.0 * flight;
-    const float secondValue =
-        second + reverbRadius < count ? maxAround(envelope, count, second, reverbRadius) : 0.F;
-    const float thirdValue = maxAround(envelope, count, third, reverbRadius);
-    // Air: nothing lies between the bounces (behind shallow bone in vivo the cortex's own
-    // echoes and the reverberation keep the envelope up).
-    const double between =
-        medianOf(envelope, count, right + gap, static_cast<int>(second) - reverbRadius, scratch);
-    const bool air = secondValue >= e.airReverberation * c.value && secondValue <= c.value &&
-                     (third + reverbRadius >= count ||
-                      thirdValue >= e.airReverberation * e.airReverberation * secondValue) &&
-                     between >= 0.0 && between <= 0.1 * c.value;
+    const bool air =
+        isAirTrain(envelope, count, c.index, e.airReverberation, reverbRadius, scratch);
     if (air) {
       // Nothing gets through air: every echo behind it is a reverberation.
       airAt = std::min(airAt, c.index);
@@ -574,8 +602,19 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       peak.runBegin += ringDown;
       peak.runEnd += ringDown;
     }
-    if (shifted.accepted())
+    if (shifted.accepted()) {
       shifted.sampleIndex += ringDown;
+      // The bone policy cannot tell a probe in air from bone under tissue: its reverberation
+      // train can.
+      std::vector<float> scratch;
+      const int radius = std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
+      const int index = shifted.peaks[static_cast<std::size_t>(shifted.selected)].index;
+      if (isAirTrain(envelope, count, index, params.prominence.airReverberation, radius, scratch)) {
+        shifted.reason = RejectReason::NotBone;
+        shifted.selected = -1;
+        shifted.sampleIndex = 0.0;
+      }
+    }
     if (!shifted.accepted() && params.windowBegin && *params.windowBegin < ringDown &&
         (shifted.reason == RejectReason::NoPeak || shifted.reason == RejectReason::OutsideWindow)) {
       shifted.reason = RejectReason::InRingDown;
