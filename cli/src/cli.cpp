@@ -15,12 +15,14 @@ namespace echoreg::cli {
 int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   CLI::App app{
       "echoreg: register bones to CT with tracked A-mode ultrasound (Mozes 2008).\n"
-      "Commands: info, detect, simulate, calibrate, pivot, segment, landmarks, register, evaluate,\n"
+      "Commands: info, detect, simulate, calibrate, pivot, segment, landmarks, register, "
+      "evaluate,\n"
       "figure, study. `echoreg study run DIR` is the main job: a study folder into a report.",
       "echoreg"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "echoreg 0.1.0");
-  app.footer("Exit codes: 0 success, 1 the work failed (the message names the file), 2 wrong usage.");
+  app.footer(
+      "Exit codes: 0 success, 1 the work failed (the message names the file), 2 wrong usage.");
 
   std::map<std::string, CommandAction> actions;
   actions["info"] = addInfoCommand(app);

@@ -31,7 +31,8 @@ std::vector<std::pair<int, Eigen::Isometry3d>> validPoses(const Sequence& sequen
   const std::vector<std::string> names = sequence.transformNames();
   if (std::find(names.begin(), names.end(), transform) == names.end()) {
     std::string have;
-    for (const std::string& n : names) have += (have.empty() ? "" : ", ") + n + "Transform";
+    for (const std::string& n : names)
+      have += (have.empty() ? "" : ", ") + n + "Transform";
     throw FileError(path, "has no " + transform + "Transform" +
                               (have.empty() ? std::string(" (it has no transforms)")
                                             : " (it has " + have + ")"));
@@ -39,7 +40,8 @@ std::vector<std::pair<int, Eigen::Isometry3d>> validPoses(const Sequence& sequen
   std::vector<std::pair<int, Eigen::Isometry3d>> poses;
   for (std::size_t f = 0; f < sequence.frames.size(); ++f) {
     const auto it = sequence.frames[f].transforms.find(transform);
-    if (it == sequence.frames[f].transforms.end() || !it->second.valid()) continue;
+    if (it == sequence.frames[f].transforms.end() || !it->second.valid())
+      continue;
     Eigen::Isometry3d pose;
     pose.matrix() = it->second.matrix;
     poses.emplace_back(static_cast<int>(f), pose);
@@ -51,7 +53,9 @@ std::vector<std::pair<int, Eigen::Isometry3d>> validPoses(const Sequence& sequen
   return poses;
 }
 
-nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+nlohmann::json vec(const Eigen::Vector3d& v) {
+  return {v.x(), v.y(), v.z()};
+}
 
 struct CalibrateOptions {
   std::string sphereCapture, tipFile, capture, out;
@@ -68,14 +72,17 @@ struct CalibrateOptions {
 
 int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   if (!(o.sphereRadius > 0.0)) {
-    throw std::invalid_argument(fmt::format("--sphere-radius must be > 0 mm, got {}", o.sphereRadius));
+    throw std::invalid_argument(
+        fmt::format("--sphere-radius must be > 0 mm, got {}", o.sphereRadius));
   }
   if (o.tipRadius < 0.0) {
-    throw std::invalid_argument(fmt::format("--stylus-tip-radius must be >= 0 mm, got {}", o.tipRadius));
+    throw std::invalid_argument(
+        fmt::format("--stylus-tip-radius must be >= 0 mm, got {}", o.tipRadius));
   }
   if (o.windowMm.size() == 2 && !(o.windowMm[0] >= 0.0 && o.windowMm[1] > o.windowMm[0])) {
-    throw std::invalid_argument(fmt::format("--window-mm must be MIN MAX with 0 <= MIN < MAX, got {} {}",
-                                            o.windowMm[0], o.windowMm[1]));
+    throw std::invalid_argument(
+        fmt::format("--window-mm must be MIN MAX with 0 <= MIN < MAX, got {} {}", o.windowMm[0],
+                    o.windowMm[1]));
   }
   // 1. The sphere's centre from the stylus tips.
   const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
@@ -86,7 +93,8 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
     tips.push_back(pose * Eigen::Vector3d(tip.matrix.topRightCorner<3, 1>()));
   }
   core::SphereFitOptions sphereOptions;
-  if (!o.freeRadius) sphereOptions.radiusMm = o.sphereRadius + o.tipRadius;
+  if (!o.freeRadius)
+    sphereOptions.radiusMm = o.sphereRadius + o.tipRadius;
   core::SphereFit sphere;
   try {
     sphere = core::fitSphere(tips, sphereOptions);
@@ -99,13 +107,14 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   const Sequence shotsSequence = readSequence(o.capture);
   DetectionParams params = detectionPreset("calibration");
   params.depth = depthFromSequence(shotsSequence, params.depth);
-  if (o.speedOfSound > 0.0) params.depth.speedOfSoundMps = o.speedOfSound;
+  if (o.speedOfSound > 0.0)
+    params.depth.speedOfSoundMps = o.speedOfSound;
   if (o.windowMm.size() == 2) {
     params.windowMinMm = o.windowMm[0];
     params.windowMaxMm = o.windowMm[1];
   }
   params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
-  params.interSignal.history = 1;      // shots are independent
+  params.interSignal.history = 1;  // shots are independent
   params.interSignal.minSpreadMm = 0.0;
   PointFrameOptions points;
   points.poseTransform = "ProbeToTracker";
@@ -119,10 +128,12 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   std::vector<core::BeamShot> shots;
   std::vector<int> shotFrames;
   for (const FrameDetection& f : detection.frames) {
-    if (!f.accepted()) continue;
+    if (!f.accepted())
+      continue;
     core::BeamShot shot;
-    shot.probeToTracker.matrix() =
-        shotsSequence.frames[static_cast<std::size_t>(f.frame)].transforms.at("ProbeToTracker").matrix;
+    shot.probeToTracker.matrix() = shotsSequence.frames[static_cast<std::size_t>(f.frame)]
+                                       .transforms.at("ProbeToTracker")
+                                       .matrix;
     shot.depthMm = *f.depthMm;
     shots.push_back(shot);
     shotFrames.push_back(f.frame);
@@ -130,12 +141,14 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
 
   // 3. BeamToProbe.
   core::BeamCalibrationOptions options;
-  options.mode = o.mode == "beam" ? core::BeamCalibrationMode::Beam : core::BeamCalibrationMode::Translation;
+  options.mode =
+      o.mode == "beam" ? core::BeamCalibrationMode::Beam : core::BeamCalibrationMode::Translation;
   options.fitSpeedOfSound = o.fitSpeed;
   options.assumedSpeedOfSoundMps = params.depth.speedOfSoundMps;
   options.sphereCentreTracker = sphere.centre;
   options.sphereRadiusMm = sphereRadius;
-  options.initialBeamToProbe.translation() = Eigen::Vector3d(o.initial[0], o.initial[1], o.initial[2]);
+  options.initialBeamToProbe.translation() =
+      Eigen::Vector3d(o.initial[0], o.initial[1], o.initial[2]);
   core::BeamCalibrationResult result;
   try {
     result = core::calibrateBeam(shots, options);
@@ -156,16 +169,18 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
     outliers += result.used[i] ? 0 : 1;
     // The echo mapped with the calibration (and the fitted speed): the point the figure draws.
     const Eigen::Vector3d point =
-        shots[i].probeToTracker * (result.beamToProbe *
-                                   Eigen::Vector3d(0, 0, shots[i].depthMm * result.speedOfSoundMps /
-                                                             options.assumedSpeedOfSoundMps));
+        shots[i].probeToTracker *
+        (result.beamToProbe *
+         Eigen::Vector3d(
+             0, 0, shots[i].depthMm * result.speedOfSoundMps / options.assumedSpeedOfSoundMps));
     perShot.push_back({{"frame", shotFrames[i]},
                        {"depth_mm", shots[i].depthMm},
                        {"point_mm", vec(point)},
                        {"residual_mm", result.residualsMm[i]},
                        {"used", static_cast<bool>(result.used[i])}});
   }
-  if (outliers > 0) rejected["outlier"] = outliers;
+  if (outliers > 0)
+    rejected["outlier"] = outliers;
   rejectedCount += outliers;
   nlohmann::json parameters = nlohmann::json::object();
   for (std::size_t p = 0; p < result.parameterNames.size(); ++p) {
@@ -221,17 +236,21 @@ struct PivotCommandOptions {
 int runPivot(const PivotCommandOptions& o, const Streams& io) {
   const auto at = o.marker.find("To");
   if (at == std::string::npos || at == 0) {
-    throw std::invalid_argument("--marker must name a transform like StylusToTracker, got '" + o.marker + "'");
+    throw std::invalid_argument("--marker must name a transform like StylusToTracker, got '" +
+                                o.marker + "'");
   }
   const std::string markerFrame = o.marker.substr(0, at);
   std::string from = o.from;
   if (from.empty()) {
-    from = markerFrame == "Stylus" ? "StylusTip" : markerFrame == "Femur" ? "HipCentre" : markerFrame + "Pivot";
+    from = markerFrame == "Stylus"  ? "StylusTip"
+           : markerFrame == "Femur" ? "HipCentre"
+                                    : markerFrame + "Pivot";
   }
   const Sequence sequence = readSequence(o.capture);
   const auto poses = validPoses(sequence, o.capture, o.marker);
   std::vector<Eigen::Isometry3d> transforms;
-  for (const auto& [frame, pose] : poses) transforms.push_back(pose);
+  for (const auto& [frame, pose] : poses)
+    transforms.push_back(pose);
   core::PivotOptions options;
   options.minRotationSpreadDeg = o.minSpreadDeg;
   core::PivotResult result;
@@ -278,29 +297,37 @@ CommandAction addCalibrateCommand(CLI::App& app) {
       "--window-mm), then BeamToProbe by Levenberg-Marquardt (Ceres) on r - |p - c|. Writes the\n"
       "transform JSON with rms_mm, condition_number, per-parameter std, per-shot residuals, and a\n"
       "Slicer .tfm beside it.");
-  cmd->add_option("--sphere-capture", o->sphereCapture, "Stylus on the sphere (StylusToTracker)")->required();
-  cmd->add_option("--stylus-tip-to-stylus", o->tipFile, "StylusTipToStylus transform JSON (from `echoreg pivot`)")
+  cmd->add_option("--sphere-capture", o->sphereCapture, "Stylus on the sphere (StylusToTracker)")
       ->required();
-  cmd->add_option("--capture", o->capture, "A-line shots at the sphere (ProbeToTracker)")->required();
+  cmd->add_option("--stylus-tip-to-stylus", o->tipFile,
+                  "StylusTipToStylus transform JSON (from `echoreg pivot`)")
+      ->required();
+  cmd->add_option("--capture", o->capture, "A-line shots at the sphere (ProbeToTracker)")
+      ->required();
   cmd->add_option("--sphere-radius", o->sphereRadius, "Sphere radius, mm")->capture_default_str();
-  cmd->add_option("--stylus-tip-radius", o->tipRadius,
-                  "Radius of the stylus' ball tip, mm: tip centres lie this much outside the sphere")
+  cmd->add_option(
+         "--stylus-tip-radius", o->tipRadius,
+         "Radius of the stylus' ball tip, mm: tip centres lie this much outside the sphere")
       ->capture_default_str();
   cmd->add_flag("--free-radius", o->freeRadius, "Fit the sphere's radius too (stylus points only)");
-  cmd->add_option("--initial", o->initial, "Initial BeamToProbe translation X Y Z, mm (e.g. a CMM measurement)")
+  cmd->add_option("--initial", o->initial,
+                  "Initial BeamToProbe translation X Y Z, mm (e.g. a CMM measurement)")
       ->expected(3)
       ->required();
   cmd->add_option("--speed-of-sound", o->speedOfSound,
                   "Assumed speed of sound in the bath, m/s (default: the capture's header)");
   cmd->add_option("--window-mm", o->windowMm, "Processing window MIN MAX, mm from the beam origin")
       ->expected(2);
-  cmd->add_option("--out", o->out, "Calibration JSON to write (a .tfm is written beside it)")->required();
-  cmd->add_option("--mode", o->mode,
-                  "translation (3 parameters, beam along the probe's z: the dissertation's) or beam "
-                  "(origin and direction, 5)")
+  cmd->add_option("--out", o->out, "Calibration JSON to write (a .tfm is written beside it)")
+      ->required();
+  cmd->add_option(
+         "--mode", o->mode,
+         "translation (3 parameters, beam along the probe's z: the dissertation's) or beam "
+         "(origin and direction, 5)")
       ->check(CLI::IsMember({"translation", "beam"}))
       ->capture_default_str();
-  cmd->add_flag("--fit-speed-of-sound", o->fitSpeed, "Fit the bath's speed of sound as one more parameter");
+  cmd->add_flag("--fit-speed-of-sound", o->fitSpeed,
+                "Fit the bath's speed of sound as one more parameter");
   cmd->add_flag("--json", o->json, "Print the result as JSON");
   return [o](const Streams& io) { return runCalibrate(*o, io); };
 }
@@ -313,14 +340,16 @@ CommandAction addPivotCommand(CLI::App& app) {
       "stylus tip in a divot, or the hip centre from FemurToTracker while the leg is circled).\n"
       "Refuses poses that do not rotate enough in two directions.");
   cmd->add_option("--capture", o->capture, "Tracker capture (PLUS sequence)")->required();
-  cmd->add_option("--marker", o->marker, "The marker's transform, e.g. StylusToTracker, FemurToTracker")
+  cmd->add_option("--marker", o->marker,
+                  "The marker's transform, e.g. StylusToTracker, FemurToTracker")
       ->capture_default_str();
-  cmd->add_option("--out", o->out, "Transform JSON to write (a .tfm is written beside it)")->required();
-  cmd->add_option("--from", o->from,
-                  "Name of the pivot point's frame (default StylusTip for a stylus, HipCentre for the "
-                  "femur)");
-  cmd->add_option("--min-spread-deg", o->minSpreadDeg,
-                  "Rotation needed about two axes, degrees")
+  cmd->add_option("--out", o->out, "Transform JSON to write (a .tfm is written beside it)")
+      ->required();
+  cmd->add_option(
+      "--from", o->from,
+      "Name of the pivot point's frame (default StylusTip for a stylus, HipCentre for the "
+      "femur)");
+  cmd->add_option("--min-spread-deg", o->minSpreadDeg, "Rotation needed about two axes, degrees")
       ->capture_default_str()
       ->check(CLI::Range(0.0, 90.0));
   cmd->add_flag("--json", o->json, "Print the result as JSON");

@@ -40,7 +40,6 @@ nlohmann::json vec(const Eigen::Vector3d& v) {
   return {v.x(), v.y(), v.z()};
 }
 
-
 struct RegisterOptions {
   std::string model, bone = "Femur", out;
   std::vector<std::string> captures;
@@ -68,7 +67,6 @@ struct RegisterOptions {
   double maxRms = 2.0;
   bool json = false;
 };
-
 
 // Points from a CSV: x,y,z (or echoreg detect's x_mm,y_mm,z_mm, accepted rows only), optionally
 // ox,oy,oz,dx,dy,dz,depth_mm (the beam, same frame).
@@ -414,8 +412,9 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
       capTriangles = static_cast<int>(
           std::count(options.excludedTriangles.begin(), options.excludedTriangles.end(), true));
       if (capTriangles == 0) {
-        throw FileError(o.model, "--open-ends: the model has no flat cap at its lowest or highest z "
-                                 "(was it cut by the scan range?)");
+        throw FileError(o.model,
+                        "--open-ends: the model has no flat cap at its lowest or highest z "
+                        "(was it cut by the scan range?)");
       }
     }
     model = std::make_unique<core::SurfaceRegistration>(std::move(mesh));
@@ -524,29 +523,33 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   for (std::size_t i = 0; i < landmarks.size(); ++i)
     landmarkResiduals.push_back(
         {{"label", landmarks[i].name}, {"residual_mm", r.landmarkResidualsMm[i]}});
-  out.extra = {{"rms_mm", r.rmsMm},
-               {"rms_over", "inliers"},
-               {"excluded_cap_triangles", capTriangles},
-               {"points_beyond_model", r.pointsBeyondModel},
-               {"rotation_sigma_deg", std::isfinite(r.rotationSigmaDeg) ? nlohmann::json(r.rotationSigmaDeg) : nlohmann::json("inf")},
-               {"translation_sigma_mm", std::isfinite(r.translationSigmaMm) ? nlohmann::json(r.translationSigmaMm) : nlohmann::json("inf")},
-               {"weakest_rotation_axis", {r.weakestAxis.x(), r.weakestAxis.y(), r.weakestAxis.z()}},
-               {"rms_all_mm", r.rmsAllMm},
-               {"points_used", r.pointsUsed},
-               {"points_rejected", r.pointsRejected},
-               {"ultrasound_points", ultrasoundCount},
-               {"stylus_points", static_cast<int>(points.size()) - ultrasoundCount},
-               {"speed_of_sound_scale", r.speedOfSoundScale},
-               {"iterations", r.iterations},
-               {"starts", r.starts},
-               {"converged", r.converged},
-               {"method", o.method},
-               {"loss", options.method == core::SurfaceMethod::Robust ? nlohmann::json(o.loss)
-                                                                      : nlohmann::json(nullptr)},
-               {"sources", sources},
-               {"start", initReport},
-               {"landmark_residuals", landmarkResiduals},
-               {"points", residuals}};
+  out.extra = {
+      {"rms_mm", r.rmsMm},
+      {"rms_over", "inliers"},
+      {"excluded_cap_triangles", capTriangles},
+      {"points_beyond_model", r.pointsBeyondModel},
+      {"rotation_sigma_deg", std::isfinite(r.rotationSigmaDeg) ? nlohmann::json(r.rotationSigmaDeg)
+                                                               : nlohmann::json("inf")},
+      {"translation_sigma_mm", std::isfinite(r.translationSigmaMm)
+                                   ? nlohmann::json(r.translationSigmaMm)
+                                   : nlohmann::json("inf")},
+      {"weakest_rotation_axis", {r.weakestAxis.x(), r.weakestAxis.y(), r.weakestAxis.z()}},
+      {"rms_all_mm", r.rmsAllMm},
+      {"points_used", r.pointsUsed},
+      {"points_rejected", r.pointsRejected},
+      {"ultrasound_points", ultrasoundCount},
+      {"stylus_points", static_cast<int>(points.size()) - ultrasoundCount},
+      {"speed_of_sound_scale", r.speedOfSoundScale},
+      {"iterations", r.iterations},
+      {"starts", r.starts},
+      {"converged", r.converged},
+      {"method", o.method},
+      {"loss", options.method == core::SurfaceMethod::Robust ? nlohmann::json(o.loss)
+                                                             : nlohmann::json(nullptr)},
+      {"sources", sources},
+      {"start", initReport},
+      {"landmark_residuals", landmarkResiduals},
+      {"points", residuals}};
   if (speedOfSound > 0.0)
     out.extra["speed_of_sound_mps"] = speedOfSound * r.speedOfSoundScale;
   if (!r.converged)
@@ -713,9 +716,10 @@ CommandAction addRegisterCommand(CLI::App& app) {
   cmd->add_option("--loss", o->loss, "robust: huber, cauchy, tukey or trim (10 %)")
       ->check(CLI::IsMember({"huber", "cauchy", "tukey", "trim"}))
       ->capture_default_str();
-  cmd->add_flag("--open-ends", o->openEnds,
-                "The model was cut by the CT's scan range (echoreg segment closes it with flat caps at "
-                "its lowest and highest z): points closest to those caps are not used");
+  cmd->add_flag(
+      "--open-ends", o->openEnds,
+      "The model was cut by the CT's scan range (echoreg segment closes it with flat caps at "
+      "its lowest and highest z): points closest to those caps are not used");
   cmd->add_flag("--fit-speed-of-sound", o->fitSpeed,
                 "robust: fit the speed-of-sound scale along each beam");
   cmd->add_option("--restarts", o->restarts,

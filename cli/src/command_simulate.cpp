@@ -144,9 +144,10 @@ CommandAction addSimulateCommand(CLI::App& app) {
                   "femur_ultrasound.igs.mha, femur_ultrasound_2.igs.mha, ...")
       ->check(CLI::Range(1, 20))
       ->capture_default_str();
-  cmd->add_option("--calibrations", o->calibrations,
-                  "Calibration sessions of the one probe, the bath set up anew each time (Table 5.1 "
-                  "has 5): calibration_shots.igs.mha, calibration_shots_2.igs.mha, ...")
+  cmd->add_option(
+         "--calibrations", o->calibrations,
+         "Calibration sessions of the one probe, the bath set up anew each time (Table 5.1 "
+         "has 5): calibration_shots.igs.mha, calibration_shots_2.igs.mha, ...")
       ->check(CLI::Range(1, 20))
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "Print the summary as JSON");
