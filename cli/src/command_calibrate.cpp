@@ -1,6 +1,7 @@
 // `echoreg calibrate`: BeamToProbe from a sphere in a water bath (Mozes 2008, section 4.2), and
 // `echoreg pivot`: the fixed point of a marker's poses (a stylus tip, the hip centre).
 #include "commands.hpp"
+#include "path_check.hpp"
 
 #include "echoreg/core/beam_calibration.hpp"
 #include "echoreg/core/detection.hpp"
@@ -71,6 +72,12 @@ struct CalibrateOptions {
 };
 
 int runCalibrate(const CalibrateOptions& o, const Streams& io) {
+  CommandPaths()
+      .input("--sphere-capture", o.sphereCapture)
+      .input("--stylus-tip-to-stylus", o.tipFile)
+      .input("--capture", o.capture)
+      .transformOutput("--out", o.out)
+      .check();
   if (!(o.sphereRadius > 0.0)) {
     throw std::invalid_argument(
         fmt::format("--sphere-radius must be > 0 mm, got {}", o.sphereRadius));
@@ -234,6 +241,7 @@ struct PivotCommandOptions {
 };
 
 int runPivot(const PivotCommandOptions& o, const Streams& io) {
+  CommandPaths().input("--capture", o.capture).transformOutput("--out", o.out).check();
   const auto at = o.marker.find("To");
   if (at == std::string::npos || at == 0) {
     throw std::invalid_argument("--marker must name a transform like StylusToTracker, got '" +

@@ -2,6 +2,7 @@
 // translations along and rotations about the CT axes and the distances at targets; the last row
 // the mean of absolute values, as the dissertation's Tables 5.3-5.7.
 #include "commands.hpp"
+#include "path_check.hpp"
 
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
@@ -54,6 +55,12 @@ nlohmann::json rowJson(const std::string& name, const core::RigidError& e,
 }
 
 int runEvaluate(const EvaluateOptions& o, const Streams& io) {
+  CommandPaths()
+      .input("--reference", o.reference)
+      .inputs("--estimate", o.estimates)
+      .input("--targets", o.targets)
+      .output("--out", o.out)
+      .check();
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   if (o.centre.size() == 3)
     centre = Eigen::Vector3d(o.centre[0], o.centre[1], o.centre[2]);

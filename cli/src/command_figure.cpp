@@ -2,6 +2,7 @@
 // figures, rendered off-screen (render/, OSMesa: no X server needed).
 #include "commands.hpp"
 #include "csv_table.hpp"
+#include "path_check.hpp"
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/mesh.hpp"
@@ -192,6 +193,13 @@ CommandAction addRegistrationFigure(CLI::App* parent) {
   addCropOption(cmd, *o, 30.0);
   return [o, cmd](const Streams& streams) {
     (void)cmd;
+    CommandPaths()
+        .input("--model", o->model)
+        .input("--points", o->points)
+        .input("--transform", o->transform)
+        .inputs("--context", o->context)
+        .output("--out", o->out)
+        .check();
     render::SurfaceFigure figure;
     figure.surface = filters::readMesh(o->model);
     for (const std::string& path : o->context)
@@ -227,6 +235,7 @@ CommandAction addCalibrationFigure(CLI::App* parent) {
   addSurfaceOptions(cmd, *o, 0.5, 1.0, 1.0);
   o->views = {"coronal", "sagittal", "transverse"};
   return [o](const Streams& streams) {
+    CommandPaths().input("--calibration", o->calibration).output("--out", o->out).check();
     std::ifstream in(o->calibration);
     if (!in)
       throw FileError(o->calibration, "cannot open the calibration file");
@@ -306,6 +315,7 @@ CommandAction addSignalsFigure(CLI::App* parent) {
   addSizeOptions(cmd, o->width, o->height, 300);
   cmd->add_flag("--json", o->json, "Print each setting's verdict as JSON");
   return [o](const Streams& streams) {
+    CommandPaths().input("--capture", o->capture).output("--out", o->out).check();
     const Sequence sequence = readSequence(o->capture);
     if (!sequence.hasPixels())
       throw FileError(o->capture, "holds no A-lines (tracker-only capture)");
@@ -443,6 +453,7 @@ CommandAction addBoxplotFigure(CLI::App* parent) {
         column = file.substr(colon + 1);
         file = file.substr(0, colon);
       }
+      CommandPaths().input("--group", file).output("--out", o->out).check();
       const CsvTable table = readCsvTable(file);
       const int c = table.column(column);
       if (c < 0)

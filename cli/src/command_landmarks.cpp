@@ -2,6 +2,7 @@
 // initial registration of a bone, or PLUS's phantom registration): dwells found in the tracked
 // tip, matched in order to the landmark file, registered by weighted Horn/Umeyama.
 #include "commands.hpp"
+#include "path_check.hpp"
 
 #include "echoreg/core/dwell.hpp"
 #include "echoreg/core/error.hpp"
@@ -64,6 +65,12 @@ struct LandmarksOptions {
 };
 
 int runLandmarks(const LandmarksOptions& o, const Streams& io) {
+  CommandPaths()
+      .input("--capture", o.capture)
+      .input("--stylus-tip-to-stylus", o.tipFile)
+      .input("--landmarks", o.landmarks)
+      .transformOutput("--out", o.out)
+      .check();
   const std::string referenceFrame =
       o.reference == "Tracker" ? std::string("Tracker") : fromFrame(o.reference, "--reference");
   fromFrame(o.stylus, "--stylus");

@@ -4,6 +4,7 @@
 // the stylus. docs/registration.md.
 #include "commands.hpp"
 #include "csv_table.hpp"
+#include "path_check.hpp"
 
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/dwell.hpp"
@@ -382,6 +383,19 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
 }
 
 int runRegister(const RegisterOptions& o, const Streams& io) {
+  CommandPaths()
+      .input("--model", o.model)
+      .inputs("--capture", o.captures)
+      .input("--calibration", o.calibration)
+      .input("--points", o.pointsCsv)
+      .inputs("--stylus-points", o.stylusCaptures)
+      .input("--initial", o.initial)
+      .input("--landmarks-ct", o.landmarksCt)
+      .input("--landmarks-capture", o.landmarksCapture)
+      .input("--stylus-tip-to-stylus", o.tipFile)
+      .input("--hip-centre", o.hipCentre)
+      .transformOutput("--out", o.out)
+      .check();
   if (o.bone.empty() || o.bone.find("To") != std::string::npos) {
     throw std::invalid_argument("--bone must name the bone's frame, e.g. Femur, got '" + o.bone +
                                 "'");

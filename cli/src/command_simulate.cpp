@@ -1,5 +1,6 @@
 // `echoreg simulate --out DIR`: a whole study with ground truth (simulation/study.hpp).
 #include "commands.hpp"
+#include "path_check.hpp"
 
 #include "echoreg/simulation/study.hpp"
 
@@ -65,6 +66,7 @@ simulation::StudyOptions toStudyOptions(const SimulateOptions& o) {
       throw std::invalid_argument("--bone: unknown bone '" + spec.substr(0, eq) + "' (femur)");
     }
     s.meshFiles[it->second] = spec.substr(eq + 1);
+    CommandPaths().input("--bone", spec.substr(eq + 1)).output("--out", o.out).check();
   }
   return s;
 }

@@ -128,6 +128,11 @@ std::string writeTransformFile(const std::string& path, const TransformFile& tra
   json.stream() << doc.dump(2) << "\n";
   if (withTfm) {
     tfmPath = std::filesystem::path(path).replace_extension(".tfm").string();
+    if (tfmPath == path) {
+      throw FileError(path,
+                      "ends in .tfm: the transform JSON and the Slicer .tfm written beside it "
+                      "would be the same file; give the JSON a .json name");
+    }
     AtomicFile tfm(tfmPath);
     tfm.stream() << slicerTfmText(transform.matrix);
     tfm.commit();
