@@ -2,6 +2,7 @@
 // `echoreg pivot`: the fixed point of a marker's poses (a stylus tip, the hip centre).
 #include "commands.hpp"
 #include "path_check.hpp"
+#include "pose_check.hpp"
 
 #include "echoreg/core/beam_calibration.hpp"
 #include "echoreg/core/detection.hpp"
@@ -93,7 +94,9 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   }
   // 1. The sphere's centre from the stylus tips.
   const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
-  const Sequence sphereSequence = readSequence(o.sphereCapture);
+  PoseNotes poseNotes;
+  const Sequence sphereSequence =
+      readTrackedSequence(o.sphereCapture, {"StylusToTracker"}, poseNotes);
   const auto stylusPoses = validPoses(sphereSequence, o.sphereCapture, "StylusToTracker");
   std::vector<Eigen::Vector3d> tips;
   for (const auto& [frame, pose] : stylusPoses) {
@@ -111,7 +114,7 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   const double sphereRadius = o.freeRadius ? sphere.radiusMm - o.tipRadius : o.sphereRadius;
 
   // 2. The sphere's echo in every shot: the calibration preset (window-max) in the window.
-  const Sequence shotsSequence = readSequence(o.capture);
+  const Sequence shotsSequence = readTrackedSequence(o.capture, {"ProbeToTracker"}, poseNotes);
   DetectionParams params = detectionPreset("calibration");
   params.depth = depthFromSequence(shotsSequence, params.depth);
   if (o.speedOfSound > 0.0)
@@ -214,6 +217,7 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
                {"parameters", parameters},
                {"iterations", result.iterations},
                {"converged", result.converged},
+               {"poses_reorthonormalised", poseNotes.reorthonormalised},
                {"shots", perShot}};
   const std::string tfm = writeTransformFile(o.out, out);
   if (o.json) {
@@ -231,6 +235,7 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
         o.out, t.x(), t.y(), t.z(), result.rmsMm, result.conditionNumber,
         static_cast<int>(shots.size()) - outliers, rejectedCount, result.speedOfSoundMps);
   }
+  poseNotes.print(io.err, "calibrate");
   return 0;
 }
 
@@ -254,7 +259,8 @@ int runPivot(const PivotCommandOptions& o, const Streams& io) {
            : markerFrame == "Femur" ? "HipCentre"
                                     : markerFrame + "Pivot";
   }
-  const Sequence sequence = readSequence(o.capture);
+  PoseNotes poseNotes;
+  const Sequence sequence = readTrackedSequence(o.capture, {o.marker}, poseNotes);
   const auto poses = validPoses(sequence, o.capture, o.marker);
   std::vector<Eigen::Isometry3d> transforms;
   for (const auto& [frame, pose] : poses)
@@ -275,7 +281,8 @@ int runPivot(const PivotCommandOptions& o, const Streams& io) {
                {"pivot_point_tracker_mm", vec(result.pointInTracker)},
                {"poses_used", result.inliers},
                {"poses_rejected", static_cast<int>(sequence.frames.size()) - result.inliers},
-               {"rotation_spread_deg", vec(result.rotationSpreadDeg)}};
+               {"rotation_spread_deg", vec(result.rotationSpreadDeg)},
+               {"poses_reorthonormalised", poseNotes.reorthonormalised}};
   const std::string tfm = writeTransformFile(o.out, out);
   if (o.json) {
     nlohmann::json summary = out.extra;
@@ -291,6 +298,7 @@ int runPivot(const PivotCommandOptions& o, const Streams& io) {
         result.pointInMarker.z(), result.rmsMm, result.inliers, result.rotationSpreadDeg.x(),
         result.rotationSpreadDeg.y(), result.rotationSpreadDeg.z());
   }
+  poseNotes.print(io.err, "pivot");
   return 0;
 }
 
@@ -346,7 +354,8 @@ CommandAction addPivotCommand(CLI::App& app) {
       "pivot",
       "Pivot calibration: the point fixed in the marker's frame while it rotates about it (a\n"
       "stylus tip in a divot, or the hip centre from FemurToTracker while the leg is circled).\n"
-      "Refuses poses that do not rotate enough in two directions.");
+      "Refuses poses that do not rotate enough in two directions, and poses that are not rigid\n"
+      "(tracker rounding within 1e-2 is re-orthonormalised and counted).");
   cmd->add_option("--capture", o->capture, "Tracker capture (PLUS sequence)")->required();
   cmd->add_option("--marker", o->marker,
                   "The marker's transform, e.g. StylusToTracker, FemurToTracker")

@@ -3,6 +3,7 @@
 // tip, matched in order to the landmark file, registered by weighted Horn/Umeyama.
 #include "commands.hpp"
 #include "path_check.hpp"
+#include "pose_check.hpp"
 
 #include "echoreg/core/dwell.hpp"
 #include "echoreg/core/error.hpp"
@@ -107,7 +108,9 @@ int runLandmarks(const LandmarksOptions& o, const Streams& io) {
   const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
   Eigen::Isometry3d tipToStylus;
   tipToStylus.matrix() = tip.matrix;
-  const Sequence capture = readSequence(o.capture);
+  PoseNotes poseNotes;
+  const Sequence capture = readTrackedSequence(
+      o.capture, {o.stylus, o.reference == "Tracker" ? std::string() : o.reference}, poseNotes);
   core::StylusTrack track;
   std::vector<core::Dwell> dwells;
   try {
@@ -169,6 +172,7 @@ int runLandmarks(const LandmarksOptions& o, const Streams& io) {
       {"dwells_found", dwells.size()},
       {"dwells_skipped", skipped},
       {"frames", capture.frames.size()},
+      {"poses_reorthonormalised", poseNotes.reorthonormalised},
       {"dwell_options",
        {{"max_motion_mm", o.dwell.maxMotionMm},
         {"min_duration_s", o.dwell.minDurationS},
@@ -197,6 +201,7 @@ int runLandmarks(const LandmarksOptions& o, const Streams& io) {
                             l["last_frame"].get<int>(), l["residual_mm"].get<double>());
     }
   }
+  poseNotes.print(io.err, "landmarks");
   return 0;
 }
 

@@ -5,6 +5,7 @@
 #include "commands.hpp"
 #include "csv_table.hpp"
 #include "path_check.hpp"
+#include "pose_check.hpp"
 
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/dwell.hpp"
@@ -159,8 +160,9 @@ std::vector<core::SurfacePoint> capturePoints(const std::string& path,
                                               const Eigen::Matrix4d& beamToProbe,
                                               const std::string& referenceTransform,
                                               const RegisterOptions& o, double& speedOfSound,
-                                              nlohmann::json& report) {
-  const Sequence sequence = readSequence(path);
+                                              nlohmann::json& report, PoseNotes& poseNotes) {
+  const Sequence sequence =
+      readTrackedSequence(path, {"ProbeToTracker", referenceTransform}, poseNotes);
   DetectionParams params;
   try {
     params = detectionPreset(o.preset);
@@ -212,8 +214,9 @@ std::vector<core::SurfacePoint> capturePoints(const std::string& path,
 std::vector<core::SurfacePoint> stylusPoints(const std::string& path,
                                              const Eigen::Isometry3d& tipToStylus,
                                              const std::string& referenceTransform,
-                                             const RegisterOptions& o) {
-  const Sequence capture = readSequence(path);
+                                             const RegisterOptions& o, PoseNotes& poseNotes) {
+  const Sequence capture =
+      readTrackedSequence(path, {"StylusToTracker", referenceTransform}, poseNotes);
   std::vector<core::Dwell> dwells;
   try {
     const core::StylusTrack track =
@@ -250,7 +253,8 @@ struct LandmarkInit {
 
 // The landmarks touched in the capture (dwells of the stylus tip in the bone's frame), matched in
 // order to the named CT landmarks.
-LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& referenceTransform) {
+LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& referenceTransform,
+                                  PoseNotes& poseNotes) {
   const std::vector<core::MarkupPoint> all = core::readMarkupPoints(o.landmarksCt);
   std::vector<core::MarkupPoint> chosen;
   if (o.landmarkLabels.empty()) {
@@ -278,7 +282,8 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
   const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
   Eigen::Isometry3d tipToStylus;
   tipToStylus.matrix() = tip.matrix;
-  const Sequence capture = readSequence(o.landmarksCapture);
+  const Sequence capture =
+      readTrackedSequence(o.landmarksCapture, {"StylusToTracker", referenceTransform}, poseNotes);
   std::vector<core::Dwell> dwells;
   try {
     const core::StylusTrack track =
@@ -437,6 +442,7 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   }
 
   // The points.
+  PoseNotes poseNotes;
   std::vector<core::SurfacePoint> points;
   nlohmann::json sources = nlohmann::json::array();
   double speedOfSound = 0.0;
@@ -446,8 +452,8 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   } else if (!o.captures.empty()) {
     const TransformFile calibration = readTransformFile(o.calibration, "Beam", "Probe");
     for (const std::string& capture : o.captures) {
-      const std::vector<core::SurfacePoint> found =
-          capturePoints(capture, calibration.matrix, reference, o, speedOfSound, sources);
+      const std::vector<core::SurfacePoint> found = capturePoints(
+          capture, calibration.matrix, reference, o, speedOfSound, sources, poseNotes);
       points.insert(points.end(), found.begin(), found.end());
     }
   }
@@ -458,7 +464,7 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
     tipToStylus.matrix() = tip.matrix;
     for (const std::string& capture : o.stylusCaptures) {
       const std::vector<core::SurfacePoint> found =
-          stylusPoints(capture, tipToStylus, reference, o);
+          stylusPoints(capture, tipToStylus, reference, o, poseNotes);
       points.insert(points.end(), found.begin(), found.end());
       sources.push_back({{"stylus_capture", capture}, {"points", found.size()}});
     }
@@ -486,7 +492,7 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
     options.initial.matrix() = initial.matrix;
     initReport = {{"initial", o.initial}};
   } else {
-    LandmarkInit init = landmarksFromCapture(o, reference);
+    LandmarkInit init = landmarksFromCapture(o, reference, poseNotes);
     landmarks = init.pairs;
     initReport = init.report;
     const core::LandmarkSpread spread = core::landmarkSpread(landmarks);
@@ -580,6 +586,7 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
         " to tie it down");
   }
   out.extra["warnings"] = warnings;
+  out.extra["poses_reorthonormalised"] = poseNotes.reorthonormalised;
   const std::string tfm = writeTransformFile(o.out, out);
   if (o.json) {
     nlohmann::json summary = out.extra;
@@ -597,6 +604,7 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   }
   for (const std::string& warning : warnings)
     io.err << "echoreg register: warning: " << warning << "\n";
+  poseNotes.print(io.err, "register");
   if (!r.converged) {
     io.err << fmt::format(
         "echoreg register: {}: not converged: {} (written with \"converged\": false)\n", o.out,
