@@ -5,6 +5,7 @@
 #include "pose_check.hpp"
 
 #include "echoreg/core/beam_calibration.hpp"
+#include "echoreg/core/calibration_gate.hpp"
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/fits.hpp"
@@ -16,6 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
 #include <map>
 #include <memory>
 #include <ostream>
@@ -66,10 +68,14 @@ struct CalibrateOptions {
   bool freeRadius = false;
   std::vector<double> initial;
   double speedOfSound = 0.0;
+  const CLI::Option* speedOfSoundOption = nullptr;  ///< given when its count() > 0
   std::vector<double> windowMm;
   std::string mode = "translation";
   bool fitSpeed = false;
   bool json = false;
+  core::CalibrationGate gate;
+  std::vector<double> speedRange{gate.minSpeedOfSoundMps, gate.maxSpeedOfSoundMps};
+  double maxCondition = core::BeamCalibrationOptions{}.maxConditionNumber;
 };
 
 int runCalibrate(const CalibrateOptions& o, const Streams& io) {
@@ -79,13 +85,42 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
       .input("--capture", o.capture)
       .transformOutput("--out", o.out)
       .check();
-  if (!(o.sphereRadius > 0.0)) {
+  if (!(o.sphereRadius > 0.0 && std::isfinite(o.sphereRadius))) {
     throw std::invalid_argument(
-        fmt::format("--sphere-radius must be > 0 mm, got {}", o.sphereRadius));
+        fmt::format("--sphere-radius must be a finite number > 0 mm, got {}", o.sphereRadius));
   }
-  if (o.tipRadius < 0.0) {
+  if (!(o.tipRadius >= 0.0 && std::isfinite(o.tipRadius))) {
     throw std::invalid_argument(
-        fmt::format("--stylus-tip-radius must be >= 0 mm, got {}", o.tipRadius));
+        fmt::format("--stylus-tip-radius must be a finite number >= 0 mm, got {}", o.tipRadius));
+  }
+  if (!std::all_of(o.initial.begin(), o.initial.end(), [](double v) { return std::isfinite(v); })) {
+    throw std::invalid_argument("--initial X Y Z must be finite numbers, in mm");
+  }
+  // The quality gate's thresholds (docs/calibration.md, "Quality gate").
+  core::CalibrationGate gate = o.gate;
+  if (!(o.speedRange.size() == 2 && o.speedRange[0] > 0.0 && o.speedRange[1] > o.speedRange[0] &&
+        std::isfinite(o.speedRange[1]))) {
+    throw std::invalid_argument(
+        "--speed-of-sound-range must be MIN MAX in m/s with 0 < MIN < MAX, finite");
+  }
+  gate.minSpeedOfSoundMps = o.speedRange[0];
+  gate.maxSpeedOfSoundMps = o.speedRange[1];
+  if (!(gate.maxRmsMm > 0.0)) {
+    throw std::invalid_argument(fmt::format("--max-rms must be > 0 mm, got {}", gate.maxRmsMm));
+  }
+  if (!(o.maxCondition >= 1.0)) {
+    throw std::invalid_argument(
+        fmt::format("--max-condition must be >= 1, got {}", o.maxCondition));
+  }
+  const std::string speedRange =
+      fmt::format("{:.0f}-{:.0f} m/s", gate.minSpeedOfSoundMps, gate.maxSpeedOfSoundMps);
+  const bool speedGiven = o.speedOfSoundOption != nullptr && o.speedOfSoundOption->count() > 0;
+  if (speedGiven &&
+      !(o.speedOfSound >= gate.minSpeedOfSoundMps && o.speedOfSound <= gate.maxSpeedOfSoundMps)) {
+    throw std::invalid_argument(fmt::format(
+        "--speed-of-sound must be the bath's speed of sound within {} (--speed-of-sound-range), "
+        "got {}",
+        speedRange, o.speedOfSound));
   }
   if (o.windowMm.size() == 2 && !(o.windowMm[0] >= 0.0 && o.windowMm[1] > o.windowMm[0])) {
     throw std::invalid_argument(
@@ -117,8 +152,15 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   const Sequence shotsSequence = readTrackedSequence(o.capture, {"ProbeToTracker"}, poseNotes);
   DetectionParams params = detectionPreset("calibration");
   params.depth = depthFromSequence(shotsSequence, params.depth);
-  if (o.speedOfSound > 0.0)
+  if (speedGiven) {
     params.depth.speedOfSoundMps = o.speedOfSound;
+  } else if (!(params.depth.speedOfSoundMps >= gate.minSpeedOfSoundMps &&
+               params.depth.speedOfSoundMps <= gate.maxSpeedOfSoundMps)) {
+    throw FileError(o.capture,
+                    fmt::format("the speed of sound of its header, {} m/s, is outside {} "
+                                "(--speed-of-sound-range): give the bath's with --speed-of-sound",
+                                params.depth.speedOfSoundMps, speedRange));
+  }
   if (o.windowMm.size() == 2) {
     params.windowMinMm = o.windowMm[0];
     params.windowMaxMm = o.windowMm[1];
@@ -159,12 +201,25 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   options.sphereRadiusMm = sphereRadius;
   options.initialBeamToProbe.translation() =
       Eigen::Vector3d(o.initial[0], o.initial[1], o.initial[2]);
+  options.maxConditionNumber = o.maxCondition;
   core::BeamCalibrationResult result;
   try {
     result = core::calibrateBeam(shots, options);
   } catch (const std::invalid_argument& e) {
     throw FileError(o.capture, fmt::format("{} sphere echoes found in {} frames; {}", shots.size(),
                                            detection.frames.size(), e.what()));
+  }
+  // 4. The quality gate: a converged solution can still be wrong; refused, it is not written.
+  const std::vector<std::string> problems =
+      core::calibrationGateProblems(shots, options, result, sphere.rmsMm, gate);
+  if (!problems.empty()) {
+    std::string list;
+    for (const std::string& problem : problems)
+      list += (list.empty() ? "" : "; ") + problem;
+    throw std::runtime_error(fmt::format(
+        "{}: not written: the calibration of {} is implausible: {} (thresholds --max-rms {} mm, "
+        "--speed-of-sound-range {}; docs/calibration.md)",
+        o.out, o.capture, list, gate.maxRmsMm, speedRange));
   }
 
   nlohmann::json rejected = nlohmann::json::object();
@@ -312,7 +367,8 @@ CommandAction addCalibrateCommand(CLI::App& app) {
       "sphere's centre from stylus points on it, the sphere's echo in every A-line (window-max in\n"
       "--window-mm), then BeamToProbe by Levenberg-Marquardt (Ceres) on r - |p - c|. Writes the\n"
       "transform JSON with rms_mm, condition_number, per-parameter std, per-shot residuals, and a\n"
-      "Slicer .tfm beside it.");
+      "Slicer .tfm beside it. A calibration the quality gate finds implausible (RMS, speed of\n"
+      "sound, condition number, the beam's geometry on the sphere) is refused and not written.");
   cmd->add_option("--sphere-capture", o->sphereCapture, "Stylus on the sphere (StylusToTracker)")
       ->required();
   cmd->add_option("--stylus-tip-to-stylus", o->tipFile,
@@ -330,8 +386,10 @@ CommandAction addCalibrateCommand(CLI::App& app) {
                   "Initial BeamToProbe translation X Y Z, mm (e.g. a CMM measurement)")
       ->expected(3)
       ->required();
-  cmd->add_option("--speed-of-sound", o->speedOfSound,
-                  "Assumed speed of sound in the bath, m/s (default: the capture's header)");
+  o->speedOfSoundOption =
+      cmd->add_option("--speed-of-sound", o->speedOfSound,
+                      "Assumed speed of sound in the bath, m/s (default: the capture's header); "
+                      "within --speed-of-sound-range");
   cmd->add_option("--window-mm", o->windowMm, "Processing window MIN MAX, mm from the beam origin")
       ->expected(2);
   cmd->add_option("--out", o->out, "Calibration JSON to write (a .tfm is written beside it)")
@@ -344,6 +402,22 @@ CommandAction addCalibrateCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_flag("--fit-speed-of-sound", o->fitSpeed,
                 "Fit the bath's speed of sound as one more parameter");
+  cmd->add_option("--max-rms", o->gate.maxRmsMm,
+                  "Quality gate: refuse (write nothing) when the echoes, or the stylus points, lie "
+                  "further off the sphere than this RMS, mm (the dissertation's: 0.55-0.91)")
+      ->capture_default_str()
+      ->group("Quality gate");
+  cmd->add_option("--speed-of-sound-range", o->speedRange,
+                  "Quality gate: speeds of sound accepted, assumed or fitted, MIN MAX m/s (water "
+                  "0-100 degC: 1402-1555)")
+      ->expected(2)
+      ->capture_default_str()
+      ->group("Quality gate");
+  cmd->add_option("--max-condition", o->maxCondition,
+                  "Quality gate: refuse when the shots do not determine the answer (condition "
+                  "number above this; the dissertation's: 6.2-14.2)")
+      ->capture_default_str()
+      ->group("Quality gate");
   cmd->add_flag("--json", o->json, "Print the result as JSON");
   return [o](const Streams& io) { return runCalibrate(*o, io); };
 }
