@@ -64,6 +64,7 @@ class Manifest {
     if (doc_.value("format", std::string()) != "echoreg-study") {
       throw FileError(path_, "is not an echoreg study manifest (\"format\": \"echoreg-study\")");
     }
+    validate();
   }
   const std::string& dir() const { return dir_; }
   const nlohmann::json& doc() const { return doc_; }
@@ -97,6 +98,88 @@ class Manifest {
   }
 
  private:
+  // "/bones/femur/ultrasound" -> "bones.femur.ultrasound", as the user reads the file.
+  static std::string dotted(const std::string& pointer) {
+    std::string name = pointer.substr(1);
+    std::replace(name.begin(), name.end(), '/', '.');
+    return name;
+  }
+  [[noreturn]] void wrongType(const std::string& pointer, const std::string& expected) const {
+    throw FileError(
+        path_, fmt::format("{} must be {}, got {}", dotted(pointer), expected, at(pointer).dump()));
+  }
+  // A value the manifest may leave out, but of the right type when given.
+  void optionalNumber(const std::string& pointer, bool positive = false) const {
+    const nlohmann::json v = at(pointer);
+    if (v.is_null())
+      return;
+    if (!v.is_number() || (positive && !(v.get<double>() > 0.0)))
+      wrongType(pointer, positive ? "a number > 0" : "a number");
+  }
+  void optionalNumbers(const std::string& pointer, std::size_t count,
+                       const std::string& expected) const {
+    const nlohmann::json v = at(pointer);
+    if (v.is_null())
+      return;
+    if (!v.is_array() || v.size() != count ||
+        !std::all_of(v.begin(), v.end(), [](const nlohmann::json& x) { return x.is_number(); }))
+      wrongType(pointer, expected);
+  }
+  void optionalString(const std::string& pointer) const {
+    const nlohmann::json v = at(pointer);
+    if (!v.is_null() && !v.is_string())
+      wrongType(pointer, "a string");
+  }
+  void optionalStrings(const std::string& pointer, const std::string& expected) const {
+    const nlohmann::json v = at(pointer);
+    if (v.is_null())
+      return;
+    if (!v.is_array() ||
+        !std::all_of(v.begin(), v.end(), [](const nlohmann::json& x) { return x.is_string(); }))
+      wrongType(pointer, expected);
+  }
+
+  // Every value the study reads, checked before any step runs (docs/formats.md, "study.json"):
+  // the version, the bones, and the type of each optional value, so that none is silently ignored.
+  void validate() const {
+    const nlohmann::json version = at("/version");
+    if (!version.is_null() && version != nlohmann::json(1)) {
+      throw FileError(path_, fmt::format("\"version\": {} is not a manifest version this echoreg "
+                                         "reads (1)",
+                                         version.dump()));
+    }
+    const nlohmann::json bones = at("/bones");
+    if (!bones.is_object() || bones.empty()) {
+      throw FileError(path_,
+                      "names no bones (\"bones\": {\"femur\": {...}, ...}): nothing to "
+                      "register");
+    }
+    optionalNumber("/calibration/stylus_tip_radius_mm");
+    optionalNumber("/calibration/speed_of_sound_mps", true);
+    optionalNumbers("/calibration/initial_beam_to_probe_mm", 3, "[X, Y, Z] in mm");
+    optionalNumbers("/calibration/window_mm", 2, "[MIN, MAX] in mm");
+    optionalString("/detection/preset");
+    optionalNumber("/detection/speed_of_sound_mps", true);
+    optionalStrings("/landmarks/order", "a list of landmark names");
+    for (const auto& [bone, entry] : bones.items()) {
+      const std::string key = "/bones/" + bone;
+      if (!entry.is_object())
+        wrongType(key, "an object");
+      optionalStrings(key + "/ultrasound", "a list of capture file names");
+      optionalNumber(key + "/mechanical_tip_radius_mm");
+      const nlohmann::json fibula = at(key + "/segment/with_fibula");
+      if (!fibula.is_null() && !fibula.is_boolean())
+        wrongType(key + "/segment/with_fibula", "true or false");
+      const nlohmann::json seeds = at(key + "/segment/seeds_ct");
+      if (seeds.is_null())
+        continue;
+      if (!seeds.is_array())
+        wrongType(key + "/segment/seeds_ct", "a list of seeds [x, y, z]");
+      for (std::size_t i = 0; i < seeds.size(); ++i)
+        optionalNumbers(fmt::format("{}/segment/seeds_ct/{}", key, i), 3, "[x, y, z] in mm");
+    }
+  }
+
   std::string dir_;
   std::string path_;
   nlohmann::json doc_;

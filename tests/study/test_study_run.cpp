@@ -12,6 +12,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <string>
 
@@ -129,6 +130,45 @@ TEST(StudyRun, FailuresNameTheStepAndTheFile) {
   EXPECT_NE(r.err.find("transducer calibration"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("calibration_shots.igs.mha"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::is_regular_file(study + "/results/report.md"));
+}
+
+// Issue 15, item 5: a manifest value of the wrong type, no bones or an unknown version is
+// refused before any step runs (nothing written), naming the value as the file spells it.
+TEST(StudyRun, RefusesManifestsWithWrongValuesBeforeAnyStep) {
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  const nlohmann::json good = readJson(fixture + "/study.json");
+  const std::vector<std::pair<std::function<void(nlohmann::json&)>, std::string>> cases{
+      {[](nlohmann::json& m) { m["detection"]["speed_of_sound_mps"] = "1450"; },
+       "detection.speed_of_sound_mps must be a number > 0, got \"1450\""},
+      {[](nlohmann::json& m) {
+         m["calibration"]["window_mm"] = {1, 2, 3};
+       },
+       "calibration.window_mm must be [MIN, MAX] in mm, got [1,2,3]"},
+      {[](nlohmann::json& m) { m["calibration"]["initial_beam_to_probe_mm"] = "26 1 197"; },
+       "calibration.initial_beam_to_probe_mm must be [X, Y, Z] in mm"},
+      {[](nlohmann::json& m) { m["bones"]["femur"]["ultrasound"] = "captures/femur.igs.mha"; },
+       "bones.femur.ultrasound must be a list of capture file names"},
+      {[](nlohmann::json& m) {
+         m["landmarks"]["order"] = {"a", 2};
+       },
+       "landmarks.order must be a list of landmark names"},
+      {[](nlohmann::json& m) { m["bones"] = nlohmann::json::object(); }, "names no bones"},
+      {[](nlohmann::json& m) { m.erase("bones"); }, "names no bones"},
+      {[](nlohmann::json& m) { m["version"] = 99; },
+       "\"version\": 99 is not a manifest version this echoreg reads (1)"}};
+  for (const auto& [spoil, words] : cases) {
+    test::TempDir dir;
+    nlohmann::json manifest = good;
+    spoil(manifest);
+    std::ofstream(dir.file("study.json")) << manifest.dump(2);
+    const test::CommandResult r = runEchoreg({"study", "run", dir.path()});
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_NE(r.err.find(dir.file("study.json") + ": " + words), std::string::npos)
+        << "expected \"" << words << "\" in " << r.err;
+    EXPECT_FALSE(fs::exists(dir.file("results"))) << words;
+  }
 }
 
 }  // namespace
