@@ -205,27 +205,42 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   std::string failure;
 
   // Runs a stage of steps; a required step's failure ends the study (after the report of what ran).
+  // An optional step whose input is missing is skipped, saying which input and why it is missing.
   int stepIndex = 0;
+  std::map<std::string, std::string> producedBy;  // output -> "step \"title\" failed" etc.
   auto runSteps = [&](const std::vector<StudyStep>& steps) {
     for (const StudyStep& step : steps) {
       if (!failure.empty())
         break;
       ++stepIndex;
-      bool inputsPresent = true;
-      for (const std::string& input : step.inputs)
-        inputsPresent = inputsPresent && fs::exists(input);
-      if (!inputsPresent && !step.required) {
-        StepOutcome skipped;
-        skipped.id = step.id;
-        skipped.title = step.title;
-        skipped.status = StepOutcome::Status::Skipped;
-        skipped.message = "an input is missing (an earlier step failed)";
-        outcomes.push_back(skipped);
-        continue;
+      std::string missingInput;
+      for (const std::string& input : step.inputs) {
+        if (missingInput.empty() && !fs::exists(input))
+          missingInput = input;
       }
-      StepOutcome outcome = runner.run(step, streams, stepIndex, 0);
-      if (outcome.status == StepOutcome::Status::Failed && step.required) {
-        failure = fmt::format("step \"{}\" failed: {}", step.title, outcome.message);
+      StepOutcome outcome;
+      if (!missingInput.empty() && !step.required) {
+        outcome.id = step.id;
+        outcome.title = step.title;
+        outcome.status = StepOutcome::Status::Skipped;
+        const auto by = producedBy.find(missingInput);
+        outcome.message =
+            by != producedBy.end()
+                ? fmt::format("{} is missing: {}", missingInput, by->second)
+                : fmt::format("{} is missing (the study folder does not hold it)", missingInput);
+      } else {
+        outcome = runner.run(step, streams, stepIndex, 0);
+        if (outcome.status == StepOutcome::Status::Failed && step.required) {
+          failure = fmt::format("step \"{}\" failed: {}", step.title, outcome.message);
+        }
+      }
+      if (outcome.status == StepOutcome::Status::Failed ||
+          outcome.status == StepOutcome::Status::Skipped) {
+        for (const std::string& output : step.outputs) {
+          producedBy[output] =
+              fmt::format("step \"{}\" {}", step.title,
+                          outcome.status == StepOutcome::Status::Failed ? "failed" : "was skipped");
+        }
       }
       outcomes.push_back(std::move(outcome));
     }
@@ -1001,6 +1016,25 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     report.paragraph("The study stopped: " + failure);
     numbers["failure"] = failure;
   }
+  // Every result the study was asked for is there, or the study says which are not and fails.
+  std::vector<std::string> missing;
+  for (const StepOutcome& s : outcomes) {
+    if (s.status != StepOutcome::Status::Failed && s.status != StepOutcome::Status::Skipped)
+      continue;
+    const std::string firstLine = s.message.substr(0, s.message.find('\n'));
+    missing.push_back(fmt::format("{} ({}: {})", s.title,
+                                  s.status == StepOutcome::Status::Failed ? "failed" : "skipped",
+                                  firstLine));
+  }
+  std::string incomplete;
+  if (failure.empty() && !missing.empty()) {
+    incomplete = fmt::format("{} requested result{} missing:", missing.size(),
+                             missing.size() == 1 ? " is" : "s are");
+    for (const std::string& m : missing)
+      incomplete += "\n  " + m;
+    report.paragraph("The study is incomplete: " + incomplete);
+    numbers["missing"] = missing;
+  }
   {
     AtomicFile md(results + "/report.md");
     md.stream() << report.markdown();
@@ -1015,11 +1049,18 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   if (o.json) {
     streams.out << numbers.dump(2) << "\n";
   } else {
-    streams.out << fmt::format("study {}: report in {}\n", failure.empty() ? "done" : "stopped",
+    streams.out << fmt::format("study {}: report in {}\n",
+                               !failure.empty()      ? "stopped"
+                               : !incomplete.empty() ? "incomplete"
+                                                     : "done",
                                fs::absolute(results + "/report.html").lexically_normal().string());
   }
   if (!failure.empty()) {
     streams.err << "echoreg study: " << failure << "\n";
+    return 1;
+  }
+  if (!incomplete.empty()) {
+    streams.err << "echoreg study: " << manifest.dir() << ": incomplete, " << incomplete << "\n";
     return 1;
   }
   return 0;
@@ -1038,7 +1079,8 @@ CommandAction addStudyCommand(CLI::App& app) {
       "(the manifest's seeds), detection, registrations from ultrasound and from the mechanical\n"
       "probe, evaluation, figures; then writes DIR/results/report.html, report.md and\n"
       "results.json (docs/study.md). Steps whose command line and input files did not change\n"
-      "since the last run are not run again (--force runs all). Progress on a terminal.");
+      "since the last run are not run again (--force runs all). Exits 1 when a requested result\n"
+      "is missing (a step failed or was skipped), naming each. Progress on a terminal.");
   run->add_option("dir", o->dir, "Study folder (holds study.json)")->required();
   run->add_flag("--force", o->force, "Run every step again");
   run->add_flag("--given-models", o->givenModels,

@@ -171,5 +171,48 @@ TEST(StudyRun, RefusesManifestsWithWrongValuesBeforeAnyStep) {
   }
 }
 
+// Issue 15, item 6: a study whose requested results are missing (a registration skipped for a
+// capture the folder lacks, one failed on a negative tip radius) exits 1 and says which, in the
+// report and on stderr, and no longer blames "an earlier step" when none failed.
+TEST(StudyRun, MissingRequestedResultsFailTheStudyAndAreNamed) {
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  test::TempDir dir;
+  const std::string study = dir.file("study");
+  fs::copy(fixture, study, fs::copy_options::recursive);
+  fs::remove_all(study + "/results");
+  nlohmann::json manifest = readJson(study + "/study.json");
+  const std::string mechanical = manifest["bones"]["femur"]["mechanical"].get<std::string>();
+  fs::remove(study + "/" + mechanical);
+  manifest["bones"]["tibia"]["mechanical_tip_radius_mm"] = -1.0;
+  std::ofstream(study + "/study.json") << manifest.dump(2);
+
+  const test::CommandResult r = runEchoreg({"study", "run", study, "--given-models"});
+  EXPECT_EQ(r.exitCode, 1) << r.err;
+  EXPECT_NE(r.out.find("study incomplete: report in"), std::string::npos) << r.out;
+  EXPECT_NE(r.err.find("2 requested results are missing"), std::string::npos) << r.err;
+  EXPECT_NE(
+      r.err.find("femur registration from the mechanical probe (reference) (skipped: " + study +
+                 "/" + mechanical + " is missing (the study folder does not hold it))"),
+      std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("tibia registration from the mechanical probe (reference) (failed: "),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("--stylus-tip-radius"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("an earlier step failed"), std::string::npos) << r.err;
+  const nlohmann::json results = readJson(study + "/results/results.json");
+  EXPECT_EQ(results.at("missing").size(), 2u);
+  const auto statuses = stepStatuses(results);
+  EXPECT_EQ(statuses.at("register-femur-mechanical"), "skipped");
+  EXPECT_EQ(statuses.at("register-tibia-mechanical"), "FAILED");
+  EXPECT_EQ(statuses.at("register-femur-ultrasound-1"), "ran");
+  std::ifstream in(study + "/results/report.md");
+  const std::string report(std::istreambuf_iterator<char>(in), {});
+  EXPECT_NE(report.find("The study is incomplete: 2 requested results are missing"),
+            std::string::npos);
+}
+
 }  // namespace
 }  // namespace echoreg::simulation
