@@ -1079,8 +1079,9 @@ CommandAction addStudyCommand(CLI::App& app) {
       "(the manifest's seeds), detection, registrations from ultrasound and from the mechanical\n"
       "probe, evaluation, figures; then writes DIR/results/report.html, report.md and\n"
       "results.json (docs/study.md). Steps whose command line and input files did not change\n"
-      "since the last run are not run again (--force runs all). Exits 1 when a requested result\n"
-      "is missing (a step failed or was skipped), naming each. Progress on a terminal.");
+      "since the last run, and whose outputs are as they wrote them, are not run again (--force\n"
+      "runs all). Exits 1 when a requested result is missing (a step failed or was skipped),\n"
+      "naming each. Progress on a terminal.");
   run->add_option("dir", o->dir, "Study folder (holds study.json)")->required();
   run->add_flag("--force", o->force, "Run every step again");
   run->add_flag("--given-models", o->givenModels,

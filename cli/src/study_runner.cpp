@@ -90,7 +90,8 @@ StudyRunner::StudyRunner(std::string stateFile, bool force)
     const nlohmann::json doc = nlohmann::json::parse(in);
     for (const auto& [id, entry] : doc.at("steps").items()) {
       state_.push_back(
-          {id, Entry{entry.at("hash").get<std::string>(), entry.at("seconds").get<double>()}});
+          {id, Entry{entry.at("hash").get<std::string>(), entry.at("seconds").get<double>(),
+                     entry.value("outputs", std::vector<std::string>())}});
     }
   } catch (const std::exception&) {
     state_.clear();  // an unreadable state only means every step runs again
@@ -105,6 +106,28 @@ StudyRunner::Entry* StudyRunner::find(const std::string& id) {
   return nullptr;
 }
 
+namespace {
+
+// The hashes of a step's outputs now ("" for one that is missing or unreadable).
+std::vector<std::string> outputHashes(const StudyStep& step) {
+  std::vector<std::string> hashes;
+  for (const std::string& output : step.outputs) {
+    std::error_code ec;
+    std::string hash;
+    if (fs::is_regular_file(output, ec)) {
+      try {
+        hash = fmt::format("{:016x}", contentHash(output));
+      } catch (const FileError&) {
+        hash.clear();
+      }
+    }
+    hashes.push_back(hash);
+  }
+  return hashes;
+}
+
+}  // namespace
+
 StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int index, int total) {
   StepOutcome outcome;
   outcome.id = step.id;
@@ -117,13 +140,17 @@ StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int 
     mix(h, reinterpret_cast<const char*>(&part), sizeof part);
   }
   const std::string hash = fmt::format("{:016x}", h);
-  bool outputsPresent = true;
-  for (const std::string& output : step.outputs)
-    outputsPresent = outputsPresent && fs::exists(output);
   Entry* previous = find(step.id);
+  // Up to date only with every output present and as the step wrote it.
+  bool outputsIntact = previous != nullptr && previous->outputHashes.size() == step.outputs.size();
+  if (outputsIntact) {
+    const std::vector<std::string> now = outputHashes(step);
+    for (std::size_t i = 0; i < now.size(); ++i)
+      outputsIntact = outputsIntact && !now[i].empty() && now[i] == previous->outputHashes[i];
+  }
   const std::string counter =
       total > 0 ? fmt::format("[{}/{}]", index, total) : fmt::format("[{}]", index);
-  if (!force_ && outputsPresent && previous != nullptr && previous->hash == hash) {
+  if (!force_ && outputsIntact && previous != nullptr && previous->hash == hash) {
     outcome.status = StepOutcome::Status::UpToDate;
     outcome.seconds = previous->seconds;
     if (streams.errIsTerminal)
@@ -153,9 +180,9 @@ StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int 
   if (streams.errIsTerminal)
     streams.err << fmt::format(" {:.2f} s\n", outcome.seconds);
   if (previous != nullptr) {
-    *previous = Entry{hash, outcome.seconds};
+    *previous = Entry{hash, outcome.seconds, outputHashes(step)};
   } else {
-    state_.push_back({step.id, Entry{hash, outcome.seconds}});
+    state_.push_back({step.id, Entry{hash, outcome.seconds, outputHashes(step)}});
   }
   return outcome;
 }
@@ -164,7 +191,8 @@ void StudyRunner::save() const {
   nlohmann::json steps = nlohmann::json::object();
   for (const auto& [id, entry] : state_) {
     if (!entry.hash.empty())
-      steps[id] = {{"hash", entry.hash}, {"seconds", entry.seconds}};
+      steps[id] = {
+          {"hash", entry.hash}, {"seconds", entry.seconds}, {"outputs", entry.outputHashes}};
   }
   AtomicFile file(stateFile_);
   file.stream() << nlohmann::json{{"steps", steps}}.dump(2) << "\n";

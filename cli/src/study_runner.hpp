@@ -56,6 +56,9 @@ class StudyRunner {
   struct Entry {
     std::string hash;
     double seconds = 0.0;
+    /// The hash of each output as the step wrote it (in the step's order): a damaged, truncated
+    /// or emptied output no longer matches, and the step runs again.
+    std::vector<std::string> outputHashes;
   };
   std::vector<std::pair<std::string, Entry>> state_;
   Entry* find(const std::string& id);

@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <map>
 #include <string>
 
@@ -101,6 +102,29 @@ TEST(StudyRun, RunsTheWholeStudyThenOnlyWhatAChangeAffects) {
   for (const char* id : {"calibrate", "detect-femur-1", "register-femur-ultrasound-1"}) {
     EXPECT_EQ(third.at(id), "ran") << id;
   }
+
+  // 4. Issue 15, item 10: damaged results are not trusted. A truncated registration JSON and an
+  // emptied points CSV are rebuilt (byte-identical), and only their steps run again.
+  const auto slurp = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string registration = study + "/results/registrations/femur_ultrasound_1.json";
+  const std::string points = study + "/results/points/femur_ultrasound_1.csv";
+  const std::string registrationBytes = slurp(registration), pointsBytes = slurp(points);
+  fs::resize_file(registration, registrationBytes.size() / 2);
+  std::ofstream(points, std::ios::trunc).close();
+  r = runEchoreg({"study", "run", study});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto fourth = stepStatuses(readJson(study + "/results/results.json"));
+  EXPECT_EQ(fourth.at("detect-femur-1"), "ran");
+  EXPECT_EQ(fourth.at("register-femur-ultrasound-1"), "ran");
+  for (const char* id : {"pivot-stylus", "calibrate", "detect-tibia-1",
+                         "register-tibia-ultrasound-1", "register-femur-mechanical"}) {
+    EXPECT_EQ(fourth.at(id), "up to date") << id;
+  }
+  EXPECT_EQ(slurp(registration), registrationBytes);
+  EXPECT_EQ(slurp(points), pointsBytes);
 }
 
 TEST(StudyRun, FailuresNameTheStepAndTheFile) {
