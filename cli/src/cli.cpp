@@ -8,6 +8,7 @@
 
 #include <iostream>
 #include <map>
+#include <new>
 #include <stdexcept>
 
 namespace echoreg::cli {
@@ -37,6 +38,16 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   actions["register"] = addRegisterCommand(app);
   actions["segment"] = addSegmentCommand(app);
 
+  // An unknown command is named as such (CLI11 would say "A subcommand is required").
+  if (!args.empty() && !args.front().empty() && args.front()[0] != '-' &&
+      actions.count(args.front()) == 0) {
+    std::string known;
+    for (const auto& [name, action] : actions)
+      known += (known.empty() ? "" : ", ") + name;
+    err << "echoreg: unknown command '" << args.front() << "' (commands: " << known
+        << "; echoreg --help)\n";
+    return 2;
+  }
   std::vector<std::string> reversed(args.rbegin(), args.rend());
   try {
     app.parse(reversed);
@@ -49,6 +60,11 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   for (CLI::App* sub : app.get_subcommands()) {
     try {
       return actions.at(sub->get_name())(streams);
+    } catch (const std::bad_alloc&) {
+      err << "echoreg " << sub->get_name()
+          << ": out of memory: an input file or a flag asks for more memory than this machine "
+             "has (a size or a count too large)\n";
+      return 1;
     } catch (const std::exception& e) {  // FileError names the file; the rest name the value
       err << "echoreg " << sub->get_name() << ": " << e.what() << "\n";
       return 1;

@@ -3,6 +3,7 @@
 #include "commands.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
+#include "validators.hpp"
 
 #include "echoreg/core/beam_calibration.hpp"
 #include "echoreg/core/calibration_gate.hpp"
@@ -442,7 +443,7 @@ CommandAction addPivotCommand(CLI::App& app) {
       "femur)");
   cmd->add_option("--min-spread-deg", o->minSpreadDeg, "Rotation needed about two axes, degrees")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 90.0));
+      ->check(finiteRange(0.0, 90.0));
   cmd->add_flag("--json", o->json, "Print the result as JSON");
   return [o](const Streams& io) { return runPivot(*o, io); };
 }

@@ -3,6 +3,7 @@
 #include "commands.hpp"
 #include "csv_table.hpp"
 #include "path_check.hpp"
+#include "validators.hpp"
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/mesh.hpp"
@@ -120,7 +121,7 @@ void addCropOption(CLI::App* cmd, SurfaceOptions& o, double margin) {
   cmd->add_option("--crop-margin", o.cropMargin,
                   "Show the model only within this margin of the points, mm (0: the whole model)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(finiteNumber(0.0, true));
 }
 
 // Renders, writes, and reports the per-band counts and distance statistics.

@@ -4,6 +4,7 @@
 #include "commands.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
+#include "validators.hpp"
 
 #include "echoreg/core/dwell.hpp"
 #include "echoreg/core/error.hpp"
@@ -243,17 +244,17 @@ CommandAction addLandmarksCommand(CLI::App& app) {
   cmd->add_option("--max-motion-mm", o->dwell.maxMotionMm,
                   "Largest tip motion within a resting run, mm")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(finiteNumber(0.0, false));
   cmd->add_option("--min-duration-s", o->dwell.minDurationS, "Shortest dwell, s")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(finiteNumber(0.0, true));
   cmd->add_option("--min-frames", o->dwell.minFrames, "Fewest valid frames in a dwell")
       ->capture_default_str()
       ->check(CLI::Range(2, 1000000));
   cmd->add_option("--merge-distance-mm", o->dwell.mergeDistanceMm,
                   "Consecutive dwells closer than this are one landmark (pivoting on it), mm")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(finiteNumber(0.0, true));
   cmd->add_flag("--json", o->json, "Print the result as JSON");
   return [o](const Streams& io) { return runLandmarks(*o, io); };
 }

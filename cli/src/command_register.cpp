@@ -6,6 +6,7 @@
 #include "csv_table.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
+#include "validators.hpp"
 
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/dwell.hpp"
@@ -751,7 +752,7 @@ CommandAction addRegisterCommand(CLI::App& app) {
   cmd->add_option("--seed", o->seed, "Seed of the restarts")->capture_default_str();
   cmd->add_option("--max-rms", o->maxRms, "Not converged when the inliers' RMS exceeds this, mm")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(finiteNumber(0.0, false));
   cmd->add_flag("--json", o->json, "Print the result as JSON");
   // Usage errors (exit 2) found once everything is parsed.
   cmd->parse_complete_callback([o] {
