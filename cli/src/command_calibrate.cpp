@@ -19,6 +19,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <ostream>
@@ -106,6 +107,10 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   }
   gate.minSpeedOfSoundMps = o.speedRange[0];
   gate.maxSpeedOfSoundMps = o.speedRange[1];
+  if (!(gate.maxRadiusErrorMm > 0.0)) {
+    throw std::invalid_argument(
+        fmt::format("--max-radius-error must be > 0 mm, got {}", gate.maxRadiusErrorMm));
+  }
   if (!(gate.maxRmsMm > 0.0)) {
     throw std::invalid_argument(fmt::format("--max-rms must be > 0 mm, got {}", gate.maxRmsMm));
   }
@@ -148,6 +153,16 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
     throw FileError(o.sphereCapture, std::string("the stylus points give no sphere: ") + e.what());
   }
   const double sphereRadius = o.freeRadius ? sphere.radiusMm - o.tipRadius : o.sphereRadius;
+  // The radius the stylus points themselves give, to check the known one against (a wrong
+  // --stylus-tip-radius or --sphere-radius moves the centre, and the calibration, by as much).
+  double freeRadius = std::numeric_limits<double>::quiet_NaN();
+  if (!o.freeRadius) {
+    try {
+      freeRadius = core::fitSphere(tips, core::SphereFitOptions{}).radiusMm;
+    } catch (const std::invalid_argument&) {
+      // a cap too small to fix the radius: the known radius is not checked
+    }
+  }
 
   // 2. The sphere's echo in every shot: the calibration preset (window-max) in the window.
   const Sequence shotsSequence = readTrackedSequence(o.capture, {"ProbeToTracker"}, poseNotes);
@@ -211,8 +226,16 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
                                            detection.frames.size(), e.what()));
   }
   // 4. The quality gate: a converged solution can still be wrong; refused, it is not written.
-  const std::vector<std::string> problems =
+  std::vector<std::string> problems =
       core::calibrationGateProblems(shots, options, result, sphere.rmsMm, gate);
+  if (std::isfinite(freeRadius) &&
+      !(std::abs(freeRadius - (o.sphereRadius + o.tipRadius)) <= gate.maxRadiusErrorMm)) {
+    problems.insert(problems.begin(),
+                    fmt::format("the stylus points lie on a sphere of radius {:.2f} mm, not the "
+                                "{:.2f} mm of --sphere-radius + --stylus-tip-radius (more than "
+                                "--max-radius-error {} mm apart): check both",
+                                freeRadius, o.sphereRadius + o.tipRadius, gate.maxRadiusErrorMm));
+  }
   if (!problems.empty()) {
     std::string list;
     for (const std::string& problem : problems)
@@ -406,6 +429,11 @@ CommandAction addCalibrateCommand(CLI::App& app) {
   cmd->add_option("--max-rms", o->gate.maxRmsMm,
                   "Quality gate: refuse (write nothing) when the echoes, or the stylus points, lie "
                   "further off the sphere than this RMS, mm (the dissertation's: 0.55-0.91)")
+      ->capture_default_str()
+      ->group("Quality gate");
+  cmd->add_option("--max-radius-error", o->gate.maxRadiusErrorMm,
+                  "Quality gate: refuse when the stylus points' own sphere is further than this "
+                  "from --sphere-radius + --stylus-tip-radius, mm (without --free-radius)")
       ->capture_default_str()
       ->group("Quality gate");
   cmd->add_option("--speed-of-sound-range", o->speedRange,

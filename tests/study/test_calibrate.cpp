@@ -164,6 +164,8 @@ TEST_F(Calibrate, QualityGateRefusesImplausibleCalibrationsWritingNothing) {
   std::vector<std::string> ball = good;
   ball[10] = "1000";
   expectRefused(ball, "the stylus points give no sphere");
+  ball[10] = "5";  // 3.5 mm too large: accepted at an RMS of 0.61 mm, 4 mm off along z
+  expectRefused(ball, "the stylus points lie on a sphere of radius");
   ball[10] = "20";
   expectRefused(ball, "mm RMS off the sphere (above 1.50 mm): check --stylus-tip-to-stylus");
   // An identity StylusTipToStylus: the marker's origin, not the tip, on the sphere.

@@ -21,6 +21,10 @@ struct CalibrationGate {
   /// Largest share of the shots used whose echo lies on the sphere's far side (the beam passing
   /// through the sphere before the echo): a solution with the transducer on the wrong side.
   double maxFarSideShare = 0.1;
+  /// Largest difference between the radius the stylus points give (fitted free) and the sphere's
+  /// plus the ball tip's, mm: a wrong tip radius moves the sphere's centre, and the calibration,
+  /// by as much (checked by `echoreg calibrate`, which fits both).
+  double maxRadiusErrorMm = 1.0;
 };
 
 /// Why a converged calibration is refused, one sentence each (empty when it passes): RMS, the
