@@ -8,6 +8,7 @@
 
 #include <iostream>
 #include <map>
+#include <new>
 #include <stdexcept>
 
 namespace echoreg::cli {
@@ -15,12 +16,14 @@ namespace echoreg::cli {
 int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   CLI::App app{
       "echoreg: register bones to CT with tracked A-mode ultrasound (Mozes 2008).\n"
-      "Commands: info, detect, simulate, calibrate, pivot, segment, landmarks, register, evaluate,\n"
+      "Commands: info, detect, simulate, calibrate, pivot, segment, landmarks, register, "
+      "evaluate,\n"
       "figure, study. `echoreg study run DIR` is the main job: a study folder into a report.",
       "echoreg"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "echoreg 0.1.0");
-  app.footer("Exit codes: 0 success, 1 the work failed (the message names the file), 2 wrong usage.");
+  app.footer(
+      "Exit codes: 0 success, 1 the work failed (the message names the file), 2 wrong usage.");
 
   std::map<std::string, CommandAction> actions;
   actions["info"] = addInfoCommand(app);
@@ -35,6 +38,16 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   actions["register"] = addRegisterCommand(app);
   actions["segment"] = addSegmentCommand(app);
 
+  // An unknown command is named as such (CLI11 would say "A subcommand is required").
+  if (!args.empty() && !args.front().empty() && args.front()[0] != '-' &&
+      actions.count(args.front()) == 0) {
+    std::string known;
+    for (const auto& [name, action] : actions)
+      known += (known.empty() ? "" : ", ") + name;
+    err << "echoreg: unknown command '" << args.front() << "' (commands: " << known
+        << "; echoreg --help)\n";
+    return 2;
+  }
   std::vector<std::string> reversed(args.rbegin(), args.rend());
   try {
     app.parse(reversed);
@@ -47,6 +60,11 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   for (CLI::App* sub : app.get_subcommands()) {
     try {
       return actions.at(sub->get_name())(streams);
+    } catch (const std::bad_alloc&) {
+      err << "echoreg " << sub->get_name()
+          << ": out of memory: an input file or a flag asks for more memory than this machine "
+             "has (a size or a count too large)\n";
+      return 1;
     } catch (const std::exception& e) {  // FileError names the file; the rest name the value
       err << "echoreg " << sub->get_name() << ": " << e.what() << "\n";
       return 1;

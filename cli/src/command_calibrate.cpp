@@ -1,8 +1,12 @@
 // `echoreg calibrate`: BeamToProbe from a sphere in a water bath (Mozes 2008, section 4.2), and
 // `echoreg pivot`: the fixed point of a marker's poses (a stylus tip, the hip centre).
 #include "commands.hpp"
+#include "path_check.hpp"
+#include "pose_check.hpp"
+#include "validators.hpp"
 
 #include "echoreg/core/beam_calibration.hpp"
+#include "echoreg/core/calibration_gate.hpp"
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/fits.hpp"
@@ -14,6 +18,8 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cmath>
+#include <limits>
 #include <map>
 #include <memory>
 #include <ostream>
@@ -31,7 +37,8 @@ std::vector<std::pair<int, Eigen::Isometry3d>> validPoses(const Sequence& sequen
   const std::vector<std::string> names = sequence.transformNames();
   if (std::find(names.begin(), names.end(), transform) == names.end()) {
     std::string have;
-    for (const std::string& n : names) have += (have.empty() ? "" : ", ") + n + "Transform";
+    for (const std::string& n : names)
+      have += (have.empty() ? "" : ", ") + n + "Transform";
     throw FileError(path, "has no " + transform + "Transform" +
                               (have.empty() ? std::string(" (it has no transforms)")
                                             : " (it has " + have + ")"));
@@ -39,7 +46,8 @@ std::vector<std::pair<int, Eigen::Isometry3d>> validPoses(const Sequence& sequen
   std::vector<std::pair<int, Eigen::Isometry3d>> poses;
   for (std::size_t f = 0; f < sequence.frames.size(); ++f) {
     const auto it = sequence.frames[f].transforms.find(transform);
-    if (it == sequence.frames[f].transforms.end() || !it->second.valid()) continue;
+    if (it == sequence.frames[f].transforms.end() || !it->second.valid())
+      continue;
     Eigen::Isometry3d pose;
     pose.matrix() = it->second.matrix;
     poses.emplace_back(static_cast<int>(f), pose);
@@ -51,7 +59,9 @@ std::vector<std::pair<int, Eigen::Isometry3d>> validPoses(const Sequence& sequen
   return poses;
 }
 
-nlohmann::json vec(const Eigen::Vector3d& v) { return {v.x(), v.y(), v.z()}; }
+nlohmann::json vec(const Eigen::Vector3d& v) {
+  return {v.x(), v.y(), v.z()};
+}
 
 struct CalibrateOptions {
   std::string sphereCapture, tipFile, capture, out;
@@ -60,33 +70,82 @@ struct CalibrateOptions {
   bool freeRadius = false;
   std::vector<double> initial;
   double speedOfSound = 0.0;
+  const CLI::Option* speedOfSoundOption = nullptr;  ///< given when its count() > 0
   std::vector<double> windowMm;
   std::string mode = "translation";
   bool fitSpeed = false;
   bool json = false;
+  core::CalibrationGate gate;
+  std::vector<double> speedRange{gate.minSpeedOfSoundMps, gate.maxSpeedOfSoundMps};
+  double maxCondition = core::BeamCalibrationOptions{}.maxConditionNumber;
 };
 
 int runCalibrate(const CalibrateOptions& o, const Streams& io) {
-  if (!(o.sphereRadius > 0.0)) {
-    throw std::invalid_argument(fmt::format("--sphere-radius must be > 0 mm, got {}", o.sphereRadius));
+  CommandPaths()
+      .input("--sphere-capture", o.sphereCapture)
+      .input("--stylus-tip-to-stylus", o.tipFile)
+      .input("--capture", o.capture)
+      .transformOutput("--out", o.out)
+      .check();
+  if (!(o.sphereRadius > 0.0 && std::isfinite(o.sphereRadius))) {
+    throw std::invalid_argument(
+        fmt::format("--sphere-radius must be a finite number > 0 mm, got {}", o.sphereRadius));
   }
-  if (o.tipRadius < 0.0) {
-    throw std::invalid_argument(fmt::format("--stylus-tip-radius must be >= 0 mm, got {}", o.tipRadius));
+  if (!(o.tipRadius >= 0.0 && std::isfinite(o.tipRadius))) {
+    throw std::invalid_argument(
+        fmt::format("--stylus-tip-radius must be a finite number >= 0 mm, got {}", o.tipRadius));
+  }
+  if (!std::all_of(o.initial.begin(), o.initial.end(), [](double v) { return std::isfinite(v); })) {
+    throw std::invalid_argument("--initial X Y Z must be finite numbers, in mm");
+  }
+  // The quality gate's thresholds (docs/calibration.md, "Quality gate").
+  core::CalibrationGate gate = o.gate;
+  if (!(o.speedRange.size() == 2 && o.speedRange[0] > 0.0 && o.speedRange[1] > o.speedRange[0] &&
+        std::isfinite(o.speedRange[1]))) {
+    throw std::invalid_argument(
+        "--speed-of-sound-range must be MIN MAX in m/s with 0 < MIN < MAX, finite");
+  }
+  gate.minSpeedOfSoundMps = o.speedRange[0];
+  gate.maxSpeedOfSoundMps = o.speedRange[1];
+  if (!(gate.maxRadiusErrorMm > 0.0)) {
+    throw std::invalid_argument(
+        fmt::format("--max-radius-error must be > 0 mm, got {}", gate.maxRadiusErrorMm));
+  }
+  if (!(gate.maxRmsMm > 0.0)) {
+    throw std::invalid_argument(fmt::format("--max-rms must be > 0 mm, got {}", gate.maxRmsMm));
+  }
+  if (!(o.maxCondition >= 1.0)) {
+    throw std::invalid_argument(
+        fmt::format("--max-condition must be >= 1, got {}", o.maxCondition));
+  }
+  const std::string speedRange =
+      fmt::format("{:.0f}-{:.0f} m/s", gate.minSpeedOfSoundMps, gate.maxSpeedOfSoundMps);
+  const bool speedGiven = o.speedOfSoundOption != nullptr && o.speedOfSoundOption->count() > 0;
+  if (speedGiven &&
+      !(o.speedOfSound >= gate.minSpeedOfSoundMps && o.speedOfSound <= gate.maxSpeedOfSoundMps)) {
+    throw std::invalid_argument(fmt::format(
+        "--speed-of-sound must be the bath's speed of sound within {} (--speed-of-sound-range), "
+        "got {}",
+        speedRange, o.speedOfSound));
   }
   if (o.windowMm.size() == 2 && !(o.windowMm[0] >= 0.0 && o.windowMm[1] > o.windowMm[0])) {
-    throw std::invalid_argument(fmt::format("--window-mm must be MIN MAX with 0 <= MIN < MAX, got {} {}",
-                                            o.windowMm[0], o.windowMm[1]));
+    throw std::invalid_argument(
+        fmt::format("--window-mm must be MIN MAX with 0 <= MIN < MAX, got {} {}", o.windowMm[0],
+                    o.windowMm[1]));
   }
   // 1. The sphere's centre from the stylus tips.
   const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
-  const Sequence sphereSequence = readSequence(o.sphereCapture);
+  PoseNotes poseNotes;
+  const Sequence sphereSequence =
+      readTrackedSequence(o.sphereCapture, {"StylusToTracker"}, poseNotes);
   const auto stylusPoses = validPoses(sphereSequence, o.sphereCapture, "StylusToTracker");
   std::vector<Eigen::Vector3d> tips;
   for (const auto& [frame, pose] : stylusPoses) {
     tips.push_back(pose * Eigen::Vector3d(tip.matrix.topRightCorner<3, 1>()));
   }
   core::SphereFitOptions sphereOptions;
-  if (!o.freeRadius) sphereOptions.radiusMm = o.sphereRadius + o.tipRadius;
+  if (!o.freeRadius)
+    sphereOptions.radiusMm = o.sphereRadius + o.tipRadius;
   core::SphereFit sphere;
   try {
     sphere = core::fitSphere(tips, sphereOptions);
@@ -94,18 +153,36 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
     throw FileError(o.sphereCapture, std::string("the stylus points give no sphere: ") + e.what());
   }
   const double sphereRadius = o.freeRadius ? sphere.radiusMm - o.tipRadius : o.sphereRadius;
+  // The radius the stylus points themselves give, to check the known one against (a wrong
+  // --stylus-tip-radius or --sphere-radius moves the centre, and the calibration, by as much).
+  double freeRadius = std::numeric_limits<double>::quiet_NaN();
+  if (!o.freeRadius) {
+    try {
+      freeRadius = core::fitSphere(tips, core::SphereFitOptions{}).radiusMm;
+    } catch (const std::invalid_argument&) {
+      // a cap too small to fix the radius: the known radius is not checked
+    }
+  }
 
   // 2. The sphere's echo in every shot: the calibration preset (window-max) in the window.
-  const Sequence shotsSequence = readSequence(o.capture);
+  const Sequence shotsSequence = readTrackedSequence(o.capture, {"ProbeToTracker"}, poseNotes);
   DetectionParams params = detectionPreset("calibration");
   params.depth = depthFromSequence(shotsSequence, params.depth);
-  if (o.speedOfSound > 0.0) params.depth.speedOfSoundMps = o.speedOfSound;
+  if (speedGiven) {
+    params.depth.speedOfSoundMps = o.speedOfSound;
+  } else if (!(params.depth.speedOfSoundMps >= gate.minSpeedOfSoundMps &&
+               params.depth.speedOfSoundMps <= gate.maxSpeedOfSoundMps)) {
+    throw FileError(o.capture,
+                    fmt::format("the speed of sound of its header, {} m/s, is outside {} "
+                                "(--speed-of-sound-range): give the bath's with --speed-of-sound",
+                                params.depth.speedOfSoundMps, speedRange));
+  }
   if (o.windowMm.size() == 2) {
     params.windowMinMm = o.windowMm[0];
     params.windowMaxMm = o.windowMm[1];
   }
   params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
-  params.interSignal.history = 1;      // shots are independent
+  params.interSignal.history = 1;  // shots are independent
   params.interSignal.minSpreadMm = 0.0;
   PointFrameOptions points;
   points.poseTransform = "ProbeToTracker";
@@ -119,10 +196,12 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   std::vector<core::BeamShot> shots;
   std::vector<int> shotFrames;
   for (const FrameDetection& f : detection.frames) {
-    if (!f.accepted()) continue;
+    if (!f.accepted())
+      continue;
     core::BeamShot shot;
-    shot.probeToTracker.matrix() =
-        shotsSequence.frames[static_cast<std::size_t>(f.frame)].transforms.at("ProbeToTracker").matrix;
+    shot.probeToTracker.matrix() = shotsSequence.frames[static_cast<std::size_t>(f.frame)]
+                                       .transforms.at("ProbeToTracker")
+                                       .matrix;
     shot.depthMm = *f.depthMm;
     shots.push_back(shot);
     shotFrames.push_back(f.frame);
@@ -130,18 +209,41 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
 
   // 3. BeamToProbe.
   core::BeamCalibrationOptions options;
-  options.mode = o.mode == "beam" ? core::BeamCalibrationMode::Beam : core::BeamCalibrationMode::Translation;
+  options.mode =
+      o.mode == "beam" ? core::BeamCalibrationMode::Beam : core::BeamCalibrationMode::Translation;
   options.fitSpeedOfSound = o.fitSpeed;
   options.assumedSpeedOfSoundMps = params.depth.speedOfSoundMps;
   options.sphereCentreTracker = sphere.centre;
   options.sphereRadiusMm = sphereRadius;
-  options.initialBeamToProbe.translation() = Eigen::Vector3d(o.initial[0], o.initial[1], o.initial[2]);
+  options.initialBeamToProbe.translation() =
+      Eigen::Vector3d(o.initial[0], o.initial[1], o.initial[2]);
+  options.maxConditionNumber = o.maxCondition;
   core::BeamCalibrationResult result;
   try {
     result = core::calibrateBeam(shots, options);
   } catch (const std::invalid_argument& e) {
     throw FileError(o.capture, fmt::format("{} sphere echoes found in {} frames; {}", shots.size(),
                                            detection.frames.size(), e.what()));
+  }
+  // 4. The quality gate: a converged solution can still be wrong; refused, it is not written.
+  std::vector<std::string> problems =
+      core::calibrationGateProblems(shots, options, result, sphere.rmsMm, gate);
+  if (std::isfinite(freeRadius) &&
+      !(std::abs(freeRadius - (o.sphereRadius + o.tipRadius)) <= gate.maxRadiusErrorMm)) {
+    problems.insert(problems.begin(),
+                    fmt::format("the stylus points lie on a sphere of radius {:.2f} mm, not the "
+                                "{:.2f} mm of --sphere-radius + --stylus-tip-radius (more than "
+                                "--max-radius-error {} mm apart): check both",
+                                freeRadius, o.sphereRadius + o.tipRadius, gate.maxRadiusErrorMm));
+  }
+  if (!problems.empty()) {
+    std::string list;
+    for (const std::string& problem : problems)
+      list += (list.empty() ? "" : "; ") + problem;
+    throw std::runtime_error(fmt::format(
+        "{}: not written: the calibration of {} is implausible: {} (thresholds --max-rms {} mm, "
+        "--speed-of-sound-range {}; docs/calibration.md)",
+        o.out, o.capture, list, gate.maxRmsMm, speedRange));
   }
 
   nlohmann::json rejected = nlohmann::json::object();
@@ -156,16 +258,18 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
     outliers += result.used[i] ? 0 : 1;
     // The echo mapped with the calibration (and the fitted speed): the point the figure draws.
     const Eigen::Vector3d point =
-        shots[i].probeToTracker * (result.beamToProbe *
-                                   Eigen::Vector3d(0, 0, shots[i].depthMm * result.speedOfSoundMps /
-                                                             options.assumedSpeedOfSoundMps));
+        shots[i].probeToTracker *
+        (result.beamToProbe *
+         Eigen::Vector3d(
+             0, 0, shots[i].depthMm * result.speedOfSoundMps / options.assumedSpeedOfSoundMps));
     perShot.push_back({{"frame", shotFrames[i]},
                        {"depth_mm", shots[i].depthMm},
                        {"point_mm", vec(point)},
                        {"residual_mm", result.residualsMm[i]},
                        {"used", static_cast<bool>(result.used[i])}});
   }
-  if (outliers > 0) rejected["outlier"] = outliers;
+  if (outliers > 0)
+    rejected["outlier"] = outliers;
   rejectedCount += outliers;
   nlohmann::json parameters = nlohmann::json::object();
   for (std::size_t p = 0; p < result.parameterNames.size(); ++p) {
@@ -192,6 +296,7 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
                {"parameters", parameters},
                {"iterations", result.iterations},
                {"converged", result.converged},
+               {"poses_reorthonormalised", poseNotes.reorthonormalised},
                {"shots", perShot}};
   const std::string tfm = writeTransformFile(o.out, out);
   if (o.json) {
@@ -209,6 +314,7 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
         o.out, t.x(), t.y(), t.z(), result.rmsMm, result.conditionNumber,
         static_cast<int>(shots.size()) - outliers, rejectedCount, result.speedOfSoundMps);
   }
+  poseNotes.print(io.err, "calibrate");
   return 0;
 }
 
@@ -219,19 +325,25 @@ struct PivotCommandOptions {
 };
 
 int runPivot(const PivotCommandOptions& o, const Streams& io) {
+  CommandPaths().input("--capture", o.capture).transformOutput("--out", o.out).check();
   const auto at = o.marker.find("To");
   if (at == std::string::npos || at == 0) {
-    throw std::invalid_argument("--marker must name a transform like StylusToTracker, got '" + o.marker + "'");
+    throw std::invalid_argument("--marker must name a transform like StylusToTracker, got '" +
+                                o.marker + "'");
   }
   const std::string markerFrame = o.marker.substr(0, at);
   std::string from = o.from;
   if (from.empty()) {
-    from = markerFrame == "Stylus" ? "StylusTip" : markerFrame == "Femur" ? "HipCentre" : markerFrame + "Pivot";
+    from = markerFrame == "Stylus"  ? "StylusTip"
+           : markerFrame == "Femur" ? "HipCentre"
+                                    : markerFrame + "Pivot";
   }
-  const Sequence sequence = readSequence(o.capture);
+  PoseNotes poseNotes;
+  const Sequence sequence = readTrackedSequence(o.capture, {o.marker}, poseNotes);
   const auto poses = validPoses(sequence, o.capture, o.marker);
   std::vector<Eigen::Isometry3d> transforms;
-  for (const auto& [frame, pose] : poses) transforms.push_back(pose);
+  for (const auto& [frame, pose] : poses)
+    transforms.push_back(pose);
   core::PivotOptions options;
   options.minRotationSpreadDeg = o.minSpreadDeg;
   core::PivotResult result;
@@ -248,7 +360,8 @@ int runPivot(const PivotCommandOptions& o, const Streams& io) {
                {"pivot_point_tracker_mm", vec(result.pointInTracker)},
                {"poses_used", result.inliers},
                {"poses_rejected", static_cast<int>(sequence.frames.size()) - result.inliers},
-               {"rotation_spread_deg", vec(result.rotationSpreadDeg)}};
+               {"rotation_spread_deg", vec(result.rotationSpreadDeg)},
+               {"poses_reorthonormalised", poseNotes.reorthonormalised}};
   const std::string tfm = writeTransformFile(o.out, out);
   if (o.json) {
     nlohmann::json summary = out.extra;
@@ -264,6 +377,7 @@ int runPivot(const PivotCommandOptions& o, const Streams& io) {
         result.pointInMarker.z(), result.rmsMm, result.inliers, result.rotationSpreadDeg.x(),
         result.rotationSpreadDeg.y(), result.rotationSpreadDeg.z());
   }
+  poseNotes.print(io.err, "pivot");
   return 0;
 }
 
@@ -277,30 +391,62 @@ CommandAction addCalibrateCommand(CLI::App& app) {
       "sphere's centre from stylus points on it, the sphere's echo in every A-line (window-max in\n"
       "--window-mm), then BeamToProbe by Levenberg-Marquardt (Ceres) on r - |p - c|. Writes the\n"
       "transform JSON with rms_mm, condition_number, per-parameter std, per-shot residuals, and a\n"
-      "Slicer .tfm beside it.");
-  cmd->add_option("--sphere-capture", o->sphereCapture, "Stylus on the sphere (StylusToTracker)")->required();
-  cmd->add_option("--stylus-tip-to-stylus", o->tipFile, "StylusTipToStylus transform JSON (from `echoreg pivot`)")
+      "Slicer .tfm beside it. A calibration the quality gate finds implausible (RMS, speed of\n"
+      "sound, condition number, the beam's geometry on the sphere) is refused and not written.");
+  cmd->add_option("--sphere-capture", o->sphereCapture, "Stylus on the sphere (StylusToTracker)")
       ->required();
-  cmd->add_option("--capture", o->capture, "A-line shots at the sphere (ProbeToTracker)")->required();
+  cmd->add_option("--stylus-tip-to-stylus", o->tipFile,
+                  "StylusTipToStylus transform JSON (from `echoreg pivot`)")
+      ->required();
+  cmd->add_option("--capture", o->capture, "A-line shots at the sphere (ProbeToTracker)")
+      ->required();
   cmd->add_option("--sphere-radius", o->sphereRadius, "Sphere radius, mm")->capture_default_str();
-  cmd->add_option("--stylus-tip-radius", o->tipRadius,
-                  "Radius of the stylus' ball tip, mm: tip centres lie this much outside the sphere")
+  cmd->add_option(
+         "--stylus-tip-radius", o->tipRadius,
+         "Radius of the stylus' ball tip, mm: tip centres lie this much outside the sphere")
       ->capture_default_str();
   cmd->add_flag("--free-radius", o->freeRadius, "Fit the sphere's radius too (stylus points only)");
-  cmd->add_option("--initial", o->initial, "Initial BeamToProbe translation X Y Z, mm (e.g. a CMM measurement)")
+  cmd->add_option("--initial", o->initial,
+                  "Initial BeamToProbe translation X Y Z, mm (e.g. a CMM measurement)")
       ->expected(3)
       ->required();
-  cmd->add_option("--speed-of-sound", o->speedOfSound,
-                  "Assumed speed of sound in the bath, m/s (default: the capture's header)");
+  o->speedOfSoundOption =
+      cmd->add_option("--speed-of-sound", o->speedOfSound,
+                      "Assumed speed of sound in the bath, m/s (default: the capture's header); "
+                      "within --speed-of-sound-range");
   cmd->add_option("--window-mm", o->windowMm, "Processing window MIN MAX, mm from the beam origin")
       ->expected(2);
-  cmd->add_option("--out", o->out, "Calibration JSON to write (a .tfm is written beside it)")->required();
-  cmd->add_option("--mode", o->mode,
-                  "translation (3 parameters, beam along the probe's z: the dissertation's) or beam "
-                  "(origin and direction, 5)")
+  cmd->add_option("--out", o->out, "Calibration JSON to write (a .tfm is written beside it)")
+      ->required();
+  cmd->add_option(
+         "--mode", o->mode,
+         "translation (3 parameters, beam along the probe's z: the dissertation's) or beam "
+         "(origin and direction, 5)")
       ->check(CLI::IsMember({"translation", "beam"}))
       ->capture_default_str();
-  cmd->add_flag("--fit-speed-of-sound", o->fitSpeed, "Fit the bath's speed of sound as one more parameter");
+  cmd->add_flag("--fit-speed-of-sound", o->fitSpeed,
+                "Fit the bath's speed of sound as one more parameter");
+  cmd->add_option("--max-rms", o->gate.maxRmsMm,
+                  "Quality gate: refuse (write nothing) when the echoes, or the stylus points, lie "
+                  "further off the sphere than this RMS, mm (the dissertation's: 0.55-0.91)")
+      ->capture_default_str()
+      ->group("Quality gate");
+  cmd->add_option("--max-radius-error", o->gate.maxRadiusErrorMm,
+                  "Quality gate: refuse when the stylus points' own sphere is further than this "
+                  "from --sphere-radius + --stylus-tip-radius, mm (without --free-radius)")
+      ->capture_default_str()
+      ->group("Quality gate");
+  cmd->add_option("--speed-of-sound-range", o->speedRange,
+                  "Quality gate: speeds of sound accepted, assumed or fitted, MIN MAX m/s (water "
+                  "0-100 degC: 1402-1555)")
+      ->expected(2)
+      ->capture_default_str()
+      ->group("Quality gate");
+  cmd->add_option("--max-condition", o->maxCondition,
+                  "Quality gate: refuse when the shots do not determine the answer (condition "
+                  "number above this; the dissertation's: 6.2-14.2)")
+      ->capture_default_str()
+      ->group("Quality gate");
   cmd->add_flag("--json", o->json, "Print the result as JSON");
   return [o](const Streams& io) { return runCalibrate(*o, io); };
 }
@@ -311,18 +457,21 @@ CommandAction addPivotCommand(CLI::App& app) {
       "pivot",
       "Pivot calibration: the point fixed in the marker's frame while it rotates about it (a\n"
       "stylus tip in a divot, or the hip centre from FemurToTracker while the leg is circled).\n"
-      "Refuses poses that do not rotate enough in two directions.");
+      "Refuses poses that do not rotate enough in two directions, and poses that are not rigid\n"
+      "(tracker rounding within 1e-2 is re-orthonormalised and counted).");
   cmd->add_option("--capture", o->capture, "Tracker capture (PLUS sequence)")->required();
-  cmd->add_option("--marker", o->marker, "The marker's transform, e.g. StylusToTracker, FemurToTracker")
+  cmd->add_option("--marker", o->marker,
+                  "The marker's transform, e.g. StylusToTracker, FemurToTracker")
       ->capture_default_str();
-  cmd->add_option("--out", o->out, "Transform JSON to write (a .tfm is written beside it)")->required();
-  cmd->add_option("--from", o->from,
-                  "Name of the pivot point's frame (default StylusTip for a stylus, HipCentre for the "
-                  "femur)");
-  cmd->add_option("--min-spread-deg", o->minSpreadDeg,
-                  "Rotation needed about two axes, degrees")
+  cmd->add_option("--out", o->out, "Transform JSON to write (a .tfm is written beside it)")
+      ->required();
+  cmd->add_option(
+      "--from", o->from,
+      "Name of the pivot point's frame (default StylusTip for a stylus, HipCentre for the "
+      "femur)");
+  cmd->add_option("--min-spread-deg", o->minSpreadDeg, "Rotation needed about two axes, degrees")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 90.0));
+      ->check(finiteRange(0.0, 90.0));
   cmd->add_flag("--json", o->json, "Print the result as JSON");
   return [o](const Streams& io) { return runPivot(*o, io); };
 }

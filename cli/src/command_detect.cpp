@@ -1,5 +1,6 @@
 // `echoreg detect CAPTURE --out depths.csv`: the A-line chain over a capture.
 #include "commands.hpp"
+#include "path_check.hpp"
 
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
@@ -414,6 +415,12 @@ CommandAction addDetectCommand(CLI::App& app) {
       ->group("Points");
 
   return [o](const Streams& io) {
+    CommandPaths()
+        .input("capture", o->capture)
+        .input("--params", o->paramsFile)
+        .input("--beam-to-probe", o->beamToProbeFile)
+        .output("--out", o->out)
+        .check();
     std::string preset = o->preset;
     TunableSettings settings = o->settings;
     if (!o->paramsFile.empty())

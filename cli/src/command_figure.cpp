@@ -2,6 +2,8 @@
 // figures, rendered off-screen (render/, OSMesa: no X server needed).
 #include "commands.hpp"
 #include "csv_table.hpp"
+#include "path_check.hpp"
+#include "validators.hpp"
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/mesh.hpp"
@@ -33,40 +35,52 @@ namespace {
 std::vector<Eigen::Vector3d> readPointsCsv(const std::string& path) {
   const CsvTable table = readCsvTable(path);
   std::array<int, 3> columns{table.column("x"), table.column("y"), table.column("z")};
-  if (columns[0] < 0) columns = {table.column("x_mm"), table.column("y_mm"), table.column("z_mm")};
+  if (columns[0] < 0)
+    columns = {table.column("x_mm"), table.column("y_mm"), table.column("z_mm")};
   if (columns[0] < 0 || columns[1] < 0 || columns[2] < 0) {
     throw FileError(path, "has no point columns (x,y,z or x_mm,y_mm,z_mm)");
   }
   std::vector<Eigen::Vector3d> points;
   for (std::size_t r = 0; r < table.rows.size(); ++r) {
     const auto& row = table.rows[r];
-    if (row[static_cast<std::size_t>(columns[0])].empty()) continue;  // a frame without a point
+    if (row[static_cast<std::size_t>(columns[0])].empty())
+      continue;  // a frame without a point
     Eigen::Vector3d p;
     for (int a = 0; a < 3; ++a) {
-      p[a] = parseCsvNumber(row[static_cast<std::size_t>(columns[static_cast<std::size_t>(a)])], path, r + 2,
-                         table.header[static_cast<std::size_t>(columns[static_cast<std::size_t>(a)])]);
+      p[a] = parseCsvNumber(
+          row[static_cast<std::size_t>(columns[static_cast<std::size_t>(a)])], path, r + 2,
+          table.header[static_cast<std::size_t>(columns[static_cast<std::size_t>(a)])]);
     }
     points.push_back(p);
   }
-  if (points.empty()) throw FileError(path, "holds no point");
+  if (points.empty())
+    throw FileError(path, "holds no point");
   return points;
 }
 
 std::vector<render::View> parseViews(const std::vector<std::string>& names) {
   std::vector<render::View> views;
   for (const std::string& name : names) {
-    if (name == "coronal") views.push_back(render::View::Coronal);
-    else if (name == "sagittal") views.push_back(render::View::Sagittal);
-    else if (name == "transverse" || name == "axial") views.push_back(render::View::Transverse);
-    else throw std::invalid_argument("unknown view \"" + name + "\" (coronal, sagittal, transverse)");
+    if (name == "coronal")
+      views.push_back(render::View::Coronal);
+    else if (name == "sagittal")
+      views.push_back(render::View::Sagittal);
+    else if (name == "transverse" || name == "axial")
+      views.push_back(render::View::Transverse);
+    else
+      throw std::invalid_argument("unknown view \"" + name + "\" (coronal, sagittal, transverse)");
   }
   return views;
 }
 
 // --width and --height of a figure, in pixels from `minimum` to 8192.
 void addSizeOptions(CLI::App* cmd, int& width, int& height, int minimum) {
-  cmd->add_option("--width", width, "Image width, pixels")->capture_default_str()->check(CLI::Range(minimum, 8192));
-  cmd->add_option("--height", height, "Image height, pixels")->capture_default_str()->check(CLI::Range(minimum, 8192));
+  cmd->add_option("--width", width, "Image width, pixels")
+      ->capture_default_str()
+      ->check(CLI::Range(minimum, 8192));
+  cmd->add_option("--height", height, "Image height, pixels")
+      ->capture_default_str()
+      ->check(CLI::Range(minimum, 8192));
 }
 
 struct SurfaceOptions {
@@ -88,11 +102,16 @@ void addSurfaceOptions(CLI::App* cmd, SurfaceOptions& o, double green, double re
   o.pointRadius = radius;
   cmd->add_option("--out", o.out, "PNG to write (written whole or not at all)")->required();
   cmd->add_option("--title", o.title, "Title over the figure");
-  cmd->add_option("--green-below", o.greenBelow, "Green below this distance, mm")->capture_default_str();
-  cmd->add_option("--red-above", o.redAbove, "Red above this distance (yellow between), mm")->capture_default_str();
-  cmd->add_option("--point-radius", o.pointRadius, "Radius of the point spheres, mm")->capture_default_str();
-  cmd->add_option("--views", o.views, "Views: coronal, sagittal, transverse (named from the CT axes)")
-      ->delimiter(',')->capture_default_str();
+  cmd->add_option("--green-below", o.greenBelow, "Green below this distance, mm")
+      ->capture_default_str();
+  cmd->add_option("--red-above", o.redAbove, "Red above this distance (yellow between), mm")
+      ->capture_default_str();
+  cmd->add_option("--point-radius", o.pointRadius, "Radius of the point spheres, mm")
+      ->capture_default_str();
+  cmd->add_option("--views", o.views,
+                  "Views: coronal, sagittal, transverse (named from the CT axes)")
+      ->delimiter(',')
+      ->capture_default_str();
   addSizeOptions(cmd, o.width, o.height, 200);
   cmd->add_flag("--json", o.json, "Print the figure's numbers as JSON");
 }
@@ -101,7 +120,8 @@ void addCropOption(CLI::App* cmd, SurfaceOptions& o, double margin) {
   o.cropMargin = margin;
   cmd->add_option("--crop-margin", o.cropMargin,
                   "Show the model only within this margin of the points, mm (0: the whole model)")
-      ->capture_default_str()->check(CLI::NonNegativeNumber);
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, true));
 }
 
 // Renders, writes, and reports the per-band counts and distance statistics.
@@ -158,21 +178,33 @@ CommandAction addRegistrationFigure(CLI::App* parent) {
       "registration",
       "The bone model with the ultrasound points mapped by a registration (Eq. 4.6), as spheres\n"
       "coloured by their distance to the surface (Figs. 5.6-5.9, 5.30-5.35).");
-  cmd->add_option("--model", o->model, "Bone model in CT coordinates (.vtp, .stl, .ply, .obj)")->required();
+  cmd->add_option("--model", o->model, "Bone model in CT coordinates (.vtp, .stl, .ply, .obj)")
+      ->required();
   cmd->add_option("--points", o->points,
                   "CSV of points in the bone tracker's frame: columns x,y,z or x_mm,y_mm,z_mm\n"
-                  "(the output of `echoreg detect --reference`)")->required();
+                  "(the output of `echoreg detect --reference`)")
+      ->required();
   cmd->add_option("--transform", o->transform,
-                  "Registration mapping the points' frame to CT, e.g. FemurToCT.json")->required();
-  cmd->add_option("--context", o->context,
-                  "Neighbouring models drawn translucent (CT coordinates), e.g. the patella; repeat");
+                  "Registration mapping the points' frame to CT, e.g. FemurToCT.json")
+      ->required();
+  cmd->add_option(
+      "--context", o->context,
+      "Neighbouring models drawn translucent (CT coordinates), e.g. the patella; repeat");
   addSurfaceOptions(cmd, *o, 3.0, 5.0, 1.5);
   addCropOption(cmd, *o, 30.0);
   return [o, cmd](const Streams& streams) {
     (void)cmd;
+    CommandPaths()
+        .input("--model", o->model)
+        .input("--points", o->points)
+        .input("--transform", o->transform)
+        .inputs("--context", o->context)
+        .output("--out", o->out)
+        .check();
     render::SurfaceFigure figure;
     figure.surface = filters::readMesh(o->model);
-    for (const std::string& path : o->context) figure.context.push_back(filters::readMesh(path));
+    for (const std::string& path : o->context)
+      figure.context.push_back(filters::readMesh(path));
     const TransformFile transform = readTransformFile(o->transform, "", "CT");
     const Eigen::Isometry3d toCt(transform.matrix);
     const core::MeshLocator locator(figure.surface);
@@ -199,24 +231,30 @@ CommandAction addCalibrationFigure(CLI::App* parent) {
       "The calibration sphere with the calibration points (each shot's echo mapped with the\n"
       "calibration), coloured by their distance to the sphere (Figs. 5.1-5.5).");
   cmd->add_option("--calibration", o->calibration,
-                  "Output of `echoreg calibrate` (BeamToProbe JSON with its shots)")->required();
+                  "Output of `echoreg calibrate` (BeamToProbe JSON with its shots)")
+      ->required();
   addSurfaceOptions(cmd, *o, 0.5, 1.0, 1.0);
   o->views = {"coronal", "sagittal", "transverse"};
   return [o](const Streams& streams) {
+    CommandPaths().input("--calibration", o->calibration).output("--out", o->out).check();
     std::ifstream in(o->calibration);
-    if (!in) throw FileError(o->calibration, "cannot open the calibration file");
+    if (!in)
+      throw FileError(o->calibration, "cannot open the calibration file");
     nlohmann::json doc;
     try {
       doc = nlohmann::json::parse(in);
     } catch (const nlohmann::json::exception& e) {
       throw FileError(o->calibration, std::string("not JSON: ") + e.what());
     }
-    if (!doc.contains("sphere_center_mm") || !doc.contains("sphere_radius_mm") || !doc.contains("shots")) {
-      throw FileError(o->calibration, "not an `echoreg calibrate` result (no sphere_center_mm, "
-                                      "sphere_radius_mm or shots)");
+    if (!doc.contains("sphere_center_mm") || !doc.contains("sphere_radius_mm") ||
+        !doc.contains("shots")) {
+      throw FileError(o->calibration,
+                      "not an `echoreg calibrate` result (no sphere_center_mm, "
+                      "sphere_radius_mm or shots)");
     }
     const auto centre = doc["sphere_center_mm"].get<std::vector<double>>();
-    if (centre.size() != 3) throw FileError(o->calibration, "sphere_center_mm is not 3 numbers");
+    if (centre.size() != 3)
+      throw FileError(o->calibration, "sphere_center_mm is not 3 numbers");
     const Eigen::Vector3d c(centre[0], centre[1], centre[2]);
     const double radius = doc["sphere_radius_mm"].get<double>();
     render::SurfaceFigure figure;
@@ -227,14 +265,16 @@ CommandAction addCalibrationFigure(CLI::App* parent) {
       if (!shot.contains("point_mm")) {
         throw FileError(o->calibration, "its shots have no point_mm (re-run `echoreg calibrate`)");
       }
-      if (!shot.value("used", true)) continue;
+      if (!shot.value("used", true))
+        continue;
       const auto p = shot["point_mm"].get<std::vector<double>>();
       figure.points.emplace_back(p.at(0), p.at(1), p.at(2));
       const double residual = shot.at("residual_mm").get<double>();
       figure.valuesMm.push_back(std::abs(residual));
       signedValues.push_back(residual);
     }
-    if (figure.points.empty()) throw FileError(o->calibration, "has no used shot to draw");
+    if (figure.points.empty())
+      throw FileError(o->calibration, "has no used shot to draw");
     figure.valueName = "distance to the sphere";
     // The sphere and points are in the tracker's frame, not the CT's: name the views so.
     for (const std::string& view : o->views) {
@@ -267,16 +307,19 @@ CommandAction addSignalsFigure(CLI::App* parent) {
       "peaks found and each setting's verdict (Figs. 5.10-5.29).");
   cmd->add_option("--capture", o->capture, "A-line capture (.igs.mha, .igs.nrrd)")->required();
   cmd->add_option("--frame", o->frame, "Frame index (from 0)")->capture_default_str();
-  cmd->add_option("--preset", o->presets, "Detection presets to compare (repeat): " +
-                                              fmt::format("{}", fmt::join(detectionPresetNames(), ", ")))
+  cmd->add_option("--preset", o->presets,
+                  "Detection presets to compare (repeat): " +
+                      fmt::format("{}", fmt::join(detectionPresetNames(), ", ")))
       ->capture_default_str();
   cmd->add_option("--out", o->out, "PNG to write")->required();
   cmd->add_option("--title", o->title, "Title over the figure");
   addSizeOptions(cmd, o->width, o->height, 300);
   cmd->add_flag("--json", o->json, "Print each setting's verdict as JSON");
   return [o](const Streams& streams) {
+    CommandPaths().input("--capture", o->capture).output("--out", o->out).check();
     const Sequence sequence = readSequence(o->capture);
-    if (!sequence.hasPixels()) throw FileError(o->capture, "holds no A-lines (tracker-only capture)");
+    if (!sequence.hasPixels())
+      throw FileError(o->capture, "holds no A-lines (tracker-only capture)");
     if (o->frame < 0 || static_cast<std::size_t>(o->frame) >= sequence.frameCount()) {
       throw FileError(o->capture, fmt::format("has no frame {} (frames 0-{})", o->frame,
                                               sequence.frameCount() - 1));
@@ -299,8 +342,8 @@ CommandAction addSignalsFigure(CLI::App* parent) {
     }
     raw.series.push_back(rawSeries);
     panels.push_back(raw);
-    const std::array<std::array<double, 3>, 4> colours{{{0.0, 0.3, 0.85}, {0.0, 0.55, 0.3},
-                                                        {0.55, 0.2, 0.7}, {0.75, 0.45, 0.0}}};
+    const std::array<std::array<double, 3>, 4> colours{
+        {{0.0, 0.3, 0.85}, {0.0, 0.55, 0.3}, {0.55, 0.2, 0.7}, {0.75, 0.45, 0.0}}};
     for (std::size_t s = 0; s < o->presets.size(); ++s) {
       DetectionParams params = detectionPreset(o->presets[s]);
       params.depth = depthFromSequence(sequence, params.depth);
@@ -308,7 +351,8 @@ CommandAction addSignalsFigure(CLI::App* parent) {
       // What the preset measures from the capture (ring-down, transducer band), as detect does.
       params = adaptToSequence(sequence, params);
       SignalDetector detector(params);
-      const SignalDetection detection = detector.detect(samples.data(), static_cast<int>(samples.size()));
+      const SignalDetection detection =
+          detector.detect(samples.data(), static_cast<int>(samples.size()));
       render::PlotPanel panel;
       panel.title = fmt::format("envelope: preset \"{}\"", o->presets[s]);
       panel.xLabel = "depth (mm)";
@@ -329,28 +373,37 @@ CommandAction addSignalsFigure(CLI::App* parent) {
         peaks.x.push_back(params.depth.depthMm(p.index));
         peaks.y.push_back(p.value);
       }
-      if (!peaks.x.empty()) panel.series.push_back(peaks);
+      if (!peaks.x.empty())
+        panel.series.push_back(peaks);
       panel.horizontalLines.push_back({"threshold", detection.peaks.threshold});
       const bool accepted = detection.accepted();
       panel.note = accepted ? fmt::format("accepted: {:.2f} mm", detection.depthMm)
                             : fmt::format("rejected: {}", rejectReasonName(detection.peaks.reason));
-      panel.noteRgb = accepted ? std::array<double, 3>{0.0, 0.5, 0.15} : std::array<double, 3>{0.75, 0.1, 0.1};
+      panel.noteRgb =
+          accepted ? std::array<double, 3>{0.0, 0.5, 0.15} : std::array<double, 3>{0.75, 0.1, 0.1};
       panels.push_back(panel);
-      verdicts.push_back({{"preset", o->presets[s]},
-                          {"accepted", accepted},
-                          {"reason", std::string(rejectReasonName(detection.peaks.reason))},
-                          {"peaks", detection.peaks.peaks.size()},
-                          {"threshold", detection.peaks.threshold},
-                          {"depth_mm", accepted ? nlohmann::json(detection.depthMm) : nlohmann::json()}});
+      verdicts.push_back(
+          {{"preset", o->presets[s]},
+           {"accepted", accepted},
+           {"reason", std::string(rejectReasonName(detection.peaks.reason))},
+           {"peaks", detection.peaks.peaks.size()},
+           {"threshold", detection.peaks.threshold},
+           {"depth_mm", accepted ? nlohmann::json(detection.depthMm) : nlohmann::json()}});
     }
     const int columns = panels.size() <= 2 ? 1 : 2;
-    const std::string title = o->title.empty()
-        ? fmt::format("{}, frame {}", std::filesystem::path(o->capture).filename().string(), o->frame)
-        : o->title;
+    const std::string title =
+        o->title.empty()
+            ? fmt::format("{}, frame {}", std::filesystem::path(o->capture).filename().string(),
+                          o->frame)
+            : o->title;
     render::writePng(o->out, render::renderPlots(panels, columns, title, {o->width, o->height}));
     if (o->json) {
-      streams.out << nlohmann::json{{"figure", "signals"}, {"out", o->out}, {"frame", o->frame},
-                                    {"settings", verdicts}}.dump(2) << "\n";
+      streams.out << nlohmann::json{{"figure", "signals"},
+                                    {"out", o->out},
+                                    {"frame", o->frame},
+                                    {"settings", verdicts}}
+                         .dump(2)
+                  << "\n";
     } else {
       streams.out << fmt::format("signals figure: frame {}, {} settings; wrote {}\n", o->frame,
                                  o->presets.size(), o->out);
@@ -380,7 +433,8 @@ CommandAction addBoxplotFigure(CLI::App* parent) {
       "6.7-6.9).");
   cmd->add_option("--group", o->groups,
                   "A group: NAME=FILE.csv (the column --column of every row) or\n"
-                  "NAME=FILE.csv:COLUMN; repeat for each group")->required();
+                  "NAME=FILE.csv:COLUMN; repeat for each group")
+      ->required();
   cmd->add_option("--column", o->column, "Column read from each CSV (unless the group names one)")
       ->capture_default_str();
   cmd->add_option("--out", o->out, "PNG to write")->required();
@@ -402,37 +456,46 @@ CommandAction addBoxplotFigure(CLI::App* parent) {
         column = file.substr(colon + 1);
         file = file.substr(0, colon);
       }
+      CommandPaths().input("--group", file).output("--out", o->out).check();
       const CsvTable table = readCsvTable(file);
       const int c = table.column(column);
-      if (c < 0) throw FileError(file, "has no column \"" + column + "\"");
+      if (c < 0)
+        throw FileError(file, "has no column \"" + column + "\"");
       render::BoxGroup group;
       group.label = spec.substr(0, eq);
       for (std::size_t r = 0; r < table.rows.size(); ++r) {
         const std::string& cell = table.rows[r][static_cast<std::size_t>(c)];
-        if (cell.empty() || table.rows[r][0] == "mean_abs") continue;  // evaluate's summary row
+        if (cell.empty() || table.rows[r][0] == "mean_abs")
+          continue;  // evaluate's summary row
         group.values.push_back(parseCsvNumber(cell, file, r + 2, column));
       }
-      if (group.values.empty()) throw FileError(file, "has no value in column \"" + column + "\"");
+      if (group.values.empty())
+        throw FileError(file, "has no value in column \"" + column + "\"");
       groups.push_back(std::move(group));
     }
-    render::writePng(o->out, render::renderBoxPlot(groups, o->title,
-                                                   o->yLabel.empty() ? o->column : o->yLabel,
-                                                   {o->width, o->height}));
+    render::writePng(
+        o->out, render::renderBoxPlot(groups, o->title, o->yLabel.empty() ? o->column : o->yLabel,
+                                      {o->width, o->height}));
     nlohmann::json summary = {{"figure", "boxplot"}, {"out", o->out}};
     nlohmann::json list = nlohmann::json::array();
     std::vector<std::vector<double>> values;
     for (const auto& g : groups) {
       const core::BoxSummary b = core::boxSummary(g.values);
-      list.push_back({{"label", g.label}, {"n", b.count}, {"mean", b.mean}, {"median", b.median},
-                      {"q1", b.q1}, {"q3", b.q3}, {"outliers", b.outliers.size()}});
+      list.push_back({{"label", g.label},
+                      {"n", b.count},
+                      {"mean", b.mean},
+                      {"median", b.median},
+                      {"q1", b.q1},
+                      {"q3", b.q3},
+                      {"outliers", b.outliers.size()}});
       values.push_back(g.values);
     }
     summary["groups"] = list;
     if (groups.size() >= 2) {
       try {
         const core::AnovaResult r = core::oneWayAnova(values);
-        summary["anova"] = {{"f", r.f}, {"df_between", r.dfBetween}, {"df_within", r.dfWithin},
-                            {"p", r.pValue}};
+        summary["anova"] = {
+            {"f", r.f}, {"df_between", r.dfBetween}, {"df_within", r.dfWithin}, {"p", r.pValue}};
       } catch (const std::invalid_argument& e) {
         summary["anova"] = {{"undefined", e.what()}};
       }
@@ -460,7 +523,8 @@ CommandAction addFigureCommand(CLI::App& app) {
   (*actions)["signals"] = addSignalsFigure(cmd);
   (*actions)["boxplot"] = addBoxplotFigure(cmd);
   return [cmd, actions](const Streams& streams) {
-    for (CLI::App* sub : cmd->get_subcommands()) return actions->at(sub->get_name())(streams);
+    for (CLI::App* sub : cmd->get_subcommands())
+      return actions->at(sub->get_name())(streams);
     return 2;
   };
 }

@@ -4,6 +4,9 @@
 // the stylus. docs/registration.md.
 #include "commands.hpp"
 #include "csv_table.hpp"
+#include "path_check.hpp"
+#include "pose_check.hpp"
+#include "validators.hpp"
 
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/dwell.hpp"
@@ -40,7 +43,6 @@ nlohmann::json vec(const Eigen::Vector3d& v) {
   return {v.x(), v.y(), v.z()};
 }
 
-
 struct RegisterOptions {
   std::string model, bone = "Femur", out;
   std::vector<std::string> captures;
@@ -68,7 +70,6 @@ struct RegisterOptions {
   double maxRms = 2.0;
   bool json = false;
 };
-
 
 // Points from a CSV: x,y,z (or echoreg detect's x_mm,y_mm,z_mm, accepted rows only), optionally
 // ox,oy,oz,dx,dy,dz,depth_mm (the beam, same frame).
@@ -160,8 +161,9 @@ std::vector<core::SurfacePoint> capturePoints(const std::string& path,
                                               const Eigen::Matrix4d& beamToProbe,
                                               const std::string& referenceTransform,
                                               const RegisterOptions& o, double& speedOfSound,
-                                              nlohmann::json& report) {
-  const Sequence sequence = readSequence(path);
+                                              nlohmann::json& report, PoseNotes& poseNotes) {
+  const Sequence sequence =
+      readTrackedSequence(path, {"ProbeToTracker", referenceTransform}, poseNotes);
   DetectionParams params;
   try {
     params = detectionPreset(o.preset);
@@ -213,8 +215,9 @@ std::vector<core::SurfacePoint> capturePoints(const std::string& path,
 std::vector<core::SurfacePoint> stylusPoints(const std::string& path,
                                              const Eigen::Isometry3d& tipToStylus,
                                              const std::string& referenceTransform,
-                                             const RegisterOptions& o) {
-  const Sequence capture = readSequence(path);
+                                             const RegisterOptions& o, PoseNotes& poseNotes) {
+  const Sequence capture =
+      readTrackedSequence(path, {"StylusToTracker", referenceTransform}, poseNotes);
   std::vector<core::Dwell> dwells;
   try {
     const core::StylusTrack track =
@@ -251,7 +254,8 @@ struct LandmarkInit {
 
 // The landmarks touched in the capture (dwells of the stylus tip in the bone's frame), matched in
 // order to the named CT landmarks.
-LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& referenceTransform) {
+LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& referenceTransform,
+                                  PoseNotes& poseNotes) {
   const std::vector<core::MarkupPoint> all = core::readMarkupPoints(o.landmarksCt);
   std::vector<core::MarkupPoint> chosen;
   if (o.landmarkLabels.empty()) {
@@ -279,7 +283,8 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
   const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
   Eigen::Isometry3d tipToStylus;
   tipToStylus.matrix() = tip.matrix;
-  const Sequence capture = readSequence(o.landmarksCapture);
+  const Sequence capture =
+      readTrackedSequence(o.landmarksCapture, {"StylusToTracker", referenceTransform}, poseNotes);
   std::vector<core::Dwell> dwells;
   try {
     const core::StylusTrack track =
@@ -384,6 +389,19 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
 }
 
 int runRegister(const RegisterOptions& o, const Streams& io) {
+  CommandPaths()
+      .input("--model", o.model)
+      .inputs("--capture", o.captures)
+      .input("--calibration", o.calibration)
+      .input("--points", o.pointsCsv)
+      .inputs("--stylus-points", o.stylusCaptures)
+      .input("--initial", o.initial)
+      .input("--landmarks-ct", o.landmarksCt)
+      .input("--landmarks-capture", o.landmarksCapture)
+      .input("--stylus-tip-to-stylus", o.tipFile)
+      .input("--hip-centre", o.hipCentre)
+      .transformOutput("--out", o.out)
+      .check();
   if (o.bone.empty() || o.bone.find("To") != std::string::npos) {
     throw std::invalid_argument("--bone must name the bone's frame, e.g. Femur, got '" + o.bone +
                                 "'");
@@ -414,8 +432,9 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
       capTriangles = static_cast<int>(
           std::count(options.excludedTriangles.begin(), options.excludedTriangles.end(), true));
       if (capTriangles == 0) {
-        throw FileError(o.model, "--open-ends: the model has no flat cap at its lowest or highest z "
-                                 "(was it cut by the scan range?)");
+        throw FileError(o.model,
+                        "--open-ends: the model has no flat cap at its lowest or highest z "
+                        "(was it cut by the scan range?)");
       }
     }
     model = std::make_unique<core::SurfaceRegistration>(std::move(mesh));
@@ -424,6 +443,7 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   }
 
   // The points.
+  PoseNotes poseNotes;
   std::vector<core::SurfacePoint> points;
   nlohmann::json sources = nlohmann::json::array();
   double speedOfSound = 0.0;
@@ -433,8 +453,8 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   } else if (!o.captures.empty()) {
     const TransformFile calibration = readTransformFile(o.calibration, "Beam", "Probe");
     for (const std::string& capture : o.captures) {
-      const std::vector<core::SurfacePoint> found =
-          capturePoints(capture, calibration.matrix, reference, o, speedOfSound, sources);
+      const std::vector<core::SurfacePoint> found = capturePoints(
+          capture, calibration.matrix, reference, o, speedOfSound, sources, poseNotes);
       points.insert(points.end(), found.begin(), found.end());
     }
   }
@@ -445,7 +465,7 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
     tipToStylus.matrix() = tip.matrix;
     for (const std::string& capture : o.stylusCaptures) {
       const std::vector<core::SurfacePoint> found =
-          stylusPoints(capture, tipToStylus, reference, o);
+          stylusPoints(capture, tipToStylus, reference, o, poseNotes);
       points.insert(points.end(), found.begin(), found.end());
       sources.push_back({{"stylus_capture", capture}, {"points", found.size()}});
     }
@@ -473,7 +493,7 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
     options.initial.matrix() = initial.matrix;
     initReport = {{"initial", o.initial}};
   } else {
-    LandmarkInit init = landmarksFromCapture(o, reference);
+    LandmarkInit init = landmarksFromCapture(o, reference, poseNotes);
     landmarks = init.pairs;
     initReport = init.report;
     const core::LandmarkSpread spread = core::landmarkSpread(landmarks);
@@ -524,29 +544,33 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   for (std::size_t i = 0; i < landmarks.size(); ++i)
     landmarkResiduals.push_back(
         {{"label", landmarks[i].name}, {"residual_mm", r.landmarkResidualsMm[i]}});
-  out.extra = {{"rms_mm", r.rmsMm},
-               {"rms_over", "inliers"},
-               {"excluded_cap_triangles", capTriangles},
-               {"points_beyond_model", r.pointsBeyondModel},
-               {"rotation_sigma_deg", std::isfinite(r.rotationSigmaDeg) ? nlohmann::json(r.rotationSigmaDeg) : nlohmann::json("inf")},
-               {"translation_sigma_mm", std::isfinite(r.translationSigmaMm) ? nlohmann::json(r.translationSigmaMm) : nlohmann::json("inf")},
-               {"weakest_rotation_axis", {r.weakestAxis.x(), r.weakestAxis.y(), r.weakestAxis.z()}},
-               {"rms_all_mm", r.rmsAllMm},
-               {"points_used", r.pointsUsed},
-               {"points_rejected", r.pointsRejected},
-               {"ultrasound_points", ultrasoundCount},
-               {"stylus_points", static_cast<int>(points.size()) - ultrasoundCount},
-               {"speed_of_sound_scale", r.speedOfSoundScale},
-               {"iterations", r.iterations},
-               {"starts", r.starts},
-               {"converged", r.converged},
-               {"method", o.method},
-               {"loss", options.method == core::SurfaceMethod::Robust ? nlohmann::json(o.loss)
-                                                                      : nlohmann::json(nullptr)},
-               {"sources", sources},
-               {"start", initReport},
-               {"landmark_residuals", landmarkResiduals},
-               {"points", residuals}};
+  out.extra = {
+      {"rms_mm", r.rmsMm},
+      {"rms_over", "inliers"},
+      {"excluded_cap_triangles", capTriangles},
+      {"points_beyond_model", r.pointsBeyondModel},
+      {"rotation_sigma_deg", std::isfinite(r.rotationSigmaDeg) ? nlohmann::json(r.rotationSigmaDeg)
+                                                               : nlohmann::json("inf")},
+      {"translation_sigma_mm", std::isfinite(r.translationSigmaMm)
+                                   ? nlohmann::json(r.translationSigmaMm)
+                                   : nlohmann::json("inf")},
+      {"weakest_rotation_axis", {r.weakestAxis.x(), r.weakestAxis.y(), r.weakestAxis.z()}},
+      {"rms_all_mm", r.rmsAllMm},
+      {"points_used", r.pointsUsed},
+      {"points_rejected", r.pointsRejected},
+      {"ultrasound_points", ultrasoundCount},
+      {"stylus_points", static_cast<int>(points.size()) - ultrasoundCount},
+      {"speed_of_sound_scale", r.speedOfSoundScale},
+      {"iterations", r.iterations},
+      {"starts", r.starts},
+      {"converged", r.converged},
+      {"method", o.method},
+      {"loss", options.method == core::SurfaceMethod::Robust ? nlohmann::json(o.loss)
+                                                             : nlohmann::json(nullptr)},
+      {"sources", sources},
+      {"start", initReport},
+      {"landmark_residuals", landmarkResiduals},
+      {"points", residuals}};
   if (speedOfSound > 0.0)
     out.extra["speed_of_sound_mps"] = speedOfSound * r.speedOfSoundScale;
   if (!r.converged)
@@ -563,6 +587,7 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
         " to tie it down");
   }
   out.extra["warnings"] = warnings;
+  out.extra["poses_reorthonormalised"] = poseNotes.reorthonormalised;
   const std::string tfm = writeTransformFile(o.out, out);
   if (o.json) {
     nlohmann::json summary = out.extra;
@@ -580,6 +605,7 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   }
   for (const std::string& warning : warnings)
     io.err << "echoreg register: warning: " << warning << "\n";
+  poseNotes.print(io.err, "register");
   if (!r.converged) {
     io.err << fmt::format(
         "echoreg register: {}: not converged: {} (written with \"converged\": false)\n", o.out,
@@ -713,9 +739,10 @@ CommandAction addRegisterCommand(CLI::App& app) {
   cmd->add_option("--loss", o->loss, "robust: huber, cauchy, tukey or trim (10 %)")
       ->check(CLI::IsMember({"huber", "cauchy", "tukey", "trim"}))
       ->capture_default_str();
-  cmd->add_flag("--open-ends", o->openEnds,
-                "The model was cut by the CT's scan range (echoreg segment closes it with flat caps at "
-                "its lowest and highest z): points closest to those caps are not used");
+  cmd->add_flag(
+      "--open-ends", o->openEnds,
+      "The model was cut by the CT's scan range (echoreg segment closes it with flat caps at "
+      "its lowest and highest z): points closest to those caps are not used");
   cmd->add_flag("--fit-speed-of-sound", o->fitSpeed,
                 "robust: fit the speed-of-sound scale along each beam");
   cmd->add_option("--restarts", o->restarts,
@@ -725,7 +752,7 @@ CommandAction addRegisterCommand(CLI::App& app) {
   cmd->add_option("--seed", o->seed, "Seed of the restarts")->capture_default_str();
   cmd->add_option("--max-rms", o->maxRms, "Not converged when the inliers' RMS exceeds this, mm")
       ->capture_default_str()
-      ->check(CLI::PositiveNumber);
+      ->check(finiteNumber(0.0, false));
   cmd->add_flag("--json", o->json, "Print the result as JSON");
   // Usage errors (exit 2) found once everything is parsed.
   cmd->parse_complete_callback([o] {

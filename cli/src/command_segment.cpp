@@ -4,6 +4,7 @@
 // segmented region (sub-voxel), a closed model in CT patient coordinates (LPS), the mask as NRRD,
 // anchors proposed for the user to check, and optionally the surface accessible to a probe.
 #include "commands.hpp"
+#include "path_check.hpp"
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/mesh.hpp"
@@ -153,6 +154,14 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   }
   grow.separationRadiusMm = o.separationMm;
   const seg::SlicePlane plane = seg::parseSlicePlane(o.plane);
+  CommandPaths()
+      .input("--dicom", o.dicom)
+      .input("--anchors", o.anchors)
+      .output("--out", o.out)
+      .optionalOutput("--mask", o.mask)
+      .optionalOutput("--anchors-out", o.anchorsOut)
+      .optionalOutput("--accessible-out", o.accessibleOut)
+      .check();
   for (const std::string& path : {o.out, o.mask, o.anchorsOut, o.accessibleOut})
     requireOutputFolder(path);
   std::vector<seg::AnchorSet> anchorSets;

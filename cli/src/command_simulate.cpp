@@ -1,5 +1,6 @@
 // `echoreg simulate --out DIR`: a whole study with ground truth (simulation/study.hpp).
 #include "commands.hpp"
+#include "path_check.hpp"
 
 #include "echoreg/simulation/study.hpp"
 
@@ -65,6 +66,7 @@ simulation::StudyOptions toStudyOptions(const SimulateOptions& o) {
       throw std::invalid_argument("--bone: unknown bone '" + spec.substr(0, eq) + "' (femur)");
     }
     s.meshFiles[it->second] = spec.substr(eq + 1);
+    CommandPaths().input("--bone", spec.substr(eq + 1)).output("--out", o.out).check();
   }
   return s;
 }
@@ -144,9 +146,10 @@ CommandAction addSimulateCommand(CLI::App& app) {
                   "femur_ultrasound.igs.mha, femur_ultrasound_2.igs.mha, ...")
       ->check(CLI::Range(1, 20))
       ->capture_default_str();
-  cmd->add_option("--calibrations", o->calibrations,
-                  "Calibration sessions of the one probe, the bath set up anew each time (Table 5.1 "
-                  "has 5): calibration_shots.igs.mha, calibration_shots_2.igs.mha, ...")
+  cmd->add_option(
+         "--calibrations", o->calibrations,
+         "Calibration sessions of the one probe, the bath set up anew each time (Table 5.1 "
+         "has 5): calibration_shots.igs.mha, calibration_shots_2.igs.mha, ...")
       ->check(CLI::Range(1, 20))
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "Print the summary as JSON");

@@ -41,7 +41,8 @@ struct StudyOptions {
 
 nlohmann::json readJsonFile(const std::string& path) {
   std::ifstream in(path);
-  if (!in) throw FileError(path, "cannot be read");
+  if (!in)
+    throw FileError(path, "cannot be read");
   try {
     return nlohmann::json::parse(in);
   } catch (const nlohmann::json::exception& e) {
@@ -49,17 +50,21 @@ nlohmann::json readJsonFile(const std::string& path) {
   }
 }
 
-std::string number(double value, int decimals = 2) { return fmt::format("{:.{}f}", value, decimals); }
+std::string number(double value, int decimals = 2) {
+  return fmt::format("{:.{}f}", value, decimals);
+}
 
 // The manifest, with every path resolved against the study folder and checked on use.
 class Manifest {
  public:
   Manifest(std::string dir) : dir_(std::move(dir)), path_(dir_ + "/study.json") {
-    if (!fs::is_directory(dir_)) throw FileError(dir_, "is not a study folder");
+    if (!fs::is_directory(dir_))
+      throw FileError(dir_, "is not a study folder");
     doc_ = readJsonFile(path_);
     if (doc_.value("format", std::string()) != "echoreg-study") {
       throw FileError(path_, "is not an echoreg study manifest (\"format\": \"echoreg-study\")");
     }
+    validate();
   }
   const std::string& dir() const { return dir_; }
   const nlohmann::json& doc() const { return doc_; }
@@ -72,10 +77,12 @@ class Manifest {
   std::string file(const std::string& pointer, bool required = true) const {
     const nlohmann::json v = at(pointer);
     if (v.is_null()) {
-      if (required) throw FileError(path_, "names no " + pointer.substr(1));
+      if (required)
+        throw FileError(path_, "names no " + pointer.substr(1));
       return "";
     }
-    if (!v.is_string()) throw FileError(path_, pointer.substr(1) + " is not a file name");
+    if (!v.is_string())
+      throw FileError(path_, pointer.substr(1) + " is not a file name");
     return resolve(v.get<std::string>());
   }
   std::string resolve(const std::string& relative) const {
@@ -85,18 +92,102 @@ class Manifest {
   }
   double number(const std::string& pointer) const {
     const nlohmann::json v = at(pointer);
-    if (!v.is_number()) throw FileError(path_, pointer.substr(1) + " is not a number");
+    if (!v.is_number())
+      throw FileError(path_, pointer.substr(1) + " is not a number");
     return v.get<double>();
   }
 
  private:
+  // "/bones/femur/ultrasound" -> "bones.femur.ultrasound", as the user reads the file.
+  static std::string dotted(const std::string& pointer) {
+    std::string name = pointer.substr(1);
+    std::replace(name.begin(), name.end(), '/', '.');
+    return name;
+  }
+  [[noreturn]] void wrongType(const std::string& pointer, const std::string& expected) const {
+    throw FileError(
+        path_, fmt::format("{} must be {}, got {}", dotted(pointer), expected, at(pointer).dump()));
+  }
+  // A value the manifest may leave out, but of the right type when given.
+  void optionalNumber(const std::string& pointer, bool positive = false) const {
+    const nlohmann::json v = at(pointer);
+    if (v.is_null())
+      return;
+    if (!v.is_number() || (positive && !(v.get<double>() > 0.0)))
+      wrongType(pointer, positive ? "a number > 0" : "a number");
+  }
+  void optionalNumbers(const std::string& pointer, std::size_t count,
+                       const std::string& expected) const {
+    const nlohmann::json v = at(pointer);
+    if (v.is_null())
+      return;
+    if (!v.is_array() || v.size() != count ||
+        !std::all_of(v.begin(), v.end(), [](const nlohmann::json& x) { return x.is_number(); }))
+      wrongType(pointer, expected);
+  }
+  void optionalString(const std::string& pointer) const {
+    const nlohmann::json v = at(pointer);
+    if (!v.is_null() && !v.is_string())
+      wrongType(pointer, "a string");
+  }
+  void optionalStrings(const std::string& pointer, const std::string& expected) const {
+    const nlohmann::json v = at(pointer);
+    if (v.is_null())
+      return;
+    if (!v.is_array() ||
+        !std::all_of(v.begin(), v.end(), [](const nlohmann::json& x) { return x.is_string(); }))
+      wrongType(pointer, expected);
+  }
+
+  // Every value the study reads, checked before any step runs (docs/formats.md, "study.json"):
+  // the version, the bones, and the type of each optional value, so that none is silently ignored.
+  void validate() const {
+    const nlohmann::json version = at("/version");
+    if (!version.is_null() && version != nlohmann::json(1)) {
+      throw FileError(path_, fmt::format("\"version\": {} is not a manifest version this echoreg "
+                                         "reads (1)",
+                                         version.dump()));
+    }
+    const nlohmann::json bones = at("/bones");
+    if (!bones.is_object() || bones.empty()) {
+      throw FileError(path_,
+                      "names no bones (\"bones\": {\"femur\": {...}, ...}): nothing to "
+                      "register");
+    }
+    optionalNumber("/calibration/stylus_tip_radius_mm");
+    optionalNumber("/calibration/speed_of_sound_mps", true);
+    optionalNumbers("/calibration/initial_beam_to_probe_mm", 3, "[X, Y, Z] in mm");
+    optionalNumbers("/calibration/window_mm", 2, "[MIN, MAX] in mm");
+    optionalString("/detection/preset");
+    optionalNumber("/detection/speed_of_sound_mps", true);
+    optionalStrings("/landmarks/order", "a list of landmark names");
+    for (const auto& [bone, entry] : bones.items()) {
+      const std::string key = "/bones/" + bone;
+      if (!entry.is_object())
+        wrongType(key, "an object");
+      optionalStrings(key + "/ultrasound", "a list of capture file names");
+      optionalNumber(key + "/mechanical_tip_radius_mm");
+      const nlohmann::json fibula = at(key + "/segment/with_fibula");
+      if (!fibula.is_null() && !fibula.is_boolean())
+        wrongType(key + "/segment/with_fibula", "true or false");
+      const nlohmann::json seeds = at(key + "/segment/seeds_ct");
+      if (seeds.is_null())
+        continue;
+      if (!seeds.is_array())
+        wrongType(key + "/segment/seeds_ct", "a list of seeds [x, y, z]");
+      for (std::size_t i = 0; i < seeds.size(); ++i)
+        optionalNumbers(fmt::format("{}/segment/seeds_ct/{}", key, i), 3, "[x, y, z] in mm");
+    }
+  }
+
   std::string dir_;
   std::string path_;
   nlohmann::json doc_;
 };
 
 std::string capitalised(std::string name) {
-  if (!name.empty()) name[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(name[0])));
+  if (!name.empty())
+    name[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(name[0])));
   return name;
 }
 
@@ -107,31 +198,49 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   std::error_code ec;
   fs::create_directories(results + "/figures", ec);
   fs::create_directories(results + "/points", ec);
-  if (ec) throw FileError(results, "cannot be created: " + ec.message());
+  if (ec)
+    throw FileError(results, "cannot be created: " + ec.message());
   StudyRunner runner(results + "/.study-state.json", o.force);
   std::vector<StepOutcome> outcomes;
   std::string failure;
 
   // Runs a stage of steps; a required step's failure ends the study (after the report of what ran).
+  // An optional step whose input is missing is skipped, saying which input and why it is missing.
   int stepIndex = 0;
+  std::map<std::string, std::string> producedBy;  // output -> "step \"title\" failed" etc.
   auto runSteps = [&](const std::vector<StudyStep>& steps) {
     for (const StudyStep& step : steps) {
-      if (!failure.empty()) break;
+      if (!failure.empty())
+        break;
       ++stepIndex;
-      bool inputsPresent = true;
-      for (const std::string& input : step.inputs) inputsPresent = inputsPresent && fs::exists(input);
-      if (!inputsPresent && !step.required) {
-        StepOutcome skipped;
-        skipped.id = step.id;
-        skipped.title = step.title;
-        skipped.status = StepOutcome::Status::Skipped;
-        skipped.message = "an input is missing (an earlier step failed)";
-        outcomes.push_back(skipped);
-        continue;
+      std::string missingInput;
+      for (const std::string& input : step.inputs) {
+        if (missingInput.empty() && !fs::exists(input))
+          missingInput = input;
       }
-      StepOutcome outcome = runner.run(step, streams, stepIndex, 0);
-      if (outcome.status == StepOutcome::Status::Failed && step.required) {
-        failure = fmt::format("step \"{}\" failed: {}", step.title, outcome.message);
+      StepOutcome outcome;
+      if (!missingInput.empty() && !step.required) {
+        outcome.id = step.id;
+        outcome.title = step.title;
+        outcome.status = StepOutcome::Status::Skipped;
+        const auto by = producedBy.find(missingInput);
+        outcome.message =
+            by != producedBy.end()
+                ? fmt::format("{} is missing: {}", missingInput, by->second)
+                : fmt::format("{} is missing (the study folder does not hold it)", missingInput);
+      } else {
+        outcome = runner.run(step, streams, stepIndex, 0);
+        if (outcome.status == StepOutcome::Status::Failed && step.required) {
+          failure = fmt::format("step \"{}\" failed: {}", step.title, outcome.message);
+        }
+      }
+      if (outcome.status == StepOutcome::Status::Failed ||
+          outcome.status == StepOutcome::Status::Skipped) {
+        for (const std::string& output : step.outputs) {
+          producedBy[output] =
+              fmt::format("step \"{}\" {}", step.title,
+                          outcome.status == StepOutcome::Status::Failed ? "failed" : "was skipped");
+        }
       }
       outcomes.push_back(std::move(outcome));
     }
@@ -142,48 +251,72 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   std::vector<StudyStep> stage;
   const std::string stylusTip = results + "/stylus_tip.json";
   const std::string pivotCapture = manifest.file("/calibration/pivot_capture");
-  stage.push_back({"pivot-stylus", "stylus tip (pivot)",
+  stage.push_back({"pivot-stylus",
+                   "stylus tip (pivot)",
                    {"pivot", "--capture", pivotCapture, "--out", stylusTip},
-                   {pivotCapture}, {stylusTip}, true});
+                   {pivotCapture},
+                   {stylusTip},
+                   true});
   const std::string calibration = results + "/calibration.json";
   const std::string sphereCapture = manifest.file("/calibration/sphere_capture");
   const std::string shotsCapture = manifest.file("/calibration/capture");
   std::vector<std::string> calibrate = {
-      "calibrate", "--sphere-capture", sphereCapture, "--stylus-tip-to-stylus", stylusTip,
-      "--capture", shotsCapture, "--sphere-radius",
-      fmt::format("{}", manifest.number("/calibration/sphere_radius_mm")), "--fit-speed-of-sound",
-      "--out", calibration};
+      "calibrate",
+      "--sphere-capture",
+      sphereCapture,
+      "--stylus-tip-to-stylus",
+      stylusTip,
+      "--capture",
+      shotsCapture,
+      "--sphere-radius",
+      fmt::format("{}", manifest.number("/calibration/sphere_radius_mm")),
+      "--fit-speed-of-sound",
+      "--out",
+      calibration};
   if (!manifest.at("/calibration/stylus_tip_radius_mm").is_null()) {
-    calibrate.insert(calibrate.end(), {"--stylus-tip-radius",
-                                       fmt::format("{}", manifest.number("/calibration/stylus_tip_radius_mm"))});
+    calibrate.insert(calibrate.end(),
+                     {"--stylus-tip-radius",
+                      fmt::format("{}", manifest.number("/calibration/stylus_tip_radius_mm"))});
   }
-  if (const auto initial = manifest.at("/calibration/initial_beam_to_probe_mm"); initial.is_array()) {
+  if (const auto initial = manifest.at("/calibration/initial_beam_to_probe_mm");
+      initial.is_array()) {
     calibrate.push_back("--initial");
-    for (const auto& v : initial) calibrate.push_back(fmt::format("{}", v.get<double>()));
+    for (const auto& v : initial)
+      calibrate.push_back(fmt::format("{}", v.get<double>()));
   }
-  if (const auto window = manifest.at("/calibration/window_mm"); window.is_array() && window.size() == 2) {
+  if (const auto window = manifest.at("/calibration/window_mm");
+      window.is_array() && window.size() == 2) {
     calibrate.insert(calibrate.end(), {"--window-mm", fmt::format("{}", window[0].get<double>()),
                                        fmt::format("{}", window[1].get<double>())});
   }
-  stage.push_back({"calibrate", "transducer calibration (BeamToProbe)", calibrate,
-                   {sphereCapture, shotsCapture, stylusTip}, {calibration}, true});
+  stage.push_back({"calibrate",
+                   "transducer calibration (BeamToProbe)",
+                   calibrate,
+                   {sphereCapture, shotsCapture, stylusTip},
+                   {calibration},
+                   true});
   const std::string calibrationFigure = results + "/figures/calibration.png";
-  stage.push_back({"figure-calibration", "calibration figure",
-                   {"figure", "calibration", "--calibration", calibration, "--title",
-                    "Calibration: echoes on the sphere (distance to the sphere)", "--out",
-                    calibrationFigure},
-                   {calibration}, {calibrationFigure}, false});
+  stage.push_back(
+      {"figure-calibration",
+       "calibration figure",
+       {"figure", "calibration", "--calibration", calibration, "--title",
+        "Calibration: echoes on the sphere (distance to the sphere)", "--out", calibrationFigure},
+       {calibration},
+       {calibrationFigure},
+       false});
   runSteps(stage);
 
   // --- Bones: hip centre, models, detection, registrations, evaluation, figures ---------------
   const nlohmann::json bones = manifest.at("/bones");
   const std::string preset = manifest.at("/detection/preset").is_string()
-                                 ? manifest.at("/detection/preset").get<std::string>() : "default";
+                                 ? manifest.at("/detection/preset").get<std::string>()
+                                 : "default";
   const std::string ctLandmarks = manifest.file("/landmarks/ct", false);
   const std::string landmarkCapture = manifest.file("/landmarks/capture", false);
   std::vector<std::string> landmarkOrder;
-  for (const auto& label : manifest.at("/landmarks/order").is_array() ? manifest.at("/landmarks/order")
-                                                                      : nlohmann::json::array()) {
+  for (const auto& label : manifest.at("/landmarks/order").is_array()
+                               ? manifest.at("/landmarks/order")
+                               : nlohmann::json::array()) {
     landmarkOrder.push_back(label.get<std::string>());
   }
   // Targets of the evaluation, in CT, from the CT landmarks: the knee centre (between the
@@ -191,13 +324,16 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   std::map<std::string, Eigen::Vector3d> targets;
   if (!ctLandmarks.empty() && fs::exists(ctLandmarks)) {
     std::map<std::string, Eigen::Vector3d> picked;
-    for (const core::MarkupPoint& p : core::readMarkupPoints(ctLandmarks)) picked[p.label] = p.positionLps;
+    for (const core::MarkupPoint& p : core::readMarkupPoints(ctLandmarks))
+      picked[p.label] = p.positionLps;
     auto midpoint = [&](const char* a, const char* b, const char* name) {
-      if (picked.count(a) != 0 && picked.count(b) != 0) targets[name] = 0.5 * (picked[a] + picked[b]);
+      if (picked.count(a) != 0 && picked.count(b) != 0)
+        targets[name] = 0.5 * (picked[a] + picked[b]);
     };
     midpoint("medial_epicondyle", "lateral_epicondyle", "knee_centre");
     midpoint("medial_malleolus", "lateral_malleolus", "ankle_centre");
-    if (picked.count("hip_centre") != 0) targets["hip_centre"] = picked["hip_centre"];
+    if (picked.count("hip_centre") != 0)
+      targets["hip_centre"] = picked["hip_centre"];
   }
   // Each bone's targets: the knee centre, and the hip (femur) or ankle (tibia) centre.
   auto targetsFileOf = [&](const std::string& bone) {
@@ -208,7 +344,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         list.push_back({name, p});
       }
     }
-    if (list.empty()) return std::string();
+    if (list.empty())
+      return std::string();
     const std::string path = results + "/targets_" + bone + ".mrk.json";
     core::writeMarkupPoints(path, list);
     return path;
@@ -245,9 +382,13 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     const std::string hipCentre = results + "/hip_centre.json";
     const std::string hipCapture = manifest.file("/bones/femur/hip_rotation", false);
     if (!hipCapture.empty()) {
-      stage.push_back({"pivot-hip", "hip centre (femur pivot)",
-                       {"pivot", "--capture", hipCapture, "--marker", "FemurToTracker", "--out", hipCentre},
-                       {hipCapture}, {hipCentre}, false});
+      stage.push_back(
+          {"pivot-hip",
+           "hip centre (femur pivot)",
+           {"pivot", "--capture", hipCapture, "--marker", "FemurToTracker", "--out", hipCentre},
+           {hipCapture},
+           {hipCentre},
+           false});
     }
     fs::create_directories(results + "/registrations", ec);
     fs::create_directories(results + "/evaluation", ec);
@@ -267,18 +408,24 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         std::vector<std::string> args = {"segment", "--dicom", ctFolder, "--bone", bone, "--auto"};
         for (const auto& seed : seeds) {
           if (!seed.is_array() || seed.size() != 3) {
-            throw FileError(manifest.dir() + "/study.json", "bones." + bone + ".segment.seeds_ct: "
-                                                            "each seed is [x, y, z]");
+            throw FileError(manifest.dir() + "/study.json", "bones." + bone +
+                                                                ".segment.seeds_ct: "
+                                                                "each seed is [x, y, z]");
           }
           args.push_back("--seed");
-          for (const auto& v : seed) args.push_back(fmt::format("{}", v.get<double>()));
+          for (const auto& v : seed)
+            args.push_back(fmt::format("{}", v.get<double>()));
         }
         if (manifest.at("/bones/" + bone + "/segment/with_fibula") == nlohmann::json(true)) {
           args.push_back("--with-fibula");
         }
         args.insert(args.end(), {"--out", run.model});
-        stage.push_back({"segment-" + bone, bone + " model segmented from the CT", args, {ctFolder},
-                         {run.model}, true});
+        stage.push_back({"segment-" + bone,
+                         bone + " model segmented from the CT",
+                         args,
+                         {ctFolder},
+                         {run.model},
+                         true});
       } else {
         run.model = manifest.file("/bones/" + bone + "/model");
       }
@@ -288,9 +435,10 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       const auto [labels, dwells] = landmarksOf(bone);
       if (!ctLandmarks.empty() && !landmarkCapture.empty() && !labels.empty()) {
         std::string joined;
-        for (const std::string& l : labels) joined += (joined.empty() ? "" : ",") + l;
-        start = {"--landmarks-ct", ctLandmarks, "--landmarks-capture", landmarkCapture,
-                 "--stylus-tip-to-stylus", stylusTip, "--landmark-labels", joined,
+        for (const std::string& l : labels)
+          joined += (joined.empty() ? "" : ",") + l;
+        start = {"--landmarks-ct",         ctLandmarks, "--landmarks-capture", landmarkCapture,
+                 "--stylus-tip-to-stylus", stylusTip,   "--landmark-labels",   joined,
                  "--landmark-dwells"};
         start.insert(start.end(), dwells.begin(), dwells.end());
         startInputs = {ctLandmarks, landmarkCapture, stylusTip};
@@ -298,13 +446,15 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
           start.insert(start.end(), {"--hip-centre", hipCentre});
           startInputs.push_back(hipCentre);
         }
-      } else if (const std::string initial = manifest.file("/bones/" + bone + "/initial", false); !initial.empty()) {
+      } else if (const std::string initial = manifest.file("/bones/" + bone + "/initial", false);
+                 !initial.empty()) {
         start = {"--initial", initial};
         startInputs = {initial};
       } else {
         throw FileError(manifest.dir() + "/study.json",
-                        "bones." + bone + ": no landmarks (landmarks.ct, landmarks.capture, "
-                        "landmarks.order) and no initial transform to start the registration");
+                        "bones." + bone +
+                            ": no landmarks (landmarks.ct, landmarks.capture, "
+                            "landmarks.order) and no initial transform to start the registration");
       }
       int n = 0;
       for (const auto& capture : entry.value("ultrasound", nlohmann::json::array())) {
@@ -312,40 +462,60 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         const std::string path = manifest.resolve(capture.get<std::string>());
         // The points, for the figures (the registration runs the same chain on the capture).
         const std::string points = fmt::format("{}/points/{}_ultrasound_{}.csv", results, bone, n);
-        std::vector<std::string> detect = {"detect", path, "--pose", "ProbeToTracker", "--reference",
-                                           marker, "--beam-to-probe", calibration, "--preset", preset,
-                                           "--history", "1", "--out", points};
+        std::vector<std::string> detect = {
+            "detect",          path,        "--pose",   "ProbeToTracker", "--reference", marker,
+            "--beam-to-probe", calibration, "--preset", preset,           "--history",   "1",
+            "--out",           points};
         std::vector<std::string> speed;
         if (const auto c = manifest.at("/detection/speed_of_sound_mps"); c.is_number()) {
           speed = {"--speed-of-sound", fmt::format("{}", c.get<double>())};
           detect.insert(detect.end(), speed.begin(), speed.end());
         }
         stage.push_back({fmt::format("detect-{}-{}", bone, n),
-                         fmt::format("{} sweep {}: bone echoes", bone, n), detect,
-                         {path, calibration}, {points}, true});
+                         fmt::format("{} sweep {}: bone echoes", bone, n),
+                         detect,
+                         {path, calibration},
+                         {points},
+                         true});
         run.points.push_back(points);
-        const std::string out = fmt::format("{}/registrations/{}_ultrasound_{}.json", results, bone, n);
-        std::vector<std::string> reg = {"register", "--model", run.model, "--bone", Bone, "--capture",
-                                        path, "--calibration", calibration, "--preset", preset,
-                                        "--fit-speed-of-sound", "--out", out};
-        if (run.segmented) reg.push_back("--open-ends");  // cut by the scan range
+        const std::string out =
+            fmt::format("{}/registrations/{}_ultrasound_{}.json", results, bone, n);
+        std::vector<std::string> reg = {"register",  "--model",   run.model, "--bone",
+                                        Bone,        "--capture", path,      "--calibration",
+                                        calibration, "--preset",  preset,    "--fit-speed-of-sound",
+                                        "--out",     out};
+        if (run.segmented)
+          reg.push_back("--open-ends");  // cut by the scan range
         reg.insert(reg.end(), speed.begin(), speed.end());
         reg.insert(reg.end(), start.begin(), start.end());
         std::vector<std::string> inputs = {run.model, path, calibration};
         inputs.insert(inputs.end(), startInputs.begin(), startInputs.end());
         stage.push_back({fmt::format("register-{}-ultrasound-{}", bone, n),
-                         fmt::format("{} registration {} from ultrasound", bone, n), reg, inputs,
-                         {out}, false});
+                         fmt::format("{} registration {} from ultrasound", bone, n),
+                         reg,
+                         inputs,
+                         {out},
+                         false});
         run.ultrasound.push_back(out);
       }
       // The reference: the mechanical probe on the exposed bone (section 5.2).
-      if (const std::string mech = manifest.file("/bones/" + bone + "/mechanical", false); !mech.empty()) {
+      if (const std::string mech = manifest.file("/bones/" + bone + "/mechanical", false);
+          !mech.empty()) {
         run.mechanical = fmt::format("{}/registrations/{}_mechanical.json", results, bone);
         std::vector<std::string> reg = {
-            "register", "--model", run.model, "--bone", Bone, "--stylus-points", mech,
+            "register",
+            "--model",
+            run.model,
+            "--bone",
+            Bone,
+            "--stylus-points",
+            mech,
             "--stylus-tip-radius",
-            fmt::format("{}", entry.value("mechanical_tip_radius_mm", 0.0)), "--out", run.mechanical};
-        if (run.segmented) reg.push_back("--open-ends");
+            fmt::format("{}", entry.value("mechanical_tip_radius_mm", 0.0)),
+            "--out",
+            run.mechanical};
+        if (run.segmented)
+          reg.push_back("--open-ends");
         if (std::find(start.begin(), start.end(), "--stylus-tip-to-stylus") == start.end()) {
           reg.insert(reg.end(), {"--stylus-tip-to-stylus", stylusTip});
         }
@@ -354,7 +524,10 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         inputs.insert(inputs.end(), startInputs.begin(), startInputs.end());
         stage.push_back({fmt::format("register-{}-mechanical", bone),
                          fmt::format("{} registration from the mechanical probe (reference)", bone),
-                         reg, inputs, {run.mechanical}, false});
+                         reg,
+                         inputs,
+                         {run.mechanical},
+                         false});
       }
       boneRuns.push_back(run);
     }
@@ -367,30 +540,39 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       const std::string Bone = capitalised(run.name);
       std::vector<std::string> estimates;
       for (const std::string& r : run.ultrasound) {
-        if (fs::exists(r)) estimates.push_back(r);
+        if (fs::exists(r))
+          estimates.push_back(r);
       }
-      if (estimates.empty()) continue;
+      if (estimates.empty())
+        continue;
       std::vector<std::string> common;
-      for (const std::string& e : estimates) common.insert(common.end(), {"--estimate", e});
+      for (const std::string& e : estimates)
+        common.insert(common.end(), {"--estimate", e});
       const std::string targetsFile = targetsFileOf(run.name);
-      if (!targetsFile.empty()) common.insert(common.end(), {"--targets", targetsFile});
+      if (!targetsFile.empty())
+        common.insert(common.end(), {"--targets", targetsFile});
       if (targets.count("knee_centre") != 0) {
         const Eigen::Vector3d& c = targets["knee_centre"];
         common.insert(common.end(), {"--centre", fmt::format("{}", c.x()), fmt::format("{}", c.y()),
                                      fmt::format("{}", c.z())});
       }
       std::vector<std::string> inputs = estimates;
-      if (!targetsFile.empty()) inputs.push_back(targetsFile);
+      if (!targetsFile.empty())
+        inputs.push_back(targetsFile);
       if (!run.mechanical.empty() && fs::exists(run.mechanical)) {
-        run.evaluationMechanical = fmt::format("{}/evaluation/{}_vs_mechanical.csv", results, run.name);
+        run.evaluationMechanical =
+            fmt::format("{}/evaluation/{}_vs_mechanical.csv", results, run.name);
         std::vector<std::string> args = {"evaluate", "--reference", run.mechanical};
         args.insert(args.end(), common.begin(), common.end());
         args.insert(args.end(), {"--out", run.evaluationMechanical});
         std::vector<std::string> in = inputs;
         in.push_back(run.mechanical);
         stage.push_back({fmt::format("evaluate-{}-mechanical", run.name),
-                         fmt::format("{}: ultrasound against the mechanical probe", run.name), args,
-                         in, {run.evaluationMechanical}, false});
+                         fmt::format("{}: ultrasound against the mechanical probe", run.name),
+                         args,
+                         in,
+                         {run.evaluationMechanical},
+                         false});
       }
       const std::string truth = manifest.resolve(fmt::format("truth/{}ToCT.json", Bone));
       if (!truthTransforms.empty() && fs::exists(truth)) {
@@ -405,18 +587,30 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         in.push_back(truth);
         stage.push_back({fmt::format("evaluate-{}-truth", run.name),
                          fmt::format("{}: registrations against the simulation's truth", run.name),
-                         args, in, {run.evaluationTruth}, false});
+                         args,
+                         in,
+                         {run.evaluationTruth},
+                         false});
       }
       // The points of the first sweep on the model through the reference registration (Eq. 4.6).
       const std::string reference = !run.mechanical.empty() && fs::exists(run.mechanical)
-                                        ? run.mechanical : estimates.front();
+                                        ? run.mechanical
+                                        : estimates.front();
       run.figure = fmt::format("{}/figures/{}_registration.png", results, run.name);
       std::vector<std::string> figureArgs = {
-          "figure", "registration", "--model", run.model, "--points", run.points.front(),
-          "--transform", reference, "--title",
+          "figure",
+          "registration",
+          "--model",
+          run.model,
+          "--points",
+          run.points.front(),
+          "--transform",
+          reference,
+          "--title",
           fmt::format("{}: ultrasound points through the {} registration", Bone,
                       reference == run.mechanical ? "mechanical-probe" : "ultrasound"),
-          "--out", run.figure};
+          "--out",
+          run.figure};
       std::vector<std::string> figureInputs = {run.model, run.points.front(), reference};
       // The patella beside the femur (a simulated study's truth): where its stray echoes land.
       if (const std::string patella = manifest.file("/truth/patella", false);
@@ -426,7 +620,10 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       }
       stage.push_back({fmt::format("figure-{}-registration", run.name),
                        fmt::format("{}: registration figure", run.name),
-                       figureArgs, figureInputs, {run.figure}, false});
+                       figureArgs,
+                       figureInputs,
+                       {run.figure},
+                       false});
     }
     runSteps(stage);
   }
@@ -441,8 +638,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   if (failure.empty() && !boneRuns.empty()) {
     stage.clear();
     const BoneRun& first = boneRuns.front();
-    const std::string capture = manifest.resolve(
-        manifest.at("/bones/" + first.name + "/ultrasound/0").get<std::string>());
+    const std::string capture =
+        manifest.resolve(manifest.at("/bones/" + first.name + "/ultrasound/0").get<std::string>());
     if (!first.points.empty() && fs::exists(first.points.front())) {
       const CsvTable table = readCsvTable(first.points.front());
       const int status = table.column("status");
@@ -450,29 +647,38 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       const int frame = table.column("frame");
       std::string accepted, rejected;
       for (const auto& row : table.rows) {
-        if (status < 0 || frame < 0 || reason < 0) break;
+        if (status < 0 || frame < 0 || reason < 0)
+          break;
         const std::string& st = row[static_cast<std::size_t>(status)];
-        if (accepted.empty() && st == "accepted") accepted = row[static_cast<std::size_t>(frame)];
-        if (rejected.empty() && st == "rejected" && row[static_cast<std::size_t>(reason)] == "not-bone") {
+        if (accepted.empty() && st == "accepted")
+          accepted = row[static_cast<std::size_t>(frame)];
+        if (rejected.empty() && st == "rejected" &&
+            row[static_cast<std::size_t>(reason)] == "not-bone") {
           rejected = row[static_cast<std::size_t>(frame)];
         }
       }
-      for (const auto& [which, f] : {std::pair<std::string, std::string>{"accepted", accepted},
-                                     {"rejected", rejected}}) {
-        if (f.empty()) continue;
-        const std::string out = fmt::format("{}/figures/signals_{}_{}.png", results, first.name, which);
-        stage.push_back({fmt::format("figure-signals-{}", which),
-                         fmt::format("signals figure ({} frame)", which),
-                         {"figure", "signals", "--capture", capture, "--frame", f, "--preset",
-                          "mozes2008", "--preset", preset, "--title",
-                          fmt::format("{} sweep, frame {} ({} by the study's detection)", first.name, f, which),
-                          "--out", out},
-                         {capture}, {out}, false});
+      for (const auto& [which, f] :
+           {std::pair<std::string, std::string>{"accepted", accepted}, {"rejected", rejected}}) {
+        if (f.empty())
+          continue;
+        const std::string out =
+            fmt::format("{}/figures/signals_{}_{}.png", results, first.name, which);
+        stage.push_back(
+            {fmt::format("figure-signals-{}", which),
+             fmt::format("signals figure ({} frame)", which),
+             {"figure", "signals", "--capture", capture, "--frame", f, "--preset", "mozes2008",
+              "--preset", preset, "--title",
+              fmt::format("{} sweep, frame {} ({} by the study's detection)", first.name, f, which),
+              "--out", out},
+             {capture},
+             {out},
+             false});
         signalFigures.push_back(
             {out, fmt::format("Frame {} of the {} sweep, {} by the study's detection: the raw "
                               "A-line, then the envelope, threshold, peaks and verdict of the "
                               "dissertation's chain (mozes2008) and of the study's preset ({}), as "
-                              "Figs. 5.10-5.29.", f, first.name, which, preset)});
+                              "Figs. 5.10-5.29.",
+                              f, first.name, which, preset)});
       }
     }
     // Table 6.1: the single-signal chain's detection rates under several filter settings, on
@@ -489,16 +695,20 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         const std::string sweep = manifest.resolve(
             manifest.at("/bones/" + run.name + "/ultrasound/0").get<std::string>());
         for (std::size_t k = 0; k < settings.size(); ++k) {
-          const std::string out = fmt::format("{}/detection/{}_setting_{}.csv", results, run.name, k + 1);
-          std::vector<std::string> args = {"detect", sweep, "--history", "1", "--min-spread-mm", "0",
-                                           "--out", out};
+          const std::string out =
+              fmt::format("{}/detection/{}_setting_{}.csv", results, run.name, k + 1);
+          std::vector<std::string> args = {"detect",          sweep, "--history", "1",
+                                           "--min-spread-mm", "0",   "--out",     out};
           args.insert(args.end(), settings[k].second.begin(), settings[k].second.end());
           if (const auto c = manifest.at("/detection/speed_of_sound_mps"); c.is_number()) {
             args.insert(args.end(), {"--speed-of-sound", fmt::format("{}", c.get<double>())});
           }
           stage.push_back({fmt::format("detect-rates-{}-{}", run.name, k + 1),
-                           fmt::format("{}: detection rates, {}", run.name, settings[k].first), args,
-                           {sweep}, {out}, false});
+                           fmt::format("{}: detection rates, {}", run.name, settings[k].first),
+                           args,
+                           {sweep},
+                           {out},
+                           false});
           detectionRates.push_back({run.name, settings[k].first, out, sweep});
         }
       }
@@ -507,7 +717,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     std::vector<std::string> groups;
     std::vector<std::string> inputs;
     for (const BoneRun& run : boneRuns) {
-      if (run.ultrasound.empty() || !fs::exists(run.ultrasound.front())) continue;
+      if (run.ultrasound.empty() || !fs::exists(run.ultrasound.front()))
+        continue;
       const nlohmann::json reg = readJsonFile(run.ultrasound.front());
       const std::string csv = fmt::format("{}/evaluation/{}_residuals.csv", results, run.name);
       AtomicFile file(csv);
@@ -515,7 +726,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       int i = 0;
       for (const auto& point : reg.value("points", nlohmann::json::array())) {
         // The points the registration used (the rejected ones are counted in its table).
-        if (!point.value("inlier", false)) continue;
+        if (!point.value("inlier", false))
+          continue;
         const double r = point.value("residual_mm", 0.0);
         file.stream() << fmt::format("{},{:.4f},{:.4f},1\n", i++, r, std::abs(r));
       }
@@ -525,11 +737,15 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     }
     if (groups.size() >= 2) {
       residualFigure = results + "/figures/residuals.png";
-      std::vector<std::string> args = {"figure", "boxplot", "--column", "abs_residual_mm",
-                                       "--title", "Distance of the ultrasound points used to the model after registration",
-                                       "--ylabel", "|distance| (mm)", "--out", residualFigure};
+      std::vector<std::string> args = {
+          "figure",   "boxplot",
+          "--column", "abs_residual_mm",
+          "--title",  "Distance of the ultrasound points used to the model after registration",
+          "--ylabel", "|distance| (mm)",
+          "--out",    residualFigure};
       args.insert(args.end(), groups.begin(), groups.end());
-      stage.push_back({"figure-residuals", "residuals box plot", args, inputs, {residualFigure}, false});
+      stage.push_back(
+          {"figure-residuals", "residuals box plot", args, inputs, {residualFigure}, false});
     }
     runSteps(stage);
   }
@@ -541,20 +757,21 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   report.heading("Study report: " + studyName, 1);
   const nlohmann::json generator = manifest.at("/generator");
   if (generator.is_object()) {
-    report.paragraph(fmt::format("Simulated by {} (preset {}, seed {}, size {}).",
-                                 generator.value("tool", std::string("?")),
-                                 generator.value("preset", std::string("?")),
-                                 generator.value("seed", 0), generator.value("size", std::string("?"))));
+    report.paragraph(fmt::format(
+        "Simulated by {} (preset {}, seed {}, size {}).", generator.value("tool", std::string("?")),
+        generator.value("preset", std::string("?")), generator.value("seed", 0),
+        generator.value("size", std::string("?"))));
   }
   if (fs::exists(calibration)) {
     const nlohmann::json cal = readJsonFile(calibration);
     report.heading("Calibration of the transducer (Table 5.1)");
     const auto& m = cal.at("matrix");
-    report.table({"", "x (mm)", "y (mm)", "z (mm)", "RMS (mm)", "speed of sound (m/s)", "shots used"},
-                 {{"BeamToProbe translation", number(m[0][3].get<double>()), number(m[1][3].get<double>()),
-                   number(m[2][3].get<double>()), number(cal.value("rms_mm", 0.0), 3),
-                   number(cal.value("speed_of_sound_mps", 0.0), 1),
-                   fmt::format("{}", cal.value("shots_used", 0))}});
+    report.table(
+        {"", "x (mm)", "y (mm)", "z (mm)", "RMS (mm)", "speed of sound (m/s)", "shots used"},
+        {{"BeamToProbe translation", number(m[0][3].get<double>()), number(m[1][3].get<double>()),
+          number(m[2][3].get<double>()), number(cal.value("rms_mm", 0.0), 3),
+          number(cal.value("speed_of_sound_mps", 0.0), 1),
+          fmt::format("{}", cal.value("shots_used", 0))}});
     numbers["calibration"] = {{"beam_to_probe_mm", {m[0][3], m[1][3], m[2][3]}},
                               {"rms_mm", cal.value("rms_mm", 0.0)},
                               {"speed_of_sound_mps", cal.value("speed_of_sound_mps", 0.0)},
@@ -570,27 +787,35 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     std::vector<std::vector<std::string>> rows;
     nlohmann::json seg = nlohmann::json::object();
     for (const BoneRun& run : boneRuns) {
-      if (!run.segmented || !fs::exists(run.model)) continue;
+      if (!run.segmented || !fs::exists(run.model))
+        continue;
       const std::string truthModel = manifest.file("/truth/" + run.name, false);
-      if (truthModel.empty() || !fs::exists(truthModel)) continue;
+      if (truthModel.empty() || !fs::exists(truthModel))
+        continue;
       const core::TriangleMesh model = filters::readMesh(run.model);
       const core::TriangleMesh truth = filters::readMesh(truthModel);
       const auto box = core::bounds(model);
       segmentation::SurfaceComparisonOptions options;
       options.zMinMm = box[0].z() + 2.0;  // the model is closed at its scan's ends
       options.zMaxMm = box[1].z() - 2.0;
-      const segmentation::SurfaceComparison c = segmentation::compareSurfaces(model, truth, options);
+      const segmentation::SurfaceComparison c =
+          segmentation::compareSurfaces(model, truth, options);
       rows.push_back({run.name, number(c.meanMm, 3), number(c.p95Mm, 3), number(c.maxMm, 2),
                       number(c.dice, 4)});
-      seg[run.name] = {{"mean_surface_distance_mm", c.meanMm}, {"p95_mm", c.p95Mm},
-                       {"max_mm", c.maxMm}, {"dice", c.dice}, {"z_range_mm", {options.zMinMm, options.zMaxMm}}};
+      seg[run.name] = {{"mean_surface_distance_mm", c.meanMm},
+                       {"p95_mm", c.p95Mm},
+                       {"max_mm", c.maxMm},
+                       {"dice", c.dice},
+                       {"z_range_mm", {options.zMinMm, options.zMaxMm}}};
     }
     if (!rows.empty()) {
       report.heading("Segmentation of the CT");
-      report.paragraph("Each bone grown from the manifest's seed and refined by the CT's own "
-                       "iso-surface (echoreg segment --auto), compared with the simulation's true "
-                       "surface over the scanned knee group (2 mm inside its ends).");
-      report.table({"bone", "mean surface distance (mm)", "95th percentile (mm)", "max (mm)", "Dice"}, rows);
+      report.paragraph(
+          "Each bone grown from the manifest's seed and refined by the CT's own "
+          "iso-surface (echoreg segment --auto), compared with the simulation's true "
+          "surface over the scanned knee group (2 mm inside its ends).");
+      report.table(
+          {"bone", "mean surface distance (mm)", "95th percentile (mm)", "max (mm)", "Dice"}, rows);
       numbers["segmentation"] = seg;
     }
   }
@@ -601,7 +826,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     std::vector<std::string> header;
     for (const std::string& h : table.header) {
       std::string name = h;
-      if (name.rfind("target_", 0) == 0) name = "error at " + name.substr(7);
+      if (name.rfind("target_", 0) == 0)
+        name = "error at " + name.substr(7);
       for (const char* unit : {"_mm", "_deg"}) {
         const auto at = name.rfind(unit);
         if (at != std::string::npos && at + std::string(unit).size() == name.size()) {
@@ -632,7 +858,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     std::vector<std::vector<std::string>> rows;
     nlohmann::json list = nlohmann::json::array();
     std::vector<std::string> files = run.ultrasound;
-    if (!run.mechanical.empty()) files.push_back(run.mechanical);
+    if (!run.mechanical.empty())
+      files.push_back(run.mechanical);
     for (const std::string& file : files) {
       const std::string name = fs::path(file).stem().string();
       if (!fs::exists(file)) {
@@ -641,26 +868,33 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         continue;
       }
       const nlohmann::json r = readJsonFile(file);
-      rows.push_back({name, r.value("converged", false) ? "yes" : "NO", number(r.value("rms_mm", 0.0), 3),
+      rows.push_back({name, r.value("converged", false) ? "yes" : "NO",
+                      number(r.value("rms_mm", 0.0), 3),
                       fmt::format("{}", r.value("points_used", 0)),
                       fmt::format("{}", r.value("points_rejected", 0)),
                       number(r.value("speed_of_sound_scale", 1.0), 4),
                       fmt::format("{}", r.value("iterations", 0))});
-      list.push_back({{"name", name}, {"file", fs::relative(file, results).generic_string()},
-                      {"converged", r.value("converged", false)}, {"rms_mm", r.value("rms_mm", 0.0)},
+      list.push_back({{"name", name},
+                      {"file", fs::relative(file, results).generic_string()},
+                      {"converged", r.value("converged", false)},
+                      {"rms_mm", r.value("rms_mm", 0.0)},
                       {"points_used", r.value("points_used", 0)},
                       {"points_rejected", r.value("points_rejected", 0)},
                       {"speed_of_sound_scale", r.value("speed_of_sound_scale", 1.0)},
-                      {"iterations", r.value("iterations", 0)}, {"matrix", r.at("matrix")}});
+                      {"iterations", r.value("iterations", 0)},
+                      {"matrix", r.at("matrix")}});
     }
-    report.paragraph(fmt::format("Model: {}{}.", fs::relative(run.model, manifest.dir()).generic_string(),
-                                 run.segmented ? " (segmented from the CT)" : " (given by the manifest)"));
-    report.table({"registration", "converged", "RMS (mm, Eq. 4.4)", "points used", "points rejected",
-                  "speed-of-sound scale", "iterations"}, rows);
+    report.paragraph(
+        fmt::format("Model: {}{}.", fs::relative(run.model, manifest.dir()).generic_string(),
+                    run.segmented ? " (segmented from the CT)" : " (given by the manifest)"));
+    report.table({"registration", "converged", "RMS (mm, Eq. 4.4)", "points used",
+                  "points rejected", "speed-of-sound scale", "iterations"},
+                 rows);
     nlohmann::json entry = {{"registrations", list}};
     if (!run.evaluationMechanical.empty() && fs::exists(run.evaluationMechanical)) {
-      report.paragraph("Ultrasound against the mechanical-probe registration (Eq. 4.5, in CT space: "
-                       "translations along CT x, y, z of the knee centre, rotations about them):");
+      report.paragraph(
+          "Ultrasound against the mechanical-probe registration (Eq. 4.5, in CT space: "
+          "translations along CT x, y, z of the knee centre, rotations about them):");
       entry["against_mechanical"] = evaluationTable(run.evaluationMechanical);
     }
     if (!run.evaluationTruth.empty() && fs::exists(run.evaluationTruth)) {
@@ -668,15 +902,18 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       entry["against_truth"] = evaluationTable(run.evaluationTruth);
     }
     if (!run.figure.empty() && fs::exists(run.figure)) {
-      report.figure(fs::relative(run.figure, results).generic_string(),
-                    fmt::format("The {}'s ultrasound points mapped by the reference registration "
-                                "(Eq. 4.6), coloured by their distance to the model: green < 3 mm, "
-                                "yellow 3-5 mm, red > 5 mm (Figs. 5.6-5.9, 5.30-5.35); the patella, "
-                                "when the study has it, translucent blue.", run.name));
+      report.figure(
+          fs::relative(run.figure, results).generic_string(),
+          fmt::format("The {}'s ultrasound points mapped by the reference registration "
+                      "(Eq. 4.6), coloured by their distance to the model: green < 3 mm, "
+                      "yellow 3-5 mm, red > 5 mm (Figs. 5.6-5.9, 5.30-5.35); the patella, "
+                      "when the study has it, translucent blue.",
+                      run.name));
     }
     registrations[run.name] = entry;
   }
-  if (!boneRuns.empty()) numbers["registrations"] = registrations;
+  if (!boneRuns.empty())
+    numbers["registrations"] = registrations;
   if (!detectionRates.empty()) {
     // Truth per frame of each capture: should a correct detector accept it?
     const CsvTable truth = readCsvTable(manifest.file("/truth/shots"));
@@ -684,21 +921,26 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
               acceptCol = truth.column("should_accept");
     std::map<std::pair<std::string, std::string>, bool> shouldAccept;
     for (const auto& row : truth.rows) {
-      shouldAccept[{row[static_cast<std::size_t>(capCol)], row[static_cast<std::size_t>(frameCol)]}] =
+      shouldAccept[{row[static_cast<std::size_t>(capCol)],
+                    row[static_cast<std::size_t>(frameCol)]}] =
           row[static_cast<std::size_t>(acceptCol)] == "1";
     }
     std::vector<std::vector<std::string>> rows;
     nlohmann::json rates = nlohmann::json::array();
     for (const DetectionRate& d : detectionRates) {
-      if (!fs::exists(d.csv)) continue;
+      if (!fs::exists(d.csv))
+        continue;
       const CsvTable detected = readCsvTable(d.csv);
-      const int f = detected.column("frame"), st = detected.column("status"), why = detected.column("reason");
+      const int f = detected.column("frame"), st = detected.column("status"),
+                why = detected.column("reason");
       const std::string name = fs::path(d.capture).filename().string();
       int bone = 0, notBone = 0, falseNegative = 0, falsePositive = 0;
       for (const auto& row : detected.rows) {
-        if (row[static_cast<std::size_t>(why)] == "invalid-pose") continue;
+        if (row[static_cast<std::size_t>(why)] == "invalid-pose")
+          continue;
         const auto it = shouldAccept.find({name, row[static_cast<std::size_t>(f)]});
-        if (it == shouldAccept.end()) continue;
+        if (it == shouldAccept.end())
+          continue;
         const bool accepted = row[static_cast<std::size_t>(st)] == "accepted";
         if (it->second) {
           ++bone;
@@ -712,23 +954,31 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       const double fp = notBone > 0 ? 100.0 * falsePositive / notBone : 0.0;
       rows.push_back({d.bone, d.setting, fmt::format("{}", bone), fmt::format("{}", notBone),
                       number(fn, 1), number(fp, 1)});
-      rates.push_back({{"bone", d.bone}, {"setting", d.setting}, {"bone_frames", bone},
-                       {"other_frames", notBone}, {"false_negative_pct", fn}, {"false_positive_pct", fp}});
+      rates.push_back({{"bone", d.bone},
+                       {"setting", d.setting},
+                       {"bone_frames", bone},
+                       {"other_frames", notBone},
+                       {"false_negative_pct", fn},
+                       {"false_positive_pct", fp}});
     }
     if (!rows.empty()) {
       report.heading("Detection rates (Table 6.1)");
-      report.paragraph("Each A-line judged alone (no inter-signal filter) under the dissertation's "
-                       "chain at three low-pass cutoffs and under the study's preset, against the "
-                       "simulation's truth: false negatives among the frames a correct detector should "
-                       "accept, false positives among the others.");
+      report.paragraph(
+          "Each A-line judged alone (no inter-signal filter) under the dissertation's "
+          "chain at three low-pass cutoffs and under the study's preset, against the "
+          "simulation's truth: false negatives among the frames a correct detector should "
+          "accept, false positives among the others.");
       report.table({"bone", "setting", "bone frames", "other frames", "false negatives (%)",
-                    "false positives (%)"}, rows);
+                    "false positives (%)"},
+                   rows);
       numbers["detection_rates"] = rates;
     }
   }
-  if (!signalFigures.empty() || !residualFigure.empty()) report.heading("Signals and statistics");
+  if (!signalFigures.empty() || !residualFigure.empty())
+    report.heading("Signals and statistics");
   for (const auto& [file, caption] : signalFigures) {
-    if (fs::exists(file)) report.figure(fs::relative(file, results).generic_string(), caption);
+    if (fs::exists(file))
+      report.figure(fs::relative(file, results).generic_string(), caption);
   }
   if (!residualFigure.empty() && fs::exists(residualFigure)) {
     report.figure(fs::relative(residualFigure, results).generic_string(),
@@ -737,28 +987,53 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                   "6.1, 6.3, 6.7-6.9).");
   }
   report.heading("For 3D Slicer");
-  report.paragraph("Models (.vtp) in results/models (or the manifest's), transforms as .tfm beside "
-                   "each JSON in results/registrations (drag onto the model's transform), "
-                   "the evaluation targets as .mrk.json in results/.");
+  report.paragraph(
+      "Models (.vtp) in results/models (or the manifest's), transforms as .tfm beside "
+      "each JSON in results/registrations (drag onto the model's transform), "
+      "the evaluation targets as .mrk.json in results/.");
   report.heading("Steps");
-  report.paragraph("Each step is one echoreg command; a step whose command line and input files "
-                   "did not change since the last run is up to date and shows its last time.");
+  report.paragraph(
+      "Each step is one echoreg command; a step whose command line and input files "
+      "did not change since the last run is up to date and shows its last time.");
   std::vector<std::vector<std::string>> rows;
   nlohmann::json stepsJson = nlohmann::json::array();
   for (const StepOutcome& s : outcomes) {
     std::string note = s.message;
-    for (char& c : note) c = c == '\n' ? ' ' : c;
+    for (char& c : note)
+      c = c == '\n' ? ' ' : c;
     rows.push_back({s.title, statusName(s.status), number(s.seconds, 2), note});
-    stepsJson.push_back({{"id", s.id}, {"title", s.title}, {"status", statusName(s.status)},
+    stepsJson.push_back({{"id", s.id},
+                         {"title", s.title},
+                         {"status", statusName(s.status)},
                          {"seconds", s.seconds}});
   }
   report.table({"step", "status", "time (s)", "message"}, rows);
   numbers["steps"] = stepsJson;
-  const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  const double total =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   numbers["seconds"] = total;
   if (!failure.empty()) {
     report.paragraph("The study stopped: " + failure);
     numbers["failure"] = failure;
+  }
+  // Every result the study was asked for is there, or the study says which are not and fails.
+  std::vector<std::string> missing;
+  for (const StepOutcome& s : outcomes) {
+    if (s.status != StepOutcome::Status::Failed && s.status != StepOutcome::Status::Skipped)
+      continue;
+    const std::string firstLine = s.message.substr(0, s.message.find('\n'));
+    missing.push_back(fmt::format("{} ({}: {})", s.title,
+                                  s.status == StepOutcome::Status::Failed ? "failed" : "skipped",
+                                  firstLine));
+  }
+  std::string incomplete;
+  if (failure.empty() && !missing.empty()) {
+    incomplete = fmt::format("{} requested result{} missing:", missing.size(),
+                             missing.size() == 1 ? " is" : "s are");
+    for (const std::string& m : missing)
+      incomplete += "\n  " + m;
+    report.paragraph("The study is incomplete: " + incomplete);
+    numbers["missing"] = missing;
   }
   {
     AtomicFile md(results + "/report.md");
@@ -774,11 +1049,18 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   if (o.json) {
     streams.out << numbers.dump(2) << "\n";
   } else {
-    streams.out << fmt::format("study {}: report in {}\n", failure.empty() ? "done" : "stopped",
+    streams.out << fmt::format("study {}: report in {}\n",
+                               !failure.empty()      ? "stopped"
+                               : !incomplete.empty() ? "incomplete"
+                                                     : "done",
                                fs::absolute(results + "/report.html").lexically_normal().string());
   }
   if (!failure.empty()) {
     streams.err << "echoreg study: " << failure << "\n";
+    return 1;
+  }
+  if (!incomplete.empty()) {
+    streams.err << "echoreg study: " << manifest.dir() << ": incomplete, " << incomplete << "\n";
     return 1;
   }
   return 0;
@@ -788,8 +1070,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
 
 CommandAction addStudyCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
-      "study",
-      "The main job: a study folder (study.json) run end to end into a report.");
+      "study", "The main job: a study folder (study.json) run end to end into a report.");
   cmd->require_subcommand(1);
   auto o = std::make_shared<StudyOptions>();
   CLI::App* run = cmd->add_subcommand(
@@ -798,7 +1079,9 @@ CommandAction addStudyCommand(CLI::App& app) {
       "(the manifest's seeds), detection, registrations from ultrasound and from the mechanical\n"
       "probe, evaluation, figures; then writes DIR/results/report.html, report.md and\n"
       "results.json (docs/study.md). Steps whose command line and input files did not change\n"
-      "since the last run are not run again (--force runs all). Progress on a terminal.");
+      "since the last run, and whose outputs are as they wrote them, are not run again (--force\n"
+      "runs all). Exits 1 when a requested result is missing (a step failed or was skipped),\n"
+      "naming each. Progress on a terminal.");
   run->add_option("dir", o->dir, "Study folder (holds study.json)")->required();
   run->add_flag("--force", o->force, "Run every step again");
   run->add_flag("--given-models", o->givenModels,

@@ -40,9 +40,12 @@ namespace {
 std::string markdownCell(const std::string& text) {
   std::string out;
   for (char c : text) {
-    if (c == '|') out += "\\|";
-    else if (c == '\n') out += ' ';
-    else out += c;
+    if (c == '|')
+      out += "\\|";
+    else if (c == '\n')
+      out += ' ';
+    else
+      out += c;
   }
   return out;
 }
@@ -61,13 +64,16 @@ std::string Report::markdown() const {
         break;
       case ReportBlock::Kind::Table: {
         md << '|';
-        for (const auto& h : b.header) md << ' ' << markdownCell(h) << " |";
+        for (const auto& h : b.header)
+          md << ' ' << markdownCell(h) << " |";
         md << "\n|";
-        for (std::size_t i = 0; i < b.header.size(); ++i) md << (i == 0 ? " :-- |" : " --: |");
+        for (std::size_t i = 0; i < b.header.size(); ++i)
+          md << (i == 0 ? " :-- |" : " --: |");
         md << '\n';
         for (const auto& row : b.rows) {
           md << '|';
-          for (const auto& cell : row) md << ' ' << markdownCell(cell) << " |";
+          for (const auto& cell : row)
+            md << ' ' << markdownCell(cell) << " |";
           md << '\n';
         }
         md << '\n';
@@ -85,11 +91,20 @@ std::string htmlEscape(const std::string& text) {
   std::string out;
   for (char c : text) {
     switch (c) {
-      case '&': out += "&amp;"; break;
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '&':
+        out += "&amp;";
+        break;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -116,11 +131,13 @@ std::string Report::html(const std::string& title) const {
         break;
       case ReportBlock::Kind::Table:
         h << "<table>\n<tr>";
-        for (const auto& c : b.header) h << "<th>" << htmlEscape(c) << "</th>";
+        for (const auto& c : b.header)
+          h << "<th>" << htmlEscape(c) << "</th>";
         h << "</tr>\n";
         for (const auto& row : b.rows) {
           h << "<tr>";
-          for (const auto& c : row) h << "<td>" << htmlEscape(c) << "</td>";
+          for (const auto& c : row)
+            h << "<td>" << htmlEscape(c) << "</td>";
           h << "</tr>\n";
         }
         h << "</table>\n";

@@ -19,10 +19,14 @@ namespace fs = std::filesystem;
 
 const char* statusName(StepOutcome::Status status) {
   switch (status) {
-    case StepOutcome::Status::Ran: return "ran";
-    case StepOutcome::Status::UpToDate: return "up to date";
-    case StepOutcome::Status::Failed: return "FAILED";
-    case StepOutcome::Status::Skipped: return "skipped";
+    case StepOutcome::Status::Ran:
+      return "ran";
+    case StepOutcome::Status::UpToDate:
+      return "up to date";
+    case StepOutcome::Status::Failed:
+      return "FAILED";
+    case StepOutcome::Status::Skipped:
+      return "skipped";
   }
   return "";
 }
@@ -41,7 +45,8 @@ void mix(std::uint64_t& h, const char* data, std::size_t size) {
 
 void mixFile(std::uint64_t& h, const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw FileError(path, "cannot be read (an input of the study)");
+  if (!in)
+    throw FileError(path, "cannot be read (an input of the study)");
   std::vector<char> buffer(1 << 20);
   while (in) {
     in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
@@ -57,9 +62,11 @@ std::uint64_t contentHash(const std::string& path) {
   if (fs::is_directory(path, ec)) {
     std::vector<fs::path> files;
     for (const auto& entry : fs::recursive_directory_iterator(path, ec)) {
-      if (entry.is_regular_file()) files.push_back(entry.path());
+      if (entry.is_regular_file())
+        files.push_back(entry.path());
     }
-    if (ec) throw FileError(path, "cannot list the folder: " + ec.message());
+    if (ec)
+      throw FileError(path, "cannot list the folder: " + ec.message());
     std::sort(files.begin(), files.end());
     for (const fs::path& file : files) {
       const std::string relative = fs::relative(file, path).generic_string();
@@ -68,7 +75,8 @@ std::uint64_t contentHash(const std::string& path) {
     }
     return h;
   }
-  if (!fs::exists(path, ec)) throw FileError(path, "is missing (an input of the study)");
+  if (!fs::exists(path, ec))
+    throw FileError(path, "is missing (an input of the study)");
   mixFile(h, path);
   return h;
 }
@@ -76,11 +84,14 @@ std::uint64_t contentHash(const std::string& path) {
 StudyRunner::StudyRunner(std::string stateFile, bool force)
     : stateFile_(std::move(stateFile)), force_(force) {
   std::ifstream in(stateFile_);
-  if (!in) return;
+  if (!in)
+    return;
   try {
     const nlohmann::json doc = nlohmann::json::parse(in);
     for (const auto& [id, entry] : doc.at("steps").items()) {
-      state_.push_back({id, Entry{entry.at("hash").get<std::string>(), entry.at("seconds").get<double>()}});
+      state_.push_back(
+          {id, Entry{entry.at("hash").get<std::string>(), entry.at("seconds").get<double>(),
+                     entry.value("outputs", std::vector<std::string>())}});
     }
   } catch (const std::exception&) {
     state_.clear();  // an unreadable state only means every step runs again
@@ -89,33 +100,65 @@ StudyRunner::StudyRunner(std::string stateFile, bool force)
 
 StudyRunner::Entry* StudyRunner::find(const std::string& id) {
   for (auto& [key, entry] : state_) {
-    if (key == id) return &entry;
+    if (key == id)
+      return &entry;
   }
   return nullptr;
 }
+
+namespace {
+
+// The hashes of a step's outputs now ("" for one that is missing or unreadable).
+std::vector<std::string> outputHashes(const StudyStep& step) {
+  std::vector<std::string> hashes;
+  for (const std::string& output : step.outputs) {
+    std::error_code ec;
+    std::string hash;
+    if (fs::is_regular_file(output, ec)) {
+      try {
+        hash = fmt::format("{:016x}", contentHash(output));
+      } catch (const FileError&) {
+        hash.clear();
+      }
+    }
+    hashes.push_back(hash);
+  }
+  return hashes;
+}
+
+}  // namespace
 
 StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int index, int total) {
   StepOutcome outcome;
   outcome.id = step.id;
   outcome.title = step.title;
   std::uint64_t h = kFnvOffset;
-  for (const std::string& arg : step.args) mix(h, arg.data(), arg.size() + 1);  // with the '\0'
+  for (const std::string& arg : step.args)
+    mix(h, arg.data(), arg.size() + 1);  // with the '\0'
   for (const std::string& input : step.inputs) {
     const std::uint64_t part = contentHash(input);
     mix(h, reinterpret_cast<const char*>(&part), sizeof part);
   }
   const std::string hash = fmt::format("{:016x}", h);
-  bool outputsPresent = true;
-  for (const std::string& output : step.outputs) outputsPresent = outputsPresent && fs::exists(output);
   Entry* previous = find(step.id);
-  const std::string counter = total > 0 ? fmt::format("[{}/{}]", index, total) : fmt::format("[{}]", index);
-  if (!force_ && outputsPresent && previous != nullptr && previous->hash == hash) {
+  // Up to date only with every output present and as the step wrote it.
+  bool outputsIntact = previous != nullptr && previous->outputHashes.size() == step.outputs.size();
+  if (outputsIntact) {
+    const std::vector<std::string> now = outputHashes(step);
+    for (std::size_t i = 0; i < now.size(); ++i)
+      outputsIntact = outputsIntact && !now[i].empty() && now[i] == previous->outputHashes[i];
+  }
+  const std::string counter =
+      total > 0 ? fmt::format("[{}/{}]", index, total) : fmt::format("[{}]", index);
+  if (!force_ && outputsIntact && previous != nullptr && previous->hash == hash) {
     outcome.status = StepOutcome::Status::UpToDate;
     outcome.seconds = previous->seconds;
-    if (streams.errIsTerminal) streams.err << fmt::format("{} {}: up to date\n", counter, step.title);
+    if (streams.errIsTerminal)
+      streams.err << fmt::format("{} {}: up to date\n", counter, step.title);
     return outcome;
   }
-  if (streams.errIsTerminal) streams.err << fmt::format("{} {} ...", counter, step.title) << std::flush;
+  if (streams.errIsTerminal)
+    streams.err << fmt::format("{} {} ...", counter, step.title) << std::flush;
   std::ostringstream out;
   std::ostringstream err;
   const auto start = std::chrono::steady_clock::now();
@@ -125,17 +168,21 @@ StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int 
   if (code != 0) {
     outcome.status = StepOutcome::Status::Failed;
     outcome.message = err.str();
-    if (outcome.message.empty()) outcome.message = fmt::format("exit code {}", code);
-    if (streams.errIsTerminal) streams.err << fmt::format(" FAILED ({:.1f} s)\n", outcome.seconds);
-    if (previous != nullptr) previous->hash.clear();
+    if (outcome.message.empty())
+      outcome.message = fmt::format("exit code {}", code);
+    if (streams.errIsTerminal)
+      streams.err << fmt::format(" FAILED ({:.1f} s)\n", outcome.seconds);
+    if (previous != nullptr)
+      previous->hash.clear();
     return outcome;
   }
   outcome.status = StepOutcome::Status::Ran;
-  if (streams.errIsTerminal) streams.err << fmt::format(" {:.2f} s\n", outcome.seconds);
+  if (streams.errIsTerminal)
+    streams.err << fmt::format(" {:.2f} s\n", outcome.seconds);
   if (previous != nullptr) {
-    *previous = Entry{hash, outcome.seconds};
+    *previous = Entry{hash, outcome.seconds, outputHashes(step)};
   } else {
-    state_.push_back({step.id, Entry{hash, outcome.seconds}});
+    state_.push_back({step.id, Entry{hash, outcome.seconds, outputHashes(step)}});
   }
   return outcome;
 }
@@ -143,7 +190,9 @@ StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int 
 void StudyRunner::save() const {
   nlohmann::json steps = nlohmann::json::object();
   for (const auto& [id, entry] : state_) {
-    if (!entry.hash.empty()) steps[id] = {{"hash", entry.hash}, {"seconds", entry.seconds}};
+    if (!entry.hash.empty())
+      steps[id] = {
+          {"hash", entry.hash}, {"seconds", entry.seconds}, {"outputs", entry.outputHashes}};
   }
   AtomicFile file(stateFile_);
   file.stream() << nlohmann::json{{"steps", steps}}.dump(2) << "\n";

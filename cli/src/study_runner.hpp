@@ -1,8 +1,8 @@
 // The engine of `echoreg study run`: a study is a list of steps, each one echoreg command with
 // the files it reads and writes. A step runs again only when its command line or the content of
-// a file it reads changed, or an output is missing (the state is kept in results/.study-state.json),
-// so re-running after a change redoes exactly what the change affects: outputs are deterministic,
-// so a step whose inputs come out byte-identical stops the chain there.
+// a file it reads changed, or an output is missing (the state is kept in
+// results/.study-state.json), so re-running after a change redoes exactly what the change affects:
+// outputs are deterministic, so a step whose inputs come out byte-identical stops the chain there.
 #pragma once
 
 #include "commands.hpp"
@@ -27,9 +27,9 @@ struct StepOutcome {
   std::string id;
   std::string title;
   enum class Status { Ran, UpToDate, Failed, Skipped } status = Status::Skipped;
-  double seconds = 0.0;   ///< of the last actual run (kept from the state when up to date)
-  std::string message;    ///< the command's error output when it failed
-  std::string output;     ///< the command's standard output of this run
+  double seconds = 0.0;  ///< of the last actual run (kept from the state when up to date)
+  std::string message;   ///< the command's error output when it failed
+  std::string output;    ///< the command's standard output of this run
 };
 
 const char* statusName(StepOutcome::Status status);
@@ -56,6 +56,9 @@ class StudyRunner {
   struct Entry {
     std::string hash;
     double seconds = 0.0;
+    /// The hash of each output as the step wrote it (in the step's order): a damaged, truncated
+    /// or emptied output no longer matches, and the step runs again.
+    std::vector<std::string> outputHashes;
   };
   std::vector<std::pair<std::string, Entry>> state_;
   Entry* find(const std::string& id);

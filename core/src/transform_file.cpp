@@ -27,7 +27,8 @@ nlohmann::json matrixRows(const Eigen::Matrix4d& matrix) {
   nlohmann::json rows = nlohmann::json::array();
   for (int r = 0; r < 4; ++r) {
     nlohmann::json row = nlohmann::json::array();
-    for (int c = 0; c < 4; ++c) row.push_back(matrix(r, c));
+    for (int c = 0; c < 4; ++c)
+      row.push_back(matrix(r, c));
     rows.push_back(row);
   }
   return rows;
@@ -36,14 +37,16 @@ nlohmann::json matrixRows(const Eigen::Matrix4d& matrix) {
 TransformFile readTransformFile(const std::string& path, const std::string& expectedFrom,
                                 const std::string& expectedTo) {
   std::ifstream in(path);
-  if (!in) throw FileError(path, "cannot be opened");
+  if (!in)
+    throw FileError(path, "cannot be opened");
   nlohmann::json doc;
   try {
     doc = nlohmann::json::parse(in);
   } catch (const nlohmann::json::parse_error& e) {
     throw FileError(path, std::string("is not valid JSON: ") + e.what());
   }
-  if (!doc.is_object()) throw FileError(path, "must hold a JSON object with \"matrix\"");
+  if (!doc.is_object())
+    throw FileError(path, "must hold a JSON object with \"matrix\"");
   const auto matrixIt = doc.find("matrix");
   if (matrixIt == doc.end() || !matrixIt->is_array() || matrixIt->size() != 4) {
     throw FileError(path, "needs \"matrix\": 4 rows of 4 numbers");
@@ -51,7 +54,8 @@ TransformFile readTransformFile(const std::string& path, const std::string& expe
   TransformFile transform;
   for (int r = 0; r < 4; ++r) {
     const auto& row = (*matrixIt)[static_cast<std::size_t>(r)];
-    if (!row.is_array() || row.size() != 4) throw FileError(path, "needs \"matrix\": 4 rows of 4 numbers");
+    if (!row.is_array() || row.size() != 4)
+      throw FileError(path, "needs \"matrix\": 4 rows of 4 numbers");
     for (int c = 0; c < 4; ++c) {
       const auto& value = row[static_cast<std::size_t>(c)];
       if (!value.is_number() || !std::isfinite(value.get<double>())) {
@@ -65,29 +69,32 @@ TransformFile readTransformFile(const std::string& path, const std::string& expe
     throw FileError(path, "the matrix's last row must be 0 0 0 1");
   }
   const Eigen::Matrix3d rotation = transform.matrix.topLeftCorner<3, 3>();
-  const double orthogonality = (rotation.transpose() * rotation - Eigen::Matrix3d::Identity())
-                                   .cwiseAbs()
-                                   .maxCoeff();
+  const double orthogonality =
+      (rotation.transpose() * rotation - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();
   if (orthogonality > 1e-6 || rotation.determinant() < 0) {
     throw FileError(path, "the matrix is not a rigid transform (its 3x3 part is not a rotation)");
   }
   for (const char* key : {"from", "to"}) {
     const auto it = doc.find(key);
-    if (it == doc.end()) continue;
-    if (!it->is_string()) throw FileError(path, std::string("\"") + key + "\" must be a string");
+    if (it == doc.end())
+      continue;
+    if (!it->is_string())
+      throw FileError(path, std::string("\"") + key + "\" must be a string");
   }
   transform.from = doc.value("from", "");
   transform.to = doc.value("to", "");
   if (!expectedFrom.empty() && !transform.from.empty() && transform.from != expectedFrom) {
-    throw FileError(path, "expected a " + expectedFrom + "To" + (expectedTo.empty() ? "..." : expectedTo) +
+    throw FileError(path, "expected a " + expectedFrom + "To" +
+                              (expectedTo.empty() ? "..." : expectedTo) +
                               " transform, got \"from\": \"" + transform.from + "\"");
   }
   if (!expectedTo.empty() && !transform.to.empty() && transform.to != expectedTo) {
-    throw FileError(path, "expected a transform to " + expectedTo + ", got \"to\": \"" +
-                              transform.to + "\"");
+    throw FileError(
+        path, "expected a transform to " + expectedTo + ", got \"to\": \"" + transform.to + "\"");
   }
   for (const auto& [key, value] : doc.items()) {
-    if (key != "from" && key != "to" && key != "matrix") transform.extra[key] = value;
+    if (key != "from" && key != "to" && key != "matrix")
+      transform.extra[key] = value;
   }
   return transform;
 }
@@ -98,9 +105,11 @@ std::string slicerTfmText(const Eigen::Matrix4d& matrix) {
   text << "#Insight Transform File V1.0\n#Transform 0\nTransform: AffineTransform_double_3_3\n";
   text << "Parameters:";
   for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) text << " " << fixed(inverse(r, c));
+    for (int c = 0; c < 3; ++c)
+      text << " " << fixed(inverse(r, c));
   }
-  for (int r = 0; r < 3; ++r) text << " " << fixed(inverse(r, 3));
+  for (int r = 0; r < 3; ++r)
+    text << " " << fixed(inverse(r, 3));
   text << "\nFixedParameters: 0 0 0\n";
   return text.str();
 }
@@ -111,13 +120,19 @@ std::string writeTransformFile(const std::string& path, const TransformFile& tra
   doc["from"] = transform.from;
   doc["to"] = transform.to;
   doc["matrix"] = matrixRows(transform.matrix);
-  for (const auto& [key, value] : transform.extra.items()) doc[key] = value;
+  for (const auto& [key, value] : transform.extra.items())
+    doc[key] = value;
   std::string tfmPath;
   // Both files are complete before either is renamed into place.
   AtomicFile json(path);
   json.stream() << doc.dump(2) << "\n";
   if (withTfm) {
     tfmPath = std::filesystem::path(path).replace_extension(".tfm").string();
+    if (tfmPath == path) {
+      throw FileError(path,
+                      "ends in .tfm: the transform JSON and the Slicer .tfm written beside it "
+                      "would be the same file; give the JSON a .json name");
+    }
     AtomicFile tfm(tfmPath);
     tfm.stream() << slicerTfmText(transform.matrix);
     tfm.commit();

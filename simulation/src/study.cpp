@@ -9,6 +9,7 @@
 #include "echoreg/simulation/ct.hpp"
 #include "echoreg/simulation/pulse_echo.hpp"
 #include "echoreg/simulation/tracking.hpp"
+#include "temporary_folder.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -1074,23 +1075,14 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   if (!fs::is_directory(parent, ec)) {
     throw FileError(folder, "its parent folder " + parent.string() + " does not exist");
   }
+  // Sweeps the stale temporary folders of killed runs; this one's is removed on any early end.
+  TemporaryFolder cleanup(target);
   for (const auto& [bone, file] : options.meshFiles) {
     (void)bone;
     if (!fs::is_regular_file(file, ec))
       throw FileError(file, "no such mesh file");
   }
-  const fs::path temporary =
-      parent / (target.filename().string() + ".tmp-" + std::to_string(::getpid()));
-  fs::remove_all(temporary, ec);
-  struct Cleanup {
-    fs::path path;
-    bool keep = false;
-    ~Cleanup() {
-      std::error_code e;
-      if (!keep)
-        fs::remove_all(path, e);
-    }
-  } cleanup{temporary};
+  const fs::path temporary = cleanup.path();
   for (const char* sub : {"", "/ct", "/captures", "/truth", "/truth/captures"}) {
     fs::create_directories(temporary.string() + sub, ec);
     if (ec)
@@ -1267,7 +1259,7 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   fs::rename(temporary, target, ec);
   if (ec)
     throw FileError(folder, "could not be written: " + ec.message());
-  cleanup.keep = true;
+  cleanup.published();
   return summary;
 }
 

@@ -93,6 +93,29 @@ TEST_F(CliLandmarks, MatchesPlusPhantomRegistration) {
   EXPECT_LT((inverse.matrix * written.matrix - Eigen::Matrix4d::Identity()).cwiseAbs().maxCoeff(), 1e-9);
 }
 
+// Issue 15, item 2: PLUS's real tracker poses are orthonormal only to a few 1e-4; pivot and
+// landmarks use them, re-orthonormalised, and say how many were.
+TEST_F(CliLandmarks, RealTrackerPosesAreAcceptedReorthonormalisedAndCounted) {
+  if (!preparePlus())
+    GTEST_SKIP() << "../shared/data/plus is absent: skipping this real-data test";
+  std::vector<std::string> args = plusArgs(dir_.file("PhantomToReference.json"));
+  args.push_back("--json");
+  const auto landmarks = runEchoreg(args);
+  ASSERT_EQ(landmarks.exitCode, 0) << landmarks.err;
+  EXPECT_GT(nlohmann::json::parse(landmarks.out)["poses_reorthonormalised"].get<int>(), 0);
+  EXPECT_NE(landmarks.err.find("StylusToTracker poses re-orthonormalised"), std::string::npos)
+      << landmarks.err;
+
+  // The stylus rests on landmarks rather than pivoting: with no rotation asked for, pivot fits its
+  // poses (it used to refuse them as not rigid).
+  const auto pivot =
+      runEchoreg({"pivot", "--capture", capture_, "--marker", "StylusToTracker", "--min-spread-deg",
+                  "0", "--out", dir_.file("pivot.json"), "--json"});
+  ASSERT_EQ(pivot.exitCode, 0) << pivot.err;
+  EXPECT_GT(nlohmann::json::parse(pivot.out)["poses_reorthonormalised"].get<int>(), 0);
+  EXPECT_NE(pivot.err.find("echoreg pivot: note: " + capture_), std::string::npos) << pivot.err;
+}
+
 TEST_F(CliLandmarks, RefusesWhatCannotBeRegistered) {
   if (!preparePlus()) GTEST_SKIP() << "../shared/data/plus is absent: skipping this real-data test";
   const std::string out = dir_.file("out.json");

@@ -54,6 +54,21 @@ TEST(TransformFile, SlicerTfmHoldsTheInverse) {
   EXPECT_NE(slicerTfmText(m).find("AffineTransform_double_3_3"), std::string::npos);
 }
 
+TEST(TransformFile, AJsonNameEndingInTfmIsRefusedAndNothingWritten) {
+  // Issue 15, item 9: the JSON and the .tfm beside it would be one file.
+  test::TempDir dir;
+  TransformFile t;
+  t.matrix = someRigid();
+  try {
+    writeTransformFile(dir.file("pose.tfm"), t);
+    ADD_FAILURE() << "a .tfm name was accepted for the JSON";
+  } catch (const FileError& e) {
+    EXPECT_EQ(e.path(), dir.file("pose.tfm"));
+    EXPECT_NE(e.problem().find("ends in .tfm"), std::string::npos) << e.problem();
+  }
+  EXPECT_TRUE(std::filesystem::is_empty(dir.path()));
+}
+
 TEST(TransformFile, BadFilesNameTheFileAndTheProblem) {
   test::TempDir dir;
   auto refused = [&](const std::string& text, const std::string& expected,

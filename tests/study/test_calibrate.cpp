@@ -135,6 +135,61 @@ Sequence subset(const Sequence& sequence, std::size_t first, std::size_t count) 
   return out;
 }
 
+// Issue 15, items 4 and 5: a calibration that converged but is implausible (a start 50 mm off
+// that lands on the sphere's far side, a wrong stylus tip, a ball tip of 1 m) is refused by the
+// quality gate and not written; a bad --speed-of-sound is refused rather than replaced.
+TEST_F(Calibrate, QualityGateRefusesImplausibleCalibrationsWritingNothing) {
+  ASSERT_EQ(runEchoreg({"pivot", "--capture", path("captures/stylus_pivot.igs.mha"), "--out",
+                        dir_.file("tip.json")})
+                .exitCode,
+            0);
+  const std::string out = dir_.file("out.json");
+  auto expectRefused = [&](const std::vector<std::string>& args, const std::string& words) {
+    const test::CommandResult r = runEchoreg(args);
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_NE(r.err.find(words), std::string::npos) << "expected \"" << words << "\" in " << r.err;
+    EXPECT_FALSE(fs::exists(out));
+    EXPECT_FALSE(fs::exists(dir_.file("out.tfm")));
+    return r.err;
+  };
+  const std::vector<std::string> good = calibrateArgs(dir_.file("tip.json"), out);
+  // The initial guess 50 mm off along the beam, and absurdly far.
+  std::vector<std::string> farOff = good;
+  farOff[14] = std::to_string(std::stod(farOff[14]) + 50.0);
+  expectRefused(farOff, out + ": not written: the calibration of");
+  std::vector<std::string> absurd = good;
+  absurd[14] = "1e6";
+  expectRefused(absurd, "do not determine");  // refused before the gate: condition number
+  // A ball tip of 1 m (the fit of the stylus points refuses it), and of 2 cm (the gate does).
+  std::vector<std::string> ball = good;
+  ball[10] = "1000";
+  expectRefused(ball, "the stylus points give no sphere");
+  ball[10] = "5";  // 3.5 mm too large: accepted at an RMS of 0.61 mm, 4 mm off along z
+  expectRefused(ball, "the stylus points lie on a sphere of radius");
+  ball[10] = "20";
+  expectRefused(ball, "mm RMS off the sphere (above 1.50 mm): check --stylus-tip-to-stylus");
+  // An identity StylusTipToStylus: the marker's origin, not the tip, on the sphere.
+  TransformFile identity;
+  identity.from = "StylusTip";
+  identity.to = "Stylus";
+  writeTransformFile(dir_.file("identity.json"), identity, false);
+  std::vector<std::string> noTip = calibrateArgs(dir_.file("identity.json"), out);
+  expectRefused(noTip, "mm RMS off the sphere");
+  // The thresholds are the user's: the good calibration, refused under a 0.01 mm RMS limit.
+  std::vector<std::string> strict = good;
+  strict.insert(strict.end(), {"--max-rms", "0.01"});
+  expectRefused(strict, "RMS off the sphere (above 0.01 mm)");
+  // A bad --speed-of-sound is refused, not replaced by the header's.
+  for (const char* speed : {"0", "-1450", "nan", "1e308"}) {
+    std::vector<std::string> bad = good;
+    bad.insert(bad.end(), {"--speed-of-sound", speed});
+    expectRefused(bad, "--speed-of-sound must be the bath's speed of sound within 1350-1700 m/s");
+  }
+  // And the good one passes the gate.
+  const test::CommandResult r = runEchoreg(good);
+  EXPECT_EQ(r.exitCode, 0) << r.err;
+}
+
 TEST_F(Calibrate, RefusesBadDataWithoutWritingAnything) {
   ASSERT_EQ(runEchoreg({"pivot", "--capture", path("captures/stylus_pivot.igs.mha"), "--out",
                         dir_.file("tip.json")}).exitCode, 0);

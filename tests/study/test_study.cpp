@@ -10,15 +10,20 @@
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <thread>
 
 namespace echoreg::simulation {
 namespace {
@@ -242,6 +247,56 @@ TEST(SimulateStudy, RefusesBadOutputsAndMeshesLeavingNothing) {
     leftovers += entry.path().filename().string().find(".tmp-") != std::string::npos ? 1 : 0;
   }
   EXPECT_EQ(leftovers, 0);
+}
+
+// Issue 15, item 11: `simulate` interrupted by SIGINT or SIGTERM removes its OUT.tmp-PID folder
+// and ends with the signal; the folders a SIGKILL leaves are swept by the next run.
+TEST(SimulateStudy, SignalsRemoveTheTemporaryFolderAndStaleOnesAreSwept) {
+  test::TempDir dir;
+  StudyOptions options;
+  options.size = StudySize::Small;
+  options.framesPerBone = 20;
+  for (const int number : {SIGINT, SIGTERM}) {
+    const std::string out = dir.file("study-" + std::to_string(number));
+    const pid_t child = fork();
+    ASSERT_GE(child, 0);
+    if (child == 0) {
+      try {
+        generateStudy(options, out);
+      } catch (...) {
+        _exit(3);
+      }
+      _exit(0);
+    }
+    const std::string temporary = out + ".tmp-" + std::to_string(child);
+    for (int waited = 0; waited < 60000 && !fs::exists(temporary + "/ct"); ++waited) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    ASSERT_TRUE(fs::exists(temporary)) << "the child never started writing";
+    kill(child, number);
+    int status = 0;
+    ASSERT_EQ(waitpid(child, &status, 0), child);
+    EXPECT_TRUE(WIFSIGNALED(status) && WTERMSIG(status) == number) << "status " << status;
+    EXPECT_FALSE(fs::exists(temporary)) << "signal " << number;
+    EXPECT_FALSE(fs::exists(out));
+  }
+
+  // A SIGKILLed run's folder (its process gone) is swept; a running process's is kept.
+  const pid_t gone = fork();
+  ASSERT_GE(gone, 0);
+  if (gone == 0)
+    _exit(0);
+  waitpid(gone, nullptr, 0);
+  const std::string out = dir.file("study");
+  const std::string stale = out + ".tmp-" + std::to_string(gone);
+  fs::create_directories(stale + "/ct");
+  std::ofstream(stale + "/ct/slice.dcm") << "12 MB of a killed run";
+  const std::string running = out + ".tmp-1";  // init runs
+  fs::create_directories(running);
+  options.meshFiles[BoneId::Femur] = dir.file("no-such-femur.stl");  // fails right after the sweep
+  EXPECT_THROW(generateStudy(options, out), FileError);
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::exists(running));
 }
 
 }  // namespace

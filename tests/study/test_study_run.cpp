@@ -12,6 +12,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <iterator>
 #include <map>
 #include <string>
 
@@ -100,6 +102,29 @@ TEST(StudyRun, RunsTheWholeStudyThenOnlyWhatAChangeAffects) {
   for (const char* id : {"calibrate", "detect-femur-1", "register-femur-ultrasound-1"}) {
     EXPECT_EQ(third.at(id), "ran") << id;
   }
+
+  // 4. Issue 15, item 10: damaged results are not trusted. A truncated registration JSON and an
+  // emptied points CSV are rebuilt (byte-identical), and only their steps run again.
+  const auto slurp = [](const std::string& path) {
+    std::ifstream in(path, std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  };
+  const std::string registration = study + "/results/registrations/femur_ultrasound_1.json";
+  const std::string points = study + "/results/points/femur_ultrasound_1.csv";
+  const std::string registrationBytes = slurp(registration), pointsBytes = slurp(points);
+  fs::resize_file(registration, registrationBytes.size() / 2);
+  std::ofstream(points, std::ios::trunc).close();
+  r = runEchoreg({"study", "run", study});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto fourth = stepStatuses(readJson(study + "/results/results.json"));
+  EXPECT_EQ(fourth.at("detect-femur-1"), "ran");
+  EXPECT_EQ(fourth.at("register-femur-ultrasound-1"), "ran");
+  for (const char* id : {"pivot-stylus", "calibrate", "detect-tibia-1",
+                         "register-tibia-ultrasound-1", "register-femur-mechanical"}) {
+    EXPECT_EQ(fourth.at(id), "up to date") << id;
+  }
+  EXPECT_EQ(slurp(registration), registrationBytes);
+  EXPECT_EQ(slurp(points), pointsBytes);
 }
 
 TEST(StudyRun, FailuresNameTheStepAndTheFile) {
@@ -129,6 +154,88 @@ TEST(StudyRun, FailuresNameTheStepAndTheFile) {
   EXPECT_NE(r.err.find("transducer calibration"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("calibration_shots.igs.mha"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::is_regular_file(study + "/results/report.md"));
+}
+
+// Issue 15, item 5: a manifest value of the wrong type, no bones or an unknown version is
+// refused before any step runs (nothing written), naming the value as the file spells it.
+TEST(StudyRun, RefusesManifestsWithWrongValuesBeforeAnyStep) {
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  const nlohmann::json good = readJson(fixture + "/study.json");
+  const std::vector<std::pair<std::function<void(nlohmann::json&)>, std::string>> cases{
+      {[](nlohmann::json& m) { m["detection"]["speed_of_sound_mps"] = "1450"; },
+       "detection.speed_of_sound_mps must be a number > 0, got \"1450\""},
+      {[](nlohmann::json& m) {
+         m["calibration"]["window_mm"] = {1, 2, 3};
+       },
+       "calibration.window_mm must be [MIN, MAX] in mm, got [1,2,3]"},
+      {[](nlohmann::json& m) { m["calibration"]["initial_beam_to_probe_mm"] = "26 1 197"; },
+       "calibration.initial_beam_to_probe_mm must be [X, Y, Z] in mm"},
+      {[](nlohmann::json& m) { m["bones"]["femur"]["ultrasound"] = "captures/femur.igs.mha"; },
+       "bones.femur.ultrasound must be a list of capture file names"},
+      {[](nlohmann::json& m) {
+         m["landmarks"]["order"] = {"a", 2};
+       },
+       "landmarks.order must be a list of landmark names"},
+      {[](nlohmann::json& m) { m["bones"] = nlohmann::json::object(); }, "names no bones"},
+      {[](nlohmann::json& m) { m.erase("bones"); }, "names no bones"},
+      {[](nlohmann::json& m) { m["version"] = 99; },
+       "\"version\": 99 is not a manifest version this echoreg reads (1)"}};
+  for (const auto& [spoil, words] : cases) {
+    test::TempDir dir;
+    nlohmann::json manifest = good;
+    spoil(manifest);
+    std::ofstream(dir.file("study.json")) << manifest.dump(2);
+    const test::CommandResult r = runEchoreg({"study", "run", dir.path()});
+    EXPECT_EQ(r.exitCode, 1) << r.err;
+    EXPECT_NE(r.err.find(dir.file("study.json") + ": " + words), std::string::npos)
+        << "expected \"" << words << "\" in " << r.err;
+    EXPECT_FALSE(fs::exists(dir.file("results"))) << words;
+  }
+}
+
+// Issue 15, item 6: a study whose requested results are missing (a registration skipped for a
+// capture the folder lacks, one failed on a negative tip radius) exits 1 and says which, in the
+// report and on stderr, and no longer blames "an earlier step" when none failed.
+TEST(StudyRun, MissingRequestedResultsFailTheStudyAndAreNamed) {
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  test::TempDir dir;
+  const std::string study = dir.file("study");
+  fs::copy(fixture, study, fs::copy_options::recursive);
+  fs::remove_all(study + "/results");
+  nlohmann::json manifest = readJson(study + "/study.json");
+  const std::string mechanical = manifest["bones"]["femur"]["mechanical"].get<std::string>();
+  fs::remove(study + "/" + mechanical);
+  manifest["bones"]["tibia"]["mechanical_tip_radius_mm"] = -1.0;
+  std::ofstream(study + "/study.json") << manifest.dump(2);
+
+  const test::CommandResult r = runEchoreg({"study", "run", study, "--given-models"});
+  EXPECT_EQ(r.exitCode, 1) << r.err;
+  EXPECT_NE(r.out.find("study incomplete: report in"), std::string::npos) << r.out;
+  EXPECT_NE(r.err.find("2 requested results are missing"), std::string::npos) << r.err;
+  EXPECT_NE(
+      r.err.find("femur registration from the mechanical probe (reference) (skipped: " + study +
+                 "/" + mechanical + " is missing (the study folder does not hold it))"),
+      std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("tibia registration from the mechanical probe (reference) (failed: "),
+            std::string::npos)
+      << r.err;
+  EXPECT_NE(r.err.find("--stylus-tip-radius"), std::string::npos) << r.err;
+  EXPECT_EQ(r.err.find("an earlier step failed"), std::string::npos) << r.err;
+  const nlohmann::json results = readJson(study + "/results/results.json");
+  EXPECT_EQ(results.at("missing").size(), 2u);
+  const auto statuses = stepStatuses(results);
+  EXPECT_EQ(statuses.at("register-femur-mechanical"), "skipped");
+  EXPECT_EQ(statuses.at("register-tibia-mechanical"), "FAILED");
+  EXPECT_EQ(statuses.at("register-femur-ultrasound-1"), "ran");
+  std::ifstream in(study + "/results/report.md");
+  const std::string report(std::istreambuf_iterator<char>(in), {});
+  EXPECT_NE(report.find("The study is incomplete: 2 requested results are missing"),
+            std::string::npos);
 }
 
 }  // namespace

@@ -25,7 +25,8 @@ TransformFile readTransformFile(const std::string& path, const std::string& expe
                                 const std::string& expectedTo = "");
 
 /// Writes the JSON (atomically) and, when `withTfm`, the `.tfm` beside it (same name with the
-/// extension replaced). Returns the .tfm path ("" when not written).
+/// extension replaced). Returns the .tfm path ("" when not written). Throws FileError, writing
+/// nothing, when `path` itself ends in .tfm (the two would be one file).
 std::string writeTransformFile(const std::string& path, const TransformFile& transform,
                                bool withTfm = true);
 
