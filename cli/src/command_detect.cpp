@@ -1,6 +1,7 @@
 // `echoreg detect CAPTURE --out depths.csv`: the A-line chain over a capture.
 #include "commands.hpp"
 #include "path_check.hpp"
+#include "pose_check.hpp"
 
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
@@ -354,7 +355,8 @@ void writeCsv(const SequenceDetection& detection, bool withPoints, const std::st
 }
 
 nlohmann::json summary(const SequenceDetection& detection, const DetectionParams& params,
-                       const DetectOptions& options, const std::string& preset) {
+                       const DetectOptions& options, const std::string& preset,
+                       int posesReorthonormalised) {
   nlohmann::json rejected = nlohmann::json::object();
   for (const auto& [reason, count] : detection.rejectedByReason)
     rejected[reason] = count;
@@ -379,7 +381,8 @@ nlohmann::json summary(const SequenceDetection& detection, const DetectionParams
           {"shadow_rule", detection.analysis.shadowRule},
           {"shadow_share", detection.analysis.shadowShare},
           {"envelope_window_samples", detection.analysis.envelopeWindowSamples},
-          {"warnings", detectionWarnings(detection)}};
+          {"warnings", detectionWarnings(detection)},
+          {"poses_reorthonormalised", posesReorthonormalised}};
 }
 
 }  // namespace
@@ -425,7 +428,9 @@ CommandAction addDetectCommand(CLI::App& app) {
     TunableSettings settings = o->settings;
     if (!o->paramsFile.empty())
       mergeParamsFile(o->paramsFile, preset, settings);
-    const Sequence sequence = readSequence(o->capture);
+    PoseNotes poseNotes;
+    const Sequence sequence = readTrackedSequence(o->capture, {o->pose, o->reference}, poseNotes);
+    poseNotes.print(io.err, "detect");
     const DetectionParams params = [&] {
       try {
         return resolveParams(preset, settings, sequence);
@@ -455,7 +460,9 @@ CommandAction addDetectCommand(CLI::App& app) {
       io.err << "echoreg detect: warning: " << warning << "\n";
     }
     if (o->json) {
-      io.out << summary(detection, detection.params, *o, preset).dump(2) << "\n";
+      io.out
+          << summary(detection, detection.params, *o, preset, poseNotes.reorthonormalised).dump(2)
+          << "\n";
     } else {
       io.out << fmt::format("{}: {} of {} frames accepted", o->out, detection.accepted,
                             detection.frames.size());

@@ -80,6 +80,34 @@ TEST(CliDetect, AgilentDepthsAgreeWithPlus) {
   EXPECT_GE(withinThreeSamples, 80);
 }
 
+// Issue 12's evidence: only the recording's acquisition facts and PLUS's envelope, no ring-down
+// and no filter flags: the measured ring-down ends before the echo and the inter-signal filters
+// keep a probe that moves.
+TEST(CliDetect, AgilentDepthsAgreeWithPlusWithTheAcquisitionFactsOnly) {
+  ECHOREG_REQUIRE_SHARED_FILE(capture, "plus/Agilent_Scope_Recording_DP310.igs.nrrd");
+  test::TempDir dir;
+  const std::string csv = dir.file("agilent.csv");
+  const auto result = runEchoreg({"detect", capture, "--envelope", "hann", "--envelope-window",
+                                  "153", "--peaks", "max", "--sampling-frequency", "420e6",
+                                  "--delay", "2e-6", "--speed-of-sound", "1480", "--out", csv,
+                                  "--json"});
+  ASSERT_EQ(result.exitCode, 0) << result.err;
+  const auto summary = nlohmann::json::parse(result.out);
+  EXPECT_EQ(summary["ring_down_source"], "measured");
+  const Sequence plus = readSequence(capture);
+  const auto rows = readCsv(csv);
+  ASSERT_EQ(rows.size(), 150U);
+  int within = 0;
+  for (int f = 0; f < 130; ++f) {
+    const auto& row = rows[static_cast<std::size_t>(f)];
+    if (row["status"] != "accepted") continue;
+    const double theirs =
+        plus.frames[static_cast<std::size_t>(f)].transforms.at("ZOffsetToTracker").matrix(2, 3);
+    if (std::fabs(std::stod(row["depth_mm"]) - theirs) <= 0.05) ++within;
+  }
+  EXPECT_EQ(within, 130);
+}
+
 TEST(CliDetect, DemoSweepGivesSpreadConsistentPointsAndSaysWhyFramesWereRejected) {
   test::TempDir dir;
   const std::string capture = dir.file("sweep.igs.mha");
