@@ -207,6 +207,48 @@ std::vector<std::uint8_t> jointLines(const CtImage& image, const VoxelMask& soli
   return out;
 }
 
+// fillHoles (scan ends closed) on the bounding box of the mask grown by one voxel: the same
+// result as on the whole grid (the box's rim is background connected all round), in a fraction
+// of the time when the bones fill a small part of the field of view.
+void fillHolesInBox(VoxelMask& mask, double maxSliceHoleMm2) {
+  const auto& d = mask.geometry.dimensions;
+  Eigen::Vector3i lo(d[0], d[1], d[2]), hi(-1, -1, -1);
+  for (int k = 0; k < d[2]; ++k) {
+    for (int j = 0; j < d[1]; ++j) {
+      const std::uint8_t* row = mask.voxels.data() + mask.geometry.index(0, j, k);
+      for (int i = 0; i < d[0]; ++i) {
+        if (row[i]) {
+          lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
+          hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
+        }
+      }
+    }
+  }
+  if (hi.x() < 0)
+    return;
+  lo = (lo.array() - 1).max(0).matrix();
+  hi = hi.cwiseMin(Eigen::Vector3i(d[0] - 1, d[1] - 1, d[2] - 1)) + Eigen::Vector3i::Ones();
+  hi = hi.cwiseMin(Eigen::Vector3i(d[0] - 1, d[1] - 1, d[2] - 1));
+  VoxelMask box;
+  box.geometry.dimensions = {hi.x() - lo.x() + 1, hi.y() - lo.y() + 1, hi.z() - lo.z() + 1};
+  box.geometry.pixelSpacingMm = mask.geometry.pixelSpacingMm;
+  box.voxels.assign(box.geometry.voxelCount(), 0);
+  const auto& b = box.geometry.dimensions;
+  for (int k = 0; k < b[2]; ++k) {
+    for (int j = 0; j < b[1]; ++j) {
+      std::copy_n(mask.voxels.data() + mask.geometry.index(lo.x(), lo.y() + j, lo.z() + k), b[0],
+                  box.voxels.data() + box.geometry.index(0, j, k));
+    }
+  }
+  fillHoles(box, maxSliceHoleMm2, true);
+  for (int k = 0; k < b[2]; ++k) {
+    for (int j = 0; j < b[1]; ++j) {
+      std::copy_n(box.voxels.data() + box.geometry.index(0, j, k), b[0],
+                  mask.voxels.data() + mask.geometry.index(lo.x(), lo.y() + j, lo.z() + k));
+    }
+  }
+}
+
 struct Component {
   std::uint32_t parent;
   int peakLevel;
@@ -342,7 +384,7 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
   }
   report(options, 0.1, "fill");
   VoxelMask solid = result.threshold;
-  fillHoles(solid, options.maxSliceHoleMm2, true);
+  fillHolesInBox(solid, options.maxSliceHoleMm2);
   for (std::size_t s = 0; s < seeds.size(); ++s) {
     const Eigen::Vector3i& q = seedVoxels[s];
     if (!solid.at(q.x(), q.y(), q.z())) {
@@ -654,7 +696,7 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
       if (!piece.at(seedVoxels[s].x(), seedVoxels[s].y(), seedVoxels[s].z()))
         piece = unite(piece, connectedComponent(mine, seedVoxels[s]));
     }
-    fillHoles(piece, options.maxSliceHoleMm2, true);
+    fillHolesInBox(piece, options.maxSliceHoleMm2);
     for (std::size_t i = 0; i < label.size(); ++i) {
       if (piece.voxels[i] && label[i] >= 0 && label[i] != static_cast<std::int16_t>(b))
         piece.voxels[i] = 0;  // the fill does not take another bone's voxels
