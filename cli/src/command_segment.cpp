@@ -331,7 +331,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     nlohmann::json seedsJson = nlohmann::json::array();
     nlohmann::json bonesJson = nlohmann::json::array();
     region = seg::emptyMask(volume);
-    exclude = bones.unnamed;
+    exclude = seg::unite(bones.unnamed, bones.metalMask);
     for (const seg::SegmentedBone& b : bones.bones) {
       const bool target = isTarget(o, b.bone);
       for (std::size_t s = 0; s < b.seedsLps.size(); ++s) {

@@ -296,8 +296,9 @@ std::string implausibleBone(const std::string& bone, double volumeMm3,
   return {};
 }
 
-CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<BoneSeed>& seeds,
-                                      const CompetingOptions& options) {
+// The work, on a grid that holds every bone voxel (see segmentCompetingBones).
+static CompetingResult segmentOnGrid(const CtImage& image, const std::vector<BoneSeed>& seeds,
+                                     const CompetingOptions& options) {
   if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount())
     throw std::invalid_argument("the CT image is empty");
   if (!image.uniform())
@@ -348,6 +349,7 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
   // 1. Threshold, metal out, marrow filled (scan ends closed).
   report(options, 0.0, "threshold");
   result.threshold = thresholdBone(image, options.threshold);
+  result.metalMask = emptyMask(image);
   {
     std::vector<std::uint8_t> metal(image.hu.size(), 0);
     bool any = false;
@@ -370,6 +372,7 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
         sum[label[v]] += Eigen::Vector3d(i, j, k);
         maxHu[label[v]] = std::max(maxHu[label[v]], static_cast<int>(image.hu[v]));
         result.threshold.voxels[v] = 0;
+        result.metalMask.voxels[v] = 1;
       }
       for (std::size_t c = 1; c < sizes.size(); ++c) {
         if (static_cast<double>(sizes[c]) * voxelMm3 < options.minMetalMm3)
@@ -546,7 +549,7 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
   }
   for (std::uint32_t c = 0; c < comps.size(); ++c) {
     if (comps[c].parent == c && comps[c].bone < 0)
-      autoMarkers.push_back(comps[c].peakVoxel);
+      autoMarkers.push_back(comps[c].peakVoxel);  // a bone of its own, whatever its size
   }
   compOf.clear();
   compOf.shrink_to_fit();
@@ -804,6 +807,95 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
     }
   }
   report(options, 1.0, "bones");
+  return result;
+}
+
+CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<BoneSeed>& seeds,
+                                      const CompetingOptions& options) {
+  if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount() || !image.uniform() ||
+      seeds.empty())
+    return segmentOnGrid(image, seeds, options);  // its errors
+  // Everything happens on the box of the bone voxels (plus a margin of 2): the distance map,
+  // the hills, the flood and the masks cost the bones' size, not the field of view's.
+  const VoxelMask bone = thresholdBone(image, options.threshold);
+  const auto& d = image.dimensions;
+  Eigen::Vector3i lo(d[0], d[1], d[2]), hi(-1, -1, -1);
+  for (int k = 0; k < d[2]; ++k) {
+    for (int j = 0; j < d[1]; ++j) {
+      const std::uint8_t* row = bone.voxels.data() + image.index(0, j, k);
+      for (int i = 0; i < d[0]; ++i) {
+        if (row[i]) {
+          lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
+          hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
+        }
+      }
+    }
+  }
+  const Eigen::Vector3i last(d[0] - 1, d[1] - 1, d[2] - 1);
+  if (hi.x() < 0 || ((lo.array() <= 2).all() && (hi.array() >= last.array() - 2).all()))
+    return segmentOnGrid(image, seeds, options);
+  lo = (lo.array() - 2).max(0).matrix();
+  hi = (hi.array() + 2).min(last.array()).matrix();
+  // A seed inside the image but outside the box is in no bone: say why on the whole image.
+  for (const BoneSeed& s : seeds) {
+    const Eigen::Vector3d v = image.lpsToVoxel(s.pointLps);
+    const Eigen::Vector3i q(static_cast<int>(std::lround(v.x())),
+                            static_cast<int>(std::lround(v.y())),
+                            static_cast<int>(std::lround(v.z())));
+    const bool inImage =
+        s.pointLps.allFinite() && q.minCoeff() >= 0 && q.x() < d[0] && q.y() < d[1] && q.z() < d[2];
+    if (!inImage)
+      return segmentOnGrid(image, seeds, options);  // the outside-the-volume message
+    if ((q.array() < lo.array()).any() || (q.array() > hi.array()).any()) {
+      throw std::invalid_argument(
+          fmt::format("{} ({})", notInBone(image, bone, q, s.pointLps, options.threshold), s.bone));
+    }
+  }
+  CtImage box;
+  box.dimensions = {hi.x() - lo.x() + 1, hi.y() - lo.y() + 1, hi.z() - lo.z() + 1};
+  box.direction = image.direction;
+  box.pixelSpacingMm = image.pixelSpacingMm;
+  box.originMm = image.voxelToLps(lo.cast<double>());
+  for (int k = lo.z(); k <= hi.z(); ++k)
+    box.slicePositionsMm.push_back(image.slicePositionsMm[sz(k)] -
+                                   image.slicePositionsMm[sz(lo.z())]);
+  box.groups = {{0, box.dimensions[2], box.dimensions[2] > 1 ? image.spacingMm().z() : 0.0}};
+  box.seriesInstanceUid = image.seriesInstanceUid;
+  box.folder = image.folder;
+  box.hu.resize(box.voxelCount());
+  const auto& b = box.dimensions;
+  for (int k = 0; k < b[2]; ++k) {
+    for (int j = 0; j < b[1]; ++j)
+      std::copy_n(image.hu.data() + image.index(lo.x(), lo.y() + j, lo.z() + k), b[0],
+                  box.hu.data() + box.index(0, j, k));
+  }
+  CompetingResult result = segmentOnGrid(box, seeds, options);
+  // Back on the whole grid.
+  CtImage geometry;  // the image without its HU (emptyMask would copy them)
+  geometry.dimensions = image.dimensions;
+  geometry.originMm = image.originMm;
+  geometry.direction = image.direction;
+  geometry.pixelSpacingMm = image.pixelSpacingMm;
+  geometry.slicePositionsMm = image.slicePositionsMm;
+  geometry.groups = image.groups;
+  geometry.seriesInstanceUid = image.seriesInstanceUid;
+  geometry.folder = image.folder;
+  auto expand = [&](VoxelMask& m) {
+    VoxelMask full;
+    full.geometry = geometry;
+    full.voxels.assign(image.voxelCount(), 0);
+    for (int k = 0; k < b[2]; ++k) {
+      for (int j = 0; j < b[1]; ++j)
+        std::copy_n(m.voxels.data() + box.index(0, j, k), b[0],
+                    full.voxels.data() + image.index(lo.x(), lo.y() + j, lo.z() + k));
+    }
+    m = std::move(full);
+  };
+  expand(result.threshold);
+  expand(result.unnamed);
+  expand(result.metalMask);
+  for (SegmentedBone& s : result.bones)
+    expand(s.mask);
   return result;
 }
 

@@ -143,6 +143,51 @@ TEST(CompetingBones, JointClosedToZero) {
   expectTargets(segmentAndCompare(test::simulatedKnee(v), kAll, kAll, "0 mm joint"));
 }
 
+// A metal plate (3000 HU, 40 x 8 x 3 mm) screwed onto the femur's lateral side: reported as
+// lying on the femur, left out of it, and the femur's model stays on the bone.
+TEST(CompetingBones, MetalIsLeftOutAndReported) {
+  test::SimulatedKnee sim = test::simulatedKnee();
+  const auto seeds = seedsOf(sim, kAll);
+  const simulation::Bone& femur = sim.knee.bone(BoneId::Femur);
+  const core::MeshLocator locator(femur.mesh);
+  // The femur's lateral surface on the line through its seed (+x is medial).
+  const Eigen::Vector3d seed = seeds[0].pointLps;
+  double surfaceX = seed.x();
+  while (locator.inside({surfaceX, seed.y(), seed.z()}))
+    surfaceX -= 0.1;
+  int plate = 0;
+  for (int k = 0; k < sim.ct.dimensions[2]; ++k) {
+    for (int j = 0; j < sim.ct.dimensions[1]; ++j) {
+      for (int i = 0; i < sim.ct.dimensions[0]; ++i) {
+        const Eigen::Vector3d p = sim.ct.voxelToLps(Eigen::Vector3d(i, j, k));
+        if (p.x() <= surfaceX && p.x() > surfaceX - 3.0 && std::abs(p.y() - seed.y()) <= 4.0 &&
+            std::abs(p.z() - seed.z()) <= 20.0) {
+          sim.ct.hu[sim.ct.index(i, j, k)] = 3000;
+          ++plate;
+        }
+      }
+    }
+  }
+  ASSERT_GT(plate, 100);
+  const auto result = segmentation::segmentCompetingBones(sim.ct, seeds);
+  ASSERT_EQ(result.metal.size(), 1u);
+  EXPECT_EQ(result.metal[0].touches, "femur");
+  EXPECT_NEAR(result.metal[0].volumeMm3, plate * sim.ct.spacingMm().prod(), 1.0);
+  EXPECT_NEAR(result.metal[0].centreLps.y(), seed.y(), 1.0);
+  segmentation::VoxelMask others = segmentation::unite(result.unnamed, result.metalMask);
+  for (std::size_t b = 1; b < result.bones.size(); ++b)
+    others = segmentation::unite(others, result.bones[b].mask);
+  const auto surface = segmentation::boneSurface(sim.ct, result.bones[0].mask, &others);
+  segmentation::SurfaceComparisonOptions co;
+  co.zMinMm = sim.kneeZMinMm + 2.0;
+  co.zMaxMm = sim.kneeZMaxMm - 2.0;
+  const auto c = segmentation::compareSurfaces(surface.mesh, femur.mesh, co);
+  std::cout << "[ measured ] femur with a plate: MSD " << c.meanMm << " mm (max " << c.maxMm
+            << "), Dice " << c.dice << "\n";
+  EXPECT_LE(c.meanMm, 0.3);
+  EXPECT_GE(c.dice, 0.97);
+}
+
 std::string thrownMessage(const test::SimulatedKnee& sim,
                           const std::vector<segmentation::BoneSeed>& seeds) {
   try {

@@ -87,6 +87,9 @@ struct CompetingResult {
   VoxelMask unnamed;
   int automaticNeighbours = 0;  ///< markers found without a seed
   std::vector<MetalPiece> metal;
+  /// The metal voxels left out (pieces of minMetalMm3 or more): boneSurface's `exclude` too, so
+  /// an implant's brightness does not pull the surface onto it.
+  VoxelMask metalMask;
   double markerDynamicMm = 0.0, sameBoneDynamicMm = 0.0;  ///< the values used
   double jointSideHu = 0.0, jointDipHu = 0.0;
 };
