@@ -790,11 +790,10 @@ static CompetingResult segmentOnGrid(const CtImage& image, const std::vector<Bon
                                   m.maxHu, lpsText(m.centreLps));
       }
       throw std::invalid_argument(fmt::format(
-          "the {} grown from the seed {} is not a {}: {}. It took in bone that touches it "
-          "without a joint line the CT shows (it borders {} other bone(s) found "
-          "automatically{}{}); "
-          "add a seed in each neighbouring bone (--seed NAME X Y Z), or place anchors "
-          "(--anchors){}",
+          "the {} grown from the seed {} is not a {}: {}. Either the seed lies in another bone, "
+          "or the growth ran into bone that touches it where the CT shows no joint (it borders "
+          "{} bone(s) found automatically{}{}); check the seed, add a seed in each neighbouring "
+          "bone (--seed NAME X Y Z), or place anchors (--anchors){}",
           b.bone, lpsText(b.seedsLps.front()), b.bone, why, touchesAuto,
           touched.empty() ? "" : " and the seeded ",
           [&] {

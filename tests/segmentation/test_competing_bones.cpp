@@ -224,6 +224,19 @@ TEST(CompetingBones, RefusesSeedsItCannotUse) {
   EXPECT_NE(m.find("femur"), std::string::npos) << m;
 }
 
+// The leak guard on a whole segmentation: the femur's seed given as a "patella" grows the femur,
+// which no patella can be: refused, saying what it is, what a patella may be and what to do.
+TEST(CompetingBones, AnImplausibleBoneIsRefused) {
+  const auto& sim = test::simulatedKnee();
+  auto seeds = seedsOf(sim, {BoneId::Femur, BoneId::Tibia});
+  seeds[0].bone = "patella";
+  const std::string m = thrownMessage(sim, seeds);
+  EXPECT_NE(m.find("is not a patella"), std::string::npos) << m;
+  EXPECT_NE(m.find("cm^3 (a patella is at most 60)"), std::string::npos) << m;
+  EXPECT_NE(m.find("mm wide (x) (at most 70)"), std::string::npos) << m;
+  EXPECT_NE(m.find("add a seed in each neighbouring bone"), std::string::npos) << m;
+}
+
 TEST(CompetingBones, ImplausibleBonesAreNamed) {
   EXPECT_EQ(segmentation::implausibleBone("femur", 300e3, {80, 70, 300}), "");
   const std::string why = segmentation::implausibleBone("femur", 722e3, {330, 200, 300});
