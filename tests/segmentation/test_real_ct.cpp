@@ -145,6 +145,20 @@ TEST(RealCt, HipBonesAndSacrumFromOneSeedEach) {
     EXPECT_FALSE(inMask(b->mask, {-44.0, 90.0, 127.91})) << b->bone;
     EXPECT_FALSE(inMask(b->mask, {0.0, 106.5, 145.91})) << b->bone;
   }
+  // The two hip bones alike (a wing split off would show here), and nothing of the pelvis above
+  // the iliac crests (z 175 mm and up: vertebrae only).
+  EXPECT_NEAR(left.volumeMm3, right.volumeMm3, 0.15 * right.volumeMm3);
+  const Eigen::Vector3d crest = ct.lpsToVoxel({0, 0, 175.0});
+  for (const auto* b : {&right, &left, &sacrum}) {
+    std::size_t above = 0;
+    for (int k = static_cast<int>(std::ceil(crest.z())); k < ct.dimensions[2]; ++k) {
+      for (int j = 0; j < ct.dimensions[1]; ++j) {
+        for (int i = 0; i < ct.dimensions[0]; ++i)
+          above += b->mask.at(i, j, k) ? 1u : 0u;
+      }
+    }
+    EXPECT_EQ(above, 0u) << b->bone;
+  }
   // The hip bones stay lateral: none of their voxels within 25 mm of the midline (the sacrum's).
   for (const auto* b : {&right, &left}) {
     std::size_t medial = 0;

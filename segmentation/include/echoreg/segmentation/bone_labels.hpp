@@ -50,7 +50,7 @@ struct CompetingOptions {
   double insideShare = 0.5;
   /// A neighbour found automatically also joins the bone it meets when less than this share of
   /// their boundary looks like a joint (a joint line, or cortex against cortex).
-  double jointShare = 0.2;
+  double jointShare = 0.7;
   /// Metal (implants): voxels at or above this HU, in pieces of at least minMetalMm3, are left out
   /// of every bone and reported.
   double metalHu = 2500.0;
