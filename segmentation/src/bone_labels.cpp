@@ -135,6 +135,12 @@ std::string notInBone(const CtImage& image, const VoxelMask& threshold, const Ei
     else
       open.emplace_back(names[d]);
   }
+  if (walls == 0 && threshold.count() == 0) {
+    return fmt::format(
+        "the seed {} is not in bone: {} HU there, and no voxel of the CT is bone by the threshold "
+        "(>= {:.0f} HU, and >= {:.0f} HU next to it): lower --threshold-hu",
+        lpsText(seedLps), hu, t.strongHu, t.weakHu);
+  }
   if (walls == 0) {
     return fmt::format(
         "the seed {} is not in bone: {} HU there (bone is >= {:.0f} HU, or enclosed by it) and no "

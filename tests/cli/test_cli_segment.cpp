@@ -216,7 +216,8 @@ TEST_F(CliSegment, RefusalsNameTheFileAndWriteNothing) {
   refused({"--auto", "--seed", "-16", "-16", "0", "--mask", out_.file("m.nrrd")},
           "is not in bone: 40 HU");
   // A CT with bone nowhere near the seed's HU: the threshold above every voxel.
-  refused({"--auto", "--seed", "0", "5", "0", "--threshold-hu", "3000", "2500"}, "is not in bone");
+  refused({"--auto", "--seed", "0", "5", "0", "--threshold-hu", "3000", "2500"},
+          "no voxel of the CT is bone by the threshold");
   refused({"--auto", "--seed", "0", "5", "0", "--threshold-hu", "100", "200"}, "WEAK <= STRONG");
   // Two bones' seeds in one bone (on either side of its marrow), and a named seed off the scan.
   refused({"--auto", "--seed", "femur", "0", "5", "0", "--seed", "tibia", "0", "-5", "3"},
