@@ -7,6 +7,7 @@
 //   bench_segmentation [--benchmark_filter=Grow]
 
 #include "echoreg/core/mesh_locator.hpp"
+#include "echoreg/segmentation/bone_labels.hpp"
 #include "echoreg/segmentation/bone_mask.hpp"
 #include "echoreg/segmentation/bone_surface.hpp"
 #include "echoreg/segmentation/contour_surface.hpp"
@@ -115,6 +116,85 @@ void BM_RealCtReadAndGrowPelvis(benchmark::State& state) {
   state.counters["volume_cm3"] = volume / 1000.0;
 }
 BENCHMARK(BM_RealCtReadAndGrowPelvis)->Unit(benchmark::kMillisecond)->Iterations(2);
+
+// The four bones of the simulated knee against each other, one seed each.
+void BM_CompetingKneeBones(benchmark::State& state) {
+  const auto& sim = test::simulatedKnee();
+  std::vector<segmentation::BoneSeed> seeds;
+  for (const auto& bone : sim.knee.bones) {
+    const auto box = core::bounds(bone.mesh);
+    const double z = bone.id == simulation::BoneId::Femur || bone.id == simulation::BoneId::Patella
+                         ? std::min(sim.kneeZMaxMm, box[1].z()) - 8.0
+                         : std::max(sim.kneeZMinMm, box[0].z()) + 8.0;
+    seeds.push_back(
+        {std::string(simulation::boneName(bone.id)), *test::insidePointNearCentroid(bone.mesh, z)});
+  }
+  for (auto _ : state)
+    benchmark::DoNotOptimize(segmentation::segmentCompetingBones(sim.ct, seeds));
+  state.counters["voxels"] = static_cast<double>(sim.ct.voxelCount());
+}
+BENCHMARK(BM_CompetingKneeBones)->Unit(benchmark::kMillisecond);
+
+// A leg-sized CT of 512 x 512 x N voxels of 0.5 mm (N = the argument; the size is 1000):
+// a femur (cylinder of 4 mm cortex around marrow, radius 15 mm) standing 1 mm above a tibia, a
+// fibula touching the tibia and a patella (sphere) touching the femur, in 40 HU tissue with
+// noise. Four seeds.
+segmentation::CtImage legCt(int slices) {
+  segmentation::CtImage ct;
+  ct.dimensions = {512, 512, slices};
+  ct.pixelSpacingMm = {0.5, 0.5};
+  for (int k = 0; k < slices; ++k)
+    ct.slicePositionsMm.push_back(0.5 * k);
+  ct.groups = {{0, slices, 0.5}};
+  ct.hu.resize(ct.voxelCount());
+  const double joint = 0.25 * slices;  // mm
+  std::uint64_t state = 12345;
+  auto noise = [&] {
+    state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+    return static_cast<double>((state >> 33) % 41) - 20.0;
+  };
+  for (int k = 0; k < slices; ++k) {
+    const double z = 0.5 * k;
+    for (int j = 0; j < 512; ++j) {
+      for (int i = 0; i < 512; ++i) {
+        const double x = 0.5 * i - 128.0, y = 0.5 * j - 128.0;
+        double hu = 40.0;
+        auto tube = [&](double cx, double cy, double r, double cortex) {
+          const double d = std::hypot(x - cx, y - cy);
+          if (d <= r)
+            hu = d > r - cortex ? 1500.0 : -60.0;
+        };
+        if (z > joint + 0.5)
+          tube(0.0, 0.0, 15.0, 4.0);  // femur
+        else if (z < joint - 0.5)
+          tube(0.0, 0.0, 15.0, 4.0);  // tibia
+        if (z < joint - 0.5)
+          tube(21.5, 0.0, 6.5, 2.0);  // fibula, touching the tibia
+        const double dp =
+            std::sqrt(x * x + (y + 27.0) * (y + 27.0) + (z - joint - 20.0) * (z - joint - 20.0));
+        if (dp <= 12.0)
+          hu = dp > 10.0 ? 1500.0 : 300.0;  // patella, touching the femur
+        ct.hu[ct.index(i, j, k)] = static_cast<std::int16_t>(hu + noise());
+      }
+    }
+  }
+  return ct;
+}
+
+void BM_CompetingLegBones(benchmark::State& state) {
+  const int slices = static_cast<int>(state.range(0));
+  const segmentation::CtImage ct = legCt(slices);
+  const double joint = 0.25 * slices;
+  const std::vector<segmentation::BoneSeed> seeds = {
+      {"femur", {128.0, 128.0, joint + 40.0}},
+      {"tibia", {128.0, 128.0, joint - 40.0}},
+      {"fibula", {128.0 + 21.5, 128.0, joint - 40.0}},
+      {"patella", {128.0, 128.0 - 27.0, joint + 20.0}}};
+  for (auto _ : state)
+    benchmark::DoNotOptimize(segmentation::segmentCompetingBones(ct, seeds));
+  state.counters["voxels"] = static_cast<double>(ct.voxelCount());
+}
+BENCHMARK(BM_CompetingLegBones)->Arg(200)->Arg(1000)->Unit(benchmark::kMillisecond)->Iterations(1);
 
 }  // namespace
 

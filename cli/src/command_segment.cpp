@@ -10,6 +10,7 @@
 #include "echoreg/core/mesh.hpp"
 #include "echoreg/filters/MeshIO.h"
 #include "echoreg/segmentation/accessible_surface.hpp"
+#include "echoreg/segmentation/bone_labels.hpp"
 #include "echoreg/segmentation/bone_mask.hpp"
 #include "echoreg/segmentation/bone_surface.hpp"
 #include "echoreg/segmentation/contour_surface.hpp"
@@ -22,6 +23,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <memory>
@@ -38,7 +40,8 @@ struct SegmentOptions {
   std::string dicom, bone, anchors, out, mask, plane = "sagittal", series, anchorsOut;
   std::string accessibleOut, keepRegions;
   bool automatic = false, withFibula = false, noRefine = false, json = false;
-  std::vector<double> seeds;
+  std::vector<std::string> seedTokens;  // [BONE] X Y Z per --seed
+  std::string method = "watershed";
   int slices = 40;
   double isoHu = 0.0;
   std::vector<double> thresholdHu;  // STRONG WEAK
@@ -113,19 +116,73 @@ int majorityGroup(const seg::CtImage& ct, const std::vector<Eigen::Vector3d>& po
   return best;
 }
 
+bool isNumber(const std::string& s) {
+  char* end = nullptr;
+  std::strtod(s.c_str(), &end);
+  return !s.empty() && end == s.c_str() + s.size();
+}
+
+// The --seed tokens as seeds: "X Y Z" (the bone of --bone) or "BONE X Y Z". For tibia+fibula the
+// unnamed seeds are the tibia's and the fibula's. Throws CLI::ValidationError.
+std::vector<seg::BoneSeed> parseSeeds(const SegmentOptions& o) {
+  std::vector<seg::BoneSeed> seeds;
+  const bool tibiaFibula = o.withFibula || o.bone == "tibia+fibula";
+  int unnamed = 0;
+  for (std::size_t t = 0; t < o.seedTokens.size();) {
+    seg::BoneSeed seed;
+    if (!isNumber(o.seedTokens[t])) {
+      seed.bone = o.seedTokens[t++];
+    } else if (tibiaFibula) {
+      seed.bone = unnamed == 0   ? "tibia"
+                  : unnamed == 1 ? "fibula"
+                                 : fmt::format("tibia+fibula#{}", unnamed + 1);
+      ++unnamed;
+    } else {
+      seed.bone = o.bone;
+    }
+    for (int c = 0; c < 3; ++c, ++t) {
+      if (t >= o.seedTokens.size() || !isNumber(o.seedTokens[t])) {
+        throw CLI::ValidationError("--seed",
+                                   "takes [BONE] X Y Z (LPS mm), e.g. --seed femur -95 25 -445");
+      }
+      seed.pointLps[c] = std::strtod(o.seedTokens[t].c_str(), nullptr);
+    }
+    seeds.push_back(seed);
+  }
+  return seeds;
+}
+
+// Whether a seed's bone is part of the model asked for (--bone; tibia+fibula: both).
+bool isTarget(const SegmentOptions& o, const std::string& bone) {
+  const bool tibiaFibula = o.withFibula || o.bone == "tibia+fibula";
+  if (tibiaFibula)
+    return bone == "tibia" || bone == "fibula" || bone.rfind("tibia+fibula", 0) == 0;
+  return bone == o.bone;
+}
+
 // Wrong usage (exit 2), checked while parsing.
 void checkUsage(const SegmentOptions& o) {
   if (o.automatic == !o.anchors.empty()) {
     throw CLI::ValidationError("--anchors / --auto",
                                "give exactly one of --anchors FILE and --auto --seed X Y Z");
   }
-  if (o.automatic && (o.seeds.empty() || o.seeds.size() % 3 != 0)) {
-    throw CLI::ValidationError("--seed", "--auto needs --seed X Y Z (once per bone)");
+  if (o.automatic && o.seedTokens.empty()) {
+    throw CLI::ValidationError("--seed", "--auto needs --seed [BONE] X Y Z (once per bone)");
   }
-  if (!o.automatic && !o.seeds.empty())
+  if (!o.automatic && !o.seedTokens.empty())
     throw CLI::ValidationError("--seed", "--seed goes with --auto");
+  const std::vector<seg::BoneSeed> seeds = parseSeeds(o);
+  std::size_t targets = 0;
+  for (const auto& s : seeds)
+    targets += isTarget(o, s.bone) ? 1u : 0u;
+  if (o.automatic && targets == 0) {
+    throw CLI::ValidationError("--seed",
+                               fmt::format("no seed of the bone to model (--bone {}): give "
+                                           "--seed {} X Y Z, or --seed X Y Z",
+                                           o.bone, o.bone));
+  }
   const bool tibiaFibula = o.withFibula || o.bone == "tibia+fibula";
-  if (o.automatic && tibiaFibula && o.seeds.size() < 6) {
+  if (o.automatic && tibiaFibula && targets < 2) {
     throw CLI::ValidationError(
         "--seed",
         "--bone tibia+fibula with --auto needs two seeds: --seed (tibia) --seed (fibula)");
@@ -189,24 +246,30 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   timings["read_s"] = secondsSince(t0);
 
   // 2. The protocol group to segment in.
-  std::vector<Eigen::Vector3d> seeds;
-  for (std::size_t i = 0; i + 2 < o.seeds.size(); i += 3)
-    seeds.emplace_back(o.seeds[i], o.seeds[i + 1], o.seeds[i + 2]);
+  const std::vector<seg::BoneSeed> allSeeds =
+      o.automatic ? parseSeeds(o) : std::vector<seg::BoneSeed>{};
+  std::vector<seg::BoneSeed> targetSeeds;
+  for (const auto& s : allSeeds) {
+    if (isTarget(o, s.bone))
+      targetSeeds.push_back(s);
+  }
   int group = 0;
   if (o.automatic) {
-    group = seg::groupContaining(ct, seeds.front());
-    if (group < 0) {
-      throw FileError(
-          o.dicom, fmt::format("the seed ({:.1f}, {:.1f}, {:.1f}) mm lies outside the CT's slices "
-                               "(or in a gap between its slice groups)",
-                               seeds.front().x(), seeds.front().y(), seeds.front().z()));
+    for (const auto& s : allSeeds) {
+      if (seg::groupContaining(ct, s.pointLps) < 0) {
+        throw FileError(o.dicom,
+                        fmt::format("the {} seed ({:.1f}, {:.1f}, {:.1f}) mm lies outside the CT's "
+                                    "slices (or in a gap between its slice groups)",
+                                    s.bone, s.pointLps.x(), s.pointLps.y(), s.pointLps.z()));
+      }
     }
-    for (const auto& s : seeds) {
-      if (seg::groupContaining(ct, s) != group) {
+    group = seg::groupContaining(ct, targetSeeds.front().pointLps);
+    for (const auto& s : allSeeds) {
+      if (seg::groupContaining(ct, s.pointLps) != group) {
         throw FileError(
-            o.dicom, fmt::format("the seeds lie in different slice groups of the CT (seed ({:.1f}, "
-                                 "{:.1f}, {:.1f}) mm); give seeds in one group",
-                                 s.x(), s.y(), s.z()));
+            o.dicom, fmt::format("the seeds lie in different slice groups of the CT (the {} seed "
+                                 "({:.1f}, {:.1f}, {:.1f}) mm); give seeds in one group",
+                                 s.bone, s.pointLps.x(), s.pointLps.y(), s.pointLps.z()));
       }
     }
   } else {
@@ -235,28 +298,86 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   t0 = std::chrono::steady_clock::now();
   seg::VoxelMask region, exclude;
   nlohmann::json modeJson;
-  if (o.automatic) {
+  if (o.automatic && o.method == "erosion") {
     nlohmann::json seedsJson = nlohmann::json::array();
     seg::VoxelMask others;
-    for (std::size_t s = 0; s < seeds.size(); ++s) {
+    if (targetSeeds.size() < allSeeds.size()) {
+      warnings.push_back(
+          "--method erosion grows each seed of the bone alone: the other bones' "
+          "seeds are not used");
+    }
+    for (std::size_t s = 0; s < targetSeeds.size(); ++s) {
       grow.progress = [&](double f, const std::string& stage) {
         progress(fmt::format("seed {}: {}", s + 1, stage), f);
       };
       seg::GrowResult grown;
       try {
-        grown = seg::growBone(volume, seeds[s], grow);
+        grown = seg::growBone(volume, targetSeeds[s].pointLps, grow);
       } catch (const std::invalid_argument& e) {
         throw FileError(o.dicom, e.what());
       }
-      seedsJson.push_back(
-          {{"seed_mm", vec(seeds[s])}, {"seed_hu", grown.seedHu}, {"volume_mm3", grown.volumeMm3}});
+      seedsJson.push_back({{"bone", targetSeeds[s].bone},
+                           {"seed_mm", vec(targetSeeds[s].pointLps)},
+                           {"seed_hu", grown.seedHu},
+                           {"volume_mm3", grown.volumeMm3}});
       region = s == 0 ? grown.mask : seg::unite(region, grown.mask);
       others = s == 0 ? grown.others : seg::unite(others, grown.others);
     }
     exclude = others;  // the other bones, but not the bones asked for
     for (std::size_t i = 0; i < exclude.voxels.size(); ++i)
       exclude.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
-    modeJson = {{"mode", "auto"}, {"seeds", seedsJson}};
+    modeJson = {{"mode", "auto"}, {"method", "erosion"}, {"seeds", seedsJson}};
+  } else if (o.automatic) {
+    seg::CompetingOptions competing;
+    competing.threshold = grow.threshold;
+    competing.progress = [&](double f, const std::string& stage) { progress(stage, f); };
+    seg::CompetingResult bones;
+    try {
+      bones = seg::segmentCompetingBones(volume, allSeeds, competing);
+    } catch (const std::invalid_argument& e) {
+      throw FileError(o.dicom, e.what());
+    }
+    nlohmann::json seedsJson = nlohmann::json::array();
+    nlohmann::json bonesJson = nlohmann::json::array();
+    region = seg::emptyMask(volume);
+    exclude = seg::unite(bones.unnamed, bones.metalMask);
+    for (const seg::SegmentedBone& b : bones.bones) {
+      const bool target = isTarget(o, b.bone);
+      for (std::size_t s = 0; s < b.seedsLps.size(); ++s) {
+        seedsJson.push_back({{"bone", b.bone},
+                             {"seed_mm", vec(b.seedsLps[s])},
+                             {"seed_hu", b.seedHu[s]},
+                             {"volume_mm3", b.volumeMm3},
+                             {"modelled", target}});
+      }
+      bonesJson.push_back({{"bone", b.bone},
+                           {"volume_mm3", b.volumeMm3},
+                           {"extent_mm", vec(b.extentMm)},
+                           {"modelled", target}});
+      seg::VoxelMask& into = target ? region : exclude;
+      into = seg::unite(into, b.mask);
+    }
+    for (std::size_t i = 0; i < exclude.voxels.size(); ++i)
+      exclude.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
+    nlohmann::json metalJson = nlohmann::json::array();
+    for (const seg::MetalPiece& m : bones.metal) {
+      metalJson.push_back({{"centre_mm", vec(m.centreLps)},
+                           {"volume_mm3", m.volumeMm3},
+                           {"max_hu", m.maxHu},
+                           {"touches", m.touches}});
+      warnings.push_back(fmt::format(
+          "metal (an implant?) of {:.0f} mm^3 up to {} HU at ({:.1f}, {:.1f}, {:.1f}) mm{}: left "
+          "out of the bones; the model is not reliable within a few mm of it (streaks)",
+          m.volumeMm3, m.maxHu, m.centreLps.x(), m.centreLps.y(), m.centreLps.z(),
+          m.touches.empty() ? "" : ", on the " + m.touches));
+    }
+    modeJson = {{"mode", "auto"},
+                {"method", "watershed"},
+                {"seeds", seedsJson},
+                {"bones", bonesJson},
+                {"automatic_neighbours", bones.automaticNeighbours},
+                {"marker_dynamic_mm", bones.markerDynamicMm},
+                {"metal", metalJson}};
   } else {
     std::vector<seg::SliceContour> contours;
     nlohmann::json contoursJson = nlohmann::json::array();
@@ -438,8 +559,10 @@ CommandAction addSegmentCommand(CLI::App& app) {
       "Segment one bone of a CT series into a closed surface model in CT patient\n"
       "coordinates (LPS, mm). --anchors: live-wire contours through the anchors of each slice\n"
       "(the dissertation's 40 sagittal slices), filled and interpolated between slices; --auto:\n"
-      "the bone grown from --seed (hysteresis threshold, marrow filled, bones touching at a\n"
-      "joint cut apart by a 2.4 mm erosion). Either region is then refined by the CT itself: the\n"
+      "the bone grown from --seed (hysteresis threshold, marrow filled; bones touching at a\n"
+      "joint grow against each other from their seeds, a watershed of the bone's distance\n"
+      "map, neighbours without a seed found automatically). Either region is then refined by the "
+      "CT itself: the\n"
       "model is the iso-surface half way between cortex and soft tissue inside a band around the\n"
       "region (sub-voxel; --no-refine keeps the region's own smoothed surface). A series of\n"
       "several slice groups (hip 5 mm / knee 1 mm / ankle 5 mm) is segmented in the group of the\n"
@@ -455,10 +578,17 @@ CommandAction addSegmentCommand(CLI::App& app) {
   cmd->add_option("--anchors", o->anchors,
                   "Anchors: Slicer .mrk.json closed curves, or echoreg anchors JSON");
   cmd->add_flag("--auto", o->automatic, "Grow the bone from --seed instead of live-wire contours");
-  cmd->add_option("--seed", o->seeds,
-                  "A point inside the bone X Y Z (LPS mm); repeat for tibia+fibula")
-      ->expected(3)
+  cmd->add_option("--seed", o->seedTokens,
+                  "A point inside a bone: [BONE] X Y Z (LPS mm; without BONE, the bone of --bone). "
+                  "Repeat for every bone that touches it (femur, tibia, fibula, patella; hip, "
+                  "sacrum): they grow against each other and only --bone's seeds make the model")
+      ->expected(3, 4)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
+  cmd->add_option("--method", o->method,
+                  "--auto: watershed (bones compete from their seeds; neighbours without a seed "
+                  "found automatically) or erosion (each seed's bone cut off by --separation-mm)")
+      ->check(CLI::IsMember({"watershed", "erosion"}))
+      ->capture_default_str();
   cmd->add_option("--out", o->out, "Model to write (.vtp or .stl)")->required();
   cmd->add_option("--mask", o->mask,
                   "Write the region's mask as NRRD (uint8, LPS geometry; 3D Slicer opens it)");
@@ -478,7 +608,8 @@ CommandAction addSegmentCommand(CLI::App& app) {
                   "(default 600 200)")
       ->expected(2);
   cmd->add_option("--separation-mm", o->separationMm,
-                  "Radius of the erosion that separates bones touching at a joint, mm (0 = none)")
+                  "--method erosion: radius of the erosion that separates bones touching at a "
+                  "joint, mm, at least 2 voxels (0 = none)")
       ->check(CLI::Range(0.0, 10.0))
       ->capture_default_str();
   cmd->add_option("--iso-hu", o->isoHu,

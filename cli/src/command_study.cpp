@@ -406,15 +406,25 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         run.model = fmt::format("{}/models/{}.vtp", results, bone);
         run.segmented = true;
         std::vector<std::string> args = {"segment", "--dicom", ctFolder, "--bone", bone, "--auto"};
-        for (const auto& seed : seeds) {
-          if (!seed.is_array() || seed.size() != 3) {
-            throw FileError(manifest.dir() + "/study.json", "bones." + bone +
-                                                                ".segment.seeds_ct: "
-                                                                "each seed is [x, y, z]");
+        // The manifest's seeds of every bone compete: this bone's make the model, the others'
+        // keep it out of the bones it touches (a tibia+fibula's second seed is the fibula's).
+        for (const auto& [other, otherEntry] : bones.items()) {
+          const nlohmann::json otherSeeds = manifest.at("/bones/" + other + "/segment/seeds_ct");
+          if (!otherSeeds.is_array())
+            continue;
+          const bool withFibula =
+              manifest.at("/bones/" + other + "/segment/with_fibula") == nlohmann::json(true);
+          for (std::size_t n = 0; n < otherSeeds.size(); ++n) {
+            const auto& seed = otherSeeds[n];
+            if (!seed.is_array() || seed.size() != 3) {
+              throw FileError(manifest.dir() + "/study.json",
+                              "bones." + other + ".segment.seeds_ct: each seed is [x, y, z]");
+            }
+            args.push_back("--seed");
+            args.push_back(withFibula && n == 1 ? std::string("fibula") : other);
+            for (const auto& v : seed)
+              args.push_back(fmt::format("{}", v.get<double>()));
           }
-          args.push_back("--seed");
-          for (const auto& v : seed)
-            args.push_back(fmt::format("{}", v.get<double>()));
         }
         if (manifest.at("/bones/" + bone + "/segment/with_fibula") == nlohmann::json(true)) {
           args.push_back("--with-fibula");

@@ -277,14 +277,19 @@ VoxelMask erode(const VoxelMask& mask, double radiusMm) {
   return out;
 }
 
-void fillHoles(VoxelMask& mask, double maxSliceHoleMm2) {
+std::vector<float> squaredDistanceMm2(const VoxelMask& mask, bool toForeground) {
+  return squaredDistance(mask, toForeground);
+}
+
+void fillHoles(VoxelMask& mask, double maxSliceHoleMm2, bool closedScanEnds) {
   const CtImage& g = mask.geometry;
   const int nx = g.dimensions[0], ny = g.dimensions[1], nz = g.dimensions[2];
   std::vector<std::size_t> border;
   for (int k = 0; k < nz; ++k) {
     for (int j = 0; j < ny; ++j) {
       for (int i = 0; i < nx; ++i) {
-        if (i == 0 || j == 0 || k == 0 || i == nx - 1 || j == ny - 1 || k == nz - 1)
+        const bool end = !closedScanEnds && (k == 0 || k == nz - 1);
+        if (i == 0 || j == 0 || i == nx - 1 || j == ny - 1 || end)
           border.push_back(g.index(i, j, k));
       }
     }
@@ -421,7 +426,10 @@ GrowResult growBone(const CtImage& image, const Eigen::Vector3d& seedLps,
   // nearest one.
   report(options, 0.4, "separate");
   const double step = std::max(spacing.x(), spacing.y());
-  const double radiusMm = options.separationRadiusMm;
+  const double radiusMm =
+      options.separationRadiusMm > 0.0
+          ? std::max(options.separationRadiusMm, options.separationVoxels * spacing.maxCoeff())
+          : 0.0;
   VoxelMask grown;
   if (radiusMm > 0.0) {
     const VoxelMask core = erode(solid, radiusMm);

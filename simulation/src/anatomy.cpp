@@ -1,6 +1,7 @@
 #include "echoreg/simulation/anatomy.hpp"
 
 #include "anatomy_detail.hpp"
+#include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/random.hpp"
 #include "echoreg/simulation/sdf.hpp"
 
@@ -53,10 +54,9 @@ constexpr double kValgusDeg = 6.0;  // femoral shaft to the mechanical axis
 constexpr double kShaftRadiusMm = 14.0;
 constexpr double kShaftAnteriorMm = 12.0;  // femoral shaft axis in front of the notch at the joint
 constexpr double kTibiaPlateauToPlafondMm = 362.0;
-constexpr double kCondyleAboveKneeMm = 1.0;   // distal condyles above the knee centre
-constexpr double kPlateauBelowKneeMm = 2.0;   // tibial plateau below the knee centre
-constexpr double kTibiofibularGapMm = 0.8;    // cartilage gap of both tibiofibular joints
-constexpr double kPatellofemoralGapMm = 4.0;  // cartilage of patella and trochlea
+constexpr double kCondyleAboveKneeMm = 1.0;  // distal condyles above the knee centre
+constexpr double kPlateauBelowKneeMm = 2.0;  // tibial plateau below the knee centre
+constexpr double kTibiofibularGapMm = 0.8;   // cartilage gap of both tibiofibular joints
 constexpr double kFemurCorticalMm = 5.5;
 // The tibia turns about the transepicondylar axis without rolling back; past ~95 degrees its
 // posterior plateau would run into the posterior condyles, and in hyperextension the rigidly
@@ -375,8 +375,10 @@ void transformBone(Bone& bone, const Eigen::Isometry3d& motion) {
 }
 
 /// The patella: an ellipsoid in front of the trochlea, pushed back until it is
-/// kPatellofemoralGapMm from the femur's surface (its vertices, knee-local).
-Bone patellaBone(const Specimen& s, const core::TriangleMesh& femurLocal, double resolutionMm) {
+/// `gapMm` (KneeOptions::patellofemoralGapMm: 4 mm of cartilage of patella and trochlea by
+/// default) from the femur's surface (its vertices, knee-local).
+Bone patellaBone(const Specimen& s, const core::TriangleMesh& femurLocal, double resolutionMm,
+                 double gapMm) {
   const double w = s.femurWidth;
   const Vector3d radii = Vector3d(22.5, 11.0, 22.5) * w;
   const double x = -3.0 * w;
@@ -395,12 +397,12 @@ Bone patellaBone(const Specimen& s, const core::TriangleMesh& femurLocal, double
   };
   double anterior = -150.0;  // far in front: large gap
   double posterior = 0.0;    // inside the femur
-  if (near.empty() || gap(anterior) < kPatellofemoralGapMm) {
+  if (near.empty() || gap(anterior) < gapMm) {
     throw std::logic_error("anatomy: no trochlea found in front of which to place the patella");
   }
   for (int i = 0; i < 50; ++i) {
     const double mid = 0.5 * (anterior + posterior);
-    (gap(mid) >= kPatellofemoralGapMm ? anterior : posterior) = mid;
+    (gap(mid) >= gapMm ? anterior : posterior) = mid;
   }
   const Vector3d centre(x, anterior, z);
   const sdf::Field field = [=](const Vector3d& p) { return sdf::ellipsoid(p, centre, radii); };
@@ -435,6 +437,28 @@ void validate(const KneeOptions& options) {
     if (path.empty())
       throw std::invalid_argument("meshFiles: the femur mesh path is empty");
   }
+  if (!std::isfinite(options.tibiofemoralGapMm) || options.tibiofemoralGapMm > 10.0) {
+    throw std::invalid_argument(
+        "tibiofemoralGapMm must be at most 10 mm (negative: the healthy "
+        "joint), got " +
+        std::to_string(options.tibiofemoralGapMm));
+  }
+  if (!std::isfinite(options.patellofemoralGapMm) || options.patellofemoralGapMm < 0.0 ||
+      options.patellofemoralGapMm > 10.0) {
+    throw std::invalid_argument("patellofemoralGapMm must be within 0 to 10 mm, got " +
+                                std::to_string(options.patellofemoralGapMm));
+  }
+}
+
+// The smallest distance from the tibia's vertices near the joint to the femur's surface.
+double tibiofemoralGap(const core::MeshLocator& femur, const core::TriangleMesh& tibia,
+                       double jointZ) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const Vector3d& v : tibia.vertices) {
+    if (v.z() > jointZ - 25.0)
+      best = std::min(best, femur.closest(v).distance);
+  }
+  return best;
 }
 
 }  // namespace
@@ -602,9 +626,25 @@ Knee buildKnee(const KneeOptions& options) {
   detail::setAxisProfile(fibula, fibulaShape.distal, fibulaShape.head - fibulaShape.distal);
   translate(fibula, knee);
 
+  if (options.tibiofemoralGapMm >= 0.0) {
+    // A narrowed joint: the tibia (and the fibula with it) moves up until its nearest vertex is
+    // the gap from the femur (each step closes what is left; the gap shrinks about as fast as the
+    // tibia moves, since the nearest points face each other along the axis).
+    const core::MeshLocator femurLocator(femur.mesh);
+    for (int step = 0; step < 30; ++step) {
+      const double left =
+          tibiofemoralGap(femurLocator, tibia.mesh, knee.z()) - options.tibiofemoralGapMm;
+      if (std::abs(left) < 0.01)
+        break;
+      const Vector3d move(0.0, 0.0, 0.8 * left);
+      translate(tibia, move);
+      translate(fibula, move);
+    }
+  }
+
   Bone patella = patellaBone(
       specimen, core::transformed(femur.mesh, Eigen::Isometry3d(Eigen::Translation3d(-knee))),
-      resolution);
+      resolution, options.patellofemoralGapMm);
   translate(patella, knee);
 
   Knee result;

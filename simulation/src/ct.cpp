@@ -159,6 +159,8 @@ class Synthesizer {
       hu_[t] = p.hounsfield;
       sigma_[t] = p.hounsfieldSigma * protocol.textureScale;
     }
+    if (std::isfinite(protocol.cancellousHu))
+      hu_[static_cast<std::size_t>(Tissue::CancellousBone)] = protocol.cancellousHu;
     psfKernel_ = gaussianKernel(protocol.psfSigmaMm / protocol.pixelSpacingMm);
     // Autocorrelation exp(-d^2 / L^2) of blurred white noise needs a kernel sigma of L / 2.
     textureKernel_ = gaussianKernel(0.5 * protocol.textureCorrelationMm / protocol.pixelSpacingMm);

@@ -151,6 +151,38 @@ TEST_F(CliSegment, AutoThenAnchorsGiveTheBone) {
   EXPECT_LT(meanRadialError(filters::readMesh(plain)), 0.6);
 }
 
+// Several bones' seeds (--seed BONE X Y Z): they grow against each other, --bone's make the
+// model; the erosion of before stays available (--method erosion) and gives the same bone.
+TEST_F(CliSegment, CompetingSeedsAndTheErosionMethod) {
+  const std::string model = out_.file("bone.vtp"), eroded = out_.file("eroded.vtp");
+  auto r =
+      runEchoreg({"segment", "--dicom", series_, "--bone", "femur", "--auto", "--seed", "femur",
+                  "0", "5", "0", "--seed", "fibula", "17", "0", "0", "--out", model, "--json"});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  auto json = nlohmann::json::parse(r.out);
+  EXPECT_EQ(json["method"], "watershed");
+  ASSERT_EQ(json["bones"].size(), 2u);
+  EXPECT_EQ(json["bones"][0]["bone"], "femur");
+  EXPECT_TRUE(json["bones"][0]["modelled"].get<bool>());
+  EXPECT_EQ(json["bones"][1]["bone"], "fibula");
+  EXPECT_FALSE(json["bones"][1]["modelled"].get<bool>());
+  // The thin bone (radius 4 mm, 30 slices): about pi 16 30 = 1508 mm^3.
+  EXPECT_NEAR(json["bones"][1]["volume_mm3"].get<double>(), 1508.0, 250.0);
+  const double volume = json["surface"]["volume_mm3"];
+  const core::TriangleMesh mesh = filters::readMesh(model);
+  EXPECT_LT(meanRadialError(mesh), 0.1);
+  for (const auto& v : mesh.vertices)
+    EXPECT_LT(v.x(), 12.5);
+
+  r = runEchoreg({"segment", "--dicom", series_, "--bone", "femur", "--auto", "--method", "erosion",
+                  "--seed", "0", "5", "0", "--out", eroded, "--json"});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  json = nlohmann::json::parse(r.out);
+  EXPECT_EQ(json["method"], "erosion");
+  EXPECT_NEAR(json["surface"]["volume_mm3"].get<double>(), volume, 0.01 * volume);
+  EXPECT_LT(meanRadialError(filters::readMesh(eroded)), 0.1);
+}
+
 TEST_F(CliSegment, AccessibleSurfaceAlongAViewDirection) {
   const std::string model = out_.file("bone.vtp"), accessible = out_.file("front.vtp");
   const auto r =
@@ -184,8 +216,14 @@ TEST_F(CliSegment, RefusalsNameTheFileAndWriteNothing) {
   refused({"--auto", "--seed", "-16", "-16", "0", "--mask", out_.file("m.nrrd")},
           "is not in bone: 40 HU");
   // A CT with bone nowhere near the seed's HU: the threshold above every voxel.
-  refused({"--auto", "--seed", "0", "5", "0", "--threshold-hu", "3000", "2500"}, "is not in bone");
+  refused({"--auto", "--seed", "0", "5", "0", "--threshold-hu", "3000", "2500"},
+          "no voxel of the CT is bone by the threshold");
   refused({"--auto", "--seed", "0", "5", "0", "--threshold-hu", "100", "200"}, "WEAK <= STRONG");
+  // Two bones' seeds in one bone (on either side of its marrow), and a named seed off the scan.
+  refused({"--auto", "--seed", "femur", "0", "5", "0", "--seed", "tibia", "0", "-5", "3"},
+          "lie in one bone");
+  refused({"--auto", "--seed", "femur", "0", "5", "0", "--seed", "tibia", "0", "0", "300"},
+          "the tibia seed (0.0, 0.0, 300.0) mm lies outside the CT's slices");
   // Anchors files.
   const std::string notJson = out_.file("bad.mrk.json");
   std::ofstream(notJson) << "{ not json";
@@ -235,7 +273,10 @@ TEST_F(CliSegment, WrongUsageExitsTwo) {
            {"--auto", "--seed", "0", "0", "0", "--with-fibula"},            // one seed, two bones
            {"--auto", "--seed", "0", "0", "0", "--view-direction", "0", "1",
             "0"},  // no --accessible-out
-           {"--auto", "--seed", "0", "0", "0", "--plane", "oblique"}}) {
+           {"--auto", "--seed", "0", "0", "0", "--plane", "oblique"},
+           {"--auto", "--seed", "tibia", "0", "0", "0"},  // no seed of --bone femur
+           {"--auto", "--seed", "femur", "x", "0", "0"},  // not a number
+           {"--auto", "--seed", "0", "0", "0", "--method", "flood"}}) {
     std::vector<std::string> full{"segment", "--dicom", series_, "--bone", "femur", "--out", model};
     full.insert(full.end(), args.begin(), args.end());
     const auto r = runEchoreg(full);

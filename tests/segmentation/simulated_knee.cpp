@@ -11,6 +11,8 @@
 #include <fstream>
 #include <iostream>
 #include <memory>
+#include <utility>
+#include <vector>
 
 namespace echoreg::test {
 
@@ -127,53 +129,81 @@ void saveCache(const std::string& path, const SimulatedKnee& s) {
 
 }  // namespace
 
-const SimulatedKnee& simulatedKnee() {
-  static const std::unique_ptr<SimulatedKnee> shared = [] {
-    const auto start = std::chrono::steady_clock::now();
-    auto s = std::make_unique<SimulatedKnee>();
-    simulation::KneeOptions options;
-    options.seed = 3;
-    options.meshResolutionMm = 1.2;
-    s->knee = simulation::buildKnee(options);
-    const double tKnee =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const std::string cache = cachePath(checksum(s->knee));
-    if (loadCache(cache, *s)) {
-      std::cout << "[ fixture  ] simulated knee CT " << s->ct.dimensions[0] << " x "
-                << s->ct.dimensions[1] << " x " << s->ct.dimensions[2] << " from " << cache
-                << " (bones " << tKnee << " s)\n";
-      return s;
-    }
-    simulation::SoftTissueOptions tissue;
-    tissue.seed = 3;
-    const simulation::Specimen specimen(s->knee, simulation::SpecimenKind::Cadaver, tissue);
-    const double tSpecimen =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    const Eigen::Vector2d centre =
-        (0.5 * (s->knee.hipCentre + s->knee.kneeCentre)).head<2>() * 0.5 +
-        s->knee.kneeCentre.head<2>() * 0.5;
-    simulation::CtProtocol protocol = simulation::smallProtocol(
-        s->knee.hipCentre.z(), s->knee.kneeCentre.z(), s->knee.ankleCentre.z(), centre);
-    // The knee group only, over +-32 mm, on 144 x 144 pixels (115 mm) centred on the knee: every
-    // bone's section fits; the leg's skin lies outside the field of view (as in a tight scan).
-    protocol.groups = {protocol.groups[1]};
-    protocol.groups[0].firstZMm = s->knee.kneeCentre.z() - 32.0;
-    protocol.groups[0].lastZMm = s->knee.kneeCentre.z() + 32.0;
-    protocol.columns = 144;
-    protocol.rows = 144;
-    protocol.centreXYMm = s->knee.kneeCentre.head<2>();
-    const simulation::CtVolume volume = simulation::synthesizeCt(specimen, protocol, 3);
-    s->ct = toCtImage(volume);
-    s->kneeZMinMm = volume.sliceZMm.front();
-    s->kneeZMaxMm = volume.sliceZMm.back();
-    saveCache(cache, *s);
-    std::cout << "[ fixture  ] simulated knee CT " << volume.columns << " x " << volume.rows
-              << " x " << volume.slices() << " in "
-              << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
-              << " s (bones " << tKnee << " s, leg " << tSpecimen - tKnee << " s)\n";
+namespace {
+
+std::unique_ptr<SimulatedKnee> buildSimulatedKnee(const KneeVariant& variant) {
+  const auto start = std::chrono::steady_clock::now();
+  auto s = std::make_unique<SimulatedKnee>();
+  simulation::KneeOptions options;
+  options.seed = 3;
+  options.meshResolutionMm = 1.2;
+  options.tibiofemoralGapMm = variant.tibiofemoralGapMm;
+  options.patellofemoralGapMm = variant.patellofemoralGapMm;
+  s->knee = simulation::buildKnee(options);
+  const double tKnee =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::uint64_t key = checksum(s->knee);
+  if (variant.cancellousHu != 300.0 || variant.halfRangeMm != 32.0) {
+    key = (key ^ static_cast<std::uint64_t>(std::llround(variant.cancellousHu * 16.0 + 65536.0))) *
+          1099511628211ULL;
+    key = (key ^ static_cast<std::uint64_t>(std::llround(variant.halfRangeMm * 16.0))) *
+          1099511628211ULL;
+  }
+  const std::string cache = cachePath(key);
+  if (loadCache(cache, *s)) {
+    std::cout << "[ fixture  ] simulated knee CT " << s->ct.dimensions[0] << " x "
+              << s->ct.dimensions[1] << " x " << s->ct.dimensions[2] << " from " << cache
+              << " (bones " << tKnee << " s)\n";
     return s;
-  }();
+  }
+  simulation::SoftTissueOptions tissue;
+  tissue.seed = 3;
+  const simulation::Specimen specimen(s->knee, simulation::SpecimenKind::Cadaver, tissue);
+  const double tSpecimen =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const Eigen::Vector2d centre = (0.5 * (s->knee.hipCentre + s->knee.kneeCentre)).head<2>() * 0.5 +
+                                 s->knee.kneeCentre.head<2>() * 0.5;
+  simulation::CtProtocol protocol = simulation::smallProtocol(
+      s->knee.hipCentre.z(), s->knee.kneeCentre.z(), s->knee.ankleCentre.z(), centre);
+  // The knee group only, over +-32 mm, on 144 x 144 pixels (115 mm) centred on the knee: every
+  // bone's section fits; the leg's skin lies outside the field of view (as in a tight scan).
+  protocol.groups = {protocol.groups[1]};
+  protocol.groups[0].firstZMm = s->knee.kneeCentre.z() - variant.halfRangeMm;
+  protocol.groups[0].lastZMm = s->knee.kneeCentre.z() + variant.halfRangeMm;
+  protocol.columns = 144;
+  protocol.rows = 144;
+  protocol.centreXYMm = s->knee.kneeCentre.head<2>();
+  if (variant.cancellousHu != 300.0)
+    protocol.cancellousHu = variant.cancellousHu;
+  const simulation::CtVolume volume = simulation::synthesizeCt(specimen, protocol, 3);
+  s->ct = toCtImage(volume);
+  s->kneeZMinMm = volume.sliceZMm.front();
+  s->kneeZMaxMm = volume.sliceZMm.back();
+  saveCache(cache, *s);
+  std::cout << "[ fixture  ] simulated knee CT " << volume.columns << " x " << volume.rows << " x "
+            << volume.slices() << " in "
+            << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
+            << " s (bones " << tKnee << " s, leg " << tSpecimen - tKnee << " s)\n";
+  return s;
+}
+
+}  // namespace
+
+const SimulatedKnee& simulatedKnee() {
+  static const std::unique_ptr<SimulatedKnee> shared = buildSimulatedKnee(KneeVariant{});
   return *shared;
+}
+
+const SimulatedKnee& simulatedKnee(const KneeVariant& variant) {
+  static std::vector<std::pair<KneeVariant, std::unique_ptr<SimulatedKnee>>> built;
+  for (const auto& [v, knee] : built) {
+    if (v.tibiofemoralGapMm == variant.tibiofemoralGapMm &&
+        v.patellofemoralGapMm == variant.patellofemoralGapMm &&
+        v.cancellousHu == variant.cancellousHu && v.halfRangeMm == variant.halfRangeMm)
+      return *knee;
+  }
+  built.emplace_back(variant, buildSimulatedKnee(variant));
+  return *built.back().second;
 }
 
 }  // namespace echoreg::test

@@ -20,7 +20,17 @@ struct SimulatedKnee {
 /// The simulated CT as a CtImage (axial, identity direction, groups from the slice spacing).
 segmentation::CtImage toCtImage(const simulation::CtVolume& volume);
 
+/// A knee other than the shared one: a narrowed joint, a patella on the femur, faint bone.
+struct KneeVariant {
+  double tibiofemoralGapMm = -1.0;  ///< simulation::KneeOptions (negative: healthy, ~3 mm)
+  double patellofemoralGapMm = 4.0;
+  double cancellousHu = 300.0;  ///< the simulator's tissue table's
+  double halfRangeMm = 32.0;    ///< slices over the knee centre +- this
+};
+
 /// The shared knee (built on first use).
 const SimulatedKnee& simulatedKnee();
+/// A variant (built on first use, kept for the program's life).
+const SimulatedKnee& simulatedKnee(const KneeVariant& variant);
 
 }  // namespace echoreg::test

@@ -4,6 +4,7 @@
 // in-plane around it to keep the test short.
 #include "echoreg/core/mesh.hpp"
 #include "echoreg/core/mesh_locator.hpp"
+#include "echoreg/segmentation/bone_labels.hpp"
 #include "echoreg/segmentation/bone_mask.hpp"
 #include "echoreg/segmentation/bone_surface.hpp"
 #include "echoreg/segmentation/dicom_series.hpp"
@@ -37,13 +38,16 @@ segmentation::CtImage crop(const segmentation::CtImage& ct, int i0, int j0, int 
   return out;
 }
 
+// In the sacrum's body (S1), on the midline.
+const Eigen::Vector3d kSacrumSeed(0.0, 158.0, 100.0);
+
 bool inMask(const segmentation::VoxelMask& mask, const Eigen::Vector3d& lps) {
   const Eigen::Vector3d v = mask.geometry.lpsToVoxel(lps);
   return mask.at(static_cast<int>(std::lround(v.x())), static_cast<int>(std::lround(v.y())),
                  static_cast<int>(std::lround(v.z())));
 }
 
-TEST(RealCt, PelvisFromTwoSeeds) {
+TEST(RealCt, PelvisFromTwoSeedsByErosion) {
   ECHOREG_REQUIRE_SHARED_FILE(first, "ct-abdomen/1-001.dcm");
   const auto start = std::chrono::steady_clock::now();
   // The pelvis' part of the slices (x -168 to 169 mm, y -17 to 253 mm): the body's outline stays
@@ -53,10 +57,10 @@ TEST(RealCt, PelvisFromTwoSeeds) {
   ASSERT_TRUE(ct.uniform());
   // Seeds in the right and the left iliac wing (found on the axial slice z = 91.9 mm).
   const Eigen::Vector3d right(-65.5, 133.4, 91.91), left(66.6, 144.2, 91.91);
+  // The defaults: at 3 mm slices the erosion is 2 slices, 6 mm (2.4 mm would leave the
+  // lumbosacral facets and the left sacroiliac joint bridged); it cuts the spine off at L5 / S1
+  // (the thin iliac fossa comes back through the reassignment).
   segmentation::GrowOptions options;
-  // 3 mm slices: the lumbosacral facets and the left sacroiliac joint bridge at 2.4 mm; 6 mm cuts
-  // the spine off at L5 / S1 (the thin iliac fossa comes back through the reassignment).
-  options.separationRadiusMm = 6.0;
   const auto a = segmentation::growBone(ct, right, options);
   const auto b = segmentation::growBone(ct, left, options);
   const auto pelvis = segmentation::unite(a.mask, b.mask);
@@ -95,6 +99,79 @@ TEST(RealCt, PelvisFromTwoSeeds) {
     }
   }
   EXPECT_EQ(above, 0u);
+}
+
+}  // namespace
+
+namespace {
+
+// The watershed with the defaults: each hip bone and the sacrum from one seed each, against each
+// other and against the spine (found automatically).
+TEST(RealCt, HipBonesAndSacrumFromOneSeedEach) {
+  ECHOREG_REQUIRE_SHARED_FILE(first, "ct-abdomen/1-001.dcm");
+  const auto start = std::chrono::steady_clock::now();
+  const segmentation::CtImage ct = crop(
+      segmentation::readDicomSeries(test::sharedDataDir() + "/ct-abdomen"), 100, 150, 314, 252, 40);
+  const std::vector<segmentation::BoneSeed> seeds = {{"right hip", {-65.5, 133.4, 91.91}},
+                                                     {"left hip", {66.6, 144.2, 91.91}},
+                                                     {"sacrum", kSacrumSeed}};
+  const auto result = segmentation::segmentCompetingBones(ct, seeds);
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(result.bones.size(), 3u);
+  for (const auto& b : result.bones) {
+    std::cout << "[ measured ] " << b.bone << ": " << b.volumeMm3 / 1000.0 << " cm^3, extent "
+              << b.extentMm.transpose() << " mm\n";
+  }
+  std::cout << "[ measured ] " << result.automaticNeighbours << " neighbours found automatically; "
+            << seconds << " s\n";
+  const auto& right = result.bones[0];
+  const auto& left = result.bones[1];
+  const auto& sacrum = result.bones[2];
+  // Each hip bone on its own side of the midline, the sacrum between them.
+  for (const auto* b : {&right, &left, &sacrum}) {
+    EXPECT_GT(b->volumeMm3, 40e3) << b->bone;
+    EXPECT_LT(b->volumeMm3, 300e3) << b->bone;
+  }
+  EXPECT_TRUE(inMask(right.mask, {-65.5, 133.4, 91.91}));
+  EXPECT_TRUE(inMask(left.mask, {66.6, 144.2, 91.91}));
+  EXPECT_TRUE(inMask(sacrum.mask, kSacrumSeed));
+  EXPECT_FALSE(inMask(right.mask, {66.6, 144.2, 91.91}));
+  EXPECT_FALSE(inMask(left.mask, {-65.5, 133.4, 91.91}));
+  // Not inside any: gluteal muscle, bowel, psoas, L5.
+  for (const auto* b : {&right, &left, &sacrum}) {
+    EXPECT_FALSE(inMask(b->mask, {-124.6, 144.2, 91.91})) << b->bone;
+    EXPECT_FALSE(inMask(b->mask, {0.0, 60.0, 91.91})) << b->bone;
+    EXPECT_FALSE(inMask(b->mask, {-44.0, 90.0, 127.91})) << b->bone;
+    EXPECT_FALSE(inMask(b->mask, {0.0, 106.5, 145.91})) << b->bone;
+  }
+  // The two hip bones alike (a wing split off would show here), and nothing of the pelvis above
+  // the iliac crests (z 175 mm and up: vertebrae only).
+  EXPECT_NEAR(left.volumeMm3, right.volumeMm3, 0.15 * right.volumeMm3);
+  const Eigen::Vector3d crest = ct.lpsToVoxel({0, 0, 175.0});
+  for (const auto* b : {&right, &left, &sacrum}) {
+    std::size_t above = 0;
+    for (int k = static_cast<int>(std::ceil(crest.z())); k < ct.dimensions[2]; ++k) {
+      for (int j = 0; j < ct.dimensions[1]; ++j) {
+        for (int i = 0; i < ct.dimensions[0]; ++i)
+          above += b->mask.at(i, j, k) ? 1u : 0u;
+      }
+    }
+    EXPECT_EQ(above, 0u) << b->bone;
+  }
+  // The hip bones stay lateral: none of their voxels within 25 mm of the midline (the sacrum's).
+  for (const auto* b : {&right, &left}) {
+    std::size_t medial = 0;
+    for (int k = 0; k < ct.dimensions[2]; ++k) {
+      for (int j = 0; j < ct.dimensions[1]; ++j) {
+        for (int i = 0; i < ct.dimensions[0]; ++i) {
+          if (b->mask.at(i, j, k) && std::abs(ct.voxelToLps(Eigen::Vector3d(i, j, k)).x()) < 25.0)
+            ++medial;
+        }
+      }
+    }
+    EXPECT_EQ(medial, 0u) << b->bone;
+  }
 }
 
 }  // namespace

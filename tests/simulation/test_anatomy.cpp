@@ -448,6 +448,36 @@ TEST(Anatomy, JointSpaceBetweenFemurAndTibia) {
   EXPECT_LE(lateral, 6.0);
 }
 
+// An arthritic knee: the joint narrowed to 1 mm and closed (0 mm), the patella on the trochlea.
+TEST(Anatomy, NarrowedJointAndPatellaOnTheFemur) {
+  for (double gap : {1.0, 0.0}) {
+    KneeOptions options = meanShape(2.0);
+    options.tibiofemoralGapMm = gap;
+    options.patellofemoralGapMm = 0.0;
+    const Knee knee = buildKnee(options);
+    const Bone& femur = knee.bone(BoneId::Femur);
+    const double z = knee.kneeCentre.z();
+    const double tibiaToFemur = minDistance(knee.bone(BoneId::Tibia).mesh, femur.mesh,
+                                            [&](const Vector3d& v) { return v.z() > z - 25; });
+    const double patellaToFemur = minDistance(knee.bone(BoneId::Patella).mesh, femur.mesh,
+                                              [](const Vector3d&) { return true; });
+    std::cout << "[ measure  ] joint " << gap << " mm asked: tibia-femur " << tibiaToFemur
+              << " mm, patella-femur " << patellaToFemur << " mm\n";
+    EXPECT_NEAR(tibiaToFemur, gap, 0.02);
+    EXPECT_LT(patellaToFemur, 0.3);  // placed by its ellipsoid against the femur's vertices
+    // The fibula moved with the tibia: still at its joints, not inside the tibia.
+    EXPECT_GT(minDistance(knee.bone(BoneId::Fibula).mesh, knee.bone(BoneId::Tibia).mesh,
+                          [](const Vector3d&) { return true; }),
+              0.3);
+  }
+  KneeOptions bad = meanShape(2.0);
+  bad.patellofemoralGapMm = -1.0;
+  EXPECT_THROW(buildKnee(bad), std::invalid_argument);
+  bad = meanShape(2.0);
+  bad.tibiofemoralGapMm = 12.0;
+  EXPECT_THROW(buildKnee(bad), std::invalid_argument);
+}
+
 TEST(Anatomy, FibulaTouchesTheTibiaOnlyAtTheTibiofibularJoints) {
   const Knee& knee = meanKnee();
   const Bone& fibula = knee.bone(BoneId::Fibula);

@@ -52,6 +52,9 @@ struct GrowOptions {
   /// the seed's, belongs to that other bone; the seed's bone is the rest connected to the seed.
   /// 0 grows in the plain mask.
   double separationRadiusMm = 2.4;
+  /// The radius is at least this many of the grid's largest spacing (thick slices leave wider
+  /// bridges: 6 mm at 3 mm slices), when separationRadiusMm > 0.
+  double separationVoxels = 2.0;
   /// Marrow and other enclosed background: filled in 3D (not connected to the volume's border)
   /// and per axial slice when the enclosed area is at most this (mm^2; a femoral canal is a few
   /// hundred, a pelvic ring's cavity thousands). 0 fills no per-slice holes.
@@ -90,8 +93,13 @@ VoxelMask erode(const VoxelMask& mask, double radiusMm);
 
 /// Fills enclosed background: 3D (background not 6-connected to the border) and per axial slice
 /// the background regions not 4-connected to the slice's border whose area is at most
-/// `maxSliceHoleMm2` (0: none; infinity: all).
-void fillHoles(VoxelMask& mask, double maxSliceHoleMm2 = 2000.0);
+/// `maxSliceHoleMm2` (0: none; infinity: all). `closedScanEnds`: the first and last slices do
+/// not count as border in 3D, so a marrow canal the scan cuts open is filled too.
+void fillHoles(VoxelMask& mask, double maxSliceHoleMm2 = 2000.0, bool closedScanEnds = false);
+
+/// Squared Euclidean distance (mm^2, the grid's spacings) from every voxel to the nearest
+/// foreground voxel (`toForeground`) or background voxel; 0 on the voxels themselves.
+std::vector<float> squaredDistanceMm2(const VoxelMask& mask, bool toForeground);
 
 /// The bone voxels of `threshold` that do not belong to the bone around `region`: those not
 /// 26-connected to threshold-and-region through threshold voxels within `bandMm` of the region.

@@ -72,6 +72,12 @@ struct KneeOptions {
   /// knee centre on kKneeCentreCt, its hip centre (sphere fit to the head) straight above and its
   /// epicondylar axis along +x; the knee's hip-knee length is then the mesh's own.
   std::map<BoneId, std::string> meshFiles;
+  /// The narrowest gap between femur and tibia (the joint space an arthritic knee narrows), mm:
+  /// the tibia and fibula move along the mechanical axis until their nearest vertex is this far
+  /// from the femur's surface (0: touching). Negative keeps the healthy joint (about 3 mm).
+  double tibiofemoralGapMm = -1.0;
+  /// The narrowest gap between patella and trochlea, mm (0: touching); 0 to 10.
+  double patellofemoralGapMm = 4.0;
 };
 
 /// The four bones of a right leg, supine: medial +x, anterior -y, proximal +z.

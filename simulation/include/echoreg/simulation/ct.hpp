@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -53,6 +54,9 @@ struct CtProtocol {
   double textureScale = 1.0;
   /// 1/e distance of the texture's autocorrelation exp(-d^2 / L^2) within a slice.
   double textureCorrelationMm = 1.0;
+  /// Mean HU of cancellous bone instead of the tissue table's 300 (faint, osteoporotic bone:
+  /// 150); NaN keeps the table's.
+  double cancellousHu = std::numeric_limits<double>::quiet_NaN();
 };
 
 /// The dissertation's protocol (section 4.3.1): hip group 10 cm at 5 mm centred on `hipZ` (20

@@ -1,0 +1,907 @@
+#include "echoreg/segmentation/bone_labels.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdint>
+#include <limits>
+#include <map>
+#include <stdexcept>
+
+namespace echoreg::segmentation {
+
+namespace {
+
+constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
+constexpr double kLevelMm = 0.05;  // quantisation of the distance map
+
+std::size_t sz(int v) {
+  return static_cast<std::size_t>(v);
+}
+
+void report(const CompetingOptions& o, double f, const std::string& stage) {
+  if (o.progress)
+    o.progress(f, stage);
+}
+
+// The 26 neighbour offsets of a voxel (index deltas and i, j, k steps).
+struct Neighbours {
+  int di[26], dj[26], dk[26];
+  Neighbours() {
+    int n = 0;
+    for (int k = -1; k <= 1; ++k) {
+      for (int j = -1; j <= 1; ++j) {
+        for (int i = -1; i <= 1; ++i) {
+          if (i == 0 && j == 0 && k == 0)
+            continue;
+          di[n] = i;
+          dj[n] = j;
+          dk[n] = k;
+          ++n;
+        }
+      }
+    }
+  }
+};
+
+// Calls f(neighbourIndex) for every in-grid 26-neighbour of voxel (i, j, k).
+template <class F>
+void forNeighbours(const CtImage& g, int i, int j, int k, F f) {
+  static const Neighbours nb;
+  const int nx = g.dimensions[0], ny = g.dimensions[1], nz = g.dimensions[2];
+  for (int n = 0; n < 26; ++n) {
+    const int a = i + nb.di[n], b = j + nb.dj[n], c = k + nb.dk[n];
+    if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz)
+      continue;
+    f(g.index(a, b, c));
+  }
+}
+
+void ijkOf(const CtImage& g, std::size_t idx, int& i, int& j, int& k) {
+  const std::size_t plane = sz(g.dimensions[0]) * sz(g.dimensions[1]);
+  k = static_cast<int>(idx / plane);
+  j = static_cast<int>((idx % plane) / sz(g.dimensions[0]));
+  i = static_cast<int>(idx % sz(g.dimensions[0]));
+}
+
+// 26-connected components of `mask` (labels 1.., 0 background) and their sizes.
+std::vector<std::uint32_t> labelComponents(const CtImage& g, const std::vector<std::uint8_t>& mask,
+                                           std::vector<std::size_t>& sizes) {
+  std::vector<std::uint32_t> label(mask.size(), 0);
+  sizes.assign(1, 0);
+  std::vector<std::size_t> stack;
+  for (std::size_t s = 0; s < mask.size(); ++s) {
+    if (!mask[s] || label[s])
+      continue;
+    const auto id = static_cast<std::uint32_t>(sizes.size());
+    sizes.push_back(0);
+    label[s] = id;
+    stack.push_back(s);
+    while (!stack.empty()) {
+      const std::size_t v = stack.back();
+      stack.pop_back();
+      ++sizes.back();
+      int i, j, k;
+      ijkOf(g, v, i, j, k);
+      forNeighbours(g, i, j, k, [&](std::size_t n) {
+        if (mask[n] && !label[n]) {
+          label[n] = id;
+          stack.push_back(n);
+        }
+      });
+    }
+  }
+  return label;
+}
+
+std::string lpsText(const Eigen::Vector3d& p) {
+  return fmt::format("({:.1f}, {:.1f}, {:.1f}) mm", p.x(), p.y(), p.z());
+}
+
+// Why the voxel `seed` is not in the filled bone: its HU, the cortex around it, or the
+// hysteresis' strong level not reached from its patch.
+std::string notInBone(const CtImage& image, const VoxelMask& threshold, const Eigen::Vector3i& seed,
+                      const Eigen::Vector3d& seedLps, const BoneThreshold& t) {
+  const int hu = image.at(seed.x(), seed.y(), seed.z());
+  if (hu >= t.weakHu) {
+    return fmt::format(
+        "the seed {} is not in bone: {} HU there, but the patch of >= {:.0f} HU around it reaches "
+        "no cortex (no voxel >= {:.0f} HU connected to it); move the seed into the bone, or lower "
+        "--threshold-hu",
+        lpsText(seedLps), hu, t.weakHu, t.strongHu);
+  }
+  // Rays along the six axis directions, up to 40 mm: which of them meet bone.
+  const Eigen::Vector3d spacing = image.spacingMm();
+  int walls = 0;
+  std::vector<std::string> open;
+  const char* names[6] = {
+      "-i", "+i", "-j", "+j", "-k (scan's first slice)", "+k (scan's last slice)"};
+  for (int d = 0; d < 6; ++d) {
+    Eigen::Vector3i step = Eigen::Vector3i::Zero();
+    step[d / 2] = d % 2 == 0 ? -1 : 1;
+    const int reach = static_cast<int>(std::ceil(40.0 / spacing[d / 2]));
+    bool wall = false;
+    Eigen::Vector3i p = seed;
+    for (int r = 0; r < reach && !wall; ++r) {
+      p += step;
+      if (p.minCoeff() < 0 || p.x() >= image.dimensions[0] || p.y() >= image.dimensions[1] ||
+          p.z() >= image.dimensions[2])
+        break;
+      wall = threshold.at(p.x(), p.y(), p.z());
+    }
+    if (wall)
+      ++walls;
+    else
+      open.emplace_back(names[d]);
+  }
+  if (walls == 0 && threshold.count() == 0) {
+    return fmt::format(
+        "the seed {} is not in bone: {} HU there, and no voxel of the CT is bone by the threshold "
+        "(>= {:.0f} HU, and >= {:.0f} HU next to it): lower --threshold-hu",
+        lpsText(seedLps), hu, t.strongHu, t.weakHu);
+  }
+  if (walls == 0) {
+    return fmt::format(
+        "the seed {} is not in bone: {} HU there (bone is >= {:.0f} HU, or enclosed by it) and no "
+        "bone lies within 40 mm along any axis: it is in soft tissue",
+        lpsText(seedLps), hu, t.weakHu);
+  }
+  std::string dirs;
+  for (const auto& s : open)
+    dirs += (dirs.empty() ? "" : ", ") + s;
+  return fmt::format(
+      "the seed {} is not in bone: {} HU there (bone is >= {:.0f} HU, or enclosed by it); bone "
+      "lies around it on {} of 6 sides but not toward {}: if it is in marrow or faint cancellous "
+      "bone, the cortex around it is open there (thinner than the threshold sees); move the seed "
+      "or lower --threshold-hu",
+      lpsText(seedLps), hu, t.weakHu, walls, dirs);
+}
+
+// Joint lines: solid voxels darker by `dip` than bone >= strong on both sides along one of the 13
+// directions, within `reachMm`.
+std::vector<std::uint8_t> jointLines(const CtImage& image, const VoxelMask& solid, double strong,
+                                     double dip, double reachMm) {
+  std::vector<std::uint8_t> out(solid.voxels.size(), 0);
+  if (!(dip > 0.0))
+    return out;
+  const Eigen::Vector3d s = image.spacingMm();
+  const int nx = image.dimensions[0], ny = image.dimensions[1], nz = image.dimensions[2];
+  struct Dir {
+    int di, dj, dk, reach;
+  };
+  std::vector<Dir> dirs;
+  for (int k = -1; k <= 1; ++k) {
+    for (int j = -1; j <= 1; ++j) {
+      for (int i = -1; i <= 1; ++i) {
+        // one of each opposite pair
+        const int code = (k * 3 + j) * 3 + i;
+        if (code <= 0)
+          continue;
+        const double len = Eigen::Vector3d(i * s.x(), j * s.y(), k * s.z()).norm();
+        dirs.push_back({i, j, k, std::clamp(static_cast<int>(std::lround(reachMm / len)), 1, 3)});
+      }
+    }
+  }
+  for (int k = 0; k < nz; ++k) {
+    for (int j = 0; j < ny; ++j) {
+      for (int i = 0; i < nx; ++i) {
+        const std::size_t v = image.index(i, j, k);
+        if (!solid.voxels[v])
+          continue;
+        const double hu = image.hu[v];
+        const double need = std::max(strong, hu + dip);
+        for (const Dir& d : dirs) {
+          double side[2] = {-1e9, -1e9};
+          for (int sign = 0; sign < 2; ++sign) {
+            const int m = sign == 0 ? -1 : 1;
+            for (int r = 1; r <= d.reach; ++r) {
+              const int a = i + m * r * d.di, b = j + m * r * d.dj, c = k + m * r * d.dk;
+              if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz)
+                break;
+              side[sign] = std::max(side[sign], static_cast<double>(image.at(a, b, c)));
+            }
+          }
+          if (side[0] >= need && side[1] >= need) {
+            out[v] = 1;
+            break;
+          }
+        }
+      }
+    }
+  }
+  return out;
+}
+
+// fillHoles (scan ends closed) on the bounding box of the mask grown by one voxel: the same
+// result as on the whole grid (the box's rim is background connected all round), in a fraction
+// of the time when the bones fill a small part of the field of view.
+void fillHolesInBox(VoxelMask& mask, double maxSliceHoleMm2) {
+  const auto& d = mask.geometry.dimensions;
+  Eigen::Vector3i lo(d[0], d[1], d[2]), hi(-1, -1, -1);
+  for (int k = 0; k < d[2]; ++k) {
+    for (int j = 0; j < d[1]; ++j) {
+      const std::uint8_t* row = mask.voxels.data() + mask.geometry.index(0, j, k);
+      for (int i = 0; i < d[0]; ++i) {
+        if (row[i]) {
+          lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
+          hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
+        }
+      }
+    }
+  }
+  if (hi.x() < 0)
+    return;
+  lo = (lo.array() - 1).max(0).matrix();
+  hi = hi.cwiseMin(Eigen::Vector3i(d[0] - 1, d[1] - 1, d[2] - 1)) + Eigen::Vector3i::Ones();
+  hi = hi.cwiseMin(Eigen::Vector3i(d[0] - 1, d[1] - 1, d[2] - 1));
+  VoxelMask box;
+  box.geometry.dimensions = {hi.x() - lo.x() + 1, hi.y() - lo.y() + 1, hi.z() - lo.z() + 1};
+  box.geometry.pixelSpacingMm = mask.geometry.pixelSpacingMm;
+  box.voxels.assign(box.geometry.voxelCount(), 0);
+  const auto& b = box.geometry.dimensions;
+  for (int k = 0; k < b[2]; ++k) {
+    for (int j = 0; j < b[1]; ++j) {
+      std::copy_n(mask.voxels.data() + mask.geometry.index(lo.x(), lo.y() + j, lo.z() + k), b[0],
+                  box.voxels.data() + box.geometry.index(0, j, k));
+    }
+  }
+  fillHoles(box, maxSliceHoleMm2, true);
+  for (int k = 0; k < b[2]; ++k) {
+    for (int j = 0; j < b[1]; ++j) {
+      std::copy_n(box.voxels.data() + box.geometry.index(0, j, k), b[0],
+                  mask.voxels.data() + mask.geometry.index(lo.x(), lo.y() + j, lo.z() + k));
+    }
+  }
+}
+
+struct Component {
+  std::uint32_t parent;
+  int peakLevel;
+  std::uint32_t peakVoxel;
+  int bone;  // seed's bone carried (-1 none)
+};
+
+}  // namespace
+
+std::string implausibleBone(const std::string& bone, double volumeMm3,
+                            const Eigen::Vector3d& extentMm) {
+  struct Limit {
+    const char* names;
+    double maxCm3, maxWidthMm, maxDepthMm, maxLengthMm;
+  };
+  // Upper bounds of an adult bone (a scan may cut it, so no lower bounds beyond minVolumeMm3):
+  // width along i (left-right), depth along j (anterior-posterior), length along k.
+  static const Limit limits[] = {
+      {"femur", 900.0, 130.0, 110.0, 560.0},   {"tibia", 600.0, 110.0, 90.0, 480.0},
+      {"fibula", 80.0, 45.0, 45.0, 460.0},     {"patella", 60.0, 70.0, 45.0, 70.0},
+      {"hip", 500.0, 190.0, 230.0, 260.0},     {"ilium", 500.0, 190.0, 230.0, 260.0},
+      {"sacrum", 300.0, 150.0, 140.0, 160.0},  {"pelvis", 1300.0, 330.0, 240.0, 260.0},
+      {"vertebra", 120.0, 100.0, 110.0, 60.0}, {"humerus", 400.0, 90.0, 80.0, 380.0}};
+  std::string name = bone;
+  std::transform(name.begin(), name.end(), name.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  for (const Limit& l : limits) {
+    if (name.find(l.names) == std::string::npos)
+      continue;
+    std::vector<std::string> why;
+    if (volumeMm3 > l.maxCm3 * 1000.0)
+      why.push_back(fmt::format("{:.0f} cm^3 (a {} is at most {:.0f})", volumeMm3 / 1000.0, l.names,
+                                l.maxCm3));
+    const double limit[3] = {l.maxWidthMm, l.maxDepthMm, l.maxLengthMm};
+    const char* axis[3] = {"wide (x)", "deep (y)", "long (z)"};
+    for (int a = 0; a < 3; ++a) {
+      if (extentMm[a] > limit[a])
+        why.push_back(fmt::format("{:.0f} mm {} (at most {:.0f})", extentMm[a], axis[a], limit[a]));
+    }
+    std::string out;
+    for (const auto& w : why)
+      out += (out.empty() ? "" : ", ") + w;
+    return out;
+  }
+  return {};
+}
+
+// The work, on a grid that holds every bone voxel (see segmentCompetingBones).
+static CompetingResult segmentOnGrid(const CtImage& image, const std::vector<BoneSeed>& seeds,
+                                     const CompetingOptions& options) {
+  if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount())
+    throw std::invalid_argument("the CT image is empty");
+  if (!image.uniform())
+    throw std::invalid_argument(
+        "segmentCompetingBones needs one slice group (extract the seeds' group first)");
+  if (seeds.empty())
+    throw std::invalid_argument("no seed given");
+  const Eigen::Vector3d spacing = image.spacingMm();
+  const double maxSpacing = spacing.maxCoeff();
+  const double voxelMm3 = spacing.prod();
+  CompetingResult result;
+  result.markerDynamicMm =
+      options.markerDynamicMm > 0.0 ? options.markerDynamicMm : std::max(4.0, 2.0 * maxSpacing);
+  result.sameBoneDynamicMm =
+      options.sameBoneDynamicMm > 0.0 ? options.sameBoneDynamicMm : std::max(1.0, 0.5 * maxSpacing);
+  const auto& dims = image.dimensions;
+
+  // Bones by name, in the order of their first seeds; seeds to voxels.
+  std::vector<std::string> names;
+  std::vector<int> boneOfSeed;
+  std::vector<Eigen::Vector3i> seedVoxels;
+  for (const BoneSeed& s : seeds) {
+    auto it = std::find(names.begin(), names.end(), s.bone);
+    if (it == names.end()) {
+      names.push_back(s.bone);
+      it = names.end() - 1;
+    }
+    boneOfSeed.push_back(static_cast<int>(it - names.begin()));
+    const Eigen::Vector3d v = image.lpsToVoxel(s.pointLps);
+    const Eigen::Vector3i q(static_cast<int>(std::lround(v.x())),
+                            static_cast<int>(std::lround(v.y())),
+                            static_cast<int>(std::lround(v.z())));
+    if (!s.pointLps.allFinite() || q.minCoeff() < 0 || q.x() >= dims[0] || q.y() >= dims[1] ||
+        q.z() >= dims[2]) {
+      const Eigen::Vector3d lo = image.voxelToLps(Eigen::Vector3d(-0.5, -0.5, -0.5));
+      const Eigen::Vector3d hi =
+          image.voxelToLps(Eigen::Vector3d(dims[0] - 0.5, dims[1] - 0.5, dims[2] - 0.5));
+      throw std::invalid_argument(
+          fmt::format("the {} seed {} lies outside the CT volume, which spans x {:.1f}..{:.1f}, y "
+                      "{:.1f}..{:.1f}, z {:.1f}..{:.1f} mm (LPS)",
+                      s.bone, lpsText(s.pointLps), std::min(lo.x(), hi.x()),
+                      std::max(lo.x(), hi.x()), std::min(lo.y(), hi.y()), std::max(lo.y(), hi.y()),
+                      std::min(lo.z(), hi.z()), std::max(lo.z(), hi.z())));
+    }
+    seedVoxels.push_back(q);
+  }
+
+  // 1. Threshold, metal out, marrow filled (scan ends closed).
+  report(options, 0.0, "threshold");
+  result.threshold = thresholdBone(image, options.threshold);
+  result.metalMask = emptyMask(image);
+  {
+    std::vector<std::uint8_t> metal(image.hu.size(), 0);
+    bool any = false;
+    for (std::size_t i = 0; i < image.hu.size(); ++i) {
+      if (image.hu[i] >= options.metalHu) {
+        metal[i] = 1;
+        any = true;
+      }
+    }
+    if (any) {
+      std::vector<std::size_t> sizes;
+      const auto label = labelComponents(image, metal, sizes);
+      std::vector<Eigen::Vector3d> sum(sizes.size(), Eigen::Vector3d::Zero());
+      std::vector<int> maxHu(sizes.size(), 0);
+      for (std::size_t v = 0; v < label.size(); ++v) {
+        if (!label[v] || static_cast<double>(sizes[label[v]]) * voxelMm3 < options.minMetalMm3)
+          continue;
+        int i, j, k;
+        ijkOf(image, v, i, j, k);
+        sum[label[v]] += Eigen::Vector3d(i, j, k);
+        maxHu[label[v]] = std::max(maxHu[label[v]], static_cast<int>(image.hu[v]));
+        result.threshold.voxels[v] = 0;
+        result.metalMask.voxels[v] = 1;
+      }
+      for (std::size_t c = 1; c < sizes.size(); ++c) {
+        if (static_cast<double>(sizes[c]) * voxelMm3 < options.minMetalMm3)
+          continue;
+        MetalPiece piece;
+        piece.centreLps = image.voxelToLps(sum[c] / static_cast<double>(sizes[c]));
+        piece.volumeMm3 = static_cast<double>(sizes[c]) * voxelMm3;
+        piece.maxHu = maxHu[c];
+        result.metal.push_back(piece);
+      }
+    }
+  }
+  report(options, 0.1, "fill");
+  VoxelMask solid = result.threshold;
+  fillHolesInBox(solid, options.maxSliceHoleMm2);
+  for (std::size_t s = 0; s < seeds.size(); ++s) {
+    const Eigen::Vector3i& q = seedVoxels[s];
+    if (!solid.at(q.x(), q.y(), q.z())) {
+      throw std::invalid_argument(fmt::format(
+          "{} ({})", notInBone(image, result.threshold, q, seeds[s].pointLps, options.threshold),
+          seeds[s].bone));
+    }
+  }
+
+  // 2. The landscape: distance to the background (and to the joint lines), quantised.
+  report(options, 0.2, "joint lines");
+  // Thick slices blur a joint's cortex and its line: from 1 mm to 3 mm slices the sides' level
+  // falls from half way between the thresholds to just above the weak one, the dip from 250 to
+  // 120 HU (the sacroiliac joints of the real CT at 3 mm; the knee at 1 mm).
+  const double blur = std::clamp((maxSpacing - 1.0) / 2.0, 0.0, 1.0);
+  const double middleHu = 0.5 * (options.threshold.weakHu + options.threshold.strongHu);
+  result.jointSideHu = options.jointSideHu > 0.0
+                           ? options.jointSideHu
+                           : middleHu + blur * (options.threshold.weakHu + 20.0 - middleHu);
+  result.jointDipHu = options.jointDipHu != 0.0 ? options.jointDipHu : 250.0 - blur * 130.0;
+  const std::vector<std::uint8_t> joints =
+      jointLines(image, solid, result.jointSideHu, result.jointDipHu, options.jointReachMm);
+  report(options, 0.35, "distance map");
+  std::vector<std::uint16_t> level(solid.voxels.size(), 0);  // 0: not solid; else 1 + level
+  int maxLevel = 0;
+  {
+    VoxelMask inner = solid;
+    for (std::size_t i = 0; i < inner.voxels.size(); ++i)
+      inner.voxels[i] = solid.voxels[i] && !joints[i] ? 1 : 0;
+    const std::vector<float> d2 = squaredDistanceMm2(inner, false);
+    for (std::size_t i = 0; i < level.size(); ++i) {
+      if (!solid.voxels[i])
+        continue;
+      const double d = std::sqrt(static_cast<double>(d2[i]));
+      const int l = std::min(65000, static_cast<int>(d / kLevelMm));
+      level[i] = static_cast<std::uint16_t>(1 + l);
+      maxLevel = std::max(maxLevel, l);
+    }
+  }
+  auto levelOf = [&](std::size_t v) { return static_cast<int>(level[v]) - 1; };
+
+  // 3. Seeds climb to the top of their hills (steepest ascent); the path is their marker.
+  std::vector<std::vector<std::uint32_t>> markers(names.size());
+  std::map<std::uint32_t, int> peakSeed;
+  for (std::size_t s = 0; s < seeds.size(); ++s) {
+    std::size_t v = image.index(seedVoxels[s].x(), seedVoxels[s].y(), seedVoxels[s].z());
+    for (;;) {
+      markers[sz(boneOfSeed[s])].push_back(static_cast<std::uint32_t>(v));
+      int i, j, k;
+      ijkOf(image, v, i, j, k);
+      std::size_t best = v;
+      forNeighbours(image, i, j, k, [&](std::size_t n) {
+        if (level[n] > level[best] || (level[n] == level[best] && level[n] > level[v] && n < best))
+          best = n;
+      });
+      if (best == v)
+        break;
+      v = best;
+    }
+    const auto top = static_cast<std::uint32_t>(v);
+    const auto found = peakSeed.find(top);
+    if (found != peakSeed.end() && found->second != boneOfSeed[s]) {
+      throw std::invalid_argument(fmt::format(
+          "the {} seed {} and the {} seed lie in one bone (both climb to the same top of its "
+          "distance map): give one seed per bone",
+          seeds[s].bone, lpsText(seeds[s].pointLps), names[sz(found->second)]));
+    }
+    peakSeed[top] = boneOfSeed[s];
+  }
+
+  // 4. The hills (union-find in decreasing level): markers of the neighbours, same-bone check.
+  report(options, 0.5, "hills");
+  std::vector<std::uint32_t> order;
+  {
+    std::vector<std::size_t> count(sz(maxLevel) + 2, 0);
+    for (std::size_t i = 0; i < level.size(); ++i) {
+      if (level[i])
+        ++count[sz(maxLevel - levelOf(i))];
+    }
+    std::vector<std::size_t> startAt(count.size() + 1, 0);
+    for (std::size_t l = 0; l < count.size(); ++l)
+      startAt[l + 1] = startAt[l] + count[l];
+    order.resize(startAt.back());
+    for (std::size_t i = 0; i < level.size(); ++i) {
+      if (level[i])
+        order[startAt[sz(maxLevel - levelOf(i))]++] = static_cast<std::uint32_t>(i);
+    }
+  }
+  const int autoDyn = static_cast<int>(std::lround(result.markerDynamicMm / kLevelMm));
+  const int sameDyn = static_cast<int>(std::lround(result.sameBoneDynamicMm / kLevelMm));
+  std::vector<std::uint32_t> compOf(level.size(), kNone);
+  std::vector<Component> comps;
+  std::vector<std::uint32_t> autoMarkers;
+  auto find = [&](std::uint32_t c) {
+    while (comps[c].parent != c) {
+      comps[c].parent = comps[comps[c].parent].parent;
+      c = comps[c].parent;
+    }
+    return c;
+  };
+  auto merge = [&](std::uint32_t a, std::uint32_t b, int at) {
+    a = find(a);
+    b = find(b);
+    if (a == b)
+      return a;
+    const bool aHigher =
+        comps[a].peakLevel > comps[b].peakLevel ||
+        (comps[a].peakLevel == comps[b].peakLevel && comps[a].peakVoxel < comps[b].peakVoxel);
+    const std::uint32_t hi = aHigher ? a : b, lo = aHigher ? b : a;
+    const int dyn = comps[lo].peakLevel - at;
+    const int boneLo = comps[lo].bone, boneHi = comps[hi].bone;
+    if (boneLo >= 0 && boneHi >= 0 && boneLo != boneHi && dyn < sameDyn) {
+      throw std::invalid_argument(fmt::format(
+          "the {} and the {} seeds lie in one bone: nothing narrows between them (the bone is "
+          "{:.1f} mm thick at its narrowest between them, {:.1f} mm at the seeds' hill); give one "
+          "seed per bone",
+          names[sz(boneLo)], names[sz(boneHi)], 2.0 * at * kLevelMm,
+          2.0 * comps[lo].peakLevel * kLevelMm));
+    }
+    int carried = boneHi;
+    if (boneLo < 0) {
+      if (dyn >= autoDyn)
+        autoMarkers.push_back(comps[lo].peakVoxel);
+    } else if (dyn < autoDyn && boneHi < 0) {
+      // The seed's hill is a bump on a higher hill: the seed's bone is the higher hill.
+      carried = boneLo;
+      markers[sz(boneLo)].push_back(comps[hi].peakVoxel);
+    }
+    comps[lo].parent = hi;
+    comps[hi].bone = carried;
+    return hi;
+  };
+  for (std::uint32_t v : order) {
+    const int l = levelOf(v);
+    int i, j, k;
+    ijkOf(image, v, i, j, k);
+    std::uint32_t mine = kNone;
+    forNeighbours(image, i, j, k, [&](std::size_t n) {
+      if (compOf[n] == kNone)
+        return;
+      mine = mine == kNone ? find(compOf[n]) : merge(mine, compOf[n], l);
+    });
+    const auto seeded = peakSeed.find(v);
+    const int bone = seeded == peakSeed.end() ? -1 : seeded->second;
+    if (mine == kNone) {
+      mine = static_cast<std::uint32_t>(comps.size());
+      comps.push_back({mine, l, v, bone});
+    } else if (bone >= 0) {
+      Component& c = comps[mine];
+      if (c.bone >= 0 && c.bone != bone && c.peakLevel - l < sameDyn) {
+        throw std::invalid_argument(
+            fmt::format("the {} and the {} seeds lie in one bone: give one seed per bone",
+                        names[sz(bone)], names[sz(c.bone)]));
+      }
+      if (c.bone < 0)
+        c.bone = bone;
+    }
+    compOf[v] = mine;
+  }
+  for (std::uint32_t c = 0; c < comps.size(); ++c) {
+    if (comps[c].parent == c && comps[c].bone < 0)
+      autoMarkers.push_back(comps[c].peakVoxel);  // a bone of its own, whatever its size
+  }
+  compOf.clear();
+  compOf.shrink_to_fit();
+  result.automaticNeighbours = static_cast<int>(autoMarkers.size());
+
+  // 5. The flood from the markers (Meyer): highest level first, first come first served.
+  report(options, 0.65, "flood");
+  std::vector<std::int16_t> label(level.size(), -1);
+  std::vector<std::vector<std::uint32_t>> bucket(sz(maxLevel) + 1);
+  std::vector<std::size_t> head(bucket.size(), 0);
+  int current = -1;
+  auto push = [&](std::uint32_t v, std::int16_t lab) {
+    label[v] = lab;
+    const int l = levelOf(v);
+    bucket[sz(l)].push_back(v);
+    current = std::max(current, l);
+  };
+  for (std::size_t b = 0; b < markers.size(); ++b) {
+    for (std::uint32_t v : markers[b]) {
+      if (label[v] < 0)
+        push(v, static_cast<std::int16_t>(b));
+    }
+  }
+  const auto firstAuto = static_cast<std::int16_t>(names.size());
+  for (std::size_t a = 0; a < autoMarkers.size(); ++a) {
+    if (label[autoMarkers[a]] < 0)
+      push(autoMarkers[a], static_cast<std::int16_t>(std::min<std::size_t>(
+                               firstAuto + a, std::numeric_limits<std::int16_t>::max())));
+  }
+  while (current >= 0) {
+    auto& q = bucket[sz(current)];
+    if (head[sz(current)] == q.size()) {
+      q.clear();  // a lower voxel may still reach an unlabelled one of this level: reusable
+      head[sz(current)] = 0;
+      --current;
+      continue;
+    }
+    const std::uint32_t v = q[head[sz(current)]++];
+    int i, j, k;
+    ijkOf(image, v, i, j, k);
+    const std::int16_t lab = label[v];
+    forNeighbours(image, i, j, k, [&](std::size_t n) {
+      if (level[n] && label[n] < 0)
+        push(static_cast<std::uint32_t>(n), lab);
+    });
+  }
+
+  // 6. Basins that meet through the inside of a bone are one bone. A joint shows on the CT as a
+  // boundary of cortex (or of a joint line): bright on both sides; a bone's own hills meet in
+  // its cancellous bone or marrow. Per pair of labels, the share of their 6-connected boundary
+  // whose two voxels are both inside (darker than half way between the thresholds, not on a
+  // joint line): from insideShare on, an automatic neighbour joins the basin it meets; two
+  // seeded bones are refused.
+  report(options, 0.75, "joints");
+  {
+    const double insideHu = 0.5 * (options.threshold.weakHu + options.threshold.strongHu);
+    auto inside = [&](std::size_t v) { return image.hu[v] < insideHu && !joints[v]; };
+    auto cortex = [&](std::size_t v) { return image.hu[v] >= options.threshold.strongHu; };
+    struct Boundary {
+      std::size_t total = 0, inside = 0, joint = 0;
+    };
+    std::map<std::pair<int, int>, Boundary> boundary;
+    const std::size_t steps[3] = {1, sz(dims[0]), sz(dims[0]) * sz(dims[1])};
+    for (int k = 0; k < dims[2]; ++k) {
+      for (int j = 0; j < dims[1]; ++j) {
+        for (int i = 0; i < dims[0]; ++i) {
+          const std::size_t v = image.index(i, j, k);
+          if (label[v] < 0)
+            continue;
+          const bool more[3] = {i + 1 < dims[0], j + 1 < dims[1], k + 1 < dims[2]};
+          for (int a = 0; a < 3; ++a) {
+            if (!more[a])
+              continue;
+            const std::size_t n = v + steps[a];
+            if (label[n] < 0 || label[n] == label[v])
+              continue;
+            auto& e = boundary[{std::min(label[v], label[n]), std::max(label[v], label[n])}];
+            ++e.total;
+            e.inside += inside(v) && inside(n) ? 1u : 0u;
+            // A joint: its line, or cortex against cortex (bones pressed together).
+            e.joint += joints[v] || joints[n] || (cortex(v) && cortex(n)) ? 1u : 0u;
+          }
+        }
+      }
+    }
+    // Largest boundaries first: an automatic basin joins the bone it shares most with.
+    std::vector<std::pair<std::pair<int, int>, Boundary>> pairs(boundary.begin(), boundary.end());
+    std::stable_sort(pairs.begin(), pairs.end(),
+                     [](const auto& a, const auto& b) { return a.second.total > b.second.total; });
+    const int labels = static_cast<int>(firstAuto) + static_cast<int>(autoMarkers.size());
+    std::vector<int> root(sz(std::min(labels, 32767) + 1));
+    for (std::size_t r = 0; r < root.size(); ++r)
+      root[r] = static_cast<int>(r);
+    auto rootOf = [&](int l) {
+      while (root[sz(l)] != l)
+        l = root[sz(l)] = root[sz(root[sz(l)])];
+      return l;
+    };
+    for (const auto& [pair, counts] : pairs) {
+      const double total = static_cast<double>(counts.total);
+      const double share = static_cast<double>(counts.inside) / total;
+      const double jointShare = static_cast<double>(counts.joint) / total;
+      const int a = rootOf(pair.first), b = rootOf(pair.second);
+      if (a == b)
+        continue;
+      if (a < firstAuto && b < firstAuto) {
+        if (share < options.insideShare)
+          continue;
+        throw std::invalid_argument(fmt::format(
+            "the {} and the {} seeds lie in one bone: their parts meet through the inside of a "
+            "bone ({:.0f} % of the boundary between them is cancellous bone or marrow), not at a "
+            "joint; give one seed per bone",
+            names[sz(a)], names[sz(b)], 100.0 * share));
+      }
+      if (share < options.insideShare && jointShare >= options.jointShare)
+        continue;
+      // The automatic one joins (a < b: a seeded bone keeps its index).
+      root[sz(b)] = a;
+    }
+    for (std::size_t i = 0; i < label.size(); ++i) {
+      if (label[i] >= 0)
+        label[i] = static_cast<std::int16_t>(rootOf(label[i]));
+    }
+    int kept = 0;
+    for (int l = firstAuto; l < labels && l < static_cast<int>(root.size()); ++l)
+      kept += rootOf(l) == l ? 1 : 0;
+    result.automaticNeighbours = kept;
+  }
+
+  // 7. The named bones: their label's piece holding their seeds, marrow filled.
+  report(options, 0.85, "bones");
+  result.unnamed = emptyMask(image);
+  for (std::size_t i = 0; i < label.size(); ++i)
+    result.unnamed.voxels[i] = solid.voxels[i] && label[i] >= firstAuto ? 1 : 0;
+  for (std::size_t b = 0; b < names.size(); ++b) {
+    SegmentedBone bone;
+    bone.bone = names[b];
+    VoxelMask mine = emptyMask(image);
+    for (std::size_t i = 0; i < label.size(); ++i)
+      mine.voxels[i] = label[i] == static_cast<std::int16_t>(b) ? 1 : 0;
+    VoxelMask piece = emptyMask(image);
+    for (std::size_t s = 0; s < seeds.size(); ++s) {
+      if (boneOfSeed[s] != static_cast<int>(b))
+        continue;
+      bone.seedsLps.push_back(seeds[s].pointLps);
+      bone.seedHu.push_back(image.at(seedVoxels[s].x(), seedVoxels[s].y(), seedVoxels[s].z()));
+      if (!piece.at(seedVoxels[s].x(), seedVoxels[s].y(), seedVoxels[s].z()))
+        piece = unite(piece, connectedComponent(mine, seedVoxels[s]));
+    }
+    fillHolesInBox(piece, options.maxSliceHoleMm2);
+    for (std::size_t i = 0; i < label.size(); ++i) {
+      if (piece.voxels[i] && label[i] >= 0 && label[i] != static_cast<std::int16_t>(b))
+        piece.voxels[i] = 0;  // the fill does not take another bone's voxels
+    }
+    bone.mask = std::move(piece);
+    const std::size_t n = bone.mask.count();
+    bone.volumeMm3 = static_cast<double>(n) * voxelMm3;
+    Eigen::Vector3i lo(dims[0], dims[1], dims[2]), hi(-1, -1, -1);
+    for (int k = 0; k < dims[2]; ++k) {
+      for (int j = 0; j < dims[1]; ++j) {
+        for (int i = 0; i < dims[0]; ++i) {
+          if (bone.mask.at(i, j, k)) {
+            lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
+            hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
+          }
+        }
+      }
+    }
+    if (hi.x() >= 0)
+      bone.extentMm = ((hi - lo).cast<double>() + Eigen::Vector3d::Ones()).cwiseProduct(spacing);
+    result.bones.push_back(std::move(bone));
+  }
+  // Metal: the bone it lies in or on.
+  for (MetalPiece& m : result.metal) {
+    const Eigen::Vector3d c = image.lpsToVoxel(m.centreLps);
+    const Eigen::Vector3i q(static_cast<int>(std::lround(c.x())),
+                            static_cast<int>(std::lround(c.y())),
+                            static_cast<int>(std::lround(c.z())));
+    double best = 1e30;
+    for (const SegmentedBone& b : result.bones) {
+      // Nearest bone voxel within 10 mm of the piece's centre.
+      const Eigen::Vector3i r =
+          (Eigen::Vector3d::Constant(10.0).cwiseQuotient(spacing)).array().ceil().cast<int>();
+      for (int k = std::max(0, q.z() - r.z()); k <= std::min(dims[2] - 1, q.z() + r.z()); ++k) {
+        for (int j = std::max(0, q.y() - r.y()); j <= std::min(dims[1] - 1, q.y() + r.y()); ++j) {
+          for (int i = std::max(0, q.x() - r.x()); i <= std::min(dims[0] - 1, q.x() + r.x()); ++i) {
+            if (!b.mask.at(i, j, k))
+              continue;
+            const double d = (Eigen::Vector3d(i, j, k) - c).cwiseProduct(spacing).norm();
+            if (d < best && d <= 10.0) {
+              best = d;
+              m.touches = b.bone;
+            }
+          }
+        }
+      }
+    }
+  }
+
+  // 8. Checks before anything is written.
+  for (const SegmentedBone& b : result.bones) {
+    if (b.volumeMm3 < options.minVolumeMm3) {
+      throw std::invalid_argument(fmt::format(
+          "the {} grown from the seed {} has only {:.0f} mm^3 (at least {:.0f} expected): a speck "
+          "of bone or calcification, or the seed lies on the joint between two bones",
+          b.bone, lpsText(b.seedsLps.front()), b.volumeMm3, options.minVolumeMm3));
+    }
+    if (!options.checkPlausible)
+      continue;
+    const std::string why = implausibleBone(b.bone, b.volumeMm3, b.extentMm);
+    if (!why.empty()) {
+      // What it took: the other named bones and neighbours found automatically it touches.
+      int touchesAuto = 0;
+      std::vector<std::string> touched;
+      std::vector<std::uint8_t> seen(sz(firstAuto) + autoMarkers.size() + 1, 0);
+      for (int k = 0; k < dims[2]; ++k) {
+        for (int j = 0; j < dims[1]; ++j) {
+          for (int i = 0; i < dims[0]; ++i) {
+            if (!b.mask.at(i, j, k))
+              continue;
+            forNeighbours(image, i, j, k, [&](std::size_t n) {
+              const int l = label[n];
+              if (l < 0 || seen[sz(l)] || l == static_cast<int>(&b - result.bones.data()))
+                return;
+              seen[sz(l)] = 1;
+              if (l < firstAuto)
+                touched.push_back(names[sz(l)]);
+              else
+                ++touchesAuto;
+            });
+          }
+        }
+      }
+      std::string metalNote;
+      for (const MetalPiece& m : result.metal) {
+        if (m.touches == b.bone)
+          metalNote = fmt::format("; metal ({:.0f} mm^3, up to {} HU) lies at {}", m.volumeMm3,
+                                  m.maxHu, lpsText(m.centreLps));
+      }
+      throw std::invalid_argument(fmt::format(
+          "the {} grown from the seed {} is not a {}: {}. Either the seed lies in another bone, "
+          "or the growth ran into bone that touches it where the CT shows no joint (it borders "
+          "{} bone(s) found automatically{}{}); check the seed, add a seed in each neighbouring "
+          "bone (--seed NAME X Y Z), or place anchors (--anchors){}",
+          b.bone, lpsText(b.seedsLps.front()), b.bone, why, touchesAuto,
+          touched.empty() ? "" : " and the seeded ",
+          [&] {
+            std::string t;
+            for (const auto& s : touched)
+              t += (t.empty() ? "" : ", ") + s;
+            return t;
+          }(),
+          metalNote));
+    }
+  }
+  report(options, 1.0, "bones");
+  return result;
+}
+
+CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<BoneSeed>& seeds,
+                                      const CompetingOptions& options) {
+  if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount() || !image.uniform() ||
+      seeds.empty())
+    return segmentOnGrid(image, seeds, options);  // its errors
+  // Everything happens on the box of the bone voxels (plus a margin of 2): the distance map,
+  // the hills, the flood and the masks cost the bones' size, not the field of view's.
+  const VoxelMask bone = thresholdBone(image, options.threshold);
+  const auto& d = image.dimensions;
+  Eigen::Vector3i lo(d[0], d[1], d[2]), hi(-1, -1, -1);
+  for (int k = 0; k < d[2]; ++k) {
+    for (int j = 0; j < d[1]; ++j) {
+      const std::uint8_t* row = bone.voxels.data() + image.index(0, j, k);
+      for (int i = 0; i < d[0]; ++i) {
+        if (row[i]) {
+          lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
+          hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
+        }
+      }
+    }
+  }
+  const Eigen::Vector3i last(d[0] - 1, d[1] - 1, d[2] - 1);
+  if (hi.x() < 0 || ((lo.array() <= 2).all() && (hi.array() >= last.array() - 2).all()))
+    return segmentOnGrid(image, seeds, options);
+  lo = (lo.array() - 2).max(0).matrix();
+  hi = (hi.array() + 2).min(last.array()).matrix();
+  // A seed inside the image but outside the box is in no bone: say why on the whole image.
+  for (const BoneSeed& s : seeds) {
+    const Eigen::Vector3d v = image.lpsToVoxel(s.pointLps);
+    const Eigen::Vector3i q(static_cast<int>(std::lround(v.x())),
+                            static_cast<int>(std::lround(v.y())),
+                            static_cast<int>(std::lround(v.z())));
+    const bool inImage =
+        s.pointLps.allFinite() && q.minCoeff() >= 0 && q.x() < d[0] && q.y() < d[1] && q.z() < d[2];
+    if (!inImage)
+      return segmentOnGrid(image, seeds, options);  // the outside-the-volume message
+    if ((q.array() < lo.array()).any() || (q.array() > hi.array()).any()) {
+      throw std::invalid_argument(
+          fmt::format("{} ({})", notInBone(image, bone, q, s.pointLps, options.threshold), s.bone));
+    }
+  }
+  CtImage box;
+  box.dimensions = {hi.x() - lo.x() + 1, hi.y() - lo.y() + 1, hi.z() - lo.z() + 1};
+  box.direction = image.direction;
+  box.pixelSpacingMm = image.pixelSpacingMm;
+  box.originMm = image.voxelToLps(lo.cast<double>());
+  for (int k = lo.z(); k <= hi.z(); ++k)
+    box.slicePositionsMm.push_back(image.slicePositionsMm[sz(k)] -
+                                   image.slicePositionsMm[sz(lo.z())]);
+  box.groups = {{0, box.dimensions[2], box.dimensions[2] > 1 ? image.spacingMm().z() : 0.0}};
+  box.seriesInstanceUid = image.seriesInstanceUid;
+  box.folder = image.folder;
+  box.hu.resize(box.voxelCount());
+  const auto& b = box.dimensions;
+  for (int k = 0; k < b[2]; ++k) {
+    for (int j = 0; j < b[1]; ++j)
+      std::copy_n(image.hu.data() + image.index(lo.x(), lo.y() + j, lo.z() + k), b[0],
+                  box.hu.data() + box.index(0, j, k));
+  }
+  CompetingResult result = segmentOnGrid(box, seeds, options);
+  // Back on the whole grid.
+  CtImage geometry;  // the image without its HU (emptyMask would copy them)
+  geometry.dimensions = image.dimensions;
+  geometry.originMm = image.originMm;
+  geometry.direction = image.direction;
+  geometry.pixelSpacingMm = image.pixelSpacingMm;
+  geometry.slicePositionsMm = image.slicePositionsMm;
+  geometry.groups = image.groups;
+  geometry.seriesInstanceUid = image.seriesInstanceUid;
+  geometry.folder = image.folder;
+  auto expand = [&](VoxelMask& m) {
+    VoxelMask full;
+    full.geometry = geometry;
+    full.voxels.assign(image.voxelCount(), 0);
+    for (int k = 0; k < b[2]; ++k) {
+      for (int j = 0; j < b[1]; ++j)
+        std::copy_n(m.voxels.data() + box.index(0, j, k), b[0],
+                    full.voxels.data() + image.index(lo.x(), lo.y() + j, lo.z() + k));
+    }
+    m = std::move(full);
+  };
+  expand(result.threshold);
+  expand(result.unnamed);
+  expand(result.metalMask);
+  for (SegmentedBone& s : result.bones)
+    expand(s.mask);
+  return result;
+}
+
+}  // namespace echoreg::segmentation
