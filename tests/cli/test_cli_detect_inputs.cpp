@@ -42,8 +42,8 @@ Sequence staticCapture(int frames, int samples, double boneSample, int rows = 1,
         echoes.push_back({s, 40.0 * ((static_cast<int>(s) * 7 + f) % 11 - 5)});
       }
       echoes.push_back({boneSample + 0.2 * (f % 3), boneAmplitude});
-      const std::vector<float> x = test::makeEchoRecord(
-          samples, echoes, pulse, 60.0, 4.0, static_cast<std::uint64_t>(f * 31 + r + 1));
+      const std::vector<float> x = test::makeEchoRecord(samples, echoes, pulse, 60.0, 4.0,
+                                                        static_cast<std::uint64_t>(f * 31 + r + 1));
       for (float v : x) {
         const auto code = static_cast<std::int16_t>(std::lround(std::clamp(v, -32768.F, 32767.F)));
         std::uint8_t bytes[2];
@@ -85,8 +85,8 @@ TEST(CliDetectInputs, CausalFalseIsZeroPhase) {
   const std::string capture = dir.file("c.igs.mha");
   writeSequence(staticCapture(6, 1500, 400.0), capture);
   const auto run = [&](const std::vector<std::string>& extra, const std::string& name) {
-    std::vector<std::string> args{"detect", capture, "--preset", "mozes2008", "--out",
-                                  dir.file(name)};
+    std::vector<std::string> args{"detect", capture,     "--preset", "mozes2008", "--peaks",
+                                  "max",    "--history", "1",        "--out",     dir.file(name)};
     args.insert(args.end(), extra.begin(), extra.end());
     const auto result = runEchoreg(args);
     EXPECT_EQ(result.exitCode, 0) << result.err;
@@ -106,15 +106,14 @@ TEST(CliDetectInputs, WholeNumbersMayBeWrittenWithAPointInParamsFiles) {
   writeSequence(staticCapture(4, 1500, 400.0), capture);
   std::ofstream(dir.file("ok.json")) << R"({"envelope-window": 30.0})";
   std::ofstream(dir.file("bad.json")) << R"({"envelope-window": 30.5})";
-  auto result = runEchoreg({"detect", capture, "--params", dir.file("ok.json"), "--out",
-                            dir.file("d.csv"), "--json"});
+  auto result = runEchoreg(
+      {"detect", capture, "--params", dir.file("ok.json"), "--out", dir.file("d.csv"), "--json"});
   ASSERT_EQ(result.exitCode, 0) << result.err;
   EXPECT_EQ(nlohmann::json::parse(result.out)["envelope_window_samples"], 30);
-  result = runEchoreg({"detect", capture, "--params", dir.file("bad.json"), "--out",
-                       dir.file("e.csv")});
+  result =
+      runEchoreg({"detect", capture, "--params", dir.file("bad.json"), "--out", dir.file("e.csv")});
   EXPECT_EQ(result.exitCode, 1);
-  EXPECT_NE(result.err.find("must be a whole number, found 30.5"), std::string::npos)
-      << result.err;
+  EXPECT_NE(result.err.find("must be a whole number, found 30.5"), std::string::npos) << result.err;
   EXPECT_FALSE(std::filesystem::exists(dir.file("e.csv")));
 }
 
@@ -139,16 +138,16 @@ TEST(CliDetectInputs, AWindowInsideTheRingDownAndFewAcceptedFramesAreExplained) 
   const std::string capture = dir.file("c.igs.mha");
   writeSequence(staticCapture(20, 1500, 400.0), capture);
   // The burst lasts to about sample 30 (0.46 mm); a window of 0.1-0.4 mm lies inside it.
-  const auto result = runEchoreg({"detect", capture, "--window-mm", "0.1", "0.4", "--out",
-                                  dir.file("d.csv"), "--json"});
+  const auto result = runEchoreg(
+      {"detect", capture, "--window-mm", "0.1", "0.4", "--out", dir.file("d.csv"), "--json"});
   ASSERT_EQ(result.exitCode, 0) << result.err;
   const auto summary = nlohmann::json::parse(result.out);
   EXPECT_EQ(summary["rejected_by_reason"]["in-ring-down"], 20) << summary.dump();
   std::string warnings;
-  for (const auto& w : summary["warnings"]) warnings += w.get<std::string>() + "\n";
+  for (const auto& w : summary["warnings"])
+    warnings += w.get<std::string>() + "\n";
   EXPECT_NE(warnings.find("inside the ring-down"), std::string::npos) << warnings;
-  EXPECT_NE(warnings.find("only 0.0 % of the frames were accepted"), std::string::npos)
-      << warnings;
+  EXPECT_NE(warnings.find("only 0.0 % of the frames were accepted"), std::string::npos) << warnings;
   EXPECT_NE(warnings.find("in-ring-down"), std::string::npos) << warnings;
   EXPECT_NE(result.err.find("warning: only 0.0 %"), std::string::npos) << result.err;
 }

@@ -529,17 +529,28 @@ struct Rates {
 Rates ratesOf(const std::string& preset, std::uint64_t seed, int lines) {
   const Transducer transducer;
   const Receiver receiver;
-  const DetectionParams params = detectionPreset(preset);
+  std::vector<ALine> simulated;
+  for (int i = 0; i < lines; ++i) {
+    const auto index = static_cast<std::uint64_t>(i);
+    core::Rng pathRng = core::Rng::derive(seed, "path", index);
+    core::Rng lineRng = core::Rng::derive(seed, "line", index);
+    simulated.push_back(simulateALine(randomLeg(pathRng), transducer, receiver, lineRng));
+  }
+  // One transducer and receiver: the lines are one capture, and the preset measures what it
+  // needs from them (transducer band, ring-down, shadow rule) as detect does.
+  const RecordSource source = [&simulated](int i, std::vector<float>& out) {
+    const ALine& line = simulated[static_cast<std::size_t>(i)];
+    out.assign(line.samples.begin(), line.samples.end());
+  };
+  const DetectionParams params =
+      adaptToCapture(detectionPreset(preset), lines,
+                     static_cast<int>(simulated.front().samples.size()), source, std::nullopt);
   SignalDetector detector(params);
   Rates rates;
   int missed = 0, falseAccepts = 0;
   std::vector<double> errorsMm;
   std::vector<float> samples;
-  for (int i = 0; i < lines; ++i) {
-    const auto index = static_cast<std::uint64_t>(i);
-    core::Rng pathRng = core::Rng::derive(seed, "path", index);
-    core::Rng lineRng = core::Rng::derive(seed, "line", index);
-    const ALine line = simulateALine(randomLeg(pathRng), transducer, receiver, lineRng);
+  for (const ALine& line : simulated) {
     samples.assign(line.samples.begin(), line.samples.end());
     const SignalDetection found = detector.detect(samples.data(), static_cast<int>(samples.size()));
     if (line.targetClear) {
