@@ -1,14 +1,24 @@
 // The pulse-echo model's wider front ends and probes: the default 8-bit record unchanged to the
 // byte, the 12-bit int16 front end (left-justified codes, DC offset, slow baseline wander, a short
-// ring-down burst over a tail) and a 7 MHz probe's spectrum.
+// ring-down burst over a tail), a 7 MHz probe's spectrum, and a whole study of a thin knee in vivo
+// whose truth puts the bone 1-10 mm under the skin.
+#include "echoreg/core/sequence.hpp"
 #include "echoreg/simulation/pulse_echo.hpp"
+#include "echoreg/simulation/study.hpp"
+
+#include "test_support.hpp"
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <fstream>
 #include <limits>
+#include <map>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -214,6 +224,81 @@ TEST(FrontEnd, SpectrumPeaksNearTheProbeFrequency) {
     EXPECT_LE(knee, fc * 1.02) << fc;
     EXPECT_GE(knee, fc * 0.85) << fc;
   }
+}
+
+// The CSV of truth/shots.csv as rows of named fields.
+std::vector<std::map<std::string, std::string>> readCsv(const std::string& path) {
+  std::ifstream in(path);
+  std::string line;
+  std::getline(in, line);
+  std::vector<std::string> names;
+  {
+    std::stringstream header(line);
+    std::string name;
+    while (std::getline(header, name, ','))
+      names.push_back(name);
+  }
+  std::vector<std::map<std::string, std::string>> rows;
+  while (std::getline(in, line)) {
+    std::stringstream fields(line);
+    std::string value;
+    std::map<std::string, std::string> row;
+    for (const std::string& name : names) {
+      std::getline(fields, value, ',');
+      row[name] = value;
+    }
+    rows.push_back(row);
+  }
+  return rows;
+}
+
+TEST(FrontEnd, ThinKneeInVivoStudy) {
+  const test::TempDir dir;
+  StudyOptions options;
+  options.seed = 5;
+  options.size = StudySize::Small;
+  options.standoff = Standoff::None;
+  options.framesPerBone = 200;
+  options.underSkinScale = 0.3;
+  options.probeFrequencyHz = 7e6;
+  options.adc = AdcFormat::Int16Left12;
+  generateStudy(options, dir.file("s"));
+
+  // Bone 1-10 mm under the skin along the beam (the bare face presses 0.3 mm into the skin).
+  const auto shots = readCsv(dir.file("s/truth/shots.csv"));
+  int onBone = 0, within = 0;
+  for (const auto& row : shots) {
+    if (row.at("bone") == "none" || row.at("capture").find("ultrasound") == std::string::npos)
+      continue;
+    ++onBone;
+    const double depth = std::stod(row.at("true_depth_mm"));
+    if (depth >= 1.0 && depth <= 10.0)
+      ++within;
+  }
+  ASSERT_GT(onBone, 200);
+  EXPECT_EQ(within, onBone);
+
+  // The captures: int16 12-bit codes, the probe's frequency and name in the header.
+  const Sequence sweep = readSequence(dir.file("s/captures/femur_ultrasound.igs.mha"));
+  EXPECT_EQ(sweep.elementType, ElementType::Int16);
+  ASSERT_TRUE(sweep.acquisition.transducerFrequencyHz.has_value());
+  EXPECT_EQ(*sweep.acquisition.transducerFrequencyHz, 7e6);
+  EXPECT_NE(sweep.acquisition.transducer.find("7 MHz"), std::string::npos);
+  EXPECT_EQ(sweep.acquisition.samplingFrequencyHz.value_or(0.0), 50e6);
+  std::vector<std::int16_t> values(sweep.pixels.size() / 2);
+  std::memcpy(values.data(), sweep.pixels.data(), values.size() * 2);
+  EXPECT_TRUE(
+      std::all_of(values.begin(), values.end(), [](std::int16_t v) { return v % 16 == 0; }));
+  double mean = 0.0;
+  for (const std::int16_t v : values)
+    mean += v;
+  mean /= static_cast<double>(values.size());
+  EXPECT_GT(mean, 20.0) << "a DC offset of 50-110";
+  EXPECT_LT(mean, 140.0);
+  std::ifstream manifest(dir.file("s/study.json"));
+  const nlohmann::json study = nlohmann::json::parse(manifest);
+  EXPECT_EQ(study.at("generator").at("adc"), "int16-12bit");
+  EXPECT_EQ(study.at("generator").at("soft_tissue_scale"), 0.3);
 }
 
 }  // namespace
