@@ -29,6 +29,9 @@ struct SimulateOptions {
   bool fibulaInTibia = false;
   std::string femurRegions = "all";
   double tissueScale = 1.0;
+  double softTissueScale = 1.0;
+  double probeFrequency = 0.0;
+  std::string adc = "uint8";
   int framesPerBone = 0;
   int registrations = 1;
   int calibrations = 1;
@@ -51,6 +54,10 @@ simulation::StudyOptions toStudyOptions(const SimulateOptions& o) {
   s.femurRegions = o.femurRegions == "epicondyles" ? simulation::FemurRegions::Epicondyles
                                                    : simulation::FemurRegions::All;
   s.tissueScale = o.tissueScale;
+  s.underSkinScale = o.softTissueScale;
+  s.probeFrequencyHz = o.probeFrequency;
+  s.adc =
+      o.adc == "int16-12bit" ? simulation::AdcFormat::Int16Left12 : simulation::AdcFormat::UInt8;
   s.framesPerBone = o.framesPerBone;
   s.registrations = o.registrations;
   s.calibrations = o.calibrations;
@@ -137,6 +144,21 @@ CommandAction addSimulateCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--tissue-scale", o->tissueScale, "Soft tissue thickness factor (1 = mean adult)")
       ->check(CLI::Range(0.5, 2.0))
+      ->capture_default_str();
+  cmd->add_option("--soft-tissue-scale", o->softTissueScale,
+                  "Thickness factor of the fat and muscle under the skin (the skin stays): 0.3 "
+                  "puts the bone 2-10 mm under the skin, the knee in vivo")
+      ->check(CLI::Range(0.05, 1.0))
+      ->capture_default_str();
+  cmd->add_option("--probe-frequency", o->probeFrequency,
+                  "Centre frequency of the probe in Hz, e.g. 7e6 (default: the Olympus V312's "
+                  "9 MHz); written as EchoregTransducerFrequencyHz")
+      ->check(CLI::Range(1e6, 20e6));
+  cmd->add_option("--adc", o->adc,
+                  "uint8 (the 8-bit card, mid-scale 128) or int16-12bit (a 12-bit card "
+                  "left-justified in int16, with DC offset, baseline wander and a short ring-down "
+                  "with a tail, as in-vivo A-mode front ends)")
+      ->check(CLI::IsMember({"uint8", "int16-12bit"}))
       ->capture_default_str();
   cmd->add_option("--frames-per-bone", o->framesPerBone,
                   "Ultrasound frames per bone (default: small 800, full 3000)")

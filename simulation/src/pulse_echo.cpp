@@ -252,9 +252,9 @@ void validate(const BeamPath& path, const Transducer& transducer, const Receiver
     require(
         layer.exitIncidenceDeg >= 0.0 && layer.exitIncidenceDeg <= 90.0,
         name + " exit incidence must be in [0, 90] degrees, got " + number(layer.exitIncidenceDeg));
-    require(std::isfinite(layer.speedMps) && layer.speedMps >= 0.0,
-            name + " speed of sound must be >= 0 m/s (0 = the table's), got " +
-                number(layer.speedMps));
+    require(
+        std::isfinite(layer.speedMps) && layer.speedMps >= 0.0,
+        name + " speed of sound must be >= 0 m/s (0 = the table's), got " + number(layer.speedMps));
   }
   for (std::size_t i = 0; i < path.fasciaDepthsMm.size(); ++i) {
     require(std::isfinite(path.fasciaDepthsMm[i]) && path.fasciaDepthsMm[i] >= 0.0,
@@ -293,6 +293,39 @@ void validate(const BeamPath& path, const Transducer& transducer, const Receiver
           "electronic noise must be >= 0 counts, got " + number(receiver.electronicNoiseCounts));
   require(positive(receiver.unitEchoCountsAt0Db),
           "unit echo counts must be > 0, got " + number(receiver.unitEchoCountsAt0Db));
+  require(
+      std::isfinite(transducer.ringDownTailAmplitude) && transducer.ringDownTailAmplitude >= 0.0,
+      "ring-down tail amplitude must be >= 0, got " + number(transducer.ringDownTailAmplitude));
+  require(
+      positive(transducer.ringDownTailDurationUs),
+      "ring-down tail duration must be > 0 us, got " + number(transducer.ringDownTailDurationUs));
+  require(receiver.adc == AdcFormat::UInt8 || receiver.adc == AdcFormat::Int16Left12,
+          "unknown ADC format");
+  require(std::isfinite(receiver.dcOffset) && std::fabs(receiver.dcOffset) <= 32768.0,
+          "DC offset must be within the int16 range, got " + number(receiver.dcOffset));
+  require(std::isfinite(receiver.baselineWanderMin) && receiver.baselineWanderMin >= 0.0 &&
+              std::isfinite(receiver.baselineWanderMax) &&
+              receiver.baselineWanderMax >= receiver.baselineWanderMin,
+          "baseline wander must be 0 <= min <= max, got " + number(receiver.baselineWanderMin) +
+              " and " + number(receiver.baselineWanderMax));
+  require(positive(receiver.baselineWanderMinHz) &&
+              receiver.baselineWanderMaxHz >= receiver.baselineWanderMinHz &&
+              receiver.baselineWanderMaxHz < 0.5 * receiver.samplingFrequencyHz,
+          "baseline wander frequencies must be 0 < min <= max < half the sampling frequency, got " +
+              number(receiver.baselineWanderMinHz) + " and " +
+              number(receiver.baselineWanderMaxHz));
+}
+
+void useInt16FrontEnd(Transducer& transducer, Receiver& receiver, double dcOffset) {
+  receiver.adc = AdcFormat::Int16Left12;
+  receiver.dcOffset = dcOffset;
+  receiver.baselineWanderMin = 1000.0;
+  receiver.baselineWanderMax = 3000.0;
+  receiver.baselineWanderMinHz = 20e3;
+  receiver.baselineWanderMaxHz = 200e3;
+  transducer.ringDownDurationUs = 0.5;
+  transducer.ringDownTailAmplitude = 0.02;
+  transducer.ringDownTailDurationUs = 4.0;
 }
 
 ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Receiver& receiver,
@@ -472,7 +505,8 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
     }
   }
 
-  // Ring-down: the excitation and the element ringing, the same every shot.
+  // Ring-down: the excitation and the element ringing, the same every shot; a slower tail under
+  // it when the transducer has one.
   const double tau = transducer.ringDownDurationUs * 1e-6 / std::log(1000.0);
   const double ringPeak = transducer.ringDownAmplitude * counts;
   for (std::size_t i = 0; i < samples; ++i) {
@@ -482,22 +516,51 @@ ALine simulateALine(const BeamPath& path, const Transducer& transducer, const Re
       break;
     record[i] += envelope * std::cos(2.0 * kPi * fc * t);
   }
+  const double tailTau = transducer.ringDownTailDurationUs * 1e-6 / std::log(1000.0);
+  const double tailPeak = transducer.ringDownTailAmplitude * counts;
+  if (tailPeak > 0.0) {
+    for (std::size_t i = 0; i < samples; ++i) {
+      const double t = static_cast<double>(i) / fs + receiver.delayS;
+      const double envelope = tailPeak * std::exp(-t / tailTau);
+      if (envelope < 1e-3)
+        break;
+      record[i] += envelope * std::cos(2.0 * kPi * fc * t);
+    }
+  }
   {
     const double floor = std::max(receiver.electronicNoiseCounts, 0.5);
-    const double endS = ringPeak > floor ? tau * std::log(ringPeak / floor) : 0.0;
+    double endS = ringPeak > floor ? tau * std::log(ringPeak / floor) : 0.0;
+    if (tailPeak > floor)
+      endS = std::max(endS, tailTau * std::log(tailPeak / floor));
     line.ringDownEndSample =
         std::clamp(static_cast<int>(std::ceil((endS - receiver.delayS) * fs)), 0, receiver.samples);
   }
 
-  // Electronic noise, then the card: 8 bits around mid-scale, clipped.
+  // Electronic noise, then the card: 8 bits around mid-scale, or 12 bits in int16, clipped.
   if (receiver.electronicNoiseCounts > 0.0) {
     for (double& v : record)
       v += rng.normal() * receiver.electronicNoiseCounts;
   }
-  line.samples.resize(samples);
-  for (std::size_t i = 0; i < samples; ++i) {
-    line.samples[i] =
-        static_cast<std::uint8_t>(std::clamp(128L + std::lround(record[i]), 0L, 255L));
+  if (receiver.adc == AdcFormat::UInt8) {
+    line.samples.resize(samples);
+    for (std::size_t i = 0; i < samples; ++i) {
+      line.samples[i] =
+          static_cast<std::uint8_t>(std::clamp(128L + std::lround(record[i]), 0L, 255L));
+    }
+  } else {
+    // 12 bits left-justified in int16: the front end's DC offset and the baseline's slow wander
+    // join the signal before the card, which keeps 16 int16 units per code.
+    const double wander = rng.uniform(receiver.baselineWanderMin, receiver.baselineWanderMax);
+    const double wanderHz = rng.uniform(receiver.baselineWanderMinHz, receiver.baselineWanderMaxHz);
+    const double wanderPhase = rng.uniform(0.0, 2.0 * kPi);
+    line.int16Samples.resize(samples);
+    for (std::size_t i = 0; i < samples; ++i) {
+      const double t = static_cast<double>(i) / fs + receiver.delayS;
+      const double value = record[i] * kInt16PerCount + receiver.dcOffset +
+                           wander * std::sin(2.0 * kPi * wanderHz * t + wanderPhase);
+      const long code = std::clamp(std::lround(value / 16.0), -2048L, 2047L);
+      line.int16Samples[i] = static_cast<std::int16_t>(code * 16);
+    }
   }
 
   // Clutter around the target echo: RMS of everything else in the 2 us before and after the

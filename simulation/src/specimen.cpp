@@ -7,6 +7,7 @@
 #include <cmath>
 #include <limits>
 #include <stdexcept>
+#include <string>
 #include <thread>
 #include <unordered_map>
 
@@ -218,6 +219,10 @@ Specimen::Specimen(Knee knee, SpecimenKind kind, const SoftTissueOptions& tissue
     : knee_(std::move(knee)), kind_(kind), tissue_(tissue), grid_(std::make_unique<Grid>()) {
   if (knee_.bones.empty())
     throw std::invalid_argument("specimen without bones");
+  if (!(tissue_.underSkinScale > 0.0 && tissue_.underSkinScale <= 1.0)) {
+    throw std::invalid_argument("under-skin tissue scale must be in (0, 1], got " +
+                                std::to_string(tissue_.underSkinScale));
+  }
   for (const Bone& bone : knee_.bones) {
     locators_.emplace_back(bone.mesh);
     boneBounds_.push_back(core::bounds(bone.mesh));
@@ -424,7 +429,10 @@ double Specimen::softTissueThicknessMm(const Eigen::Vector3d& p) const {
   const double f = sector - std::floor(sector);
   const double var = (1 - f) * variation_[static_cast<std::size_t>(s0)] +
                      f * variation_[static_cast<std::size_t>((s0 + 1) % 8)];
-  return t * tissue_.thicknessScale * (1.0 + var);
+  const double total = t * tissue_.thicknessScale * (1.0 + var);
+  if (tissue_.underSkinScale == 1.0 || total <= tissue_.skinMm)
+    return total;
+  return tissue_.skinMm + tissue_.underSkinScale * (total - tissue_.skinMm);
 }
 
 double Specimen::fatThicknessMm(const Eigen::Vector3d& p) const {
@@ -434,7 +442,8 @@ double Specimen::fatThicknessMm(const Eigen::Vector3d& p) const {
 double Specimen::fatFor(const Eigen::Vector3d& p, double total) const {
   const Eigen::Vector3d v = p - kneeCentre_;
   const double w = smoothstep(-25.0, 25.0, v.dot(thighAxis_) - v.dot(shankAxis_));
-  const double fat = (w * kThighFatMm + (1 - w) * kShankFatMm) * tissue_.thicknessScale;
+  const double fat =
+      (w * kThighFatMm + (1 - w) * kShankFatMm) * tissue_.thicknessScale * tissue_.underSkinScale;
   const double belowSkin = std::max(0.0, total - tissue_.skinMm);
   // Where less than 2 mm of muscle would remain (over subcutaneous bone), there is none.
   if (belowSkin - fat < 2.0)

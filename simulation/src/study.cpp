@@ -19,6 +19,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <optional>
@@ -259,9 +260,11 @@ void simulateShots(Sequence& capture, const std::string& name,
                    std::vector<ShotTruth>& truths, const StudyProgress& progress,
                    const std::string& step) {
   const int samples = scene.receiver.samples;
-  capture.elementType = ElementType::UInt8;
+  const bool wide = scene.receiver.adc == AdcFormat::Int16Left12;
+  capture.elementType = wide ? ElementType::Int16 : ElementType::UInt8;
   capture.frameSize = {samples, 1};
-  capture.pixels.assign(shots.size() * static_cast<std::size_t>(samples), 0);
+  const std::size_t frameBytes = static_cast<std::size_t>(samples) * (wide ? 2 : 1);
+  capture.pixels.assign(shots.size() * frameBytes, 0);
   truths.assign(shots.size(), ShotTruth{});
   std::atomic<std::size_t> next{0};
   std::atomic<std::size_t> done{0};
@@ -273,9 +276,12 @@ void simulateShots(Sequence& capture, const std::string& name,
       trace(shots[i], path, truth);
       applyWaterSpeed(path, scene.waterSpeedMps);
       const ALine line = simulateALine(path, scene.transducer, scene.receiver, rng);
-      std::copy(line.samples.begin(), line.samples.end(),
-                capture.pixels.begin() +
-                    static_cast<std::ptrdiff_t>(i * static_cast<std::size_t>(samples)));
+      if (wide) {
+        std::memcpy(capture.pixels.data() + i * frameBytes, line.int16Samples.data(), frameBytes);
+      } else {
+        std::copy(line.samples.begin(), line.samples.end(),
+                  capture.pixels.begin() + static_cast<std::ptrdiff_t>(i * frameBytes));
+      }
       truth.region = shots[i].region;
       truth.coupled = shots[i].coupled;
       truth.shouldAccept = line.targetClear && shots[i].coupled && truth.bone != "none";
@@ -330,11 +336,13 @@ std::vector<Region> ultrasoundRegionsUnclamped(BoneId bone, FemurRegions femurRe
 
 // The regions within `maxFromKneeMm` of the knee centre: the sweeps stay where the CT's knee
 // group scans (a point beyond the scan has no model to match).
-std::vector<Region> ultrasoundRegions(BoneId bone, FemurRegions femurRegions, double maxFromKneeMm) {
+std::vector<Region> ultrasoundRegions(BoneId bone, FemurRegions femurRegions,
+                                      double maxFromKneeMm) {
   std::vector<Region> regions;
   for (Region r : ultrasoundRegionsUnclamped(bone, femurRegions)) {
     r.h1 = std::min(r.h1, maxFromKneeMm);
-    if (r.h1 - r.h0 >= 5.0) regions.push_back(r);
+    if (r.h1 - r.h0 >= 5.0)
+      regions.push_back(r);
   }
   return regions;
 }
@@ -413,7 +421,8 @@ class StudyBuilder {
   }
 
   void writeCaptures(StudySummary& summary) {
-    for (int c = 1; c <= o_.calibrations; ++c) calibration(c);
+    for (int c = 1; c <= o_.calibrations; ++c)
+      calibration(c);
     pivot();
     for (BoneId bone : {BoneId::Femur, BoneId::Tibia}) {
       for (int r = 1; r <= o_.registrations; ++r)
@@ -444,6 +453,14 @@ class StudyBuilder {
                                  ? o_.assumedSpeedOfSoundMps
                                  : (o_.preset == SpecimenKind::Phantom ? 1450.0 : 1540.0);
     scene_.waterSpeedMps = waterSpeedOfSoundMps(o_.waterTemperatureC);
+    // The probe and the front end, the same for every A-line capture.
+    if (o_.probeFrequencyHz > 0.0)
+      scene_.transducer.centreFrequencyHz = o_.probeFrequencyHz;
+    if (o_.adc == AdcFormat::Int16Left12) {
+      // An in-vivo A-mode front end; its DC offset is one per study.
+      core::Rng frontEnd = core::Rng::derive(o_.seed, "front-end");
+      useInt16FrontEnd(scene_.transducer, scene_.receiver, frontEnd.uniform(50.0, 110.0));
+    }
     const Eigen::Vector3d superior = (knee.hipCentre - knee.kneeCentre).normalized();
     const Eigen::Vector3d lateral = -knee.medialCt;
     // The camera stands 1.6 m from the knee, anterior, above and to the lateral side.
@@ -510,7 +527,12 @@ class StudyBuilder {
       measured.acquisition.samplingFrequencyHz = scene_.receiver.samplingFrequencyHz;
       measured.acquisition.delayS = scene_.receiver.delayS;
       measured.acquisition.speedOfSoundMps = assumedSpeedMps;
-      measured.acquisition.transducer = "Olympus V312 9 MHz 6.35 mm F25 (simulated)";
+      const double fc = scene_.transducer.centreFrequencyHz;
+      measured.acquisition.transducer =
+          fc == 9e6 ? std::string("Olympus V312 9 MHz 6.35 mm F25 (simulated)")
+                    : fmt::format("single element {:g} MHz 6.35 mm F25 (simulated)", fc * 1e-6);
+      if (o_.probeFrequencyHz > 0.0)
+        measured.acquisition.transducerFrequencyHz = fc;
     }
     measured.extraHeader.push_back({"EchoregSimulated", "True"});
     truth.extraHeader.push_back({"EchoregSimulated", "True"});
@@ -530,13 +552,15 @@ class StudyBuilder {
   // Calibration session `index` (1, 2, ...): the bath set up anew, the same probe.
   void calibration(int index) {
     const std::string suffix = index > 1 ? "_" + std::to_string(index) : std::string();
-    core::Rng rng = core::Rng::derive(o_.seed, "calibration", static_cast<std::uint64_t>(index - 1));
+    core::Rng rng =
+        core::Rng::derive(o_.seed, "calibration", static_cast<std::uint64_t>(index - 1));
     // The bath in the camera's frame: 1.5 m in front, below the line of sight.
     const Eigen::Vector3d centre(35.0 + rng.normal(0, 5), 60.0 + rng.normal(0, 5),
                                  1500.0 + rng.normal(0, 20));
     const Eigen::Vector3d up =
         -Eigen::Vector3d(0.0, 1.0, 0.25).normalized();  // toward the camera side
-    if (index == 1) sphereCentreTracker_ = centre;
+    if (index == 1)
+      sphereCentreTracker_ = centre;
     nlohmann::json session = {{"sphere_centre_tracker_mm", vectorJson(centre)}};
     // The sphere has no tracker: everything here is in the camera's frame (camera at the origin).
     auto faceCamera = [](const Eigen::Vector3d& axis, const Eigen::Vector3d& at, double roll) {
@@ -553,7 +577,8 @@ class StudyBuilder {
 
     // Stylus points on the sphere: the tip's centre at R + tip radius.
     {
-      CaptureWriter writer("calibration_sphere_stylus" + suffix + ".igs.mha", scene_.tracker, o_.seed);
+      CaptureWriter writer("calibration_sphere_stylus" + suffix + ".igs.mha", scene_.tracker,
+                           o_.seed);
       double t = nextStart();
       for (int p = 0; p < sizes_.spherePoints; ++p) {
         const Eigen::Vector3d n = onCap(75.0 * kDeg);
@@ -1075,6 +1100,15 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   if (!fs::is_directory(parent, ec)) {
     throw FileError(folder, "its parent folder " + parent.string() + " does not exist");
   }
+  if (!(options.underSkinScale > 0.0 && options.underSkinScale <= 1.0)) {
+    throw std::invalid_argument("soft tissue scale must be in (0, 1], got " +
+                                std::to_string(options.underSkinScale));
+  }
+  if (options.probeFrequencyHz != 0.0 &&
+      !(options.probeFrequencyHz >= 1e6 && options.probeFrequencyHz <= 20e6)) {
+    throw std::invalid_argument("probe frequency must be in [1, 20] MHz, got " +
+                                std::to_string(options.probeFrequencyHz) + " Hz");
+  }
   // Sweeps the stale temporary folders of killed runs; this one's is removed on any early end.
   TemporaryFolder cleanup(target);
   for (const auto& [bone, file] : options.meshFiles) {
@@ -1112,6 +1146,7 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   stepStart = Clock::now();
   SoftTissueOptions tissue;
   tissue.thicknessScale = options.tissueScale;
+  tissue.underSkinScale = options.underSkinScale;
   tissue.seed = options.seed;
   const Specimen specimen(knee, options.preset, tissue, [&](double f) { report("leg", f); });
   summary.stepSeconds.push_back({"leg", secondsSince(stepStart)});
@@ -1212,6 +1247,13 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
       {"tissue_scale", options.tissueScale},
       {"fibula_in_tibia_model", options.fibulaInTibiaModel},
       {"femur_regions", options.femurRegions == FemurRegions::All ? "all" : "epicondyles"}};
+  // Written only when asked for: a default study's manifest stays as it was.
+  if (options.underSkinScale != 1.0)
+    manifest["generator"]["soft_tissue_scale"] = options.underSkinScale;
+  if (options.probeFrequencyHz > 0.0)
+    manifest["generator"]["probe_frequency_hz"] = options.probeFrequencyHz;
+  if (options.adc == AdcFormat::Int16Left12)
+    manifest["generator"]["adc"] = "int16-12bit";
   manifest["ct"] = {{"dicom", "ct/series"}, {"landmarks", "ct/landmarks.mrk.json"}};
   manifest["detection"] = {
       {"preset", options.preset == SpecimenKind::Phantom ? "calibration" : "default"},
@@ -1234,10 +1276,12 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
     const Bone& bone = knee.bone(id);
     const Eigen::Vector3d d = bone.axisDistal;
     const Eigen::Vector3d axis = bone.axisProximal - bone.axisDistal;
-    if (std::abs(axis.z()) < 1e-6) return std::nullopt;
+    if (std::abs(axis.z()) < 1e-6)
+      return std::nullopt;
     const double t = (knee.kneeCentre.z() + dz - d.z()) / axis.z();
     const Eigen::Vector3d seed = d + t * axis;
-    if (!core::MeshLocator(bone.mesh).inside(seed)) return std::nullopt;
+    if (!core::MeshLocator(bone.mesh).inside(seed))
+      return std::nullopt;
     return seed;
   };
   if (const auto seed = seedOf(BoneId::Femur, 25.0)) {
@@ -1246,7 +1290,8 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   if (const auto seed = seedOf(BoneId::Tibia, -25.0)) {
     nlohmann::json seeds = {vectorJson(*seed)};
     if (options.fibulaInTibiaModel) {
-      if (const auto fibula = seedOf(BoneId::Fibula, -25.0)) seeds.push_back(vectorJson(*fibula));
+      if (const auto fibula = seedOf(BoneId::Fibula, -25.0))
+        seeds.push_back(vectorJson(*fibula));
     }
     manifest["bones"]["tibia"]["segment"] = {{"seeds_ct", seeds},
                                              {"with_fibula", options.fibulaInTibiaModel}};

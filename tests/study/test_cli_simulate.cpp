@@ -23,6 +23,9 @@ TEST(CliSimulate, UsageErrorsExitTwo) {
         std::vector<std::string>{"simulate", "--out", dir.file("s"), "--bone", "femur"},
         std::vector<std::string>{"simulate", "--out", dir.file("s"), "--bone", "patella=p.stl"},
         std::vector<std::string>{"simulate", "--out", dir.file("s"), "--flexion", "170"},
+        std::vector<std::string>{"simulate", "--out", dir.file("s"), "--adc", "int12"},
+        std::vector<std::string>{"simulate", "--out", dir.file("s"), "--soft-tissue-scale", "1.5"},
+        std::vector<std::string>{"simulate", "--out", dir.file("s"), "--probe-frequency", "40e6"},
         std::vector<std::string>{"simulate"}}) {
     const test::CommandResult r = runEchoreg(args);
     EXPECT_EQ(r.exitCode, 2) << args.back() << ": " << r.err;
@@ -33,6 +36,8 @@ TEST(CliSimulate, UsageErrorsExitTwo) {
   EXPECT_EQ(help.exitCode, 0);
   EXPECT_NE(help.out.find("--preset"), std::string::npos);
   EXPECT_NE(help.out.find("--fibula-in-tibia"), std::string::npos);
+  for (const char* option : {"--probe-frequency", "--adc", "--soft-tissue-scale"})
+    EXPECT_NE(help.out.find(option), std::string::npos) << option;
 }
 
 TEST(CliSimulate, FailuresNameTheFileAndLeaveNothing) {
@@ -70,6 +75,26 @@ TEST(CliSimulate, SmallStudySummaryAsJson) {
   EXPECT_GT(summary.at("ultrasound_frames").get<int>(), 60);
   EXPECT_TRUE(fs::is_regular_file(dir.file("s/study.json")));
   EXPECT_TRUE(r.err.empty()) << "no progress on a non-terminal: " << r.err;
+}
+
+TEST(CliSimulate, InVivoOptionsReachTheCapturesAndTheManifest) {
+  test::TempDir dir;
+  const test::CommandResult r =
+      runEchoreg({"simulate", "--out", dir.file("s"), "--size", "small", "--frames-per-bone", "20",
+                  "--standoff", "none", "--probe-frequency", "7e6", "--adc", "int16-12bit",
+                  "--soft-tissue-scale", "0.3"});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  std::ifstream capture(dir.file("s/captures/tibia_ultrasound.igs.mha"), std::ios::binary);
+  std::string header(4096, '\0');
+  capture.read(header.data(), static_cast<std::streamsize>(header.size()));
+  EXPECT_NE(header.find("ElementType = MET_SHORT"), std::string::npos);
+  EXPECT_NE(header.find("EchoregTransducerFrequencyHz = 7000000"), std::string::npos);
+  EXPECT_NE(header.find("EchoregSamplingFrequencyHz = 50000000"), std::string::npos);
+  std::ifstream manifest(dir.file("s/study.json"));
+  const nlohmann::json study = nlohmann::json::parse(manifest);
+  EXPECT_EQ(study.at("generator").at("probe_frequency_hz"), 7e6);
+  EXPECT_EQ(study.at("generator").at("adc"), "int16-12bit");
+  EXPECT_EQ(study.at("generator").at("soft_tissue_scale"), 0.3);
 }
 
 }  // namespace

@@ -1,6 +1,8 @@
 // The pulse-echo model of one A-line: what a single-element focused transducer (Olympus V312,
 // 9 MHz, 6.35 mm, focused at 25 mm), a pulser-receiver (5072PR, 40 dB) and an 8-bit 50 MHz card
-// record along one beam path of tissue layers (Mozes 2008, sections 3.1, 4.1, 4.3.4 and 5.3).
+// record along one beam path of tissue layers (Mozes 2008, sections 3.1, 4.1, 4.3.4 and 5.3);
+// another centre frequency, or a 12-bit int16 front end with DC offset, baseline wander and a
+// short ring-down with a tail, on request.
 //
 // The path, not a label, drives the record: every interface gives a specular echo from the
 // impedances and the incidence, every soft tissue its speckle, the transducer its ring-down and
@@ -28,6 +30,11 @@ struct Transducer {
   double ringDownAmplitude = 10.0;
   /// Time for the ring-down to decay by 60 dB from its peak.
   double ringDownDurationUs = 1.5;
+  /// A slower tail under the ring-down's burst (the pulser's recovery and the backing's late
+  /// ringing): its peak at the pulse relative to the unit echo, and its 60 dB decay time. 0 = no
+  /// tail (the V312 on the 5072PR: one exponential).
+  double ringDownTailAmplitude = 0.0;
+  double ringDownTailDurationUs = 4.0;
   /// Pressure reflection coefficient of the transducer's face seen from the water (it sends
   /// echoes back out: the multiples between face and reflector).
   double faceReflection = 0.5;
@@ -35,6 +42,16 @@ struct Transducer {
   /// echo, at the focus without attenuation; other tissues scale it by their `backscatter`.
   double muscleSpeckle = 0.025;
 };
+
+/// How the digitiser stores a sample. Both cover the same input range: one 8-bit count is 16
+/// 12-bit codes, 256 int16 units.
+enum class AdcFormat {
+  UInt8,        ///< 8-bit unsigned, mid-scale 128 = 0 V (AlazarTech ATS850)
+  Int16Left12,  ///< 12-bit signed codes left-justified in int16 (multiples of 16), 0 = 0 V
+};
+
+/// int16 units per 8-bit count (the unit of every amplitude in the model).
+constexpr double kInt16PerCount = 256.0;
 
 /// Pulser-receiver and digitiser (defaults: 5072PR at 40 dB, AlazarTech ATS850).
 struct Receiver {
@@ -46,6 +63,17 @@ struct Receiver {
   /// ADC counts of the unit echo (a perfect plane reflector at the focus in water, no
   /// attenuation) at 0 dB gain: the sensitivity of pulser, transducer and card together.
   double unitEchoCountsAt0Db = 25.0;
+  AdcFormat adc = AdcFormat::UInt8;
+  /// Int16Left12 only, in int16 units (16 per code): the front end's DC offset, and the slow
+  /// wander of its baseline, per record a sinusoid of peak amplitude uniform in
+  /// [baselineWanderMin, baselineWanderMax] and frequency uniform in [baselineWanderMinHz,
+  /// baselineWanderMaxHz], random phase. Neither is clutter for `targetClear` (both lie far
+  /// below the probe's band, where any detector filters).
+  double dcOffset = 0.0;
+  double baselineWanderMin = 0.0;
+  double baselineWanderMax = 0.0;
+  double baselineWanderMinHz = 20e3;
+  double baselineWanderMaxHz = 200e3;
 };
 
 /// One homogeneous stretch of the beam, from the transducer face outward.
@@ -71,15 +99,16 @@ struct BeamPath {
 
 /// One simulated record with its ground truth.
 struct ALine {
-  std::vector<std::uint8_t> samples;  ///< 8-bit, mid-scale 128 = 0 V
-  int targetLayer = -1;               ///< index of the first bone/steel layer, -1 if none
-  double targetEchoSample = -1;       ///< true sample of the bone/steel echo (time of flight * fs)
-  double targetEchoAmplitude = 0;     ///< counts (before clipping)
-  double clutterRmsAtTarget = 0;      ///< speckle + noise RMS around the echo, counts
-  bool targetClear = false;           ///< a correct detector should accept this line
-  double timeOfFlightS = 0;           ///< round trip to the target interface
-  double meanSpeedOfSoundMps = 0;     ///< path length / one-way time, to the target interface
-  int ringDownEndSample = 0;          ///< first sample where the ring-down is below the noise
+  std::vector<std::uint8_t> samples;       ///< AdcFormat::UInt8: 8-bit, mid-scale 128 = 0 V
+  std::vector<std::int16_t> int16Samples;  ///< AdcFormat::Int16Left12 (samples then empty)
+  int targetLayer = -1;                    ///< index of the first bone/steel layer, -1 if none
+  double targetEchoSample = -1;    ///< true sample of the bone/steel echo (time of flight * fs)
+  double targetEchoAmplitude = 0;  ///< counts (before clipping)
+  double clutterRmsAtTarget = 0;   ///< speckle + noise RMS around the echo, counts
+  bool targetClear = false;        ///< a correct detector should accept this line
+  double timeOfFlightS = 0;        ///< round trip to the target interface
+  double meanSpeedOfSoundMps = 0;  ///< path length / one-way time, to the target interface
+  int ringDownEndSample = 0;       ///< first sample where the ring-down is below the noise
 };
 
 /// Rule of `targetClear`: the target echo is at least this many times the clutter RMS ...
@@ -129,6 +158,13 @@ std::complex<double> focusingResponse(const Transducer& transducer, double water
 /// Checks the path, the transducer and the receiver; throws std::invalid_argument naming the
 /// first bad value.
 void validate(const BeamPath& path, const Transducer& transducer, const Receiver& receiver);
+
+/// Turns `transducer` and `receiver` into an in-vivo A-mode front end (`echoreg simulate --adc
+/// int16-12bit`): a 12-bit card left-justified in int16 with the DC offset `dcOffset` (int16
+/// units), a baseline wandering by +-1000 to 3000 int16 units at 20-200 kHz, and a pulser that
+/// damps the element within ~0.5 us (60 dB) over a weaker tail (2 % of the unit echo, 60 dB in
+/// 4 us). The probe's frequency, focus and sensitivity stay as they are.
+void useInt16FrontEnd(Transducer& transducer, Receiver& receiver, double dcOffset);
 
 /// Simulates one A-line. Random parts (speckle, septa strengths, noise) come from `rng`; the same
 /// inputs and generator state give the same bytes.

@@ -34,7 +34,11 @@ enum class Segment { Thigh, Shank };
 struct SoftTissueOptions {
   double thicknessScale = 1.0;  ///< 1 = the table's mean adult; 0.8 lean, 1.3 heavy
   double skinMm = 1.8;          ///< dermis + epidermis over the knee (1.5-2.5 mm)
-  std::uint64_t seed = 1;       ///< smooth variation of the map around the limb (+-10 %)
+  /// Thickness factor of what lies under the skin (fat and muscle), in (0, 1]; the skin keeps
+  /// its `skinMm`. 0.3 puts the bone 2-10 mm under the skin around the knee (in vivo, pressed by
+  /// a bare probe); applies after `thicknessScale`.
+  double underSkinScale = 1.0;
+  std::uint64_t seed = 1;  ///< smooth variation of the map around the limb (+-10 %)
 };
 
 /// Where the beam goes and what it meets, with the truth of the shot.

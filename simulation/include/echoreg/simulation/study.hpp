@@ -34,9 +34,17 @@ struct StudyOptions {
   bool fibulaInTibiaModel = false;  ///< truth/tibia.vtp holds tibia and fibula (specimen #3)
   FemurRegions femurRegions = FemurRegions::All;
   double tissueScale = 1.0;  ///< soft tissue thickness factor
-  int framesPerBone = 0;     ///< ultrasound frames per bone; 0 = by size (small 800, full 3000)
-  int registrations = 1;     ///< ultrasound captures per bone (the dissertation: 5)
-  int calibrations = 1;      ///< calibration sessions of the one probe (Table 5.1: 5)
+  /// Thickness factor of the fat and muscle under the skin, (0, 1] (--soft-tissue-scale; 0.3: the
+  /// knee in vivo, bone 2-10 mm under the skin).
+  double underSkinScale = 1.0;
+  /// Centre frequency of the probe, Hz, for every A-line capture; 0 = the Olympus V312's 9 MHz.
+  double probeFrequencyHz = 0.0;
+  /// The front end: the 5072PR and 8-bit card (UInt8), or a 12-bit int16 card with DC offset,
+  /// baseline wander and a short ring-down with a tail (Int16Left12).
+  AdcFormat adc = AdcFormat::UInt8;
+  int framesPerBone = 0;  ///< ultrasound frames per bone; 0 = by size (small 800, full 3000)
+  int registrations = 1;  ///< ultrasound captures per bone (the dissertation: 5)
+  int calibrations = 1;   ///< calibration sessions of the one probe (Table 5.1: 5)
 };
 
 /// Shares of frames that a correct detector should accept, per capture and region.
