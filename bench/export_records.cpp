@@ -1,7 +1,7 @@
 // Writes labelled specimen A-lines and echoreg's decisions on them, for the side-by-side
 // comparison with a numpy/scipy reimplementation (bench/compare_scipy.py).
 //
-//   export_records OUT_DIR [--records N] [--preset default|mozes2008] [--seed S]
+//   export_records OUT_DIR [--records N] [--preset shadow|mozes2008] [--seed S]
 //
 // Writes into OUT_DIR:
 //   records.u8               N x 4096 uint8, row-major (the raw digitiser bytes)
@@ -43,13 +43,14 @@ constexpr int kSamples = 4096;
 struct Options {
   std::filesystem::path outDir;
   int records = 2000;
-  std::string preset = "default";
+  std::string preset = "shadow";
   std::uint64_t seed = 2008;
 };
 
 [[noreturn]] void usage(const std::string& problem) {
-  if (!problem.empty()) std::cerr << "export_records: " << problem << "\n";
-  std::cerr << "usage: export_records OUT_DIR [--records N] [--preset default|mozes2008] "
+  if (!problem.empty())
+    std::cerr << "export_records: " << problem << "\n";
+  std::cerr << "usage: export_records OUT_DIR [--records N] [--preset shadow|mozes2008] "
                "[--seed S]\n";
   std::exit(2);
 }
@@ -60,17 +61,21 @@ Options parse(int argc, char** argv) {
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     const auto value = [&]() -> std::string {
-      if (i + 1 >= argc) usage(arg + " needs a value");
+      if (i + 1 >= argc)
+        usage(arg + " needs a value");
       return argv[++i];
     };
     try {
       if (arg == "--records") {
         options.records = std::stoi(value());
-        if (options.records < 1) usage("--records must be >= 1");
+        if (options.records < 1)
+          usage("--records must be >= 1");
       } else if (arg == "--preset") {
         options.preset = value();
-        if (options.preset != "default" && options.preset != "mozes2008") {
-          usage("--preset must be default or mozes2008");
+        // The scipy twin (compare_scipy.py) implements the bone and double policies: the
+        // earlier default ("shadow") and the dissertation's chain.
+        if (options.preset != "shadow" && options.preset != "mozes2008") {
+          usage("--preset must be shadow or mozes2008");
         }
       } else if (arg == "--seed") {
         options.seed = std::stoull(value());
@@ -88,13 +93,15 @@ Options parse(int argc, char** argv) {
       usage("bad value for " + arg);
     }
   }
-  if (!haveDir) usage("OUT_DIR is required");
+  if (!haveDir)
+    usage("OUT_DIR is required");
   return options;
 }
 
 std::ofstream openForWriting(const std::filesystem::path& path, std::ios::openmode mode = {}) {
   std::ofstream out(path, std::ios::out | std::ios::trunc | mode);
-  if (!out) throw std::runtime_error("cannot write " + path.string());
+  if (!out)
+    throw std::runtime_error("cannot write " + path.string());
   return out;
 }
 
@@ -108,7 +115,8 @@ std::string formatDouble(double value, int digits = 9) {
 std::string join(const std::vector<double>& values) {
   std::string text;
   for (std::size_t i = 0; i < values.size(); ++i) {
-    if (i > 0) text += ",";
+    if (i > 0)
+      text += ",";
     char buffer[64];
     std::snprintf(buffer, sizeof buffer, "%.17g", values[i]);
     text += buffer;
@@ -128,11 +136,14 @@ int run(const Options& options) {
 
   std::vector<std::uint8_t> bytes;
   bytes.reserve(n * kSamples);
-  for (const auto& line : set) bytes.insert(bytes.end(), line.samples.begin(), line.samples.end());
+  for (const auto& line : set)
+    bytes.insert(bytes.end(), line.samples.begin(), line.samples.end());
   {
     std::ofstream out = openForWriting(options.outDir / "records.u8", std::ios::binary);
-    out.write(reinterpret_cast<const char*>(bytes.data()), static_cast<std::streamsize>(bytes.size()));
-    if (!out) throw std::runtime_error("cannot write records.u8");
+    out.write(reinterpret_cast<const char*>(bytes.data()),
+              static_cast<std::streamsize>(bytes.size()));
+    if (!out)
+      throw std::runtime_error("cannot write records.u8");
   }
   {
     std::ofstream out = openForWriting(options.outDir / "labels.csv");
@@ -155,7 +166,8 @@ int run(const Options& options) {
     const auto start = std::chrono::steady_clock::now();
     for (std::size_t r = 0; r < n; ++r) {
       const std::uint8_t* in = bytes.data() + r * kSamples;
-      for (int i = 0; i < kSamples; ++i) samples[static_cast<std::size_t>(i)] = static_cast<float>(in[i]);
+      for (int i = 0; i < kSamples; ++i)
+        samples[static_cast<std::size_t>(i)] = static_cast<float>(in[i]);
       detections[r] = detector.detect(samples.data(), kSamples);
     }
     const double seconds =
@@ -172,7 +184,8 @@ int run(const Options& options) {
     for (std::size_t i = 0; i < n; ++i) {
       const echoreg::SignalDetection& d = detections[i];
       out << i << "," << (d.accepted() ? 1 : 0) << ","
-          << (d.accepted() ? std::string("accepted") : std::string(echoreg::rejectReasonName(d.peaks.reason)))
+          << (d.accepted() ? std::string("accepted")
+                           : std::string(echoreg::rejectReasonName(d.peaks.reason)))
           << ",";
       if (d.accepted()) {
         out << formatDouble(d.peaks.sampleIndex, 17) << "," << formatDouble(d.depthMm, 17);
@@ -217,8 +230,7 @@ int run(const Options& options) {
         << "bone_min_contrast=" << formatDouble(peaks.bone.minContrast, 17) << "\n"
         << "bone_max_width_mm=" << formatDouble(peaks.bone.maxWidthMm, 17) << "\n"
         << "bone_noise_floor_factor=" << formatDouble(peaks.bone.noiseFloorFactor, 17) << "\n"
-        << "bone_min_tissue_over_noise=" << formatDouble(peaks.bone.minTissueOverNoise, 17)
-        << "\n"
+        << "bone_min_tissue_over_noise=" << formatDouble(peaks.bone.minTissueOverNoise, 17) << "\n"
         << "sampling_frequency_hz=" << formatDouble(params.depth.samplingFrequencyHz, 17) << "\n"
         << "delay_s=" << formatDouble(params.depth.delayS, 17) << "\n"
         << "speed_of_sound_mps=" << formatDouble(params.depth.speedOfSoundMps, 17) << "\n";
@@ -239,7 +251,8 @@ int run(const Options& options) {
     accepted += ok ? 1 : 0;
     if (set[i].hasBone) {
       ++positives;
-      if (!ok) continue;
+      if (!ok)
+        continue;
       const double error = detections[i].peaks.sampleIndex - set[i].boneSample;
       if (std::fabs(error) * mmPerSample <= 1.0) {
         ++hits;
@@ -252,19 +265,23 @@ int run(const Options& options) {
     }
   }
   double meanError = 0.0;
-  for (double e : errors) meanError += e;
-  if (!errors.empty()) meanError /= static_cast<double>(errors.size());
+  for (double e : errors)
+    meanError += e;
+  if (!errors.empty())
+    meanError /= static_cast<double>(errors.size());
   const int negatives = static_cast<int>(n) - positives;
 
   std::printf("export_records: %zu records (seed %llu) -> %s\n", n,
               static_cast<unsigned long long>(options.seed), options.outDir.string().c_str());
-  std::printf("  preset %-9s  C++ chain (1 thread, uint8->float included): %.3f us/record, "
-              "%.0f records/s (best of %d passes)\n",
-              options.preset.c_str(), perRecord * 1e6, 1.0 / perRecord, passes);
-  std::printf("  accepted %d/%zu; positives %d: %d within 1 mm (mean error %+.1f samples), %d "
-              "misplaced, %d rejected; negatives %d: %d accepted\n",
-              accepted, n, positives, hits, meanError, misplaced, positives - hits - misplaced,
-              negatives, falseAccepts);
+  std::printf(
+      "  preset %-9s  C++ chain (1 thread, uint8->float included): %.3f us/record, "
+      "%.0f records/s (best of %d passes)\n",
+      options.preset.c_str(), perRecord * 1e6, 1.0 / perRecord, passes);
+  std::printf(
+      "  accepted %d/%zu; positives %d: %d within 1 mm (mean error %+.1f samples), %d "
+      "misplaced, %d rejected; negatives %d: %d accepted\n",
+      accepted, n, positives, hits, meanError, misplaced, positives - hits - misplaced, negatives,
+      falseAccepts);
   return 0;
 }
 

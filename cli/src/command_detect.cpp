@@ -182,9 +182,9 @@ const std::vector<Tunable>& tunables() {
       {"consistency-mm", "Inter-signal", "Temporal filter: agreement, mm, default 0.5", 0.0,
        [](P& p, const V& v) { p.interSignal.consistencyMm = as<double>(v); }},
       {"max-depth-rate", "Inter-signal",
-       "neighbours: how fast the depth may change, mm/s, default 60", 0.0,
+       "neighbours: how fast the depth may change, mm/s, default 30", 0.0,
        [](P& p, const V& v) { p.interSignal.maxDepthRateMmPerS = as<double>(v); }},
-      {"max-gap", "Inter-signal", "neighbours: longest time to a neighbour, s, default 0.2", 0.0,
+      {"max-gap", "Inter-signal", "neighbours: longest time to a neighbour, s, default 0.1", 0.0,
        [](P& p, const V& v) { p.interSignal.maxGapS = as<double>(v); }},
       {"min-spread-mm", "Inter-signal",
        "Spatial filter on tracked points (--pose): min distance between points, mm, default 1 "

@@ -591,6 +591,7 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
     const int ringDown = std::clamp(params.ringDownEnd, 0, count);
     PeakParams bone = params;
     bone.policy = PeakPolicy::Bone;
+    bone.bone.minShareOfStrongest = params.prominence.similarRatio;
     bone.ringDownEnd = 0;
     if (bone.windowBegin)
       bone.windowBegin = std::max(0, *bone.windowBegin - ringDown);
@@ -601,6 +602,13 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       peak.index += ringDown;
       peak.runBegin += ringDown;
       peak.runEnd += ringDown;
+    }
+    // The ring-down's falling tail is cut at its end, not peaked there: no peak at that edge.
+    if (!shifted.peaks.empty() && ringDown > 0 && shifted.peaks.front().index == ringDown &&
+        envelope[ringDown - 1] >= envelope[ringDown] && shifted.selected != 0) {
+      shifted.peaks.erase(shifted.peaks.begin());
+      if (shifted.selected > 0)
+        --shifted.selected;
     }
     if (shifted.accepted()) {
       shifted.sampleIndex += ringDown;
@@ -755,11 +763,34 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       std::vector<float> scratch;
       const double noiseFloor = noiseFloorOf(envelope, count, scratch);
       result.reason = RejectReason::NotBone;
-      for (int candidate = found - 1; candidate >= 0; --candidate) {
+      if (params.bone.minShareOfStrongest <= 0.0) {
+        for (int candidate = found - 1; candidate >= 0; --candidate) {
+          const Peak& peak = result.peaks[static_cast<std::size_t>(candidate)];
+          if (hasBoneSignature(params.bone, params.mmPerSample, noiseFloor, envelope, count, peak,
+                               scratch)) {
+            accept(candidate, peak.index);
+            break;
+          }
+        }
+        break;
+      }
+      // The deepest of the echoes with bone's signature that are not much weaker than the
+      // strongest of them: a faint echo behind bone (the inner cortex, a reverberation) can
+      // borrow a shadow too.
+      std::vector<int> signed_;
+      float strongest = 0.F;
+      for (int candidate = 0; candidate < found; ++candidate) {
         const Peak& peak = result.peaks[static_cast<std::size_t>(candidate)];
         if (hasBoneSignature(params.bone, params.mmPerSample, noiseFloor, envelope, count, peak,
                              scratch)) {
-          accept(candidate, peak.index);
+          signed_.push_back(candidate);
+          strongest = std::max(strongest, peak.value);
+        }
+      }
+      for (auto it = signed_.rbegin(); it != signed_.rend(); ++it) {
+        const Peak& peak = result.peaks[static_cast<std::size_t>(*it)];
+        if (peak.value >= params.bone.minShareOfStrongest * strongest) {
+          accept(*it, peak.index);
           break;
         }
       }

@@ -46,8 +46,8 @@ struct InterSignalParams {
   TemporalMode temporal = TemporalMode::Run;
   /// Neighbours: how fast the depth may change, mm/s (>= 0), and the longest time to a neighbour
   /// that still counts, s (> 0). Frames without timestamps are taken 1/`frameRateHz` apart.
-  double maxDepthRateMmPerS = 60.0;
-  double maxGapS = 0.2;
+  double maxDepthRateMmPerS = 30.0;
+  double maxGapS = 0.1;
   double frameRateHz = 50.0;
 };
 

@@ -73,6 +73,10 @@ struct BoneEchoParams {
   /// Minimum ratio of the median envelope before the peak (the tissue's speckle) to the noise
   /// floor (>= 0): skin and standoff-wall echoes have water, not tissue, in front of them.
   double minTissueOverNoise = 1.5;
+  /// 0: the deepest echo with the signature (echoreg's earlier default). In (0, 1]: the deepest
+  /// of those at least this share of the strongest with the signature (the prominence policy's
+  /// shadow mode uses its similarRatio).
+  double minShareOfStrongest = 0.0;
 };
 
 /// The prominence policy (the default), decided from the statistics of the record itself rather
@@ -163,10 +167,10 @@ void validate(const PeakParams& params);
 
 /// Field-by-field equality (a new field must be added here, or this stops compiling).
 inline bool operator==(const BoneEchoParams& a, const BoneEchoParams& b) {
-  const auto& [regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA] = a;
-  const auto& [regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB] = b;
-  return std::tie(regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA) ==
-         std::tie(regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB);
+  const auto& [regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA, shareA] = a;
+  const auto& [regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB, shareB] = b;
+  return std::tie(regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA, shareA) ==
+         std::tie(regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB, shareB);
 }
 inline bool operator==(const ProminenceParams& a, const ProminenceParams& b) {
   const auto& [snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
