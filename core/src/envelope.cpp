@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <cstdint>
 #include <stdexcept>
 #include <string>
 
@@ -78,8 +79,11 @@ int highPassLength(double cornerHz, double samplingFrequencyHz) {
 struct EnvelopeDetector::Impl {
   EnvelopeParams params;
   IirCoefficients butterworth;
-  std::vector<float> centred;   // demeaned, ring-down zeroed record
-  std::vector<double> prefixA;  // prefix sums for the O(1) moving windows
+  std::vector<float> centred;             // demeaned, ring-down zeroed record
+  std::vector<float> boxSums;             // high-pass: window sums inside the record
+  std::vector<std::int32_t> codes;        // high-pass: the record as whole-number codes
+  std::vector<std::int32_t> prefixCodes;  // high-pass: their prefix sums
+  std::vector<double> prefixA;            // prefix sums for the O(1) moving windows
   std::vector<double> prefixB;
   std::vector<double> prefixC;
   std::vector<double> cosTable;  // Hann: cos/sin(theta * m) for the sample index m
@@ -107,25 +111,69 @@ struct EnvelopeDetector::Impl {
       centred[static_cast<std::size_t>(i)] = 0.F;
   }
 
-  // out = x - (centred moving average of x over highPassSamples, clipped to the record): the
-  // running sum of a window that slides one sample per output, in double so that a long record
-  // of 16-bit codes loses nothing.
-  void highPass(const float* samples, int count, float* out) const {
+  // out = x - (centred moving average of x over highPassSamples, clipped to the record). Inside
+  // the record the window sum is L vectorised passes over the record (L is a few dozen samples
+  // at most for a corner at half the transducer frequency); within L of the ends, where the
+  // window is clipped, each sum is taken directly.
+  void highPass(const float* samples, int count, float* out) {
     const int length = std::min(params.highPassSamples, count);
     const int before = (length - 1) / 2;
     const int after = length - 1 - before;
-    double sum = 0.0;
-    int begin = 0, end = 0;  // window [begin, end)
-    for (; end < std::min(after, count); ++end)
-      sum += samples[end];
-    for (int i = 0; i < count; ++i) {
-      const int wantEnd = std::min(count, i + after + 1);
-      const int wantBegin = std::max(0, i - before);
-      for (; end < wantEnd; ++end)
-        sum += samples[end];
-      for (; begin < wantBegin; ++begin)
-        sum -= samples[begin];
-      out[i] = static_cast<float>(samples[i] - sum / (end - begin));
+    const auto clippedMean = [&](int i) {
+      const int b = std::max(0, i - before), e = std::min(count, i + after + 1);
+      double sum = 0.0;
+      for (int j = b; j < e; ++j)
+        sum += samples[j];
+      return sum / (e - b);
+    };
+    const int interiorBegin = before, interiorEnd = count - after;
+    if (interiorEnd <= interiorBegin) {
+      for (int i = 0; i < count; ++i)
+        out[i] = static_cast<float>(samples[i] - clippedMean(i));
+      return;
+    }
+    // Digitiser codes are whole numbers of at most 16 bits: their prefix sums are exact in 32-bit
+    // integers for records of up to 32768 samples (one add per sample; the conversions and
+    // differences vectorise); anything else (float captures, longer records) sums in floats.
+    const auto n = static_cast<std::size_t>(count);
+    boxSums.resize(static_cast<std::size_t>(interiorEnd - interiorBegin));
+    float* sums = boxSums.data();
+    const int windowCount = interiorEnd - interiorBegin;
+    bool whole = count <= 32768;
+    if (whole) {
+      codes.resize(n);
+      for (std::size_t i = 0; i < n; ++i)
+        codes[i] = static_cast<std::int32_t>(samples[i]);
+      for (std::size_t i = 0; i < n; ++i) {
+        whole &=
+            static_cast<float>(codes[i]) == samples[i] && codes[i] <= 65535 && codes[i] >= -65535;
+      }
+    }
+    if (whole) {
+      prefixCodes.resize(n + 1);
+      std::int32_t* prefix = prefixCodes.data();
+      prefix[0] = 0;
+      for (std::size_t i = 0; i < n; ++i)
+        prefix[i + 1] = prefix[i] + codes[i];
+      for (int i = 0; i < windowCount; ++i) {
+        sums[i] = static_cast<float>(prefix[i + length] - prefix[i]);
+      }
+    } else {
+      std::fill(boxSums.begin(), boxSums.end(), 0.F);
+      for (int k = 0; k < length; ++k) {
+        const float* shifted = samples + k;
+        for (int i = 0; i < windowCount; ++i)
+          sums[i] += shifted[i];
+      }
+    }
+    const float inverse = 1.F / static_cast<float>(length);
+    for (int i = 0; i < windowCount; ++i) {
+      out[interiorBegin + i] = samples[interiorBegin + i] - sums[i] * inverse;
+    }
+    for (int i = 0; i < interiorBegin; ++i)
+      out[i] = static_cast<float>(samples[i] - clippedMean(i));
+    for (int i = interiorEnd; i < count; ++i) {
+      out[i] = static_cast<float>(samples[i] - clippedMean(i));
     }
   }
 
