@@ -122,8 +122,9 @@ ElementType parseElementType(const std::string& path, std::string_view name) {
     if (known.name == name)
       return known.type;
   }
-  throw FileError(path, "unknown element type " + quote(name) +
-                            " (supported: MET_UCHAR, MET_CHAR, MET_SHORT, MET_USHORT, MET_FLOAT, MET_OTHER)");
+  throw FileError(
+      path, "unknown element type " + quote(name) +
+                " (supported: MET_UCHAR, MET_CHAR, MET_SHORT, MET_USHORT, MET_FLOAT, MET_OTHER)");
 }
 
 std::string_view metaImageTypeName(ElementType type) {

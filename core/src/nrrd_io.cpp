@@ -166,8 +166,8 @@ ElementType parseType(const std::string& path, std::string_view name) {
     if (known.name == name)
       return known.type;
   }
-  throw FileError(
-      path, "unknown element type " + quote(name) + " (supported: uint8, int8, int16, uint16, float)");
+  throw FileError(path, "unknown element type " + quote(name) +
+                            " (supported: uint8, int8, int16, uint16, float)");
 }
 
 std::string_view nrrdTypeName(ElementType type) {

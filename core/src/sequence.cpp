@@ -354,13 +354,12 @@ bool applyAcquisitionEntry(const std::string& path, const HeaderEntry& entry,
     acquisition.transducer = std::string(entry.value);
     return true;
   }
-  std::optional<double>* target = entry.key == kSamplingFrequencyKey
-                                      ? &acquisition.samplingFrequencyHz
-                                  : entry.key == kDelayKey        ? &acquisition.delayS
-                                  : entry.key == kSpeedOfSoundKey ? &acquisition.speedOfSoundMps
-                                  : entry.key == kTransducerFrequencyKey
-                                      ? &acquisition.transducerFrequencyHz
-                                                                  : nullptr;
+  std::optional<double>* target =
+      entry.key == kSamplingFrequencyKey     ? &acquisition.samplingFrequencyHz
+      : entry.key == kDelayKey               ? &acquisition.delayS
+      : entry.key == kSpeedOfSoundKey        ? &acquisition.speedOfSoundMps
+      : entry.key == kTransducerFrequencyKey ? &acquisition.transducerFrequencyHz
+                                             : nullptr;
   if (target == nullptr)
     return false;
   *target = parseFiniteNumber(path, entry);

@@ -30,14 +30,16 @@ std::vector<CsvRow> readCsv(const std::string& path) {
   std::getline(in, line);
   std::vector<std::string> header;
   std::stringstream hs(line);
-  for (std::string cell; std::getline(hs, cell, ',');) header.push_back(cell);
+  for (std::string cell; std::getline(hs, cell, ',');)
+    header.push_back(cell);
   std::vector<CsvRow> rows;
   while (std::getline(in, line)) {
     CsvRow row;
     std::size_t start = 0;
     for (const auto& name : header) {
       const std::size_t comma = line.find(',', start);
-      row.cells[name] = line.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
+      row.cells[name] =
+          line.substr(start, comma == std::string::npos ? std::string::npos : comma - start);
       start = comma == std::string::npos ? line.size() : comma + 1;
     }
     rows.push_back(row);
@@ -55,10 +57,28 @@ TEST(CliDetect, AgilentDepthsAgreeWithPlus) {
   test::TempDir dir;
   const std::string csv = dir.file("agilent.csv");
   // The device file PlusDeviceSet_Server_Agilent.xml: 420 MHz, 2 us delay, 1480 m/s.
-  const auto result = runEchoreg({"detect", capture, "--envelope", "hann", "--envelope-window", "153",
-                                  "--peaks", "max", "--ring-down", "0", "--sampling-frequency",
-                                  "420e6", "--delay", "2e-6", "--speed-of-sound", "1480",
-                                  "--history", "1", "--min-spread-mm", "0", "--out", csv});
+  const auto result = runEchoreg({"detect",
+                                  capture,
+                                  "--envelope",
+                                  "hann",
+                                  "--envelope-window",
+                                  "153",
+                                  "--peaks",
+                                  "max",
+                                  "--ring-down",
+                                  "0",
+                                  "--sampling-frequency",
+                                  "420e6",
+                                  "--delay",
+                                  "2e-6",
+                                  "--speed-of-sound",
+                                  "1480",
+                                  "--history",
+                                  "1",
+                                  "--min-spread-mm",
+                                  "0",
+                                  "--out",
+                                  csv});
   ASSERT_EQ(result.exitCode, 0) << result.err;
   const Sequence plus = readSequence(capture);
   const auto rows = readCsv(csv);
@@ -70,10 +90,12 @@ TEST(CliDetect, AgilentDepthsAgreeWithPlus) {
     const auto& row = rows[static_cast<std::size_t>(f)];
     ASSERT_EQ(row["status"], "accepted") << "frame " << f;
     const double ours = std::stod(row["depth_mm"]);
-    const double theirs = plus.frames[static_cast<std::size_t>(f)].transforms.at("ZOffsetToTracker").matrix(2, 3);
+    const double theirs =
+        plus.frames[static_cast<std::size_t>(f)].transforms.at("ZOffsetToTracker").matrix(2, 3);
     EXPECT_NEAR(ours, theirs, 0.05) << "frame " << f;
     worstMm = std::max(worstMm, std::fabs(ours - theirs));
-    if (std::fabs(ours - theirs) <= 3.0 * mmPerSample) ++withinThreeSamples;
+    if (std::fabs(ours - theirs) <= 3.0 * mmPerSample)
+      ++withinThreeSamples;
   }
   std::cout << "Agilent frames 0-129: worst " << worstMm << " mm, " << withinThreeSamples
             << " of 130 within 3 samples\n";
@@ -87,10 +109,10 @@ TEST(CliDetect, AgilentDepthsAgreeWithPlusWithTheAcquisitionFactsOnly) {
   ECHOREG_REQUIRE_SHARED_FILE(capture, "plus/Agilent_Scope_Recording_DP310.igs.nrrd");
   test::TempDir dir;
   const std::string csv = dir.file("agilent.csv");
-  const auto result = runEchoreg({"detect", capture, "--envelope", "hann", "--envelope-window",
-                                  "153", "--peaks", "max", "--sampling-frequency", "420e6",
-                                  "--delay", "2e-6", "--speed-of-sound", "1480", "--out", csv,
-                                  "--json"});
+  const auto result =
+      runEchoreg({"detect", capture, "--envelope", "hann", "--envelope-window", "153", "--peaks",
+                  "max", "--sampling-frequency", "420e6", "--delay", "2e-6", "--speed-of-sound",
+                  "1480", "--out", csv, "--json"});
   ASSERT_EQ(result.exitCode, 0) << result.err;
   const auto summary = nlohmann::json::parse(result.out);
   EXPECT_EQ(summary["ring_down_source"], "measured");
@@ -100,10 +122,12 @@ TEST(CliDetect, AgilentDepthsAgreeWithPlusWithTheAcquisitionFactsOnly) {
   int within = 0;
   for (int f = 0; f < 130; ++f) {
     const auto& row = rows[static_cast<std::size_t>(f)];
-    if (row["status"] != "accepted") continue;
+    if (row["status"] != "accepted")
+      continue;
     const double theirs =
         plus.frames[static_cast<std::size_t>(f)].transforms.at("ZOffsetToTracker").matrix(2, 3);
-    if (std::fabs(std::stod(row["depth_mm"]) - theirs) <= 0.05) ++within;
+    if (std::fabs(std::stod(row["depth_mm"]) - theirs) <= 0.05)
+      ++within;
   }
   EXPECT_EQ(within, 130);
 }
@@ -114,7 +138,8 @@ TEST(CliDetect, DemoSweepGivesSpreadConsistentPointsAndSaysWhyFramesWereRejected
   std::vector<double> truthMm;
   writeSequence(test::makeDemoSweep({}, &truthMm), capture);
   const std::string csv = dir.file("depths.csv");
-  const auto result = runEchoreg({"detect", capture, "--pose", "ProbeToTracker", "--out", csv, "--json"});
+  const auto result =
+      runEchoreg({"detect", capture, "--pose", "ProbeToTracker", "--out", csv, "--json"});
   ASSERT_EQ(result.exitCode, 0) << result.err;
   const auto summary = nlohmann::json::parse(result.out);
   EXPECT_EQ(summary["frames"], 600);
@@ -170,7 +195,8 @@ TEST(CliDetect, ParamsFileIsOverriddenByFlags) {
   test::TempDir dir;
   const std::string capture = dir.file("sweep.igs.mha");
   writeSequence(test::makeDemoSweep({60}), capture);
-  std::ofstream(dir.file("params.json")) << R"({"preset": "mozes2008", "speed-of-sound": 1600, "history": 1})";
+  std::ofstream(dir.file("params.json"))
+      << R"({"preset": "mozes2008", "speed-of-sound": 1600, "history": 1})";
   auto result = runEchoreg({"detect", capture, "--params", dir.file("params.json"), "--out",
                             dir.file("d.csv"), "--json", "--speed-of-sound", "1500"});
   ASSERT_EQ(result.exitCode, 0) << result.err;
@@ -180,7 +206,8 @@ TEST(CliDetect, ParamsFileIsOverriddenByFlags) {
   EXPECT_EQ(summary["speed_of_sound_mps"], 1500.0);  // the flag beats the file
   result = runEchoreg({"detect", capture, "--params", dir.file("params.json"), "--out",
                        dir.file("d.csv"), "--json"});
-  EXPECT_EQ(nlohmann::json::parse(result.out)["speed_of_sound_mps"], 1600.0);  // the file beats the header
+  EXPECT_EQ(nlohmann::json::parse(result.out)["speed_of_sound_mps"],
+            1600.0);  // the file beats the header
   result = runEchoreg({"detect", capture, "--out", dir.file("d.csv"), "--json"});
   EXPECT_EQ(nlohmann::json::parse(result.out)["speed_of_sound_mps"], 1540.0);  // the header
 }
@@ -213,15 +240,16 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
     EXPECT_FALSE(result.err.empty());
     EXPECT_FALSE(std::filesystem::exists(csv)) << args.back();
   }
-  const auto typo = runEchoreg({"detect", capture, "--out", csv, "--params", dir.file("typo.json")});
+  const auto typo =
+      runEchoreg({"detect", capture, "--out", csv, "--params", dir.file("typo.json")});
   EXPECT_NE(typo.err.find("typo.json"), std::string::npos);
   EXPECT_NE(typo.err.find("envelope-widnow"), std::string::npos);
 }
 
 TEST(CliDetect, UsageErrorsExitTwo) {
   EXPECT_EQ(runEchoreg({}).exitCode, 2);
-  EXPECT_EQ(runEchoreg({"detect"}).exitCode, 2);                       // no capture, no --out
-  EXPECT_EQ(runEchoreg({"detect", "x.mha"}).exitCode, 2);              // no --out
+  EXPECT_EQ(runEchoreg({"detect"}).exitCode, 2);                        // no capture, no --out
+  EXPECT_EQ(runEchoreg({"detect", "x.mha"}).exitCode, 2);               // no --out
   EXPECT_EQ(runEchoreg({"register", "--model", "m.vtp"}).exitCode, 2);  // not in this build
   const auto help = runEchoreg({"detect", "--help"});
   EXPECT_EQ(help.exitCode, 0);

@@ -35,12 +35,15 @@ class CliLandmarks : public ::testing::Test {
   // The PLUS inputs as echoreg files: the landmarks as markups, the tip calibration as a
   // transform file. Returns false (and the test skips) when the shared data is absent.
   bool preparePlus() {
-    capture_ = test::sharedDataFile("plus/EightLandmarkPointsTrackedForPhantomRegistration.igs.mha");
+    capture_ =
+        test::sharedDataFile("plus/EightLandmarkPointsTrackedForPhantomRegistration.igs.mha");
     config_ = test::sharedDataFile("plus/PlusDeviceSet_fCal_Sim_RecordPhantomLandmarks.xml");
     result_ = test::sharedDataFile("plus/PhantomRegistrationLandmarkDetection.results.xml");
-    if (capture_.empty() || config_.empty() || result_.empty()) return false;
+    if (capture_.empty() || config_.empty() || result_.empty())
+      return false;
     std::vector<core::MarkupPoint> points;
-    for (const auto& [name, position] : test::plusLandmarks(config_)) points.push_back({name, position});
+    for (const auto& [name, position] : test::plusLandmarks(config_))
+      points.push_back({name, position});
     landmarks_ = dir_.file("phantom.mrk.json");
     core::writeMarkupPoints(landmarks_, points);
     TransformFile tip;
@@ -53,8 +56,9 @@ class CliLandmarks : public ::testing::Test {
   }
 
   std::vector<std::string> plusArgs(const std::string& out) const {
-    return {"landmarks", "--capture", capture_, "--stylus-tip-to-stylus", tip_, "--landmarks", landmarks_,
-            "--landmarks-frame", "Phantom", "--out", out};
+    return {"landmarks", "--capture",   capture_,   "--stylus-tip-to-stylus",
+            tip_,        "--landmarks", landmarks_, "--landmarks-frame",
+            "Phantom",   "--out",       out};
   }
 
   test::TempDir dir_;
@@ -62,7 +66,8 @@ class CliLandmarks : public ::testing::Test {
 };
 
 TEST_F(CliLandmarks, MatchesPlusPhantomRegistration) {
-  if (!preparePlus()) GTEST_SKIP() << "../shared/data/plus is absent: skipping this real-data test";
+  if (!preparePlus())
+    GTEST_SKIP() << "../shared/data/plus is absent: skipping this real-data test";
   const std::string out = dir_.file("PhantomToReference.json");
   std::vector<std::string> args = plusArgs(out);
   args.push_back("--json");
@@ -81,7 +86,8 @@ TEST_F(CliLandmarks, MatchesPlusPhantomRegistration) {
   for (int k = 0; k < 3; ++k) {
     EXPECT_NEAR(written.matrix(k, 3), plus(k, 3), 0.3) << "translation " << k;
   }
-  const Eigen::Matrix3d dr = written.matrix.topLeftCorner<3, 3>().transpose() * plus.topLeftCorner<3, 3>();
+  const Eigen::Matrix3d dr =
+      written.matrix.topLeftCorner<3, 3>().transpose() * plus.topLeftCorner<3, 3>();
   EXPECT_LT(Eigen::AngleAxisd(dr).angle() * 180.0 / 3.14159265358979, 0.2);
 
   // --invert writes ReferenceToPhantom.
@@ -90,7 +96,8 @@ TEST_F(CliLandmarks, MatchesPlusPhantomRegistration) {
   invArgs.push_back("--invert");
   ASSERT_EQ(runEchoreg(invArgs).exitCode, 0);
   const TransformFile inverse = readTransformFile(inv, "Reference", "Phantom");
-  EXPECT_LT((inverse.matrix * written.matrix - Eigen::Matrix4d::Identity()).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((inverse.matrix * written.matrix - Eigen::Matrix4d::Identity()).cwiseAbs().maxCoeff(),
+            1e-9);
 }
 
 // Issue 15, item 2: PLUS's real tracker poses are orthonormal only to a few 1e-4; pivot and
@@ -117,19 +124,22 @@ TEST_F(CliLandmarks, RealTrackerPosesAreAcceptedReorthonormalisedAndCounted) {
 }
 
 TEST_F(CliLandmarks, RefusesWhatCannotBeRegistered) {
-  if (!preparePlus()) GTEST_SKIP() << "../shared/data/plus is absent: skipping this real-data test";
+  if (!preparePlus())
+    GTEST_SKIP() << "../shared/data/plus is absent: skipping this real-data test";
   const std::string out = dir_.file("out.json");
   auto expectRefused = [&](const std::vector<std::string>& args, const std::string& file,
                            const std::string& phrase) {
     const auto r = runEchoreg(args);
     EXPECT_EQ(r.exitCode, 1) << r.err;
     EXPECT_NE(r.err.find("echoreg landmarks: " + file), std::string::npos) << r.err;
-    EXPECT_NE(r.err.find(phrase), std::string::npos) << "expected \"" << phrase << "\" in: " << r.err;
+    EXPECT_NE(r.err.find(phrase), std::string::npos)
+        << "expected \"" << phrase << "\" in: " << r.err;
     EXPECT_FALSE(std::filesystem::exists(out));
   };
   // More landmarks than the stylus touched: 12 landmarks, 10 dwells.
   std::vector<core::MarkupPoint> twelve = core::readMarkupPoints(landmarks_);
-  for (int i = 0; i < 4; ++i) twelve.push_back({"extra" + std::to_string(i), Eigen::Vector3d(10.0 * i, 7, 3)});
+  for (int i = 0; i < 4; ++i)
+    twelve.push_back({"extra" + std::to_string(i), Eigen::Vector3d(10.0 * i, 7, 3)});
   const std::string many = dir_.file("twelve.mrk.json");
   core::writeMarkupPoints(many, twelve);
   std::vector<std::string> args = plusArgs(out);
@@ -151,7 +161,9 @@ TEST_F(CliLandmarks, RefusesWhatCannotBeRegistered) {
   // A reference marker the capture does not have.
   args = plusArgs(out);
   args.insert(args.end(), {"--reference", "FemurToTracker"});
-  expectRefused(args, capture_, "has no FemurToTrackerTransform (it has ReferenceToTrackerTransform, StylusToTrackerTransform)");
+  expectRefused(args, capture_,
+                "has no FemurToTrackerTransform (it has ReferenceToTrackerTransform, "
+                "StylusToTrackerTransform)");
   // A tip file of the wrong frames.
   TransformFile wrong;
   wrong.from = "Beam";
@@ -170,8 +182,8 @@ TEST_F(CliLandmarks, RefusesWhatCannotBeRegistered) {
 
 class CliEvaluate : public ::testing::Test {
  protected:
-  std::string transform(const std::string& name, const Eigen::Isometry3d& m, const std::string& from = "Femur",
-                        const std::string& to = "CT") {
+  std::string transform(const std::string& name, const Eigen::Isometry3d& m,
+                        const std::string& from = "Femur", const std::string& to = "CT") {
     TransformFile t;
     t.from = from;
     t.to = to;
@@ -199,13 +211,16 @@ Eigen::Isometry3d ctError(const Eigen::Vector3d& anglesDeg, const Eigen::Vector3
 
 TEST_F(CliEvaluate, RowsPerEstimateAndTheMeanOfAbsoluteValues) {
   const std::string reference = transform("FemurToCT.json", femurToCt());
-  const std::string a = transform("a.json", ctError({1.0, -2.0, 0.5}, {0.5, -1.5, 2.0}) * femurToCt());
-  const std::string b = transform("b.json", ctError({-3.0, 0.0, 1.5}, {-1.5, 0.5, 0.0}) * femurToCt());
+  const std::string a =
+      transform("a.json", ctError({1.0, -2.0, 0.5}, {0.5, -1.5, 2.0}) * femurToCt());
+  const std::string b =
+      transform("b.json", ctError({-3.0, 0.0, 1.5}, {-1.5, 0.5, 0.0}) * femurToCt());
   const std::string targets = dir_.file("targets.mrk.json");
-  core::writeMarkupPoints(targets, {{"origin", Eigen::Vector3d::Zero()}, {"knee", {-95, 20, -480}}});
+  core::writeMarkupPoints(targets,
+                          {{"origin", Eigen::Vector3d::Zero()}, {"knee", {-95, 20, -480}}});
   const std::string csv = dir_.file("errors.csv");
-  const auto r = runEchoreg({"evaluate", "--reference", reference, "--estimate", a, "--estimate", b, "--targets",
-                             targets, "--out", csv, "--json"});
+  const auto r = runEchoreg({"evaluate", "--reference", reference, "--estimate", a, "--estimate", b,
+                             "--targets", targets, "--out", csv, "--json"});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   std::istringstream lines(slurp(csv));
   std::string header, rowA, rowB, mean, extra;
@@ -214,17 +229,19 @@ TEST_F(CliEvaluate, RowsPerEstimateAndTheMeanOfAbsoluteValues) {
   std::getline(lines, rowB);
   std::getline(lines, mean);
   EXPECT_FALSE(std::getline(lines, extra));
-  EXPECT_EQ(header, "estimate,tx_mm,ty_mm,tz_mm,rx_deg,ry_deg,rz_deg,target_origin_mm,target_knee_mm");
+  EXPECT_EQ(header,
+            "estimate,tx_mm,ty_mm,tz_mm,rx_deg,ry_deg,rz_deg,target_origin_mm,target_knee_mm");
   EXPECT_EQ(rowA.rfind("a.json,0.5,-1.5,2,1,-2,0.5,", 0), 0u) << rowA;
   EXPECT_EQ(mean.rfind("mean_abs,1,1,1,2,1,1,", 0), 0u) << mean;
   const nlohmann::json j = nlohmann::json::parse(r.out);
   EXPECT_NEAR(j["estimates"][1]["rx_deg"].get<double>(), -3.0, 1e-9);
-  EXPECT_NEAR(j["estimates"][0]["target_errors_mm"]["origin"].get<double>(), Eigen::Vector3d(0.5, -1.5, 2.0).norm(), 1e-9);
+  EXPECT_NEAR(j["estimates"][0]["target_errors_mm"]["origin"].get<double>(),
+              Eigen::Vector3d(0.5, -1.5, 2.0).norm(), 1e-9);
   EXPECT_NEAR(j["mean_abs"]["tx_mm"].get<double>(), 1.0, 1e-9);
 
   // --centre: the displacement of the knee instead of the CT origin.
-  const auto c = runEchoreg({"evaluate", "--reference", reference, "--estimate", a, "--centre", "-95", "20", "-480",
-                             "--out", csv, "--json"});
+  const auto c = runEchoreg({"evaluate", "--reference", reference, "--estimate", a, "--centre",
+                             "-95", "20", "-480", "--out", csv, "--json"});
   ASSERT_EQ(c.exitCode, 0) << c.err;
   const nlohmann::json jc = nlohmann::json::parse(c.out);
   const Eigen::Vector3d knee(-95, 20, -480);
@@ -239,26 +256,32 @@ TEST_F(CliEvaluate, RefusesMismatchedOrBrokenInput) {
   const std::string csv = dir_.file("errors.csv");
   auto r = runEchoreg({"evaluate", "--reference", reference, "--estimate", tibia, "--out", csv});
   EXPECT_EQ(r.exitCode, 1);
-  EXPECT_NE(r.err.find("echoreg evaluate: " + tibia + ": maps Tibia to CT but the reference"), std::string::npos)
+  EXPECT_NE(r.err.find("echoreg evaluate: " + tibia + ": maps Tibia to CT but the reference"),
+            std::string::npos)
       << r.err;
   EXPECT_FALSE(std::filesystem::exists(csv));
-  r = runEchoreg({"evaluate", "--reference", reference, "--estimate", dir_.file("missing.json"), "--out", csv});
+  r = runEchoreg({"evaluate", "--reference", reference, "--estimate", dir_.file("missing.json"),
+                  "--out", csv});
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("missing.json"), std::string::npos) << r.err;
   const std::string broken = dir_.file("broken.json");
-  std::ofstream(broken) << R"({"from": "Femur", "to": "CT", "matrix": [[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})";
+  std::ofstream(broken)
+      << R"({"from": "Femur", "to": "CT", "matrix": [[2,0,0,0],[0,1,0,0],[0,0,1,0],[0,0,0,1]]})";
   r = runEchoreg({"evaluate", "--reference", reference, "--estimate", broken, "--out", csv});
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("broken.json"), std::string::npos) << r.err;
   const std::string badTargets = dir_.file("targets.mrk.json");
   std::ofstream(badTargets) << "{\"markups\": 3}";
-  r = runEchoreg({"evaluate", "--reference", reference, "--estimate", reference, "--targets", badTargets, "--out", csv});
+  r = runEchoreg({"evaluate", "--reference", reference, "--estimate", reference, "--targets",
+                  badTargets, "--out", csv});
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("targets.mrk.json"), std::string::npos) << r.err;
   EXPECT_FALSE(std::filesystem::exists(csv));
   EXPECT_EQ(runEchoreg({"evaluate", "--reference", reference, "--out", csv}).exitCode, 2);
-  EXPECT_EQ(runEchoreg({"evaluate", "--reference", reference, "--estimate", reference, "--centre", "1", "2",
-                        "--out", csv}).exitCode, 2);
+  EXPECT_EQ(runEchoreg({"evaluate", "--reference", reference, "--estimate", reference, "--centre",
+                        "1", "2", "--out", csv})
+                .exitCode,
+            2);
 }
 
 }  // namespace

@@ -62,9 +62,7 @@ TEST(DetectionRandomised, EveryProfileAndSeed) {
           // 52-100 % of these bones.
           EXPECT_LE(score.falseNegativeRate(), 0.50) << profile << " seed " << seed;
           EXPECT_LE(score.falsePositiveRate(), 0.42) << profile << " seed " << seed;
-          if (std::string(profile) != "randomised") {
-            EXPECT_LE(score.medianErrorMm(), 0.1) << profile << " seed " << seed;
-          }
+          EXPECT_LE(score.medianErrorMm(), 0.1) << profile << " seed " << seed;
         }
       }
     }

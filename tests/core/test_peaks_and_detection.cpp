@@ -89,8 +89,10 @@ TEST(Detection, EverySingleSignalRejectionReason) {
   // too-many-peaks / too-few-peaks.
   const auto two = echoes({{900.0, 60.0}, {1900.0, 60.0}});
   const auto one = echoes({{1900.0, 60.0}});
-  EXPECT_EQ(reasonOf(chain(EnvelopeMethod::Hann, PeakPolicy::Single), two), RejectReason::TooManyPeaks);
-  EXPECT_EQ(reasonOf(chain(EnvelopeMethod::Hann, PeakPolicy::Double), one), RejectReason::TooFewPeaks);
+  EXPECT_EQ(reasonOf(chain(EnvelopeMethod::Hann, PeakPolicy::Single), two),
+            RejectReason::TooManyPeaks);
+  EXPECT_EQ(reasonOf(chain(EnvelopeMethod::Hann, PeakPolicy::Double), one),
+            RejectReason::TooFewPeaks);
   // outside-window: the only echo lies beyond the window.
   DetectionParams windowed = chain(EnvelopeMethod::Hann, PeakPolicy::Single);
   windowed.windowMinMm = 1.0;
@@ -110,7 +112,8 @@ TEST(Detection, BonePolicyFindsBoneBehindAStrongerFascia) {
   std::vector<test::EchoSpec> specs{{600.0, 30.0}, {1100.0, 120.0}, {1700.0, 60.0}};
   std::mt19937_64 rng(5);
   std::normal_distribution<double> amplitude(0.0, 8.0);
-  for (double s = 610.0; s < 1690.0; s += 3.0) specs.push_back({s, amplitude(rng)});
+  for (double s = 610.0; s < 1690.0; s += 3.0)
+    specs.push_back({s, amplitude(rng)});
   const auto x = test::makeEchoRecord(4096, specs, pulse, 128.0, 0.5, 3);
   SignalDetector detector(detectionPreset("shadow"));
   const SignalDetection d = detector.detect(x.data(), 4096);
@@ -152,7 +155,8 @@ TEST(InterSignal, SpatialSpreadDropsPointsTooCloseToAnAcceptedOne) {
 }
 
 TEST(Detection, PresetsAndValidation) {
-  for (const auto& name : detectionPresetNames()) EXPECT_NO_THROW(validate(detectionPreset(name)));
+  for (const auto& name : detectionPresetNames())
+    EXPECT_NO_THROW(validate(detectionPreset(name)));
   EXPECT_THROW(detectionPreset("fastest"), std::invalid_argument);
   DetectionParams params = detectionPreset("shadow");
   params.windowMinMm = 20.0;

@@ -42,14 +42,17 @@ TEST(TransformFile, SlicerTfmHoldsTheInverse) {
   std::istringstream text(slicerTfmText(m));
   std::string line, parameters;
   while (std::getline(text, line)) {
-    if (line.rfind("Parameters:", 0) == 0) parameters = line.substr(11);
+    if (line.rfind("Parameters:", 0) == 0)
+      parameters = line.substr(11);
   }
   std::istringstream values(parameters);
   Eigen::Matrix4d fromFile = Eigen::Matrix4d::Identity();
   for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) values >> fromFile(r, c);
+    for (int c = 0; c < 3; ++c)
+      values >> fromFile(r, c);
   }
-  for (int r = 0; r < 3; ++r) values >> fromFile(r, 3);
+  for (int r = 0; r < 3; ++r)
+    values >> fromFile(r, 3);
   EXPECT_TRUE((fromFile * m).isApprox(Eigen::Matrix4d::Identity(), 1e-12));
   EXPECT_NE(slicerTfmText(m).find("AffineTransform_double_3_3"), std::string::npos);
 }

@@ -22,17 +22,34 @@ class Calibrate : public ::testing::Test {
  protected:
   void SetUp() override {
     root_ = fixtureStudy();
-    if (root_.empty()) GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+    if (root_.empty())
+      GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
     manifest_ = readJson(root_ + "/study.json");
   }
   std::string path(const std::string& relative) const { return root_ + "/" + relative; }
   std::vector<std::string> calibrateArgs(const std::string& tip, const std::string& out) const {
     const nlohmann::json& c = manifest_.at("calibration");
     const nlohmann::json& initial = c.at("initial_beam_to_probe_mm");
-    return {"calibrate", "--sphere-capture", path(c.at("sphere_capture")), "--stylus-tip-to-stylus",
-            tip, "--capture", path(c.at("capture")), "--sphere-radius", "25.4",
-            "--stylus-tip-radius", "1.5", "--initial", fmt(initial[0]), fmt(initial[1]),
-            fmt(initial[2]), "--window-mm", "14", "34", "--out", out};
+    return {"calibrate",
+            "--sphere-capture",
+            path(c.at("sphere_capture")),
+            "--stylus-tip-to-stylus",
+            tip,
+            "--capture",
+            path(c.at("capture")),
+            "--sphere-radius",
+            "25.4",
+            "--stylus-tip-radius",
+            "1.5",
+            "--initial",
+            fmt(initial[0]),
+            fmt(initial[1]),
+            fmt(initial[2]),
+            "--window-mm",
+            "14",
+            "34",
+            "--out",
+            out};
   }
   static std::string fmt(const nlohmann::json& v) { return std::to_string(v.get<double>()); }
 
@@ -47,7 +64,8 @@ TEST_F(Calibrate, PivotFindsTheStylusTipAndTheHipCentre) {
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const TransformFile tip = readTransformFile(dir_.file("tip.json"), "StylusTip", "Stylus");
   const TransformFile truth = readTransformFile(path("truth/StylusTipToStylus.json"));
-  const double tipError = (tip.matrix.topRightCorner<3, 1>() - truth.matrix.topRightCorner<3, 1>()).norm();
+  const double tipError =
+      (tip.matrix.topRightCorner<3, 1>() - truth.matrix.topRightCorner<3, 1>()).norm();
   std::cout << "stylus tip error " << tipError << " mm, RMS " << tip.extra.at("rms_mm") << " mm\n";
   EXPECT_LT(tipError, 0.5);
   EXPECT_TRUE(fs::is_regular_file(dir_.file("tip.tfm")));
@@ -69,7 +87,9 @@ TEST_F(Calibrate, PivotFindsTheStylusTipAndTheHipCentre) {
 TEST_F(Calibrate, RecoversBeamToProbeAndTheBathsSpeedOfSound) {
   // The true tip isolates the beam calibration; the pivot's tip adds its own error, printed.
   ASSERT_EQ(runEchoreg({"pivot", "--capture", path("captures/stylus_pivot.igs.mha"), "--out",
-                        dir_.file("pivot-tip.json")}).exitCode, 0);
+                        dir_.file("pivot-tip.json")})
+                .exitCode,
+            0);
   fs::copy_file(path("truth/StylusTipToStylus.json"), dir_.file("tip.json"));
   const Eigen::Vector3d truth =
       readTransformFile(path("truth/BeamToProbe.json")).matrix.topRightCorner<3, 1>();
@@ -100,7 +120,8 @@ TEST_F(Calibrate, RecoversBeamToProbeAndTheBathsSpeedOfSound) {
   const Eigen::Vector3d sphereCentre(known.extra.at("sphere_center_mm")[0].get<double>(),
                                      known.extra.at("sphere_center_mm")[1].get<double>(),
                                      known.extra.at("sphere_center_mm")[2].get<double>());
-  const nlohmann::json trueCentre = readJson(path("truth/calibration.json")).at("sphere_centre_tracker_mm");
+  const nlohmann::json trueCentre =
+      readJson(path("truth/calibration.json")).at("sphere_centre_tracker_mm");
   std::cout << "sphere centre error "
             << (sphereCentre - Eigen::Vector3d(trueCentre[0], trueCentre[1], trueCentre[2])).norm()
             << " mm; true-speed offset error ("
@@ -117,12 +138,14 @@ TEST_F(Calibrate, RecoversBeamToProbeAndTheBathsSpeedOfSound) {
   args = calibrateArgs(dir_.file("pivot-tip.json"), dir_.file("cpivot.json"));
   args.push_back("--fit-speed-of-sound");
   ASSERT_EQ(runEchoreg(args).exitCode, 0);
-  std::cout << "with the pivot's tip: error "
-            << (readTransformFile(dir_.file("cpivot.json")).matrix.topRightCorner<3, 1>() - truth).norm()
-            << " mm\n";
+  std::cout
+      << "with the pivot's tip: error "
+      << (readTransformFile(dir_.file("cpivot.json")).matrix.topRightCorner<3, 1>() - truth).norm()
+      << " mm\n";
   EXPECT_GT(fitted.extra.at("shots_used").get<int>(), 100);
-  EXPECT_EQ(fitted.extra.at("shots").size(), fitted.extra.at("shots_used").get<std::size_t>() +
-                                                 fitted.extra.at("shots_rejected_by_reason").value("outlier", 0));
+  EXPECT_EQ(fitted.extra.at("shots").size(),
+            fitted.extra.at("shots_used").get<std::size_t>() +
+                fitted.extra.at("shots_rejected_by_reason").value("outlier", 0));
 }
 
 Sequence subset(const Sequence& sequence, std::size_t first, std::size_t count) {
@@ -192,7 +215,9 @@ TEST_F(Calibrate, QualityGateRefusesImplausibleCalibrationsWritingNothing) {
 
 TEST_F(Calibrate, RefusesBadDataWithoutWritingAnything) {
   ASSERT_EQ(runEchoreg({"pivot", "--capture", path("captures/stylus_pivot.igs.mha"), "--out",
-                        dir_.file("tip.json")}).exitCode, 0);
+                        dir_.file("tip.json")})
+                .exitCode,
+            0);
   const nlohmann::json& c = manifest_.at("calibration");
   auto expectRefused = [&](std::vector<std::string> args, const std::string& file,
                            const std::string& words) {
@@ -215,7 +240,8 @@ TEST_F(Calibrate, RefusesBadDataWithoutWritingAnything) {
   expectRefused(args(shots, shots), shots, "has no StylusToTracker");
   // Every stylus pose INVALID.
   Sequence invalid = readSequence(sphere);
-  for (SequenceFrame& f : invalid.frames) f.transforms.at("StylusToTracker").status = "INVALID";
+  for (SequenceFrame& f : invalid.frames)
+    f.transforms.at("StylusToTracker").status = "INVALID";
   writeSequence(invalid, dir_.file("invalid.igs.mha"));
   expectRefused(args(dir_.file("invalid.igs.mha"), shots), dir_.file("invalid.igs.mha"), "INVALID");
   // A negative radius.
@@ -230,8 +256,8 @@ TEST_F(Calibrate, RefusesBadDataWithoutWritingAnything) {
   expectRefused(args(sphere, dir_.file("three.igs.mha")), dir_.file("three.igs.mha"), "shots");
   // Every shot from one direction: the frames of one held pose.
   writeSequence(subset(all, 0, 15), dir_.file("one-direction.igs.mha"));
-  expectRefused(args(sphere, dir_.file("one-direction.igs.mha")), dir_.file("one-direction.igs.mha"),
-                "determine");
+  expectRefused(args(sphere, dir_.file("one-direction.igs.mha")),
+                dir_.file("one-direction.igs.mha"), "determine");
 }
 
 }  // namespace

@@ -38,8 +38,9 @@ class Register : public ::testing::Test {
     // The hip centre from the leg's rotation: the femur's third landmark (with the two
     // epicondyles alone the rotation about their line is ambiguous, see FemurFromTwoLandmarks...).
     hip_ = dir_.file("hip.json");
-    const test::CommandResult r = runEchoreg({"pivot", "--capture", path("captures/hip_rotation.igs.mha"),
-                                              "--marker", "FemurToTracker", "--out", hip_});
+    const test::CommandResult r =
+        runEchoreg({"pivot", "--capture", path("captures/hip_rotation.igs.mha"), "--marker",
+                    "FemurToTracker", "--out", hip_});
     ASSERT_EQ(r.exitCode, 0) << r.err;
   }
   std::string path(const std::string& relative) const { return root_ + "/" + relative; }
@@ -47,25 +48,25 @@ class Register : public ::testing::Test {
                                 bool withHip = true) const {
     const std::string lower = bone == "Femur" ? "femur" : "tibia";
     std::vector<std::string> a = {"register",
-            "--model",
-            path("truth/" + lower + ".vtp"),
-            "--bone",
-            bone,
-            "--capture",
-            path("captures/" + lower + "_ultrasound.igs.mha"),
-            "--calibration",
-            path("truth/BeamToProbe.json"),
-            "--landmarks-ct",
-            path("ct/landmarks.mrk.json"),
-            "--landmarks-capture",
-            path("captures/landmarks.igs.mha"),
-            "--stylus-tip-to-stylus",
-            path("truth/StylusTipToStylus.json"),
-            "--landmark-labels",
-            bone == "Femur" ? "medial_epicondyle,lateral_epicondyle"
-                            : "medial_malleolus,lateral_malleolus",
-            "--out",
-            out};
+                                  "--model",
+                                  path("truth/" + lower + ".vtp"),
+                                  "--bone",
+                                  bone,
+                                  "--capture",
+                                  path("captures/" + lower + "_ultrasound.igs.mha"),
+                                  "--calibration",
+                                  path("truth/BeamToProbe.json"),
+                                  "--landmarks-ct",
+                                  path("ct/landmarks.mrk.json"),
+                                  "--landmarks-capture",
+                                  path("captures/landmarks.igs.mha"),
+                                  "--stylus-tip-to-stylus",
+                                  path("truth/StylusTipToStylus.json"),
+                                  "--landmark-labels",
+                                  bone == "Femur" ? "medial_epicondyle,lateral_epicondyle"
+                                                  : "medial_malleolus,lateral_malleolus",
+                                  "--out",
+                                  out};
     if (bone == "Femur" && withHip) {
       a.push_back("--hip-centre");
       a.push_back(hip_);
@@ -180,7 +181,8 @@ TEST_F(Register, HybridWithTheStylusAndTheCsvInput) {
 }
 
 // A CSV with the beams (ox..dz, depth_mm): 60 vertices of the truth model in the Femur frame,
-// each seen from 15 mm along its own slanted direction; read back, the speed fit leaves the scale at 1.
+// each seen from 15 mm along its own slanted direction; read back, the speed fit leaves the scale
+// at 1.
 TEST_F(Register, CsvWithBeamsFitsTheSpeedOfSound) {
   const core::TriangleMesh mesh = filters::readMesh(path("truth/femur.vtp"));
   Eigen::Isometry3d truth;

@@ -33,7 +33,8 @@ std::map<std::string, std::string> stepStatuses(const nlohmann::json& results) {
 
 double errorAt(const nlohmann::json& rows, const std::string& estimate, const std::string& column) {
   for (const auto& row : rows) {
-    if (row.at("estimate") == estimate) return row.at(column).get<double>();
+    if (row.at("estimate") == estimate)
+      return row.at(column).get<double>();
   }
   ADD_FAILURE() << "no row " << estimate;
   return 1e9;
@@ -41,7 +42,8 @@ double errorAt(const nlohmann::json& rows, const std::string& estimate, const st
 
 TEST(StudyRun, RunsTheWholeStudyThenOnlyWhatAChangeAffects) {
   const std::string fixture = fixtureStudy();
-  if (fixture.empty()) GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
   test::TempDir dir;
   const std::string study = dir.file("study");
   fs::copy(fixture, study, fs::copy_options::recursive);
@@ -58,15 +60,19 @@ TEST(StudyRun, RunsTheWholeStudyThenOnlyWhatAChangeAffects) {
     EXPECT_TRUE(fs::is_regular_file(study + "/results/" + file)) << file;
   }
   const nlohmann::json first = readJson(study + "/results/results.json");
-  for (const auto& [id, status] : stepStatuses(first)) EXPECT_EQ(status, "ran") << id;
+  for (const auto& [id, status] : stepStatuses(first))
+    EXPECT_EQ(status, "ran") << id;
   // The numbers: segmentation against the truth, registrations against the truth at the knee.
   EXPECT_GT(first.at("segmentation").at("femur").at("dice").get<double>(), 0.99);
   EXPECT_GT(first.at("segmentation").at("tibia").at("dice").get<double>(), 0.99);
   for (const char* bone : {"femur", "tibia"}) {
     const nlohmann::json& truth = first.at("registrations").at(bone).at("against_truth");
-    const double us = errorAt(truth, std::string(bone) + "_ultrasound_1.json", "target_knee_centre_mm");
-    const double mech = errorAt(truth, std::string(bone) + "_mechanical.json", "target_knee_centre_mm");
-    std::cout << bone << ": knee centre error, ultrasound " << us << " mm, mechanical " << mech << " mm\n";
+    const double us =
+        errorAt(truth, std::string(bone) + "_ultrasound_1.json", "target_knee_centre_mm");
+    const double mech =
+        errorAt(truth, std::string(bone) + "_mechanical.json", "target_knee_centre_mm");
+    std::cout << bone << ": knee centre error, ultrasound " << us << " mm, mechanical " << mech
+              << " mm\n";
     EXPECT_LT(us, 2.0) << bone;
     EXPECT_LT(mech, 1.5) << bone;
   }
@@ -141,7 +147,8 @@ TEST(StudyRun, FailuresNameTheStepAndTheFile) {
   // A study whose calibration capture is broken: the calibration step fails, named with its file;
   // the report says where the study stopped.
   const std::string fixture = fixtureStudy();
-  if (fixture.empty()) GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
   const std::string study = dir.file("study");
   fs::create_directories(study + "/captures");
   fs::copy(fixture + "/study.json", study + "/study.json");
