@@ -17,7 +17,7 @@ void require(bool condition, const std::string& message) {
     throw std::invalid_argument(message);
 }
 
-std::string fmt_transducer_fallback(double hz) {
+std::string transducerFallbackWarning(double hz) {
   return "the capture's spectrum shows no transducer band between 1 MHz and 0.45 x the sampling "
          "frequency; assuming " +
          std::to_string(hz / 1e6) + " MHz (give --transducer-frequency)";
@@ -405,7 +405,7 @@ DetectionParams adaptToCapture(const DetectionParams& given, int recordCount, in
     out.transducerFrequencySource = "spectrum";
     if (out.transducerFrequencyHz <= 0.0) {
       out.transducerFrequencyHz = std::min(9e6, 0.2 * fs);
-      out.warnings.push_back(fmt_transducer_fallback(out.transducerFrequencyHz));
+      out.warnings.push_back(transducerFallbackWarning(out.transducerFrequencyHz));
     }
   }
   if (out.transducerFrequencyHz > 0.0) {

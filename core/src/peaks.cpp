@@ -197,9 +197,8 @@ struct EchoCandidate {
   int peak = -1;  // index into PeakResult::peaks (the prominent ones)
   bool passed = false;
   bool shadowed = false;
-  bool ringing = false;       // the envelope stays above ringingFraction of it behind it
-  bool reverberates = false;  // a later echo is its reverberation
-  double contrast = 0.0;      // peak / median before it
+  bool ringing = false;   // the envelope stays above ringingFraction of it behind it
+  double contrast = 0.0;  // peak / median before it
 };
 
 // Topographic prominence of the local maximum at `index` within [lo, hi): the height above the
@@ -411,13 +410,7 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     }
     return -1;
   };
-  const auto isReverberation = [&](std::size_t k) {
-    const int source = reverberationSource(k);
-    if (source < 0)
-      return false;
-    candidates[static_cast<std::size_t>(source)].reverberates = true;
-    return true;
-  };
+  const auto isReverberation = [&](std::size_t k) { return reverberationSource(k) >= 0; };
   for (std::size_t k = 0; k < candidates.size(); ++k) {
     if (candidates[k].peak >= 0 && isReverberation(k) && candidates[k].passed) {
       candidates[k].passed = false;
