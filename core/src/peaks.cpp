@@ -382,7 +382,7 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     // (behind a fascia or the skin, the tissue's speckle is far below the echo).
     const double nearAfter =
         medianOf(envelope, count, right + gap, right + gap + region / 2, scratch);
-    c.ringing = nearAfter >= e.ringingFraction * c.value;
+    c.ringing = nearAfter >= e.ringingFraction * c.value && c.contrast >= e.ringingContrast;
   }
 
   // A reverberation: at twice or three times the time of flight of a shallower echo at least
@@ -565,6 +565,8 @@ void validate(const PeakParams& p) {
   require(e.shadowRatio > 1.0 && std::isfinite(e.shadowRatio), "echo shadow ratio must be > 1");
   require(e.shadowContrast >= 1.0 && std::isfinite(e.shadowContrast),
           "echo shadow contrast must be >= 1");
+  require(e.ringingContrast >= 1.0 && std::isfinite(e.ringingContrast),
+          "echo ringing contrast must be >= 1");
   require(e.ringingFraction > 0.0 && e.ringingFraction <= 1.0,
           "echo ringing fraction must be in (0, 1]");
   require(e.shadowNoiseFactor >= 0.0 && std::isfinite(e.shadowNoiseFactor),

@@ -60,8 +60,8 @@ TEST(DetectionRandomised, EveryProfileAndSeed) {
           // Regression bounds at what the default reaches today (issue 12 asks for 5 %: not met
           // on these sets; docs/detection.md has the table). The old default ("shadow") misses
           // 52-100 % of these bones.
-          EXPECT_LE(score.falseNegativeRate(), 0.50) << profile << " seed " << seed;
-          EXPECT_LE(score.falsePositiveRate(), 0.42) << profile << " seed " << seed;
+          EXPECT_LE(score.falseNegativeRate(), 0.55) << profile << " seed " << seed;
+          EXPECT_LE(score.falsePositiveRate(), 0.25) << profile << " seed " << seed;
           EXPECT_LE(score.medianErrorMm(), 0.1) << profile << " seed " << seed;
         }
       }

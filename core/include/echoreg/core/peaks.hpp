@@ -136,6 +136,9 @@ struct ProminenceParams {
   /// Ringing: the median envelope over the near half of the region behind the echo is at least
   /// this fraction of the echo, (0, 1].
   double ringingFraction = 0.4;
+  /// Ringing counts only for an echo this many times the median before it (>= 1): bone is 20 dB
+  /// and more above the speckle, while speckle maxima and the skin ring no more than tissue does.
+  double ringingContrast = 6.0;
 };
 
 struct PeakParams {
@@ -174,13 +177,13 @@ inline bool operator==(const BoneEchoParams& a, const BoneEchoParams& b) {
 }
 inline bool operator==(const ProminenceParams& a, const ProminenceParams& b) {
   const auto& [snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
-               ratioA, noiseA, shadowContrastA, ringingA] = a;
+               ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA] = a;
   const auto& [snrB, medianB, promB, riseB, contrastB, regionB, wallB, airB, similarB, shadowB,
-               ratioB, noiseB, shadowContrastB, ringingB] = b;
+               ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB] = b;
   return std::tie(snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
-                  ratioA, noiseA, shadowContrastA, ringingA) ==
+                  ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA) ==
          std::tie(snrB, medianB, promB, riseB, contrastB, regionB, wallB, airB, similarB, shadowB,
-                  ratioB, noiseB, shadowContrastB, ringingB);
+                  ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB);
 }
 inline bool operator==(const PeakParams& a, const PeakParams& b) {
   const auto& [modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, promA, ringA, cycleA,
