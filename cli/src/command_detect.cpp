@@ -398,7 +398,9 @@ CommandAction addDetectCommand(CLI::App& app) {
       "then the temporal and spatial inter-signal filters. Writes one CSV row per frame:\n"
       "frame,timestamp_s,status,reason,peaks,sample_index,depth_mm (+ x_mm,y_mm,z_mm with "
       "--pose).\n"
-      "Parameter precedence: flags > --params file > capture header > --preset. docs/detection.md\n"
+      "Parameter precedence: flags > --params file > capture header > what the preset measures\n"
+      "from the capture (transducer band, ring-down, shadow rule) > --preset. Warns when most\n"
+      "frames are rejected, with the reason and the setting to blame. docs/detection.md\n"
       "documents every parameter.");
   cmd->add_option("capture", o->capture,
                   "A-line capture (PLUS sequence: .igs.mha, .mhd, .igs.nrrd)")
@@ -409,8 +411,10 @@ CommandAction addDetectCommand(CLI::App& app) {
   cmd->add_flag("--json", o->json, "Print a JSON summary: frames, accepted, rejected by reason");
   cmd->add_option(
       "--preset", o->preset,
-      "default (specimens: hann + bone policy), mozes2008 (the dissertation's chain as it "
-      "was), calibration (window-max in water)");
+      "default (any probe and anatomy: band, ring-down and shadow rule measured from the "
+      "capture, the prominence policy), mozes2008 (the dissertation's chain as it was), "
+      "calibration (window-max in water), shadow (the earlier default: the bone policy after a "
+      "200-sample ring-down)");
   addTunableFlags(cmd, o->settings);
   cmd->add_option("--pose", o->pose, "Transform giving 3D points, e.g. ProbeToTracker")
       ->group("Points");
