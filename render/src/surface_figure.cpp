@@ -34,7 +34,8 @@ std::vector<ColourBand> registrationBands(double greenBelowMm, double redAboveMm
   }
   return {{greenBelowMm, {0.10, 0.70, 0.20}, fmt::format("< {:g} mm", greenBelowMm)},
           {redAboveMm, {0.95, 0.80, 0.10}, fmt::format("{:g}-{:g} mm", greenBelowMm, redAboveMm)},
-          {std::numeric_limits<double>::infinity(), {0.85, 0.10, 0.10},
+          {std::numeric_limits<double>::infinity(),
+           {0.85, 0.10, 0.10},
            fmt::format("> {:g} mm", redAboveMm)}};
 }
 
@@ -45,16 +46,20 @@ std::vector<ColourBand> calibrationBands(double greenBelowMm, double redAboveMm)
 int bandOf(const std::vector<ColourBand>& bands, double valueMm) {
   const double v = std::abs(valueMm);
   for (std::size_t i = 0; i < bands.size(); ++i) {
-    if (v < bands[i].upToMm || i + 1 == bands.size()) return static_cast<int>(i);
+    if (v < bands[i].upToMm || i + 1 == bands.size())
+      return static_cast<int>(i);
   }
   return static_cast<int>(bands.size()) - 1;
 }
 
 const char* viewName(View view) {
   switch (view) {
-    case View::Coronal: return "coronal (from anterior)";
-    case View::Sagittal: return "sagittal (from the right)";
-    case View::Transverse: return "transverse (from superior)";
+    case View::Coronal:
+      return "coronal (from anterior)";
+    case View::Sagittal:
+      return "sagittal (from the right)";
+    case View::Transverse:
+      return "transverse (from superior)";
   }
   return "";
 }
@@ -82,8 +87,8 @@ vtkSmartPointer<vtkPolyData> toPolyData(const core::TriangleMesh& mesh) {
 std::array<unsigned char, 3> toBytes(const std::array<double, 3>& rgb) {
   std::array<unsigned char, 3> out{};
   for (int i = 0; i < 3; ++i) {
-    out[static_cast<std::size_t>(i)] =
-        static_cast<unsigned char>(std::lround(255.0 * std::clamp(rgb[static_cast<std::size_t>(i)], 0.0, 1.0)));
+    out[static_cast<std::size_t>(i)] = static_cast<unsigned char>(
+        std::lround(255.0 * std::clamp(rgb[static_cast<std::size_t>(i)], 0.0, 1.0)));
   }
   return out;
 }
@@ -91,9 +96,18 @@ std::array<unsigned char, 3> toBytes(const std::array<double, 3>& rgb) {
 // Camera position direction (from the focal point towards the camera) and view-up, LPS.
 void viewAxes(View view, Eigen::Vector3d& towardsCamera, Eigen::Vector3d& up) {
   switch (view) {
-    case View::Coronal: towardsCamera = {0, -1, 0}; up = {0, 0, 1}; return;
-    case View::Sagittal: towardsCamera = {-1, 0, 0}; up = {0, 0, 1}; return;
-    case View::Transverse: towardsCamera = {0, 0, 1}; up = {0, -1, 0}; return;
+    case View::Coronal:
+      towardsCamera = {0, -1, 0};
+      up = {0, 0, 1};
+      return;
+    case View::Sagittal:
+      towardsCamera = {-1, 0, 0};
+      up = {0, 0, 1};
+      return;
+    case View::Transverse:
+      towardsCamera = {0, 0, 1};
+      up = {0, -1, 0};
+      return;
   }
 }
 
@@ -104,11 +118,13 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
     throw std::invalid_argument(fmt::format("surface figure: {} points but {} values",
                                             figure.points.size(), figure.valuesMm.size()));
   }
-  if (figure.bands.empty()) throw std::invalid_argument("surface figure: no colour bands");
+  if (figure.bands.empty())
+    throw std::invalid_argument("surface figure: no colour bands");
   if (figure.surface.triangles.empty() && figure.points.empty()) {
     throw std::invalid_argument("surface figure: nothing to draw (no surface, no points)");
   }
-  if (figure.views.empty()) throw std::invalid_argument("surface figure: no view");
+  if (figure.views.empty())
+    throw std::invalid_argument("surface figure: no view");
   for (std::size_t i = 0; i < figure.valuesMm.size(); ++i) {
     if (!std::isfinite(figure.valuesMm[i]) || !figure.points[i].allFinite()) {
       throw std::invalid_argument(fmt::format("surface figure: point {} is not finite", i));
@@ -129,15 +145,18 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
   // The triangles of `mesh` inside the crop box (all of them without cropping).
   const auto cropped = [&](const core::TriangleMesh& mesh) {
     core::TriangleMesh out = mesh;
-    if (!crop) return out;
+    if (!crop)
+      return out;
     out.triangles.clear();
     for (const auto& t : mesh.triangles) {
       bool inside = true;
       for (int c = 0; c < 3 && inside; ++c) {
-        const Eigen::Vector3d& v = mesh.vertices[static_cast<std::size_t>(t[static_cast<std::size_t>(c)])];
+        const Eigen::Vector3d& v =
+            mesh.vertices[static_cast<std::size_t>(t[static_cast<std::size_t>(c)])];
         inside = (v.array() >= boxLo.array()).all() && (v.array() <= boxHi.array()).all();
       }
-      if (inside) out.triangles.push_back(t);
+      if (inside)
+        out.triangles.push_back(t);
     }
     return out;
   };
@@ -145,11 +164,13 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
   std::vector<vtkSmartPointer<vtkPolyData>> contextData;
   for (const core::TriangleMesh& mesh : figure.context) {
     const core::TriangleMesh part = cropped(mesh);
-    if (!part.triangles.empty()) contextData.push_back(toPolyData(part));
+    if (!part.triangles.empty())
+      contextData.push_back(toPolyData(part));
   }
   for (const auto& t : shown.triangles) {
     for (int c = 0; c < 3; ++c) {
-      const Eigen::Vector3d& v = shown.vertices[static_cast<std::size_t>(t[static_cast<std::size_t>(c)])];
+      const Eigen::Vector3d& v =
+          shown.vertices[static_cast<std::size_t>(t[static_cast<std::size_t>(c)])];
       lo = lo.cwiseMin(v);
       hi = hi.cwiseMax(v);
     }
@@ -194,8 +215,9 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
   const double titleHeight = figure.title.empty() ? 0.0 : 0.08;
   const int panels = static_cast<int>(figure.views.size());
   for (int v = 0; v < panels; ++v) {
-    vtkRenderer* renderer = window.addRenderer(static_cast<double>(v) / panels, legendHeight,
-                                               static_cast<double>(v + 1) / panels, 1.0 - titleHeight);
+    vtkRenderer* renderer =
+        window.addRenderer(static_cast<double>(v) / panels, legendHeight,
+                           static_cast<double>(v + 1) / panels, 1.0 - titleHeight);
     renderer->SetBackground(1, 1, 1);
     if (surface) {
       vtkNew<vtkPolyDataMapper> mapper;
@@ -203,7 +225,8 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
       mapper->ScalarVisibilityOff();
       vtkNew<vtkActor> actor;
       actor->SetMapper(mapper);
-      actor->GetProperty()->SetColor(figure.surfaceRgb[0], figure.surfaceRgb[1], figure.surfaceRgb[2]);
+      actor->GetProperty()->SetColor(figure.surfaceRgb[0], figure.surfaceRgb[1],
+                                     figure.surfaceRgb[2]);
       actor->GetProperty()->SetSpecular(0.15);
       renderer->AddActor(actor);
     }
@@ -267,13 +290,13 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
   // One row when the bands fit side by side, else one row per band.
   const std::size_t entries = figure.bands.size() + 1;
   const bool oneRow = size.width / static_cast<double>(entries) >= 13.0 * fontSize;
-  const double step = oneRow ? std::min(15.0 * fontSize, (size.width - 40.0) / static_cast<double>(entries))
-                             : 0.0;
+  const double step =
+      oneRow ? std::min(15.0 * fontSize, (size.width - 40.0) / static_cast<double>(entries)) : 0.0;
   const double rowHeight = oneRow ? 0.0 : (footerPx - 8.0) / static_cast<double>(entries);
   auto place = [&](std::size_t entry, double dx) {
     const double px = 20.0 + (oneRow ? step * static_cast<double>(entry) : 0.0) + dx;
-    const double py = oneRow ? 0.35 * footerPx
-                             : footerPx - 4.0 - rowHeight * static_cast<double>(entry + 1);
+    const double py =
+        oneRow ? 0.35 * footerPx : footerPx - 4.0 - rowHeight * static_cast<double>(entry + 1);
     return std::array<double, 2>{px, py};
   };
   for (std::size_t b = 0; b < figure.bands.size(); ++b) {
@@ -287,8 +310,9 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
     swatch->SetPosition(at[0], at[1]);
     footer->AddViewProp(swatch);
     vtkNew<vtkTextActor> text;
-    text->SetInput(fmt::format("{}: {} point{}", figure.bands[b].label, perBand[b],
-                               perBand[b] == 1 ? "" : "s").c_str());
+    text->SetInput(
+        fmt::format("{}: {} point{}", figure.bands[b].label, perBand[b], perBand[b] == 1 ? "" : "s")
+            .c_str());
     text->GetTextProperty()->SetFontSize(fontSize);
     text->GetTextProperty()->SetColor(0.1, 0.1, 0.1);
     text->GetTextProperty()->SetFontFamilyToArial();

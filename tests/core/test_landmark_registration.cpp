@@ -50,7 +50,8 @@ TEST(PairedPoint, RecoversAnExactTransform) {
   const Eigen::Isometry3d truth = someTransform();
   const auto from = kneeLandmarks();
   std::vector<Eigen::Vector3d> to;
-  for (const auto& p : from) to.push_back(truth * p);
+  for (const auto& p : from)
+    to.push_back(truth * p);
   const PairedPointResult r = registerPairedPoints(from, to);
   EXPECT_LT((r.transform.matrix() - truth.matrix()).cwiseAbs().maxCoeff(), 1e-9);
   EXPECT_NEAR(r.transform.linear().determinant(), 1.0, 1e-12);
@@ -63,14 +64,16 @@ TEST(PairedPoint, WeightsPullTowardsTrustedPairs) {
   const std::vector<Eigen::Vector3d> from = {
       {0, 0, 0}, {60, 0, 0}, {0, 60, 0}, {0, 0, 60}, {40, 40, 40}};
   std::vector<Eigen::Vector3d> to;
-  for (const auto& p : from) to.push_back(truth * p);
+  for (const auto& p : from)
+    to.push_back(truth * p);
   to[4] += Eigen::Vector3d(6.0, -4.0, 3.0);  // one badly localised landmark
   const PairedPointResult even = registerPairedPoints(from, to);
   const PairedPointResult weighted = registerPairedPoints(from, to, {1, 1, 1, 1, 0.001});
   const PairedPointResult ignored = registerPairedPoints(from, to, {1, 1, 1, 1, 0});
   const auto err = [&](const PairedPointResult& r) {
     double worst = 0.0;
-    for (const auto& p : from) worst = std::max(worst, (r.transform * p - truth * p).norm());
+    for (const auto& p : from)
+      worst = std::max(worst, (r.transform * p - truth * p).norm());
     return worst;
   };
   EXPECT_GT(err(even), 0.5);
@@ -84,35 +87,50 @@ TEST(PairedPoint, ReturnsARotationForMirroredPoints) {
   // A mirror image of the points: the best reflection would fit exactly; the best rotation not.
   const auto from = kneeLandmarks();
   std::vector<Eigen::Vector3d> to;
-  for (const auto& p : from) to.push_back(Eigen::Vector3d(-p.x(), p.y(), p.z()));
+  for (const auto& p : from)
+    to.push_back(Eigen::Vector3d(-p.x(), p.y(), p.z()));
   const PairedPointResult r = registerPairedPoints(from, to);
   EXPECT_NEAR(r.transform.linear().determinant(), 1.0, 1e-9);
-  EXPECT_LT((r.transform.linear().transpose() * r.transform.linear() -
-             Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff(), 1e-12);
+  EXPECT_LT((r.transform.linear().transpose() * r.transform.linear() - Eigen::Matrix3d::Identity())
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-12);
   EXPECT_GT(r.freMm, 1.0);
 }
 
 TEST(PairedPoint, RefusesDataThatCannotDetermineTheTransform) {
   const auto good = kneeLandmarks();
-  EXPECT_NE(thrownMessage([&] { registerPairedPoints({good[0], good[1]}, {good[0], good[1]}); })
-                .find("at least 3"), std::string::npos);
-  EXPECT_NE(thrownMessage([&] { registerPairedPoints(good, {good[0], good[1], good[2]}); })
-                .find("4 'from' points but 3"), std::string::npos);
+  EXPECT_NE(thrownMessage([&] {
+              registerPairedPoints({good[0], good[1]}, {good[0], good[1]});
+            }).find("at least 3"),
+            std::string::npos);
+  EXPECT_NE(thrownMessage([&] {
+              registerPairedPoints(good, {good[0], good[1], good[2]});
+            }).find("4 'from' points but 3"),
+            std::string::npos);
   auto bad = good;
   bad[2].y() = std::numeric_limits<double>::quiet_NaN();
   EXPECT_NE(thrownMessage([&] { registerPairedPoints(good, bad); }).find("pair 2"),
             std::string::npos);
-  EXPECT_NE(thrownMessage([&] { registerPairedPoints(good, good, {1, -1, 1, 1}); })
-                .find("pair 1"), std::string::npos);
-  EXPECT_NE(thrownMessage([&] { registerPairedPoints(good, good, {1, 0, 1, 0}); })
-                .find("2 pairs of positive weight"), std::string::npos);
-  EXPECT_NE(thrownMessage([&] { registerPairedPoints(good, good, {1, 1}); }).find("2 weights"),
+  EXPECT_NE(thrownMessage([&] {
+              registerPairedPoints(good, good, {1, -1, 1, 1});
+            }).find("pair 1"),
+            std::string::npos);
+  EXPECT_NE(thrownMessage([&] {
+              registerPairedPoints(good, good, {1, 0, 1, 0});
+            }).find("2 pairs of positive weight"),
+            std::string::npos);
+  EXPECT_NE(thrownMessage([&] {
+              registerPairedPoints(good, good, {1, 1});
+            }).find("2 weights"),
             std::string::npos);
   const std::vector<Eigen::Vector3d> line = {{0, 0, 0}, {10, 10, 10}, {25, 25, 25}, {-7, -7, -7}};
-  EXPECT_NE(thrownMessage([&] { registerPairedPoints(line, good); }).find("'from' points are collinear"),
-            std::string::npos);
-  EXPECT_NE(thrownMessage([&] { registerPairedPoints(good, line); }).find("'to' points are collinear"),
-            std::string::npos);
+  EXPECT_NE(
+      thrownMessage([&] { registerPairedPoints(line, good); }).find("'from' points are collinear"),
+      std::string::npos);
+  EXPECT_NE(
+      thrownMessage([&] { registerPairedPoints(good, line); }).find("'to' points are collinear"),
+      std::string::npos);
   // Nearly collinear but measurably not (0.5 mm off a 60 mm line) is accepted.
   auto almost = line;
   almost[1] += Eigen::Vector3d(0.5, -0.5, 0.0);
@@ -122,7 +140,7 @@ TEST(PairedPoint, RefusesDataThatCannotDetermineTheTransform) {
 TEST(PairedPoint, ExpectedErrorsMatchMonteCarlo) {
   const Eigen::Isometry3d truth = someTransform();
   const auto fiducials = kneeLandmarks();
-  const Eigen::Vector3d target(0.0, 40.0, -180.0);  // the knee, between the landmarks
+  const Eigen::Vector3d target(0.0, 40.0, -180.0);   // the knee, between the landmarks
   const Eigen::Vector3d farTarget(0.0, 0.0, 250.0);  // the hip, off the configuration
   const double sigma = 1.0;                          // mm per axis
   const double fle = std::sqrt(3.0) * sigma;
@@ -184,11 +202,13 @@ Session makeSession(const std::vector<Eigen::Vector3d>& spots, double restS, dou
     }
     const int first = static_cast<int>(s.positions.size());
     const int restN = static_cast<int>(restS / dt);
-    for (int i = 0; i < restN; ++i) push(spot);
+    for (int i = 0; i < restN; ++i)
+      push(spot);
     s.restFrames.emplace_back(first, static_cast<int>(s.positions.size()) - 1);
     here = spot;
   }
-  for (int i = 0; i < 20; ++i) push(here + Eigen::Vector3d(0, 0, 4.0 * i));  // lifted away
+  for (int i = 0; i < 20; ++i)
+    push(here + Eigen::Vector3d(0, 0, 4.0 * i));  // lifted away
   return s;
 }
 
@@ -237,14 +257,16 @@ TEST(Dwell, IgnoresShortPausesAndSlowMotion) {
   }
   const std::vector<bool> v(p.size(), true);
   for (const Dwell& d : detectDwells(p, t, v, DwellOptions{})) {
-    EXPECT_LE(p[static_cast<std::size_t>(d.lastFrame)].x() - p[static_cast<std::size_t>(d.firstFrame)].x(),
+    EXPECT_LE(p[static_cast<std::size_t>(d.lastFrame)].x() -
+                  p[static_cast<std::size_t>(d.firstFrame)].x(),
               2.0 * DwellOptions{}.maxMotionMm + 1e-9);
   }
 }
 
 TEST(Dwell, MergesARestSplitByAJitter) {
-  Session s = makeSession({Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(50, 2, 3), Eigen::Vector3d(1, 60, 3)},
-                          3.0, 1.0, 0.05, 0, 5);
+  Session s =
+      makeSession({Eigen::Vector3d(1, 2, 3), Eigen::Vector3d(50, 2, 3), Eigen::Vector3d(1, 60, 3)},
+                  3.0, 1.0, 0.05, 0, 5);
   // A single 3 mm glitch in the middle of the first rest.
   const auto [first, last] = s.restFrames[0];
   s.positions[static_cast<std::size_t>((first + last) / 2)] += Eigen::Vector3d(3, 0, 0);
@@ -258,16 +280,21 @@ TEST(Dwell, MergesARestSplitByAJitter) {
 TEST(Dwell, RefusesBadInput) {
   const std::vector<Eigen::Vector3d> p(20, Eigen::Vector3d::Zero());
   std::vector<double> t(20);
-  for (std::size_t i = 0; i < t.size(); ++i) t[i] = 0.1 * static_cast<double>(i);
+  for (std::size_t i = 0; i < t.size(); ++i)
+    t[i] = 0.1 * static_cast<double>(i);
   const std::vector<bool> v(20, true);
-  EXPECT_NE(thrownMessage([&] { detectDwells(p, {0.0, 1.0}, v, DwellOptions{}); }).find("differ"),
+  EXPECT_NE(thrownMessage([&] {
+              detectDwells(p, {0.0, 1.0}, v, DwellOptions{});
+            }).find("differ"),
             std::string::npos);
   DwellOptions zero;
   zero.maxMotionMm = 0.0;
-  EXPECT_NE(thrownMessage([&] { detectDwells(p, t, v, zero); }).find("maxMotionMm"), std::string::npos);
+  EXPECT_NE(thrownMessage([&] { detectDwells(p, t, v, zero); }).find("maxMotionMm"),
+            std::string::npos);
   DwellOptions negative;
   negative.smoothingS = -0.1;
-  EXPECT_NE(thrownMessage([&] { detectDwells(p, t, v, negative); }).find("smoothingS"), std::string::npos);
+  EXPECT_NE(thrownMessage([&] { detectDwells(p, t, v, negative); }).find("smoothingS"),
+            std::string::npos);
   auto back = t;
   back[7] = 0.0;
   EXPECT_NE(thrownMessage([&] { detectDwells(p, back, v, DwellOptions{}); }).find("frame 7"),
@@ -297,7 +324,8 @@ TEST(StylusTrack, TipInTheReferenceFrameAndRefusals) {
     frame.timestampS = 10.0 + f;
     frame.transforms["ReferenceToTracker"].matrix = reference.matrix();
     frame.transforms["StylusToTracker"].matrix = stylus.matrix();
-    if (f == 1) frame.transforms["StylusToTracker"].status = "INVALID";
+    if (f == 1)
+      frame.transforms["StylusToTracker"].status = "INVALID";
     capture.frames.push_back(frame);
   }
   const StylusTrack track = stylusTipTrack(capture, tip);
@@ -308,11 +336,15 @@ TEST(StylusTrack, TipInTheReferenceFrameAndRefusals) {
   EXPECT_LT((track.tipInReference[2] - expected).norm(), 1e-9);
   EXPECT_DOUBLE_EQ(track.timestampsS[2], 12.0);
   EXPECT_LT((stylusTipTrack(capture, tip, "StylusToTracker", "").tipInReference[0] -
-             stylus * Eigen::Vector3d(1, 2, -150)).norm(), 1e-9);
-  const std::string missing = thrownMessage([&] { stylusTipTrack(capture, tip, "StylusToTracker", "FemurToTracker"); });
+             stylus * Eigen::Vector3d(1, 2, -150))
+                .norm(),
+            1e-9);
+  const std::string missing =
+      thrownMessage([&] { stylusTipTrack(capture, tip, "StylusToTracker", "FemurToTracker"); });
   EXPECT_NE(missing.find("has no FemurToTrackerTransform"), std::string::npos) << missing;
   EXPECT_NE(missing.find("ReferenceToTrackerTransform"), std::string::npos) << missing;
-  for (auto& f : capture.frames) f.transforms["StylusToTracker"].status = "INVALID";
+  for (auto& f : capture.frames)
+    f.transforms["StylusToTracker"].status = "INVALID";
   EXPECT_NE(thrownMessage([&] { stylusTipTrack(capture, tip); }).find("none of its 3 frames"),
             std::string::npos);
 }
@@ -338,16 +370,21 @@ TEST(DwellMatch, SkipsRestsAwayFromTheLandmarksAndRefuses) {
   EXPECT_EQ(m.candidates, 15);
   EXPECT_GT(m.runnerUpFreMm, 10.0);
   dwells.resize(3);
-  EXPECT_NE(thrownMessage([&] { matchDwellsInOrder(dwells, landmarks); })
-                .find("found 3 dwells of the stylus for 4 landmarks"), std::string::npos);
-  EXPECT_NE(thrownMessage([&] { matchDwellsInOrder(dwells, {landmarks[0], landmarks[1]}); })
-                .find("2 landmarks, at least 3"), std::string::npos);
+  EXPECT_NE(thrownMessage([&] {
+              matchDwellsInOrder(dwells, landmarks);
+            }).find("found 3 dwells of the stylus for 4 landmarks"),
+            std::string::npos);
+  EXPECT_NE(thrownMessage([&] {
+              matchDwellsInOrder(dwells, {landmarks[0], landmarks[1]});
+            }).find("2 landmarks, at least 3"),
+            std::string::npos);
 }
 
 // PLUS's phantom registration: dwells on the eight landmarks of the fCal 2.0 phantom, registered
 // phantom -> reference, against PLUS's own result (PhantomRegistrationLandmarkDetection).
 TEST(LandmarkGolden, MatchesPlusPhantomRegistration) {
-  ECHOREG_REQUIRE_SHARED_FILE(capturePath, "plus/EightLandmarkPointsTrackedForPhantomRegistration.igs.mha");
+  ECHOREG_REQUIRE_SHARED_FILE(capturePath,
+                              "plus/EightLandmarkPointsTrackedForPhantomRegistration.igs.mha");
   ECHOREG_REQUIRE_SHARED_FILE(configPath, "plus/PlusDeviceSet_fCal_Sim_RecordPhantomLandmarks.xml");
   ECHOREG_REQUIRE_SHARED_FILE(resultPath, "plus/PhantomRegistrationLandmarkDetection.results.xml");
   const auto landmarks = test::plusLandmarks(configPath);
@@ -358,21 +395,24 @@ TEST(LandmarkGolden, MatchesPlusPhantomRegistration) {
   plus.matrix() = test::plusTransform(resultPath, "Phantom", "Reference");
 
   const StylusTrack track = stylusTipTrack(readSequence(capturePath), tip);
-  const std::vector<Dwell> dwells = detectDwells(track.tipInReference, track.timestampsS, track.valid, DwellOptions{});
+  const std::vector<Dwell> dwells =
+      detectDwells(track.tipInReference, track.timestampsS, track.valid, DwellOptions{});
   // Eight landmarks, pivoted on, plus the stylus resting away from the phantom before and after.
   ASSERT_EQ(dwells.size(), 10u);
   std::vector<Eigen::Vector3d> from;
-  for (const auto& l : landmarks) from.push_back(l.second);
+  for (const auto& l : landmarks)
+    from.push_back(l.second);
   const DwellMatch match = matchDwellsInOrder(dwells, from);
   const PairedPointResult& r = match.registration;
   EXPECT_EQ(match.dwellIndex, (std::vector<int>{1, 2, 3, 4, 5, 6, 7, 8}));
   EXPECT_GT(match.runnerUpFreMm, 10.0 * r.freMm);
   EXPECT_EQ(match.candidates, 45);
   const Eigen::Vector3d dt = r.transform.translation() - plus.translation();
-  std::printf("translation %.4f %.4f %.4f (PLUS %.4f %.4f %.4f), FRE %.4f, rotation diff %.4f deg\n",
-              r.transform.translation().x(), r.transform.translation().y(), r.transform.translation().z(),
-              plus.translation().x(), plus.translation().y(), plus.translation().z(), r.freMm,
-              angleBetweenDeg(r.transform.linear(), plus.linear()));
+  std::printf(
+      "translation %.4f %.4f %.4f (PLUS %.4f %.4f %.4f), FRE %.4f, rotation diff %.4f deg\n",
+      r.transform.translation().x(), r.transform.translation().y(), r.transform.translation().z(),
+      plus.translation().x(), plus.translation().y(), plus.translation().z(), r.freMm,
+      angleBetweenDeg(r.transform.linear(), plus.linear()));
   EXPECT_LT(dt.cwiseAbs().maxCoeff(), 0.3);
   EXPECT_LT(angleBetweenDeg(r.transform.linear(), plus.linear()), 0.2);
   EXPECT_LT(r.freMm, 1.0);

@@ -398,7 +398,8 @@ TriangleMesh lumpyTube(double z0, double z1) {
     mesh.triangles.push_back({bottom, at(0, s + 1), at(0, s)});
     mesh.triangles.push_back({top, at(rings - 1, s), at(rings - 1, s + 1)});
   }
-  if (checkMesh(mesh).volumeMm3 < 0.0) flipWinding(mesh);
+  if (checkMesh(mesh).volumeMm3 < 0.0)
+    flipWinding(mesh);
   return mesh;
 }
 
@@ -416,7 +417,8 @@ TEST(SurfaceRegistration, PointsBeyondAScanCutModelAreNotMatchedToItsCaps) {
   std::vector<SurfacePoint> points;
   for (const SurfacePoint& p : beams(bone, truth, 400, 11)) {
     const double z = (truth * p.at(1.0)).z();
-    if (std::abs(z) < 60.0) points.push_back(p);
+    if (std::abs(z) < 60.0)
+      points.push_back(p);
   }
   SurfaceRegistrationOptions options;
   options.initial = perturbed(truth, 3.0, 3.0);
@@ -433,7 +435,9 @@ TEST(SurfaceRegistration, PointsBeyondAScanCutModelAreNotMatchedToItsCaps) {
   EXPECT_TRUE(!plain.converged || errorAt(truth, plain.transform, Eigen::Vector3d::Zero()) > 0.01)
       << errorAt(truth, plain.transform, Eigen::Vector3d::Zero());
   options.excludedTriangles = {true, false};
-  EXPECT_NE(thrownMessage([&] { model.registerPoints(points, {}, options); }).find("one flag per triangle"),
+  EXPECT_NE(thrownMessage([&] {
+              model.registerPoints(points, {}, options);
+            }).find("one flag per triangle"),
             std::string::npos);
 }
 

@@ -34,7 +34,8 @@ core::TriangleMesh icosphere(double radiusMm, int subdivisions, const Eigen::Vec
   std::vector<Eigen::Vector3d> unit = {{-1, phi, 0}, {1, phi, 0}, {-1, -phi, 0}, {1, -phi, 0},
                                        {0, -1, phi}, {0, 1, phi}, {0, -1, -phi}, {0, 1, -phi},
                                        {phi, 0, -1}, {phi, 0, 1}, {-phi, 0, -1}, {-phi, 0, 1}};
-  for (auto& v : unit) v.normalize();
+  for (auto& v : unit)
+    v.normalize();
   std::vector<std::array<int, 3>> faces = {
       {0, 11, 5},  {0, 5, 1},  {0, 1, 7},  {0, 7, 10}, {0, 10, 11}, {1, 5, 9}, {5, 11, 4},
       {11, 10, 2}, {10, 7, 6}, {7, 1, 8},  {3, 9, 4},  {3, 4, 2},   {3, 2, 6}, {3, 6, 8},
@@ -44,7 +45,8 @@ core::TriangleMesh icosphere(double radiusMm, int subdivisions, const Eigen::Vec
     auto midpoint = [&](int a, int b) {
       const auto key = std::minmax(a, b);
       const auto found = midpoints.find(key);
-      if (found != midpoints.end()) return found->second;
+      if (found != midpoints.end())
+        return found->second;
       // Normalising a + b keeps antipodal symmetry exact: the mirror edge gives -(a + b).
       unit.push_back(
           (unit[static_cast<std::size_t>(a)] + unit[static_cast<std::size_t>(b)]).normalized());
@@ -65,7 +67,8 @@ core::TriangleMesh icosphere(double radiusMm, int subdivisions, const Eigen::Vec
   }
   core::TriangleMesh mesh;
   mesh.vertices.reserve(unit.size());
-  for (const auto& v : unit) mesh.vertices.push_back(centre + radiusMm * v);
+  for (const auto& v : unit)
+    mesh.vertices.push_back(centre + radiusMm * v);
   mesh.triangles = std::move(faces);
   return mesh;
 }
@@ -119,15 +122,18 @@ std::optional<BruteHit> bruteFirstHit(const core::TriangleMesh& mesh, const Eige
     const Eigen::Vector3d& c = corner(mesh, tri, 2);
     const Eigen::Vector3d n = (b - a).cross(c - a);
     const double along = n.dot(direction);
-    if (along == 0.0) continue;
+    if (along == 0.0)
+      continue;
     const double t = n.dot(a - origin) / along;
-    if (!(t > 0.0)) continue;
+    if (!(t > 0.0))
+      continue;
     const Eigen::Vector3d x = origin + t * direction;
     if ((b - a).cross(x - a).dot(n) < 0.0 || (c - b).cross(x - b).dot(n) < 0.0 ||
         (a - c).cross(x - c).dot(n) < 0.0) {
       continue;
     }
-    if (!best || t < best->t) best = BruteHit{t, static_cast<int>(i)};
+    if (!best || t < best->t)
+      best = BruteHit{t, static_cast<int>(i)};
   }
   return best;
 }
@@ -160,11 +166,13 @@ std::optional<Eigen::Vector3d> insidePointNearCentroid(const core::TriangleMesh&
       }
     }
   }
-  if (inside.empty()) return std::nullopt;
+  if (inside.empty())
+    return std::nullopt;
   const Eigen::Vector3d c = sum / static_cast<double>(inside.size());
   Eigen::Vector3d best = inside.front();
   for (const auto& p : inside) {
-    if ((p - c).norm() < (best - c).norm()) best = p;
+    if ((p - c).norm() < (best - c).norm())
+      best = p;
   }
   return best;
 }

@@ -40,9 +40,9 @@ class TempDir {
 }  // namespace echoreg::test
 
 /// Skips the current test with a message when a shared data file is missing; binds its path.
-#define ECHOREG_REQUIRE_SHARED_FILE(var, relative)                                           \
-  const std::string var = ::echoreg::test::sharedDataFile(relative);                         \
-  if (var.empty()) {                                                                         \
+#define ECHOREG_REQUIRE_SHARED_FILE(var, relative)                                            \
+  const std::string var = ::echoreg::test::sharedDataFile(relative);                          \
+  if (var.empty()) {                                                                          \
     GTEST_SKIP() << "../shared/data/" << (relative) << " is absent: skipping this real-data " \
-                 << "test";                                                                  \
+                 << "test";                                                                   \
   }

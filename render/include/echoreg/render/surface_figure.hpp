@@ -38,7 +38,7 @@ enum class View {
 const char* viewName(View view);
 
 struct SurfaceFigure {
-  core::TriangleMesh surface;           ///< CT coordinates (LPS, mm)
+  core::TriangleMesh surface;                          ///< CT coordinates (LPS, mm)
   std::array<double, 3> surfaceRgb{0.89, 0.85, 0.79};  ///< bone
   /// Neighbouring surfaces drawn translucent for context (e.g. the patella in front of the femur,
   /// where stray echoes land), cropped like the surface; they do not move the cameras.
