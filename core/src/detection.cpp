@@ -322,20 +322,7 @@ double estimateTransducerFrequencyHz(int recordCount, int samples, const RecordS
   for (int index : spreadIndices(recordCount, kAnalysedRecords)) {
     record(index, raw);
     // A 1 MHz high-pass (moving average removed) so that baseline drift does not dominate.
-    const int length = std::min(highPass, samples);
-    const int before = (length - 1) / 2;
-    double sum = 0.0;
-    int begin = 0, end = 0;
-    for (int i = 0; i < samples; ++i) {
-      const int wantEnd = std::min(samples, i + length - before);
-      const int wantBegin = std::max(0, i - before);
-      for (; end < wantEnd; ++end)
-        sum += raw[static_cast<std::size_t>(end)];
-      for (; begin < wantBegin; ++begin)
-        sum -= raw[static_cast<std::size_t>(begin)];
-      input[static_cast<std::size_t>(i)] =
-          static_cast<float>(raw[static_cast<std::size_t>(i)] - sum / (end - begin));
-    }
+    subtractMovingAverage(raw.data(), samples, highPass, input.data());
     fft.fwd(spectrum, input);
     for (std::size_t k = 0; k < power.size(); ++k)
       power[k] += std::norm(spectrum[k]);

@@ -13,6 +13,18 @@
 
 namespace echoreg {
 
+namespace detail {
+
+// Scratch of subtractMovingAverage: window sums, the record as whole-number codes, their prefix
+// sums.
+struct MovingAverageScratch {
+  std::vector<float> sums;
+  std::vector<std::int32_t> codes;
+  std::vector<std::int32_t> prefix;
+};
+
+}  // namespace detail
+
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -65,6 +77,82 @@ void validate(const EnvelopeParams& p) {
   require(p.smoothingSamples >= 1, "smoothing must be >= 1 sample");
 }
 
+namespace detail {
+
+// out = x - (centred moving average of x over highPassSamples, clipped to the record). Inside
+// the record the window sum is L vectorised passes over the record (L is a few dozen samples
+// at most for a corner at half the transducer frequency); within L of the ends, where the
+// window is clipped, each sum is taken directly.
+void subtractMovingAverage(const float* samples, int count, int window, float* out,
+                           MovingAverageScratch& scratch) {
+  const int length = std::min(window, count);
+  const int before = (length - 1) / 2;
+  const int after = length - 1 - before;
+  const auto clippedMean = [&](int i) {
+    const int b = std::max(0, i - before), e = std::min(count, i + after + 1);
+    double sum = 0.0;
+    for (int j = b; j < e; ++j)
+      sum += samples[j];
+    return sum / (e - b);
+  };
+  const int interiorBegin = before, interiorEnd = count - after;
+  if (interiorEnd <= interiorBegin) {
+    for (int i = 0; i < count; ++i)
+      out[i] = static_cast<float>(samples[i] - clippedMean(i));
+    return;
+  }
+  // Digitiser codes are whole numbers of at most 16 bits: their prefix sums are exact in 32-bit
+  // integers for records of up to 32768 samples (one add per sample; the conversions and
+  // differences vectorise); anything else (float captures, longer records) sums in floats.
+  const auto n = static_cast<std::size_t>(count);
+  scratch.sums.resize(static_cast<std::size_t>(interiorEnd - interiorBegin));
+  float* sums = scratch.sums.data();
+  const int windowCount = interiorEnd - interiorBegin;
+  bool whole = count <= 32768;
+  if (whole) {
+    scratch.codes.resize(n);
+    for (std::size_t i = 0; i < n; ++i)
+      scratch.codes[i] = static_cast<std::int32_t>(samples[i]);
+    for (std::size_t i = 0; i < n; ++i) {
+      whole &= static_cast<float>(scratch.codes[i]) == samples[i] && scratch.codes[i] <= 65535 &&
+               scratch.codes[i] >= -65535;
+    }
+  }
+  if (whole) {
+    scratch.prefix.resize(n + 1);
+    std::int32_t* prefix = scratch.prefix.data();
+    prefix[0] = 0;
+    for (std::size_t i = 0; i < n; ++i)
+      prefix[i + 1] = prefix[i] + scratch.codes[i];
+    for (int i = 0; i < windowCount; ++i) {
+      sums[i] = static_cast<float>(prefix[i + length] - prefix[i]);
+    }
+  } else {
+    std::fill(scratch.sums.begin(), scratch.sums.end(), 0.F);
+    for (int k = 0; k < length; ++k) {
+      const float* shifted = samples + k;
+      for (int i = 0; i < windowCount; ++i)
+        sums[i] += shifted[i];
+    }
+  }
+  const float inverse = 1.F / static_cast<float>(length);
+  for (int i = 0; i < windowCount; ++i) {
+    out[interiorBegin + i] = samples[interiorBegin + i] - sums[i] * inverse;
+  }
+  for (int i = 0; i < interiorBegin; ++i)
+    out[i] = static_cast<float>(samples[i] - clippedMean(i));
+  for (int i = interiorEnd; i < count; ++i) {
+    out[i] = static_cast<float>(samples[i] - clippedMean(i));
+  }
+}
+
+}  // namespace detail
+
+void subtractMovingAverage(const float* samples, int count, int window, float* out) {
+  detail::MovingAverageScratch scratch;
+  detail::subtractMovingAverage(samples, count, window, out, scratch);
+}
+
 int highPassLength(double cornerHz, double samplingFrequencyHz) {
   require(cornerHz > 0.0 && std::isfinite(cornerHz), "high-pass corner must be > 0 Hz");
   require(samplingFrequencyHz > 0.0 && std::isfinite(samplingFrequencyHz),
@@ -79,11 +167,9 @@ int highPassLength(double cornerHz, double samplingFrequencyHz) {
 struct EnvelopeDetector::Impl {
   EnvelopeParams params;
   IirCoefficients butterworth;
-  std::vector<float> centred;             // demeaned, ring-down zeroed record
-  std::vector<float> boxSums;             // high-pass: window sums inside the record
-  std::vector<std::int32_t> codes;        // high-pass: the record as whole-number codes
-  std::vector<std::int32_t> prefixCodes;  // high-pass: their prefix sums
-  std::vector<double> prefixA;            // prefix sums for the O(1) moving windows
+  std::vector<float> centred;                    // demeaned, ring-down zeroed record
+  detail::MovingAverageScratch highPassScratch;  // high-pass
+  std::vector<double> prefixA;                   // prefix sums for the O(1) moving windows
   std::vector<double> prefixB;
   std::vector<double> prefixC;
   std::vector<double> cosTable;  // Hann: cos/sin(theta * m) for the sample index m
@@ -111,70 +197,8 @@ struct EnvelopeDetector::Impl {
       centred[static_cast<std::size_t>(i)] = 0.F;
   }
 
-  // out = x - (centred moving average of x over highPassSamples, clipped to the record). Inside
-  // the record the window sum is L vectorised passes over the record (L is a few dozen samples
-  // at most for a corner at half the transducer frequency); within L of the ends, where the
-  // window is clipped, each sum is taken directly.
   void highPass(const float* samples, int count, float* out) {
-    const int length = std::min(params.highPassSamples, count);
-    const int before = (length - 1) / 2;
-    const int after = length - 1 - before;
-    const auto clippedMean = [&](int i) {
-      const int b = std::max(0, i - before), e = std::min(count, i + after + 1);
-      double sum = 0.0;
-      for (int j = b; j < e; ++j)
-        sum += samples[j];
-      return sum / (e - b);
-    };
-    const int interiorBegin = before, interiorEnd = count - after;
-    if (interiorEnd <= interiorBegin) {
-      for (int i = 0; i < count; ++i)
-        out[i] = static_cast<float>(samples[i] - clippedMean(i));
-      return;
-    }
-    // Digitiser codes are whole numbers of at most 16 bits: their prefix sums are exact in 32-bit
-    // integers for records of up to 32768 samples (one add per sample; the conversions and
-    // differences vectorise); anything else (float captures, longer records) sums in floats.
-    const auto n = static_cast<std::size_t>(count);
-    boxSums.resize(static_cast<std::size_t>(interiorEnd - interiorBegin));
-    float* sums = boxSums.data();
-    const int windowCount = interiorEnd - interiorBegin;
-    bool whole = count <= 32768;
-    if (whole) {
-      codes.resize(n);
-      for (std::size_t i = 0; i < n; ++i)
-        codes[i] = static_cast<std::int32_t>(samples[i]);
-      for (std::size_t i = 0; i < n; ++i) {
-        whole &=
-            static_cast<float>(codes[i]) == samples[i] && codes[i] <= 65535 && codes[i] >= -65535;
-      }
-    }
-    if (whole) {
-      prefixCodes.resize(n + 1);
-      std::int32_t* prefix = prefixCodes.data();
-      prefix[0] = 0;
-      for (std::size_t i = 0; i < n; ++i)
-        prefix[i + 1] = prefix[i] + codes[i];
-      for (int i = 0; i < windowCount; ++i) {
-        sums[i] = static_cast<float>(prefix[i + length] - prefix[i]);
-      }
-    } else {
-      std::fill(boxSums.begin(), boxSums.end(), 0.F);
-      for (int k = 0; k < length; ++k) {
-        const float* shifted = samples + k;
-        for (int i = 0; i < windowCount; ++i)
-          sums[i] += shifted[i];
-      }
-    }
-    const float inverse = 1.F / static_cast<float>(length);
-    for (int i = 0; i < windowCount; ++i) {
-      out[interiorBegin + i] = samples[interiorBegin + i] - sums[i] * inverse;
-    }
-    for (int i = 0; i < interiorBegin; ++i)
-      out[i] = static_cast<float>(samples[i] - clippedMean(i));
-    for (int i = interiorEnd; i < count; ++i) {
-      out[i] = static_cast<float>(samples[i] - clippedMean(i));
-    }
+    detail::subtractMovingAverage(samples, count, params.highPassSamples, out, highPassScratch);
   }
 
   void mozes(int count, float* out) {

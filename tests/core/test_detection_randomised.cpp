@@ -21,6 +21,17 @@
 namespace echoreg {
 namespace {
 
+// What a user knows of the capture's acquisition.
+test::AcquisitionFacts factsOf(const test::RandomisedCapture& capture) {
+  test::AcquisitionFacts facts;
+  facts.samplingFrequencyHz = capture.samplingFrequencyHz;
+  facts.speedOfSoundMps = capture.speedOfSoundMps;
+  facts.delayS = capture.delayS;
+  facts.windowMinMm = capture.windowMinMm;
+  facts.windowMaxMm = capture.windowMaxMm;
+  return facts;
+}
+
 test::DetectionScore scoreRandomised(const DetectionParams& preset, const std::string& profile,
                                      std::uint64_t seed) {
   test::RandomisedSetOptions options;
@@ -29,12 +40,7 @@ test::DetectionScore scoreRandomised(const DetectionParams& preset, const std::s
   const std::vector<test::RandomisedCapture> captures = test::makeRandomisedSet(options);
   test::DetectionScore total;
   for (const test::RandomisedCapture& capture : captures) {
-    test::AcquisitionFacts facts;
-    facts.samplingFrequencyHz = capture.samplingFrequencyHz;
-    facts.speedOfSoundMps = capture.speedOfSoundMps;
-    facts.delayS = capture.delayS;
-    facts.windowMinMm = capture.windowMinMm;
-    facts.windowMaxMm = capture.windowMaxMm;
+    const test::AcquisitionFacts facts = factsOf(capture);
     std::vector<test::LabelledRecord> records;
     for (const test::RandomisedFrame& frame : capture.frames) {
       test::LabelledRecord record;
@@ -79,12 +85,7 @@ TEST(DetectionRandomised, TheTemporalFilterKeepsMovingBone) {
     options.seed = 2;
     int correct = 0, kept = 0;
     for (const test::RandomisedCapture& capture : test::makeRandomisedSet(options)) {
-      DetectionParams params = detectionPreset("default");
-      params.depth.samplingFrequencyHz = capture.samplingFrequencyHz;
-      params.depth.speedOfSoundMps = capture.speedOfSoundMps;
-      params.depth.delayS = capture.delayS;
-      params.windowMinMm = capture.windowMinMm;
-      params.windowMaxMm = capture.windowMaxMm;
+      DetectionParams params = test::withFacts(detectionPreset("default"), factsOf(capture));
       const RecordSource source = [&capture](int i, std::vector<float>& out) {
         out = capture.frames[static_cast<std::size_t>(i)].samples;
       };

@@ -29,11 +29,7 @@ void DetectionScore::add(const DetectionScore& other) {
   errorsMm.insert(errorsMm.end(), other.errorsMm.begin(), other.errorsMm.end());
 }
 
-DetectionScore scoreCapture(const DetectionParams& preset, const AcquisitionFacts& facts,
-                            const std::vector<LabelledRecord>& records) {
-  DetectionScore score;
-  if (records.empty())
-    return score;
+DetectionParams withFacts(const DetectionParams& preset, const AcquisitionFacts& facts) {
   DetectionParams params = preset;
   params.depth.samplingFrequencyHz = facts.samplingFrequencyHz;
   params.depth.speedOfSoundMps = facts.speedOfSoundMps;
@@ -43,6 +39,15 @@ DetectionScore scoreCapture(const DetectionParams& preset, const AcquisitionFact
     params.windowMinMm = facts.windowMinMm;
   if (facts.windowMaxMm)
     params.windowMaxMm = facts.windowMaxMm;
+  return params;
+}
+
+DetectionScore scoreCapture(const DetectionParams& preset, const AcquisitionFacts& facts,
+                            const std::vector<LabelledRecord>& records) {
+  DetectionScore score;
+  if (records.empty())
+    return score;
+  DetectionParams params = withFacts(preset, facts);
   const int samples = static_cast<int>(records.front().samples->size());
   const RecordSource source = [&records](int index, std::vector<float>& out) {
     out = *records[static_cast<std::size_t>(index)].samples;

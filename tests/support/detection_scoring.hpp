@@ -44,6 +44,9 @@ struct DetectionScore {
   void add(const DetectionScore& other);
 };
 
+/// `preset` with the acquisition facts in place (sampling frequency, speed, delay, window).
+DetectionParams withFacts(const DetectionParams& preset, const AcquisitionFacts& facts);
+
 /// Runs `preset` (inter-signal filters aside: each record judged alone) on one capture.
 DetectionScore scoreCapture(const DetectionParams& preset, const AcquisitionFacts& facts,
                             const std::vector<LabelledRecord>& records);

@@ -60,6 +60,10 @@ struct EnvelopeParams {
 /// Checks the parameters; throws std::invalid_argument naming the first bad one.
 void validate(const EnvelopeParams& params);
 
+/// out = x - the centred moving average of x over `window` samples, clipped at the record's ends
+/// (the conditioning high-pass; `out` may not alias `samples`).
+void subtractMovingAverage(const float* samples, int count, int window, float* out);
+
 /// The moving-average length (odd, >= 3) of a high-pass with its corner at `cornerHz`: the
 /// average spans 1.5 periods of the corner frequency, so the gain is 0.70 at the corner, 1.2 at
 /// twice it, 3.6 % at a tenth of it and 0.3 % at a thirtieth.
