@@ -149,6 +149,10 @@ const std::vector<Tunable>& tunables() {
       {"echo-ringing-contrast", "Prominence policy",
        "prominence: ringing counts only for an echo this many times the median before it (6)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.ringingContrast = as<double>(v); }},
+      {"echo-inner-ratio", "Prominence policy",
+       "prominence, shadow required: an echo this many times stronger just above the chosen one "
+       "is the bone, the chosen one its inner cortex (2.5; 0 = off)",
+       0.0, [](P& p, const V& v) { p.peaks.prominence.innerEchoRatio = as<double>(v); }},
       {"echo-similar", "Prominence policy",
        "prominence: echoes within this fraction of the strongest compete on depth (0.6)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.similarRatio = as<double>(v); }},

@@ -133,10 +133,35 @@ double noiseFloorOf(const float* envelope, int count, std::vector<float>& scratc
   return selectKth(scratch.data(), n, n / 10);
 }
 
+// An echo whose shadow is judged against the quiet level must stand this many times above it:
+// the envelope of noise exceeds 5 times its median with a probability of about e^-17.
+constexpr double kQuietEchoFactor = 5.0;
+
+// The level of the record's quietest stretch: the lower quartile of the medians of blocks of
+// `block` samples of envelope[begin, count). Where the tissue's speckle lies under the
+// digitiser's noise (8-bit records, water), a shadow behind bone is no quieter than the noise
+// before it; it is as quiet as the quietest part of the record. (A low percentile of single
+// samples lies far below the median of noise: a shadow's median never reaches it.)
+double quietLevelOf(const float* envelope, int count, int begin, int block,
+                    std::vector<float>& scratch) {
+  std::vector<float> medians;
+  block = std::max(block, 64);
+  for (int b = std::max(begin, 0); b + block <= count; b += block) {
+    const double m = medianOf(envelope, count, b, b + block, scratch);
+    if (m >= 0.0)
+      medians.push_back(static_cast<float>(m));
+  }
+  if (medians.empty())
+    return 0.0;
+  const int n = static_cast<int>(medians.size());
+  return selectKth(medians.data(), n, n / 4);
+}
+
 // Does the peak look like bone: narrow as a pulse, well above the speckle before it, and
 // followed by an acoustic shadow?
+// `shadowLevel`: a median behind the peak within noiseFloorFactor of it is a shadow too.
 bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noiseFloor,
-                      const float* envelope, int count, const Peak& peak,
+                      double shadowLevel, const float* envelope, int count, const Peak& peak,
                       std::vector<float>& scratch) {
   // Cheap screen first: with tissue at least minTissueOverNoise x the noise floor before it and
   // the peak minContrast x above that, the peak must clear their product of the noise floor.
@@ -168,8 +193,15 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
     const double after = medianOf(envelope, count, begin, end, scratch);
     // Deep in the tissue the speckle itself fades to the noise floor; a shadow at the noise
     // floor still counts there.
-    return before >= bone.minShadowRatio * std::max(after, tiny) ||
-           after <= bone.noiseFloorFactor * noiseFloor;
+    // Against the quiet level, the tissue before must stand above it as far as a shadow would
+    // stand below it (minShadowRatio: water before an echo is as quiet as what follows), and
+    // the echo far above it (a noise spike is a few times the noise, never kQuietEchoFactor).
+    const bool atQuiet = bone.shadowAtQuietLevel
+                             ? after <= bone.noiseFloorFactor * shadowLevel &&
+                                   before >= bone.minShadowRatio * shadowLevel &&
+                                   peak.value >= kQuietEchoFactor * shadowLevel
+                             : after <= bone.noiseFloorFactor * shadowLevel;
+    return before >= bone.minShadowRatio * std::max(after, tiny) || atQuiet;
   };
   return isShadow(afterBegin, afterBegin + region / 2) && isShadow(afterBegin, afterEnd);
 }
@@ -254,11 +286,14 @@ bool isAirTrain(const float* envelope, int count, int index, double ratio, int r
   // the same spacing and in proportion, within a factor of two.
   const double first = second / value;
   float previous = second;
+  // A bounce lands within a few per cent of its multiple: the echoes' lobes and the path
+  // through the face differ a little from one bounce to the next.
+  const int tolerance = std::max(radius, spacing / 25);
   for (int bounce = 2; bounce <= 3; ++bounce) {
     const int at = index + bounce * spacing;
-    if (at + radius >= count)
+    if (at + tolerance >= count)
       return bounce == 3;  // the record ends: two bounces seen are enough
-    const float echo = maxAround(envelope, count, at, radius);
+    const float echo = maxAround(envelope, count, at, tolerance);
     const double share = echo / std::max(previous, 1e-12F);
     if (share < ratio || share > 1.0 || share < 0.5 * first || share > 2.0 * first)
       return false;
@@ -319,6 +354,7 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   const int maxRise =
       std::max(2, static_cast<int>(std::lround(e.maxRiseCycles * params.samplesPerCycle)));
   const int reverbRadius = std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
+  const double quietLevel = quietLevelOf(envelope, count, ringDown, region / 2, scratch);
   int airAt = count;  // the first air interface, if any
   for (EchoCandidate& c : candidates) {
     if (c.index > airAt)
@@ -371,7 +407,9 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     const auto isShadow = [&](int from, int to) {
       const double behind = medianOf(envelope, count, from, to, scratch);
       return behind >= 0.0 && (before >= e.shadowRatio * std::max(behind, tiny) ||
-                               behind <= e.shadowNoiseFactor * noiseFloor);
+                               (behind <= e.shadowNoiseFactor * quietLevel &&
+                                before >= e.shadowNoiseFactor * quietLevel &&
+                                c.value >= kQuietEchoFactor * quietLevel));
     };
     // A shadow needs room behind the echo to be seen.
     c.contrast = before >= 0.0 ? c.value / std::max(before, tiny) : 1e9;
@@ -452,6 +490,41 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   result.reason = RejectReason::None;
   const int index = candidates[static_cast<std::size_t>(chosen)].index;
   result.sampleIndex = params.subsample ? refinedIndex(envelope, count, index) : index;
+}
+
+// The shadow mode's pick can be the inner cortex's echo (or the first bounce) behind bone whose
+// own shadow is masked by it: an echo much weaker than one just above it, within the shadow
+// region of that one. Bone sends back the stronger echo; the one behind lies in its shadow.
+// Returns the index (in result.peaks) of that stronger echo when it stands well above the tissue
+// before it, else -1.
+int strongerEchoAbove(const PeakParams& params, const float* envelope, int count,
+                      const PeakResult& result, int ringDown) {
+  const double ratio = params.prominence.innerEchoRatio;
+  if (ratio <= 0.0)
+    return -1;
+  const Peak& pick = result.peaks[static_cast<std::size_t>(result.selected)];
+  const int reach = static_cast<int>(std::lround(params.bone.regionMm / params.mmPerSample));
+  const int first = std::max(ringDown, params.windowBegin.value_or(0));
+  int best = -1;
+  for (int k = 0; k < result.selected; ++k) {
+    const Peak& p = result.peaks[static_cast<std::size_t>(k)];
+    if (p.index < first || pick.index - p.index > reach)
+      continue;
+    if (best < 0 || p.value > result.peaks[static_cast<std::size_t>(best)].value)
+      best = k;
+  }
+  if (best < 0)
+    return -1;
+  const Peak& strong = result.peaks[static_cast<std::size_t>(best)];
+  if (strong.value < ratio * pick.value)
+    return -1;
+  std::vector<float> scratch;
+  const int gap = std::max(1, static_cast<int>(std::lround(params.samplesPerCycle)));
+  const double before = medianOf(envelope, count, std::max(ringDown, strong.runBegin - gap - reach),
+                                 strong.runBegin - gap, scratch);
+  if (before >= 0.0 && strong.value < params.bone.minContrast * std::max(before, 1e-12))
+    return -1;
+  return best;
 }
 
 }  // namespace
@@ -567,6 +640,8 @@ void validate(const PeakParams& p) {
           "echo shadow contrast must be >= 1");
   require(e.ringingContrast >= 1.0 && std::isfinite(e.ringingContrast),
           "echo ringing contrast must be >= 1");
+  require(e.innerEchoRatio == 0.0 || (e.innerEchoRatio >= 1.0 && std::isfinite(e.innerEchoRatio)),
+          "echo inner-echo ratio must be 0 (off) or >= 1");
   require(e.ringingFraction > 0.0 && e.ringingFraction <= 1.0,
           "echo ringing fraction must be in (0, 1]");
   require(e.shadowNoiseFactor >= 0.0 && std::isfinite(e.shadowNoiseFactor),
@@ -587,6 +662,7 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
     PeakParams bone = params;
     bone.policy = PeakPolicy::Bone;
     bone.bone.minShareOfStrongest = params.prominence.similarRatio;
+    bone.bone.shadowAtQuietLevel = true;
     bone.ringDownEnd = 0;
     if (bone.windowBegin)
       bone.windowBegin = std::max(0, *bone.windowBegin - ringDown);
@@ -616,6 +692,11 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
         shifted.reason = RejectReason::NotBone;
         shifted.selected = -1;
         shifted.sampleIndex = 0.0;
+      } else if (const int stronger = strongerEchoAbove(params, envelope, count, shifted, ringDown);
+                 stronger >= 0) {
+        shifted.selected = stronger;
+        const int at = shifted.peaks[static_cast<std::size_t>(stronger)].index;
+        shifted.sampleIndex = params.subsample ? refinedIndex(envelope, count, at) : at;
       }
     }
     if (!shifted.accepted() && params.windowBegin && *params.windowBegin < ringDown &&
@@ -757,12 +838,19 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       // bone (its reverberation, noise) sits in its shadow and fails the shadow test.
       std::vector<float> scratch;
       const double noiseFloor = noiseFloorOf(envelope, count, scratch);
+      const double shadowLevel =
+          params.bone.shadowAtQuietLevel
+              ? quietLevelOf(
+                    envelope, count, 0,
+                    static_cast<int>(std::lround(0.5 * params.bone.regionMm / params.mmPerSample)),
+                    scratch)
+              : noiseFloor;
       result.reason = RejectReason::NotBone;
       if (params.bone.minShareOfStrongest <= 0.0) {
         for (int candidate = found - 1; candidate >= 0; --candidate) {
           const Peak& peak = result.peaks[static_cast<std::size_t>(candidate)];
-          if (hasBoneSignature(params.bone, params.mmPerSample, noiseFloor, envelope, count, peak,
-                               scratch)) {
+          if (hasBoneSignature(params.bone, params.mmPerSample, noiseFloor, shadowLevel, envelope,
+                               count, peak, scratch)) {
             accept(candidate, peak.index);
             break;
           }
@@ -776,8 +864,8 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       float strongest = 0.F;
       for (int candidate = 0; candidate < found; ++candidate) {
         const Peak& peak = result.peaks[static_cast<std::size_t>(candidate)];
-        if (hasBoneSignature(params.bone, params.mmPerSample, noiseFloor, envelope, count, peak,
-                             scratch)) {
+        if (hasBoneSignature(params.bone, params.mmPerSample, noiseFloor, shadowLevel, envelope,
+                             count, peak, scratch)) {
           signed_.push_back(candidate);
           strongest = std::max(strongest, peak.value);
         }

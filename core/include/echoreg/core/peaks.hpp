@@ -77,6 +77,13 @@ struct BoneEchoParams {
   /// of those at least this share of the strongest with the signature (the prominence policy's
   /// shadow mode uses its similarRatio).
   double minShareOfStrongest = 0.0;
+  /// The shadow's noise test against the record's quiet level (the lower quartile of the
+  /// medians of half-region blocks) instead of the noise floor: the median of pure noise lies
+  /// well above its 10th percentile, so a shadow at the noise never reached noiseFloorFactor x
+  /// the floor. It then also needs the tissue before the echo at least minShadowRatio x and the
+  /// echo 5 x that level. The prominence policy's shadow mode sets it; the bone policy's
+  /// default keeps echoreg's earlier rule.
+  bool shadowAtQuietLevel = false;
 };
 
 /// The prominence policy (the default), decided from the statistics of the record itself rather
@@ -128,7 +135,10 @@ struct ProminenceParams {
   ShadowRule shadow = ShadowRule::Auto;
   /// Shadow: the median envelope after the echo (over the near half of the region and all of it)
   /// is at most 1 / `shadowRatio` of the median before it (> 1), or within `shadowNoiseFactor`
-  /// of the noise floor (>= 0).
+  /// of the record's quiet level (the lower quartile of the medians of 1 mm blocks) while the
+  /// tissue before the echo stands at least that factor above it (>= 0): where the speckle lies
+  /// near the digitiser's noise (8-bit records, deep or water), a shadow is no quieter than the
+  /// tissue, only as quiet as the quietest part of the record.
   double shadowRatio = 2.0;
   double shadowNoiseFactor = 1.2;
   /// A shadowed echo must be this many times the median before it (>= 1).
@@ -139,6 +149,10 @@ struct ProminenceParams {
   /// Ringing counts only for an echo this many times the median before it (>= 1): bone is 20 dB
   /// and more above the speckle, while speckle maxima and the skin ring no more than tissue does.
   double ringingContrast = 6.0;
+  /// With the shadow required: an echo this many times stronger than the chosen one, within the
+  /// bone region above it, is the bone and the chosen one its inner cortex or first bounce
+  /// (>= 1; 0 turns the test off).
+  double innerEchoRatio = 2.5;
 };
 
 struct PeakParams {
@@ -170,20 +184,20 @@ void validate(const PeakParams& params);
 
 /// Field-by-field equality (a new field must be added here, or this stops compiling).
 inline bool operator==(const BoneEchoParams& a, const BoneEchoParams& b) {
-  const auto& [regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA, shareA] = a;
-  const auto& [regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB, shareB] = b;
-  return std::tie(regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA, shareA) ==
-         std::tie(regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB, shareB);
+  const auto& [regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA, shareA, quietA] = a;
+  const auto& [regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB, shareB, quietB] = b;
+  return std::tie(regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA, shareA, quietA) ==
+         std::tie(regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB, shareB, quietB);
 }
 inline bool operator==(const ProminenceParams& a, const ProminenceParams& b) {
   const auto& [snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
-               ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA] = a;
+               ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA] = a;
   const auto& [snrB, medianB, promB, riseB, contrastB, regionB, wallB, airB, similarB, shadowB,
-               ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB] = b;
+               ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB, innerB] = b;
   return std::tie(snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
-                  ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA) ==
+                  ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA) ==
          std::tie(snrB, medianB, promB, riseB, contrastB, regionB, wallB, airB, similarB, shadowB,
-                  ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB);
+                  ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB, innerB);
 }
 inline bool operator==(const PeakParams& a, const PeakParams& b) {
   const auto& [modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, promA, ringA, cycleA,
