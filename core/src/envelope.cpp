@@ -5,21 +5,22 @@
 #include <unsupported/Eigen/FFT>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <complex>
 #include <cstdint>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace echoreg {
 
 namespace detail {
 
-// Scratch of subtractMovingAverage: window sums, the record as whole-number codes, their prefix
-// sums.
+// Scratch of subtractMovingAverage: window sums (float records), the prefix sums of the record's
+// whole-number codes.
 struct MovingAverageScratch {
   std::vector<float> sums;
-  std::vector<std::int32_t> codes;
   std::vector<std::int32_t> prefix;
 };
 
@@ -102,42 +103,52 @@ void subtractMovingAverage(const float* samples, int count, int window, float* o
     return;
   }
   // Digitiser codes are whole numbers of at most 16 bits: their prefix sums are exact in 32-bit
-  // integers for records of up to 32768 samples (one add per sample; the conversions and
-  // differences vectorise); anything else (float captures, longer records) sums in floats.
+  // integers for records of up to 32768 samples, and each window sum is a difference of two of
+  // them (two passes: the conversion with its check and the prefix, then the window, which
+  // vectorises); anything else (float captures, longer records) sums in floats.
   const auto n = static_cast<std::size_t>(count);
-  scratch.sums.resize(static_cast<std::size_t>(interiorEnd - interiorBegin));
-  float* sums = scratch.sums.data();
   const int windowCount = interiorEnd - interiorBegin;
+  const float inverse = 1.F / static_cast<float>(length);
   bool whole = count <= 32768;
   if (whole) {
-    scratch.codes.resize(n);
-    for (std::size_t i = 0; i < n; ++i)
-      scratch.codes[i] = static_cast<std::int32_t>(samples[i]);
+    // Whole and within 16 bits? A float below 2^22 in magnitude is whole when adding and
+    // subtracting 1.5 x 2^23 (which rounds it to an integer) gives it back; NaN never does.
+    // Written as comparisons summed, it vectorises.
+    constexpr float kRound = 12582912.F;  // 1.5 x 2^23
+    int mismatches = 0;
     for (std::size_t i = 0; i < n; ++i) {
-      whole &= static_cast<float>(scratch.codes[i]) == samples[i] && scratch.codes[i] <= 65535 &&
-               scratch.codes[i] >= -65535;
+      const float x = samples[i];
+      const float rounded = (x + kRound) - kRound;
+      mismatches += static_cast<int>(rounded != x) + static_cast<int>(!(std::fabs(x) <= 65535.F));
     }
+    whole = mismatches == 0;
   }
   if (whole) {
+    // Every sample is a whole code in range: the conversion is exact and defined.
     scratch.prefix.resize(n + 1);
     std::int32_t* prefix = scratch.prefix.data();
     prefix[0] = 0;
     for (std::size_t i = 0; i < n; ++i)
-      prefix[i + 1] = prefix[i] + scratch.codes[i];
+      prefix[i + 1] = prefix[i] + static_cast<std::int32_t>(samples[i]);
+  }
+  if (whole) {
+    const std::int32_t* prefix = scratch.prefix.data();
+    const float* centre = samples + interiorBegin;
+    float* target = out + interiorBegin;
     for (int i = 0; i < windowCount; ++i) {
-      sums[i] = static_cast<float>(prefix[i + length] - prefix[i]);
+      target[i] = centre[i] - static_cast<float>(prefix[i + length] - prefix[i]) * inverse;
     }
   } else {
-    std::fill(scratch.sums.begin(), scratch.sums.end(), 0.F);
+    scratch.sums.assign(static_cast<std::size_t>(windowCount), 0.F);
+    float* sums = scratch.sums.data();
     for (int k = 0; k < length; ++k) {
       const float* shifted = samples + k;
       for (int i = 0; i < windowCount; ++i)
         sums[i] += shifted[i];
     }
-  }
-  const float inverse = 1.F / static_cast<float>(length);
-  for (int i = 0; i < windowCount; ++i) {
-    out[interiorBegin + i] = samples[interiorBegin + i] - sums[i] * inverse;
+    for (int i = 0; i < windowCount; ++i) {
+      out[interiorBegin + i] = samples[interiorBegin + i] - sums[i] * inverse;
+    }
   }
   for (int i = 0; i < interiorBegin; ++i)
     out[i] = static_cast<float>(samples[i] - clippedMean(i));
@@ -242,10 +253,37 @@ struct EnvelopeDetector::Impl {
     hannPasses(padded.data(), hannWeights.data(), window, count, out);
   }
 
-  // out[i] = sum_k weights[k] * source[i + k]: one vectorised pass over the record per weight
-  // (faster than holding blocks of outputs in registers, which compiles to shuffles).
+  // out[i] = sum_k weights[k] * source[i + k], summed in k order from 0. With the window a
+  // compile-time constant the taps unroll and the loop over i vectorises (unaligned loads, no
+  // shuffles, out written once); longer windows take one vectorised pass per weight. Both add in
+  // the same order, so they give the same floats.
+  template <int W>
+  static void hannFixed(const float* source, const float* weights, int count, float* out) {
+    float w[W];
+    for (int k = 0; k < W; ++k)
+      w[k] = weights[k];
+    for (int i = 0; i < count; ++i) {
+      float sum = 0.F;
+      for (int k = 0; k < W; ++k)
+        sum += w[k] * source[i + k];
+      out[i] = sum;
+    }
+  }
+
+  using HannKernel = void (*)(const float*, const float*, int, float*);
+  template <std::size_t... W>
+  static constexpr std::array<HannKernel, sizeof...(W)> hannKernels(std::index_sequence<W...>) {
+    return {&hannFixed<static_cast<int>(W) + 1>...};
+  }
+
   static void hannPasses(const float* source, const float* weights, int window, int count,
                          float* out) {
+    static constexpr auto kernels =
+        hannKernels(std::make_index_sequence<static_cast<std::size_t>(kDirectHannMaxWindow)>());
+    if (window >= 1 && window <= kDirectHannMaxWindow) {
+      kernels[static_cast<std::size_t>(window - 1)](source, weights, count, out);
+      return;
+    }
     std::fill(out, out + count, 0.F);
     for (int k = 0; k < window; ++k) {
       const float weight = weights[k];

@@ -157,11 +157,32 @@ double quietLevelOf(const float* envelope, int count, int begin, int block,
   return selectKth(medians.data(), n, n / 4);
 }
 
+// A level computed on first use: the quiet level costs a median per block, and most records
+// never need it (their shadows pass the ratio test, or nothing comes to the shadow test).
+class LazyLevel {
+ public:
+  explicit LazyLevel(double fixed) : value_(fixed) {}
+  LazyLevel(const float* envelope, int count, int begin, int block)
+      : envelope_(envelope), count_(count), begin_(begin), block_(block) {}
+  double operator()() {
+    if (value_ < 0.0) {
+      std::vector<float> scratch;
+      value_ = quietLevelOf(envelope_, count_, begin_, block_, scratch);
+    }
+    return value_;
+  }
+
+ private:
+  const float* envelope_ = nullptr;
+  int count_ = 0, begin_ = 0, block_ = 0;
+  double value_ = -1.0;
+};
+
 // Does the peak look like bone: narrow as a pulse, well above the speckle before it, and
 // followed by an acoustic shadow?
 // `shadowLevel`: a median behind the peak within noiseFloorFactor of it is a shadow too.
 bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noiseFloor,
-                      double shadowLevel, const float* envelope, int count, const Peak& peak,
+                      LazyLevel& shadowLevel, const float* envelope, int count, const Peak& peak,
                       std::vector<float>& scratch) {
   // Cheap screen first: with tissue at least minTissueOverNoise x the noise floor before it and
   // the peak minContrast x above that, the peak must clear their product of the noise floor.
@@ -197,10 +218,10 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
     // stand below it (minShadowRatio: water before an echo is as quiet as what follows), and
     // the echo far above it (a noise spike is a few times the noise, never kQuietEchoFactor).
     const bool atQuiet = bone.shadowAtQuietLevel
-                             ? after <= bone.noiseFloorFactor * shadowLevel &&
-                                   before >= bone.minShadowRatio * shadowLevel &&
-                                   peak.value >= kQuietEchoFactor * shadowLevel
-                             : after <= bone.noiseFloorFactor * shadowLevel;
+                             ? after <= bone.noiseFloorFactor * shadowLevel() &&
+                                   before >= bone.minShadowRatio * shadowLevel() &&
+                                   peak.value >= kQuietEchoFactor * shadowLevel()
+                             : after <= bone.noiseFloorFactor * shadowLevel();
     return before >= bone.minShadowRatio * std::max(after, tiny) || atQuiet;
   };
   return isShadow(afterBegin, afterBegin + region / 2) && isShadow(afterBegin, afterEnd);
@@ -354,7 +375,7 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   const int maxRise =
       std::max(2, static_cast<int>(std::lround(e.maxRiseCycles * params.samplesPerCycle)));
   const int reverbRadius = std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
-  const double quietLevel = quietLevelOf(envelope, count, ringDown, region / 2, scratch);
+  LazyLevel quietLevel(envelope, count, ringDown, region / 2);
   int airAt = count;  // the first air interface, if any
   for (EchoCandidate& c : candidates) {
     if (c.index > airAt)
@@ -407,9 +428,9 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     const auto isShadow = [&](int from, int to) {
       const double behind = medianOf(envelope, count, from, to, scratch);
       return behind >= 0.0 && (before >= e.shadowRatio * std::max(behind, tiny) ||
-                               (behind <= e.shadowNoiseFactor * quietLevel &&
-                                before >= e.shadowNoiseFactor * quietLevel &&
-                                c.value >= kQuietEchoFactor * quietLevel));
+                               (behind <= e.shadowNoiseFactor * quietLevel() &&
+                                before >= e.shadowNoiseFactor * quietLevel() &&
+                                c.value >= kQuietEchoFactor * quietLevel()));
     };
     // A shadow needs room behind the echo to be seen.
     c.contrast = before >= 0.0 ? c.value / std::max(before, tiny) : 1e9;
@@ -838,13 +859,12 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       // bone (its reverberation, noise) sits in its shadow and fails the shadow test.
       std::vector<float> scratch;
       const double noiseFloor = noiseFloorOf(envelope, count, scratch);
-      const double shadowLevel =
+      LazyLevel shadowLevel =
           params.bone.shadowAtQuietLevel
-              ? quietLevelOf(
+              ? LazyLevel(
                     envelope, count, 0,
-                    static_cast<int>(std::lround(0.5 * params.bone.regionMm / params.mmPerSample)),
-                    scratch)
-              : noiseFloor;
+                    static_cast<int>(std::lround(0.5 * params.bone.regionMm / params.mmPerSample)))
+              : LazyLevel(noiseFloor);
       result.reason = RejectReason::NotBone;
       if (params.bone.minShareOfStrongest <= 0.0) {
         for (int candidate = found - 1; candidate >= 0; --candidate) {
@@ -860,20 +880,31 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       // The deepest of the echoes with bone's signature that are not much weaker than the
       // strongest of them: a faint echo behind bone (the inner cortex, a reverberation) can
       // borrow a shadow too.
-      std::vector<int> signed_;
-      float strongest = 0.F;
-      for (int candidate = 0; candidate < found; ++candidate) {
-        const Peak& peak = result.peaks[static_cast<std::size_t>(candidate)];
-        if (hasBoneSignature(params.bone, params.mmPerSample, noiseFloor, shadowLevel, envelope,
-                             count, peak, scratch)) {
-          signed_.push_back(candidate);
-          strongest = std::max(strongest, peak.value);
+      // Strongest first: the strongest echo with the signature sets the share, and the
+      // signature of echoes weaker than that share is never needed.
+      const auto hasSignature = [&](int candidate) {
+        return hasBoneSignature(params.bone, params.mmPerSample, noiseFloor, shadowLevel, envelope,
+                                count, result.peaks[static_cast<std::size_t>(candidate)], scratch);
+      };
+      std::vector<int> byValue(static_cast<std::size_t>(found));
+      std::iota(byValue.begin(), byValue.end(), 0);
+      std::stable_sort(byValue.begin(), byValue.end(), [&](int a, int b) {
+        return result.peaks[static_cast<std::size_t>(a)].value >
+               result.peaks[static_cast<std::size_t>(b)].value;
+      });
+      float strongest = -1.F;
+      for (int candidate : byValue) {
+        if (hasSignature(candidate)) {
+          strongest = result.peaks[static_cast<std::size_t>(candidate)].value;
+          break;
         }
       }
-      for (auto it = signed_.rbegin(); it != signed_.rend(); ++it) {
-        const Peak& peak = result.peaks[static_cast<std::size_t>(*it)];
-        if (peak.value >= params.bone.minShareOfStrongest * strongest) {
-          accept(*it, peak.index);
+      if (strongest < 0.F)
+        break;
+      for (int candidate = found - 1; candidate >= 0; --candidate) {
+        const Peak& peak = result.peaks[static_cast<std::size_t>(candidate)];
+        if (peak.value >= params.bone.minShareOfStrongest * strongest && hasSignature(candidate)) {
+          accept(candidate, peak.index);
           break;
         }
       }
