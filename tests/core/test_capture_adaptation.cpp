@@ -177,6 +177,75 @@ TEST(ProminencePolicy, UncoupledProbeIsNotBone) {
   EXPECT_NEAR(d.peaks.sampleIndex, 500.0, 2.0);
 }
 
+// An 8-bit record: the digitiser rounds to whole codes, the noise is about a code, the tissue's
+// speckle barely above it. Bone's shadow is then no quieter than the tissue's median by half, but
+// as quiet as the record's quietest stretch; a fascia with the same speckle behind it is not.
+std::vector<float> eightBitRecord(bool shadowBehind, std::uint64_t seed) {
+  test::PulseModel pulse;  // 9 MHz at 50 MHz
+  std::vector<test::EchoSpec> echoes;
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<double> speckle(1.2, 2.2);
+  const double end = shadowBehind ? 2280.0 : 3400.0;
+  for (double s = 1900.0; s < end; s += 9.0)
+    echoes.push_back({s, speckle(random)});  // tissue, 1.5 mm before the bone
+  echoes.push_back({2300.0, 12.0});
+  std::vector<float> x = test::makeEchoRecord(4096, echoes, pulse, 0.0, 1.0, seed);
+  for (float& v : x)
+    v = std::round(v);
+  return x;
+}
+
+TEST(ProminencePolicy, AShadowAtTheDigitisersNoiseIsAShadow) {
+  DetectionParams params = detectionPreset("default");
+  params.peaks.prominence.shadow = ShadowRule::Auto;  // each record by its own signature
+  params.peaks.ringDownEnd = 100;
+  const auto count = [](const DetectionParams& p, bool shadowBehind) {
+    SignalDetector detector(p);
+    int accepted = 0;
+    for (std::uint64_t seed = 1; seed <= 20; ++seed) {
+      const SignalDetection d = detector.detect(eightBitRecord(shadowBehind, seed).data(), 4096);
+      accepted += d.accepted() && std::fabs(d.peaks.sampleIndex - 2300.0) < 5.0 ? 1 : 0;
+    }
+    return accepted;
+  };
+  EXPECT_GE(count(params, true), 13) << "bone with its shadow at the noise (15 of 20 today)";
+  EXPECT_LE(count(params, false), 2) << "an echo with tissue behind it (1 of 20 today)";
+  // The tissue before is less than twice the shadow: only the quiet level sees the shadow.
+  params.peaks.prominence.shadowNoiseFactor = 0.0;
+  EXPECT_LE(count(params, true), 3);
+}
+
+TEST(ProminencePolicy, TheInnerCortexBehindBoneIsNotTheBone) {
+  // Bone at 1000 whose cortex rings for 1.5 mm and whose inner surface echoes a third as strong
+  // behind that (at 1110), the shadow after it: the ringing hides bone's shadow, the inner echo
+  // has one. The shadow mode's pick is then the inner echo; bone is the echo above it.
+  test::PulseModel pulse;
+  std::vector<test::EchoSpec> echoes;
+  std::mt19937_64 random(7);
+  std::uniform_real_distribution<double> speckle(3.0, 6.0);
+  for (double s = 600.0; s < 990.0; s += 9.0)
+    echoes.push_back({s, speckle(random)});
+  echoes.push_back({1000.0, 100.0});
+  for (double s = 1010.0; s < 1100.0; s += 9.0)
+    echoes.push_back({s, 12.0});
+  echoes.push_back({1110.0, 30.0});
+  const auto x = test::makeEchoRecord(4096, echoes, pulse, 0.0, 0.3, 7);
+  DetectionParams params = detectionPreset("default");
+  params.peaks.prominence.shadow = ShadowRule::Required;
+  params.peaks.ringDownEnd = 100;
+  SignalDetector detector(params);
+  const SignalDetection d = detector.detect(x.data(), 4096);
+  ASSERT_TRUE(d.accepted()) << rejectReasonName(d.peaks.reason);
+  EXPECT_NEAR(d.peaks.sampleIndex, 1000.0, 3.0);
+  params.peaks.prominence.innerEchoRatio = 0.0;  // the test off: the inner echo
+  SignalDetector without(params);
+  const SignalDetection inner = without.detect(x.data(), 4096);
+  ASSERT_TRUE(inner.accepted()) << rejectReasonName(inner.peaks.reason);
+  EXPECT_NEAR(inner.peaks.sampleIndex, 1110.0, 3.0);
+  params.peaks.prominence.innerEchoRatio = 0.5;
+  EXPECT_THROW(validate(params.peaks), std::invalid_argument);
+}
+
 TEST(InterSignal, NeighboursKeepAMovingBoneAndDropALoneJump) {
   InterSignalParams params;
   params.temporal = TemporalMode::Neighbours;

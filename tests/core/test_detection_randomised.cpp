@@ -63,11 +63,11 @@ TEST(DetectionRandomised, EveryProfileAndSeed) {
         std::cout << "[ measured ] " << profile << " seed " << seed << ", " << name << ": "
                   << test::describe(score) << "\n";
         if (std::string(name) == "default") {
-          // Regression bounds at what the default reaches today (issue 12 asks for 5 %: not met
-          // on these sets; docs/detection.md has the table). The old default ("shadow") misses
-          // 52-100 % of these bones.
-          EXPECT_LE(score.falseNegativeRate(), 0.55) << profile << " seed " << seed;
-          EXPECT_LE(score.falsePositiveRate(), 0.25) << profile << " seed " << seed;
+          // Regression bounds a little above what the default reaches today (FN 12-44 %, FP
+          // 2-21 %; issue 12 asks for 5 %: not met on these sets; docs/detection.md has the
+          // table). The old default ("shadow") misses 52-100 % of these bones.
+          EXPECT_LE(score.falseNegativeRate(), 0.47) << profile << " seed " << seed;
+          EXPECT_LE(score.falsePositiveRate(), 0.23) << profile << " seed " << seed;
           EXPECT_LE(score.medianErrorMm(), 0.1) << profile << " seed " << seed;
         }
       }
