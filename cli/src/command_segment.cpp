@@ -40,6 +40,7 @@ struct SegmentOptions {
   std::string dicom, bone, anchors, out, mask, plane = "sagittal", series, anchorsOut;
   std::string accessibleOut, keepRegions;
   bool automatic = false, withFibula = false, noRefine = false, json = false;
+  bool refuseMetal = false;
   std::vector<std::vector<std::string>> seedTokens;  // [BONE] X Y Z, one list per --seed
   std::string method = "watershed";
   std::string anchorsWhere = "all";
@@ -345,6 +346,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     seg::CompetingOptions competing;
     competing.threshold = grow.threshold;
     competing.thresholdFromHistogram = o.thresholdHu.empty();
+    competing.refuseMetal = o.refuseMetal;
     competing.progress = [&](double f, const std::string& stage) { progress(stage, f); };
     seg::CompetingResult bones;
     try {
@@ -357,7 +359,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     nlohmann::json seedsJson = nlohmann::json::array();
     nlohmann::json bonesJson = nlohmann::json::array();
     region = seg::emptyMask(volume);
-    exclude = seg::unite(bones.unnamed, bones.metalMask);
+    exclude = seg::unite(seg::unite(bones.unnamed, bones.metalMask), bones.streakMask);
     for (const seg::SegmentedBone& b : bones.bones) {
       const bool target = isTarget(o, b.bone);
       for (std::size_t s = 0; s < b.seedsLps.size(); ++s) {
@@ -386,12 +388,18 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
       metalJson.push_back({{"centre_mm", vec(m.centreLps)},
                            {"volume_mm3", m.volumeMm3},
                            {"max_hu", m.maxHu},
-                           {"touches", m.touches}});
+                           {"touches", m.touches},
+                           {"streak_slices", m.streakSlices},
+                           {"bright_streak_voxels", m.brightStreakVoxels},
+                           {"dark_streak_voxels", m.darkStreakVoxels},
+                           {"streak_reach_mm", m.streakReachMm}});
       warnings.push_back(fmt::format(
           "metal (an implant?) of {:.0f} mm^3 up to {} HU at ({:.1f}, {:.1f}, {:.1f}) mm{}: left "
-          "out of the bones; the model is not reliable within a few mm of it (streaks)",
+          "out of the bones; streaks on {} slices up to {:.0f} mm from it ({} bright voxels "
+          "left out of the bone, {} dark); the model is not reliable within a few mm of it",
           m.volumeMm3, m.maxHu, m.centreLps.x(), m.centreLps.y(), m.centreLps.z(),
-          m.touches.empty() ? "" : ", on the " + m.touches));
+          m.touches.empty() ? "" : ", on the " + m.touches, m.streakSlices, m.streakReachMm,
+          m.brightStreakVoxels, m.darkStreakVoxels));
     }
     modeJson = {{"mode", "auto"},
                 {"method", "watershed"},
@@ -507,6 +515,8 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
         uncertainJson.push_back({{"position_mm", u[s].positionMm},
                                  {"uncertain", u[s].uncertain},
                                  {"share", u[s].share},
+                                 {"contact_share", u[s].contactShare},
+                                 {"low_contrast_share", u[s].lowContrastShare},
                                  {"boundary_voxels", u[s].boundaryVoxels},
                                  {"contact_voxels", u[s].contactVoxels},
                                  {"low_contrast_voxels", u[s].lowContrastVoxels},
@@ -699,6 +709,9 @@ CommandAction addSegmentCommand(CLI::App& app) {
                   "or has little contrast), to correct a few slices instead of all")
       ->check(CLI::IsMember({"all", "uncertain"}))
       ->capture_default_str();
+  cmd->add_flag("--refuse-metal", o->refuseMetal,
+                "--auto watershed: refuse a CT with metal (>= 2500 HU: an implant), naming where "
+                "it is, instead of segmenting the bone around it");
   cmd->add_option("--threshold-hu", o->thresholdHu,
                   "Bone threshold STRONG WEAK, HU: voxels >= STRONG, and >= WEAK connected to them "
                   "(default with --method watershed: from this CT's histogram around the seeds, "

@@ -422,7 +422,13 @@ std::vector<SliceUncertainty> sliceUncertainty(
     u.share = u.boundaryVoxels == 0 ? 0.0
                                     : static_cast<double>(u.contactVoxels + u.lowContrastVoxels) /
                                           static_cast<double>(u.boundaryVoxels);
-    u.uncertain = u.boundaryVoxels > 0 && u.share >= options.minShare;
+    if (u.boundaryVoxels > 0) {
+      u.contactShare = static_cast<double>(u.contactVoxels) / static_cast<double>(u.boundaryVoxels);
+      u.lowContrastShare =
+          static_cast<double>(u.lowContrastVoxels) / static_cast<double>(u.boundaryVoxels);
+    }
+    u.uncertain = u.boundaryVoxels > 0 && (u.contactShare >= options.minShare ||
+                                           u.lowContrastShare >= options.minLowContrastShare);
     std::vector<std::size_t> idx;
     for (std::size_t b = 0; b < neighbours.size(); ++b) {
       if (touched[s][b])
@@ -434,6 +440,161 @@ std::vector<SliceUncertainty> sliceUncertainty(
       u.neighbours.push_back(neighbours[b].first);
   }
   return out;
+}
+
+// Streaks of the metal piece `label` (voxels of `pieceLabel` == label) on every axial slice it
+// crosses (see CompetingOptions::detectStreaks): marks `streak` (1 bright, 2 dark) and counts.
+void findStreaks(const CtImage& image, const std::vector<std::uint32_t>& pieceLabel,
+                 std::uint32_t label, const CompetingOptions& o, std::vector<std::uint8_t>& streak,
+                 MetalPiece& piece) {
+  // streak: 1 bright over soft tissue (the angular median below the weak threshold: left out of
+  // the bone), 3 bright over bone (kept), 2 dark.
+  const auto& d = image.dimensions;
+  const Eigen::Vector3d spacing = image.spacingMm();
+  const double step = std::min(spacing.x(), spacing.y());
+  // Rays close enough that neighbours are at most a pixel apart at the reach.
+  const int angles = std::max(
+      180, static_cast<int>(std::ceil(2.0 * 3.14159265358979323846 * o.streakReachMm / step)));
+  const int samples = static_cast<int>(std::ceil(o.streakReachMm / step));
+  const double degree = angles / 360.0;                                 // rays per degree
+  const int halfWindow = static_cast<int>(std::lround(10.0 * degree));  // +-10 degrees
+  const int side = static_cast<int>(std::lround(8.0 * degree));         // +-8 degrees
+  const int startSamples = static_cast<int>(std::ceil(6.0 / step));
+  const int continuation = std::max(2, static_cast<int>(std::ceil(3.0 / step)));
+  const int run = std::max(2, static_cast<int>(std::ceil(o.streakRunMm / step)));
+  const Eigen::Vector3d centre = image.lpsToVoxel(piece.centreLps);
+  std::vector<float> hu(sz(angles) * sz(samples));
+  std::vector<std::int64_t> where(hu.size());
+  std::vector<std::int8_t> sign(hu.size());
+  std::vector<float> base(hu.size());  // the angular median: the tissue under the streak
+  for (int k = 0; k < d[2]; ++k) {
+    // The piece's voxels on this slice: their centre and in-plane radius.
+    double ci = 0.0, cj = 0.0;
+    std::size_t n = 0;
+    for (int j = 0; j < d[1]; ++j) {
+      for (int i = 0; i < d[0]; ++i) {
+        if (pieceLabel[image.index(i, j, k)] == label) {
+          ci += i;
+          cj += j;
+          ++n;
+        }
+      }
+    }
+    if (n == 0)
+      continue;
+    ci /= static_cast<double>(n);
+    cj /= static_cast<double>(n);
+    double radius = 0.0;
+    for (int j = 0; j < d[1]; ++j) {
+      for (int i = 0; i < d[0]; ++i) {
+        if (pieceLabel[image.index(i, j, k)] == label)
+          radius = std::max(radius, std::hypot((i - ci) * spacing.x(), (j - cj) * spacing.y()));
+      }
+    }
+    const double start = radius + 2.0 * step;
+    for (int a = 0; a < angles; ++a) {
+      const double t = 2.0 * 3.14159265358979323846 * a / angles;
+      for (int r = 0; r < samples; ++r) {
+        const double rr = start + r * step;
+        const int i = static_cast<int>(std::lround(ci + rr * std::cos(t) / spacing.x()));
+        const int j = static_cast<int>(std::lround(cj + rr * std::sin(t) / spacing.y()));
+        const std::size_t s = sz(a) * sz(samples) + sz(r);
+        if (i < 0 || j < 0 || i >= d[0] || j >= d[1]) {
+          where[s] = -1;
+          hu[s] = std::numeric_limits<float>::quiet_NaN();
+          continue;
+        }
+        where[s] = static_cast<std::int64_t>(image.index(i, j, k));
+        hu[s] = image.hu[sz(static_cast<int>(where[s]))];
+      }
+    }
+    // Deviation from the angular median at the same radius.
+    std::vector<float> window;
+    for (int a = 0; a < angles; ++a) {
+      for (int r = 0; r < samples; ++r) {
+        const std::size_t s = sz(a) * sz(samples) + sz(r);
+        sign[s] = 0;
+        if (where[s] < 0)
+          continue;
+        window.clear();
+        for (int w = -halfWindow; w <= halfWindow; ++w) {
+          const int b = (a + w + angles) % angles;
+          const float v = hu[sz(b) * sz(samples) + sz(r)];
+          if (!std::isnan(v))
+            window.push_back(v);
+        }
+        auto mid = window.begin() + static_cast<std::ptrdiff_t>(window.size() / 2);
+        std::nth_element(window.begin(), mid, window.end());
+        const double dev = hu[s] - *mid;
+        base[s] = *mid;
+        sign[s] = dev >= o.streakHu ? 1 : dev <= -o.streakHu ? -1 : 0;
+      }
+    }
+    // A streak is narrow: the same sign 8 degrees to either side is a wide feature (a bone's
+    // edge seen from the metal), not a streak.
+    std::vector<std::int8_t> narrow(sign.size(), 0);
+    for (int a = 0; a < angles; ++a) {
+      for (int r = 0; r < samples; ++r) {
+        const std::int8_t sg = sign[sz(a) * sz(samples) + sz(r)];
+        const std::int8_t left = sign[sz((a + angles - side) % angles) * sz(samples) + sz(r)];
+        const std::int8_t right = sign[sz((a + side) % angles) * sz(samples) + sz(r)];
+        narrow[sz(a) * sz(samples) + sz(r)] = sg != 0 && left != sg && right != sg ? sg : 0;
+      }
+    }
+    sign.swap(narrow);
+    // Runs of one sign along each ray, at least streakRunMm long; a streak starts at the metal
+    // (its first run within 6 mm of the rim) and may go on beyond a gap (bone it crosses) in
+    // runs of 3 mm or more.
+    bool any = false;
+    for (int a = 0; a < angles; ++a) {
+      int r = 0;
+      std::int8_t going = 0;  // the sign of the streak this ray carries
+      while (r < samples) {
+        const std::int8_t sg = sign[sz(a) * sz(samples) + sz(r)];
+        if (sg == 0) {
+          ++r;
+          continue;
+        }
+        // The run, across gaps of up to 2 samples (a ray grazes a streak one pixel wide).
+        int e = r + 1, last = r;
+        while (e < samples && e - last <= 3) {
+          const std::int8_t g = sign[sz(a) * sz(samples) + sz(e)];
+          if (g == -sg)
+            break;
+          if (g == sg)
+            last = e;
+          ++e;
+        }
+        e = last + 1;
+        const bool starts = r <= startSamples || going == sg;
+        if (e - r >= (going == sg ? continuation : run) && starts) {
+          going = sg;
+          any = true;
+          for (int q = r; q < e; ++q) {
+            const std::size_t at = sz(a) * sz(samples) + sz(q);
+            if (sign[at] != sg)
+              continue;
+            const std::size_t v = sz(static_cast<int>(where[at]));
+            if (streak[v] != 0)
+              continue;
+            const bool overSoft = base[at] < o.threshold.weakHu;
+            streak[v] = sg < 0 ? 2 : overSoft ? 1 : 3;
+            if (sg > 0)
+              ++piece.brightStreakVoxels;
+            else
+              ++piece.darkStreakVoxels;
+            int vi, vj, vk;
+            ijkOf(image, v, vi, vj, vk);
+            piece.streakReachMm = std::max(
+                piece.streakReachMm,
+                std::hypot((vi - centre.x()) * spacing.x(), (vj - centre.y()) * spacing.y()));
+          }
+        }
+        r = e;
+      }
+    }
+    piece.streakSlices += any ? 1 : 0;
+  }
 }
 
 // The work, on a grid that holds every bone voxel (see segmentCompetingBones).
@@ -523,8 +684,42 @@ static CompetingResult segmentOnGrid(const CtImage& image, const std::vector<Bon
         piece.maxHu = maxHu[c];
         result.metal.push_back(piece);
       }
+      // The streaks around each piece: bright ones out of the threshold (before the fill).
+      result.streakMask = emptyMask(image);
+      if (options.detectStreaks) {
+        std::vector<std::uint8_t> streak(image.hu.size(), 0);
+        std::size_t m = 0;
+        for (std::size_t c = 1; c < sizes.size(); ++c) {
+          if (static_cast<double>(sizes[c]) * voxelMm3 < options.minMetalMm3)
+            continue;
+          findStreaks(image, label, static_cast<std::uint32_t>(c), options, streak,
+                      result.metal[m++]);
+        }
+        for (std::size_t v = 0; v < streak.size(); ++v) {
+          if (!streak[v] || result.metalMask.voxels[v])
+            continue;
+          if (streak[v] == 3)
+            continue;  // bright over bone: the bone's (a streak through the cortex)
+          result.streakMask.voxels[v] = 1;
+          if (streak[v] == 1)
+            result.threshold.voxels[v] = 0;
+        }
+      }
+      if (options.refuseMetal && !result.metal.empty()) {
+        const MetalPiece& p = result.metal.front();
+        throw std::invalid_argument(fmt::format(
+            "metal (an implant?) of {:.0f} mm^3 up to {} HU at {} with streaks over {} slices "
+            "(up to {:.0f} mm from it; {} bright, {} dark voxels){}: refused (the bone near it "
+            "is not reliable); segment around it without --refuse-metal, or place anchors",
+            p.volumeMm3, p.maxHu, lpsText(p.centreLps), p.streakSlices, p.streakReachMm,
+            p.brightStreakVoxels, p.darkStreakVoxels,
+            result.metal.size() > 1 ? fmt::format(" and {} more pieces", result.metal.size() - 1)
+                                    : std::string()));
+      }
     }
   }
+  if (result.streakMask.voxels.empty())
+    result.streakMask = emptyMask(image);
   report(options, 0.1, "fill");
   VoxelMask solid = result.threshold;
   fillHolesInBox(solid, options.maxSliceHoleMm2);
@@ -1160,6 +1355,7 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
   expand(result.threshold);
   expand(result.unnamed);
   expand(result.metalMask);
+  expand(result.streakMask);
   for (SegmentedBone& s : result.bones)
     expand(s.mask);
   return finish(std::move(result));

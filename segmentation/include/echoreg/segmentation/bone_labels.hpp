@@ -86,6 +86,18 @@ struct CompetingOptions {
   /// of every bone and reported.
   double metalHu = 2500.0;
   double minMetalMm3 = 20.0;
+  /// Streaks around metal (beam hardening, photon starvation): on each axial slice through a
+  /// piece, rays every 2 degrees from its centre out to streakReachMm; a voxel is a streak's when
+  /// it differs by streakHu or more from the median of the ray samples within +-10 degrees at its
+  /// radius (a streak is a few degrees wide; a bone spans tens) along a run of at least
+  /// streakRunMm of the ray with one sign. Bright streak voxels are left out of the bone
+  /// threshold (a streak cannot join or bridge bone) and, with the dark ones, out of the surface.
+  bool detectStreaks = true;
+  double streakReachMm = 60.0;
+  double streakHu = 150.0;
+  double streakRunMm = 10.0;
+  /// Refuse (throw, naming the metal: where, how large) instead of segmenting around it.
+  bool refuseMetal = false;
   /// Smallest acceptable bone, mm^3.
   double minVolumeMm3 = 500.0;
   /// Volume and extent checked against what the named bone can be (femur, tibia, fibula,
@@ -99,6 +111,9 @@ struct MetalPiece {
   double volumeMm3 = 0.0;
   int maxHu = 0;
   std::string touches;  ///< the bone it lies in or on ("" when none)
+  std::size_t brightStreakVoxels = 0, darkStreakVoxels = 0;  ///< around it (see detectStreaks)
+  int streakSlices = 0;                                      ///< axial slices with a streak
+  double streakReachMm = 0.0;  ///< the farthest streak voxel from the piece's centre, in plane
 };
 
 struct SegmentedBone {
@@ -121,6 +136,8 @@ struct CompetingResult {
   /// The metal voxels left out (pieces of minMetalMm3 or more): boneSurface's `exclude` too, so
   /// an implant's brightness does not pull the surface onto it.
   VoxelMask metalMask;
+  /// The streak voxels (bright and dark) around the metal: boneSurface's `exclude` too.
+  VoxelMask streakMask;
   double markerDynamicMm = 0.0, sameBoneDynamicMm = 0.0;  ///< the values used
   double jointSideHu = 0.0, jointDipHu = 0.0;
   BoneThreshold thresholdUsed;  ///< the levels the segmentation used
@@ -146,14 +163,18 @@ struct UncertaintyOptions {
   /// distance to the next slice (at least half a voxel).
   double halfWidthMm = 0.0;
   double lowContrastHu = 100.0;
-  /// A slice is uncertain from this share of its boundary on.
+  /// A slice is uncertain from this share of its boundary touching another bone on ...
   double minShare = 0.05;
+  /// ... or this share with little contrast (a thin cortex at 3 mm slices shows ~10 % of its
+  /// boundary below 100 HU of contrast on every slice of the real CT's hip bone: not a reason).
+  double minLowContrastShare = 0.25;
 };
 
 struct SliceUncertainty {
   double positionMm = 0.0;  ///< along the plane's normal (LPS x, y or z)
   std::size_t boundaryVoxels = 0, contactVoxels = 0, lowContrastVoxels = 0;
-  double share = 0.0;                   ///< (contact + low contrast) / boundary
+  double share = 0.0;  ///< (contact + low contrast) / boundary
+  double contactShare = 0.0, lowContrastShare = 0.0;
   std::vector<std::string> neighbours;  ///< the bones touched, most contact first
   bool uncertain = false;
 };
