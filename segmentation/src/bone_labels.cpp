@@ -505,7 +505,7 @@ void findStreaks(const CtImage& image, const std::vector<std::uint32_t>& pieceLa
           continue;
         }
         where[s] = static_cast<std::int64_t>(image.index(i, j, k));
-        hu[s] = image.hu[sz(static_cast<int>(where[s]))];
+        hu[s] = image.hu[static_cast<std::size_t>(where[s])];
       }
     }
     // Deviation from the angular median at the same radius.
@@ -574,7 +574,7 @@ void findStreaks(const CtImage& image, const std::vector<std::uint32_t>& pieceLa
             const std::size_t at = sz(a) * sz(samples) + sz(q);
             if (sign[at] != sg)
               continue;
-            const std::size_t v = sz(static_cast<int>(where[at]));
+            const std::size_t v = static_cast<std::size_t>(where[at]);
             if (streak[v] != 0)
               continue;
             const bool overSoft = base[at] < o.threshold.weakHu;

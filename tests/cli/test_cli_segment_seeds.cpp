@@ -21,7 +21,9 @@ namespace fs = std::filesystem;
 
 // A tube (outer radius 10 mm, cortex 3 mm, marrow -60 HU) at x = y = 0 over z -15..14, and a rod
 // of radius 5 at x = 15 touching it, only for |z| <= 5; soft tissue 40 HU.
-double phantomHu(double x, double y, double z) {
+double phantomHu(double x, double y, double z, bool metal) {
+  if (metal && std::abs(x + 12.0) <= 1.5 && std::abs(y) <= 3.0 && std::abs(z) <= 6.0)
+    return 3000.0;  // a screw's head on the tube's side
   const double r = std::hypot(x, y);
   if (r <= 10.0)
     return r > 7.0 ? 1500.0 : -60.0;
@@ -30,7 +32,7 @@ double phantomHu(double x, double y, double z) {
   return 40.0;
 }
 
-std::string writePhantom(const std::string& folder) {
+std::string writePhantom(const std::string& folder, bool metal = false) {
   simulation::CtVolume v;
   v.columns = 56;
   v.rows = 40;
@@ -47,7 +49,7 @@ std::string writePhantom(const std::string& folder) {
         double sum = 0.0;
         for (int a = 0; a < 4; ++a) {
           for (int b = 0; b < 4; ++b)
-            sum += phantomHu(c.x() + (a - 1.5) * 0.2, c.y() + (b - 1.5) * 0.2, c.z());
+            sum += phantomHu(c.x() + (a - 1.5) * 0.2, c.y() + (b - 1.5) * 0.2, c.z(), metal);
         }
         v.hu[v.index(i, j, k)] = static_cast<std::int16_t>(std::lround(sum / 16.0));
       }
@@ -139,6 +141,35 @@ TEST(CliSegmentSeeds, AnchorsOnlyWhereTheBonesTouch) {
   ASSERT_EQ(static_cast<int>(curves.size()), uncertain);
   EXPECT_NE(curves[0].name.find("touches tibia"), std::string::npos) << curves[0].name;
   EXPECT_EQ(json["threshold"]["from"], "histogram");
+}
+
+// Metal beside the tube: reported with its streak counts, or refused with --refuse-metal
+// (exit 1, naming it, nothing written).
+TEST(CliSegmentSeeds, MetalIsReportedOrRefused) {
+  const test::TempDir dir;
+  const std::string series = writePhantom(dir.file("ct"), true);
+  const std::string model = dir.file("m.vtp");
+  const std::vector<std::string> base = {"segment", "--dicom", series, "--bone", "femur", "--auto",
+                                         "--seed",  "femur",   "0",    "5",      "0",     "--seed",
+                                         "tibia",   "15",      "0",    "0",      "--out", model};
+  std::vector<std::string> args = base;
+  args.push_back("--json");
+  auto r = runEchoreg(args);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto json = nlohmann::json::parse(r.out);
+  ASSERT_EQ(json["metal"].size(), 1u);
+  EXPECT_EQ(json["metal"][0]["touches"], "femur");
+  EXPECT_TRUE(json["metal"][0].contains("streak_slices"));
+  EXPECT_TRUE(json["metal"][0].contains("bright_streak_voxels"));
+  EXPECT_TRUE(fs::exists(model));
+  fs::remove(model);
+  args = base;
+  args.push_back("--refuse-metal");
+  r = runEchoreg(args);
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("metal (an implant?)"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(series), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(model));
 }
 
 }  // namespace
