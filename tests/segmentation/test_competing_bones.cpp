@@ -452,6 +452,57 @@ TEST(CompetingBones, MetalStreaksAreFoundAndTheBoneSegmentedAroundThem) {
   EXPECT_NE(message.find("refused"), std::string::npos) << message;
 }
 
+// estimateBoneThreshold on a synthetic CT: soft tissue of 50 HU with +-10 HU noise (uniform,
+// sigma 5.8), a block of 1000 HU cortex around 250 HU cancellous bone: S, C and the levels as
+// the formulas say; a box without bone gets the floors; no seed is refused.
+TEST(CompetingBones, ThresholdEstimateFollowsTheHistogram) {
+  segmentation::CtImage ct;
+  ct.dimensions = {60, 60, 60};
+  ct.pixelSpacingMm = {1.0, 1.0};
+  for (int k = 0; k < 60; ++k)
+    ct.slicePositionsMm.push_back(k);
+  ct.groups = {{0, 60, 1.0}};
+  ct.hu.resize(ct.voxelCount());
+  std::uint64_t state = 7;
+  for (int k = 0; k < 60; ++k) {
+    for (int j = 0; j < 60; ++j) {
+      for (int i = 0; i < 60; ++i) {
+        state = state * 6364136223846793005ULL + 1442695040888963407ULL;
+        const int noise = static_cast<int>((state >> 33) % 21) - 10;
+        const bool block = i >= 20 && i < 40 && j >= 20 && j < 40 && k >= 10 && k < 50;
+        const bool inner = i >= 23 && i < 37 && j >= 23 && j < 37 && k >= 13 && k < 47;
+        ct.hu[ct.index(i, j, k)] = static_cast<std::int16_t>((inner   ? 250
+                                                              : block ? 1000
+                                                                      : 50) +
+                                                             noise);
+      }
+    }
+  }
+  const auto e = segmentation::estimateBoneThreshold(ct, {{30, 30, 30}});
+  EXPECT_NEAR(e.softTissueHu, 55.0, 10.0);  // the 10 HU bin 50-60
+  EXPECT_NEAR(e.cortexHu, 1000.0, 10.0);
+  EXPECT_NEAR(e.noiseHu, 6.0, 2.0);
+  ASSERT_EQ(e.marrowHu.size(), 1u);
+  EXPECT_NEAR(e.marrowHu[0], 250.0, 10.0);
+  const double strong = e.softTissueHu + 0.41 * (e.cortexHu - e.softTissueHu);
+  EXPECT_NEAR(e.threshold.strongHu, strong, 1.0);
+  EXPECT_NEAR(e.threshold.weakHu,
+              std::max(e.softTissueHu + 0.29 * (strong - e.softTissueHu), e.softTissueHu + 80.0),
+              1.0);
+  // Away from the block (a box of soft tissue only): the floors, not the noise's tail.
+  const auto soft = segmentation::estimateBoneThreshold(ct, {{5, 5, 5}}, 4.0);
+  EXPECT_NEAR(soft.threshold.strongHu, soft.softTissueHu + 200.0, 1.0);
+  EXPECT_NEAR(soft.threshold.weakHu, soft.softTissueHu + 80.0, 1.0);
+  // Capped at the ceiling.
+  segmentation::BoneThreshold low;
+  low.strongHu = 300.0;
+  low.weakHu = 100.0;
+  const auto capped = segmentation::estimateBoneThreshold(ct, {{30, 30, 30}}, 30.0, 2500.0, low);
+  EXPECT_EQ(capped.threshold.strongHu, 300.0);
+  EXPECT_EQ(capped.threshold.weakHu, 100.0);
+  EXPECT_THROW(segmentation::estimateBoneThreshold(ct, {}), std::invalid_argument);
+}
+
 std::string thrownMessage(const test::SimulatedKnee& sim,
                           const std::vector<segmentation::BoneSeed>& seeds) {
   try {
