@@ -38,7 +38,7 @@ namespace seg = echoreg::segmentation;
 
 struct SegmentOptions {
   std::string dicom, bone, anchors, out, mask, plane = "sagittal", series, anchorsOut;
-  std::string accessibleOut, keepRegions;
+  std::string accessibleOut, keepRegions, corrections;
   bool automatic = false, withFibula = false, noRefine = false, json = false;
   bool refuseMetal = false;
   std::vector<std::vector<std::string>> seedTokens;  // [BONE] X Y Z, one list per --seed
@@ -182,6 +182,8 @@ void checkUsage(const SegmentOptions& o) {
   }
   if (!o.automatic && !o.seedTokens.empty())
     throw CLI::ValidationError("--seed", "--seed goes with --auto");
+  if (!o.automatic && !o.corrections.empty())
+    throw CLI::ValidationError("--corrections", "--corrections goes with --auto");
   const std::vector<seg::BoneSeed> seeds = parseSeeds(o);
   std::size_t targets = 0;
   for (const auto& s : seeds)
@@ -225,6 +227,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   CommandPaths()
       .input("--dicom", o.dicom)
       .input("--anchors", o.anchors)
+      .input("--corrections", o.corrections)
       .output("--out", o.out)
       .optionalOutput("--mask", o.mask)
       .optionalOutput("--anchors-out", o.anchorsOut)
@@ -232,9 +235,11 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
       .check();
   for (const std::string& path : {o.out, o.mask, o.anchorsOut, o.accessibleOut})
     requireOutputFolder(path);
-  std::vector<seg::AnchorSet> anchorSets;
+  std::vector<seg::AnchorSet> anchorSets, correctionSets;
   if (!o.anchors.empty())
     anchorSets = seg::readAnchors(o.anchors);  // bad files fail before the CT is read
+  if (!o.corrections.empty())
+    correctionSets = seg::readAnchors(o.corrections);
   std::vector<seg::SurfaceRegion> regions;
   if (!o.keepRegions.empty())
     regions = seg::readSurfaceRegions(o.keepRegions, o.regionRadiusMm);
@@ -453,6 +458,36 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     modeJson = {{"mode", "anchors"},
                 {"contours", contoursJson},
                 {"straight_cuts_at_scan_ends", straightened}};
+  }
+  if (!correctionSets.empty()) {
+    // The user's corrected slices (live-wire through their anchors) put into the automatic
+    // region, fading over 3 mm into it.
+    std::vector<seg::SliceContour> contours;
+    for (const auto& set : correctionSets) {
+      try {
+        contours.push_back(seg::liveWireContour(volume, set));
+      } catch (const std::invalid_argument& e) {
+        throw FileError(o.corrections, e.what());
+      }
+    }
+    seg::SliceCorrectionResult corrected;
+    try {
+      corrected = seg::correctOnSlices(region, contours);
+    } catch (const std::invalid_argument& e) {
+      throw FileError(o.corrections, e.what());
+    }
+    region = std::move(corrected.region);
+    for (auto& [name, mask] : neighbourMasks) {
+      for (std::size_t i = 0; i < mask.voxels.size(); ++i)
+        mask.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
+    }
+    for (std::size_t i = 0; i < exclude.voxels.size(); ++i)
+      exclude.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
+    modeJson["corrections"] = {{"file", o.corrections},
+                               {"contours", contours.size()},
+                               {"slices", corrected.slices},
+                               {"voxels_added", corrected.added},
+                               {"voxels_removed", corrected.removed}};
   }
   if (neighbourMasks.empty()) {
     seg::VoxelMask others = exclude;
@@ -675,6 +710,10 @@ CommandAction addSegmentCommand(CLI::App& app) {
   cmd->add_option("--anchors", o->anchors,
                   "Anchors: Slicer .mrk.json closed curves, or echoreg anchors JSON");
   cmd->add_flag("--auto", o->automatic, "Grow the bone from --seed instead of live-wire contours");
+  cmd->add_option("--corrections", o->corrections,
+                  "--auto: anchors of a few corrected slices (e.g. the --anchors-where uncertain "
+                  "file, edited in Slicer): live-wire through them replaces the automatic "
+                  "boundary on their slices, fading into it over 3 mm");
   // 1 to 4 values per --seed so that the help says "[BONE] X Y Z" (CLI11 would print "x 3" for
   // 3 to 4); parseSeeds checks each --seed holds 3 numbers, after a name or not.
   cmd->add_option("--seed", o->seedTokens,

@@ -12,6 +12,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
 namespace echoreg {
 namespace {
@@ -141,6 +142,52 @@ TEST(CliSegmentSeeds, AnchorsOnlyWhereTheBonesTouch) {
   ASSERT_EQ(static_cast<int>(curves.size()), uncertain);
   EXPECT_NE(curves[0].name.find("touches tibia"), std::string::npos) << curves[0].name;
   EXPECT_EQ(json["threshold"]["from"], "histogram");
+}
+
+// A corrected slice fed back with --auto: live-wire through its anchors replaces the automatic
+// boundary there (reported), the model stays closed; a corrections file that is not JSON fails
+// naming it and writes nothing; --corrections without --auto is wrong usage.
+TEST(CliSegmentSeeds, CorrectionsOnAFewSlices) {
+  const test::TempDir dir;
+  const std::string series = writePhantom(dir.file("ct"));
+  const std::string model = dir.file("m.vtp"), fix = dir.file("fix.mrk.json");
+  // The tube's edge on axial slice z = 0 (8 anchors on r = 10 mm), as a user would click it.
+  core::Markup curve;
+  curve.type = "ClosedCurve";
+  curve.name = "corrected z 0";
+  for (int a = 0; a < 8; ++a) {
+    const double t = a * 3.14159265358979 / 4.0;
+    curve.points.push_back({"c-" + std::to_string(a + 1),
+                            Eigen::Vector3d(10.0 * std::cos(t), 10.0 * std::sin(t), 0.0)});
+  }
+  core::writeMarkups(fix, {curve});
+  const std::vector<std::string> base = {"segment", "--dicom", series, "--bone", "femur", "--auto",
+                                         "--seed",  "femur",   "0",    "5",      "0",     "--seed",
+                                         "tibia",   "15",      "0",    "0",      "--out", model};
+  std::vector<std::string> args = base;
+  args.insert(args.end(), {"--corrections", fix, "--json"});
+  auto r = runEchoreg(args);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto json = nlohmann::json::parse(r.out);
+  ASSERT_TRUE(json.contains("corrections")) << r.out;
+  EXPECT_EQ(json["corrections"]["contours"], 1);
+  EXPECT_EQ(json["corrections"]["slices"], 1);
+  // The tube's edge where the automatic region had it: a few voxels either way, not hundreds.
+  EXPECT_LT(json["corrections"]["voxels_added"].get<int>() +
+                json["corrections"]["voxels_removed"].get<int>(),
+            200);
+  EXPECT_TRUE(json["surface"]["closed"].get<bool>());
+  fs::remove(model);
+  std::ofstream(dir.file("bad.mrk.json")) << "not json";
+  args = base;
+  args.insert(args.end(), {"--corrections", dir.file("bad.mrk.json")});
+  r = runEchoreg(args);
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("bad.mrk.json"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(model));
+  r = runEchoreg({"segment", "--dicom", series, "--bone", "femur", "--anchors", fix,
+                  "--corrections", fix, "--out", model});
+  EXPECT_EQ(r.exitCode, 2) << r.err;
 }
 
 // Metal beside the tube: reported with its streak counts, or refused with --refuse-metal
