@@ -444,9 +444,8 @@ std::vector<SliceUncertainty> sliceUncertainty(
 
 // Streaks of the metal piece `label` (voxels of `pieceLabel` == label) on every axial slice it
 // crosses (see CompetingOptions::detectStreaks): marks `streak` (1 bright, 2 dark) and counts.
-void findStreaks(const CtImage& image, const std::vector<std::uint32_t>& pieceLabel,
-                 std::uint32_t label, const CompetingOptions& o, std::vector<std::uint8_t>& streak,
-                 MetalPiece& piece) {
+void findStreaks(const CtImage& image, const std::vector<std::size_t>& pieceVoxels,
+                 const CompetingOptions& o, std::vector<std::uint8_t>& streak, MetalPiece& piece) {
   // streak: 1 bright over soft tissue (the angular median below the weak threshold: left out of
   // the bone), 3 bright over bone (kept), 2 dark.
   const auto& d = image.dimensions;
@@ -467,30 +466,25 @@ void findStreaks(const CtImage& image, const std::vector<std::uint32_t>& pieceLa
   std::vector<std::int64_t> where(hu.size());
   std::vector<std::int8_t> sign(hu.size());
   std::vector<float> base(hu.size());  // the angular median: the tissue under the streak
-  for (int k = 0; k < d[2]; ++k) {
+  // The piece's voxels by slice (pieceVoxels is in index order: slices ascending).
+  std::map<int, std::vector<std::pair<int, int>>> bySlice;
+  for (std::size_t v : pieceVoxels) {
+    int i, j, k;
+    ijkOf(image, v, i, j, k);
+    bySlice[k].emplace_back(i, j);
+  }
+  for (const auto& [k, pixels] : bySlice) {
     // The piece's voxels on this slice: their centre and in-plane radius.
     double ci = 0.0, cj = 0.0;
-    std::size_t n = 0;
-    for (int j = 0; j < d[1]; ++j) {
-      for (int i = 0; i < d[0]; ++i) {
-        if (pieceLabel[image.index(i, j, k)] == label) {
-          ci += i;
-          cj += j;
-          ++n;
-        }
-      }
+    for (const auto& [i, j] : pixels) {
+      ci += i;
+      cj += j;
     }
-    if (n == 0)
-      continue;
-    ci /= static_cast<double>(n);
-    cj /= static_cast<double>(n);
+    ci /= static_cast<double>(pixels.size());
+    cj /= static_cast<double>(pixels.size());
     double radius = 0.0;
-    for (int j = 0; j < d[1]; ++j) {
-      for (int i = 0; i < d[0]; ++i) {
-        if (pieceLabel[image.index(i, j, k)] == label)
-          radius = std::max(radius, std::hypot((i - ci) * spacing.x(), (j - cj) * spacing.y()));
-      }
-    }
+    for (const auto& [i, j] : pixels)
+      radius = std::max(radius, std::hypot((i - ci) * spacing.x(), (j - cj) * spacing.y()));
     const double start = radius + 2.0 * step;
     for (int a = 0; a < angles; ++a) {
       const double t = 2.0 * 3.14159265358979323846 * a / angles;
@@ -688,12 +682,17 @@ static CompetingResult segmentOnGrid(const CtImage& image, const std::vector<Bon
       result.streakMask = emptyMask(image);
       if (options.detectStreaks) {
         std::vector<std::uint8_t> streak(image.hu.size(), 0);
+        // Each piece's voxels, in one pass (the pieces in the order of result.metal).
+        std::vector<std::vector<std::size_t>> voxelsOf(sizes.size());
+        for (std::size_t v = 0; v < label.size(); ++v) {
+          if (label[v] && static_cast<double>(sizes[label[v]]) * voxelMm3 >= options.minMetalMm3)
+            voxelsOf[label[v]].push_back(v);
+        }
         std::size_t m = 0;
         for (std::size_t c = 1; c < sizes.size(); ++c) {
           if (static_cast<double>(sizes[c]) * voxelMm3 < options.minMetalMm3)
             continue;
-          findStreaks(image, label, static_cast<std::uint32_t>(c), options, streak,
-                      result.metal[m++]);
+          findStreaks(image, voxelsOf[c], options, streak, result.metal[m++]);
         }
         for (std::size_t v = 0; v < streak.size(); ++v) {
           if (!streak[v] || result.metalMask.voxels[v])
