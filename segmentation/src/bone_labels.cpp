@@ -466,6 +466,12 @@ void findStreaks(const CtImage& image, const std::vector<std::size_t>& pieceVoxe
   std::vector<std::int64_t> where(hu.size());
   std::vector<std::int8_t> sign(hu.size());
   std::vector<float> base(hu.size());  // the angular median: the tissue under the streak
+  std::vector<double> cosines(sz(angles)), sines(sz(angles));
+  for (int a = 0; a < angles; ++a) {
+    const double t = 2.0 * 3.14159265358979323846 * a / angles;
+    cosines[sz(a)] = std::cos(t);
+    sines[sz(a)] = std::sin(t);
+  }
   // The piece's voxels by slice (pieceVoxels is in index order: slices ascending).
   std::map<int, std::vector<std::pair<int, int>>> bySlice;
   for (std::size_t v : pieceVoxels) {
@@ -487,11 +493,11 @@ void findStreaks(const CtImage& image, const std::vector<std::size_t>& pieceVoxe
       radius = std::max(radius, std::hypot((i - ci) * spacing.x(), (j - cj) * spacing.y()));
     const double start = radius + 2.0 * step;
     for (int a = 0; a < angles; ++a) {
-      const double t = 2.0 * 3.14159265358979323846 * a / angles;
+      const double cx = cosines[sz(a)] / spacing.x(), cy = sines[sz(a)] / spacing.y();
       for (int r = 0; r < samples; ++r) {
         const double rr = start + r * step;
-        const int i = static_cast<int>(std::lround(ci + rr * std::cos(t) / spacing.x()));
-        const int j = static_cast<int>(std::lround(cj + rr * std::sin(t) / spacing.y()));
+        const int i = static_cast<int>(std::lround(ci + rr * cx));
+        const int j = static_cast<int>(std::lround(cj + rr * cy));
         const std::size_t s = sz(a) * sz(samples) + sz(r);
         if (i < 0 || j < 0 || i >= d[0] || j >= d[1]) {
           where[s] = -1;
@@ -502,7 +508,10 @@ void findStreaks(const CtImage& image, const std::vector<std::size_t>& pieceVoxe
         hu[s] = image.hu[static_cast<std::size_t>(where[s])];
       }
     }
-    // Deviation from the angular median at the same radius.
+    // Deviation from the angular median m (the (n/2)-th smallest of the n samples within
+    // +-10 degrees at the same radius) by streakHu or more, by counting: m <= x - streakHu iff
+    // at least n/2 + 1 samples are <= x - streakHu; m >= x + streakHu iff at least n - n/2 are
+    // >= it. The median itself only where it is needed (bright samples: over bone or not).
     std::vector<float> window;
     for (int a = 0; a < angles; ++a) {
       for (int r = 0; r < samples; ++r) {
@@ -510,18 +519,33 @@ void findStreaks(const CtImage& image, const std::vector<std::size_t>& pieceVoxe
         sign[s] = 0;
         if (where[s] < 0)
           continue;
-        window.clear();
+        const float x = hu[s];
+        const float lowT = x - static_cast<float>(o.streakHu);
+        const float highT = x + static_cast<float>(o.streakHu);
+        int n = 0, lows = 0, highs = 0;
         for (int w = -halfWindow; w <= halfWindow; ++w) {
           const int b = (a + w + angles) % angles;
           const float v = hu[sz(b) * sz(samples) + sz(r)];
-          if (!std::isnan(v))
-            window.push_back(v);
+          if (std::isnan(v))
+            continue;
+          ++n;
+          lows += v <= lowT ? 1 : 0;
+          highs += v >= highT ? 1 : 0;
         }
-        auto mid = window.begin() + static_cast<std::ptrdiff_t>(window.size() / 2);
-        std::nth_element(window.begin(), mid, window.end());
-        const double dev = hu[s] - *mid;
-        base[s] = *mid;
-        sign[s] = dev >= o.streakHu ? 1 : dev <= -o.streakHu ? -1 : 0;
+        if (lows >= n / 2 + 1) {
+          sign[s] = 1;
+          window.clear();
+          for (int w = -halfWindow; w <= halfWindow; ++w) {
+            const float v = hu[sz((a + w + angles) % angles) * sz(samples) + sz(r)];
+            if (!std::isnan(v))
+              window.push_back(v);
+          }
+          auto mid = window.begin() + static_cast<std::ptrdiff_t>(window.size() / 2);
+          std::nth_element(window.begin(), mid, window.end());
+          base[s] = *mid;
+        } else if (highs >= n - n / 2) {
+          sign[s] = -1;
+        }
       }
     }
     // A streak is narrow: the same sign 8 degrees to either side is a wide feature (a bone's
