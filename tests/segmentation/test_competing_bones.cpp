@@ -13,8 +13,6 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
-#include <cstdlib>
-#include <fstream>
 #include <iostream>
 
 namespace {
@@ -382,23 +380,6 @@ TEST(CompetingBones, MetalStreaksAreFoundAndTheBoneSegmentedAroundThem) {
   std::cout << "[ measured ] streaks: " << m.streakSlices << " slices, " << m.brightStreakVoxels
             << " bright and " << m.darkStreakVoxels << " dark voxels, up to " << m.streakReachMm
             << " mm; " << found << " of the " << drawnCount << " drawn in soft tissue found\n";
-  if (std::getenv("ECHOREG_DEBUG_STREAKS")) {
-    const int k = static_cast<int>(std::lround(sim.ct.lpsToVoxel(seed).z())) - 5;
-    std::ofstream f(std::getenv("ECHOREG_DEBUG_STREAKS"));
-    f << "P6 " << sim.ct.dimensions[0] << " " << sim.ct.dimensions[1] << " 255\n";
-    for (int j = 0; j < sim.ct.dimensions[1]; ++j) {
-      for (int i = 0; i < sim.ct.dimensions[0]; ++i) {
-        const std::size_t v = sim.ct.index(i, j, k);
-        const auto g = static_cast<unsigned char>(std::clamp((sim.ct.hu[v] + 200) / 8, 0, 255));
-        unsigned char px[3] = {g, g, g};
-        if (result.streakMask.voxels[v])
-          px[0] = 255, px[1] = 0, px[2] = 0;
-        else if (drawn[v])
-          px[0] = 0, px[1] = 0, px[2] = 255;
-        f.write(reinterpret_cast<const char*>(px), 3);
-      }
-    }
-  }
   EXPECT_GE(m.streakSlices, plateSlices - 1);
   EXPECT_GT(m.brightStreakVoxels, 500u);
   EXPECT_GT(m.darkStreakVoxels, 500u);
