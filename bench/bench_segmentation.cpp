@@ -139,7 +139,7 @@ BENCHMARK(BM_CompetingKneeBones)->Unit(benchmark::kMillisecond);
 // a femur (cylinder of 4 mm cortex around marrow, radius 15 mm) standing 1 mm above a tibia, a
 // fibula touching the tibia and a patella (sphere) touching the femur, in 40 HU tissue with
 // noise. Four seeds.
-segmentation::CtImage legCt(int slices) {
+segmentation::CtImage legCt(int slices, bool stem = false) {
   segmentation::CtImage ct;
   ct.dimensions = {512, 512, slices};
   ct.pixelSpacingMm = {0.5, 0.5};
@@ -174,6 +174,9 @@ segmentation::CtImage legCt(int slices) {
             std::sqrt(x * x + (y + 27.0) * (y + 27.0) + (z - joint - 20.0) * (z - joint - 20.0));
         if (dp <= 12.0)
           hu = dp > 10.0 ? 1500.0 : 300.0;  // patella, touching the femur
+        // A hip stem in the femur's canal (3000 HU, radius 5 mm, from 20 mm above the joint).
+        if (stem && z > joint + 20.0 && std::hypot(x, y) <= 5.0)
+          hu = 3000.0;
         ct.hu[ct.index(i, j, k)] = static_cast<std::int16_t>(hu + noise());
       }
     }
@@ -195,6 +198,35 @@ void BM_CompetingLegBones(benchmark::State& state) {
   state.counters["voxels"] = static_cast<double>(ct.voxelCount());
 }
 BENCHMARK(BM_CompetingLegBones)->Arg(200)->Arg(1000)->Unit(benchmark::kMillisecond)->Iterations(1);
+
+// The same leg with a metal stem in the femur (the streaks looked for on its every slice).
+void BM_CompetingLegBonesWithStem(benchmark::State& state) {
+  const int slices = static_cast<int>(state.range(0));
+  const segmentation::CtImage ct = legCt(slices, true);
+  const double joint = 0.25 * slices;
+  const std::vector<segmentation::BoneSeed> seeds = {
+      {"femur", {128.0, 128.0 + 10.0, joint + 40.0}},
+      {"tibia", {128.0, 128.0, joint - 40.0}},
+      {"fibula", {128.0 + 21.5, 128.0, joint - 40.0}},
+      {"patella", {128.0, 128.0 - 27.0, joint + 20.0}}};
+  std::size_t streakVoxels = 0;
+  int streakSlices = 0;
+  for (auto _ : state) {
+    const auto r = segmentation::segmentCompetingBones(ct, seeds);
+    for (const auto& m : r.metal) {
+      streakVoxels += m.brightStreakVoxels + m.darkStreakVoxels;
+      streakSlices += m.streakSlices;
+    }
+  }
+  state.counters["voxels"] = static_cast<double>(ct.voxelCount());
+  state.counters["streak_voxels"] = static_cast<double>(streakVoxels);
+  state.counters["streak_slices"] = streakSlices;
+}
+BENCHMARK(BM_CompetingLegBonesWithStem)
+    ->Arg(200)
+    ->Arg(1000)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 
 }  // namespace
 

@@ -38,10 +38,12 @@ namespace seg = echoreg::segmentation;
 
 struct SegmentOptions {
   std::string dicom, bone, anchors, out, mask, plane = "sagittal", series, anchorsOut;
-  std::string accessibleOut, keepRegions;
+  std::string accessibleOut, keepRegions, corrections;
   bool automatic = false, withFibula = false, noRefine = false, json = false;
-  std::vector<std::string> seedTokens;  // [BONE] X Y Z per --seed
+  bool refuseMetal = false;
+  std::vector<std::vector<std::string>> seedTokens;  // [BONE] X Y Z, one list per --seed
   std::string method = "watershed";
+  std::string anchorsWhere = "all";
   int slices = 40;
   double isoHu = 0.0;
   std::vector<double> thresholdHu;  // STRONG WEAK
@@ -128,10 +130,24 @@ std::vector<seg::BoneSeed> parseSeeds(const SegmentOptions& o) {
   std::vector<seg::BoneSeed> seeds;
   const bool tibiaFibula = o.withFibula || o.bone == "tibia+fibula";
   int unnamed = 0;
-  for (std::size_t t = 0; t < o.seedTokens.size();) {
+  for (const std::vector<std::string>& tokens : o.seedTokens) {
+    const bool named = !tokens.empty() && !isNumber(tokens.front());
+    const std::size_t first = named ? 1 : 0;
+    bool ok = tokens.size() == first + 3;
+    for (std::size_t t = first; ok && t < tokens.size(); ++t)
+      ok = isNumber(tokens[t]);
+    if (!ok) {
+      std::string given;
+      for (const auto& t : tokens)
+        given += (given.empty() ? "" : " ") + t;
+      throw CLI::ValidationError(
+          "--seed", fmt::format("takes [BONE] X Y Z (LPS mm), e.g. --seed femur -95 25 -445; got "
+                                "'{}'",
+                                given));
+    }
     seg::BoneSeed seed;
-    if (!isNumber(o.seedTokens[t])) {
-      seed.bone = o.seedTokens[t++];
+    if (named) {
+      seed.bone = tokens.front();
     } else if (tibiaFibula) {
       seed.bone = unnamed == 0   ? "tibia"
                   : unnamed == 1 ? "fibula"
@@ -140,13 +156,8 @@ std::vector<seg::BoneSeed> parseSeeds(const SegmentOptions& o) {
     } else {
       seed.bone = o.bone;
     }
-    for (int c = 0; c < 3; ++c, ++t) {
-      if (t >= o.seedTokens.size() || !isNumber(o.seedTokens[t])) {
-        throw CLI::ValidationError("--seed",
-                                   "takes [BONE] X Y Z (LPS mm), e.g. --seed femur -95 25 -445");
-      }
-      seed.pointLps[c] = std::strtod(o.seedTokens[t].c_str(), nullptr);
-    }
+    for (int c = 0; c < 3; ++c)
+      seed.pointLps[c] = std::strtod(tokens[first + static_cast<std::size_t>(c)].c_str(), nullptr);
     seeds.push_back(seed);
   }
   return seeds;
@@ -171,6 +182,8 @@ void checkUsage(const SegmentOptions& o) {
   }
   if (!o.automatic && !o.seedTokens.empty())
     throw CLI::ValidationError("--seed", "--seed goes with --auto");
+  if (!o.automatic && !o.corrections.empty())
+    throw CLI::ValidationError("--corrections", "--corrections goes with --auto");
   const std::vector<seg::BoneSeed> seeds = parseSeeds(o);
   std::size_t targets = 0;
   for (const auto& s : seeds)
@@ -214,6 +227,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   CommandPaths()
       .input("--dicom", o.dicom)
       .input("--anchors", o.anchors)
+      .input("--corrections", o.corrections)
       .output("--out", o.out)
       .optionalOutput("--mask", o.mask)
       .optionalOutput("--anchors-out", o.anchorsOut)
@@ -221,9 +235,11 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
       .check();
   for (const std::string& path : {o.out, o.mask, o.anchorsOut, o.accessibleOut})
     requireOutputFolder(path);
-  std::vector<seg::AnchorSet> anchorSets;
+  std::vector<seg::AnchorSet> anchorSets, correctionSets;
   if (!o.anchors.empty())
     anchorSets = seg::readAnchors(o.anchors);  // bad files fail before the CT is read
+  if (!o.corrections.empty())
+    correctionSets = seg::readAnchors(o.corrections);
   std::vector<seg::SurfaceRegion> regions;
   if (!o.keepRegions.empty())
     regions = seg::readSurfaceRegions(o.keepRegions, o.regionRadiusMm);
@@ -297,6 +313,10 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   // 3. The region: grown from the seeds, or enclosed by the live-wire contours.
   t0 = std::chrono::steady_clock::now();
   seg::VoxelMask region, exclude;
+  double cortexMinHu = 600.0;  // the surface's; from the histogram with the watershed
+  // The other bones around the region, by name ("" found automatically or by the threshold),
+  // for the uncertain slices of --anchors-where uncertain.
+  std::vector<std::pair<std::string, seg::VoxelMask>> neighbourMasks;
   nlohmann::json modeJson;
   if (o.automatic && o.method == "erosion") {
     nlohmann::json seedsJson = nlohmann::json::array();
@@ -330,6 +350,8 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   } else if (o.automatic) {
     seg::CompetingOptions competing;
     competing.threshold = grow.threshold;
+    competing.thresholdFromHistogram = o.thresholdHu.empty();
+    competing.refuseMetal = o.refuseMetal;
     competing.progress = [&](double f, const std::string& stage) { progress(stage, f); };
     seg::CompetingResult bones;
     try {
@@ -337,10 +359,12 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     } catch (const std::invalid_argument& e) {
       throw FileError(o.dicom, e.what());
     }
+    if (bones.thresholdFromHistogram)
+      cortexMinHu = bones.estimate.surfaceCortexMinHu;
     nlohmann::json seedsJson = nlohmann::json::array();
     nlohmann::json bonesJson = nlohmann::json::array();
     region = seg::emptyMask(volume);
-    exclude = seg::unite(bones.unnamed, bones.metalMask);
+    exclude = seg::unite(seg::unite(bones.unnamed, bones.metalMask), bones.streakMask);
     for (const seg::SegmentedBone& b : bones.bones) {
       const bool target = isTarget(o, b.bone);
       for (std::size_t s = 0; s < b.seedsLps.size(); ++s) {
@@ -356,7 +380,12 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                            {"modelled", target}});
       seg::VoxelMask& into = target ? region : exclude;
       into = seg::unite(into, b.mask);
+      if (!target)
+        neighbourMasks.emplace_back(b.bone, b.mask);
     }
+    neighbourMasks.emplace_back("", bones.unnamed);
+    if (!bones.metal.empty())
+      neighbourMasks.emplace_back("metal", bones.metalMask);
     for (std::size_t i = 0; i < exclude.voxels.size(); ++i)
       exclude.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
     nlohmann::json metalJson = nlohmann::json::array();
@@ -364,12 +393,18 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
       metalJson.push_back({{"centre_mm", vec(m.centreLps)},
                            {"volume_mm3", m.volumeMm3},
                            {"max_hu", m.maxHu},
-                           {"touches", m.touches}});
+                           {"touches", m.touches},
+                           {"streak_slices", m.streakSlices},
+                           {"bright_streak_voxels", m.brightStreakVoxels},
+                           {"dark_streak_voxels", m.darkStreakVoxels},
+                           {"streak_reach_mm", m.streakReachMm}});
       warnings.push_back(fmt::format(
           "metal (an implant?) of {:.0f} mm^3 up to {} HU at ({:.1f}, {:.1f}, {:.1f}) mm{}: left "
-          "out of the bones; the model is not reliable within a few mm of it (streaks)",
+          "out of the bones; streaks on {} slices up to {:.0f} mm from it ({} bright voxels "
+          "left out of the bone, {} dark); the model is not reliable within a few mm of it",
           m.volumeMm3, m.maxHu, m.centreLps.x(), m.centreLps.y(), m.centreLps.z(),
-          m.touches.empty() ? "" : ", on the " + m.touches));
+          m.touches.empty() ? "" : ", on the " + m.touches, m.streakSlices, m.streakReachMm,
+          m.brightStreakVoxels, m.darkStreakVoxels));
     }
     modeJson = {{"mode", "auto"},
                 {"method", "watershed"},
@@ -377,6 +412,14 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                 {"bones", bonesJson},
                 {"automatic_neighbours", bones.automaticNeighbours},
                 {"marker_dynamic_mm", bones.markerDynamicMm},
+                {"threshold",
+                 {{"strong_hu", bones.thresholdUsed.strongHu},
+                  {"weak_hu", bones.thresholdUsed.weakHu},
+                  {"from", bones.thresholdFromHistogram ? "histogram" : "--threshold-hu"},
+                  {"soft_tissue_hu", bones.estimate.softTissueHu},
+                  {"noise_hu", bones.estimate.noiseHu},
+                  {"cortex_hu", bones.estimate.cortexHu},
+                  {"seed_marrow_hu", bones.estimate.marrowHu}}},
                 {"metal", metalJson}};
   } else {
     std::vector<seg::SliceContour> contours;
@@ -416,6 +459,42 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                 {"contours", contoursJson},
                 {"straight_cuts_at_scan_ends", straightened}};
   }
+  if (!correctionSets.empty()) {
+    // The user's corrected slices (live-wire through their anchors) put into the automatic
+    // region, fading over 3 mm into it.
+    std::vector<seg::SliceContour> contours;
+    for (const auto& set : correctionSets) {
+      try {
+        contours.push_back(seg::liveWireContour(volume, set));
+      } catch (const std::invalid_argument& e) {
+        throw FileError(o.corrections, e.what());
+      }
+    }
+    seg::SliceCorrectionResult corrected;
+    try {
+      corrected = seg::correctOnSlices(region, contours);
+    } catch (const std::invalid_argument& e) {
+      throw FileError(o.corrections, e.what());
+    }
+    region = std::move(corrected.region);
+    for (auto& [name, mask] : neighbourMasks) {
+      for (std::size_t i = 0; i < mask.voxels.size(); ++i)
+        mask.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
+    }
+    for (std::size_t i = 0; i < exclude.voxels.size(); ++i)
+      exclude.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
+    modeJson["corrections"] = {{"file", o.corrections},
+                               {"contours", contours.size()},
+                               {"slices", corrected.slices},
+                               {"voxels_added", corrected.added},
+                               {"voxels_removed", corrected.removed}};
+  }
+  if (neighbourMasks.empty()) {
+    seg::VoxelMask others = exclude;
+    for (std::size_t i = 0; i < others.voxels.size(); ++i)
+      others.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
+    neighbourMasks.emplace_back("", std::move(others));
+  }
   timings["region_s"] = secondsSince(t0);
 
   // 4. The surface.
@@ -423,6 +502,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   progress("surface", 0.0);
   seg::BoneSurfaceOptions surfaceOptions;
   surfaceOptions.isoHu = o.isoHu;
+  surfaceOptions.cortexMinHu = cortexMinHu;
   surfaceOptions.bandMm = o.bandMm;
   surfaceOptions.smoothingIterations = o.smoothing;
   surfaceOptions.targetTriangles = static_cast<std::size_t>(std::max(0, o.targetTriangles));
@@ -440,11 +520,57 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
 
   // 5. Anchors proposed on the model, and the accessible surface.
   std::vector<seg::AnchorSet> proposed;
+  nlohmann::json uncertainJson;
   if (!o.anchorsOut.empty()) {
     seg::AnchorProposalOptions proposal;
     proposal.zMinMm = zLow;
     proposal.zMaxMm = zHigh;
     proposed = seg::proposeAnchors(surface.mesh, plane, o.slices, proposal);
+    if (o.anchorsWhere == "uncertain") {
+      // Only the slices where the automatic boundary is uncertain: it touches another bone (the
+      // joint) or has little contrast there.
+      std::vector<double> positions;
+      for (const auto& set : proposed)
+        positions.push_back(set.positionMm);
+      std::vector<std::pair<std::string, const seg::VoxelMask*>> neighbours;
+      for (const auto& [name, mask] : neighbourMasks)
+        neighbours.emplace_back(name, &mask);
+      const std::vector<seg::SliceUncertainty> u =
+          seg::sliceUncertainty(volume, region, neighbours, plane, positions);
+      std::vector<seg::AnchorSet> kept;
+      uncertainJson = nlohmann::json::array();
+      for (std::size_t s = 0; s < proposed.size(); ++s) {
+        nlohmann::json names = nlohmann::json::array();
+        std::string text;
+        for (const auto& n : u[s].neighbours) {
+          const std::string shown = n.empty() ? "a bone found automatically" : n;
+          names.push_back(shown);
+          text += (text.empty() ? "" : ", ") + shown;
+        }
+        uncertainJson.push_back({{"position_mm", u[s].positionMm},
+                                 {"uncertain", u[s].uncertain},
+                                 {"share", u[s].share},
+                                 {"contact_share", u[s].contactShare},
+                                 {"low_contrast_share", u[s].lowContrastShare},
+                                 {"boundary_voxels", u[s].boundaryVoxels},
+                                 {"contact_voxels", u[s].contactVoxels},
+                                 {"low_contrast_voxels", u[s].lowContrastVoxels},
+                                 {"touches", names}});
+        if (!u[s].uncertain)
+          continue;
+        seg::AnchorSet set = proposed[s];
+        set.label = fmt::format("uncertain {} {:.1f} mm{}", o.plane, set.positionMm,
+                                text.empty() ? ": low contrast" : ": touches " + text);
+        kept.push_back(std::move(set));
+      }
+      proposed = std::move(kept);
+      if (proposed.empty()) {
+        warnings.push_back(fmt::format(
+            "--anchors-where uncertain: none of the {} {} slices is uncertain (the model touches "
+            "no other bone and has contrast all round): {} not written",
+            o.slices, o.plane, o.anchorsOut));
+      }
+    }
   }
   std::unique_ptr<seg::AccessibleSurface> accessible;
   if (!o.accessibleOut.empty()) {
@@ -468,7 +594,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   filters::writeMesh(o.out, surface.mesh);
   if (!o.mask.empty())
     seg::writeNrrdVolume(o.mask, region.geometry, region.voxels);
-  if (!o.anchorsOut.empty())
+  if (!o.anchorsOut.empty() && !proposed.empty())
     seg::writeAnchors(o.anchorsOut, proposed);
   if (accessible)
     filters::writeMesh(o.accessibleOut, accessible->mesh);
@@ -514,8 +640,13 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     std::size_t anchors = 0;
     for (const auto& s : proposed)
       anchors += s.anchorsLps.size();
-    result["anchors_out"] = {
-        {"file", o.anchorsOut}, {"contours", proposed.size()}, {"anchors", anchors}};
+    result["anchors_out"] = {{"file", o.anchorsOut},
+                             {"contours", proposed.size()},
+                             {"anchors", anchors},
+                             {"where", o.anchorsWhere},
+                             {"written", !proposed.empty()}};
+    if (!uncertainJson.is_null())
+      result["anchors_out"]["slices"] = uncertainJson;
   }
   if (accessible) {
     result["accessible"] = {{"file", o.accessibleOut},
@@ -537,9 +668,10 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                     : fmt::format("from {} live-wire contours", anchorSets.size()),
         check.triangles, check.volumeMm3, surface.isoHu, surface.cortexHu, surface.softTissueHu,
         secondsSince(start));
-    if (!o.anchorsOut.empty()) {
-      io.out << fmt::format("{}: {} contours of proposed anchors on {} {} slices\n", o.anchorsOut,
-                            proposed.size(), o.slices, o.plane);
+    if (!o.anchorsOut.empty() && !proposed.empty()) {
+      io.out << fmt::format(
+          "{}: {} contours of proposed anchors on {}{} {} slices\n", o.anchorsOut, proposed.size(),
+          o.anchorsWhere == "uncertain" ? "the uncertain of " : "", o.slices, o.plane);
     }
     if (accessible) {
       io.out << fmt::format("{}: accessible surface, {:.0f} mm^2 ({:.0f} % of the model)\n",
@@ -578,11 +710,18 @@ CommandAction addSegmentCommand(CLI::App& app) {
   cmd->add_option("--anchors", o->anchors,
                   "Anchors: Slicer .mrk.json closed curves, or echoreg anchors JSON");
   cmd->add_flag("--auto", o->automatic, "Grow the bone from --seed instead of live-wire contours");
+  cmd->add_option("--corrections", o->corrections,
+                  "--auto: anchors of a few corrected slices (e.g. the --anchors-where uncertain "
+                  "file, edited in Slicer): live-wire through them replaces the automatic "
+                  "boundary on their slices, fading into it over 3 mm");
+  // 1 to 4 values per --seed so that the help says "[BONE] X Y Z" (CLI11 would print "x 3" for
+  // 3 to 4); parseSeeds checks each --seed holds 3 numbers, after a name or not.
   cmd->add_option("--seed", o->seedTokens,
                   "A point inside a bone: [BONE] X Y Z (LPS mm; without BONE, the bone of --bone). "
                   "Repeat for every bone that touches it (femur, tibia, fibula, patella; hip, "
                   "sacrum): they grow against each other and only --bone's seeds make the model")
-      ->expected(3, 4)
+      ->type_name("[BONE] X Y Z")
+      ->expected(1, 4)
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd->add_option("--method", o->method,
                   "--auto: watershed (bones compete from their seeds; neighbours without a seed "
@@ -603,9 +742,19 @@ CommandAction addSegmentCommand(CLI::App& app) {
       "--anchors-out", o->anchorsOut,
       "Write anchors proposed on the model (Slicer .mrk.json closed curves) to edit and feed back "
       "with --anchors");
+  cmd->add_option("--anchors-where", o->anchorsWhere,
+                  "--anchors-out: on every one of --slices (all), or only on those where the "
+                  "automatic boundary is uncertain (uncertain: it touches another bone, the joint, "
+                  "or has little contrast), to correct a few slices instead of all")
+      ->check(CLI::IsMember({"all", "uncertain"}))
+      ->capture_default_str();
+  cmd->add_flag("--refuse-metal", o->refuseMetal,
+                "--auto watershed: refuse a CT with metal (>= 2500 HU: an implant), naming where "
+                "it is, instead of segmenting the bone around it");
   cmd->add_option("--threshold-hu", o->thresholdHu,
                   "Bone threshold STRONG WEAK, HU: voxels >= STRONG, and >= WEAK connected to them "
-                  "(default 600 200)")
+                  "(default with --method watershed: from this CT's histogram around the seeds, "
+                  "at most 600 200; --method erosion and --anchors: 600 200)")
       ->expected(2);
   cmd->add_option("--separation-mm", o->separationMm,
                   "--method erosion: radius of the erosion that separates bones touching at a "

@@ -15,6 +15,9 @@ namespace {
 
 constexpr std::uint32_t kNone = std::numeric_limits<std::uint32_t>::max();
 constexpr double kLevelMm = 0.05;  // quantisation of the distance map
+// estimateBoneThreshold's factors (see its comment).
+constexpr double kStrongFactor = 0.41;
+constexpr double kWeakFactor = 0.29;
 
 std::size_t sz(int v) {
   return static_cast<std::size_t>(v);
@@ -105,11 +108,36 @@ std::string notInBone(const CtImage& image, const VoxelMask& threshold, const Ei
                       const Eigen::Vector3d& seedLps, const BoneThreshold& t) {
   const int hu = image.at(seed.x(), seed.y(), seed.z());
   if (hu >= t.weakHu) {
+    // The patch of >= weak around the seed (26-connected; it holds no strong voxel, else the
+    // seed would be bone): its size and its brightest voxel are the reason.
+    std::vector<std::uint8_t> in(image.hu.size(), 0);
+    std::vector<std::size_t> stack{image.index(seed.x(), seed.y(), seed.z())};
+    in[stack.back()] = 1;
+    std::size_t count = 0;
+    int brightest = hu;
+    const std::size_t limit = 2000000;
+    while (!stack.empty() && count < limit) {
+      const std::size_t v = stack.back();
+      stack.pop_back();
+      ++count;
+      brightest = std::max(brightest, static_cast<int>(image.hu[v]));
+      int i, j, k;
+      ijkOf(image, v, i, j, k);
+      forNeighbours(image, i, j, k, [&](std::size_t n) {
+        if (!in[n] && image.hu[n] >= t.weakHu) {
+          in[n] = 1;
+          stack.push_back(n);
+        }
+      });
+    }
     return fmt::format(
-        "the seed {} is not in bone: {} HU there, but the patch of >= {:.0f} HU around it reaches "
-        "no cortex (no voxel >= {:.0f} HU connected to it); move the seed into the bone, or lower "
+        "the seed {} is not in bone: {} HU there is above the weak threshold ({:.0f} HU), but "
+        "the patch of >= {:.0f} HU around it ({}{:.1f} cm^3) is brightest at {} HU and reaches no "
+        "cortex (>= {:.0f} HU, the strong threshold): it is not connected to bone. A seed in "
+        "faint bone is accepted when cortex encloses it; move the seed into the bone, or lower "
         "--threshold-hu",
-        lpsText(seedLps), hu, t.weakHu, t.strongHu);
+        lpsText(seedLps), hu, t.weakHu, t.weakHu, count >= limit ? "more than " : "",
+        static_cast<double>(count) * image.spacingMm().prod() / 1000.0, brightest, t.strongHu);
   }
   // Rays along the six axis directions, up to 40 mm: which of them meet bone.
   const Eigen::Vector3d spacing = image.spacingMm();
@@ -302,6 +330,291 @@ std::string implausibleBone(const std::string& bone, double volumeMm3,
   return {};
 }
 
+std::vector<SliceUncertainty> sliceUncertainty(
+    const CtImage& ct, const VoxelMask& region,
+    const std::vector<std::pair<std::string, const VoxelMask*>>& neighbours, SlicePlane plane,
+    const std::vector<double>& positionsMm, const UncertaintyOptions& options) {
+  if (!ct.uniform() || ct.hu.size() != ct.voxelCount() || region.voxels.size() != ct.voxelCount())
+    throw std::invalid_argument("sliceUncertainty: the CT and the region lie on different grids");
+  for (const auto& n : neighbours) {
+    if (n.second == nullptr || n.second->voxels.size() != ct.voxelCount())
+      throw std::invalid_argument("sliceUncertainty: a neighbour's mask lies on another grid");
+  }
+  const int axis = plane == SlicePlane::Sagittal ? 0 : plane == SlicePlane::Coronal ? 1 : 2;
+  std::vector<std::size_t> order(positionsMm.size());
+  for (std::size_t i = 0; i < order.size(); ++i)
+    order[i] = i;
+  std::sort(order.begin(), order.end(),
+            [&](std::size_t a, std::size_t b) { return positionsMm[a] < positionsMm[b]; });
+  const Eigen::Vector3d spacing = ct.spacingMm();
+  // The voxel size along the plane's normal (LPS axis).
+  double along = 0.0;
+  for (int a = 0; a < 3; ++a)
+    along += std::abs(ct.direction(axis, a)) * spacing[a];
+  std::vector<double> half(positionsMm.size(), options.halfWidthMm);
+  for (std::size_t r = 0; r < order.size(); ++r) {
+    if (options.halfWidthMm > 0.0)
+      continue;
+    double gap = std::numeric_limits<double>::infinity();
+    if (r > 0)
+      gap = std::min(gap, positionsMm[order[r]] - positionsMm[order[r - 1]]);
+    if (r + 1 < order.size())
+      gap = std::min(gap, positionsMm[order[r + 1]] - positionsMm[order[r]]);
+    half[order[r]] = std::max(0.5 * along, std::isfinite(gap) ? 0.5 * gap : 0.5 * along);
+  }
+  std::vector<SliceUncertainty> out(positionsMm.size());
+  std::vector<std::vector<std::size_t>> touched(positionsMm.size(),
+                                                std::vector<std::size_t>(neighbours.size(), 0));
+  for (std::size_t i = 0; i < out.size(); ++i)
+    out[i].positionMm = positionsMm[i];
+  const auto& d = ct.dimensions;
+  const std::size_t steps[3] = {1, sz(d[0]), sz(d[0]) * sz(d[1])};
+  for (int k = 0; k < d[2]; ++k) {
+    for (int j = 0; j < d[1]; ++j) {
+      for (int i = 0; i < d[0]; ++i) {
+        const std::size_t v = ct.index(i, j, k);
+        if (!region.voxels[v])
+          continue;
+        const int ijk[3] = {i, j, k};
+        bool boundary = false, contact = false, low = false;
+        std::vector<std::size_t> hits;
+        for (int a = 0; a < 3; ++a) {
+          for (int sign = -1; sign <= 1; sign += 2) {
+            const int c = ijk[a] + sign;
+            if (c < 0 || c >= d[sz(a)])
+              continue;  // the scan's end or the field of view's edge: not a boundary
+            const std::size_t n = sign < 0 ? v - steps[a] : v + steps[a];
+            if (region.voxels[n])
+              continue;
+            boundary = true;
+            bool other = false;
+            for (std::size_t b = 0; b < neighbours.size(); ++b) {
+              if (neighbours[b].second->voxels[n]) {
+                other = true;
+                hits.push_back(b);
+              }
+            }
+            if (other)
+              contact = true;
+            else if (ct.hu[v] - ct.hu[n] < options.lowContrastHu)
+              low = true;
+          }
+        }
+        if (!boundary)
+          continue;
+        const double p =
+            (ct.originMm + ct.direction * Eigen::Vector3d(i * spacing.x(), j * spacing.y(),
+                                                          k * spacing.z()))[axis];
+        for (std::size_t s = 0; s < out.size(); ++s) {
+          if (std::abs(p - positionsMm[s]) > half[s])
+            continue;
+          ++out[s].boundaryVoxels;
+          out[s].contactVoxels += contact ? 1u : 0u;
+          out[s].lowContrastVoxels += !contact && low ? 1u : 0u;
+          for (std::size_t b : hits)
+            ++touched[s][b];
+        }
+      }
+    }
+  }
+  for (std::size_t s = 0; s < out.size(); ++s) {
+    SliceUncertainty& u = out[s];
+    u.share = u.boundaryVoxels == 0 ? 0.0
+                                    : static_cast<double>(u.contactVoxels + u.lowContrastVoxels) /
+                                          static_cast<double>(u.boundaryVoxels);
+    if (u.boundaryVoxels > 0) {
+      u.contactShare = static_cast<double>(u.contactVoxels) / static_cast<double>(u.boundaryVoxels);
+      u.lowContrastShare =
+          static_cast<double>(u.lowContrastVoxels) / static_cast<double>(u.boundaryVoxels);
+    }
+    u.uncertain = u.boundaryVoxels > 0 && (u.contactShare >= options.minShare ||
+                                           u.lowContrastShare >= options.minLowContrastShare);
+    std::vector<std::size_t> idx;
+    for (std::size_t b = 0; b < neighbours.size(); ++b) {
+      if (touched[s][b])
+        idx.push_back(b);
+    }
+    std::stable_sort(idx.begin(), idx.end(),
+                     [&](std::size_t a, std::size_t b) { return touched[s][a] > touched[s][b]; });
+    for (std::size_t b : idx)
+      u.neighbours.push_back(neighbours[b].first);
+  }
+  return out;
+}
+
+// Streaks of the metal piece `label` (voxels of `pieceLabel` == label) on every axial slice it
+// crosses (see CompetingOptions::detectStreaks): marks `streak` (1 bright, 2 dark) and counts.
+void findStreaks(const CtImage& image, const std::vector<std::size_t>& pieceVoxels,
+                 const CompetingOptions& o, std::vector<std::uint8_t>& streak, MetalPiece& piece) {
+  // streak: 1 bright over soft tissue (the angular median below the weak threshold: left out of
+  // the bone), 3 bright over bone (kept), 2 dark.
+  const auto& d = image.dimensions;
+  const Eigen::Vector3d spacing = image.spacingMm();
+  const double step = std::min(spacing.x(), spacing.y());
+  // Rays close enough that neighbours are at most a pixel apart at the reach.
+  const int angles = std::max(
+      180, static_cast<int>(std::ceil(2.0 * 3.14159265358979323846 * o.streakReachMm / step)));
+  const int samples = static_cast<int>(std::ceil(o.streakReachMm / step));
+  const double degree = angles / 360.0;                                 // rays per degree
+  const int halfWindow = static_cast<int>(std::lround(10.0 * degree));  // +-10 degrees
+  const int side = static_cast<int>(std::lround(8.0 * degree));         // +-8 degrees
+  const int startSamples = static_cast<int>(std::ceil(6.0 / step));
+  const int continuation = std::max(2, static_cast<int>(std::ceil(3.0 / step)));
+  const int run = std::max(2, static_cast<int>(std::ceil(o.streakRunMm / step)));
+  const Eigen::Vector3d centre = image.lpsToVoxel(piece.centreLps);
+  std::vector<float> hu(sz(angles) * sz(samples));
+  std::vector<std::int64_t> where(hu.size());
+  std::vector<std::int8_t> sign(hu.size());
+  std::vector<float> base(hu.size());  // the angular median: the tissue under the streak
+  std::vector<double> cosines(sz(angles)), sines(sz(angles));
+  for (int a = 0; a < angles; ++a) {
+    const double t = 2.0 * 3.14159265358979323846 * a / angles;
+    cosines[sz(a)] = std::cos(t);
+    sines[sz(a)] = std::sin(t);
+  }
+  // The piece's voxels by slice (pieceVoxels is in index order: slices ascending).
+  std::map<int, std::vector<std::pair<int, int>>> bySlice;
+  for (std::size_t v : pieceVoxels) {
+    int i, j, k;
+    ijkOf(image, v, i, j, k);
+    bySlice[k].emplace_back(i, j);
+  }
+  for (const auto& [k, pixels] : bySlice) {
+    // The piece's voxels on this slice: their centre and in-plane radius.
+    double ci = 0.0, cj = 0.0;
+    for (const auto& [i, j] : pixels) {
+      ci += i;
+      cj += j;
+    }
+    ci /= static_cast<double>(pixels.size());
+    cj /= static_cast<double>(pixels.size());
+    double radius = 0.0;
+    for (const auto& [i, j] : pixels)
+      radius = std::max(radius, std::hypot((i - ci) * spacing.x(), (j - cj) * spacing.y()));
+    const double start = radius + 2.0 * step;
+    for (int a = 0; a < angles; ++a) {
+      const double cx = cosines[sz(a)] / spacing.x(), cy = sines[sz(a)] / spacing.y();
+      for (int r = 0; r < samples; ++r) {
+        const double rr = start + r * step;
+        const int i = static_cast<int>(std::lround(ci + rr * cx));
+        const int j = static_cast<int>(std::lround(cj + rr * cy));
+        const std::size_t s = sz(a) * sz(samples) + sz(r);
+        if (i < 0 || j < 0 || i >= d[0] || j >= d[1]) {
+          where[s] = -1;
+          hu[s] = std::numeric_limits<float>::quiet_NaN();
+          continue;
+        }
+        where[s] = static_cast<std::int64_t>(image.index(i, j, k));
+        hu[s] = image.hu[static_cast<std::size_t>(where[s])];
+      }
+    }
+    // Deviation from the angular median m (the (n/2)-th smallest of the n samples within
+    // +-10 degrees at the same radius) by streakHu or more, by counting: m <= x - streakHu iff
+    // at least n/2 + 1 samples are <= x - streakHu; m >= x + streakHu iff at least n - n/2 are
+    // >= it. The median itself only where it is needed (bright samples: over bone or not).
+    std::vector<float> window;
+    for (int a = 0; a < angles; ++a) {
+      for (int r = 0; r < samples; ++r) {
+        const std::size_t s = sz(a) * sz(samples) + sz(r);
+        sign[s] = 0;
+        if (where[s] < 0)
+          continue;
+        const float x = hu[s];
+        const float lowT = x - static_cast<float>(o.streakHu);
+        const float highT = x + static_cast<float>(o.streakHu);
+        int n = 0, lows = 0, highs = 0;
+        for (int w = -halfWindow; w <= halfWindow; ++w) {
+          const int b = (a + w + angles) % angles;
+          const float v = hu[sz(b) * sz(samples) + sz(r)];
+          if (std::isnan(v))
+            continue;
+          ++n;
+          lows += v <= lowT ? 1 : 0;
+          highs += v >= highT ? 1 : 0;
+        }
+        if (lows >= n / 2 + 1) {
+          sign[s] = 1;
+          window.clear();
+          for (int w = -halfWindow; w <= halfWindow; ++w) {
+            const float v = hu[sz((a + w + angles) % angles) * sz(samples) + sz(r)];
+            if (!std::isnan(v))
+              window.push_back(v);
+          }
+          auto mid = window.begin() + static_cast<std::ptrdiff_t>(window.size() / 2);
+          std::nth_element(window.begin(), mid, window.end());
+          base[s] = *mid;
+        } else if (highs >= n - n / 2) {
+          sign[s] = -1;
+        }
+      }
+    }
+    // A streak is narrow: the same sign 8 degrees to either side is a wide feature (a bone's
+    // edge seen from the metal), not a streak.
+    std::vector<std::int8_t> narrow(sign.size(), 0);
+    for (int a = 0; a < angles; ++a) {
+      for (int r = 0; r < samples; ++r) {
+        const std::int8_t sg = sign[sz(a) * sz(samples) + sz(r)];
+        const std::int8_t left = sign[sz((a + angles - side) % angles) * sz(samples) + sz(r)];
+        const std::int8_t right = sign[sz((a + side) % angles) * sz(samples) + sz(r)];
+        narrow[sz(a) * sz(samples) + sz(r)] = sg != 0 && left != sg && right != sg ? sg : 0;
+      }
+    }
+    sign.swap(narrow);
+    // Runs of one sign along each ray, at least streakRunMm long; a streak starts at the metal
+    // (its first run within 6 mm of the rim) and may go on beyond a gap (bone it crosses) in
+    // runs of 3 mm or more.
+    bool any = false;
+    for (int a = 0; a < angles; ++a) {
+      int r = 0;
+      std::int8_t going = 0;  // the sign of the streak this ray carries
+      while (r < samples) {
+        const std::int8_t sg = sign[sz(a) * sz(samples) + sz(r)];
+        if (sg == 0) {
+          ++r;
+          continue;
+        }
+        // The run, across gaps of up to 2 samples (a ray grazes a streak one pixel wide).
+        int e = r + 1, last = r;
+        while (e < samples && e - last <= 3) {
+          const std::int8_t g = sign[sz(a) * sz(samples) + sz(e)];
+          if (g == -sg)
+            break;
+          if (g == sg)
+            last = e;
+          ++e;
+        }
+        e = last + 1;
+        const bool starts = r <= startSamples || going == sg;
+        if (e - r >= (going == sg ? continuation : run) && starts) {
+          going = sg;
+          any = true;
+          for (int q = r; q < e; ++q) {
+            const std::size_t at = sz(a) * sz(samples) + sz(q);
+            if (sign[at] != sg)
+              continue;
+            const std::size_t v = static_cast<std::size_t>(where[at]);
+            if (streak[v] != 0)
+              continue;
+            const bool overSoft = base[at] < o.threshold.weakHu;
+            streak[v] = sg < 0 ? 2 : overSoft ? 1 : 3;
+            if (sg > 0)
+              ++piece.brightStreakVoxels;
+            else
+              ++piece.darkStreakVoxels;
+            int vi, vj, vk;
+            ijkOf(image, v, vi, vj, vk);
+            piece.streakReachMm = std::max(
+                piece.streakReachMm,
+                std::hypot((vi - centre.x()) * spacing.x(), (vj - centre.y()) * spacing.y()));
+          }
+        }
+        r = e;
+      }
+    }
+    piece.streakSlices += any ? 1 : 0;
+  }
+}
+
 // The work, on a grid that holds every bone voxel (see segmentCompetingBones).
 static CompetingResult segmentOnGrid(const CtImage& image, const std::vector<BoneSeed>& seeds,
                                      const CompetingOptions& options) {
@@ -389,8 +702,47 @@ static CompetingResult segmentOnGrid(const CtImage& image, const std::vector<Bon
         piece.maxHu = maxHu[c];
         result.metal.push_back(piece);
       }
+      // The streaks around each piece: bright ones out of the threshold (before the fill).
+      result.streakMask = emptyMask(image);
+      if (options.detectStreaks) {
+        std::vector<std::uint8_t> streak(image.hu.size(), 0);
+        // Each piece's voxels, in one pass (the pieces in the order of result.metal).
+        std::vector<std::vector<std::size_t>> voxelsOf(sizes.size());
+        for (std::size_t v = 0; v < label.size(); ++v) {
+          if (label[v] && static_cast<double>(sizes[label[v]]) * voxelMm3 >= options.minMetalMm3)
+            voxelsOf[label[v]].push_back(v);
+        }
+        std::size_t m = 0;
+        for (std::size_t c = 1; c < sizes.size(); ++c) {
+          if (static_cast<double>(sizes[c]) * voxelMm3 < options.minMetalMm3)
+            continue;
+          findStreaks(image, voxelsOf[c], options, streak, result.metal[m++]);
+        }
+        for (std::size_t v = 0; v < streak.size(); ++v) {
+          if (!streak[v] || result.metalMask.voxels[v])
+            continue;
+          if (streak[v] == 3)
+            continue;  // bright over bone: the bone's (a streak through the cortex)
+          result.streakMask.voxels[v] = 1;
+          if (streak[v] == 1)
+            result.threshold.voxels[v] = 0;
+        }
+      }
+      if (options.refuseMetal && !result.metal.empty()) {
+        const MetalPiece& p = result.metal.front();
+        throw std::invalid_argument(fmt::format(
+            "metal (an implant?) of {:.0f} mm^3 up to {} HU at {} with streaks over {} slices "
+            "(up to {:.0f} mm from it; {} bright, {} dark voxels){}: refused (the bone near it "
+            "is not reliable); segment around it without --refuse-metal, or place anchors",
+            p.volumeMm3, p.maxHu, lpsText(p.centreLps), p.streakSlices, p.streakReachMm,
+            p.brightStreakVoxels, p.darkStreakVoxels,
+            result.metal.size() > 1 ? fmt::format(" and {} more pieces", result.metal.size() - 1)
+                                    : std::string()));
+      }
     }
   }
+  if (result.streakMask.voxels.empty())
+    result.streakMask = emptyMask(image);
   report(options, 0.1, "fill");
   VoxelMask solid = result.threshold;
   fillHolesInBox(solid, options.maxSliceHoleMm2);
@@ -815,11 +1167,138 @@ static CompetingResult segmentOnGrid(const CtImage& image, const std::vector<Bon
   return result;
 }
 
+ThresholdEstimate estimateBoneThreshold(const CtImage& image,
+                                        const std::vector<Eigen::Vector3i>& seedVoxels,
+                                        double radiusMm, double metalHu,
+                                        const BoneThreshold& ceiling) {
+  if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount())
+    throw std::invalid_argument("estimateBoneThreshold: the CT image is empty");
+  if (seedVoxels.empty())
+    throw std::invalid_argument("estimateBoneThreshold: no seed");
+  const Eigen::Vector3d spacing = image.spacingMm();
+  const Eigen::Vector3i r =
+      (Eigen::Vector3d::Constant(radiusMm).cwiseQuotient(spacing)).array().ceil().cast<int>();
+  const auto& d = image.dimensions;
+  // Voxels of the union of the boxes (each voxel once), metal left out.
+  std::vector<std::uint8_t> seen;
+  std::vector<std::int16_t> values;
+  Eigen::Vector3i lo(d[0], d[1], d[2]), hi(-1, -1, -1);
+  for (const Eigen::Vector3i& q : seedVoxels) {
+    lo = lo.cwiseMin((q - r).cwiseMax(Eigen::Vector3i::Zero()));
+    hi = hi.cwiseMax((q + r).cwiseMin(Eigen::Vector3i(d[0] - 1, d[1] - 1, d[2] - 1)));
+  }
+  const Eigen::Vector3i n = hi - lo + Eigen::Vector3i::Ones();
+  seen.assign(sz(n.x()) * sz(n.y()) * sz(n.z()), 0);
+  for (const Eigen::Vector3i& q : seedVoxels) {
+    for (int k = std::max(0, q.z() - r.z()); k <= std::min(d[2] - 1, q.z() + r.z()); ++k) {
+      for (int j = std::max(0, q.y() - r.y()); j <= std::min(d[1] - 1, q.y() + r.y()); ++j) {
+        for (int i = std::max(0, q.x() - r.x()); i <= std::min(d[0] - 1, q.x() + r.x()); ++i) {
+          std::uint8_t& s =
+              seen[(sz(k - lo.z()) * sz(n.y()) + sz(j - lo.y())) * sz(n.x()) + sz(i - lo.x())];
+          if (s)
+            continue;
+          s = 1;
+          const std::int16_t hu = image.at(i, j, k);
+          if (hu < metalHu)
+            values.push_back(hu);
+        }
+      }
+    }
+  }
+  ThresholdEstimate e;
+  e.voxels = values.size();
+  // Soft tissue: the mode of a 10 HU histogram within -200..200, smoothed over 3 bins.
+  std::vector<double> bins(40, 0.0);
+  for (std::int16_t v : values) {
+    if (v >= -200 && v < 200)
+      bins[sz((v + 200) / 10)] += 1.0;
+  }
+  int best = -1;
+  double bestCount = 0.0;
+  for (int b = 0; b < 40; ++b) {
+    const double c =
+        bins[sz(b)] + (b > 0 ? bins[sz(b - 1)] : 0.0) + (b < 39 ? bins[sz(b + 1)] : 0.0);
+    if (c > bestCount) {
+      bestCount = c;
+      best = b;
+    }
+  }
+  e.softTissueHu = best < 0 ? 0.0 : -200.0 + 10.0 * best + 5.0;
+  {
+    std::vector<double> dev;
+    for (std::int16_t v : values) {
+      if (std::abs(v - e.softTissueHu) <= 60.0)
+        dev.push_back(std::abs(v - e.softTissueHu));
+    }
+    if (!dev.empty()) {
+      auto mid = dev.begin() + static_cast<std::ptrdiff_t>(dev.size() / 2);
+      std::nth_element(dev.begin(), mid, dev.end());
+      e.noiseHu = 1.4826 * *mid;
+    }
+  }
+  // Cortex: the median of the brightest 2 %.
+  if (!values.empty()) {
+    std::vector<std::int16_t> v = values;
+    const std::size_t top = std::max<std::size_t>(1, v.size() / 50);
+    std::nth_element(v.begin(), v.end() - static_cast<std::ptrdiff_t>(top), v.end());
+    std::vector<std::int16_t> bright(v.end() - static_cast<std::ptrdiff_t>(top), v.end());
+    auto mid = bright.begin() + static_cast<std::ptrdiff_t>(bright.size() / 2);
+    std::nth_element(bright.begin(), mid, bright.end());
+    e.cortexHu = *mid;
+  }
+  for (const Eigen::Vector3i& q : seedVoxels) {
+    std::vector<double> m;
+    for (int k = std::max(0, q.z() - 1); k <= std::min(d[2] - 1, q.z() + 1); ++k)
+      for (int j = std::max(0, q.y() - 1); j <= std::min(d[1] - 1, q.y() + 1); ++j)
+        for (int i = std::max(0, q.x() - 1); i <= std::min(d[0] - 1, q.x() + 1); ++i)
+          m.push_back(image.at(i, j, k));
+    auto mid = m.begin() + static_cast<std::ptrdiff_t>(m.size() / 2);
+    std::nth_element(m.begin(), mid, m.end());
+    e.marrowHu.push_back(*mid);
+  }
+  const double s = e.softTissueHu;
+  // Floors: a box with little bone (or none) must not take the soft tissue for it.
+  const double strong =
+      std::min(ceiling.strongHu, std::max(s + 200.0, s + kStrongFactor * (e.cortexHu - s)));
+  const double weak =
+      std::min({ceiling.weakHu, strong,
+                std::max({s + kWeakFactor * (strong - s), s + 4.0 * e.noiseHu, s + 80.0})});
+  e.surfaceCortexMinHu = std::min(600.0, std::round(s + 0.7 * (e.cortexHu - s)));
+  e.threshold.strongHu = std::round(strong);
+  e.threshold.weakHu = std::round(std::min(weak, strong));
+  return e;
+}
+
 CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<BoneSeed>& seeds,
-                                      const CompetingOptions& options) {
+                                      const CompetingOptions& given) {
   if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount() || !image.uniform() ||
       seeds.empty())
-    return segmentOnGrid(image, seeds, options);  // its errors
+    return segmentOnGrid(image, seeds, given);  // its errors
+  CompetingOptions options = given;
+  ThresholdEstimate estimate;
+  if (given.thresholdFromHistogram) {
+    std::vector<Eigen::Vector3i> voxels;
+    for (const BoneSeed& s : seeds) {
+      const Eigen::Vector3d v = image.lpsToVoxel(s.pointLps);
+      const Eigen::Vector3i q(static_cast<int>(std::lround(v.x())),
+                              static_cast<int>(std::lround(v.y())),
+                              static_cast<int>(std::lround(v.z())));
+      const auto& d = image.dimensions;
+      if (!s.pointLps.allFinite() || q.minCoeff() < 0 || q.x() >= d[0] || q.y() >= d[1] ||
+          q.z() >= d[2])
+        return segmentOnGrid(image, seeds, given);  // the outside-the-volume message
+      voxels.push_back(q);
+    }
+    estimate =
+        estimateBoneThreshold(image, voxels, given.thresholdBoxMm, given.metalHu, given.threshold);
+    options.threshold = estimate.threshold;
+  }
+  auto finish = [&](CompetingResult r) {
+    r.thresholdUsed = options.threshold;
+    r.thresholdFromHistogram = given.thresholdFromHistogram;
+    r.estimate = estimate;
+    return r;
+  };
   // Everything happens on the box of the bone voxels (plus a margin of 2): the distance map,
   // the hills, the flood and the masks cost the bones' size, not the field of view's.
   const VoxelMask bone = thresholdBone(image, options.threshold);
@@ -838,7 +1317,7 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
   }
   const Eigen::Vector3i last(d[0] - 1, d[1] - 1, d[2] - 1);
   if (hi.x() < 0 || ((lo.array() <= 2).all() && (hi.array() >= last.array() - 2).all()))
-    return segmentOnGrid(image, seeds, options);
+    return finish(segmentOnGrid(image, seeds, options));
   lo = (lo.array() - 2).max(0).matrix();
   hi = (hi.array() + 2).min(last.array()).matrix();
   // A seed inside the image but outside the box is in no bone: say why on the whole image.
@@ -850,7 +1329,7 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
     const bool inImage =
         s.pointLps.allFinite() && q.minCoeff() >= 0 && q.x() < d[0] && q.y() < d[1] && q.z() < d[2];
     if (!inImage)
-      return segmentOnGrid(image, seeds, options);  // the outside-the-volume message
+      return finish(segmentOnGrid(image, seeds, options));  // the outside-the-volume message
     if ((q.array() < lo.array()).any() || (q.array() > hi.array()).any()) {
       throw std::invalid_argument(
           fmt::format("{} ({})", notInBone(image, bone, q, s.pointLps, options.threshold), s.bone));
@@ -899,9 +1378,10 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
   expand(result.threshold);
   expand(result.unnamed);
   expand(result.metalMask);
+  expand(result.streakMask);
   for (SegmentedBone& s : result.bones)
     expand(s.mask);
-  return result;
+  return finish(std::move(result));
 }
 
 }  // namespace echoreg::segmentation

@@ -196,6 +196,29 @@ void maskBounds(const VoxelMask& mask, int pad, Eigen::Vector3i& lo, Eigen::Vect
 
 }  // namespace
 
+Eigen::Vector3d morphologyRadiiMm(const Eigen::Vector3d& spacingMm, double mm, double voxels) {
+  return spacingMm.cwiseProduct(Eigen::Vector3d::Constant(std::max(0.0, voxels)))
+      .cwiseMax(Eigen::Vector3d::Constant(mm));
+}
+
+VoxelMask dilateOrErode(const VoxelMask& mask, double mm, double voxels, bool grow) {
+  const Eigen::Vector3d spacing = mask.geometry.spacingMm();
+  const Eigen::Vector3d radii = morphologyRadiiMm(spacing, mm, voxels);
+  if ((radii.array() == mm).all() || !(mm > 0.0))
+    return grow ? dilate(mask, mm) : erode(mask, mm);
+  // An ellipsoid of these radii is the unit ball of the grid whose spacings are divided by them.
+  VoxelMask scaled = mask;
+  scaled.geometry.pixelSpacingMm =
+      Eigen::Vector2d(spacing.x() / radii.x(), spacing.y() / radii.y());
+  for (double& z : scaled.geometry.slicePositionsMm)
+    z /= radii.z();
+  for (auto& g : scaled.geometry.groups)
+    g.spacingMm /= radii.z();
+  VoxelMask out = grow ? dilate(scaled, 1.0) : erode(scaled, 1.0);
+  out.geometry = mask.geometry;
+  return out;
+}
+
 BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const VoxelMask* exclude,
                               const BoneSurfaceOptions& options) {
   requireUniform(ct, "boneSurface");
@@ -206,8 +229,9 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
   }
   if (region.count() == 0)
     throw std::invalid_argument("the bone's mask is empty");
-  const VoxelMask band = dilate(region, options.bandMm);
-  const VoxelMask interior = erode(region, options.interiorMm);
+  const VoxelMask band = dilateOrErode(region, options.bandMm, options.bandVoxels, true);
+  const VoxelMask interior =
+      dilateOrErode(region, options.interiorMm, options.interiorVoxels, false);
   auto excluded = [&](std::size_t i) {
     return exclude != nullptr && exclude->voxels[i] != 0 && region.voxels[i] == 0;
   };

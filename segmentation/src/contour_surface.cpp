@@ -571,4 +571,122 @@ VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImag
   return mask;
 }
 
+SliceCorrectionResult correctOnSlices(const VoxelMask& region,
+                                      const std::vector<SliceContour>& contours, double falloffMm) {
+  if (contours.empty())
+    throw std::invalid_argument("no corrected contour");
+  const CtImage& g = region.geometry;
+  if (!g.uniform() || region.voxels.size() != g.voxelCount() || g.voxelCount() == 0)
+    throw std::invalid_argument("correctOnSlices: the region is empty or not on a uniform grid");
+  const SlicePlane plane = contours.front().plane;
+  for (const auto& c : contours) {
+    if (c.plane != plane)
+      throw std::invalid_argument("the corrected contours lie in several plane families");
+  }
+  const int a = planeAxis(plane);
+  const int ua = a == 0 ? 1 : 0, va = a == 2 ? 1 : 2;  // the in-plane voxel axes
+  const auto& d = g.dimensions;
+  const Eigen::Vector3d spacing = g.spacingMm();
+  const int nu = d[sz(ua)], nv = d[sz(va)], nl = d[sz(a)];
+  // Each contour's layer and its loop in voxel coordinates (u, v).
+  std::map<int, std::vector<std::vector<Eigen::Vector2d>>> loops;
+  for (const auto& c : contours) {
+    if (c.pointsLps.size() < 3)
+      throw std::invalid_argument("a corrected contour has fewer than 3 points");
+    double along = 0.0;
+    std::vector<Eigen::Vector2d> loop;
+    for (const auto& p : c.pointsLps) {
+      const Eigen::Vector3d v = g.lpsToVoxel(p);
+      along += v[a];
+      loop.emplace_back(v[ua], v[va]);
+    }
+    const int layer =
+        static_cast<int>(std::lround(along / static_cast<double>(c.pointsLps.size())));
+    if (layer < 0 || layer >= nl) {
+      throw std::invalid_argument(
+          fmt::format("a corrected {} contour at {:.1f} mm lies outside "
+                      "the CT's slices",
+                      slicePlaneName(plane), c.positionMm));
+    }
+    loops[layer].push_back(std::move(loop));
+  }
+  auto index = [&](int l, int u, int v) {
+    int ijk[3];
+    ijk[a] = l;
+    ijk[ua] = u;
+    ijk[va] = v;
+    return g.index(ijk[0], ijk[1], ijk[2]);
+  };
+  // In-plane signed distance (mm, negative inside) of a u x v mask, capped (an empty layer is
+  // far outside everywhere).
+  CtImage plane2;
+  plane2.dimensions = {nu, nv, 1};
+  plane2.pixelSpacingMm = {spacing[ua], spacing[va]};
+  plane2.slicePositionsMm = {0.0};
+  auto signedDistance = [&](const std::vector<std::uint8_t>& m) {
+    VoxelMask mask;
+    mask.geometry = plane2;
+    mask.voxels = m;
+    const std::vector<float> out = squaredDistanceMm2(mask, true);
+    const std::vector<float> in = squaredDistanceMm2(mask, false);
+    std::vector<float> sd(m.size());
+    for (std::size_t i = 0; i < m.size(); ++i)
+      sd[i] = std::min(1e6f, m[i] ? -std::sqrt(in[i]) : std::sqrt(out[i]));
+    return sd;
+  };
+  std::map<int, std::vector<float>> corrected;
+  for (const auto& [layer, polys] : loops) {
+    std::vector<std::uint8_t> fill(sz(nu) * sz(nv), 0);
+    for (int v = 0; v < nv; ++v) {
+      for (int u = 0; u < nu; ++u) {
+        bool inside = false;
+        for (const auto& poly : polys) {
+          for (std::size_t i = 0, j = poly.size() - 1; i < poly.size(); j = i++) {
+            const Eigen::Vector2d& p = poly[i];
+            const Eigen::Vector2d& q = poly[j];
+            if ((p.y() > v) != (q.y() > v) &&
+                u < (q.x() - p.x()) * (v - p.y()) / (q.y() - p.y()) + p.x())
+              inside = !inside;
+          }
+        }
+        fill[sz(v) * sz(nu) + sz(u)] = inside ? 1 : 0;
+      }
+    }
+    corrected[layer] = signedDistance(fill);
+  }
+  SliceCorrectionResult result;
+  result.region = region;
+  result.slices = static_cast<int>(corrected.size());
+  const int reach = std::max(0, static_cast<int>(std::floor(falloffMm / spacing[a])));
+  for (int l = 0; l < nl; ++l) {
+    int best = -1;  // the nearest corrected layer within reach
+    for (const auto& entry : corrected) {
+      const int layer = entry.first;
+      if (std::abs(layer - l) <= reach && (best < 0 || std::abs(layer - l) < std::abs(best - l)))
+        best = layer;
+    }
+    if (best < 0)
+      continue;
+    const double w = 1.0 - std::abs(best - l) / static_cast<double>(reach + 1);
+    std::vector<std::uint8_t> mine(sz(nu) * sz(nv));
+    for (int v = 0; v < nv; ++v)
+      for (int u = 0; u < nu; ++u)
+        mine[sz(v) * sz(nu) + sz(u)] = region.voxels[index(l, u, v)];
+    const std::vector<float> own = signedDistance(mine);
+    const std::vector<float>& want = corrected[best];
+    for (int v = 0; v < nv; ++v) {
+      for (int u = 0; u < nu; ++u) {
+        const std::size_t p = sz(v) * sz(nu) + sz(u);
+        const double blended = l == best ? want[p] : (1.0 - w) * own[p] + w * want[p];
+        const std::uint8_t now = blended < 0.0 ? 1 : 0;
+        std::uint8_t& out = result.region.voxels[index(l, u, v)];
+        result.added += now && !out ? 1u : 0u;
+        result.removed += !now && out ? 1u : 0u;
+        out = now;
+      }
+    }
+  }
+  return result;
+}
+
 }  // namespace echoreg::segmentation

@@ -149,6 +149,10 @@ std::unique_ptr<SimulatedKnee> buildSimulatedKnee(const KneeVariant& variant) {
     key = (key ^ static_cast<std::uint64_t>(std::llround(variant.halfRangeMm * 16.0))) *
           1099511628211ULL;
   }
+  if (variant.sliceMm != 1.0) {
+    key = (key ^ static_cast<std::uint64_t>(std::llround(variant.sliceMm * 256.0 + 7.0))) *
+          1099511628211ULL;
+  }
   const std::string cache = cachePath(key);
   if (loadCache(cache, *s)) {
     std::cout << "[ fixture  ] simulated knee CT " << s->ct.dimensions[0] << " x "
@@ -170,6 +174,7 @@ std::unique_ptr<SimulatedKnee> buildSimulatedKnee(const KneeVariant& variant) {
   protocol.groups = {protocol.groups[1]};
   protocol.groups[0].firstZMm = s->knee.kneeCentre.z() - variant.halfRangeMm;
   protocol.groups[0].lastZMm = s->knee.kneeCentre.z() + variant.halfRangeMm;
+  protocol.groups[0].spacingMm = variant.sliceMm;
   protocol.columns = 144;
   protocol.rows = 144;
   protocol.centreXYMm = s->knee.kneeCentre.head<2>();
@@ -199,7 +204,8 @@ const SimulatedKnee& simulatedKnee(const KneeVariant& variant) {
   for (const auto& [v, knee] : built) {
     if (v.tibiofemoralGapMm == variant.tibiofemoralGapMm &&
         v.patellofemoralGapMm == variant.patellofemoralGapMm &&
-        v.cancellousHu == variant.cancellousHu && v.halfRangeMm == variant.halfRangeMm)
+        v.cancellousHu == variant.cancellousHu && v.halfRangeMm == variant.halfRangeMm &&
+        v.sliceMm == variant.sliceMm)
       return *knee;
   }
   built.emplace_back(variant, buildSimulatedKnee(variant));

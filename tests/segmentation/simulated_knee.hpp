@@ -26,6 +26,7 @@ struct KneeVariant {
   double patellofemoralGapMm = 4.0;
   double cancellousHu = 300.0;  ///< the simulator's tissue table's
   double halfRangeMm = 32.0;    ///< slices over the knee centre +- this
+  double sliceMm = 1.0;         ///< slice spacing (and thickness): 3 mm, or the hip's 5 mm
 };
 
 /// The shared knee (built on first use).

@@ -119,6 +119,10 @@ TEST(RealCt, HipBonesAndSacrumFromOneSeedEach) {
   const double seconds =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   ASSERT_EQ(result.bones.size(), 3u);
+  std::cout << "[ measured ] threshold " << result.thresholdUsed.strongHu << " / "
+            << result.thresholdUsed.weakHu << " HU from the histogram (soft tissue "
+            << result.estimate.softTissueHu << ", noise " << result.estimate.noiseHu << ", cortex "
+            << result.estimate.cortexHu << ")\n";
   for (const auto& b : result.bones) {
     std::cout << "[ measured ] " << b.bone << ": " << b.volumeMm3 / 1000.0 << " cm^3, extent "
               << b.extentMm.transpose() << " mm\n";

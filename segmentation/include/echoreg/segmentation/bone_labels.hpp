@@ -11,6 +11,7 @@
 
 #include "echoreg/segmentation/bone_mask.hpp"
 #include "echoreg/segmentation/ct_image.hpp"
+#include "echoreg/segmentation/livewire_contours.hpp"
 
 #include <Eigen/Core>
 
@@ -25,8 +26,38 @@ struct BoneSeed {
   Eigen::Vector3d pointLps = Eigen::Vector3d::Zero();
 };
 
+/// The bone threshold of this patient, from the CT's histogram around the seeds (see
+/// estimateBoneThreshold).
+struct ThresholdEstimate {
+  double softTissueHu = 0.0;     ///< the soft tissue's peak (mode within -200..200 HU)
+  double noiseHu = 0.0;          ///< its spread (1.4826 MAD of the voxels within 60 HU of the peak)
+  double cortexHu = 0.0;         ///< the cortex (median of the brightest 2 %, metal left out)
+  std::vector<double> marrowHu;  ///< per seed: the median of its 3 x 3 x 3 voxels
+  BoneThreshold threshold;       ///< the levels chosen
+  /// The surface's cortexMinHu for this CT: min(600, S + 0.7 (C - S)) (600 when not estimated).
+  double surfaceCortexMinHu = 600.0;
+  std::size_t voxels = 0;  ///< voxels of the boxes looked at
+};
+
+/// The threshold for this CT from the histogram of boxes of +-`radiusMm` around the seeds
+/// (voxel indices, in the image): strong = S + 0.41 (C - S) and weak = S + 0.29 (strong - S),
+/// S the soft tissue's peak and C the cortex; weak at least S + 4 noise, both capped at
+/// `ceiling` (the fixed defaults, 600 / 200 HU: they are right for a well mineralised bone, and
+/// the estimate only lowers them for faint bone or a soft cortex at thick slices); floors S + 200
+/// and S + 80. The factors give 575 / 199 HU on the simulated knee (S 45, C 1337 HU), whose
+/// accuracy is that of 600 / 200. Throws std::invalid_argument for an
+/// empty image or no seed.
+ThresholdEstimate estimateBoneThreshold(const CtImage& image,
+                                        const std::vector<Eigen::Vector3i>& seedVoxels,
+                                        double radiusMm = 30.0, double metalHu = 2500.0,
+                                        const BoneThreshold& ceiling = {});
+
 struct CompetingOptions {
   BoneThreshold threshold;
+  /// The threshold from this CT's histogram around the seeds (estimateBoneThreshold, capped at
+  /// `threshold`); false: `threshold` as given (--threshold-hu).
+  bool thresholdFromHistogram = true;
+  double thresholdBoxMm = 30.0;  ///< the boxes' half size around each seed, mm
   /// Marrow and other enclosed background filled (see fillHoles), with the scan's first and last
   /// slices counted as closed: a canal cut by the scan's end is filled too.
   double maxSliceHoleMm2 = 2000.0;
@@ -55,6 +86,18 @@ struct CompetingOptions {
   /// of every bone and reported.
   double metalHu = 2500.0;
   double minMetalMm3 = 20.0;
+  /// Streaks around metal (beam hardening, photon starvation): on each axial slice through a
+  /// piece, rays every 2 degrees from its centre out to streakReachMm; a voxel is a streak's when
+  /// it differs by streakHu or more from the median of the ray samples within +-10 degrees at its
+  /// radius (a streak is a few degrees wide; a bone spans tens) along a run of at least
+  /// streakRunMm of the ray with one sign. Bright streak voxels are left out of the bone
+  /// threshold (a streak cannot join or bridge bone) and, with the dark ones, out of the surface.
+  bool detectStreaks = true;
+  double streakReachMm = 60.0;
+  double streakHu = 150.0;
+  double streakRunMm = 10.0;
+  /// Refuse (throw, naming the metal: where, how large) instead of segmenting around it.
+  bool refuseMetal = false;
   /// Smallest acceptable bone, mm^3.
   double minVolumeMm3 = 500.0;
   /// Volume and extent checked against what the named bone can be (femur, tibia, fibula,
@@ -68,6 +111,9 @@ struct MetalPiece {
   double volumeMm3 = 0.0;
   int maxHu = 0;
   std::string touches;  ///< the bone it lies in or on ("" when none)
+  std::size_t brightStreakVoxels = 0, darkStreakVoxels = 0;  ///< around it (see detectStreaks)
+  int streakSlices = 0;                                      ///< axial slices with a streak
+  double streakReachMm = 0.0;  ///< the farthest streak voxel from the piece's centre, in plane
 };
 
 struct SegmentedBone {
@@ -90,8 +136,13 @@ struct CompetingResult {
   /// The metal voxels left out (pieces of minMetalMm3 or more): boneSurface's `exclude` too, so
   /// an implant's brightness does not pull the surface onto it.
   VoxelMask metalMask;
+  /// The streak voxels (bright and dark) around the metal: boneSurface's `exclude` too.
+  VoxelMask streakMask;
   double markerDynamicMm = 0.0, sameBoneDynamicMm = 0.0;  ///< the values used
   double jointSideHu = 0.0, jointDipHu = 0.0;
+  BoneThreshold thresholdUsed;  ///< the levels the segmentation used
+  bool thresholdFromHistogram = false;
+  ThresholdEstimate estimate;  ///< when the levels came from the histogram
 };
 
 /// Segments the bones of `seeds` in a uniform `image` against each other and against the
@@ -101,6 +152,40 @@ struct CompetingResult {
 /// bone implausible for its name (what it is, what it should be, what to do).
 CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<BoneSeed>& seeds,
                                       const CompetingOptions& options = {});
+
+/// Where the automatic boundary of a bone is uncertain, per slice of a plane family: the part of
+/// the region's boundary (its voxels with a 6-neighbour outside it) that touches another bone
+/// (the watershed's boundary: a joint, where the CT cannot show which bone a voxel is), or
+/// that has little contrast (the voxel less than lowContrastHu brighter than the outside
+/// neighbour: faint bone, a blurred joint).
+struct UncertaintyOptions {
+  /// The slab of voxels each slice stands for: +- this about its position, mm; 0: half the
+  /// distance to the next slice (at least half a voxel).
+  double halfWidthMm = 0.0;
+  double lowContrastHu = 100.0;
+  /// A slice is uncertain from this share of its boundary touching another bone on ...
+  double minShare = 0.05;
+  /// ... or this share with little contrast (a thin cortex at 3 mm slices shows ~10 % of its
+  /// boundary below 100 HU of contrast on every slice of the real CT's hip bone: not a reason).
+  double minLowContrastShare = 0.25;
+};
+
+struct SliceUncertainty {
+  double positionMm = 0.0;  ///< along the plane's normal (LPS x, y or z)
+  std::size_t boundaryVoxels = 0, contactVoxels = 0, lowContrastVoxels = 0;
+  double share = 0.0;  ///< (contact + low contrast) / boundary
+  double contactShare = 0.0, lowContrastShare = 0.0;
+  std::vector<std::string> neighbours;  ///< the bones touched, most contact first
+  bool uncertain = false;
+};
+
+/// The uncertainty of each slice at `positionsMm` (sorted or not) of `plane` for `region`
+/// against `neighbours` (name, mask on the same grid; "" for bones found automatically). `ct` is
+/// uniform; throws std::invalid_argument for grids that differ.
+std::vector<SliceUncertainty> sliceUncertainty(
+    const CtImage& ct, const VoxelMask& region,
+    const std::vector<std::pair<std::string, const VoxelMask*>>& neighbours, SlicePlane plane,
+    const std::vector<double>& positionsMm, const UncertaintyOptions& options = {});
 
 /// Why a bone of this name cannot have this volume / extent ("" when it can). Names known:
 /// femur, tibia, fibula, patella, hip / ilium / hip bone, sacrum, pelvis, vertebra, humerus

@@ -86,4 +86,24 @@ struct ContourMaskOptions {
 VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImage& grid,
                          const ContourMaskOptions& options = {});
 
+struct SliceCorrectionResult {
+  VoxelMask region;
+  std::size_t added = 0, removed = 0;  ///< voxels, against the region given
+  int slices = 0;                      ///< voxel layers the contours lie on
+};
+
+/// A few slices corrected by the user (live-wire contours on the slices `--anchors-where
+/// uncertain` proposed) put into an automatic `region` (uniform grid, axis-aligned direction):
+/// on the voxel layer of each contour (its points' mean along the plane's normal, rounded) the
+/// region becomes the contours' even-odd fill; on the layers within `falloffMm` of it the
+/// in-plane signed distances of the region and of the contour are blended, the contour's weight
+/// falling linearly from 1 toward 0 (each layer takes its nearest corrected layer), so the
+/// correction fades into the automatic model instead of leaving a step. A slice where the bone
+/// should be absent cannot be said this way (a curve needs 3 points). Throws
+/// std::invalid_argument for no contour, contours of several plane families, or a contour
+/// outside the grid.
+SliceCorrectionResult correctOnSlices(const VoxelMask& region,
+                                      const std::vector<SliceContour>& contours,
+                                      double falloffMm = 3.0);
+
 }  // namespace echoreg::segmentation

@@ -1,0 +1,223 @@
+// echoreg segment (issue 13): --seed's help and its values per occurrence, and
+// --anchors-where uncertain on a phantom of two bones that touch over part of the scan only: the
+// proposed axial slices are those where they touch.
+#include "cli_test_support.hpp"
+#include "test_support.hpp"
+
+#include "echoreg/core/markups.hpp"
+#include "echoreg/simulation/ct.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+
+namespace echoreg {
+namespace {
+
+using test::runEchoreg;
+namespace fs = std::filesystem;
+
+// A tube (outer radius 10 mm, cortex 3 mm, marrow -60 HU) at x = y = 0 over z -15..14, and a rod
+// of radius 5 at x = 15 touching it, only for |z| <= 5; soft tissue 40 HU.
+double phantomHu(double x, double y, double z, bool metal) {
+  if (metal && std::abs(x + 12.0) <= 1.5 && std::abs(y) <= 3.0 && std::abs(z) <= 6.0)
+    return 3000.0;  // a screw's head on the tube's side
+  const double r = std::hypot(x, y);
+  if (r <= 10.0)
+    return r > 7.0 ? 1500.0 : -60.0;
+  if (std::abs(z) <= 5.0 && std::hypot(x - 15.0, y) <= 5.0)
+    return 1400.0;
+  return 40.0;
+}
+
+std::string writePhantom(const std::string& folder, bool metal = false) {
+  simulation::CtVolume v;
+  v.columns = 56;
+  v.rows = 40;
+  v.pixelSpacingMm = 0.8;
+  v.firstPixelXYMm = {-16.0, -16.0};
+  v.groupNames = {"knee"};
+  for (int k = 0; k < 30; ++k)
+    v.sliceZMm.push_back(-15.0 + k), v.sliceGroup.push_back(0), v.sliceThicknessMm.push_back(1.0);
+  v.hu.resize(static_cast<std::size_t>(v.columns * v.rows * v.slices()));
+  for (int k = 0; k < v.slices(); ++k) {
+    for (int j = 0; j < v.rows; ++j) {
+      for (int i = 0; i < v.columns; ++i) {
+        const Eigen::Vector3d c = v.voxelCentreMm(i, j, k);
+        double sum = 0.0;
+        for (int a = 0; a < 4; ++a) {
+          for (int b = 0; b < 4; ++b)
+            sum += phantomHu(c.x() + (a - 1.5) * 0.2, c.y() + (b - 1.5) * 0.2, c.z(), metal);
+        }
+        v.hu[v.index(i, j, k)] = static_cast<std::int16_t>(std::lround(sum / 16.0));
+      }
+    }
+  }
+  simulation::DicomSeriesInfo info;
+  info.patientId = "PHANTOM";
+  info.uidSeed = 13;
+  simulation::writeDicomSeries(folder, v, info);
+  return folder;
+}
+
+TEST(CliSegmentSeeds, HelpShowsWhatASeedTakes) {
+  const auto r = runEchoreg({"segment", "--help"});
+  EXPECT_EQ(r.exitCode, 0);
+  EXPECT_NE(r.out.find("--seed [BONE] X Y Z"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("--seed TEXT x 3"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("--anchors-where"), std::string::npos) << r.out;
+}
+
+TEST(CliSegmentSeeds, EachSeedTakesANameAndThreeNumbersOrThreeNumbers) {
+  const test::TempDir dir;
+  for (const std::vector<std::string>& seed : std::vector<std::vector<std::string>>{
+           {"femur", "1", "2"}, {"1", "2"}, {"femur", "1", "2", "x"}, {"1", "2", "3", "4"}}) {
+    std::vector<std::string> args = {"segment", "--dicom", dir.path(),        "--bone", "femur",
+                                     "--auto",  "--out",   dir.file("m.vtp"), "--seed"};
+    args.insert(args.end(), seed.begin(), seed.end());
+    args.insert(args.end(), {"--seed", "tibia", "4", "5", "6"});
+    const auto r = runEchoreg(args);
+    EXPECT_EQ(r.exitCode, 2) << seed.size() << " values: " << r.err;
+    EXPECT_NE(r.err.find("takes [BONE] X Y Z"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(dir.file("m.vtp")));
+  }
+}
+
+TEST(CliSegmentSeeds, AnchorsOnlyWhereTheBonesTouch) {
+  const test::TempDir dir;
+  const std::string series = writePhantom(dir.file("ct"));
+  const std::string anchors = dir.file("a.mrk.json"), model = dir.file("m.vtp");
+  const auto r = runEchoreg({"segment",
+                             "--dicom",
+                             series,
+                             "--bone",
+                             "femur",
+                             "--auto",
+                             "--seed",
+                             "femur",
+                             "0",
+                             "5",
+                             "0",
+                             "--seed",
+                             "tibia",
+                             "15",
+                             "0",
+                             "0",
+                             "--out",
+                             model,
+                             "--plane",
+                             "axial",
+                             "--slices",
+                             "10",
+                             "--anchors-where",
+                             "uncertain",
+                             "--anchors-out",
+                             anchors,
+                             "--json"});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto json = nlohmann::json::parse(r.out);
+  const auto& slices = json["anchors_out"]["slices"];
+  ASSERT_EQ(slices.size(), 10u);
+  int uncertain = 0;
+  for (const auto& s : slices) {
+    const double z = s["position_mm"].get<double>();
+    if (!s["uncertain"].get<bool>()) {
+      EXPECT_GT(std::abs(z), 4.0) << "z " << z << " touches the rod but is not uncertain";
+      continue;
+    }
+    ++uncertain;
+    // The rod ends at |z| = 5; a slice stands for +-1.5 mm (half the 3 mm between the 10), and
+    // the tube's voxel one slice beyond the rod's end touches it through its face.
+    EXPECT_LE(std::abs(z), 5.0 + 1.0 + 1.5 + 0.1) << "z " << z << " is uncertain away from it";
+    ASSERT_FALSE(s["touches"].empty());
+    EXPECT_EQ(s["touches"][0], "tibia");
+  }
+  EXPECT_GE(uncertain, 2);
+  EXPECT_LE(uncertain, 5);
+  EXPECT_EQ(json["anchors_out"]["contours"].get<int>(), uncertain);
+  const auto curves = core::readMarkups(anchors);
+  ASSERT_EQ(static_cast<int>(curves.size()), uncertain);
+  EXPECT_NE(curves[0].name.find("touches tibia"), std::string::npos) << curves[0].name;
+  EXPECT_EQ(json["threshold"]["from"], "histogram");
+}
+
+// A corrected slice fed back with --auto: live-wire through its anchors replaces the automatic
+// boundary there (reported), the model stays closed; a corrections file that is not JSON fails
+// naming it and writes nothing; --corrections without --auto is wrong usage.
+TEST(CliSegmentSeeds, CorrectionsOnAFewSlices) {
+  const test::TempDir dir;
+  const std::string series = writePhantom(dir.file("ct"));
+  const std::string model = dir.file("m.vtp"), fix = dir.file("fix.mrk.json");
+  // The tube's edge on axial slice z = 0 (8 anchors on r = 10 mm), as a user would click it.
+  core::Markup curve;
+  curve.type = "ClosedCurve";
+  curve.name = "corrected z 0";
+  for (int a = 0; a < 8; ++a) {
+    const double t = a * 3.14159265358979 / 4.0;
+    curve.points.push_back({"c-" + std::to_string(a + 1),
+                            Eigen::Vector3d(10.0 * std::cos(t), 10.0 * std::sin(t), 0.0)});
+  }
+  core::writeMarkups(fix, {curve});
+  const std::vector<std::string> base = {"segment", "--dicom", series, "--bone", "femur", "--auto",
+                                         "--seed",  "femur",   "0",    "5",      "0",     "--seed",
+                                         "tibia",   "15",      "0",    "0",      "--out", model};
+  std::vector<std::string> args = base;
+  args.insert(args.end(), {"--corrections", fix, "--json"});
+  auto r = runEchoreg(args);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto json = nlohmann::json::parse(r.out);
+  ASSERT_TRUE(json.contains("corrections")) << r.out;
+  EXPECT_EQ(json["corrections"]["contours"], 1);
+  EXPECT_EQ(json["corrections"]["slices"], 1);
+  // The tube's edge where the automatic region had it: a few voxels either way, not hundreds.
+  EXPECT_LT(json["corrections"]["voxels_added"].get<int>() +
+                json["corrections"]["voxels_removed"].get<int>(),
+            200);
+  EXPECT_TRUE(json["surface"]["closed"].get<bool>());
+  fs::remove(model);
+  std::ofstream(dir.file("bad.mrk.json")) << "not json";
+  args = base;
+  args.insert(args.end(), {"--corrections", dir.file("bad.mrk.json")});
+  r = runEchoreg(args);
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("bad.mrk.json"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(model));
+  r = runEchoreg({"segment", "--dicom", series, "--bone", "femur", "--anchors", fix,
+                  "--corrections", fix, "--out", model});
+  EXPECT_EQ(r.exitCode, 2) << r.err;
+}
+
+// Metal beside the tube: reported with its streak counts, or refused with --refuse-metal
+// (exit 1, naming it, nothing written).
+TEST(CliSegmentSeeds, MetalIsReportedOrRefused) {
+  const test::TempDir dir;
+  const std::string series = writePhantom(dir.file("ct"), true);
+  const std::string model = dir.file("m.vtp");
+  const std::vector<std::string> base = {"segment", "--dicom", series, "--bone", "femur", "--auto",
+                                         "--seed",  "femur",   "0",    "5",      "0",     "--seed",
+                                         "tibia",   "15",      "0",    "0",      "--out", model};
+  std::vector<std::string> args = base;
+  args.push_back("--json");
+  auto r = runEchoreg(args);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto json = nlohmann::json::parse(r.out);
+  ASSERT_EQ(json["metal"].size(), 1u);
+  EXPECT_EQ(json["metal"][0]["touches"], "femur");
+  EXPECT_TRUE(json["metal"][0].contains("streak_slices"));
+  EXPECT_TRUE(json["metal"][0].contains("bright_streak_voxels"));
+  EXPECT_TRUE(fs::exists(model));
+  fs::remove(model);
+  args = base;
+  args.push_back("--refuse-metal");
+  r = runEchoreg(args);
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("metal (an implant?)"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(series), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(model));
+}
+
+}  // namespace
+}  // namespace echoreg
