@@ -11,6 +11,7 @@
 #include <vtkPointData.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 
+#include <algorithm>
 #include <cstring>
 #include <exception>
 #include <system_error>
@@ -64,6 +65,13 @@ void vtkEchoregSequenceReader::SetFileName(const std::string& fileName) {
   this->Modified();
 }
 
+void vtkEchoregSequenceReader::SetRigidPoseTransforms(const std::vector<std::string>& names) {
+  if (this->RigidPoseTransforms == names)
+    return;
+  this->RigidPoseTransforms = names;
+  this->Modified();
+}
+
 void vtkEchoregSequenceReader::Fail(const std::string& message) {
   this->LastError = message;
   vtkErrorMacro(<< message);
@@ -89,6 +97,7 @@ bool vtkEchoregSequenceReader::ReadIfNeeded() {
 
   this->CacheValid = false;
   this->Sequence = echoreg::Sequence();
+  this->RigidPoseReports.clear();
   try {
     ++this->ReadCount;
     echoreg::Sequence sequence = echoreg::readSequence(this->FileName);
@@ -100,6 +109,13 @@ bool vtkEchoregSequenceReader::ReadIfNeeded() {
     }
     if (sequence.hasPixels() && vtkScalarType(sequence.elementType) == VTK_VOID) {
       throw echoreg::FileError(this->FileName, "unsupported element type");
+    }
+    const std::vector<std::string> held = sequence.transformNames();
+    for (const std::string& name : this->RigidPoseTransforms) {
+      if (name.empty() || std::find(held.begin(), held.end(), name) == held.end())
+        continue;
+      this->RigidPoseReports.emplace_back(
+          name, echoreg::enforceRigidPoses(sequence, this->FileName, name));
     }
     this->Sequence = std::move(sequence);
   } catch (const std::exception& exception) {
@@ -186,6 +202,10 @@ void vtkEchoregSequenceReader::PrintSelf(ostream& os, vtkIndent indent) {
   os << indent << "Frames: " << this->Sequence.frameCount() << "\n";
   os << indent << "ElementType: " << echoreg::elementTypeName(this->Sequence.elementType) << "\n";
   os << indent << "SamplesPerFrame: " << this->Sequence.samplesPerFrame() << "\n";
+  os << indent << "RigidPoseTransforms:";
+  for (const std::string& name : this->RigidPoseTransforms)
+    os << " " << name;
+  os << "\n";
   os << indent << "LastError: " << (this->LastError.empty() ? "(none)" : this->LastError) << "\n";
   os << indent << "ExecutionCount: " << this->ExecutionCount << "\n";
   os << indent << "ReadCount: " << this->ReadCount << "\n";
