@@ -1,0 +1,254 @@
+// The CT-side algorithms as pipeline steps: CT -> vtkEchoregBoneGrowthFilter ->
+// vtkEchoregBoneSurfaceFilter, and CT -> vtkEchoregLiveWireFilter. Each equals the segmentation
+// function it adapts on the same CT; a change re-runs only what is downstream of it; errors go
+// through the executive.
+#include "echoreg/segmentation/bone_mask.hpp"
+#include "echoreg/segmentation/bone_surface.hpp"
+#include "echoreg/segmentation/contour_surface.hpp"
+#include "echoreg/segmentation/livewire_contours.hpp"
+#include "echoreg/segmentation/vtkEchoregBoneGrowthFilter.h"
+#include "echoreg/segmentation/vtkEchoregBoneSurfaceFilter.h"
+#include "echoreg/segmentation/vtkEchoregDicomSeriesReader.h"
+#include "echoreg/segmentation/vtkEchoregLiveWireFilter.h"
+
+#include <gtest/gtest.h>
+
+#include <vtkDataArray.h>
+#include <vtkExecutive.h>
+#include <vtkFieldData.h>
+#include <vtkImageData.h>
+#include <vtkLogger.h>
+#include <vtkNew.h>
+#include <vtkOutputWindow.h>
+#include <vtkPointData.h>
+#include <vtkPolyData.h>
+#include <vtkStringOutputWindow.h>
+#include <vtkTrivialProducer.h>
+
+#include <cmath>
+#include <sstream>
+
+namespace {
+
+using namespace echoreg;
+using segmentation::CtImage;
+
+// VTK's messages into a string while it lives (the errors these tests provoke).
+class QuietVtk {
+ public:
+  QuietVtk() : previous_(vtkOutputWindow::GetInstance()) {
+    vtkOutputWindow::SetInstance(window_);
+    vtkLogger::SetStderrVerbosity(vtkLogger::VERBOSITY_OFF);
+  }
+  ~QuietVtk() { vtkOutputWindow::SetInstance(previous_); }
+  std::string text() const { return window_->GetOutput(); }
+
+ private:
+  vtkSmartPointer<vtkOutputWindow> previous_;
+  vtkSmartPointer<vtkStringOutputWindow> window_ = vtkSmartPointer<vtkStringOutputWindow>::New();
+};
+
+// A hollow ellipsoidal "bone" (semi-axes 14, 10, 16 mm; cortex 2.5 mm of 1400 HU, marrow 80 HU)
+// in soft tissue of 35 HU, on a grid of 0.8 x 0.8 x 1 mm, with partial volume (3^3 sub-samples).
+CtImage ellipsoidCt() {
+  const Eigen::Vector3i n(48, 40, 44);
+  const Eigen::Vector3d spacing(0.8, 0.8, 1.0);
+  CtImage ct;
+  ct.dimensions = {n.x(), n.y(), n.z()};
+  ct.pixelSpacingMm = spacing.head<2>();
+  ct.originMm = Eigen::Vector3d(-20.0, -18.0, -500.0);
+  for (int k = 0; k < n.z(); ++k)
+    ct.slicePositionsMm.push_back(k * spacing.z());
+  ct.groups = {{0, n.z(), spacing.z()}};
+  const Eigen::Vector3d centre = ct.originMm + Eigen::Vector3d(19.0, 15.6, 21.5);
+  const auto hu = [&](const Eigen::Vector3d& p) {
+    const Eigen::Vector3d q = (p - centre).cwiseQuotient(Eigen::Vector3d(14, 10, 16));
+    const double r = q.norm();
+    if (r > 1.0)
+      return 35.0;
+    return r > 1.0 - 2.5 / 12.0 ? 1400.0 : 80.0;
+  };
+  ct.hu.resize(ct.voxelCount());
+  for (int k = 0; k < n.z(); ++k) {
+    for (int j = 0; j < n.y(); ++j) {
+      for (int i = 0; i < n.x(); ++i) {
+        const Eigen::Vector3d c = ct.voxelToLps(Eigen::Vector3d(i, j, k));
+        double sum = 0.0;
+        for (int a = -1; a <= 1; ++a) {
+          for (int b = -1; b <= 1; ++b) {
+            for (int d = -1; d <= 1; ++d)
+              sum += hu(c + Eigen::Vector3d(a, b, d).cwiseProduct(spacing) / 3.0);
+          }
+        }
+        ct.hu[ct.index(i, j, k)] = static_cast<std::int16_t>(std::lround(sum / 27.0));
+      }
+    }
+  }
+  return ct;
+}
+
+Eigen::Vector3d centreOf(const CtImage& ct) {
+  return ct.originMm + Eigen::Vector3d(19.0, 15.6, 21.5);
+}
+
+std::vector<std::uint8_t> maskVoxels(vtkImageData* image) {
+  vtkDataArray* scalars = image->GetPointData()->GetScalars();
+  std::vector<std::uint8_t> voxels(static_cast<std::size_t>(scalars->GetNumberOfTuples()));
+  for (std::size_t v = 0; v < voxels.size(); ++v)
+    voxels[v] = static_cast<std::uint8_t>(scalars->GetComponent(static_cast<vtkIdType>(v), 0));
+  return voxels;
+}
+
+struct SegmentationPipeline {
+  CtImage ct = ellipsoidCt();
+  vtkNew<vtkTrivialProducer> source;
+  vtkNew<vtkEchoregBoneGrowthFilter> growth;
+  vtkNew<vtkEchoregBoneSurfaceFilter> surface;
+  vtkNew<vtkEchoregLiveWireFilter> liveWire;
+  SegmentationPipeline() {
+    source->SetOutput(segmentation::toImageData(ct));
+    growth->SetInputConnection(source->GetOutputPort());
+    const Eigen::Vector3d seed = centreOf(ct);
+    growth->SetSeedLps(seed.x(), seed.y(), seed.z());
+    surface->SetInputConnection(0, source->GetOutputPort());
+    surface->SetRegionConnection(growth->GetOutputPort(0));
+    surface->SetExcludeConnection(growth->GetOutputPort(1));
+    liveWire->SetInputConnection(source->GetOutputPort());
+  }
+};
+
+TEST(BoneGrowthFilter, EqualsGrowBone) {
+  SegmentationPipeline pipeline;
+  pipeline.growth->Update();
+  ASSERT_EQ(pipeline.growth->GetLastError(), "");
+  const segmentation::GrowResult expected =
+      segmentation::growBone(pipeline.ct, centreOf(pipeline.ct));
+  vtkImageData* mask = pipeline.growth->GetOutput(0);
+  EXPECT_EQ(maskVoxels(mask), expected.mask.voxels);
+  EXPECT_EQ(maskVoxels(pipeline.growth->GetOutput(1)), expected.others.voxels);
+  EXPECT_EQ(pipeline.growth->GetLastResult().volumeMm3, expected.volumeMm3);
+  EXPECT_EQ(pipeline.growth->GetLastResult().seedHu, 80) << "the seed lies in the marrow";
+  const double ellipsoid = 4.0 / 3.0 * M_PI * 14 * 10 * 16;
+  EXPECT_GT(expected.volumeMm3, 0.9 * ellipsoid);
+  EXPECT_LT(expected.volumeMm3, 1.2 * ellipsoid);
+  double origin[3];
+  mask->GetOrigin(origin);
+  EXPECT_EQ(origin[2], pipeline.ct.originMm.z()) << "the mask lies on the CT's grid";
+  ASSERT_NE(mask->GetFieldData()->GetArray("VolumeMm3"), nullptr);
+}
+
+TEST(BoneSurfaceFilter, EqualsBoneSurfaceOnTheGrownRegion) {
+  SegmentationPipeline pipeline;
+  pipeline.surface->Update();
+  ASSERT_EQ(pipeline.surface->GetLastError(), "") << pipeline.growth->GetLastError();
+  const segmentation::GrowResult grown = segmentation::growBone(pipeline.ct, centreOf(pipeline.ct));
+  const segmentation::BoneSurfaceResult expected =
+      segmentation::boneSurface(pipeline.ct, grown.mask, &grown.others);
+  vtkPolyData* output = pipeline.surface->GetOutput();
+  ASSERT_EQ(output->GetNumberOfPoints(), static_cast<vtkIdType>(expected.mesh.vertices.size()));
+  EXPECT_EQ(output->GetNumberOfPolys(), static_cast<vtkIdType>(expected.mesh.triangles.size()));
+  for (vtkIdType id = 0; id < output->GetNumberOfPoints(); id += 97) {
+    double p[3];
+    output->GetPoint(id, p);
+    const Eigen::Vector3d& v = expected.mesh.vertices[static_cast<std::size_t>(id)];
+    EXPECT_NEAR(p[0], v.x(), 1e-5);  // vtkPoints of toPolyData: float
+    EXPECT_NEAR(p[1], v.y(), 1e-5);
+    EXPECT_NEAR(p[2], v.z(), 1e-4);
+  }
+  EXPECT_EQ(pipeline.surface->GetLastResult().isoHu, expected.isoHu);
+  EXPECT_EQ(pipeline.surface->GetLastResult().components, 1);
+}
+
+TEST(LiveWireFilter, EqualsLiveWireContourAndContoursToMask) {
+  SegmentationPipeline pipeline;
+  const segmentation::GrowResult grown = segmentation::growBone(pipeline.ct, centreOf(pipeline.ct));
+  const core::TriangleMesh mesh =
+      segmentation::boneSurface(pipeline.ct, grown.mask, &grown.others).mesh;
+  const std::vector<segmentation::AnchorSet> anchors =
+      segmentation::proposeAnchors(mesh, segmentation::SlicePlane::Sagittal, 6);
+  ASSERT_EQ(anchors.size(), 6U);
+  pipeline.liveWire->SetAnchors(anchors);
+  pipeline.liveWire->Update();
+  ASSERT_EQ(pipeline.liveWire->GetLastError(), "");
+
+  std::vector<segmentation::SliceContour> expected;
+  for (const auto& set : anchors)
+    expected.push_back(segmentation::liveWireContour(pipeline.ct, set));
+  ASSERT_EQ(pipeline.liveWire->GetLastContours().size(), expected.size());
+  for (std::size_t c = 0; c < expected.size(); ++c) {
+    EXPECT_EQ(pipeline.liveWire->GetLastContours()[c].pointsLps, expected[c].pointsLps) << c;
+  }
+  vtkPolyData* contours = pipeline.liveWire->GetOutput(0);
+  EXPECT_EQ(contours->GetNumberOfLines(), 6);
+  const segmentation::VoxelMask mask = segmentation::contoursToMask(expected, pipeline.ct);
+  EXPECT_EQ(maskVoxels(vtkImageData::SafeDownCast(pipeline.liveWire->GetOutputDataObject(1))),
+            mask.voxels);
+  EXPECT_GT(mask.count(), 1000U);
+}
+
+TEST(SegmentationPipeline, AChangeReRunsOnlyWhatIsDownstream) {
+  SegmentationPipeline pipeline;
+  const segmentation::GrowResult grown = segmentation::growBone(pipeline.ct, centreOf(pipeline.ct));
+  pipeline.liveWire->SetAnchors(segmentation::proposeAnchors(
+      segmentation::boneSurface(pipeline.ct, grown.mask, &grown.others).mesh,
+      segmentation::SlicePlane::Sagittal, 4));
+  pipeline.surface->Update();
+  pipeline.liveWire->Update();
+  const auto counts = [&] {
+    return std::array<int, 3>{pipeline.growth->GetExecutionCount(),
+                              pipeline.surface->GetExecutionCount(),
+                              pipeline.liveWire->GetExecutionCount()};
+  };
+  EXPECT_EQ(counts(), (std::array<int, 3>{1, 1, 1}));
+
+  pipeline.surface->SetSmoothingIterations(5);
+  pipeline.surface->Update();
+  pipeline.liveWire->Update();
+  EXPECT_EQ(counts(), (std::array<int, 3>{1, 2, 1})) << "a surface setting: growth stays";
+
+  const Eigen::Vector3d seed = centreOf(pipeline.ct) + Eigen::Vector3d(2.0, 0.0, 0.0);
+  pipeline.growth->SetSeedLps(seed.x(), seed.y(), seed.z());
+  pipeline.surface->Update();
+  pipeline.liveWire->Update();
+  EXPECT_EQ(counts(), (std::array<int, 3>{2, 3, 1})) << "a new seed: live-wire stays";
+
+  pipeline.liveWire->SetSubpixelRefine(false);
+  pipeline.surface->Update();
+  pipeline.liveWire->Update();
+  EXPECT_EQ(counts(), (std::array<int, 3>{2, 3, 2})) << "a live-wire setting only";
+}
+
+TEST(SegmentationFilters, BadInputFailsThroughTheExecutive) {
+  QuietVtk quiet;
+  SegmentationPipeline pipeline;
+  pipeline.growth->SetSeedLps(0.0, 0.0, 0.0);  // far outside the CT
+  EXPECT_EQ(pipeline.surface->GetExecutive()->Update(), 0);
+  EXPECT_NE(pipeline.growth->GetLastError().find("bone growth failed"), std::string::npos)
+      << pipeline.growth->GetLastError();
+  EXPECT_EQ(pipeline.surface->GetExecutionCount(), 0) << "nothing runs below a failure";
+
+  EXPECT_EQ(pipeline.liveWire->GetExecutive()->Update(), 0);
+  EXPECT_NE(pipeline.liveWire->GetLastError().find("no anchors"), std::string::npos);
+  pipeline.liveWire->SetAnchorsFileName("/nonexistent/anchors.mrk.json");
+  EXPECT_EQ(pipeline.liveWire->GetExecutive()->Update(), 0);
+  EXPECT_NE(pipeline.liveWire->GetLastError().find("/nonexistent/anchors.mrk.json"),
+            std::string::npos)
+      << pipeline.liveWire->GetLastError();
+  EXPECT_NE(quiet.text().find("live-wire failed"), std::string::npos);
+}
+
+TEST(SegmentationFilters, PrintSelfListsEveryParameter) {
+  vtkNew<vtkEchoregBoneGrowthFilter> growth;
+  vtkNew<vtkEchoregBoneSurfaceFilter> surface;
+  vtkNew<vtkEchoregLiveWireFilter> liveWire;
+  std::ostringstream text;
+  growth->Print(text);
+  surface->Print(text);
+  liveWire->Print(text);
+  for (const char* name :
+       {"SeedLps", "StrongHu", "WeakHu", "SeparationRadiusMm", "MinVolumeMm3", "IsoHu", "BandMm",
+        "SmoothingIterations", "TargetTriangles", "AnchorsFileName", "SubpixelRefine", "RasterMm"})
+    EXPECT_NE(text.str().find(name), std::string::npos) << name;
+}
+
+}  // namespace
