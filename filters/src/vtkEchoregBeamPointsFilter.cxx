@@ -58,7 +58,18 @@ void addInt(vtkFieldData* fieldData, const char* name, int value) {
 }  // namespace
 
 vtkEchoregBeamPointsFilter::vtkEchoregBeamPointsFilter() {
+  this->SetNumberOfInputPorts(2);
   vtkMatrix4x4::Identity(this->BeamToProbe.data());
+}
+
+int vtkEchoregBeamPointsFilter::FillInputPortInformation(int port, vtkInformation* info) {
+  if (port == 0) {
+    info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkTable");
+  } else {
+    info->Set(vtkAlgorithm::INPUT_REQUIRED_DATA_TYPE(), "vtkDataObject");
+    info->Set(vtkAlgorithm::INPUT_IS_OPTIONAL(), 1);
+  }
+  return 1;
 }
 
 vtkEchoregBeamPointsFilter::~vtkEchoregBeamPointsFilter() = default;
@@ -127,6 +138,23 @@ int vtkEchoregBeamPointsFilter::RequestData(vtkInformation* /*request*/,
   pointFrame.referenceTransform = this->ReferenceTransformName;
   pointFrame.beamToProbe =
       Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(this->BeamToProbe.data());
+  if (inputVector[1]->GetNumberOfInformationObjects() > 0) {
+    vtkDataObject* calibration = vtkDataObject::GetData(inputVector[1]);
+    auto* matrix = calibration == nullptr
+                       ? nullptr
+                       : vtkDataArray::SafeDownCast(
+                             calibration->GetFieldData()->GetAbstractArray("BeamToProbe"));
+    if (matrix == nullptr || matrix->GetNumberOfComponents() != 16 ||
+        matrix->GetNumberOfTuples() < 1) {
+      this->Fail(
+          "the calibration input has no 16-component \"BeamToProbe\" in its field data (a "
+          "vtkEchoregBeamCalibrationFilter output)");
+      return 0;
+    }
+    Eigen::Matrix<double, 4, 4, Eigen::RowMajor> rowMajor;
+    matrix->GetTuple(0, rowMajor.data());
+    pointFrame.beamToProbe = rowMajor;
+  }
 
   const vtkIdType rows = input->GetNumberOfRows();
   vtkNew<vtkStringArray> finalReasons;

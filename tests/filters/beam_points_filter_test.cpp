@@ -10,9 +10,11 @@
 #include <vtkExecutive.h>
 #include <vtkFieldData.h>
 #include <vtkMatrix4x4.h>
+#include <vtkTrivialProducer.h>
 
 #include <Eigen/LU>
 
+#include <algorithm>
 #include <cmath>
 #include <sstream>
 
@@ -102,6 +104,49 @@ TEST(BeamPointsFilter, ReferenceTransformExpressesPointsInTheBoneAsTheCoreDoes) 
     EXPECT_EQ(pointAt(filter->GetOutput(), frame), *core);
   }
   EXPECT_EQ(pointFrameOf(filter->GetOutput()), "Femur");
+}
+
+TEST(BeamPointsFilter, ACalibrationInputWinsOverTheParameterAndReRunsIt) {
+  const Sequence poses = probePoses(2);
+  const double beamToProbe[16] = {0, 0, 1, 0, 0, 1, 0, 5, -1, 0, 0, 0, 0, 0, 0, 1};
+  vtkNew<vtkEchoregBeamPointsFilter> byParameter;
+  byParameter->SetPoseTransformName("ProbeToTracker");
+  byParameter->SetBeamToProbe(beamToProbe);
+  byParameter->SetInputData(peakTable({20.0, 30.0}, {"", ""}, poses));
+  byParameter->Update();
+
+  const auto calibration = [&](const double* matrix) {
+    auto table = vtkSmartPointer<vtkTable>::New();
+    vtkNew<vtkDoubleArray> array;
+    array->SetName("BeamToProbe");
+    array->SetNumberOfComponents(16);
+    array->InsertNextTuple(matrix);
+    table->GetFieldData()->AddArray(array);
+    return table;
+  };
+  vtkNew<vtkTrivialProducer> calibrationSource;
+  calibrationSource->SetOutput(calibration(beamToProbe));
+  vtkNew<vtkEchoregBeamPointsFilter> byInput;
+  byInput->SetPoseTransformName("ProbeToTracker");
+  byInput->SetInputData(peakTable({20.0, 30.0}, {"", ""}, poses));
+  byInput->SetCalibrationConnection(calibrationSource->GetOutputPort());
+  byInput->Update();
+  for (int frame = 0; frame < 2; ++frame)
+    EXPECT_EQ(pointAt(byInput->GetOutput(), frame), pointAt(byParameter->GetOutput(), frame));
+
+  double moved[16];
+  std::copy(beamToProbe, beamToProbe + 16, moved);
+  moved[7] = 7.0;  // the beam origin 2 mm further along Probe y
+  calibrationSource->SetOutput(calibration(moved));
+  byInput->Update();
+  EXPECT_EQ(byInput->GetExecutionCount(), 2) << "a new calibration upstream re-runs it";
+  EXPECT_NEAR(pointAt(byInput->GetOutput(), 0).y(), pointAt(byParameter->GetOutput(), 0).y() + 2.0,
+              1e-12);
+
+  CapturedVtkOutput messages;
+  calibrationSource->SetOutput(vtkSmartPointer<vtkTable>::New());
+  EXPECT_EQ(byInput->GetExecutive()->Update(), 0);
+  EXPECT_NE(byInput->GetLastError().find("BeamToProbe"), std::string::npos);
 }
 
 TEST(BeamPointsFilter, InvalidPoseRejectsTheFrame) {

@@ -2,6 +2,11 @@
 // vtkEchoregBoneSurfaceFilter, and CT -> vtkEchoregLiveWireFilter. Each equals the segmentation
 // function it adapts on the same CT; a change re-runs only what is downstream of it; errors go
 // through the executive.
+#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/vtkEchoregBeamPointsFilter.h"
+#include "echoreg/filters/vtkEchoregInterSignalFilter.h"
+#include "echoreg/filters/vtkEchoregSurfaceRegistrationFilter.h"
 #include "echoreg/segmentation/bone_mask.hpp"
 #include "echoreg/segmentation/bone_surface.hpp"
 #include "echoreg/segmentation/contour_surface.hpp"
@@ -14,17 +19,24 @@
 #include <gtest/gtest.h>
 
 #include <vtkDataArray.h>
+#include <vtkDoubleArray.h>
 #include <vtkExecutive.h>
 #include <vtkFieldData.h>
 #include <vtkImageData.h>
+#include <vtkIntArray.h>
 #include <vtkLogger.h>
 #include <vtkNew.h>
 #include <vtkOutputWindow.h>
 #include <vtkPointData.h>
 #include <vtkPolyData.h>
+#include <vtkStringArray.h>
 #include <vtkStringOutputWindow.h>
+#include <vtkTable.h>
 #include <vtkTrivialProducer.h>
 
+#include <Eigen/Geometry>
+
+#include <array>
 #include <cmath>
 #include <sstream>
 
@@ -249,6 +261,111 @@ TEST(SegmentationFilters, PrintSelfListsEveryParameter) {
        {"SeedLps", "StrongHu", "WeakHu", "SeparationRadiusMm", "MinVolumeMm3", "IsoHu", "BandMm",
         "SmoothingIterations", "TargetTriangles", "AnchorsFileName", "SubpixelRefine", "RasterMm"})
     EXPECT_NE(text.str().find(name), std::string::npos) << name;
+}
+
+// The study's shape in one process: CT -> bone growth -> bone surface = the model (input 1 of
+// the registration); a sweep's peak table -> beam points (its calibration on input 1) ->
+// inter-signal -> the points (input 0). A new calibration re-runs the points, the filter and the
+// registration, and not the segmentation.
+vtkSmartPointer<vtkTable> sweepPeakTable(const core::TriangleMesh& surface,
+                                         const Eigen::Vector3d& centre, double beamOffsetMm) {
+  Sequence sequence;
+  auto table = vtkSmartPointer<vtkTable>::New();
+  vtkNew<vtkIntArray> frames;
+  frames->SetName("frame");
+  vtkNew<vtkDoubleArray> depths;
+  depths->SetName("depth_mm");
+  vtkNew<vtkStringArray> reasons;
+  reasons->SetName("reason");
+  constexpr double kDepthMm = 20.0;
+  int frame = 0;
+  for (std::size_t v = 0; v < surface.vertices.size(); v += 23) {
+    const Eigen::Vector3d hit = surface.vertices[v];
+    const Eigen::Vector3d beam = (centre - hit).normalized();
+    const Eigen::Matrix3d rotation =
+        Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), beam).toRotationMatrix();
+    SequenceFrame poses;
+    TrackedTransform probe;
+    probe.matrix.block<3, 3>(0, 0) = rotation;
+    probe.matrix.block<3, 1>(0, 3) =
+        hit - kDepthMm * beam - rotation * Eigen::Vector3d(0, 0, beamOffsetMm);
+    poses.transforms["ProbeToTracker"] = probe;
+    poses.transforms["FemurToTracker"] = TrackedTransform();  // Femur = Tracker = CT here
+    poses.timestampS = 0.02 * frame;
+    sequence.frames.push_back(poses);
+    frames->InsertNextValue(frame++);
+    depths->InsertNextValue(kDepthMm);
+    reasons->InsertNextValue("");
+  }
+  table->AddColumn(frames);
+  table->AddColumn(depths);
+  table->AddColumn(reasons);
+  filters::SequenceFieldData::write(sequence, table->GetFieldData());
+  return table;
+}
+
+vtkSmartPointer<vtkTable> calibrationTable(double beamOffsetMm) {
+  auto table = vtkSmartPointer<vtkTable>::New();
+  vtkNew<vtkDoubleArray> beamToProbe;
+  beamToProbe->SetName("BeamToProbe");
+  beamToProbe->SetNumberOfComponents(16);
+  Eigen::Matrix<double, 4, 4, Eigen::RowMajor> matrix = Eigen::Matrix4d::Identity();
+  matrix(2, 3) = beamOffsetMm;
+  beamToProbe->InsertNextTuple(matrix.data());
+  table->GetFieldData()->AddArray(beamToProbe);
+  return table;
+}
+
+TEST(StudyShapedPipeline, ACalibrationChangeDoesNotReRunTheSegmentation) {
+  SegmentationPipeline segmentation;
+  segmentation.surface->Update();
+  ASSERT_EQ(segmentation.surface->GetLastError(), "");
+  const core::TriangleMesh model = filters::toTriangleMesh(segmentation.surface->GetOutput());
+
+  vtkNew<vtkTrivialProducer> sweep, calibration;
+  sweep->SetOutput(sweepPeakTable(model, centreOf(segmentation.ct), 5.0));
+  calibration->SetOutput(calibrationTable(5.0));
+  vtkNew<vtkEchoregBeamPointsFilter> beamPoints;
+  beamPoints->SetInputConnection(sweep->GetOutputPort());
+  beamPoints->SetCalibrationConnection(calibration->GetOutputPort());
+  beamPoints->SetPoseTransformName("ProbeToTracker");
+  beamPoints->SetReferenceTransformName("FemurToTracker");
+  vtkNew<vtkEchoregInterSignalFilter> interSignal;
+  interSignal->SetInputConnection(beamPoints->GetOutputPort());
+  interSignal->SetHistory(1);
+  interSignal->SetMinSpreadMm(0.0);
+  vtkNew<vtkEchoregSurfaceRegistrationFilter> registration;
+  registration->SetInputConnection(0, interSignal->GetOutputPort());
+  registration->SetModelConnection(segmentation.surface->GetOutputPort());
+  registration->Update();
+  ASSERT_EQ(registration->GetLastError(), "") << beamPoints->GetLastError();
+  EXPECT_TRUE(registration->GetLastResult().converged) << registration->GetLastResult().message;
+  EXPECT_LT(registration->GetLastResult().transform.translation().norm(), 0.05)
+      << "the points lie on the model: FemurToCT is the identity";
+  EXPECT_LT(registration->GetLastResult().rmsMm, 0.01);
+
+  const auto counts = [&] {
+    return std::array<int, 5>{segmentation.growth->GetExecutionCount(),
+                              segmentation.surface->GetExecutionCount(),
+                              beamPoints->GetExecutionCount(), interSignal->GetExecutionCount(),
+                              registration->GetExecutionCount()};
+  };
+  EXPECT_EQ(counts(), (std::array<int, 5>{1, 1, 1, 1, 1}));
+
+  // A calibration 1.5 mm off along the beam: every point moves 1.5 mm into the bone.
+  calibration->SetOutput(calibrationTable(6.5));
+  registration->Update();
+  EXPECT_EQ(counts(), (std::array<int, 5>{1, 1, 2, 2, 2}))
+      << "the calibration re-runs the points and the registration, not the segmentation";
+  EXPECT_EQ(registration->GetModelPreparationCount(), 1);
+  EXPECT_GT(registration->GetLastResult().rmsAllMm, 0.3) << "the wrong calibration is seen";
+
+  // A new seed re-runs the segmentation and the registration, not the points.
+  const Eigen::Vector3d seed = centreOf(segmentation.ct) + Eigen::Vector3d(1.0, 0.0, 0.0);
+  segmentation.growth->SetSeedLps(seed.x(), seed.y(), seed.z());
+  registration->Update();
+  EXPECT_EQ(counts(), (std::array<int, 5>{2, 2, 2, 2, 3}));
+  EXPECT_EQ(registration->GetModelPreparationCount(), 2);
 }
 
 }  // namespace

@@ -18,6 +18,9 @@
  * echoreg::filters::SequenceFieldData), indexed by the "frame" column.
  * Output (port 0): vtkTable with the input's columns, "reason" set to "invalid-pose" where the
  * pose is missing, plus "x_mm", "y_mm", "z_mm" (NaN when the frame has no point).
+ * Input (port 1, optional): the calibration, e.g. a vtkEchoregBeamCalibrationFilter output: its
+ * field data's 16-component "BeamToProbe" (row-major) is used instead of the BeamToProbe
+ * parameter, so a new calibration upstream re-runs the points (and what follows) by itself.
  * Field data: the input's, plus "PointFrame" (one string: "Beam", the pose's target frame such as
  * "Tracker", or the reference's source frame such as "Femur"), "PointsPlaced" and
  * "PointsInvalidPose" (one int each); GetLastResult() holds the same.
@@ -79,6 +82,8 @@ class vtkEchoregBeamPointsFilter : public vtkTableAlgorithm {
    * a number differs.
    */
   void SetBeamToProbe(const double rowMajor[16]);
+  /// The calibration's connection (input 1, optional): its "BeamToProbe" wins over the parameter.
+  void SetCalibrationConnection(vtkAlgorithmOutput* output) { this->SetInputConnection(1, output); }
   void SetBeamToProbe(vtkMatrix4x4* beamToProbe);
   void GetBeamToProbe(double rowMajor[16]) const;
   ///@}
@@ -102,6 +107,7 @@ class vtkEchoregBeamPointsFilter : public vtkTableAlgorithm {
   vtkEchoregBeamPointsFilter();
   ~vtkEchoregBeamPointsFilter() override;
 
+  int FillInputPortInformation(int port, vtkInformation* info) override;
   int RequestData(vtkInformation* request, vtkInformationVector** inputVector,
                   vtkInformationVector* outputVector) override;
 
