@@ -1,6 +1,7 @@
 #include "echoreg/filters/vtkEchoregSequenceReader.h"
 
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/filters/SequenceFieldData.h"
 
 #include <vtkDataArray.h>
@@ -14,6 +15,7 @@
 #include <algorithm>
 #include <cstring>
 #include <exception>
+#include <stdexcept>
 #include <system_error>
 
 vtkStandardNewMacro(vtkEchoregSequenceReader);
@@ -101,11 +103,11 @@ bool vtkEchoregSequenceReader::ReadIfNeeded() {
   try {
     ++this->ReadCount;
     echoreg::Sequence sequence = echoreg::readSequence(this->FileName);
-    if (sequence.hasPixels() && sequence.frameSize[1] != 1) {
-      throw echoreg::FileError(this->FileName, "frames of " +
-                                                   std::to_string(sequence.frameSize[0]) + " x " +
-                                                   std::to_string(sequence.frameSize[1]) +
-                                                   " samples are images, not A-lines (N x 1)");
+    try {
+      // The core's words, so that every command refuses such a capture in the same sentence.
+      echoreg::requireSingleALineFrames(sequence);
+    } catch (const std::invalid_argument& e) {
+      throw echoreg::FileError(this->FileName, e.what());
     }
     if (sequence.hasPixels() && vtkScalarType(sequence.elementType) == VTK_VOID) {
       throw echoreg::FileError(this->FileName, "unsupported element type");

@@ -12,7 +12,8 @@
  * (VTK_UNSIGNED_CHAR, VTK_SIGNED_CHAR, VTK_SHORT or VTK_FLOAT).
  * A tracker-only capture (DimSize = 0 0 F) gives an image without points: extent
  * (0, -1, 0, F-1, 0, 0), so GetDimensions() reads (0, F, 1), no scalars, and the field data below
- * still present. Frames of more than one row (2D images) are refused: they are not A-lines.
+ * still present. Frames of more than one row (2D images, or a holder of several transducers) are
+ * refused with echoreg::requireSingleALineFrames's sentence.
  *
  * Field data of the output (see echoreg::filters::SequenceFieldData): "Timestamp" (NaN where a
  * frame has none); per transform N: "N" (16 components, row-major), "N_Valid" (1 = status OK) and
