@@ -7,12 +7,14 @@
 #include "echoreg/filters/vtkEchoregBeamPointsFilter.h"
 #include "echoreg/filters/vtkEchoregInterSignalFilter.h"
 #include "echoreg/filters/vtkEchoregSurfaceRegistrationFilter.h"
+#include "echoreg/segmentation/bone_labels.hpp"
 #include "echoreg/segmentation/bone_mask.hpp"
 #include "echoreg/segmentation/bone_surface.hpp"
 #include "echoreg/segmentation/contour_surface.hpp"
 #include "echoreg/segmentation/livewire_contours.hpp"
 #include "echoreg/segmentation/vtkEchoregBoneGrowthFilter.h"
 #include "echoreg/segmentation/vtkEchoregBoneSurfaceFilter.h"
+#include "echoreg/segmentation/vtkEchoregCompetingBonesFilter.h"
 #include "echoreg/segmentation/vtkEchoregDicomSeriesReader.h"
 #include "echoreg/segmentation/vtkEchoregLiveWireFilter.h"
 
@@ -230,6 +232,86 @@ TEST(SegmentationPipeline, AChangeReRunsOnlyWhatIsDownstream) {
   EXPECT_EQ(counts(), (std::array<int, 3>{2, 3, 2})) << "a live-wire setting only";
 }
 
+// Two hollow balls (radius 9 mm, cortex 2 mm) 24 mm apart, as two bones.
+CtImage twoBallsCt() {
+  CtImage ct;
+  const Eigen::Vector3i n(60, 36, 36);
+  ct.dimensions = {n.x(), n.y(), n.z()};
+  ct.pixelSpacingMm = Eigen::Vector2d(0.8, 0.8);
+  ct.originMm = Eigen::Vector3d(0, 0, -100);
+  for (int k = 0; k < n.z(); ++k)
+    ct.slicePositionsMm.push_back(0.8 * k);
+  ct.groups = {{0, n.z(), 0.8}};
+  ct.hu.resize(ct.voxelCount());
+  for (int k = 0; k < n.z(); ++k) {
+    for (int j = 0; j < n.y(); ++j) {
+      for (int i = 0; i < n.x(); ++i) {
+        const Eigen::Vector3d p = ct.voxelToLps(Eigen::Vector3d(i, j, k));
+        double hu = 35.0;
+        for (const double x : {12.0, 36.0}) {
+          const double r = (p - Eigen::Vector3d(x, 14.0, -86.0)).norm();
+          if (r <= 9.0)
+            hu = r > 7.0 ? 1400.0 : 80.0;
+        }
+        ct.hu[ct.index(i, j, k)] = static_cast<std::int16_t>(hu);
+      }
+    }
+  }
+  return ct;
+}
+
+TEST(CompetingBonesFilter, EqualsSegmentCompetingBones) {
+  const CtImage ct = twoBallsCt();
+  vtkNew<vtkTrivialProducer> source;
+  source->SetOutput(segmentation::toImageData(ct));
+  vtkNew<vtkEchoregCompetingBonesFilter> bones;
+  bones->SetInputConnection(source->GetOutputPort());
+  bones->SetCheckPlausible(false);
+  bones->AddSeed("left", 12.0, 14.0, -86.0);
+  bones->AddSeed("right", 36.0, 14.0, -86.0);
+  bones->SetSelectedBone("right");
+  bones->Update();
+  ASSERT_EQ(bones->GetLastError(), "");
+
+  segmentation::CompetingOptions options;
+  options.checkPlausible = false;
+  const segmentation::CompetingResult expected = segmentation::segmentCompetingBones(
+      ct, {{"left", Eigen::Vector3d(12, 14, -86)}, {"right", Eigen::Vector3d(36, 14, -86)}},
+      options);
+  ASSERT_EQ(expected.bones.size(), 2U);
+  EXPECT_EQ(maskVoxels(bones->GetOutput(0)), expected.bones[1].mask.voxels) << "the selected";
+  const std::vector<std::uint8_t> exclude = maskVoxels(bones->GetOutput(1));
+  const std::vector<std::uint8_t> labels = maskVoxels(bones->GetOutput(2));
+  for (std::size_t v = 0; v < exclude.size(); ++v) {
+    if (expected.bones[0].mask.voxels[v] != 0) {
+      ASSERT_EQ(exclude[v], 1) << "the other bone is excluded";
+      ASSERT_EQ(labels[v], 1);
+    }
+    if (expected.bones[1].mask.voxels[v] != 0) {
+      ASSERT_EQ(labels[v], 2);
+    }
+  }
+  EXPECT_EQ(bones->GetLastResult().bones, (std::vector<std::string>{"left", "right"}));
+  EXPECT_EQ(bones->GetLastResult().volumesMm3[1], expected.bones[1].volumeMm3);
+
+  // The surface of the selected ball, excluding the other: a closed surface near radius 9.
+  vtkNew<vtkEchoregBoneSurfaceFilter> surface;
+  surface->SetInputConnection(0, source->GetOutputPort());
+  surface->SetRegionConnection(bones->GetOutputPort(0));
+  surface->SetExcludeConnection(bones->GetOutputPort(1));
+  surface->Update();
+  ASSERT_EQ(surface->GetLastError(), "");
+  double bounds[6];
+  surface->GetOutput()->GetBounds(bounds);
+  EXPECT_NEAR(0.5 * (bounds[0] + bounds[1]), 36.0, 0.5) << "the right ball's surface";
+
+  bones->SetSelectedBone("left");
+  surface->Update();
+  EXPECT_EQ(bones->GetExecutionCount(), 2);
+  surface->GetOutput()->GetBounds(bounds);
+  EXPECT_NEAR(0.5 * (bounds[0] + bounds[1]), 12.0, 0.5);
+}
+
 TEST(SegmentationFilters, BadInputFailsThroughTheExecutive) {
   QuietVtk quiet;
   SegmentationPipeline pipeline;
@@ -247,6 +329,15 @@ TEST(SegmentationFilters, BadInputFailsThroughTheExecutive) {
             std::string::npos)
       << pipeline.liveWire->GetLastError();
   EXPECT_NE(quiet.text().find("live-wire failed"), std::string::npos);
+
+  vtkNew<vtkEchoregCompetingBonesFilter> bones;
+  bones->SetInputConnection(pipeline.source->GetOutputPort());
+  EXPECT_EQ(bones->GetExecutive()->Update(), 0);
+  EXPECT_NE(bones->GetLastError().find("no seeds"), std::string::npos);
+  bones->AddSeed("femur", 0.0, 0.0, 0.0);  // outside the CT
+  EXPECT_EQ(bones->GetExecutive()->Update(), 0);
+  EXPECT_NE(bones->GetLastError().find("bone segmentation failed"), std::string::npos)
+      << bones->GetLastError();
 }
 
 TEST(SegmentationFilters, PrintSelfListsEveryParameter) {
