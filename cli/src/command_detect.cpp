@@ -3,11 +3,11 @@
 #include "path_check.hpp"
 #include "pose_check.hpp"
 
-#include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/core/transform_file.hpp"
+#include "echoreg/filters/DetectionPipeline.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -333,34 +333,6 @@ DetectionParams resolveParams(const std::string& preset, const TunableSettings& 
   return params;
 }
 
-std::string optionalNumber(const std::optional<double>& value, int decimals) {
-  return value ? fmt::format("{:.{}f}", *value, decimals) : std::string();
-}
-
-void writeCsv(const SequenceDetection& detection, bool withPoints, const std::string& path) {
-  AtomicFile file(path);
-  std::ostream& csv = file.stream();
-  csv << "frame,timestamp_s,status,reason,peaks,sample_index,depth_mm";
-  if (withPoints)
-    csv << ",x_mm,y_mm,z_mm";
-  csv << "\n";
-  for (const FrameDetection& f : detection.frames) {
-    csv << f.frame << ',' << (f.timestampS ? fmt::format("{}", *f.timestampS) : std::string())
-        << ',' << (f.accepted() ? "accepted" : "rejected") << ',' << rejectReasonName(f.reason)
-        << ',' << f.peakCount << ',' << optionalNumber(f.sampleIndex, 3) << ','
-        << optionalNumber(f.depthMm, 4);
-    if (withPoints) {
-      if (f.pointMm) {
-        csv << fmt::format(",{:.4f},{:.4f},{:.4f}", f.pointMm->x(), f.pointMm->y(), f.pointMm->z());
-      } else {
-        csv << ",,,";
-      }
-    }
-    csv << "\n";
-  }
-  file.commit();
-}
-
 nlohmann::json summary(const SequenceDetection& detection, const DetectionParams& params,
                        const DetectOptions& options, const std::string& preset,
                        int posesReorthonormalised) {
@@ -439,8 +411,15 @@ CommandAction addDetectCommand(CLI::App& app) {
     TunableSettings settings = o->settings;
     if (!o->paramsFile.empty())
       mergeParamsFile(o->paramsFile, preset, settings);
+    // reader -> envelope -> peaks -> beam points -> inter-signal -> writer (DetectionPipeline.h)
+    filters::DetectionPipeline pipeline;
+    const Sequence& sequence = pipeline.open(o->capture, {o->pose, o->reference});
     PoseNotes poseNotes;
-    const Sequence sequence = readTrackedSequence(o->capture, {o->pose, o->reference}, poseNotes);
+    for (const auto& [transform, report] : pipeline.reader->GetRigidPoseReports()) {
+      poseNotes.reorthonormalised += report.reorthonormalised;
+      if (auto line = rigidPoseNote(report, o->capture, transform))
+        poseNotes.lines.push_back(*line);
+    }
     poseNotes.print(io.err, "detect");
     const DetectionParams params = [&] {
       try {
@@ -454,19 +433,13 @@ CommandAction addDetectCommand(CLI::App& app) {
     points.referenceTransform = o->reference;
     if (!o->beamToProbeFile.empty())
       points.beamToProbe = readTransformFile(o->beamToProbeFile, "Beam", "Probe").matrix;
-    SequenceDetection detection;
     try {
-      const bool showProgress = io.errIsTerminal && sequence.frameCount() > 2000;
-      detection = detectSequence(sequence, params, points, [&](int done, int total) {
-        if (showProgress)
-          io.err << fmt::format("\rdetect: {}/{} frames", done, total) << std::flush;
-      });
-      if (showProgress)
-        io.err << "\n";
+      pipeline.configure(params, points);
     } catch (const std::invalid_argument& e) {
       throw FileError(o->capture, e.what());
     }
-    writeCsv(detection, !points.poseTransform.empty(), o->out);
+    pipeline.write(o->out);
+    const SequenceDetection detection = pipeline.run();
     for (const std::string& warning : detectionWarnings(detection)) {
       io.err << "echoreg detect: warning: " << warning << "\n";
     }

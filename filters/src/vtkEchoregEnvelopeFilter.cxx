@@ -18,6 +18,9 @@
 #include <algorithm>
 #include <exception>
 #include <mutex>
+#include <string>
+#include <type_traits>
+#include <vector>
 
 vtkStandardNewMacro(vtkEchoregEnvelopeFilter);
 
@@ -50,20 +53,33 @@ int methodId(echoreg::EnvelopeMethod method) {
   return vtkEchoregEnvelopeFilter::METHOD_HANN;
 }
 
-// Envelopes of rows [begin, end) of a row-major float image; one detector per chunk, since a
-// detector keeps scratch buffers. The first failure of any chunk is kept for the caller.
+// Envelopes of rows [begin, end) of a row-major image of samples of type T; one detector per
+// chunk, since a detector keeps scratch buffers. Rows of another type than float are converted
+// one at a time into the chunk's buffer (the whole image is never copied as floats). The first
+// failure of any chunk is kept for the caller.
+template <typename T>
 class EnvelopeRows {
  public:
-  EnvelopeRows(const echoreg::EnvelopeParams& params, const float* samples, float* envelopes,
+  EnvelopeRows(const echoreg::EnvelopeParams& params, const T* samples, float* envelopes,
                int samplesPerRow)
       : params_(params), samples_(samples), envelopes_(envelopes), samplesPerRow_(samplesPerRow) {}
 
   void operator()(vtkIdType beginRow, vtkIdType endRow) {
     try {
       echoreg::EnvelopeDetector detector(params_);
-      for (vtkIdType row = beginRow; row < endRow; ++row) {
-        const vtkIdType offset = row * samplesPerRow_;
-        detector.compute(samples_ + offset, samplesPerRow_, envelopes_ + offset);
+      std::vector<float> row;
+      for (vtkIdType index = beginRow; index < endRow; ++index) {
+        const vtkIdType offset = index * samplesPerRow_;
+        const float* record = nullptr;
+        if constexpr (std::is_same_v<T, float>) {
+          record = samples_ + offset;
+        } else {
+          row.resize(static_cast<std::size_t>(samplesPerRow_));
+          std::transform(samples_ + offset, samples_ + offset + samplesPerRow_, row.begin(),
+                         [](T value) { return static_cast<float>(value); });
+          record = row.data();
+        }
+        detector.compute(record, samplesPerRow_, envelopes_ + offset);
       }
     } catch (const std::exception& exception) {
       const std::lock_guard<std::mutex> lock(mutex_);
@@ -76,12 +92,22 @@ class EnvelopeRows {
 
  private:
   const echoreg::EnvelopeParams& params_;
-  const float* samples_;
+  const T* samples_;
   float* envelopes_;
   int samplesPerRow_;
   std::mutex mutex_;
   std::string error_;
 };
+
+// Runs EnvelopeRows over every row of `scalars`; the error message of a failure, else "".
+template <typename T>
+std::string envelopesOf(const echoreg::EnvelopeParams& params, vtkDataArray* scalars,
+                        float* envelopes, int samplesPerRow, vtkIdType rows) {
+  EnvelopeRows<T> work(params, static_cast<const T*>(scalars->GetVoidPointer(0)), envelopes,
+                       samplesPerRow);
+  vtkSMPTools::For(0, rows, work);
+  return work.error();
+}
 
 }  // namespace
 
@@ -175,19 +201,19 @@ int vtkEchoregEnvelopeFilter::RequestData(vtkInformation* /*request*/,
     return 0;
   }
 
-  vtkSmartPointer<vtkFloatArray> samples = vtkFloatArray::SafeDownCast(scalars);
-  if (samples == nullptr) {
-    samples = vtkSmartPointer<vtkFloatArray>::New();
-    samples->DeepCopy(scalars);
-  }
   vtkNew<vtkFloatArray> envelopes;
   envelopes->SetName("Envelope");
-  envelopes->SetNumberOfValues(samples->GetNumberOfValues());
+  envelopes->SetNumberOfValues(scalars->GetNumberOfValues());
 
-  EnvelopeRows rows(this->Params, samples->GetPointer(0), envelopes->GetPointer(0), dimensions[0]);
-  vtkSMPTools::For(0, dimensions[1], rows);
-  if (!rows.error().empty()) {
-    this->Fail("envelope failed: " + rows.error());
+  std::string error;
+  switch (scalars->GetDataType()) {
+    vtkTemplateMacro(error = envelopesOf<VTK_TT>(this->Params, scalars, envelopes->GetPointer(0),
+                                                 dimensions[0], dimensions[1]));
+    default:
+      error = std::string("unsupported scalar type ") + scalars->GetDataTypeAsString();
+  }
+  if (!error.empty()) {
+    this->Fail("envelope failed: " + error);
     output->Initialize();
     return 0;
   }

@@ -1,35 +1,24 @@
 #include "echoreg/filters/vtkEchoregInterSignalFilter.h"
 
-#include "echoreg/core/sequence_detection.hpp"
-
-#include "echoreg/filters/SequenceFieldData.h"
-
 #include <vtkAbstractArray.h>
 #include <vtkDataArray.h>
-#include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
 #include <vtkIntArray.h>
-#include <vtkMatrix4x4.h>
 #include <vtkNew.h>
 #include <vtkObjectFactory.h>
-#include <vtkSmartPointer.h>
 #include <vtkStringArray.h>
 #include <vtkTable.h>
 
-#include <Eigen/Dense>
-
-#include <algorithm>
+#include <cmath>
 #include <exception>
-#include <limits>
-#include <optional>
+#include <vector>
 
 vtkStandardNewMacro(vtkEchoregInterSignalFilter);
 
 namespace {
 
-constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 constexpr const char* kAccepted = "accepted";
 constexpr const char* kRejected = "rejected";
 
@@ -39,21 +28,19 @@ constexpr echoreg::RejectReason kReasons[] = {
     echoreg::RejectReason::TooFewPeaks, echoreg::RejectReason::OutsideWindow,
     echoreg::RejectReason::NotBone,     echoreg::RejectReason::Inconsistent,
     echoreg::RejectReason::TooClose,    echoreg::RejectReason::InvalidPose,
+    echoreg::RejectReason::InRingDown,
 };
 
-vtkSmartPointer<vtkDoubleArray> coordinateColumn(const char* name, vtkIdType rows) {
-  auto array = vtkSmartPointer<vtkDoubleArray>::New();
-  array->SetName(name);
-  array->SetNumberOfValues(rows);
-  array->Fill(kNaN);
-  return array;
+void addCount(vtkFieldData* fieldData, const std::string& name, int count) {
+  vtkNew<vtkIntArray> array;
+  array->SetName(name.c_str());
+  array->InsertNextValue(count);
+  fieldData->AddArray(array);
 }
 
 }  // namespace
 
-vtkEchoregInterSignalFilter::vtkEchoregInterSignalFilter() {
-  vtkMatrix4x4::Identity(this->BeamToProbe.data());
-}
+vtkEchoregInterSignalFilter::vtkEchoregInterSignalFilter() = default;
 
 vtkEchoregInterSignalFilter::~vtkEchoregInterSignalFilter() = default;
 
@@ -62,24 +49,6 @@ void vtkEchoregInterSignalFilter::SetInterSignalParams(const echoreg::InterSigna
     return;
   this->Params = params;
   this->Modified();
-}
-
-void vtkEchoregInterSignalFilter::SetBeamToProbe(const double rowMajor[16]) {
-  std::array<double, 16> matrix;
-  std::copy(rowMajor, rowMajor + 16, matrix.begin());
-  this->SetField(this->BeamToProbe, matrix);
-}
-
-void vtkEchoregInterSignalFilter::SetBeamToProbe(vtkMatrix4x4* beamToProbe) {
-  if (beamToProbe == nullptr) {
-    vtkErrorMacro(<< "SetBeamToProbe: null matrix ignored");
-    return;
-  }
-  this->SetBeamToProbe(beamToProbe->GetData());
-}
-
-void vtkEchoregInterSignalFilter::GetBeamToProbe(double rowMajor[16]) const {
-  std::copy(this->BeamToProbe.begin(), this->BeamToProbe.end(), rowMajor);
 }
 
 void vtkEchoregInterSignalFilter::Fail(const std::string& message) {
@@ -97,138 +66,108 @@ int vtkEchoregInterSignalFilter::RequestData(vtkInformation* /*request*/,
     this->Fail("the input and the output must be vtkTable");
     return 0;
   }
-
-  auto* frames = vtkDataArray::SafeDownCast(input->GetColumnByName("frame"));
-  auto* depths = vtkDataArray::SafeDownCast(input->GetColumnByName("depth_mm"));
   auto* reasons = vtkStringArray::SafeDownCast(input->GetColumnByName("reason"));
-  if (frames == nullptr || depths == nullptr || reasons == nullptr) {
+  auto* xs = vtkDataArray::SafeDownCast(input->GetColumnByName("x_mm"));
+  auto* ys = vtkDataArray::SafeDownCast(input->GetColumnByName("y_mm"));
+  auto* zs = vtkDataArray::SafeDownCast(input->GetColumnByName("z_mm"));
+  if (reasons == nullptr || xs == nullptr || ys == nullptr || zs == nullptr) {
     this->Fail(
-        "the input table needs the columns \"frame\", \"depth_mm\" and \"reason\" "
-        "(a vtkEchoregPeakFilter output)");
+        "the input table needs the columns \"reason\", \"x_mm\", \"y_mm\" and \"z_mm\" "
+        "(a vtkEchoregBeamPointsFilter output)");
     return 0;
   }
-  if (!this->ReferenceTransformName.empty() && this->PoseTransformName.empty()) {
-    this->Fail("ReferenceTransformName \"" + this->ReferenceTransformName +
-               "\" needs a PoseTransformName");
-    return 0;
-  }
-  std::optional<echoreg::InterSignalFilter> interSignal;
   try {
-    interSignal.emplace(this->Params);
+    // The inter-signal checks of the whole chain's validation, so the messages are the core's.
+    echoreg::DetectionParams params;
+    params.interSignal = this->Params;
+    echoreg::validate(params);
   } catch (const std::exception& exception) {
     this->Fail(std::string("invalid inter-signal parameters: ") + exception.what());
     return 0;
   }
-
-  const echoreg::filters::SequenceFieldData sequenceData(input->GetFieldData());
-  for (const std::string& name : {this->PoseTransformName, this->ReferenceTransformName}) {
-    if (name.empty() || sequenceData.hasTransform(name))
-      continue;
-    std::string known;
-    for (const std::string& other : sequenceData.transformNames()) {
-      known += (known.empty() ? "" : ", ") + other;
-    }
-    this->Fail("the input has no transform \"" + name +
-               "\" (it has: " + (known.empty() ? "none" : known) + ")");
-    return 0;
-  }
-  echoreg::PointFrameOptions pointFrame;
-  pointFrame.poseTransform = this->PoseTransformName;
-  pointFrame.referenceTransform = this->ReferenceTransformName;
-  pointFrame.beamToProbe =
-      Eigen::Map<const Eigen::Matrix<double, 4, 4, Eigen::RowMajor>>(this->BeamToProbe.data());
+  auto* depths = vtkDataArray::SafeDownCast(input->GetColumnByName("depth_mm"));
+  auto* timestamps = vtkDataArray::SafeDownCast(input->GetColumnByName("timestamp_s"));
+  auto* pointFrame =
+      vtkStringArray::SafeDownCast(input->GetFieldData()->GetAbstractArray("PointFrame"));
+  Result result;
+  result.tracked = pointFrame != nullptr && pointFrame->GetNumberOfValues() == 1 &&
+                   pointFrame->GetValue(0) != "Beam";
 
   const vtkIdType rows = input->GetNumberOfRows();
+  std::vector<echoreg::InterSignalInput> frames(static_cast<std::size_t>(rows));
+  for (vtkIdType row = 0; row < rows; ++row) {
+    echoreg::InterSignalInput& frame = frames[static_cast<std::size_t>(row)];
+    const Eigen::Vector3d point(xs->GetComponent(row, 0), ys->GetComponent(row, 0),
+                                zs->GetComponent(row, 0));
+    frame.detected = reasons->GetValue(row).empty() && point.allFinite();
+    if (frame.detected) {
+      frame.pointMm = point;
+      frame.depthMm = depths != nullptr ? depths->GetComponent(row, 0) : point.z();
+      ++result.echoes;
+    }
+    if (timestamps != nullptr && std::isfinite(timestamps->GetComponent(row, 0)))
+      frame.timestampS = timestamps->GetComponent(row, 0);
+  }
+  std::vector<echoreg::RejectReason> verdicts;
+  try {
+    verdicts = echoreg::applyInterSignal(this->Params, frames, result.tracked);
+  } catch (const std::exception& exception) {
+    this->Fail(std::string("inter-signal filter failed: ") + exception.what());
+    return 0;
+  }
+
+  result.reasonCounts[kAccepted] = 0;
+  for (echoreg::RejectReason reason : kReasons)
+    result.reasonCounts[std::string(echoreg::rejectReasonName(reason))] = 0;
   vtkNew<vtkStringArray> finalReasons;
   finalReasons->SetName("reason");
   finalReasons->SetNumberOfValues(rows);
   vtkNew<vtkStringArray> statuses;
   statuses->SetName("status");
   statuses->SetNumberOfValues(rows);
-  auto xColumn = coordinateColumn("x_mm", rows);
-  auto yColumn = coordinateColumn("y_mm", rows);
-  auto zColumn = coordinateColumn("z_mm", rows);
-
-  std::map<std::string, int> counts;
-  counts[kAccepted] = 0;
-  for (echoreg::RejectReason reason : kReasons)
-    counts[std::string(echoreg::rejectReasonName(reason))] = 0;
-
   for (vtkIdType row = 0; row < rows; ++row) {
-    std::string reason = reasons->GetValue(row);
-    std::optional<Eigen::Vector3d> point;
-    if (reason.empty()) {
-      const auto frame = static_cast<vtkIdType>(frames->GetComponent(row, 0));
-      std::optional<Eigen::Matrix4d> pose, reference;
-      if (!pointFrame.poseTransform.empty()) {
-        pose = sequenceData.validMatrix(pointFrame.poseTransform, frame);
-      }
-      if (!pointFrame.referenceTransform.empty()) {
-        reference = sequenceData.validMatrix(pointFrame.referenceTransform, frame);
-      }
-      point = echoreg::beamPoint(depths->GetComponent(row, 0), pointFrame,
-                                 pose ? &*pose : nullptr, reference ? &*reference : nullptr);
-      if (!point) reason = echoreg::rejectReasonName(echoreg::RejectReason::InvalidPose);
-    }
-
-    if (point) {
-      xColumn->SetValue(row, point->x());
-      yColumn->SetValue(row, point->y());
-      zColumn->SetValue(row, point->z());
-      reason = echoreg::rejectReasonName(interSignal->judge(*point));
-    } else {
-      interSignal->breakRun();
-    }
+    const auto index = static_cast<std::size_t>(row);
+    const std::string reason = frames[index].detected
+                                   ? std::string(echoreg::rejectReasonName(verdicts[index]))
+                                   : reasons->GetValue(row);
     finalReasons->SetValue(row, reason);
     statuses->SetValue(row, reason.empty() ? kAccepted : kRejected);
-    ++counts[reason.empty() ? std::string(kAccepted) : reason];
+    ++result.reasonCounts[reason.empty() ? std::string(kAccepted) : reason];
   }
+  result.accepted = result.reasonCounts[kAccepted];
 
   output->Initialize();
   for (vtkIdType column = 0; column < input->GetNumberOfColumns(); ++column) {
     vtkAbstractArray* array = input->GetColumn(column);
-    const char* name = array->GetName();
-    if (name != nullptr && std::string(name) == "reason") {
+    const std::string name = array->GetName() != nullptr ? array->GetName() : "";
+    if (name == "reason") {
       output->AddColumn(finalReasons);
-    } else if (name == nullptr || (std::string(name) != "status" && std::string(name) != "x_mm" &&
-                                   std::string(name) != "y_mm" && std::string(name) != "z_mm")) {
+    } else if (name != "status") {
       output->AddColumn(array);
     }
   }
   output->AddColumn(statuses);
-  output->AddColumn(xColumn);
-  output->AddColumn(yColumn);
-  output->AddColumn(zColumn);
-
   output->GetFieldData()->ShallowCopy(input->GetFieldData());
-  for (const auto& [name, count] : counts) {
-    vtkNew<vtkIntArray> countArray;
-    countArray->SetName(("Count_" + name).c_str());
-    countArray->InsertNextValue(count);
-    output->GetFieldData()->AddArray(countArray);
-  }
-  this->ReasonCounts = std::move(counts);
+  for (const auto& [name, count] : result.reasonCounts)
+    addCount(output->GetFieldData(), "Count_" + name, count);
+  addCount(output->GetFieldData(), "EchoesBeforeInterSignal", result.echoes);
+  this->LastResult = std::move(result);
   this->LastError.clear();
   return 1;
 }
 
 void vtkEchoregInterSignalFilter::PrintSelf(ostream& os, vtkIndent indent) {
   this->Superclass::PrintSelf(os, indent);
+  os << indent << "TemporalMode: " << echoreg::temporalModeName(this->Params.temporal) << "\n";
   os << indent << "History: " << this->Params.history << "\n";
   os << indent << "ConsistencyMm: " << this->Params.consistencyMm << "\n";
+  os << indent << "MaxDepthRateMmPerS: " << this->Params.maxDepthRateMmPerS << "\n";
+  os << indent << "MaxGapS: " << this->Params.maxGapS << "\n";
+  os << indent << "FrameRateHz: " << this->Params.frameRateHz << "\n";
   os << indent << "MinSpreadMm: " << this->Params.minSpreadMm << "\n";
-  os << indent << "PoseTransformName: "
-     << (this->PoseTransformName.empty() ? "(none)" : this->PoseTransformName) << "\n";
-  os << indent << "ReferenceTransformName: "
-     << (this->ReferenceTransformName.empty() ? "(none)" : this->ReferenceTransformName) << "\n";
-  os << indent << "BeamToProbe:";
-  for (double value : this->BeamToProbe)
-    os << " " << value;
-  os << "\n";
-  os << indent << "ReasonCounts:";
-  for (const auto& [name, count] : this->ReasonCounts)
-    os << " " << name << "=" << count;
-  os << "\n";
+  os << indent << "LastResult: " << this->LastResult.echoes << " echoes, "
+     << this->LastResult.accepted << " accepted, "
+     << (this->LastResult.tracked ? "tracked" : "untracked") << "\n";
   os << indent << "LastError: " << (this->LastError.empty() ? "(none)" : this->LastError) << "\n";
   os << indent << "ExecutionCount: " << this->ExecutionCount << "\n";
 }

@@ -16,6 +16,7 @@
 #include <vtkNew.h>
 #include <vtkObjectFactory.h>
 #include <vtkPointData.h>
+#include <vtkSMPTools.h>
 #include <vtkSmartPointer.h>
 #include <vtkStreamingDemandDrivenPipeline.h>
 #include <vtkStringArray.h>
@@ -24,6 +25,8 @@
 #include <cmath>
 #include <exception>
 #include <limits>
+#include <mutex>
+#include <vector>
 
 vtkStandardNewMacro(vtkEchoregPeakFilter);
 
@@ -50,6 +53,38 @@ void vtkEchoregPeakFilter::SetPeakParams(const echoreg::PeakParams& params) {
     return;
   this->PeakParams = params;
   this->Modified();
+}
+
+void vtkEchoregPeakFilter::SetDetectionParams(const echoreg::DetectionParams& params) {
+  const double windowMin = params.windowMinMm.value_or(kNaN);
+  const double windowMax = params.windowMaxMm.value_or(kNaN);
+  const auto sameLimit = [](double a, double b) { return std::isnan(a) ? std::isnan(b) : a == b; };
+  if (this->PeakParams == params.peaks && this->Depth == params.depth &&
+      this->Envelope == params.envelope &&
+      this->TransducerFrequencyHz == params.transducerFrequencyHz &&
+      sameLimit(this->WindowMinMm, windowMin) && sameLimit(this->WindowMaxMm, windowMax)) {
+    return;
+  }
+  this->PeakParams = params.peaks;
+  this->Depth = params.depth;
+  this->Envelope = params.envelope;
+  this->TransducerFrequencyHz = params.transducerFrequencyHz;
+  this->WindowMinMm = windowMin;
+  this->WindowMaxMm = windowMax;
+  this->Modified();
+}
+
+echoreg::DetectionParams vtkEchoregPeakFilter::GetDetectionParams() const {
+  echoreg::DetectionParams detection;
+  detection.peaks = this->PeakParams;
+  detection.depth = this->Depth;
+  detection.envelope = this->Envelope;
+  detection.transducerFrequencyHz = this->TransducerFrequencyHz;
+  if (!std::isnan(this->WindowMinMm))
+    detection.windowMinMm = this->WindowMinMm;
+  if (!std::isnan(this->WindowMaxMm))
+    detection.windowMaxMm = this->WindowMaxMm;
+  return detection;
 }
 
 void vtkEchoregPeakFilter::SetDepthConversion(const echoreg::DepthConversion& conversion) {
@@ -104,13 +139,7 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
     return 0;
   }
 
-  echoreg::DetectionParams detection;
-  detection.peaks = this->PeakParams;
-  detection.depth = this->Depth;
-  if (!std::isnan(this->WindowMinMm))
-    detection.windowMinMm = this->WindowMinMm;
-  if (!std::isnan(this->WindowMaxMm))
-    detection.windowMaxMm = this->WindowMaxMm;
+  const echoreg::DetectionParams detection = this->GetDetectionParams();
   echoreg::PeakParams peakParams;
   try {
     echoreg::validate(detection);
@@ -154,23 +183,39 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
     }
     const echoreg::filters::SequenceFieldData sequenceData(input->GetFieldData());
     const int firstFrame = input->GetExtent()[2];
-    try {
-      for (vtkIdType row = 0; row < rows; ++row) {
-        const auto frame = static_cast<int>(firstFrame + row);
-        const echoreg::PeakResult result = echoreg::findPeaks(
-            peakParams, envelopes->GetPointer(row * samplesPerRow), samplesPerRow);
-        frameColumn->SetValue(row, frame);
-        timestampColumn->SetValue(row, sequenceData.timestampS(frame));
-        peaksColumn->SetValue(row, static_cast<int>(result.peaks.size()));
-        sampleColumn->SetValue(row, result.accepted() ? result.sampleIndex : kNaN);
-        depthColumn->SetValue(row,
-                              result.accepted() ? this->Depth.depthMm(result.sampleIndex) : kNaN);
-        reasonColumn->SetValue(row, std::string(echoreg::rejectReasonName(result.reason)));
-        thresholdColumn->SetValue(row, result.threshold);
+    // Rows are independent; findPeaks keeps no state. Strings are set on one thread afterwards
+    // (vtkStringArray::SetValue touches the array's lookup state).
+    std::vector<echoreg::RejectReason> verdicts(static_cast<std::size_t>(rows));
+    std::mutex mutex;
+    std::string error;
+    vtkSMPTools::For(0, rows, [&](vtkIdType begin, vtkIdType end) {
+      try {
+        for (vtkIdType row = begin; row < end; ++row) {
+          const auto frame = static_cast<int>(firstFrame + row);
+          const echoreg::PeakResult result = echoreg::findPeaks(
+              peakParams, envelopes->GetPointer(row * samplesPerRow), samplesPerRow);
+          frameColumn->SetValue(row, frame);
+          timestampColumn->SetValue(row, sequenceData.timestampS(frame));
+          peaksColumn->SetValue(row, static_cast<int>(result.peaks.size()));
+          sampleColumn->SetValue(row, result.accepted() ? result.sampleIndex : kNaN);
+          depthColumn->SetValue(row,
+                                result.accepted() ? this->Depth.depthMm(result.sampleIndex) : kNaN);
+          thresholdColumn->SetValue(row, result.threshold);
+          verdicts[static_cast<std::size_t>(row)] = result.reason;
+        }
+      } catch (const std::exception& exception) {
+        const std::lock_guard<std::mutex> lock(mutex);
+        if (error.empty())
+          error = exception.what();
       }
-    } catch (const std::exception& exception) {
-      this->Fail(std::string("peak detection failed: ") + exception.what());
+    });
+    if (!error.empty()) {
+      this->Fail("peak detection failed: " + error);
       return 0;
+    }
+    for (vtkIdType row = 0; row < rows; ++row) {
+      reasonColumn->SetValue(
+          row, std::string(echoreg::rejectReasonName(verdicts[static_cast<std::size_t>(row)])));
     }
   }
 
@@ -215,6 +260,11 @@ void vtkEchoregPeakFilter::PrintSelf(ostream& os, vtkIndent indent) {
   os << indent << "SpeedOfSoundMps: " << this->Depth.speedOfSoundMps << "\n";
   os << indent << "WindowMinMm: " << this->WindowMinMm << "\n";
   os << indent << "WindowMaxMm: " << this->WindowMaxMm << "\n";
+  os << indent << "EnvelopeRingDownSamples: " << this->Envelope.ringDownSamples << "\n";
+  os << indent << "TransducerFrequencyHz: "
+     << (this->TransducerFrequencyHz ? std::to_string(*this->TransducerFrequencyHz)
+                                     : std::string("(envelope's)"))
+     << "\n";
   os << indent << "LastError: " << (this->LastError.empty() ? "(none)" : this->LastError) << "\n";
   os << indent << "ExecutionCount: " << this->ExecutionCount << "\n";
 }

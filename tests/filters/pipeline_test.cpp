@@ -1,7 +1,8 @@
 // The whole capture-side chain through VTK's executive: reader -> envelope -> peaks ->
-// inter-signal, checked against the truth of synthetic captures, against the core's
+// beam points -> inter-signal, checked against the truth of synthetic captures, against the core's
 // detectSequence, and for its demand-driven behaviour.
 #include "echoreg/core/sequence_detection.hpp"
+#include "echoreg/filters/vtkEchoregBeamPointsFilter.h"
 #include "echoreg/filters/vtkEchoregEnvelopeFilter.h"
 #include "echoreg/filters/vtkEchoregInterSignalFilter.h"
 #include "echoreg/filters/vtkEchoregPeakFilter.h"
@@ -30,6 +31,7 @@ struct Pipeline {
   vtkNew<vtkEchoregSequenceReader> reader;
   vtkNew<vtkEchoregEnvelopeFilter> envelope;
   vtkNew<vtkEchoregPeakFilter> peaks;
+  vtkNew<vtkEchoregBeamPointsFilter> beamPoints;
   vtkNew<vtkEchoregInterSignalFilter> interSignal;
 
   Pipeline(const std::string& path, const DetectionParams& params) {
@@ -43,13 +45,14 @@ struct Pipeline {
       peaks->SetWindowMinMm(*params.windowMinMm);
     if (params.windowMaxMm)
       peaks->SetWindowMaxMm(*params.windowMaxMm);
-    interSignal->SetInputConnection(peaks->GetOutputPort());
+    beamPoints->SetInputConnection(peaks->GetOutputPort());
+    interSignal->SetInputConnection(beamPoints->GetOutputPort());
     interSignal->SetInterSignalParams(params.interSignal);
   }
   vtkTable* table() { return interSignal->GetOutput(); }
-  std::array<int, 4> counts() const {
+  std::array<int, 5> counts() const {
     return {reader->GetExecutionCount(), envelope->GetExecutionCount(), peaks->GetExecutionCount(),
-            interSignal->GetExecutionCount()};
+            beamPoints->GetExecutionCount(), interSignal->GetExecutionCount()};
   }
 };
 
@@ -72,8 +75,8 @@ TEST(Pipeline, FindsEveryEchoAndPlacesItInTheBone) {
   writeSequence(sequence, path);
 
   Pipeline pipeline(path, testDetectionParams(capture));
-  pipeline.interSignal->SetPoseTransformName("ProbeToTracker");
-  pipeline.interSignal->SetReferenceTransformName("FemurToTracker");
+  pipeline.beamPoints->SetPoseTransformName("ProbeToTracker");
+  pipeline.beamPoints->SetReferenceTransformName("FemurToTracker");
   pipeline.interSignal->Update();
   ASSERT_EQ(pipeline.interSignal->GetLastError(), "");
 
@@ -120,32 +123,39 @@ TEST(Pipeline, ReRunsOnlyWhatIsDownstreamOfAChange) {
   Pipeline pipeline(path, testDetectionParams(capture));
 
   pipeline.interSignal->Update();
-  EXPECT_EQ(pipeline.counts(), (std::array<int, 4>{1, 1, 1, 1}));
+  EXPECT_EQ(pipeline.counts(), (std::array<int, 5>{1, 1, 1, 1, 1}));
   EXPECT_EQ(pipeline.reader->GetReadCount(), 1);
 
   pipeline.interSignal->Update();
-  EXPECT_EQ(pipeline.counts(), (std::array<int, 4>{1, 1, 1, 1})) << "nothing changed";
+  EXPECT_EQ(pipeline.counts(), (std::array<int, 5>{1, 1, 1, 1, 1})) << "nothing changed";
 
   pipeline.peaks->SetWindowMinMm(1.0);
   pipeline.interSignal->Update();
-  EXPECT_EQ(pipeline.counts(), (std::array<int, 4>{1, 1, 2, 2})) << "a peak parameter";
+  EXPECT_EQ(pipeline.counts(), (std::array<int, 5>{1, 1, 2, 2, 2})) << "a peak parameter";
 
   pipeline.interSignal->SetMinSpreadMm(0.5);
   pipeline.interSignal->Update();
-  EXPECT_EQ(pipeline.counts(), (std::array<int, 4>{1, 1, 2, 3})) << "an inter-signal parameter";
+  EXPECT_EQ(pipeline.counts(), (std::array<int, 5>{1, 1, 2, 2, 3})) << "an inter-signal parameter";
+
+  double beamToProbe[16] = {1, 0, 0, 0, 0, 1, 0, 0, 0, 0, 1, 2.5, 0, 0, 0, 1};
+  pipeline.beamPoints->SetBeamToProbe(beamToProbe);
+  pipeline.interSignal->Update();
+  EXPECT_EQ(pipeline.counts(), (std::array<int, 5>{1, 1, 2, 3, 4}))
+      << "a calibration: the envelope and the peaks are not run again";
 
   pipeline.envelope->SetWindowSamples(25);
   pipeline.interSignal->Update();
-  EXPECT_EQ(pipeline.counts(), (std::array<int, 4>{1, 2, 3, 4})) << "an envelope parameter";
+  EXPECT_EQ(pipeline.counts(), (std::array<int, 5>{1, 2, 3, 4, 5})) << "an envelope parameter";
 
   pipeline.envelope->SetWindowSamples(25);  // the same value: no change
   pipeline.peaks->SetWindowMinMm(1.0);
+  pipeline.beamPoints->SetBeamToProbe(beamToProbe);
   pipeline.interSignal->Update();
-  EXPECT_EQ(pipeline.counts(), (std::array<int, 4>{1, 2, 3, 4}));
+  EXPECT_EQ(pipeline.counts(), (std::array<int, 5>{1, 2, 3, 4, 5}));
 
   pipeline.reader->Modified();
   pipeline.interSignal->Update();
-  EXPECT_EQ(pipeline.counts(), (std::array<int, 4>{2, 3, 4, 5})) << "the reader";
+  EXPECT_EQ(pipeline.counts(), (std::array<int, 5>{2, 3, 4, 5, 6})) << "the reader";
   EXPECT_EQ(pipeline.reader->GetReadCount(), 2);
 }
 
@@ -217,10 +227,10 @@ TEST_P(PipelineAgainstCore, SameVerdictsAndPointsAsDetectSequence) {
   }
 
   Pipeline pipeline(path, params);
-  pipeline.interSignal->SetPoseTransformName(points.poseTransform);
-  pipeline.interSignal->SetReferenceTransformName(points.referenceTransform);
+  pipeline.beamPoints->SetPoseTransformName(points.poseTransform);
+  pipeline.beamPoints->SetReferenceTransformName(points.referenceTransform);
   const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> beamToProbe = points.beamToProbe;
-  pipeline.interSignal->SetBeamToProbe(beamToProbe.data());
+  pipeline.beamPoints->SetBeamToProbe(beamToProbe.data());
   pipeline.interSignal->Update();
   ASSERT_EQ(pipeline.interSignal->GetLastError(), "");
 

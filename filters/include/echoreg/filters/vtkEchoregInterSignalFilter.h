@@ -1,37 +1,29 @@
 /**
  * @class   vtkEchoregInterSignalFilter
- * @brief   Places each detected echo in space and keeps the points that consecutive frames agree
- * on.
+ * @brief   Keeps the points that consecutive frames agree on (the inter-signal filters).
  *
- * Mozes 2008 (section 4.3.3) filters single-signal detections over consecutive A-lines: a point
- * is accepted once `History` consecutive detected frames (this one included) lie within
- * `ConsistencyMm` of it (temporal consistency), and a point closer than `MinSpreadMm` to an
- * already accepted point is dropped (spatial spread); echoreg::InterSignalFilter does both.
+ * Mozes 2008 (section 4.3.3) filters single-signal detections over consecutive A-lines: temporal
+ * consistency (a point is accepted once enough detected frames agree with it; see
+ * echoreg::TemporalMode for the dissertation's consecutive run and echoreg's neighbours in time)
+ * and spatial spread (a point closer than MinSpreadMm to an already accepted point is dropped;
+ * only on tracked points, since (0, 0, depth) of a transducer that does not move says nothing
+ * about where the beam was). The filter is a thin adapter over echoreg::applyInterSignal, so its
+ * verdicts are detectSequence's.
  *
- * Each frame whose single-signal detection succeeded (empty "reason") becomes a 3D point:
- *  - PoseTransformName empty: (0, 0, depth) in Beam (no tracking).
- *  - PoseTransformName set (e.g. "ProbeToTracker"):
- *      p = ProbeToTracker * BeamToProbe * (0, 0, depth, 1)
- *    and, with ReferenceTransformName set (e.g. "FemurToTracker"), in that reference frame:
- *      p = inv(FemurToTracker) * ProbeToTracker * BeamToProbe * (0, 0, depth, 1).
- *    A frame whose pose (or reference pose) is missing or not OK is rejected as "invalid-pose";
- *    a transform name the field data does not hold at all is an error listing the names it holds.
- * Points are judged in row order (the frame order of the peak table); a rejected frame breaks the
- * temporal run.
- *
- * Input (port 0): vtkTable of vtkEchoregPeakFilter ("frame", "depth_mm" and "reason" are required;
- * every other column is kept). Poses come from the table's field data (see
- * echoreg::filters::SequenceFieldData), indexed by the "frame" column.
- * Output (port 0): vtkTable with the input's columns, "reason" updated with the inter-signal
- * verdicts ("inconsistent", "too-close", "invalid-pose"), plus "status" ("accepted" /
- * "rejected") and "x_mm", "y_mm", "z_mm": the frame's point, NaN when the frame has no point
- * (rejected by the single-signal detection or by an invalid pose). Points rejected by the
- * inter-signal filter keep their coordinates so they can be shown; use "status" to select.
+ * Input (port 0): vtkTable of vtkEchoregBeamPointsFilter ("frame", "reason", "x_mm", "y_mm",
+ * "z_mm" required, "depth_mm" and "timestamp_s" used when present; every other column is kept).
+ * A row takes part when its "reason" is empty and its point is finite. The points are tracked
+ * when the field data's "PointFrame" names a frame other than "Beam".
+ * Output (port 0): vtkTable with the input's columns, "reason" updated with the verdicts
+ * ("inconsistent", "too-close"), plus "status" ("accepted" / "rejected"). Points rejected here
+ * keep their coordinates so they can be shown; use "status" to select.
  * Field data: the input's, plus one single-tuple vtkIntArray "Count_<reason>" per reason
- * ("Count_accepted", "Count_no-peak", ..., "Count_invalid-pose"); GetReasonCounts() holds the same.
+ * ("Count_accepted", "Count_no-peak", ..., "Count_invalid-pose") and "EchoesBeforeInterSignal";
+ * GetReasonCounts() and GetLastResult() hold the same.
  *
- * Defaults: those of echoreg::InterSignalParams (history 3, 0.5 mm, 1 mm); no pose transform,
- * no reference, BeamToProbe identity.
+ * Defaults: those of echoreg::InterSignalParams (run mode, history 3, 0.5 mm, 1 mm; neighbours:
+ * 30 mm/s, 0.1 s, 50 Hz). Parameters are checked when the filter runs; a bad one is an error
+ * naming it.
  */
 #pragma once
 
@@ -39,11 +31,8 @@
 
 #include <vtkTableAlgorithm.h>
 
-#include <array>
 #include <map>
 #include <string>
-
-class vtkMatrix4x4;
 
 class vtkEchoregInterSignalFilter : public vtkTableAlgorithm {
  public:
@@ -55,9 +44,17 @@ class vtkEchoregInterSignalFilter : public vtkTableAlgorithm {
   void PrintSelf(ostream& os, vtkIndent indent) override;
   // clang-format on
 
+  /// What the last run decided.
+  struct Result {
+    int echoes = 0;    ///< rows that took part (detected, with a point)
+    int accepted = 0;  ///< rows accepted
+    bool tracked = false;
+    std::map<std::string, int> reasonCounts;  ///< as GetReasonCounts()
+  };
+
   ///@{
   /**
-   * Temporal and spatial filter parameters. Modified() only when something differs.
+   * Every parameter at once. Modified() only when something differs.
    */
   void SetInterSignalParams(const echoreg::InterSignalParams& params);
   const echoreg::InterSignalParams& GetInterSignalParams() const { return this->Params; }
@@ -65,8 +62,16 @@ class vtkEchoregInterSignalFilter : public vtkTableAlgorithm {
 
   ///@{
   /**
-   * Consecutive detected frames that must agree (>= 1; 1 switches the temporal filter off).
-   * Default 3.
+   * Temporal mode: echoreg::TemporalMode::Run (the default, the dissertation's) or Neighbours.
+   */
+  void SetTemporalMode(echoreg::TemporalMode mode) { this->SetField(this->Params.temporal, mode); }
+  echoreg::TemporalMode GetTemporalMode() const { return this->Params.temporal; }
+  ///@}
+
+  ///@{
+  /**
+   * Detected frames that must agree, this one included (>= 1; 1 switches the temporal filter
+   * off). Default 3.
    */
   void SetHistory(int frames) { this->SetField(this->Params.history, frames); }
   int GetHistory() const { return this->Params.history; }
@@ -74,7 +79,7 @@ class vtkEchoregInterSignalFilter : public vtkTableAlgorithm {
 
   ///@{
   /**
-   * Distance within which consecutive points agree, mm (> 0). Default 0.5.
+   * Distance within which points agree, mm (> 0). Default 0.5.
    */
   void SetConsistencyMm(double mm) { this->SetField(this->Params.consistencyMm, mm); }
   double GetConsistencyMm() const { return this->Params.consistencyMm; }
@@ -82,50 +87,39 @@ class vtkEchoregInterSignalFilter : public vtkTableAlgorithm {
 
   ///@{
   /**
-   * Minimum distance of an accepted point to the points accepted before, mm (>= 0; 0 switches
-   * the spatial filter off). Default 1.
+   * Neighbours mode: how fast the depth may change, mm/s (>= 0, default 30), the longest time to
+   * a neighbour that still counts, s (> 0, default 0.1), and the frame rate assumed for frames
+   * without timestamps, Hz (> 0, default 50).
+   */
+  void SetMaxDepthRateMmPerS(double rate) { this->SetField(this->Params.maxDepthRateMmPerS, rate); }
+  double GetMaxDepthRateMmPerS() const { return this->Params.maxDepthRateMmPerS; }
+  void SetMaxGapS(double seconds) { this->SetField(this->Params.maxGapS, seconds); }
+  double GetMaxGapS() const { return this->Params.maxGapS; }
+  void SetFrameRateHz(double hz) { this->SetField(this->Params.frameRateHz, hz); }
+  double GetFrameRateHz() const { return this->Params.frameRateHz; }
+  ///@}
+
+  ///@{
+  /**
+   * Minimum distance of an accepted tracked point to the points accepted before, mm (>= 0; 0
+   * switches the spatial filter off). Default 1.
    */
   void SetMinSpreadMm(double mm) { this->SetField(this->Params.minSpreadMm, mm); }
   double GetMinSpreadMm() const { return this->Params.minSpreadMm; }
-  ///@}
-
-  ///@{
-  /**
-   * Name of the probe's tracked transform in the field data, e.g. "ProbeToTracker". Empty (the
-   * default): no tracking, points are (0, 0, depth) in Beam.
-   */
-  void SetPoseTransformName(const std::string& name) {
-    this->SetField(this->PoseTransformName, name);
-  }
-  const std::string& GetPoseTransformName() const { return this->PoseTransformName; }
-  ///@}
-
-  ///@{
-  /**
-   * Name of the reference's tracked transform, e.g. "FemurToTracker": points are expressed in
-   * that frame. Empty (the default): points stay in the pose's target frame (Tracker). Needs
-   * PoseTransformName.
-   */
-  void SetReferenceTransformName(const std::string& name) {
-    this->SetField(this->ReferenceTransformName, name);
-  }
-  const std::string& GetReferenceTransformName() const { return this->ReferenceTransformName; }
-  ///@}
-
-  ///@{
-  /**
-   * Calibration from Beam to Probe (4x4, mm), row-major. Default identity.
-   */
-  void SetBeamToProbe(const double rowMajor[16]);
-  void SetBeamToProbe(vtkMatrix4x4* beamToProbe);
-  void GetBeamToProbe(double rowMajor[16]) const;
   ///@}
 
   /**
    * Frames per reason of the last run: "accepted" and every echoreg::rejectReasonName
    * ("no-peak", ..., "invalid-pose"), zeros included.
    */
-  const std::map<std::string, int>& GetReasonCounts() const { return this->ReasonCounts; }
+  const std::map<std::string, int>& GetReasonCounts() const {
+    return this->LastResult.reasonCounts;
+  }
+
+  /**
+   * What the last successful run decided.
+   */
+  const Result& GetLastResult() const { return this->LastResult; }
 
   /**
    * Message of the last failure, empty after a success.
@@ -158,10 +152,7 @@ class vtkEchoregInterSignalFilter : public vtkTableAlgorithm {
   void Fail(const std::string& message);
 
   echoreg::InterSignalParams Params;
-  std::string PoseTransformName;
-  std::string ReferenceTransformName;
-  std::array<double, 16> BeamToProbe;
-  std::map<std::string, int> ReasonCounts;
+  Result LastResult;
   std::string LastError;
   int ExecutionCount = 0;
 };

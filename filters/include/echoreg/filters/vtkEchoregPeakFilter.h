@@ -22,16 +22,24 @@
  * The input's field data (timestamps, poses, acquisition settings) is passed through to the
  * table's field data. An input without samples gives a table without rows, with a warning.
  *
+ * SetDetectionParams() takes the parameters of the whole chain (as adaptToSequence resolved them)
+ * and resolves them exactly as echoreg::SignalDetector does, so the table's verdicts are
+ * detectSequence's single-signal verdicts: the transducer frequency (samples per cycle) and the
+ * envelope's ring-down reach the peak policy too. Frames are processed in parallel with
+ * vtkSMPTools.
+ *
  * Defaults: those of echoreg::PeakParams (1.5 x mean, bone policy, sub-sample refinement) and
  * echoreg::DepthConversion (50 MHz, no delay, 1540 m/s); no window.
  */
 #pragma once
 
 #include "echoreg/core/depth.hpp"
+#include "echoreg/core/detection.hpp"
 #include "echoreg/core/peaks.hpp"
 
 #include <vtkTableAlgorithm.h>
 
+#include <optional>
 #include <string>
 
 class vtkEchoregPeakFilter : public vtkTableAlgorithm {
@@ -51,6 +59,16 @@ class vtkEchoregPeakFilter : public vtkTableAlgorithm {
    */
   void SetPeakParams(const echoreg::PeakParams& params);
   const echoreg::PeakParams& GetPeakParams() const { return this->PeakParams; }
+  ///@}
+
+  ///@{
+  /**
+   * The parameters of the whole chain: peaks, depth, window, and what of the envelope and the
+   * transducer the peak policy reads (ring-down, transducer frequency). GetDetectionParams()
+   * composes them back. Modified() only when something differs.
+   */
+  void SetDetectionParams(const echoreg::DetectionParams& params);
+  echoreg::DetectionParams GetDetectionParams() const;
   ///@}
 
   ///@{
@@ -136,6 +154,8 @@ class vtkEchoregPeakFilter : public vtkTableAlgorithm {
 
   echoreg::PeakParams PeakParams;
   echoreg::DepthConversion Depth;
+  echoreg::EnvelopeParams Envelope;
+  std::optional<double> TransducerFrequencyHz;
   double WindowMinMm;
   double WindowMaxMm;
   std::string LastError;

@@ -12,7 +12,8 @@
  * (VTK_UNSIGNED_CHAR, VTK_SIGNED_CHAR, VTK_SHORT or VTK_FLOAT).
  * A tracker-only capture (DimSize = 0 0 F) gives an image without points: extent
  * (0, -1, 0, F-1, 0, 0), so GetDimensions() reads (0, F, 1), no scalars, and the field data below
- * still present. Frames of more than one row (2D images) are refused: they are not A-lines.
+ * still present. Frames of more than one row (2D images, or a holder of several transducers) are
+ * refused with echoreg::requireSingleALineFrames's sentence.
  *
  * Field data of the output (see echoreg::filters::SequenceFieldData): "Timestamp" (NaN where a
  * frame has none); per transform N: "N" (16 components, row-major), "N_Valid" (1 = status OK) and
@@ -27,10 +28,17 @@
  * echoreg::FileError, which names the file, the request fails (Update() leaves an empty output)
  * and GetLastError() returns the message; it is cleared by the next successful read.
  *
- * Defaults: no file name (an error on update).
+ * Poses used as rigid transforms: for each name of RigidPoseTransforms the capture holds, the rule
+ * of echoreg::enforceRigidPoses is applied once after the read (poses within tolerance are
+ * re-orthonormalised, others refused as an error naming the frame); GetRigidPoseReports() tells
+ * what it did. Names the capture does not hold are left to the consumer (which lists the names
+ * it has).
+ *
+ * Defaults: no file name (an error on update), no rigid-pose transforms.
  */
 #pragma once
 
+#include "echoreg/core/rigid_pose.hpp"
 #include "echoreg/core/sequence.hpp"
 
 #include <vtkImageAlgorithm.h>
@@ -39,6 +47,8 @@
 #include <cstdint>
 #include <filesystem>
 #include <string>
+#include <utility>
+#include <vector>
 
 class vtkEchoregSequenceReader : public vtkImageAlgorithm {
  public:
@@ -57,6 +67,24 @@ class vtkEchoregSequenceReader : public vtkImageAlgorithm {
   void SetFileName(const std::string& fileName);
   const std::string& GetFileName() const { return this->FileName; }
   ///@}
+
+  ///@{
+  /**
+   * Transforms whose valid poses must be rigid (e.g. {"ProbeToTracker", "FemurToTracker"});
+   * empty names are ignored. Default: none.
+   */
+  void SetRigidPoseTransforms(const std::vector<std::string>& names);
+  const std::vector<std::string>& GetRigidPoseTransforms() const {
+    return this->RigidPoseTransforms;
+  }
+  ///@}
+
+  /**
+   * Per transform of RigidPoseTransforms the capture holds, what the rule did on the last read.
+   */
+  const std::vector<std::pair<std::string, echoreg::RigidPoseReport>>& GetRigidPoseReports() const {
+    return this->RigidPoseReports;
+  }
 
   /**
    * The sequence of the last successful read (empty before the first one).
@@ -97,6 +125,8 @@ class vtkEchoregSequenceReader : public vtkImageAlgorithm {
   void Fail(const std::string& message);
 
   std::string FileName;
+  std::vector<std::string> RigidPoseTransforms;
+  std::vector<std::pair<std::string, echoreg::RigidPoseReport>> RigidPoseReports;
   echoreg::Sequence Sequence;
   std::string LastError;
   int ExecutionCount = 0;

@@ -1,0 +1,92 @@
+// The A-line detection pipeline of `echoreg detect` (and, next, of every command that detects):
+//
+//   vtkEchoregSequenceReader -> vtkEchoregEnvelopeFilter -> vtkEchoregPeakFilter
+//     -> vtkEchoregBeamPointsFilter -> vtkEchoregInterSignalFilter -> vtkEchoregDetectionWriter
+//
+// Demand-driven: set the parameters, update the last algorithm, and only the steps downstream of
+// a change run again (a new BeamToProbe re-runs beam points and inter-signal, not the envelope).
+// The envelope and peak filters split their frames over threads with vtkSMPTools. The result is
+// detectSequence's (tests/filters/detection_pipeline_test.cpp compares them frame by frame), so
+// the commands that used to call it give the same bytes.
+#pragma once
+
+#include "echoreg/core/sequence_detection.hpp"
+#include "echoreg/filters/vtkEchoregBeamPointsFilter.h"
+#include "echoreg/filters/vtkEchoregDetectionWriter.h"
+#include "echoreg/filters/vtkEchoregEnvelopeFilter.h"
+#include "echoreg/filters/vtkEchoregInterSignalFilter.h"
+#include "echoreg/filters/vtkEchoregPeakFilter.h"
+#include "echoreg/filters/vtkEchoregSequenceReader.h"
+
+#include <vtkNew.h>
+#include <vtkSmartPointer.h>
+
+#include <string>
+
+class vtkStringOutputWindow;
+class vtkOutputWindow;
+class vtkTable;
+
+namespace echoreg::filters {
+
+/// Routes VTK's error and warning messages into a string while it lives, so a command reports
+/// failures in its own words (the algorithms' GetLastError()) without VTK's file-and-line lines
+/// on stderr.
+class VtkMessageCapture {
+ public:
+  VtkMessageCapture();
+  ~VtkMessageCapture();
+  VtkMessageCapture(const VtkMessageCapture&) = delete;
+  VtkMessageCapture& operator=(const VtkMessageCapture&) = delete;
+  /// What VTK said so far.
+  std::string text() const;
+
+ private:
+  vtkSmartPointer<vtkOutputWindow> previous_;
+  int previousVerbosity_;
+  vtkSmartPointer<vtkStringOutputWindow> window_;
+};
+
+class DetectionPipeline {
+ public:
+  DetectionPipeline();
+
+  /// The capture to read and the transforms whose poses must be rigid (empty names ignored).
+  /// Reads the file (RequestInformation) and returns the sequence; throws std::runtime_error
+  /// with the reader's message ("PATH: problem") when it cannot be read.
+  const Sequence& open(const std::string& capturePath, const std::vector<std::string>& rigidPoses);
+
+  /// Resolves the capture-dependent parameters (adaptToSequence on the opened capture) and sets
+  /// every step's parameters; returns what adaptToSequence measured. Throws std::invalid_argument
+  /// as detectSequence does, with its words: a capture without A-lines, a reference without a
+  /// pose, a transform the capture does not hold (listing those it has), bad parameters.
+  const CaptureAnalysis& configure(const DetectionParams& params, const PointFrameOptions& points);
+
+  /// Updates the chain up to the inter-signal filter and returns the detection, with the params
+  /// and analysis of configure(). Throws std::runtime_error with the first failing step's message.
+  SequenceDetection run();
+
+  /// Updates the chain and writes the CSV to `path` (atomically). Throws std::runtime_error with
+  /// the failing step's message.
+  void write(const std::string& path);
+
+  /// The parameters as configure() resolved them.
+  const DetectionParams& params() const { return params_; }
+
+  vtkNew<vtkEchoregSequenceReader> reader;
+  vtkNew<vtkEchoregEnvelopeFilter> envelope;
+  vtkNew<vtkEchoregPeakFilter> peaks;
+  vtkNew<vtkEchoregBeamPointsFilter> beamPoints;
+  vtkNew<vtkEchoregInterSignalFilter> interSignal;
+  vtkNew<vtkEchoregDetectionWriter> writer;
+
+ private:
+  /// Throws the first upstream step's error, if any.
+  void throwFirstError(const std::string& fallback) const;
+
+  std::string capturePath_;
+  DetectionParams params_;
+  CaptureAnalysis analysis_;
+};
+
+}  // namespace echoreg::filters

@@ -1,0 +1,131 @@
+#include "echoreg/filters/DetectionPipeline.h"
+
+#include "echoreg/filters/DetectionTable.h"
+
+#include <vtkExecutive.h>
+#include <vtkLogger.h>
+#include <vtkOutputWindow.h>
+#include <vtkStringOutputWindow.h>
+#include <vtkTable.h>
+
+#include <Eigen/Core>
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace echoreg::filters {
+
+namespace {
+
+// detectSequence's words for a transform the capture does not hold.
+void requireTransform(const Sequence& sequence, const std::string& name) {
+  if (name.empty())
+    return;
+  const std::vector<std::string> names = sequence.transformNames();
+  if (std::find(names.begin(), names.end(), name) != names.end())
+    return;
+  std::string known;
+  for (const auto& n : names)
+    known += (known.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("the capture has no transform " + name +
+                              " (it has: " + (known.empty() ? "none" : known) + ")");
+}
+
+}  // namespace
+
+VtkMessageCapture::VtkMessageCapture()
+    : previous_(vtkOutputWindow::GetInstance()),
+      previousVerbosity_(static_cast<int>(vtkLogger::GetCurrentVerbosityCutoff())),
+      window_(vtkSmartPointer<vtkStringOutputWindow>::New()) {
+  vtkOutputWindow::SetInstance(window_);
+  vtkLogger::SetStderrVerbosity(vtkLogger::VERBOSITY_OFF);
+}
+
+VtkMessageCapture::~VtkMessageCapture() {
+  vtkLogger::SetStderrVerbosity(static_cast<vtkLogger::Verbosity>(previousVerbosity_));
+  vtkOutputWindow::SetInstance(previous_);
+}
+
+std::string VtkMessageCapture::text() const {
+  return window_->GetOutput();
+}
+
+DetectionPipeline::DetectionPipeline() {
+  envelope->SetInputConnection(reader->GetOutputPort());
+  peaks->SetInputConnection(envelope->GetOutputPort());
+  beamPoints->SetInputConnection(peaks->GetOutputPort());
+  interSignal->SetInputConnection(beamPoints->GetOutputPort());
+  writer->SetInputConnection(interSignal->GetOutputPort());
+}
+
+const Sequence& DetectionPipeline::open(const std::string& capturePath,
+                                        const std::vector<std::string>& rigidPoses) {
+  const VtkMessageCapture quiet;
+  capturePath_ = capturePath;
+  reader->SetFileName(capturePath);
+  reader->SetRigidPoseTransforms(rigidPoses);
+  reader->UpdateInformation();
+  if (!reader->GetLastError().empty())
+    throw std::runtime_error(reader->GetLastError());
+  return reader->GetSequence();
+}
+
+const CaptureAnalysis& DetectionPipeline::configure(const DetectionParams& given,
+                                                    const PointFrameOptions& points) {
+  const Sequence& sequence = reader->GetSequence();
+  if (!sequence.hasPixels()) {
+    throw std::invalid_argument("the capture holds no A-lines (a tracker-only sequence)");
+  }
+  if (!points.referenceTransform.empty() && points.poseTransform.empty()) {
+    throw std::invalid_argument("a reference transform needs a pose transform too");
+  }
+  requireTransform(sequence, points.poseTransform);
+  requireTransform(sequence, points.referenceTransform);
+
+  analysis_ = CaptureAnalysis();
+  params_ = adaptToSequence(sequence, given, &analysis_);
+  validate(params_);
+  envelope->SetParams(params_.envelope);
+  peaks->SetDetectionParams(params_);
+  beamPoints->SetPoseTransformName(points.poseTransform);
+  beamPoints->SetReferenceTransformName(points.referenceTransform);
+  const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> beamToProbe = points.beamToProbe;
+  beamPoints->SetBeamToProbe(beamToProbe.data());
+  interSignal->SetInterSignalParams(params_.interSignal);
+  return analysis_;
+}
+
+void DetectionPipeline::throwFirstError(const std::string& fallback) const {
+  for (const std::string* error :
+       {&reader->GetLastError(), &envelope->GetLastError(), &peaks->GetLastError(),
+        &beamPoints->GetLastError(), &interSignal->GetLastError(), &writer->GetLastError()}) {
+    if (!error->empty())
+      throw std::runtime_error(*error);
+  }
+  throw std::runtime_error(fallback);
+}
+
+SequenceDetection DetectionPipeline::run() {
+  const VtkMessageCapture quiet;
+  if (interSignal->GetExecutive()->Update() != 1)
+    throwFirstError(capturePath_ + ": the detection pipeline failed");
+  SequenceDetection detection = sequenceDetectionOf(interSignal->GetOutput());
+  detection.params = params_;
+  detection.analysis = analysis_;
+  return detection;
+}
+
+void DetectionPipeline::write(const std::string& path) {
+  const VtkMessageCapture quiet;
+  // The chain first: a writer whose input failed is never asked to write, and would not say so.
+  if (interSignal->GetExecutive()->Update() != 1)
+    throwFirstError(capturePath_ + ": the detection pipeline failed");
+  writer->SetFileName(path);
+  const int writes = writer->GetExecutionCount();
+  if (writer->Write() != 1 || writer->GetExecutionCount() != writes + 1 ||
+      !writer->GetLastError().empty()) {
+    throwFirstError(path + ": the detection could not be written");
+  }
+}
+
+}  // namespace echoreg::filters

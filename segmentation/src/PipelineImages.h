@@ -1,0 +1,26 @@
+// CT images and masks between the pipeline (vtkImageData) and the segmentation functions
+// (CtImage, VoxelMask), for the segmentation algorithms' adapters.
+#pragma once
+
+#include "echoreg/segmentation/bone_mask.hpp"
+#include "echoreg/segmentation/ct_image.hpp"
+
+#include <vtkImageData.h>
+#include <vtkSmartPointer.h>
+
+namespace echoreg::segmentation::pipeline {
+
+/// The uniform CtImage of a vtkImageData as vtkEchoregDicomSeriesReader / toImageData make it:
+/// one-component scalars (HU, converted to int16 when of another type), spacing, origin (the
+/// centre of voxel 0, LPS) and direction matrix. With `withVoxels` false only the geometry.
+/// Throws std::invalid_argument for an image without voxels or scalars.
+CtImage ctImageOf(vtkImageData* image, bool withVoxels = true);
+
+/// A mask image (uint8 0/1 scalars named `name`) on the mask's grid.
+vtkSmartPointer<vtkImageData> maskImageOf(const VoxelMask& mask, const char* name);
+
+/// The mask of an image's scalars (non-zero = inside) on the grid of `grid`; throws
+/// std::invalid_argument when the dimensions differ.
+VoxelMask voxelMaskOf(vtkImageData* image, const CtImage& grid);
+
+}  // namespace echoreg::segmentation::pipeline

@@ -1,0 +1,228 @@
+// echoreg::filters::DetectionPipeline, the path `echoreg detect` takes: its detection must be
+// detectSequence's, number for number, its CSV written whole or not at all, and a change re-runs
+// only the steps downstream of it.
+#include "echoreg/core/sequence_detection.hpp"
+#include "echoreg/filters/DetectionPipeline.h"
+#include "filter_test_helpers.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+
+#include <vtkTable.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace echoreg::test {
+namespace {
+
+void expectSameDetection(const SequenceDetection& actual, const SequenceDetection& expected) {
+  ASSERT_EQ(actual.frames.size(), expected.frames.size());
+  for (std::size_t f = 0; f < expected.frames.size(); ++f) {
+    SCOPED_TRACE("frame " + std::to_string(f));
+    const FrameDetection& a = actual.frames[f];
+    const FrameDetection& e = expected.frames[f];
+    EXPECT_EQ(a.frame, e.frame);
+    EXPECT_EQ(a.timestampS, e.timestampS);
+    EXPECT_EQ(rejectReasonName(a.reason), rejectReasonName(e.reason));
+    EXPECT_EQ(a.peakCount, e.peakCount);
+    EXPECT_EQ(a.sampleIndex, e.sampleIndex);
+    EXPECT_EQ(a.depthMm, e.depthMm);
+    ASSERT_EQ(a.pointMm.has_value(), e.pointMm.has_value());
+    if (e.pointMm) {
+      EXPECT_EQ(*a.pointMm, *e.pointMm);
+    }
+  }
+  EXPECT_EQ(actual.accepted, expected.accepted);
+  EXPECT_EQ(actual.rejectedByReason, expected.rejectedByReason);
+  EXPECT_EQ(actual.echoes, expected.echoes);
+  EXPECT_EQ(actual.analysis.ringDownSamples, expected.analysis.ringDownSamples);
+  EXPECT_EQ(actual.analysis.transducerFrequencyHz, expected.analysis.transducerFrequencyHz);
+  EXPECT_EQ(actual.analysis.shadowRule, expected.analysis.shadowRule);
+  EXPECT_EQ(detectionWarnings(actual), detectionWarnings(expected));
+}
+
+std::string readText(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+SyntheticCapture trackedCapture() {
+  SyntheticCapture capture;
+  capture.frames = 40;
+  capture.probeStepMm = 0.3;
+  capture.echoStepSamples = 3.0;
+  capture.invalidProbeFrames = {4, 11};
+  capture.withFemur = true;
+  return capture;
+}
+
+class DetectionPipelineAgainstCore : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(DetectionPipelineAgainstCore, SameDetectionAsDetectSequence) {
+  TempDir dir;
+  const SyntheticCapture capture = trackedCapture();
+  const Sequence sequence = makeCapture(capture);
+  const std::string path = dir.file("capture.igs.mha");
+  writeSequence(sequence, path);
+
+  DetectionParams params =
+      GetParam() == "test" ? testDetectionParams(capture) : detectionPreset(GetParam());
+  params.depth = depthFromSequence(sequence, params.depth);
+  params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
+  params.interSignal.minSpreadMm = 0.4;
+  PointFrameOptions points;
+  points.poseTransform = "ProbeToTracker";
+  points.referenceTransform = "FemurToTracker";
+  points.beamToProbe(0, 3) = 1.5;
+  const SequenceDetection expected = detectSequence(sequence, params, points);
+  if (GetParam() == "test") {
+    ASSERT_GT(expected.accepted, 0);
+    ASSERT_GT(expected.rejectedByReason.count("invalid-pose"), 0U);
+  }
+
+  filters::DetectionPipeline pipeline;
+  pipeline.open(path, {});
+  pipeline.configure(params, points);
+  expectSameDetection(pipeline.run(), expected);
+  EXPECT_EQ(pipeline.params().envelope, expected.params.envelope) << "adapted as detectSequence";
+}
+
+INSTANTIATE_TEST_SUITE_P(Presets, DetectionPipelineAgainstCore,
+                         ::testing::Values("test", "default", "mozes2008", "calibration",
+                                           "shadow"));
+
+TEST(DetectionPipeline, UntrackedCaptureWritesTheCsvWithoutPoints) {
+  TempDir dir;
+  SyntheticCapture capture;
+  capture.frames = 12;
+  const std::string path = dir.file("capture.igs.nrrd");
+  writeSequence(makeCapture(capture), path);
+  filters::DetectionPipeline pipeline;
+  pipeline.open(path, {});
+  pipeline.configure(testDetectionParams(capture), {});
+  const std::string out = dir.file("depths.csv");
+  pipeline.write(out);
+  const std::string csv = readText(out);
+  EXPECT_EQ(csv.substr(0, csv.find('\n')),
+            "frame,timestamp_s,status,reason,peaks,sample_index,depth_mm");
+  const SequenceDetection detection = pipeline.run();
+  EXPECT_EQ(static_cast<std::size_t>(std::count(csv.begin(), csv.end(), '\n')),
+            detection.frames.size() + 1);
+  ASSERT_GT(detection.accepted, 0);
+  for (const FrameDetection& frame : detection.frames) {
+    if (!frame.depthMm)
+      continue;
+    char depth[32];
+    std::snprintf(depth, sizeof depth, ",%.4f\n", *frame.depthMm);
+    EXPECT_NE(csv.find(depth), std::string::npos) << depth << " in\n" << csv;
+  }
+}
+
+TEST(DetectionPipeline, ACalibrationChangeReRunsOnlyThePointsAndTheFilters) {
+  TempDir dir;
+  const SyntheticCapture capture = trackedCapture();
+  const std::string path = dir.file("capture.igs.mha");
+  writeSequence(makeCapture(capture), path);
+  filters::DetectionPipeline pipeline;
+  pipeline.open(path, {"ProbeToTracker"});
+  PointFrameOptions points;
+  points.poseTransform = "ProbeToTracker";
+  pipeline.configure(testDetectionParams(capture), points);
+  const std::string out = dir.file("depths.csv");
+  pipeline.write(out);
+  const SequenceDetection before = pipeline.run();
+  const auto counts = [&] {
+    return std::array<int, 6>{
+        pipeline.reader->GetExecutionCount(),      pipeline.envelope->GetExecutionCount(),
+        pipeline.peaks->GetExecutionCount(),       pipeline.beamPoints->GetExecutionCount(),
+        pipeline.interSignal->GetExecutionCount(), pipeline.writer->GetExecutionCount()};
+  };
+  EXPECT_EQ(counts(), (std::array<int, 6>{1, 1, 1, 1, 1, 1})) << "run() after write(): no re-run";
+
+  pipeline.configure(testDetectionParams(capture), points);
+  pipeline.run();
+  EXPECT_EQ(counts(), (std::array<int, 6>{1, 1, 1, 1, 1, 1})) << "the same parameters";
+
+  points.beamToProbe(2, 3) = 4.0;
+  pipeline.configure(testDetectionParams(capture), points);
+  const SequenceDetection after = pipeline.run();
+  EXPECT_EQ(counts(), (std::array<int, 6>{1, 1, 1, 2, 2, 1})) << "a new BeamToProbe";
+  ASSERT_EQ(after.accepted, before.accepted);
+  for (std::size_t f = 0; f < after.frames.size(); ++f) {
+    if (after.frames[f].pointMm && before.frames[f].pointMm) {
+      EXPECT_NEAR((*after.frames[f].pointMm - *before.frames[f].pointMm).norm(), 4.0, 1e-9);
+    }
+  }
+}
+
+TEST(DetectionPipeline, BadInputIsAnErrorInTheCoresWordsAndWritesNothing) {
+  CapturedVtkOutput messages;
+  TempDir dir;
+  {
+    filters::DetectionPipeline pipeline;
+    try {
+      pipeline.open(dir.file("absent.igs.mha"), {});
+      FAIL() << "an absent capture must be an error";
+    } catch (const std::runtime_error& e) {
+      EXPECT_NE(std::string(e.what()).find("absent.igs.mha"), std::string::npos) << e.what();
+    }
+  }
+  const SyntheticCapture capture = trackedCapture();
+  const std::string path = dir.file("capture.igs.mha");
+  writeSequence(makeCapture(capture), path);
+  {
+    filters::DetectionPipeline pipeline;
+    pipeline.open(path, {});
+    PointFrameOptions points;
+    points.poseTransform = "ProbeToTracker";
+    points.referenceTransform = "TibiaToTracker";
+    try {
+      pipeline.configure(testDetectionParams(capture), points);
+      FAIL() << "a transform the capture does not hold must be an error";
+    } catch (const std::invalid_argument& e) {
+      EXPECT_NE(std::string(e.what()).find("no transform TibiaToTracker"), std::string::npos)
+          << e.what();
+    }
+    points.referenceTransform.clear();
+    pipeline.configure(testDetectionParams(capture), points);
+    const std::string out = dir.file("missing-folder/depths.csv");
+    EXPECT_THROW(pipeline.write(out), std::runtime_error);
+    EXPECT_FALSE(std::filesystem::exists(out));
+  }
+  {
+    Sequence stylus;
+    stylus.frames.resize(3);
+    for (auto& frame : stylus.frames)
+      frame.transforms["StylusToTracker"] = TrackedTransform();
+    const std::string stylusPath = dir.file("stylus.igs.mha");
+    writeSequence(stylus, stylusPath);
+    filters::DetectionPipeline pipeline;
+    pipeline.open(stylusPath, {});
+    EXPECT_THROW(pipeline.configure(testDetectionParams(capture), {}), std::invalid_argument);
+  }
+}
+
+TEST(DetectionPipeline, MatchesDetectSequenceOnThePublicAgilentRecording) {
+  ECHOREG_REQUIRE_SHARED_FILE(path, "plus/Agilent_Scope_Recording_DP310.igs.nrrd");
+  const Sequence sequence = readSequence(path);
+  for (const std::string preset : {"default", "calibration"}) {
+    SCOPED_TRACE(preset);
+    DetectionParams params = detectionPreset(preset);
+    params.depth = depthFromSequence(sequence, params.depth);
+    params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
+    filters::DetectionPipeline pipeline;
+    pipeline.open(path, {});
+    pipeline.configure(params, {});
+    expectSameDetection(pipeline.run(), detectSequence(sequence, params));
+  }
+}
+
+}  // namespace
+}  // namespace echoreg::test
