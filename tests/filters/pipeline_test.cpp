@@ -226,7 +226,9 @@ TEST_P(PipelineAgainstCore, SameVerdictsAndPointsAsDetectSequence) {
     ASSERT_GT(expected.rejectedByReason.count("invalid-pose"), 0U);
   }
 
-  Pipeline pipeline(path, params);
+  // detectSequence measures the capture (adaptToSequence) before it runs; the filters are given
+  // what it measured.
+  Pipeline pipeline(path, expected.params);
   pipeline.beamPoints->SetPoseTransformName(points.poseTransform);
   pipeline.beamPoints->SetReferenceTransformName(points.referenceTransform);
   const Eigen::Matrix<double, 4, 4, Eigen::RowMajor> beamToProbe = points.beamToProbe;
