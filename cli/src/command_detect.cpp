@@ -10,6 +10,10 @@
 #include "echoreg/filters/DetectionPipeline.h"
 
 #include <fmt/format.h>
+#include <vtkAlgorithm.h>
+#include <vtkCallbackCommand.h>
+#include <vtkCommand.h>
+#include <vtkNew.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -438,7 +442,34 @@ CommandAction addDetectCommand(CLI::App& app) {
     } catch (const std::invalid_argument& e) {
       throw FileError(o->capture, e.what());
     }
+    // Long captures on a terminal: the heavy steps' progress on one line.
+    const bool showProgress = io.errIsTerminal && sequence.frameCount() > 2000;
+    struct ProgressLine {
+      std::ostream* err;
+      std::size_t frames;
+      const char* step;
+    };
+    ProgressLine envelopeLine{&io.err, sequence.frameCount(), "envelopes"};
+    ProgressLine echoLine{&io.err, sequence.frameCount(), "echoes   "};
+    vtkNew<vtkCallbackCommand> envelopeProgress, echoProgress;
+    if (showProgress) {
+      const auto print = [](vtkObject* caller, unsigned long, void* data, void*) {
+        const auto* line = static_cast<const ProgressLine*>(data);
+        const double done = vtkAlgorithm::SafeDownCast(caller)->GetProgress();
+        *line->err << fmt::format("\rdetect: {} frames, {} {:3.0f} %", line->frames, line->step,
+                                  100.0 * done)
+                   << std::flush;
+      };
+      envelopeProgress->SetCallback(print);
+      envelopeProgress->SetClientData(&envelopeLine);
+      echoProgress->SetCallback(print);
+      echoProgress->SetClientData(&echoLine);
+      pipeline.envelope->AddObserver(vtkCommand::ProgressEvent, envelopeProgress);
+      pipeline.peaks->AddObserver(vtkCommand::ProgressEvent, echoProgress);
+    }
     pipeline.write(o->out);
+    if (showProgress)
+      io.err << "\n";
     const SequenceDetection detection = pipeline.run();
     for (const std::string& warning : detectionWarnings(detection)) {
       io.err << "echoreg detect: warning: " << warning << "\n";

@@ -99,13 +99,20 @@ class EnvelopeRows {
   std::string error_;
 };
 
-// Runs EnvelopeRows over every row of `scalars`; the error message of a failure, else "".
+// Runs EnvelopeRows over every row of `scalars`, in twenty slices of rows so that `filter`
+// reports its progress between them (from this thread: VTK's events are not thread-safe); the
+// error message of a failure, else "".
 template <typename T>
 std::string envelopesOf(const echoreg::EnvelopeParams& params, vtkDataArray* scalars,
-                        float* envelopes, int samplesPerRow, vtkIdType rows) {
+                        float* envelopes, int samplesPerRow, vtkIdType rows, vtkAlgorithm* filter) {
   EnvelopeRows<T> work(params, static_cast<const T*>(scalars->GetVoidPointer(0)), envelopes,
                        samplesPerRow);
-  vtkSMPTools::For(0, rows, work);
+  const vtkIdType slice = std::max<vtkIdType>(256, (rows + 19) / 20);
+  for (vtkIdType begin = 0; begin < rows && work.error().empty(); begin += slice) {
+    const vtkIdType end = std::min(rows, begin + slice);
+    vtkSMPTools::For(begin, end, work);
+    filter->UpdateProgress(static_cast<double>(end) / static_cast<double>(rows));
+  }
   return work.error();
 }
 
@@ -208,7 +215,7 @@ int vtkEchoregEnvelopeFilter::RequestData(vtkInformation* /*request*/,
   std::string error;
   switch (scalars->GetDataType()) {
     vtkTemplateMacro(error = envelopesOf<VTK_TT>(this->Params, scalars, envelopes->GetPointer(0),
-                                                 dimensions[0], dimensions[1]));
+                                                 dimensions[0], dimensions[1], this));
     default:
       error = std::string("unsupported scalar type ") + scalars->GetDataTypeAsString();
   }

@@ -188,7 +188,7 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
     std::vector<echoreg::RejectReason> verdicts(static_cast<std::size_t>(rows));
     std::mutex mutex;
     std::string error;
-    vtkSMPTools::For(0, rows, [&](vtkIdType begin, vtkIdType end) {
+    const auto peaksOfRows = [&](vtkIdType begin, vtkIdType end) {
       try {
         for (vtkIdType row = begin; row < end; ++row) {
           const auto frame = static_cast<int>(firstFrame + row);
@@ -208,7 +208,14 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
         if (error.empty())
           error = exception.what();
       }
-    });
+    };
+    // Twenty slices of rows, the progress reported between them from this thread.
+    const vtkIdType slice = std::max<vtkIdType>(256, (rows + 19) / 20);
+    for (vtkIdType begin = 0; begin < rows && error.empty(); begin += slice) {
+      const vtkIdType end = std::min(rows, begin + slice);
+      vtkSMPTools::For(begin, end, peaksOfRows);
+      this->UpdateProgress(static_cast<double>(end) / static_cast<double>(rows));
+    }
     if (!error.empty()) {
       this->Fail("peak detection failed: " + error);
       return 0;

@@ -12,6 +12,9 @@
 
 #include <gtest/gtest.h>
 
+#include <vtkAlgorithm.h>
+#include <vtkCallbackCommand.h>
+#include <vtkCommand.h>
 #include <vtkDoubleArray.h>
 #include <vtkExecutive.h>
 #include <vtkFieldData.h>
@@ -22,6 +25,7 @@
 
 #include <Eigen/LU>
 
+#include <algorithm>
 #include <cmath>
 
 namespace echoreg::test {
@@ -157,6 +161,46 @@ TEST(Pipeline, ReRunsOnlyWhatIsDownstreamOfAChange) {
   pipeline.interSignal->Update();
   EXPECT_EQ(pipeline.counts(), (std::array<int, 5>{2, 3, 4, 5, 6})) << "the reader";
   EXPECT_EQ(pipeline.reader->GetReadCount(), 2);
+}
+
+// detect's progress line on a terminal comes from these events: the envelope and peak filters
+// report between slices of rows, from the calling thread, up to 1.
+TEST(Pipeline, TheHeavyStepsReportTheirProgress) {
+  TempDir dir;
+  SyntheticCapture capture;
+  capture.frames = 600;
+  capture.samples = 400;
+  capture.firstEchoSample = 200.25;
+  capture.echoStepSamples = 0.0;
+  const std::string path = dir.file("capture.igs.nrrd");
+  writeSequence(makeCapture(capture), path);
+  Pipeline pipeline(path, testDetectionParams(capture));
+  struct Seen {
+    std::vector<double> progress;
+  };
+  Seen envelope, peaks;
+  const auto record = [](vtkObject* caller, unsigned long, void* data, void*) {
+    static_cast<Seen*>(data)->progress.push_back(vtkAlgorithm::SafeDownCast(caller)->GetProgress());
+  };
+  vtkNew<vtkCallbackCommand> onEnvelope, onPeaks;
+  onEnvelope->SetCallback(record);
+  onEnvelope->SetClientData(&envelope);
+  onPeaks->SetCallback(record);
+  onPeaks->SetClientData(&peaks);
+  pipeline.envelope->AddObserver(vtkCommand::ProgressEvent, onEnvelope);
+  pipeline.peaks->AddObserver(vtkCommand::ProgressEvent, onPeaks);
+  pipeline.interSignal->Update();
+  ASSERT_EQ(pipeline.interSignal->GetLastError(), "");
+  for (const Seen* seen : {&envelope, &peaks}) {
+    // 600 rows in slices of 256: 256, 512, 600 (and the executive's own 0 and 1).
+    ASSERT_GE(seen->progress.size(), 3U);
+    EXPECT_TRUE(std::is_sorted(seen->progress.begin(), seen->progress.end()));
+    EXPECT_DOUBLE_EQ(seen->progress.back(), 1.0);
+    EXPECT_NE(std::find_if(seen->progress.begin(), seen->progress.end(),
+                           [](double p) { return p > 0.4 && p < 0.45; }),
+              seen->progress.end())
+        << "256 of 600 rows";
+  }
 }
 
 TEST(Pipeline, ReaderFailureStopsTheChainWithoutAnException) {
