@@ -1,8 +1,12 @@
 #include "PipelineImages.h"
 
 #include <vtkDataArray.h>
+#include <vtkDataObject.h>
+#include <vtkInformation.h>
+#include <vtkInformationVector.h>
 #include <vtkMatrix3x3.h>
 #include <vtkPointData.h>
+#include <vtkStreamingDemandDrivenPipeline.h>
 #include <vtkUnsignedCharArray.h>
 
 #include <cmath>
@@ -91,6 +95,26 @@ VoxelMask voxelMaskOf(vtkImageData* image, const CtImage& grid) {
   for (std::size_t v = 0; v < mask.voxels.size(); ++v)
     mask.voxels[v] = scalars->GetComponent(static_cast<vtkIdType>(v), 0) != 0.0 ? 1 : 0;
   return mask;
+}
+
+void masksOnInputGrid(vtkInformationVector** inputVector, vtkInformationVector* outputVector,
+                      int ports) {
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  for (int port = 0; port < ports; ++port) {
+    vtkInformation* outInfo = outputVector->GetInformationObject(port);
+    outInfo->CopyEntry(inInfo, vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
+    outInfo->CopyEntry(inInfo, vtkDataObject::SPACING());
+    outInfo->CopyEntry(inInfo, vtkDataObject::ORIGIN());
+    outInfo->CopyEntry(inInfo, vtkDataObject::DIRECTION());
+    vtkDataObject::SetPointDataActiveScalarInfo(outInfo, VTK_UNSIGNED_CHAR, 1);
+  }
+}
+
+void requestWholeInput(vtkInformationVector** inputVector) {
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  int wholeExtent[6];
+  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), wholeExtent);
+  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), wholeExtent, 6);
 }
 
 }  // namespace echoreg::segmentation::pipeline

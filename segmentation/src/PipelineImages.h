@@ -8,6 +8,8 @@
 #include <vtkImageData.h>
 #include <vtkSmartPointer.h>
 
+class vtkInformationVector;
+
 namespace echoreg::segmentation::pipeline {
 
 /// The uniform CtImage of a vtkImageData as vtkEchoregDicomSeriesReader / toImageData make it:
@@ -22,5 +24,13 @@ vtkSmartPointer<vtkImageData> maskImageOf(const VoxelMask& mask, const char* nam
 /// The mask of an image's scalars (non-zero = inside) on the grid of `grid`; throws
 /// std::invalid_argument when the dimensions differ.
 VoxelMask voxelMaskOf(vtkImageData* image, const CtImage& grid);
+
+/// RequestInformation of an algorithm whose first `ports` outputs are uint8 masks on its input's
+/// grid: copies the whole extent, spacing, origin and direction of input 0 to each of them.
+void masksOnInputGrid(vtkInformationVector** inputVector, vtkInformationVector* outputVector,
+                      int ports);
+
+/// RequestUpdateExtent of an algorithm that needs the whole of input 0 (a region grows anywhere).
+void requestWholeInput(vtkInformationVector** inputVector);
 
 }  // namespace echoreg::segmentation::pipeline

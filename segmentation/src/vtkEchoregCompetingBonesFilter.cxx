@@ -59,25 +59,14 @@ void vtkEchoregCompetingBonesFilter::Fail(const std::string& message) {
 int vtkEchoregCompetingBonesFilter::RequestInformation(vtkInformation* /*request*/,
                                                        vtkInformationVector** inputVector,
                                                        vtkInformationVector* outputVector) {
-  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
-  for (int port = 0; port < 3; ++port) {
-    vtkInformation* outInfo = outputVector->GetInformationObject(port);
-    outInfo->CopyEntry(inInfo, vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT());
-    outInfo->CopyEntry(inInfo, vtkDataObject::SPACING());
-    outInfo->CopyEntry(inInfo, vtkDataObject::ORIGIN());
-    outInfo->CopyEntry(inInfo, vtkDataObject::DIRECTION());
-    vtkDataObject::SetPointDataActiveScalarInfo(outInfo, VTK_UNSIGNED_CHAR, 1);
-  }
+  echoreg::segmentation::pipeline::masksOnInputGrid(inputVector, outputVector, 3);
   return 1;
 }
 
 int vtkEchoregCompetingBonesFilter::RequestUpdateExtent(vtkInformation* /*request*/,
                                                         vtkInformationVector** inputVector,
                                                         vtkInformationVector* /*outputVector*/) {
-  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
-  int wholeExtent[6];
-  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), wholeExtent);
-  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), wholeExtent, 6);
+  echoreg::segmentation::pipeline::requestWholeInput(inputVector);
   return 1;
 }
 
