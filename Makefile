@@ -4,7 +4,7 @@ BUILD_DIR := build/release
 ECHOREG := $(BUILD_DIR)/cli/echoreg
 DEMO_DIR := $(BUILD_DIR)/demo
 
-.PHONY: all deps bench-deps configure build demo test bench asan clean
+.PHONY: all deps bench-deps configure build demo test bench asan fuzz clean
 
 all: build
 
@@ -52,6 +52,17 @@ asan: deps
 	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/sanitizers/lsan.supp:print_suppressions=0 \
 	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
 	  ctest --test-dir $(ASAN_DIR) --output-on-failure -j 2
+
+# The readers' libFuzzer harnesses (fuzz/, preset fuzz: Debian's clang, installed only here by
+# scripts/install-deps --fuzz), each run for FUZZ_SECONDS with its corpus seeded from fuzz/seeds and
+# ../shared/data; findings in build/fuzz/findings fail the run.
+FUZZ_DIR := build/fuzz
+FUZZ_SECONDS ?= 300
+fuzz:
+	@./scripts/install-deps --fuzz
+	@test -f $(FUZZ_DIR)/build.ninja || cmake --preset fuzz
+	@cmake --build $(FUZZ_DIR) --target fuzz_sequence fuzz_json
+	@./scripts/run-fuzzers $(FUZZ_DIR) $(FUZZ_SECONDS)
 
 clean:
 	@rm -rf build
