@@ -61,7 +61,7 @@ FUZZ_SECONDS ?= 300
 fuzz:
 	@./scripts/install-deps --fuzz
 	@test -f $(FUZZ_DIR)/build.ninja || cmake --preset fuzz
-	@cmake --build $(FUZZ_DIR) --target fuzz_sequence fuzz_json
+	@cmake --build $(FUZZ_DIR) --target fuzz_sequence fuzz_json fuzz_mesh
 	@./scripts/run-fuzzers $(FUZZ_DIR) $(FUZZ_SECONDS)
 
 clean:

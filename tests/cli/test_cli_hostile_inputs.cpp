@@ -64,7 +64,28 @@ class CliHostileInputs : public ::testing::Test {
   void SetUp() override {
     std::ofstream(dir_.file("good.obj")) << tetrahedronObj("0 30 0");
     std::ofstream(dir_.file("nan.obj")) << tetrahedronObj("nan 30 0");
+    // Found by fuzz/fuzz_mesh: a face naming vertex 9 of 4 was read out of bounds (a crash).
+    std::string beyond = tetrahedronObj("0 30 0");
+    beyond.replace(beyond.find("f 2 3 4"), 7, "f 2 3 9");
+    std::ofstream(dir_.file("beyond.obj")) << beyond;
     std::ofstream(dir_.file("empty.stl")) << "";
+    // Found by fuzz/fuzz_mesh: VTK 9.1's PLY reader crashed (a null pointer) on this header.
+    std::ofstream(dir_.file("misspelt.ply"))
+        << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+           "propert} float z\nelement face 4\nproperty list uchar int vertex_indices\n"
+           "end_header\n0 0 0\n30 0 0\n0 30 0\n0 0 30\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 2 0 3\n";
+    // Found by fuzz/fuzz_mesh: VTK's STL reader allocated what a binary header claims (80 bytes,
+    // then a count of 10^9 triangles) before reading.
+    {
+      std::string stl(80, ' ');
+      stl += std::string("\x00\xca\x9a\x3b", 4) + std::string(50, '\0');
+      std::ofstream(dir_.file("claims.stl"), std::ios::binary) << stl;
+    }
+    // ... and on a face line with too few numbers.
+    std::ofstream(dir_.file("short-face.ply"))
+        << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+           "property float z\nelement face 4\nproperty list uchar int vertex_indices\n"
+           "end_header\n0 0 0\n30 0 0\n0 30 0\n0 0 30\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 2\n";
     std::ofstream(dir_.file("points.csv")) << "x,y,z\n5,5,0\n5,0,5\n0,5,5\n10,10,10\n";
     TransformFile toCt;
     toCt.from = "Femur";
@@ -153,6 +174,8 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
       // Item 8: a NaN vertex was read as a point (a spike in the model and the figure).
       {figureWith({"--model", "@nan.obj", "--out", "@out.png"}), 1,
        "@nan.obj: line 3: vertex 3 \"v nan 30 0\" is not three finite numbers: a damaged model"},
+      {figureWith({"--model", "@beyond.obj", "--out", "@out.png"}), 1,
+       "@beyond.obj: line 7: face \"f 2 3 9\": \"9\" is not a vertex number from 1 to 4"},
       // Item 8: a negative sphere radius was drawn.
       {figureWith({"--model", "@good.obj", "--point-radius", "-1", "--out", "@out.png"}), 2,
        "--point-radius: must be a finite number > 0, got -1"},
@@ -161,6 +184,14 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
       // Item 8: PNG bytes were written under a .jpg name.
       {figureWith({"--model", "@good.obj", "--out", "@out.jpg"}), 1,
        "--out: figures are written as PNG: give a name ending in .png, got \"@out.jpg\""},
+      {figureWith({"--model", "@misspelt.ply", "--out", "@out.png"}), 1,
+       "@misspelt.ply: line 6: \"propert} float z\" is not a PLY header line"},
+      {figureWith({"--model", "@claims.stl", "--out", "@out.png"}), 1,
+       "@claims.stl: a binary STL whose header counts 1000000000 triangles (50000000084 bytes), "
+       "but "
+       "the file holds 134 bytes"},
+      {figureWith({"--model", "@short-face.ply", "--out", "@out.png"}), 1,
+       "@short-face.ply: line 17: element face: \"3 2\" has too few numbers"},
       // Item 13: 15 lines of coloured VTK log came before "holds no triangles".
       {figureWith({"--model", "@empty.stl", "--out", "@out.png"}), 1,
        "@empty.stl: holds no triangles"},
