@@ -4,7 +4,7 @@ BUILD_DIR := build/release
 ECHOREG := $(BUILD_DIR)/cli/echoreg
 DEMO_DIR := $(BUILD_DIR)/demo
 
-.PHONY: all deps bench-deps configure build demo test bench clean
+.PHONY: all deps bench-deps configure build demo test bench asan fuzz clean
 
 all: build
 
@@ -39,6 +39,30 @@ bench: bench-deps configure
 	@cmake $(BUILD_DIR) > /dev/null
 	@cmake --build $(BUILD_DIR)
 	@./bench/run_benchmarks.sh $(BUILD_DIR)
+
+# Every suite under AddressSanitizer + UndefinedBehaviorSanitizer (preset asan, RelWithDebInfo):
+# a finding fails the run; LeakSanitizer suppresses only the known libopenjp2 leak
+# (tests/sanitizers/lsan.supp). Slow (a separate build of everything), so not part of `make test`
+# or .ci/run.
+ASAN_DIR := build/asan
+asan: deps
+	@test -f $(ASAN_DIR)/build.ninja || cmake --preset asan
+	@cmake --build $(ASAN_DIR)
+	@ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1 \
+	  LSAN_OPTIONS=suppressions=$(CURDIR)/tests/sanitizers/lsan.supp:print_suppressions=0 \
+	  UBSAN_OPTIONS=print_stacktrace=1:halt_on_error=1 \
+	  ctest --test-dir $(ASAN_DIR) --output-on-failure -j 2
+
+# The readers' libFuzzer harnesses (fuzz/, preset fuzz: Debian's clang, installed only here by
+# scripts/install-deps --fuzz), each run for FUZZ_SECONDS with its corpus seeded from fuzz/seeds and
+# ../shared/data; findings in build/fuzz/findings fail the run.
+FUZZ_DIR := build/fuzz
+FUZZ_SECONDS ?= 300
+fuzz:
+	@./scripts/install-deps --fuzz
+	@test -f $(FUZZ_DIR)/build.ninja || cmake --preset fuzz
+	@cmake --build $(FUZZ_DIR) --target fuzz_sequence fuzz_json fuzz_mesh
+	@./scripts/run-fuzzers $(FUZZ_DIR) $(FUZZ_SECONDS)
 
 clean:
 	@rm -rf build

@@ -3,6 +3,7 @@
 #include "commands.hpp"
 
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/json_file.hpp"
 
 #include <unistd.h>
 
@@ -64,6 +65,12 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
       err << "echoreg " << sub->get_name()
           << ": out of memory: an input file or a flag asks for more memory than this machine "
              "has (a size or a count too large)\n";
+      return 1;
+    } catch (const nlohmann::json::exception& e) {
+      // A reader that did not check a value's type: at least no "[json.exception...]" code.
+      err << "echoreg " << sub->get_name()
+          << ": a JSON file holds a value of another type than expected: " << jsonProblem(e)
+          << "\n";
       return 1;
     } catch (const std::exception& e) {  // FileError names the file; the rest name the value
       err << "echoreg " << sub->get_name() << ": " << e.what() << "\n";

@@ -321,6 +321,7 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
 struct PivotCommandOptions {
   std::string capture, marker = "StylusToTracker", out, from;
   double minSpreadDeg = 15.0;
+  double maxRmsMm = 2.0;
   bool json = false;
 };
 
@@ -351,6 +352,16 @@ int runPivot(const PivotCommandOptions& o, const Streams& io) {
     result = core::pivotCalibration(transforms, options);
   } catch (const std::invalid_argument& e) {
     throw FileError(o.capture, e.what());
+  }
+  // The quality gate: poses that do not turn about one point (a stylus carried from landmark to
+  // landmark, a divot that slipped) still give a least-squares point, 48 mm RMS off on PLUS's
+  // landmark recording.
+  if (!(result.rmsMm <= o.maxRmsMm)) {
+    throw FileError(o.capture,
+                    fmt::format("the {} poses do not pivot about one point: the pivot point moves "
+                                "{:.2f} mm RMS over {} poses, above --max-rms {:g} mm (a stylus in "
+                                "a divot: 0.2-0.5 mm); nothing written",
+                                o.marker, result.rmsMm, result.inliers, o.maxRmsMm));
   }
   TransformFile out;
   out.from = from;
@@ -472,6 +483,12 @@ CommandAction addPivotCommand(CLI::App& app) {
   cmd->add_option("--min-spread-deg", o->minSpreadDeg, "Rotation needed about two axes, degrees")
       ->capture_default_str()
       ->check(finiteRange(0.0, 90.0));
+  cmd->add_option("--max-rms", o->maxRmsMm,
+                  "Quality gate: refuse (write nothing) when the pivot point moves more than this "
+                  "RMS over the poses used, mm (a stylus in a divot: 0.2-0.5; the hip centre of a "
+                  "circled femur: about 1)")
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, false));
   cmd->add_flag("--json", o->json, "Print the result as JSON");
   return [o](const Streams& io) { return runPivot(*o, io); };
 }

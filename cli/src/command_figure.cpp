@@ -2,10 +2,12 @@
 // figures, rendered off-screen (render/, OSMesa: no X server needed).
 #include "commands.hpp"
 #include "csv_table.hpp"
+#include "model_file.hpp"
 #include "path_check.hpp"
 #include "validators.hpp"
 
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/json_file.hpp"
 #include "echoreg/core/mesh.hpp"
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/sequence.hpp"
@@ -19,6 +21,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -77,10 +80,10 @@ std::vector<render::View> parseViews(const std::vector<std::string>& names) {
 void addSizeOptions(CLI::App* cmd, int& width, int& height, int minimum) {
   cmd->add_option("--width", width, "Image width, pixels")
       ->capture_default_str()
-      ->check(CLI::Range(minimum, 8192));
+      ->check(wholeNumber(minimum, 8192));
   cmd->add_option("--height", height, "Image height, pixels")
       ->capture_default_str()
-      ->check(CLI::Range(minimum, 8192));
+      ->check(wholeNumber(minimum, 8192));
 }
 
 struct SurfaceOptions {
@@ -103,17 +106,29 @@ void addSurfaceOptions(CLI::App* cmd, SurfaceOptions& o, double green, double re
   cmd->add_option("--out", o.out, "PNG to write (written whole or not at all)")->required();
   cmd->add_option("--title", o.title, "Title over the figure");
   cmd->add_option("--green-below", o.greenBelow, "Green below this distance, mm")
-      ->capture_default_str();
-  cmd->add_option("--red-above", o.redAbove, "Red above this distance (yellow between), mm")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, false));
+  cmd->add_option("--red-above", o.redAbove,
+                  "Red above this distance (yellow between), mm; above --green-below")
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, false));
   cmd->add_option("--point-radius", o.pointRadius, "Radius of the point spheres, mm")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, false));
   cmd->add_option("--views", o.views,
                   "Views: coronal, sagittal, transverse (named from the CT axes)")
       ->delimiter(',')
       ->capture_default_str();
   addSizeOptions(cmd, o.width, o.height, 200);
   cmd->add_flag("--json", o.json, "Print the figure's numbers as JSON");
+}
+
+// The bands' limits in the flags' words (before any file is read).
+void checkBands(const SurfaceOptions& o) {
+  if (!(o.redAbove > o.greenBelow)) {
+    throw std::invalid_argument(
+        fmt::format("--red-above {:g} must be above --green-below {:g}", o.redAbove, o.greenBelow));
+  }
 }
 
 void addCropOption(CLI::App* cmd, SurfaceOptions& o, double margin) {
@@ -194,6 +209,7 @@ CommandAction addRegistrationFigure(CLI::App* parent) {
   addCropOption(cmd, *o, 30.0);
   return [o, cmd](const Streams& streams) {
     (void)cmd;
+    checkBands(*o);
     CommandPaths()
         .input("--model", o->model)
         .input("--points", o->points)
@@ -201,10 +217,11 @@ CommandAction addRegistrationFigure(CLI::App* parent) {
         .inputs("--context", o->context)
         .output("--out", o->out)
         .check();
+    requirePngName("--out", o->out);
     render::SurfaceFigure figure;
-    figure.surface = filters::readMesh(o->model);
+    figure.surface = readModelFile(o->model);
     for (const std::string& path : o->context)
-      figure.context.push_back(filters::readMesh(path));
+      figure.context.push_back(readModelFile(path));
     const TransformFile transform = readTransformFile(o->transform, "", "CT");
     const Eigen::Isometry3d toCt(transform.matrix);
     const core::MeshLocator locator(figure.surface);
@@ -236,40 +253,63 @@ CommandAction addCalibrationFigure(CLI::App* parent) {
   addSurfaceOptions(cmd, *o, 0.5, 1.0, 1.0);
   o->views = {"coronal", "sagittal", "transverse"};
   return [o](const Streams& streams) {
+    checkBands(*o);
     CommandPaths().input("--calibration", o->calibration).output("--out", o->out).check();
-    std::ifstream in(o->calibration);
-    if (!in)
-      throw FileError(o->calibration, "cannot open the calibration file");
-    nlohmann::json doc;
-    try {
-      doc = nlohmann::json::parse(in);
-    } catch (const nlohmann::json::exception& e) {
-      throw FileError(o->calibration, std::string("not JSON: ") + e.what());
-    }
-    if (!doc.contains("sphere_center_mm") || !doc.contains("sphere_radius_mm") ||
-        !doc.contains("shots")) {
+    requirePngName("--out", o->out);
+    const nlohmann::json doc = readJsonFile(o->calibration);
+    if (!doc.is_object() || !doc.contains("sphere_center_mm") ||
+        !doc.contains("sphere_radius_mm") || !doc.contains("shots")) {
       throw FileError(o->calibration,
                       "not an `echoreg calibrate` result (no sphere_center_mm, "
                       "sphere_radius_mm or shots)");
     }
-    const auto centre = doc["sphere_center_mm"].get<std::vector<double>>();
-    if (centre.size() != 3)
-      throw FileError(o->calibration, "sphere_center_mm is not 3 numbers");
-    const Eigen::Vector3d c(centre[0], centre[1], centre[2]);
-    const double radius = doc["sphere_radius_mm"].get<double>();
     render::SurfaceFigure figure;
-    figure.surface = core::uvSphere(c, radius);
     figure.surfaceRgb = {0.80, 0.84, 0.90};
     std::vector<double> signedValues;
-    for (const auto& shot : doc["shots"]) {
-      if (!shot.contains("point_mm")) {
-        throw FileError(o->calibration, "its shots have no point_mm (re-run `echoreg calibrate`)");
+    // Values of another type or count than `echoreg calibrate` writes are named, not reported as
+    // nlohmann's "type must be number, but is null".
+    const auto point = [&](const nlohmann::json& value, const std::string& name) {
+      if (!value.is_array() || value.size() != 3 ||
+          !std::all_of(value.begin(), value.end(),
+                       [](const nlohmann::json& x) { return x.is_number(); })) {
+        throw FileError(o->calibration, name + " is not 3 numbers, got " + value.dump());
       }
-      if (!shot.value("used", true))
+      const Eigen::Vector3d p(value[0].get<double>(), value[1].get<double>(),
+                              value[2].get<double>());
+      if (!p.allFinite())
+        throw FileError(o->calibration, name + " is not finite");
+      return p;
+    };
+    const auto positive = [&](const nlohmann::json& value, const std::string& name) {
+      if (!value.is_number() || !(value.get<double>() >= 0.0) ||
+          !std::isfinite(value.get<double>())) {
+        throw FileError(o->calibration, name + " is not a finite number >= 0, got " + value.dump());
+      }
+      return value.get<double>();
+    };
+    const Eigen::Vector3d c = point(doc["sphere_center_mm"], "sphere_center_mm");
+    const double radius = positive(doc["sphere_radius_mm"], "sphere_radius_mm");
+    figure.surface = core::uvSphere(c, radius);
+    if (!doc["shots"].is_array())
+      throw FileError(o->calibration, "shots is not a list");
+    for (std::size_t i = 0; i < doc["shots"].size(); ++i) {
+      const nlohmann::json& shot = doc["shots"][i];
+      const std::string where = fmt::format("shots[{}]", i);
+      if (!shot.is_object() || !shot.contains("point_mm")) {
+        throw FileError(o->calibration, where + " has no point_mm (re-run `echoreg calibrate`)");
+      }
+      const nlohmann::json used = shot.value("used", nlohmann::json(true));
+      if (!used.is_boolean())
+        throw FileError(o->calibration, where + ".used is not true or false");
+      if (!used.get<bool>())
         continue;
-      const auto p = shot["point_mm"].get<std::vector<double>>();
-      figure.points.emplace_back(p.at(0), p.at(1), p.at(2));
-      const double residual = shot.at("residual_mm").get<double>();
+      figure.points.push_back(point(shot["point_mm"], where + ".point_mm"));
+      const nlohmann::json residualValue = shot.value("residual_mm", nlohmann::json());
+      if (!residualValue.is_number() || !std::isfinite(residualValue.get<double>())) {
+        throw FileError(o->calibration,
+                        where + ".residual_mm is not a finite number, got " + residualValue.dump());
+      }
+      const double residual = residualValue.get<double>();
       figure.valuesMm.push_back(std::abs(residual));
       signedValues.push_back(residual);
     }
@@ -317,6 +357,7 @@ CommandAction addSignalsFigure(CLI::App* parent) {
   cmd->add_flag("--json", o->json, "Print each setting's verdict as JSON");
   return [o](const Streams& streams) {
     CommandPaths().input("--capture", o->capture).output("--out", o->out).check();
+    requirePngName("--out", o->out);
     const Sequence sequence = readSequence(o->capture);
     if (!sequence.hasPixels())
       throw FileError(o->capture, "holds no A-lines (tracker-only capture)");
@@ -473,6 +514,7 @@ CommandAction addBoxplotFigure(CLI::App* parent) {
         throw FileError(file, "has no value in column \"" + column + "\"");
       groups.push_back(std::move(group));
     }
+    requirePngName("--out", o->out);
     render::writePng(
         o->out, render::renderBoxPlot(groups, o->title, o->yLabel.empty() ? o->column : o->yLabel,
                                       {o->width, o->height}));

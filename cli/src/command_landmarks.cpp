@@ -250,7 +250,7 @@ CommandAction addLandmarksCommand(CLI::App& app) {
       ->check(finiteNumber(0.0, true));
   cmd->add_option("--min-frames", o->dwell.minFrames, "Fewest valid frames in a dwell")
       ->capture_default_str()
-      ->check(CLI::Range(2, 1000000));
+      ->check(wholeNumber(2, 1000000));
   cmd->add_option("--merge-distance-mm", o->dwell.mergeDistanceMm,
                   "Consecutive dwells closer than this are one landmark (pivoting on it), mm")
       ->capture_default_str()

@@ -4,6 +4,7 @@
 // the stylus. docs/registration.md.
 #include "commands.hpp"
 #include "csv_table.hpp"
+#include "model_file.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
 #include "validators.hpp"
@@ -68,6 +69,7 @@ struct RegisterOptions {
   int axisStarts = 12;
   std::uint64_t seed = 1;
   double maxRms = 2.0;
+  int maxPoints = 100000;
   bool json = false;
 };
 
@@ -426,7 +428,7 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   std::unique_ptr<core::SurfaceRegistration> model;
   int capTriangles = 0;
   try {
-    core::TriangleMesh mesh = filters::readMesh(o.model);
+    core::TriangleMesh mesh = readModelFile(o.model);
     if (o.openEnds) {
       options.excludedTriangles = core::scanEndCaps(mesh);
       capTriangles = static_cast<int>(
@@ -469,6 +471,18 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
       points.insert(points.end(), found.begin(), found.end());
       sources.push_back({{"stylus_capture", capture}, {"points", found.size()}});
     }
+  }
+  // Bounded before the solver runs: its time and memory grow with the points (10^6 took 103 s and
+  // 1.6 GB), and an A-mode registration uses tens to thousands.
+  if (points.size() > static_cast<std::size_t>(o.maxPoints)) {
+    const std::string from = !o.pointsCsv.empty()  ? "--points " + o.pointsCsv
+                             : !o.captures.empty() ? std::string("--capture")
+                                                   : std::string("--stylus-points");
+    throw std::invalid_argument(fmt::format(
+        "{} gives {} points, more than --max-points {} (the registration's time and memory grow "
+        "with the points; A-mode registrations use tens to thousands): thin the points, or raise "
+        "--max-points",
+        from, points.size(), o.maxPoints));
   }
   if (points.size() < 3) {
     const std::string from = !o.pointsCsv.empty()        ? o.pointsCsv
@@ -656,6 +670,7 @@ CommandAction addRegisterCommand(CLI::App& app) {
       ->group("Points");
   cmd->add_option("--speed-of-sound", o->speedOfSound,
                   "Assumed speed, m/s (default: the capture's header)")
+      ->check(finiteRange(1000.0, 2000.0))
       ->group("Points");
   cmd->add_option(
          "--history", o->history,
@@ -663,12 +678,12 @@ CommandAction addRegisterCommand(CLI::App& app) {
          "robust loss rejects strays; echoreg detect's default 3 drops most frames of a quick "
          "sweep)")
       ->capture_default_str()
-      ->check(CLI::Range(1, 100))
+      ->check(wholeNumber(1, 100))
       ->group("Points");
   cmd->add_option("--min-spread-mm", o->minSpreadMm,
                   "Spatial filter: min distance between points, mm (0 = off)")
       ->capture_default_str()
-      ->check(CLI::Range(0.0, 100.0))
+      ->check(finiteRange(0.0, 100.0))
       ->group("Points");
   cmd->add_option("--ultrasound-sigma", o->ultrasoundSigma, "Ultrasound points' sigma, mm")
       ->capture_default_str()
@@ -725,7 +740,7 @@ CommandAction addRegisterCommand(CLI::App& app) {
       ->group("Start");
   cmd->add_option("--axis-starts", o->axisStarts, "Two landmarks: starts about their line")
       ->capture_default_str()
-      ->check(CLI::Range(1, 360))
+      ->check(wholeNumber(1, 360))
       ->group("Start");
   initial->excludes(landmarksCt);
   initial->excludes(landmarksCapture);
@@ -748,11 +763,15 @@ CommandAction addRegisterCommand(CLI::App& app) {
   cmd->add_option("--restarts", o->restarts,
                   "robust: extra starts perturbed by up to 10 deg / 10 mm")
       ->capture_default_str()
-      ->check(CLI::Range(0, 1000));
+      ->check(wholeNumber(0, 1000));
   cmd->add_option("--seed", o->seed, "Seed of the restarts")->capture_default_str();
   cmd->add_option("--max-rms", o->maxRms, "Not converged when the inliers' RMS exceeds this, mm")
       ->capture_default_str()
       ->check(finiteNumber(0.0, false));
+  cmd->add_option("--max-points", o->maxPoints,
+                  "Refuse more points than this (surface and stylus points together)")
+      ->capture_default_str()
+      ->check(wholeNumber(3, 100000000));
   cmd->add_flag("--json", o->json, "Print the result as JSON");
   // Usage errors (exit 2) found once everything is parsed.
   cmd->parse_complete_callback([o] {

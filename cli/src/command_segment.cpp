@@ -5,6 +5,7 @@
 // anchors proposed for the user to check, and optionally the surface accessible to a probe.
 #include "commands.hpp"
 #include "path_check.hpp"
+#include "validators.hpp"
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/mesh.hpp"
@@ -736,7 +737,7 @@ CommandAction addSegmentCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--slices", o->slices,
                   "Number of slices of proposed anchors, evenly over the bone")
-      ->check(CLI::Range(1, 1000))
+      ->check(wholeNumber(1, 1000))
       ->capture_default_str();
   cmd->add_option(
       "--anchors-out", o->anchorsOut,
@@ -759,29 +760,29 @@ CommandAction addSegmentCommand(CLI::App& app) {
   cmd->add_option("--separation-mm", o->separationMm,
                   "--method erosion: radius of the erosion that separates bones touching at a "
                   "joint, mm, at least 2 voxels (0 = none)")
-      ->check(CLI::Range(0.0, 10.0))
+      ->check(finiteRange(0.0, 10.0))
       ->capture_default_str();
   cmd->add_option("--iso-hu", o->isoHu,
                   "Iso level of the surface, HU (default: half way cortex - soft tissue)");
   cmd->add_option("--band-mm", o->bandMm,
                   "Band around the region in which the CT decides the surface, mm")
-      ->check(CLI::Range(0.5, 10.0))
+      ->check(finiteRange(0.5, 10.0))
       ->capture_default_str();
   cmd->add_flag("--no-refine", o->noRefine,
                 "The region's own surface (smoothed mask), not the CT's iso-surface");
   cmd->add_option("--smoothing", o->smoothing, "Windowed-sinc smoothing iterations (0 = none)")
-      ->check(CLI::Range(0, 200))
+      ->check(wholeNumber(0, 200))
       ->capture_default_str();
   cmd->add_option("--decimate", o->targetTriangles,
                   "Decimate the model to about this many triangles (0 = keep all)")
-      ->check(CLI::Range(0, 100000000));
+      ->check(wholeNumber(0, 100000000));
   cmd->add_option("--accessible-out", o->accessibleOut,
                   "Write the accessible part of the model (.vtp) for the registration");
   cmd->add_option("--keep-regions", o->keepRegions,
                   "Accessible part: points of a Slicer .mrk.json, each keeping the surface within "
                   "--region-radius");
   cmd->add_option("--region-radius", o->regionRadiusMm, "Radius of each kept region, mm")
-      ->check(CLI::PositiveNumber)
+      ->check(finiteNumber(0.0, false))
       ->capture_default_str();
   cmd->add_option("--view-direction", o->viewDirections,
                   "Accessible part: a direction X Y Z from the bone toward the probe (repeatable); "
@@ -791,7 +792,7 @@ CommandAction addSegmentCommand(CLI::App& app) {
       ->multi_option_policy(CLI::MultiOptionPolicy::TakeAll);
   cmd->add_option("--max-angle-deg", o->maxAngleDeg,
                   "Largest angle between a kept triangle's normal and a view direction")
-      ->check(CLI::Range(1.0, 90.0))
+      ->check(finiteRange(1.0, 90.0))
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "Print the result as JSON");
   cmd->callback([o] { checkUsage(*o); });

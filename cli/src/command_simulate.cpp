@@ -1,6 +1,7 @@
 // `echoreg simulate --out DIR`: a whole study with ground truth (simulation/study.hpp).
 #include "commands.hpp"
 #include "path_check.hpp"
+#include "validators.hpp"
 
 #include "echoreg/simulation/study.hpp"
 
@@ -122,7 +123,7 @@ CommandAction addSimulateCommand(CLI::App& app) {
           "femur=FILE"));
   cmd->add_option("--flexion", o->flexionDeg,
                   "Knee flexion in degrees, 0 (straight) to 90, in the CT and the captures")
-      ->check(CLI::Range(0.0, 90.0))
+      ->check(finiteRange(0.0, 90.0))
       ->capture_default_str();
   cmd->add_option("--standoff", o->standoff,
                   "glove (water-filled glove finger), gel (Aquaflex-like pad) or none (cadaver)")
@@ -131,10 +132,10 @@ CommandAction addSimulateCommand(CLI::App& app) {
   cmd->add_option("--speed-of-sound", o->speedOfSound,
                   "Speed of sound the capture software assumes, m/s (default: phantom 1450, "
                   "cadaver 1540, as in the dissertation)")
-      ->check(CLI::Range(1000.0, 2000.0));
+      ->check(finiteRange(1000.0, 2000.0));
   cmd->add_option("--water-temperature", o->waterTemperature,
                   "Bath and standoff water temperature, C (sets its true speed of sound)")
-      ->check(CLI::Range(0.0, 60.0))
+      ->check(finiteRange(0.0, 60.0))
       ->capture_default_str();
   cmd->add_flag("--fibula-in-tibia", o->fibulaInTibia,
                 "truth/tibia.vtp holds the tibia and the fibula (the dissertation's specimen #3)");
@@ -143,17 +144,17 @@ CommandAction addSimulateCommand(CLI::App& app) {
       ->check(CLI::IsMember({"all", "epicondyles"}))
       ->capture_default_str();
   cmd->add_option("--tissue-scale", o->tissueScale, "Soft tissue thickness factor (1 = mean adult)")
-      ->check(CLI::Range(0.5, 2.0))
+      ->check(finiteRange(0.5, 2.0))
       ->capture_default_str();
   cmd->add_option("--soft-tissue-scale", o->softTissueScale,
                   "Thickness factor of the fat and muscle under the skin (the skin stays): 0.3 "
                   "puts the bone 2-10 mm under the skin, the knee in vivo")
-      ->check(CLI::Range(0.05, 1.0))
+      ->check(finiteRange(0.05, 1.0))
       ->capture_default_str();
   cmd->add_option("--probe-frequency", o->probeFrequency,
                   "Centre frequency of the probe in Hz, e.g. 7e6 (default: the Olympus V312's "
                   "9 MHz); written as EchoregTransducerFrequencyHz")
-      ->check(CLI::Range(1e6, 20e6));
+      ->check(finiteRange(1e6, 20e6));
   cmd->add_option("--adc", o->adc,
                   "uint8 (the 8-bit card, mid-scale 128) or int16-12bit (a 12-bit card "
                   "left-justified in int16, with DC offset, baseline wander and a short ring-down "
@@ -162,17 +163,17 @@ CommandAction addSimulateCommand(CLI::App& app) {
       ->capture_default_str();
   cmd->add_option("--frames-per-bone", o->framesPerBone,
                   "Ultrasound frames per bone (default: small 800, full 3000)")
-      ->check(CLI::Range(10, 100000));
+      ->check(wholeNumber(10, 100000));
   cmd->add_option("--registrations", o->registrations,
                   "Ultrasound captures per bone, each its own sweep (the dissertation did 5): "
                   "femur_ultrasound.igs.mha, femur_ultrasound_2.igs.mha, ...")
-      ->check(CLI::Range(1, 20))
+      ->check(wholeNumber(1, 20))
       ->capture_default_str();
   cmd->add_option(
          "--calibrations", o->calibrations,
          "Calibration sessions of the one probe, the bath set up anew each time (Table 5.1 "
          "has 5): calibration_shots.igs.mha, calibration_shots_2.igs.mha, ...")
-      ->check(CLI::Range(1, 20))
+      ->check(wholeNumber(1, 20))
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "Print the summary as JSON");
 

@@ -5,11 +5,13 @@
 // again (study_runner.hpp).
 #include "commands.hpp"
 #include "csv_table.hpp"
+#include "model_file.hpp"
 #include "report.hpp"
 #include "study_runner.hpp"
 
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/json_file.hpp"
 #include "echoreg/core/markups.hpp"
 #include "echoreg/core/mesh.hpp"
 #include "echoreg/filters/MeshIO.h"
@@ -25,6 +27,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <set>
 
 namespace echoreg::cli {
 
@@ -39,15 +42,25 @@ struct StudyOptions {
   bool json = false;
 };
 
-nlohmann::json readJsonFile(const std::string& path) {
-  std::ifstream in(path);
-  if (!in)
-    throw FileError(path, "cannot be read");
-  try {
-    return nlohmann::json::parse(in);
-  } catch (const nlohmann::json::exception& e) {
-    throw FileError(path, std::string("is not valid JSON: ") + e.what());
+// What a manifest may ask (issue 15, item 12), checked before any step: each registration is a
+// detection and a solve of about half a second on a small study, so 10^6 of them ran past 240 s and
+// 5.3 GB before anything was said. A study larger than these is better split into several.
+constexpr std::size_t kMaxManifestBytes = 16u << 20;
+constexpr std::size_t kMaxBones = 32;
+constexpr std::size_t kMaxCapturesPerBone = 500;
+constexpr std::size_t kMaxSeedsPerBone = 64;
+constexpr std::size_t kMaxLandmarks = 256;
+
+nlohmann::json readManifestJson(const std::string& path) {
+  std::error_code sizeError;
+  const std::uintmax_t bytes = fs::file_size(path, sizeError);
+  if (!sizeError && bytes > kMaxManifestBytes) {
+    throw FileError(path,
+                    fmt::format("is {:.1f} MB, more than the {} MB a study manifest may be "
+                                "(a manifest names files; it does not hold data)",
+                                static_cast<double>(bytes) / (1 << 20), kMaxManifestBytes >> 20));
   }
+  return echoreg::readJsonFile(path);
 }
 
 std::string number(double value, int decimals = 2) {
@@ -60,7 +73,7 @@ class Manifest {
   Manifest(std::string dir) : dir_(std::move(dir)), path_(dir_ + "/study.json") {
     if (!fs::is_directory(dir_))
       throw FileError(dir_, "is not a study folder");
-    doc_ = readJsonFile(path_);
+    doc_ = readManifestJson(path_);
     if (doc_.value("format", std::string()) != "echoreg-study") {
       throw FileError(path_, "is not an echoreg study manifest (\"format\": \"echoreg-study\")");
     }
@@ -85,11 +98,21 @@ class Manifest {
       throw FileError(path_, pointer.substr(1) + " is not a file name");
     return resolve(v.get<std::string>());
   }
+  /// A manifest path as the study reads it: relative to the study folder, which is the working
+  /// directory while the study runs (StudyFolder), so that no result embeds where the study lies
+  /// and a study moved or copied gives the same bytes. A path that leaves the folder (absolute, or
+  /// through "..") is allowed and listed in outside().
   std::string resolve(const std::string& relative) const {
     const auto hash = relative.find('#');  // "truth/transforms.json#Name" names a member
     const std::string name = hash == std::string::npos ? relative : relative.substr(0, hash);
-    return fs::path(name).is_absolute() ? name : dir_ + "/" + name;
+    const fs::path path = fs::path(name).lexically_normal();
+    if (path.is_absolute() || (!path.empty() && *path.begin() == "..")) {
+      outside_.insert(path.generic_string());
+    }
+    return path.generic_string();
   }
+  /// The files and folders read outside the study folder, for the report's provenance.
+  const std::set<std::string>& outside() const { return outside_; }
   double number(const std::string& pointer) const {
     const nlohmann::json v = at(pointer);
     if (!v.is_number())
@@ -139,6 +162,17 @@ class Manifest {
       wrongType(pointer, expected);
   }
 
+  // A list the study runs through, bounded: "bones.femur.ultrasound lists 1000000 captures, more
+  // than the 500 registrations ...".
+  void atMost(const std::string& pointer, std::size_t most, const std::string& what,
+              const std::string& why) const {
+    const nlohmann::json v = at(pointer);
+    if (v.is_array() && v.size() > most) {
+      throw FileError(path_, fmt::format("{} lists {} {}, more than the {} {}", dotted(pointer),
+                                         v.size(), what, most, why));
+    }
+  }
+
   // Every value the study reads, checked before any step runs (docs/formats.md, "study.json"):
   // the version, the bones, and the type of each optional value, so that none is silently ignored.
   void validate() const {
@@ -154,6 +188,11 @@ class Manifest {
                       "names no bones (\"bones\": {\"femur\": {...}, ...}): nothing to "
                       "register");
     }
+    if (bones.size() > kMaxBones) {
+      throw FileError(path_, fmt::format("names {} bones, more than the {} a study may register "
+                                         "(split the study)",
+                                         bones.size(), kMaxBones));
+    }
     optionalNumber("/calibration/stylus_tip_radius_mm");
     optionalNumber("/calibration/speed_of_sound_mps", true);
     optionalNumbers("/calibration/initial_beam_to_probe_mm", 3, "[X, Y, Z] in mm");
@@ -161,11 +200,15 @@ class Manifest {
     optionalString("/detection/preset");
     optionalNumber("/detection/speed_of_sound_mps", true);
     optionalStrings("/landmarks/order", "a list of landmark names");
+    atMost("/landmarks/order", kMaxLandmarks, "landmarks", "a registration's landmarks");
     for (const auto& [bone, entry] : bones.items()) {
       const std::string key = "/bones/" + bone;
       if (!entry.is_object())
         wrongType(key, "an object");
       optionalStrings(key + "/ultrasound", "a list of capture file names");
+      atMost(key + "/ultrasound", kMaxCapturesPerBone, "captures",
+             "registrations a study may run per bone (each capture is a detection and a "
+             "registration; split the study)");
       optionalNumber(key + "/mechanical_tip_radius_mm");
       const nlohmann::json fibula = at(key + "/segment/with_fibula");
       if (!fibula.is_null() && !fibula.is_boolean())
@@ -175,6 +218,8 @@ class Manifest {
         continue;
       if (!seeds.is_array())
         wrongType(key + "/segment/seeds_ct", "a list of seeds [x, y, z]");
+      atMost(key + "/segment/seeds_ct", kMaxSeedsPerBone, "seeds",
+             "seeds a bone's segmentation takes");
       for (std::size_t i = 0; i < seeds.size(); ++i)
         optionalNumbers(fmt::format("{}/segment/seeds_ct/{}", key, i), 3, "[x, y, z] in mm");
     }
@@ -183,6 +228,28 @@ class Manifest {
   std::string dir_;
   std::string path_;
   nlohmann::json doc_;
+  mutable std::set<std::string> outside_;
+};
+
+/// The study folder as the working directory for the run, restored when the run ends (also when
+/// it throws): the steps get paths relative to the folder and write them into their results.
+class StudyFolder {
+ public:
+  explicit StudyFolder(const std::string& dir) : previous_(fs::current_path()) {
+    std::error_code ec;
+    fs::current_path(dir, ec);
+    if (ec)
+      throw FileError(dir, "cannot be entered: " + ec.message());
+  }
+  ~StudyFolder() {
+    std::error_code ec;
+    fs::current_path(previous_, ec);
+  }
+  StudyFolder(const StudyFolder&) = delete;
+  StudyFolder& operator=(const StudyFolder&) = delete;
+
+ private:
+  fs::path previous_;
 };
 
 std::string capitalised(std::string name) {
@@ -194,7 +261,10 @@ std::string capitalised(std::string name) {
 int runStudy(const StudyOptions& o, const Streams& streams) {
   const auto started = std::chrono::steady_clock::now();
   const Manifest manifest(o.dir);
-  const std::string results = manifest.dir() + "/results";
+  // Named as the user gave it, for messages; read from inside.
+  const std::string studyDir = manifest.dir();
+  const StudyFolder inside(studyDir);
+  const std::string results = "results";
   std::error_code ec;
   fs::create_directories(results + "/figures", ec);
   fs::create_directories(results + "/points", ec);
@@ -224,10 +294,13 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         outcome.title = step.title;
         outcome.status = StepOutcome::Status::Skipped;
         const auto by = producedBy.find(missingInput);
+        const std::string shown = fs::path(missingInput).is_absolute()
+                                      ? missingInput
+                                      : (fs::path(studyDir) / missingInput).generic_string();
         outcome.message =
             by != producedBy.end()
-                ? fmt::format("{} is missing: {}", missingInput, by->second)
-                : fmt::format("{} is missing (the study folder does not hold it)", missingInput);
+                ? fmt::format("{} is missing: {}", shown, by->second)
+                : fmt::format("{} is missing (the study folder does not hold it)", shown);
       } else {
         outcome = runner.run(step, streams, stepIndex, 0);
         if (outcome.status == StepOutcome::Status::Failed && step.required) {
@@ -763,7 +836,10 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   // --- Report ----------------------------------------------------------------------------------
   Report report;
   nlohmann::json numbers;
-  const std::string studyName = fs::path(manifest.dir()).filename().string();
+  fs::path studyPath = fs::absolute(studyDir).lexically_normal();
+  if (studyPath.filename().empty())
+    studyPath = studyPath.parent_path();  // "S/"
+  const std::string studyName = studyPath.filename().string();
   report.heading("Study report: " + studyName, 1);
   const nlohmann::json generator = manifest.at("/generator");
   if (generator.is_object()) {
@@ -802,8 +878,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       const std::string truthModel = manifest.file("/truth/" + run.name, false);
       if (truthModel.empty() || !fs::exists(truthModel))
         continue;
-      const core::TriangleMesh model = filters::readMesh(run.model);
-      const core::TriangleMesh truth = filters::readMesh(truthModel);
+      const core::TriangleMesh model = readModelFile(run.model);
+      const core::TriangleMesh truth = readModelFile(truthModel);
       const auto box = core::bounds(model);
       segmentation::SurfaceComparisonOptions options;
       options.zMinMm = box[0].z() + 2.0;  // the model is closed at its scan's ends
@@ -895,7 +971,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                       {"matrix", r.at("matrix")}});
     }
     report.paragraph(
-        fmt::format("Model: {}{}.", fs::relative(run.model, manifest.dir()).generic_string(),
+        fmt::format("Model: {}{}.", fs::path(run.model).lexically_normal().generic_string(),
                     run.segmented ? " (segmented from the CT)" : " (given by the manifest)"));
     report.table({"registration", "converged", "RMS (mm, Eq. 4.4)", "points used",
                   "points rejected", "speed-of-sound scale", "iterations"},
@@ -1026,6 +1102,28 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     report.paragraph("The study stopped: " + failure);
     numbers["failure"] = failure;
   }
+  // Provenance: every path in the results is relative to the study folder; what was read from
+  // outside it is listed, so that a copy of the folder alone is known to be incomplete.
+  {
+    const std::vector<std::string> outside(manifest.outside().begin(), manifest.outside().end());
+    numbers["provenance"] = {{"paths", "relative to the study folder"},
+                             {"read_outside_study", outside}};
+    report.heading("Provenance");
+    if (outside.empty()) {
+      report.paragraph(
+          "Every input was read inside the study folder; the paths in the results are "
+          "relative to it.");
+    } else {
+      std::string list;
+      for (const std::string& path : outside)
+        list += (list.empty() ? "" : ", ") + path;
+      report.paragraph(
+          fmt::format("Read outside the study folder (a copy of the folder alone does "
+                      "not hold them): {}. The other paths in the results are relative "
+                      "to the study folder.",
+                      list));
+    }
+  }
   // Every result the study was asked for is there, or the study says which are not and fails.
   std::vector<std::string> missing;
   for (const StepOutcome& s : outcomes) {
@@ -1066,11 +1164,12 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                                fs::absolute(results + "/report.html").lexically_normal().string());
   }
   if (!failure.empty()) {
-    streams.err << "echoreg study: " << failure << "\n";
+    streams.err << "echoreg study: " << studyDir << ": " << failure
+                << " (paths relative to the study folder)\n";
     return 1;
   }
   if (!incomplete.empty()) {
-    streams.err << "echoreg study: " << manifest.dir() << ": incomplete, " << incomplete << "\n";
+    streams.err << "echoreg study: " << studyDir << ": incomplete, " << incomplete << "\n";
     return 1;
   }
   return 0;

@@ -5,8 +5,12 @@
 
 #include <CLI/CLI.hpp>
 
+#include <algorithm>
+#include <cctype>
 #include <cmath>
+#include <filesystem>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 
 namespace echoreg::cli {
@@ -44,6 +48,36 @@ inline CLI::Validator finiteRange(double minimum, double maximum) {
         return std::string();
       },
       text, "RANGE");
+}
+
+/// A whole number from `minimum` to `maximum`: "--decimate: must be a whole number from 0 to
+/// 100000000, got 2.5" (CLI11's Range said "Value 2.5 not in range" or could not convert it).
+inline CLI::Validator wholeNumber(long long minimum, long long maximum) {
+  const std::string text =
+      "a whole number from " + std::to_string(minimum) + " to " + std::to_string(maximum);
+  return CLI::Validator(
+      [=](std::string& input) -> std::string {
+        long long value = 0;
+        if (!CLI::detail::lexical_cast(input, value) || value < minimum || value > maximum) {
+          return "must be " + text + ", got " + input;
+        }
+        return std::string();
+      },
+      text, "WHOLE");
+}
+
+/// Refuses an output that does not end in .png (any case), naming the flag: the figures are
+/// written as PNG, and PNG bytes under a .jpg or .tif name would be misread by whatever opens them
+/// by their name. Called after CommandPaths' check, so that an --out naming an input is reported
+/// as such. Throws std::invalid_argument (exit 1).
+inline void requirePngName(const std::string& flag, const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  if (extension != ".png") {
+    throw std::invalid_argument(
+        flag + ": figures are written as PNG: give a name ending in .png, got \"" + path + "\"");
+  }
 }
 
 }  // namespace echoreg::cli

@@ -2,6 +2,7 @@
 
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/json_file.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -19,15 +20,20 @@ const char* const kSchema =
 
 }  // namespace
 
+static std::vector<Markup> interpretMarkups(const std::string& path, const nlohmann::json& doc);
+
 std::vector<Markup> readMarkups(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  if (!in) throw FileError(path, "cannot open the markups file");
-  nlohmann::json doc;
+  const nlohmann::json doc = readJsonFile(path, "markups file");
   try {
-    doc = nlohmann::json::parse(in);
+    return interpretMarkups(path, doc);
   } catch (const nlohmann::json::exception& e) {
-    throw FileError(path, std::string("not a JSON markups file: ") + e.what());
+    // A value of another type than Slicer writes, e.g. "type": null.
+    throw FileError(
+        path, "holds a value of the wrong type for a 3D Slicer markups file: " + jsonProblem(e));
   }
+}
+
+static std::vector<Markup> interpretMarkups(const std::string& path, const nlohmann::json& doc) {
   if (!doc.is_object() || !doc.contains("markups") || !doc["markups"].is_array()) {
     throw FileError(path, "no \"markups\" array (not a 3D Slicer .mrk.json file)");
   }

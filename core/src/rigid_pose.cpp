@@ -37,6 +37,12 @@ std::string poseProblem(const Eigen::Matrix4d& matrix) {
            shortNumber(matrix(3, 2)) + " " + shortNumber(matrix(3, 3)) +
            ", not 0 0 0 1: a projective matrix, not a rigid pose";
   }
+  const double distance = matrix.topRightCorner<3, 1>().stableNorm();  // 1e308 squared overflows
+  if (!(distance <= kPoseMaxTranslationMm)) {
+    return "its translation is " + shortNumber(distance) +
+           " mm from the tracker's origin, beyond the " + shortNumber(kPoseMaxTranslationMm) +
+           " mm (10 m) any tracker measures: a unit or a damaged number";
+  }
   const Eigen::Matrix3d r = matrix.topLeftCorner<3, 3>();
   const double orthogonality =
       (r.transpose() * r - Eigen::Matrix3d::Identity()).cwiseAbs().maxCoeff();

@@ -212,6 +212,13 @@ std::vector<std::uint8_t> inflateExactly(const std::vector<std::uint8_t>& compre
       continue;
     }
     if (status == Z_BUF_ERROR && consumed == compressed.size()) {
+      // All the pixels may be there with the stream's end (its checksum) cut off: say so rather
+      // than "inflates to N bytes, expected N".
+      if (produced == expectedBytes) {
+        throw FileError(path, "compressed data is truncated: its " + std::to_string(produced) +
+                                  " bytes inflate, but the stream's end (its checksum) is "
+                                  "missing, so they cannot be trusted");
+      }
       throw FileError(path, "compressed data is truncated: it inflates to " +
                                 std::to_string(produced) + " bytes, expected " +
                                 std::to_string(expectedBytes));
@@ -363,6 +370,22 @@ bool applyAcquisitionEntry(const std::string& path, const HeaderEntry& entry,
   if (target == nullptr)
     return false;
   *target = parseFiniteNumber(path, entry);
+  // Bounds of what a header may say, so that a damaged value is named as the header's (not as
+  // "mm per sample must be > 0" deep in the detector): the same ranges as the flags'.
+  struct Bounds {
+    double low, high;
+    const char* what;
+  };
+  const Bounds bounds =
+      entry.key == kSamplingFrequencyKey ? Bounds{1e3, 1e10, "sampling frequency (1e3 to 1e10 Hz)"}
+      : entry.key == kDelayKey
+          ? Bounds{-1e-3, 1e-3, "acquisition delay (-1e-3 to 1e-3 s: 1 ms is 770 mm of tissue)"}
+      : entry.key == kSpeedOfSoundKey ? Bounds{1000.0, 2000.0, "speed of sound (1000 to 2000 m/s)"}
+                                      : Bounds{1e5, 1e9, "transducer frequency (1e5 to 1e9 Hz)"};
+  if (!(**target >= bounds.low && **target <= bounds.high)) {
+    throw FileError(path, quote(entry.key) + " = " + std::string(entry.value) +
+                              " in the capture's header is not a plausible " + bounds.what);
+  }
   return true;
 }
 
@@ -502,11 +525,47 @@ CheckedLayout checkLayout(const std::string& path, const ParsedHeader& header) {
   return layout;
 }
 
+// A header whose frames have no samples (a tracker-only capture) with pixel data after it: a
+// damaged DimSize ("0 1 800" for "4096 1 800") would otherwise read as tracker-only, silently
+// dropping every A-line. Line breaks and blanks after the header are allowed.
+void refusePixelsOfTrackerOnlyHeader(InputFile& file, const ParsedHeader& header) {
+  if (!header.dataFileName.empty() || file.sizeBytes() <= header.dataOffset)
+    return;
+  const std::uint64_t trailing = file.sizeBytes() - header.dataOffset;
+  constexpr std::uint64_t kMaxBlankTail = 4096;
+  if (trailing <= kMaxBlankTail) {
+    std::string tail(static_cast<std::size_t>(trailing), '\0');
+    file.readBytes(header.dataOffset, reinterpret_cast<std::uint8_t*>(tail.data()), tail.size());
+    if (std::all_of(tail.begin(), tail.end(),
+                    [](char c) { return c == ' ' || c == '\t' || c == '\r' || c == '\n'; })) {
+      return;
+    }
+  }
+  const std::uint64_t frames = header.dimSize[2];
+  std::string guess;
+  const std::size_t bytes = elementSize(header.elementType);
+  if (bytes > 0 && frames > 0 && trailing % (frames * bytes) == 0) {
+    guess = " (" + std::to_string(frames) + " frames of " +
+            std::to_string(trailing / (frames * bytes)) + " " +
+            std::string(elementTypeName(header.elementType)) + " samples would be " +
+            std::to_string(trailing) + " bytes" + (header.compressed ? " compressed" : "") + ")";
+  }
+  throw FileError(file.path(),
+                  std::string(header.dimSizeKey) + " " + std::to_string(header.dimSize[0]) + " " +
+                      std::to_string(header.dimSize[1]) + " " + std::to_string(frames) +
+                      " declares frames without samples (a tracker-only capture), but " +
+                      std::to_string(trailing) +
+                      " bytes of data follow the header: is the header's " +
+                      std::string(header.dimSizeKey) + " wrong?" + guess);
+}
+
 // The pixels in host byte order, from after the header or from the detached data file.
 std::vector<std::uint8_t> readPixels(InputFile& file, const ParsedHeader& header,
                                      const CheckedLayout& layout) {
-  if (layout.pixelBytes == 0)
+  if (layout.pixelBytes == 0) {
+    refusePixelsOfTrackerOnlyHeader(file, header);
     return {};
+  }
   std::vector<std::uint8_t> pixels;
   if (header.dataFileName.empty()) {
     pixels =

@@ -2,6 +2,7 @@
 
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/json_file.hpp"
 
 #include <Eigen/LU>
 
@@ -36,15 +37,7 @@ nlohmann::json matrixRows(const Eigen::Matrix4d& matrix) {
 
 TransformFile readTransformFile(const std::string& path, const std::string& expectedFrom,
                                 const std::string& expectedTo) {
-  std::ifstream in(path);
-  if (!in)
-    throw FileError(path, "cannot be opened");
-  nlohmann::json doc;
-  try {
-    doc = nlohmann::json::parse(in);
-  } catch (const nlohmann::json::parse_error& e) {
-    throw FileError(path, std::string("is not valid JSON: ") + e.what());
-  }
+  const nlohmann::json doc = readJsonFile(path);
   if (!doc.is_object())
     throw FileError(path, "must hold a JSON object with \"matrix\"");
   const auto matrixIt = doc.find("matrix");

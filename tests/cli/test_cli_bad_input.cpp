@@ -90,6 +90,17 @@ TEST_F(CliBadInput, WrongDimSize) {
   expectRefused(variant("dims2.igs.mha", "DimSize = 4096 1 8", "DimSize = 4096 1 9"), "DimSize");
 }
 
+// Issue 15, item 8: "DimSize 0 1 800" with the pixels still after the header read as a
+// tracker-only capture (every A-line dropped without a word).
+TEST_F(CliBadInput, FramesWithoutSamplesButPixelsAfterTheHeader) {
+  expectRefused(variant("nosamples.igs.mha", "DimSize = 4096 1 8", "DimSize = 0 1 8"),
+                "DimSize 0 1 8 declares frames without samples (a tracker-only capture), but "
+                "32768 bytes of data follow the header: is the header's DimSize wrong? (8 frames "
+                "of 4096 uint8 samples would be 32768 bytes)");
+  expectRefused(variant("norows.igs.mha", "DimSize = 4096 1 8", "DimSize = 4096 0 8"),
+                "declares frames without samples");
+}
+
 TEST_F(CliBadInput, UnknownElementType) {
   expectRefused(variant("type.igs.mha", "ElementType = MET_UCHAR", "ElementType = MET_QUATERNION"),
                 "MET_QUATERNION");

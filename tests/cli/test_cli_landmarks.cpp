@@ -113,12 +113,29 @@ TEST_F(CliLandmarks, RealTrackerPosesAreAcceptedReorthonormalisedAndCounted) {
   EXPECT_NE(landmarks.err.find("StylusToTracker poses re-orthonormalised"), std::string::npos)
       << landmarks.err;
 
-  // The stylus rests on landmarks rather than pivoting: with no rotation asked for, pivot fits its
-  // poses (it used to refuse them as not rigid).
+  // The stylus rests on landmarks rather than pivoting: with no rotation asked for, pivot reads
+  // its poses (it used to refuse them as not rigid), but they do not turn about one point, so its
+  // quality gate refuses the fit (issue 15: it was written at 48 mm RMS) ...
+  const std::string tip = dir_.file("pivot.json");
+  const auto refused = runEchoreg({"pivot", "--capture", capture_, "--marker", "StylusToTracker",
+                                   "--min-spread-deg", "0", "--out", tip});
+  EXPECT_EQ(refused.exitCode, 1) << refused.err;
+  EXPECT_NE(refused.err.find("echoreg pivot: " + capture_ +
+                             ": the StylusToTracker poses do not pivot about one point: the pivot "
+                             "point moves "),
+            std::string::npos)
+      << refused.err;
+  EXPECT_NE(refused.err.find("mm RMS over 997 poses, above --max-rms 2 mm"), std::string::npos)
+      << refused.err;
+  EXPECT_FALSE(std::filesystem::exists(tip));
+  // ... unless the threshold is raised: the real poses themselves are accepted.
   const auto pivot =
       runEchoreg({"pivot", "--capture", capture_, "--marker", "StylusToTracker", "--min-spread-deg",
-                  "0", "--out", dir_.file("pivot.json"), "--json"});
+                  "0", "--max-rms", "100", "--out", tip, "--json"});
   ASSERT_EQ(pivot.exitCode, 0) << pivot.err;
+  const double rms = nlohmann::json::parse(pivot.out)["rms_mm"].get<double>();
+  EXPECT_GT(rms, 20.0);
+  EXPECT_LT(rms, 100.0);
   EXPECT_GT(nlohmann::json::parse(pivot.out)["poses_reorthonormalised"].get<int>(), 0);
   EXPECT_NE(pivot.err.find("echoreg pivot: note: " + capture_), std::string::npos) << pivot.err;
 }

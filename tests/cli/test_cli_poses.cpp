@@ -62,7 +62,10 @@ TEST_F(CliPoses, PivotRefusesPosesThatAreNotRigidNamingFrameAndTransform) {
       {"a scale, shear or reflection", [](Eigen::Matrix4d& m) { m.topLeftCorner<3, 3>() *= 2.0; }},
       {"a scale, shear or reflection", [](Eigen::Matrix4d& m) { m.topLeftCorner<3, 3>() *= 1.01; }},
       {"a scale, shear or reflection", [](Eigen::Matrix4d& m) { m(0, 1) += 0.3; }},
-      {"not 0 0 0 1", [](Eigen::Matrix4d& m) { m(3, 0) = 0.01; }}};
+      {"not 0 0 0 1", [](Eigen::Matrix4d& m) { m(3, 0) = 0.01; }},
+      // Was accepted and written as 300-digit coordinates (issue 15, item 8).
+      {"its translation is 1e+308 mm from the tracker's origin",
+       [](Eigen::Matrix4d& m) { m(1, 3) = 1e308; }}};
   for (const auto& [phrase, spoil] : cases) {
     Sequence s = pivotCapture();
     spoil(s.frames[7].transforms["StylusToTracker"].matrix);

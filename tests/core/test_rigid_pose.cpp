@@ -76,13 +76,19 @@ TEST(RigidPose, ScaleShearReflectionAndProjectiveRowsAreRefusedNamingFrameAndTra
   projective(3, 2) = 0.001;
   Eigen::Matrix4d notFinite = pose();
   notFinite(1, 1) = std::numeric_limits<double>::quiet_NaN();
+  Eigen::Matrix4d farAway = pose();
+  farAway(0, 3) = 1e308;
+  Eigen::Matrix4d elevenMetres = pose();
+  elevenMetres.topRightCorner<3, 1>() = Eigen::Vector3d(0.0, 6.4e3, 9e3);
   const std::vector<std::pair<Eigen::Matrix4d, std::string>> cases{
       {scaled, "a scale, shear or reflection"},
       {slightlyScaled, "a scale, shear or reflection"},
       {sheared, "a scale, shear or reflection"},
       {reflected, "determinant -1"},
       {projective, "not 0 0 0 1"},
-      {notFinite, "not finite"}};
+      {notFinite, "not finite"},
+      {farAway, "its translation is 1e+308 mm from the tracker's origin, beyond the 1e+04 mm"},
+      {elevenMetres, "its translation is 1.1e+04 mm from the tracker's origin"}};
   for (const auto& [matrix, phrase] : cases) {
     Sequence s = trackedSequence(6);
     s.frames[3].transforms["ProbeToTracker"].matrix = matrix;

@@ -228,6 +228,11 @@ TEST_F(SequenceBadInput, CompressedDataThatDoesNotInflate) {
   EXPECT_TRUE(refused(bad("notgzip.nrrd", notGzip), "does not inflate (zlib error"));
   EXPECT_TRUE(refused(bad("cutgzip.nrrd", nrrd.substr(0, nrrd.size() - 12)),
                       "compressed data is truncated"));
+  // Every pixel there but the gzip trailer (CRC-32 and length) cut off: said so, not "inflates to
+  // 80 bytes, expected 80" (issue 15, item 13).
+  EXPECT_TRUE(refused(bad("cutcrc.nrrd", nrrd.substr(0, nrrd.size() - 8)),
+                      "compressed data is truncated: its 80 bytes inflate, but the stream's end "
+                      "(its checksum) is missing"));
 }
 
 TEST_F(SequenceBadInput, CompressedDataThatInflatesToTheWrongLength) {

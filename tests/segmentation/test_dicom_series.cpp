@@ -318,6 +318,28 @@ TEST_F(DicomSeriesRefusal, TruncatedPixelData) {
   EXPECT_CONTAINS(message, fileName(3));
 }
 
+// Issue 15, item 12: sizes the headers claim are checked against the files before the volume is
+// allocated (4096 x 4096 allocated 5.5 GB before "truncated pixel data"; 65535 x 65535 ended in
+// std::bad_alloc with no file named).
+TEST_F(DicomSeriesRefusal, RowsAndColumnsLargerThanTheFileAreRefusedBeforeAllocating) {
+  for (const int side : {4096, 65535}) {
+    for (int k = 0; k < 6; ++k) {
+      gdcm::Attribute<0x0028, 0x0010> rows;
+      rows.SetValue(static_cast<std::uint16_t>(side));
+      editElement(path(k), rows.GetAsDataElement());
+      gdcm::Attribute<0x0028, 0x0011> columns;
+      columns.SetValue(static_cast<std::uint16_t>(side));
+      editElement(path(k), columns.GetAsDataElement());
+    }
+    const std::string message = refusal(folder_);
+    const std::string claim = std::to_string(side) + " x " + std::to_string(side) +
+                              " pixels of 16 bits (" + std::to_string(2ULL * side * side) +
+                              " bytes), but the file holds 24 bytes";
+    EXPECT_CONTAINS(message, fileName(0) + ": truncated pixel data: its header claims " + claim);
+    EXPECT_CONTAINS(message, "Rows / Columns in the header are wrong, or the file was cut short");
+  }
+}
+
 TEST_F(DicomSeriesRefusal, MultiFrame) {
   editString(path(2), 0x0028, 0x0008, gdcm::VR::IS, "2");
   const std::string message = refusal(folder_);
@@ -447,6 +469,42 @@ TEST(DicomSeriesRealData, Jpeg2000SeriesEqualsGdcmsOwnDecoding) {
     }
     EXPECT_EQ(differ, 0) << "slice " << k;
   }
+}
+
+// A compressed series cannot be checked against its files' sizes: its volume must fit in memory.
+TEST(DicomSeriesRealData, Jpeg2000SeriesClaimingMoreVoxelsThanMemoryIsRefusedBeforeAllocating) {
+  ECHOREG_REQUIRE_SHARED_FILE(license, "ct-jpeg2000/LICENSE");
+  echoreg::test::TempDir dir;
+  const std::string folder = dir.file("series");
+  fs::create_directory(folder);
+  int slices = 0;
+  for (const auto& entry : fs::directory_iterator(fs::path(license).parent_path())) {
+    if (entry.path().filename() == "LICENSE")
+      continue;
+    const std::string copy = folder + "/" + entry.path().filename().string();
+    fs::copy_file(entry.path(), copy);
+    // This export has no SOP class, so GDCM cannot rebuild its meta header: keep it as it is.
+    gdcm::Reader reader;
+    reader.SetFileName(copy.c_str());
+    ASSERT_TRUE(reader.Read()) << copy;
+    gdcm::Attribute<0x0028, 0x0010> rows;
+    rows.SetValue(65535);
+    gdcm::Attribute<0x0028, 0x0011> columns;
+    columns.SetValue(65535);
+    reader.GetFile().GetDataSet().Replace(rows.GetAsDataElement());
+    reader.GetFile().GetDataSet().Replace(columns.GetAsDataElement());
+    gdcm::Writer writer;
+    writer.SetFile(reader.GetFile());
+    writer.CheckFileMetaInformationOff();
+    writer.SetFileName((copy + ".edit").c_str());
+    ASSERT_TRUE(writer.Write()) << copy;
+    fs::rename(copy + ".edit", copy);
+    ++slices;
+  }
+  ASSERT_EQ(slices, 20);
+  const std::string message = refusal(folder);
+  EXPECT_CONTAINS(message, "the series' 65535 x 65535 x 20 voxels");
+  EXPECT_CONTAINS(message, "need 171.8 GB as 16-bit HU, more than this machine's");
 }
 
 TEST(DicomSeriesRealData, EveryBadFileIsReadCorrectlyOrRefusedClearly) {

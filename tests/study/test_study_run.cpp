@@ -188,7 +188,32 @@ TEST(StudyRun, RefusesManifestsWithWrongValuesBeforeAnyStep) {
       {[](nlohmann::json& m) { m["bones"] = nlohmann::json::object(); }, "names no bones"},
       {[](nlohmann::json& m) { m.erase("bones"); }, "names no bones"},
       {[](nlohmann::json& m) { m["version"] = 99; },
-       "\"version\": 99 is not a manifest version this echoreg reads (1)"}};
+       "\"version\": 99 is not a manifest version this echoreg reads (1)"},
+      // Issue 15, item 12: what a manifest may ask is bounded (10^6 registrations ran past 240 s
+      // and 5.3 GB).
+      {[](nlohmann::json& m) {
+         m["bones"]["femur"]["ultrasound"] =
+             std::vector<std::string>(1000000, "captures/femur_sweep_1.igs.mha");
+       },
+       "is 40.1 MB, more than the 16 MB a study manifest may be"},
+      {[](nlohmann::json& m) {
+         m["bones"]["femur"]["ultrasound"] =
+             std::vector<std::string>(1000, "captures/femur_sweep_1.igs.mha");
+       },
+       "bones.femur.ultrasound lists 1000 captures, more than the 500 registrations a study "
+       "may run per bone"},
+      {[](nlohmann::json& m) {
+         for (int b = 0; b < 40; ++b)
+           m["bones"]["bone" + std::to_string(b)] = m["bones"]["femur"];
+       },
+       "names 42 bones, more than the 32 a study may register"},
+      {[](nlohmann::json& m) {
+         m["bones"]["femur"]["segment"]["seeds_ct"] =
+             std::vector<std::vector<double>>(65, {1.0, 2.0, 3.0});
+       },
+       "bones.femur.segment.seeds_ct lists 65 seeds, more than the 64"},
+      {[](nlohmann::json& m) { m["padding"] = std::string(17u << 20, ' '); },
+       "is 17.0 MB, more than the 16 MB a study manifest may be"}};
   for (const auto& [spoil, words] : cases) {
     test::TempDir dir;
     nlohmann::json manifest = good;
@@ -243,6 +268,88 @@ TEST(StudyRun, MissingRequestedResultsFailTheStudyAndAreNamed) {
   const std::string report(std::istreambuf_iterator<char>(in), {});
   EXPECT_NE(report.find("The study is incomplete: 2 requested results are missing"),
             std::string::npos);
+}
+
+}  // namespace
+}  // namespace echoreg::simulation
+
+namespace echoreg::simulation {
+namespace {
+
+// Drops every "seconds" member (timings differ from run to run) so the rest compares exactly.
+void dropTimings(nlohmann::json& value) {
+  if (value.is_object()) {
+    value.erase("seconds");
+    for (auto& [key, member] : value.items())
+      dropTimings(member);
+  } else if (value.is_array()) {
+    for (auto& member : value)
+      dropTimings(member);
+  }
+}
+
+std::string bytesOf(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+// Issue 15: results do not embed where the study lies. The fixture copied to two folders, each
+// run on its own, gives the same bytes in every result (the report's and results.json's timings
+// aside), none names either folder, and a file read from outside the study is listed in the
+// report's provenance.
+TEST(StudyRun, AStudyCopiedElsewhereGivesTheSameResultsAndNamesWhatItReadOutside) {
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  test::TempDir dir;
+  const std::string outsideLandmarks = dir.file("shared-landmarks.mrk.json");
+  const std::vector<std::string> studies{dir.file("site-a/study"), dir.file("site-b/copy/study")};
+  for (const std::string& study : studies) {
+    fs::create_directories(fs::path(study).parent_path());
+    fs::copy(fixture, study, fs::copy_options::recursive);
+    fs::remove_all(study + "/results");
+    nlohmann::json manifest = readJson(study + "/study.json");
+    const std::string landmarks = manifest["landmarks"]["ct"].get<std::string>();
+    if (!fs::exists(outsideLandmarks))
+      fs::copy_file(study + "/" + landmarks, outsideLandmarks);
+    fs::remove(study + "/" + landmarks);
+    manifest["landmarks"]["ct"] = outsideLandmarks;
+    std::ofstream(study + "/study.json") << manifest.dump(2);
+    const test::CommandResult r = runEchoreg({"study", "run", study});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+  }
+  int compared = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(studies[0] + "/results")) {
+    if (!entry.is_regular_file())
+      continue;
+    const fs::path relative = fs::relative(entry.path(), studies[0]);
+    const std::string name = relative.filename().string();
+    const std::string a = bytesOf(entry.path());
+    const std::string b = bytesOf(fs::path(studies[1]) / relative);
+    for (const std::string& study : studies) {
+      EXPECT_EQ(a.find(study), std::string::npos) << relative << " names " << study;
+      EXPECT_EQ(b.find(study), std::string::npos) << relative << " names " << study;
+    }
+    if (name == ".study-state.json" || name == "report.md" || name == "report.html")
+      continue;  // the cache and the reports carry the steps' times
+    if (name == "results.json") {
+      nlohmann::json ja = nlohmann::json::parse(a), jb = nlohmann::json::parse(b);
+      dropTimings(ja);
+      dropTimings(jb);
+      EXPECT_EQ(ja, jb);
+      EXPECT_EQ(ja["provenance"]["read_outside_study"], nlohmann::json::array({outsideLandmarks}));
+    } else {
+      EXPECT_TRUE(a == b) << relative << " differs between the two copies";
+    }
+    ++compared;
+  }
+  EXPECT_GT(compared, 20);
+  const std::string report = bytesOf(studies[1] + "/results/report.md");
+  EXPECT_NE(report.find("Read outside the study folder (a copy of the folder alone does not hold "
+                        "them): " +
+                        outsideLandmarks),
+            std::string::npos)
+      << report;
 }
 
 }  // namespace

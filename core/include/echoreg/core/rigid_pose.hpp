@@ -2,7 +2,9 @@
 // trackers write rotations orthonormal only to a few 1e-4 (PLUS's own recordings: 2e-4 to 5e-4),
 // so a pose within kPoseOrthonormalTolerance is re-orthonormalised (the nearest rotation, by SVD)
 // and counted; beyond it (a scale, a shear, a reflection) or with a last row other than 0 0 0 1
-// within kPoseLastRowTolerance, or not finite, it is refused, naming the frame and the transform.
+// within kPoseLastRowTolerance, or not finite, or with a translation beyond kPoseMaxTranslationMm
+// (no tracker measures 10 m away: a unit or a damaged number), it is refused, naming the frame and
+// the transform.
 // docs/formats.md ("Poses").
 #pragma once
 
@@ -19,6 +21,10 @@ namespace echoreg {
 constexpr double kPoseOrthonormalTolerance = 1e-2;
 /// Largest deviation of the last row from 0 0 0 1.
 constexpr double kPoseLastRowTolerance = 1e-6;
+/// Largest |translation| accepted, mm: optical and electromagnetic trackers measure within a few
+/// metres, so a pose beyond 10 m is a damaged number or a unit mistake (um for mm), which would
+/// otherwise be carried into results as 300-digit coordinates.
+constexpr double kPoseMaxTranslationMm = 1e4;
 /// Poses within this of a rotation are used as they are (not counted as re-orthonormalised).
 constexpr double kPoseExactTolerance = 1e-6;
 

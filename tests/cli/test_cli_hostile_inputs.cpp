@@ -1,0 +1,275 @@
+// Issue 15, items 8 and 13: inputs a hostile but realistic user gives, each refused with its exit
+// code and a message that names the file or flag and the problem in the user's words, with
+// nothing written. One table; the cases of other items live beside their features
+// (test_cli_bad_input.cpp, test_cli_poses.cpp, test_cli_messages.cpp, the study tests).
+#include "cli_test_support.hpp"
+#include "demo_capture.hpp"
+#include "test_support.hpp"
+
+#include "echoreg/core/sequence.hpp"
+#include "echoreg/core/transform_file.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <string>
+#include <vector>
+
+namespace echoreg {
+namespace {
+
+namespace fs = std::filesystem;
+using test::runEchoreg;
+
+std::string slurp(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+/// Runs echoreg with the process's own stderr (fd 2) captured too: VTK's readers print there, not
+/// on the stream the command is given.
+struct Captured {
+  test::CommandResult result;
+  std::string processStderr;
+};
+
+Captured runCapturingStderr(const std::vector<std::string>& args, const std::string& scratch) {
+  std::fflush(stderr);
+  const int saved = ::dup(2);
+  std::FILE* sink = std::fopen(scratch.c_str(), "w");
+  ::dup2(::fileno(sink), 2);
+  Captured c;
+  c.result = runEchoreg(args);
+  std::fflush(stderr);
+  ::dup2(saved, 2);
+  ::close(saved);
+  std::fclose(sink);
+  c.processStderr = slurp(scratch);
+  return c;
+}
+
+// A closed tetrahedron (OBJ), with vertex 3 written as `third`.
+std::string tetrahedronObj(const std::string& third) {
+  return "v 0 0 0\nv 30 0 0\nv " + third + "\nv 0 0 30\nf 1 3 2\nf 1 2 4\nf 2 3 4\nf 3 1 4\n";
+}
+
+class CliHostileInputs : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    std::ofstream(dir_.file("good.obj")) << tetrahedronObj("0 30 0");
+    std::ofstream(dir_.file("nan.obj")) << tetrahedronObj("nan 30 0");
+    // Found by fuzz/fuzz_mesh: a face naming vertex 9 of 4 was read out of bounds (a crash).
+    std::string beyond = tetrahedronObj("0 30 0");
+    beyond.replace(beyond.find("f 2 3 4"), 7, "f 2 3 9");
+    std::ofstream(dir_.file("beyond.obj")) << beyond;
+    std::ofstream(dir_.file("empty.stl")) << "";
+    // Found by fuzz/fuzz_mesh: VTK 9.1's PLY reader crashed (a null pointer) on this header.
+    std::ofstream(dir_.file("misspelt.ply"))
+        << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+           "propert} float z\nelement face 4\nproperty list uchar int vertex_indices\n"
+           "end_header\n0 0 0\n30 0 0\n0 30 0\n0 0 30\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 2 0 3\n";
+    // Found by fuzz/fuzz_mesh: VTK's STL reader allocated what a binary header claims (80 bytes,
+    // then a count of 10^9 triangles) before reading.
+    {
+      std::string stl(80, ' ');
+      stl += std::string("\x00\xca\x9a\x3b", 4) + std::string(50, '\0');
+      std::ofstream(dir_.file("claims.stl"), std::ios::binary) << stl;
+    }
+    // ... and on a face line with too few numbers.
+    std::ofstream(dir_.file("short-face.ply"))
+        << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+           "property float z\nelement face 4\nproperty list uchar int vertex_indices\n"
+           "end_header\n0 0 0\n30 0 0\n0 30 0\n0 0 30\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 2\n";
+    std::ofstream(dir_.file("points.csv")) << "x,y,z\n5,5,0\n5,0,5\n0,5,5\n10,10,10\n";
+    TransformFile toCt;
+    toCt.from = "Femur";
+    toCt.to = "CT";
+    toCt.matrix = Eigen::Matrix4d::Identity();
+    writeTransformFile(dir_.file("FemurToCT.json"), toCt, false);
+    std::ofstream(dir_.file("truncated.json")) << "{\"from\": \"Femur\", \"matrix\": [[1, 0";
+    std::ofstream(dir_.file("overflow.json"))
+        << "{\"matrix\": [[1e999, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}";
+    std::ofstream(dir_.file("null-type.mrk.json"))
+        << R"({"markups": [{"type": null, "controlPoints": [{"label": "a", "position": [1, 2, 3]}]}]})";
+    fs::create_directory(dir_.file("a-folder.json"));
+    std::ofstream(dir_.file("calibration.json"))
+        << R"({"sphere_center_mm": [0, 0, 0], "sphere_radius_mm": null, "shots": []})";
+    SequenceWriteOptions raw;
+    raw.compress = false;
+    writeSequence(test::makeDemoSweep({8}), dir_.file("capture.igs.mha"), raw);
+  }
+
+  struct Case {
+    std::vector<std::string> args;
+    int exitCode;
+    std::string words;  ///< must appear on the command's stderr
+  };
+
+  // The case's exit code and words, nothing written, no raw library text on either stderr.
+  void expectRefused(const Case& c) {
+    std::vector<std::string> args = c.args;
+    for (std::string& a : args) {
+      if (a.rfind("@", 0) == 0)
+        a = dir_.file(a.substr(1));
+    }
+    std::string words = c.words;
+    for (std::size_t at = words.find('@'); at != std::string::npos; at = words.find('@', at)) {
+      const std::size_t end = words.find_first_of(":\" ", at);
+      const std::string name = words.substr(at + 1, end - at - 1);
+      words.replace(at, end - at, dir_.file(name));
+      at += dir_.file(name).size();
+    }
+    const Captured run = runCapturingStderr(args, dir_.file("stderr.txt"));
+    const std::string where = "echoreg " + fmt(c.args) + "\n" + run.result.err;
+    EXPECT_EQ(run.result.exitCode, c.exitCode) << where;
+    EXPECT_NE(run.result.err.find(words), std::string::npos)
+        << "expected \"" << words << "\" in " << where;
+    for (const char* raw : {"json.exception", "basic_filebuf", "bad_alloc", "179769313",
+                            "vtkSTLReader", "vtkOBJReader", "ERR|", "\x1b["}) {
+      EXPECT_EQ(run.result.err.find(raw), std::string::npos) << raw << " in " << where;
+      EXPECT_EQ(run.processStderr.find(raw), std::string::npos)
+          << raw << " on the process's stderr: " << run.processStderr;
+    }
+    EXPECT_FALSE(fs::exists(dir_.file("out.png"))) << where;
+    EXPECT_FALSE(fs::exists(dir_.file("out.jpg"))) << where;
+    EXPECT_FALSE(fs::exists(dir_.file("out.json"))) << where;
+    EXPECT_FALSE(fs::exists(dir_.file("out.vtp"))) << where;
+    for (const char* name : {"out.png", "out.jpg", "out.json", "out.vtp"})
+      fs::remove(dir_.file(name));  // one case's failure does not fail the next
+  }
+
+  static std::string fmt(const std::vector<std::string>& args) {
+    std::string text;
+    for (const std::string& a : args)
+      text += a + " ";
+    return text;
+  }
+
+  test::TempDir dir_;
+};
+
+TEST_F(CliHostileInputs, TheGoodInputsOfTheTableAreAccepted) {
+  const auto r = runEchoreg({"figure", "registration", "--model", dir_.file("good.obj"), "--points",
+                             dir_.file("points.csv"), "--transform", dir_.file("FemurToCT.json"),
+                             "--out", dir_.file("good.png")});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_TRUE(fs::is_regular_file(dir_.file("good.png")));
+}
+
+TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
+  const std::vector<std::string> figure{"figure",      "registration", "--points",
+                                        "@points.csv", "--transform",  "@FemurToCT.json"};
+  auto figureWith = [&figure](std::vector<std::string> more) {
+    std::vector<std::string> args = figure;
+    args.insert(args.end(), more.begin(), more.end());
+    return args;
+  };
+  const std::vector<Case> cases{
+      // Item 8: a NaN vertex was read as a point (a spike in the model and the figure).
+      {figureWith({"--model", "@nan.obj", "--out", "@out.png"}), 1,
+       "@nan.obj: line 3: vertex 3 \"v nan 30 0\" is not three finite numbers: a damaged model"},
+      {figureWith({"--model", "@beyond.obj", "--out", "@out.png"}), 1,
+       "@beyond.obj: line 7: face \"f 2 3 9\": \"9\" is not a vertex number from 1 to 4"},
+      // Item 8: a negative sphere radius was drawn.
+      {figureWith({"--model", "@good.obj", "--point-radius", "-1", "--out", "@out.png"}), 2,
+       "--point-radius: must be a finite number > 0, got -1"},
+      {figureWith({"--model", "@good.obj", "--green-below", "6", "--out", "@out.png"}), 1,
+       "--red-above 5 must be above --green-below 6"},
+      // Item 8: PNG bytes were written under a .jpg name.
+      {figureWith({"--model", "@good.obj", "--out", "@out.jpg"}), 1,
+       "--out: figures are written as PNG: give a name ending in .png, got \"@out.jpg\""},
+      {figureWith({"--model", "@misspelt.ply", "--out", "@out.png"}), 1,
+       "@misspelt.ply: line 6: \"propert} float z\" is not a PLY header line"},
+      {figureWith({"--model", "@claims.stl", "--out", "@out.png"}), 1,
+       "@claims.stl: a binary STL whose header counts 1000000000 triangles (50000000084 bytes), "
+       "but "
+       "the file holds 134 bytes"},
+      {figureWith({"--model", "@short-face.ply", "--out", "@out.png"}), 1,
+       "@short-face.ply: line 17: element face: \"3 2\" has too few numbers"},
+      // Item 13: 15 lines of coloured VTK log came before "holds no triangles".
+      {figureWith({"--model", "@empty.stl", "--out", "@out.png"}), 1,
+       "@empty.stl: holds no triangles"},
+      // Item 13: nlohmann's codes, a number overflow, a folder read as a file.
+      {{"figure", "registration", "--model", "@good.obj", "--points", "@points.csv", "--transform",
+        "@truncated.json", "--out", "@out.png"},
+       1,
+       "@truncated.json: is not valid JSON: syntax error while parsing array - unexpected end of "
+       "input; expected ']' (line 1, column 35)"},
+      {{"figure", "registration", "--model", "@good.obj", "--points", "@points.csv", "--transform",
+        "@overflow.json", "--out", "@out.png"},
+       1,
+       "@overflow.json: is not valid JSON: a number too large for a double: 1e999"},
+      {{"figure", "registration", "--model", "@good.obj", "--points", "@points.csv", "--transform",
+        "@a-folder.json", "--out", "@out.png"},
+       1,
+       "@a-folder.json: is a folder, expected a JSON file"},
+      {{"landmarks", "--capture", "@capture.igs.mha", "--stylus-tip-to-stylus", "@FemurToCT.json",
+        "--landmarks", "@null-type.mrk.json", "--out", "@out.json"},
+       1,
+       "@null-type.mrk.json: holds a value of the wrong type for a 3D Slicer markups file: type "
+       "must be string, but is null"},
+      {{"figure", "calibration", "--calibration", "@calibration.json", "--out", "@out.png"},
+       1,
+       "@calibration.json: sphere_radius_mm is not a finite number >= 0, got null"},
+      // Item 13: "mm per sample must be > 0" for a speed of sound of 1e308.
+      {{"register", "--model", "@good.obj", "--points", "@points.csv", "--speed-of-sound", "1e308",
+        "--out", "@out.json"},
+       2,
+       "--speed-of-sound: must be a number from 1000 to 2000, got 1e308"},
+      // Item 4: segment's --decimate through the project's validators (CLI11's said "Value 2.5
+      // not in range" or could not convert it).
+      {{"segment", "--dicom", "@a-folder.json", "--seed", "0", "0", "0", "--decimate", "2.5",
+        "--out", "@out.vtp"},
+       2,
+       "--decimate: must be a whole number from 0 to 100000000, got 2.5"},
+      {{"pivot", "--capture", "@capture.igs.mha", "--max-rms", "nan", "--out", "@out.json"},
+       2,
+       "--max-rms: must be a finite number > 0, got nan"},
+      // Item 12: register with more points than it takes.
+      {{"register", "--model", "@good.obj", "--points", "@points.csv", "--initial",
+        "@FemurToCT.json", "--max-points", "3", "--out", "@out.json"},
+       1,
+       "--points @points.csv gives 4 points, more than --max-points 3"}};
+  for (const Case& c : cases)
+    expectRefused(c);
+}
+
+// Item 13: a header value that is wrong says it came from the header (a speed of sound of 1e308
+// reached the detector as "mm per sample must be > 0").
+TEST_F(CliHostileInputs, ImplausibleHeaderValuesSayTheyCameFromTheHeader) {
+  const std::string good = slurp(dir_.file("capture.igs.mha"));
+  const std::vector<std::pair<std::string, std::string>> cases{{"EchoregSpeedOfSoundMps", "1e308"},
+                                                               {"EchoregSamplingFrequencyHz", "0"},
+                                                               {"EchoregDelayS", "1e300"}};
+  for (const auto& [key, value] : cases) {
+    std::string bytes = good;
+    const std::size_t at = bytes.find(key + " = ");
+    ASSERT_NE(at, std::string::npos) << key;
+    const std::size_t end = bytes.find('\n', at);
+    bytes.replace(at, end - at, key + " = " + value);
+    const std::string capture = dir_.file("header.igs.mha");
+    std::ofstream(capture, std::ios::binary) << bytes;
+    for (const std::string& command : {std::string("info"), std::string("detect")}) {
+      std::vector<std::string> args{command, capture};
+      if (command == "detect")
+        args.insert(args.end(), {"--out", dir_.file("out.csv")});
+      const auto r = runEchoreg(args);
+      EXPECT_EQ(r.exitCode, 1) << r.err;
+      EXPECT_NE(r.err.find(capture + ": '" + key + "' = " + value +
+                           " in the capture's header is not a plausible "),
+                std::string::npos)
+          << r.err;
+      EXPECT_EQ(r.err.find("mm per sample"), std::string::npos) << r.err;
+      EXPECT_FALSE(fs::exists(dir_.file("out.csv")));
+    }
+  }
+}
+
+}  // namespace
+}  // namespace echoreg
