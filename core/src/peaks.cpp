@@ -217,12 +217,17 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
     // Against the quiet level, the tissue before must stand above it as far as a shadow would
     // stand below it (minShadowRatio: water before an echo is as quiet as what follows), and
     // the echo far above it (a noise spike is a few times the noise, never kQuietEchoFactor).
-    const bool atQuiet = bone.shadowAtQuietLevel
-                             ? after <= bone.noiseFloorFactor * shadowLevel() &&
-                                   before >= bone.minShadowRatio * shadowLevel() &&
-                                   peak.value >= kQuietEchoFactor * shadowLevel()
-                             : after <= bone.noiseFloorFactor * shadowLevel();
-    return before >= bone.minShadowRatio * std::max(after, tiny) || atQuiet;
+    if (before >= bone.minShadowRatio * std::max(after, tiny))
+      return true;
+    if (!bone.shadowAtQuietLevel)
+      return after <= bone.noiseFloorFactor * shadowLevel();
+    // Both quiet-level conditions imply before x factor >= ratio x after: where that fails, the
+    // level (a median per block) is not needed.
+    if (before * bone.noiseFloorFactor * (1.0 + 1e-9) < bone.minShadowRatio * after)
+      return false;
+    return after <= bone.noiseFloorFactor * shadowLevel() &&
+           before >= bone.minShadowRatio * shadowLevel() &&
+           peak.value >= kQuietEchoFactor * shadowLevel();
   };
   return isShadow(afterBegin, afterBegin + region / 2) && isShadow(afterBegin, afterEnd);
 }
@@ -427,10 +432,12 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     c.passed = true;
     const auto isShadow = [&](int from, int to) {
       const double behind = medianOf(envelope, count, from, to, scratch);
-      return behind >= 0.0 && (before >= e.shadowRatio * std::max(behind, tiny) ||
-                               (behind <= e.shadowNoiseFactor * quietLevel() &&
-                                before >= e.shadowNoiseFactor * quietLevel() &&
-                                c.value >= kQuietEchoFactor * quietLevel()));
+      // The quiet-level conditions imply before >= behind: the level is computed only then.
+      return behind >= 0.0 &&
+             (before >= e.shadowRatio * std::max(behind, tiny) ||
+              (before * (1.0 + 1e-9) >= behind && behind <= e.shadowNoiseFactor * quietLevel() &&
+               before >= e.shadowNoiseFactor * quietLevel() &&
+               c.value >= kQuietEchoFactor * quietLevel()));
     };
     // A shadow needs room behind the echo to be seen.
     c.contrast = before >= 0.0 ? c.value / std::max(before, tiny) : 1e9;
