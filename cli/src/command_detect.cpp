@@ -396,13 +396,16 @@ CommandAction addDetectCommand(CLI::App& app) {
       "calibration (window-max in water), shadow (the earlier default: the bone policy after a "
       "200-sample ring-down)");
   addTunableFlags(cmd, o->settings);
-  cmd->add_option("--pose", o->pose, "Transform giving 3D points, e.g. ProbeToTracker")
-      ->group("Points");
+  CLI::Option* pose =
+      cmd->add_option("--pose", o->pose, "Transform giving 3D points, e.g. ProbeToTracker")
+          ->group("Points");
   cmd->add_option("--reference", o->reference, "Express points in this frame, e.g. FemurToTracker")
       ->group("Points");
+  // The calibration places the beam in the probe: without the probe's pose it would be ignored.
   cmd->add_option("--beam-to-probe", o->beamToProbeFile,
-                  "BeamToProbe transform JSON (default identity)")
-      ->group("Points");
+                  "BeamToProbe transform JSON (default identity; needs --pose)")
+      ->group("Points")
+      ->needs(pose);
 
   return [o](const Streams& io) {
     CommandPaths()

@@ -68,6 +68,22 @@ TEST(CliDetectInputs, FramesOfSeveralRowsAreRefused) {
   EXPECT_FALSE(std::filesystem::exists(csv));
 }
 
+// Issue 15, item 8: a calibration without the probe's pose would be ignored without a word.
+TEST(CliDetectInputs, BeamToProbeWithoutAPoseIsRefused) {
+  test::TempDir dir;
+  const std::string capture = dir.file("static.igs.mha");
+  writeSequence(staticCapture(4, 1500, 400.0, 1), capture);
+  const std::string calibration = dir.file("calibration.json");
+  std::ofstream(calibration) << R"({"from": "Beam", "to": "Probe", "matrix": [[1, 0, 0, 0], )"
+                             << R"([0, 1, 0, 0], [0, 0, 1, 2.5], [0, 0, 0, 1]]})";
+  const std::string csv = dir.file("d.csv");
+  const auto result = runEchoreg({"detect", capture, "--beam-to-probe", calibration, "--out", csv});
+  EXPECT_EQ(result.exitCode, 2);
+  EXPECT_NE(result.err.find("--beam-to-probe"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("--pose"), std::string::npos) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(csv));
+}
+
 TEST(CliDetectInputs, ARingDownLongerThanTheRecordIsRefused) {
   test::TempDir dir;
   const std::string capture = dir.file("c.igs.mha");
