@@ -42,14 +42,19 @@ namespace fs = std::filesystem;
 constexpr int kSlices = 1000;
 constexpr int kSize = 512;
 
-std::string seriesFolder() { return std::string(ECHOREG_BENCH_DATA_DIR) + "/ct-1000x512"; }
+std::string seriesFolder() {
+  return std::string(ECHOREG_BENCH_DATA_DIR) + "/ct-1000x512";
+}
 
-double volumeMegabytes() { return static_cast<double>(kSlices) * kSize * kSize * 2.0 / 1e6; }
+double volumeMegabytes() {
+  return static_cast<double>(kSlices) * kSize * kSize * 2.0 / 1e6;
+}
 
 // Writes the series once: a cylinder of "bone" in "soft tissue" in air, 1 mm slices.
 void ensureSeries() {
   const std::string folder = seriesFolder();
-  if (fs::exists(folder + "/IM001000.dcm")) return;
+  if (fs::exists(folder + "/IM001000.dcm"))
+    return;
   fs::remove_all(folder);
   fs::create_directories(ECHOREG_BENCH_DATA_DIR);
   std::cerr << "writing the 1000-slice benchmark series into " << folder << " (once)\n";
@@ -58,7 +63,8 @@ void ensureSeries() {
   v.rows = kSize;
   v.pixelSpacingMm = 0.48;
   v.firstPixelXYMm = {-122.64, -122.64};
-  for (int k = 0; k < kSlices; ++k) v.sliceZMm.push_back(-500.0 + k);
+  for (int k = 0; k < kSlices; ++k)
+    v.sliceZMm.push_back(-500.0 + k);
   v.sliceGroup.assign(kSlices, 0);
   v.groupNames = {"leg"};
   v.sliceThicknessMm.assign(kSlices, 1.0);
@@ -68,7 +74,9 @@ void ensureSeries() {
       for (int i = 0; i < kSize; ++i) {
         const int dx = i - 256, dy = j - 256 + (k % 50);
         const int r2 = dx * dx + dy * dy;
-        v.hu[v.index(i, j, k)] = static_cast<std::int16_t>(r2 < 900 ? 1200 : r2 < 40000 ? 40 + (i + j + k) % 30 : -1000);
+        v.hu[v.index(i, j, k)] = static_cast<std::int16_t>(r2 < 900     ? 1200
+                                                           : r2 < 40000 ? 40 + (i + j + k) % 30
+                                                                        : -1000);
       }
     }
   }
@@ -79,7 +87,8 @@ void ensureSeries() {
 
 std::vector<std::string> seriesFiles() {
   std::vector<std::string> files;
-  for (const auto& entry : fs::directory_iterator(seriesFolder())) files.push_back(entry.path().string());
+  for (const auto& entry : fs::directory_iterator(seriesFolder()))
+    files.push_back(entry.path().string());
   std::sort(files.begin(), files.end());
   return files;
 }
@@ -92,7 +101,8 @@ void BM_CatFiles(benchmark::State& state) {
     bytes = 0;
     for (const std::string& file : files) {
       std::ifstream in(file, std::ios::binary);
-      while (in.read(buffer.data(), static_cast<std::streamsize>(buffer.size())) || in.gcount() > 0) {
+      while (in.read(buffer.data(), static_cast<std::streamsize>(buffer.size())) ||
+             in.gcount() > 0) {
         bytes += static_cast<std::size_t>(in.gcount());
       }
     }
@@ -125,11 +135,17 @@ void BM_ReadDicomSeries(benchmark::State& state) {
   echoreg::segmentation::DicomReadOptions options;
   options.threads = static_cast<int>(state.range(0));
   for (auto _ : state) {
-    const echoreg::segmentation::CtImage image = echoreg::segmentation::readDicomSeries(seriesFolder(), options);
+    const echoreg::segmentation::CtImage image =
+        echoreg::segmentation::readDicomSeries(seriesFolder(), options);
     benchmark::DoNotOptimize(image.hu.data());
   }
 }
-BENCHMARK(BM_ReadDicomSeries)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmark::kMillisecond)->Iterations(3);
+BENCHMARK(BM_ReadDicomSeries)
+    ->ArgName("threads")
+    ->Arg(1)
+    ->Arg(2)
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(3);
 
 #ifdef ECHOREG_HAVE_VTKGDCM
 // vtkGDCMImageReader stacks files in the order given (and reports z spacing 1): give it the
@@ -137,7 +153,8 @@ BENCHMARK(BM_ReadDicomSeries)->ArgName("threads")->Arg(1)->Arg(2)->Unit(benchmar
 vtkSmartPointer<vtkStringArray> sortedNames() {
   const auto read = echoreg::segmentation::readDicomSeriesGeometry(seriesFolder());
   auto names = vtkSmartPointer<vtkStringArray>::New();
-  for (const std::string& f : read.files) names->InsertNextValue(seriesFolder() + "/" + f);
+  for (const std::string& f : read.files)
+    names->InsertNextValue(seriesFolder() + "/" + f);
   return names;
 }
 
@@ -161,7 +178,8 @@ long statusKb(const char* key) {
   std::string line;
   const std::size_t length = std::strlen(key);
   while (std::getline(status, line)) {
-    if (line.compare(0, length, key) == 0) return std::stol(line.substr(length + 1));
+    if (line.compare(0, length, key) == 0)
+      return std::stol(line.substr(length + 1));
   }
   return -1;
 }
@@ -191,7 +209,8 @@ int peakMode(const std::string& reader) {
     std::cerr << "unknown reader " << reader << "\n";
     return 2;
   }
-  const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::cout << before << " " << statusKb("VmHWM") << " " << seconds << " " << voxels << "\n";
   return 0;
 }
@@ -217,21 +236,27 @@ void BM_PeakMemory(benchmark::State& state, const std::string& reader) {
   state.counters["voxels_M"] = voxels / 1e6;
 }
 BENCHMARK_CAPTURE(BM_PeakMemory, readDicomSeries, std::string("readDicomSeries"))
-    ->Unit(benchmark::kMillisecond)->Iterations(1);
-BENCHMARK_CAPTURE(BM_PeakMemory, vtkEchoregDicomSeriesReader, std::string("vtkEchoregDicomSeriesReader"))
-    ->Unit(benchmark::kMillisecond)->Iterations(1);
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
+BENCHMARK_CAPTURE(BM_PeakMemory, vtkEchoregDicomSeriesReader,
+                  std::string("vtkEchoregDicomSeriesReader"))
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 #ifdef ECHOREG_HAVE_VTKGDCM
 BENCHMARK_CAPTURE(BM_PeakMemory, vtkGDCMImageReader, std::string("vtkGDCMImageReader"))
-    ->Unit(benchmark::kMillisecond)->Iterations(1);
+    ->Unit(benchmark::kMillisecond)
+    ->Iterations(1);
 #endif
 
 }  // namespace
 
 int main(int argc, char** argv) {
-  if (argc == 3 && std::string(argv[1]) == "--peak") return peakMode(argv[2]);
+  if (argc == 3 && std::string(argv[1]) == "--peak")
+    return peakMode(argv[2]);
   ensureSeries();
   benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
+  if (benchmark::ReportUnrecognizedArguments(argc, argv))
+    return 1;
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

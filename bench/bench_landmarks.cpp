@@ -23,13 +23,15 @@ using echoreg::core::Rng;
 std::vector<Eigen::Vector3d> landmarks(int n) {
   Rng rng = Rng::derive(2008, "bench-landmarks");
   std::vector<Eigen::Vector3d> out;
-  for (int i = 0; i < n; ++i) out.emplace_back(rng.uniform(-80, 80), rng.uniform(-80, 80), rng.uniform(-400, 0));
+  for (int i = 0; i < n; ++i)
+    out.emplace_back(rng.uniform(-80, 80), rng.uniform(-80, 80), rng.uniform(-400, 0));
   return out;
 }
 
 Eigen::Isometry3d pose() {
   Eigen::Isometry3d t = Eigen::Isometry3d::Identity();
-  t.linear() = Eigen::AngleAxisd(0.8, Eigen::Vector3d(0.2, 0.5, -0.8).normalized()).toRotationMatrix();
+  t.linear() =
+      Eigen::AngleAxisd(0.8, Eigen::Vector3d(0.2, 0.5, -0.8).normalized()).toRotationMatrix();
   t.translation() = Eigen::Vector3d(310.0, -45.0, 1250.0);
   return t;
 }
@@ -95,7 +97,8 @@ void BM_MatchDwells(benchmark::State& state) {
   for (std::size_t i = 0; i < lm.size(); ++i) {
     if (i % 2 == 0) {  // a rest away from the landmarks before every other one
       echoreg::core::Dwell away;
-      away.meanMm = Eigen::Vector3d(rng.uniform(-500, 500), rng.uniform(-500, 500), rng.uniform(500, 900));
+      away.meanMm =
+          Eigen::Vector3d(rng.uniform(-500, 500), rng.uniform(-500, 500), rng.uniform(500, 900));
       dwells.push_back(away);
     }
     echoreg::core::Dwell d;

@@ -8,9 +8,9 @@
 //   echoreg_Features     LiveWire construction: smoothing, gradient, LoG zero crossings and every
 //                        quantised link cost (OpenCV computes link costs inside buildMap instead)
 //   echoreg_BuildMap     setAnchor: Dijkstra over the whole image from one anchor
-//   echoreg_BuildMapToTarget  setAnchor with a target (stops when it is settled), the 40 pairs in turn
-//   opencv_ApplyImage    IntelligentScissorsMB::applyImage (features)
-//   opencv_BuildMap      IntelligentScissorsMB::buildMap from the same anchor
+//   echoreg_BuildMapToTarget  setAnchor with a target (stops when it is settled), the 40 pairs in
+//   turn opencv_ApplyImage    IntelligentScissorsMB::applyImage (features) opencv_BuildMap
+//   IntelligentScissorsMB::buildMap from the same anchor
 // Agreement, printed before the timings: for 40 anchor/target pairs on the bone boundary
 // (pixels >= 300 HU with a neighbour below, drawn with Rng(2008), 15-60 pixels apart), the mean
 // distance between echoreg's and OpenCV's paths, each path's cost under echoreg's cost, and the
@@ -64,13 +64,16 @@ struct Slice {
 std::optional<Slice> readSlice(const std::string& path) {
   gdcm::ImageReader reader;
   reader.SetFileName(path.c_str());
-  if (!reader.Read()) return std::nullopt;
+  if (!reader.Read())
+    return std::nullopt;
   const gdcm::Image& image = reader.GetImage();
   const unsigned int* dims = image.GetDimensions();
   const gdcm::PixelFormat format = image.GetPixelFormat();
-  if (format.GetBitsAllocated() != 16 || format.GetSamplesPerPixel() != 1) return std::nullopt;
+  if (format.GetBitsAllocated() != 16 || format.GetSamplesPerPixel() != 1)
+    return std::nullopt;
   std::vector<char> buffer(image.GetBufferLength());
-  if (!image.GetBuffer(buffer.data())) return std::nullopt;
+  if (!image.GetBuffer(buffer.data()))
+    return std::nullopt;
   Slice s;
   s.width = static_cast<int>(dims[0]);
   s.height = static_cast<int>(dims[1]);
@@ -81,7 +84,8 @@ std::optional<Slice> readSlice(const std::string& path) {
   for (std::size_t i = 0; i < n; ++i) {
     std::uint16_t raw = 0;
     std::memcpy(&raw, buffer.data() + 2 * i, 2);
-    const double v = isSigned ? static_cast<double>(static_cast<std::int16_t>(raw)) : static_cast<double>(raw);
+    const double v =
+        isSigned ? static_cast<double>(static_cast<std::int16_t>(raw)) : static_cast<double>(raw);
     s.hu[i] = static_cast<float>(v * image.GetSlope() + image.GetIntercept());
   }
   s.windowed.resize(n);
@@ -95,19 +99,25 @@ std::optional<Slice> readSlice(const std::string& path) {
   std::vector<Pixel> boundary;
   for (int y = 1; y + 1 < s.height; ++y) {
     for (int x = 1; x + 1 < s.width; ++x) {
-      const auto at = [&](int xx, int yy) { return s.hu[static_cast<std::size_t>(yy * s.width + xx)]; };
-      if (at(x, y) < 300.0f) continue;
-      if (at(x - 1, y) < 300.0f || at(x + 1, y) < 300.0f || at(x, y - 1) < 300.0f || at(x, y + 1) < 300.0f)
+      const auto at = [&](int xx, int yy) {
+        return s.hu[static_cast<std::size_t>(yy * s.width + xx)];
+      };
+      if (at(x, y) < 300.0f)
+        continue;
+      if (at(x - 1, y) < 300.0f || at(x + 1, y) < 300.0f || at(x, y - 1) < 300.0f ||
+          at(x, y + 1) < 300.0f)
         boundary.emplace_back(x, y);
     }
   }
-  if (boundary.size() < 2) return std::nullopt;
+  if (boundary.size() < 2)
+    return std::nullopt;
   echoreg::core::Rng rng(2008);
   while (static_cast<int>(s.pairs.size()) < kPairs) {
     const Pixel a = boundary[rng.below(boundary.size())];
     const Pixel b = boundary[rng.below(boundary.size())];
     const double d = (a - b).cast<double>().norm();
-    if (d >= 15.0 && d <= 60.0) s.pairs.emplace_back(a, b);
+    if (d >= 15.0 && d <= 60.0)
+      s.pairs.emplace_back(a, b);
   }
   return s;
 }
@@ -115,7 +125,8 @@ std::optional<Slice> readSlice(const std::string& path) {
 const Slice* slice() {
   static const std::optional<Slice> s = []() -> std::optional<Slice> {
     const std::string path = echoreg::test::sharedDataFile("ct-abdomen/1-124.dcm");
-    if (path.empty()) return std::nullopt;
+    if (path.empty())
+      return std::nullopt;
     return readSlice(path);
   }();
   return s ? &*s : nullptr;
@@ -136,7 +147,8 @@ double meanDistance(const std::vector<Pixel>& a, const std::vector<Pixel>& b) {
     double sum = 0.0;
     for (const auto& p : from) {
       double best = std::numeric_limits<double>::infinity();
-      for (const auto& q : to) best = std::min(best, (p - q).cast<double>().norm());
+      for (const auto& q : to)
+        best = std::min(best, (p - q).cast<double>().norm());
       sum += best;
     }
     return sum / static_cast<double>(from.size());
@@ -157,7 +169,8 @@ double shareOnBoundary(const Slice& s, const std::vector<Pixel>& path) {
         const int y = std::clamp(p.y() + dy, 0, s.height - 1);
         (s.hu[static_cast<std::size_t>(y * s.width + x)] >= 300.0f ? above : below) = true;
       }
-    if (above && below) ++on;
+    if (above && below)
+      ++on;
   }
   return static_cast<double>(on) / static_cast<double>(path.size());
 }
@@ -167,11 +180,13 @@ cv::Mat openCvImage(const Slice& s) {
   return cv::Mat(s.height, s.width, CV_8UC1, const_cast<std::uint8_t*>(s.windowed.data())).clone();
 }
 
-std::vector<Pixel> openCvPath(const cv::segmentation::IntelligentScissorsMB& scissors, const Pixel& target) {
+std::vector<Pixel> openCvPath(const cv::segmentation::IntelligentScissorsMB& scissors,
+                              const Pixel& target) {
   std::vector<cv::Point> contour;
   scissors.getContour(cv::Point(target.x(), target.y()), contour, false);
   std::vector<Pixel> path;
-  for (const auto& p : contour) path.emplace_back(p.x, p.y);
+  for (const auto& p : contour)
+    path.emplace_back(p.x, p.y);
   return path;
 }
 #endif
@@ -195,8 +210,8 @@ void printAgreement() {
   const Variant variants[] = {{"echoreg default (Gaussian sigma 1 px)", LiveWireOptions{}, false},
                               {"echoreg OpenCV-like (no smoothing)", openCvLike(), false},
                               {"OpenCV given echoreg's features", LiveWireOptions{}, true}};
-  std::printf("agreement on %d anchor/target pairs, slice 1-124.dcm (%d x %d, %.3f mm pixels)\n", kPairs,
-              s->width, s->height, s->spacingMm.x());
+  std::printf("agreement on %d anchor/target pairs, slice 1-124.dcm (%d x %d, %.3f mm pixels)\n",
+              kPairs, s->width, s->height, s->spacingMm.x());
   std::printf("%-40s %8s %8s %12s %12s %10s %9s %8s %8s\n", "variant", "dist px", "dist mm",
               "cost echoreg", "cost OpenCV", "OpenCV/ech", "identical", "edge ech", "edge OCV");
   for (const Variant& v : variants) {
@@ -215,7 +230,8 @@ void printAgreement() {
         for (int x = 0; x < s->width; ++x) {
           const std::size_t i = static_cast<std::size_t>(y * s->width + x);
           nonEdge.at<std::uint8_t>(y, x) = f.zeroCrossing[i] > 0.5f ? 1 : 0;
-          direction.at<cv::Point2f>(y, x) = cv::Point2f(f.gradientDirection[i].x(), f.gradientDirection[i].y());
+          direction.at<cv::Point2f>(y, x) =
+              cv::Point2f(f.gradientDirection[i].x(), f.gradientDirection[i].y());
           magnitude.at<float>(y, x) = f.magnitudeCost[i];
         }
       }
@@ -240,17 +256,21 @@ void printAgreement() {
       ours += a;
       theirs += b;
       ratio += b / a;
-      if (path == cvPath) ++identical;
+      if (path == cvPath)
+        ++identical;
       edgeOurs += shareOnBoundary(*s, path);
       edgeTheirs += shareOnBoundary(*s, cvPath);
     }
-    std::printf("%-40s %8.3f %8.3f %12.3f %12.3f %10.4f %6d/%d %8.3f %8.3f\n", v.name, distance / kPairs,
-                distance / kPairs * s->spacingMm.x(), ours / kPairs, theirs / kPairs, ratio / kPairs,
-                identical, kPairs, edgeOurs / kPairs, edgeTheirs / kPairs);
+    std::printf("%-40s %8.3f %8.3f %12.3f %12.3f %10.4f %6d/%d %8.3f %8.3f\n", v.name,
+                distance / kPairs, distance / kPairs * s->spacingMm.x(), ours / kPairs,
+                theirs / kPairs, ratio / kPairs, identical, kPairs, edgeOurs / kPairs,
+                edgeTheirs / kPairs);
   }
-  std::printf("(dist: mean of the two paths' mean nearest-point distances; costs: mean per path under\n"
-              " echoreg's cost of the variant; OpenCV/ech: mean ratio of the two, >= 1 as echoreg's is optimal;\n"
-              " edge: mean share of path pixels whose 3 x 3 neighbourhood straddles 300 HU)\n\n");
+  std::printf(
+      "(dist: mean of the two paths' mean nearest-point distances; costs: mean per path under\n"
+      " echoreg's cost of the variant; OpenCV/ech: mean ratio of the two, >= 1 as echoreg's is "
+      "optimal;\n"
+      " edge: mean share of path pixels whose 3 x 3 neighbourhood straddles 300 HU)\n\n");
 #endif
 }
 
@@ -347,8 +367,10 @@ int main(int argc, char** argv) {
   }
   argc = kept;
   benchmark::Initialize(&argc, argv);
-  if (benchmark::ReportUnrecognizedArguments(argc, argv)) return 1;
-  if (agreement) printAgreement();
+  if (benchmark::ReportUnrecognizedArguments(argc, argv))
+    return 1;
+  if (agreement)
+    printAgreement();
   benchmark::RunSpecifiedBenchmarks();
   benchmark::Shutdown();
   return 0;

@@ -57,7 +57,8 @@ struct Scene {
 const Scene* femur() {
   static const std::optional<Scene> scene = []() -> std::optional<Scene> {
     const std::string path = echoreg::test::sharedDataFile("meshes/femur.stl");
-    if (path.empty()) return std::nullopt;
+    if (path.empty())
+      return std::nullopt;
     Scene s;
     s.mesh = echoreg::filters::readMesh(path);
     s.polyData = echoreg::filters::toPolyData(s.mesh);
@@ -70,7 +71,8 @@ const Scene* femur() {
     Rng rng = Rng::derive(2008, "bench-mesh-locator");
     auto inBox = [&](double margin) {
       Eigen::Vector3d p;
-      for (int k = 0; k < 3; ++k) p[k] = rng.uniform(box[0][k] - margin, box[1][k] + margin);
+      for (int k = 0; k < 3; ++k)
+        p[k] = rng.uniform(box[0][k] - margin, box[1][k] + margin);
       return p;
     };
     auto nearVertex = [&](double spread) {
@@ -89,7 +91,8 @@ const Scene* femur() {
 }
 
 bool skipWithoutFemur(benchmark::State& state) {
-  if (femur() != nullptr) return false;
+  if (femur() != nullptr)
+    return false;
   state.SkipWithError("../shared/data/meshes/femur.stl is absent");
   return true;
 }
@@ -99,7 +102,8 @@ void reportQueries(benchmark::State& state) {
 }
 
 void BM_BuildFemur_echoreg(benchmark::State& state) {
-  if (skipWithoutFemur(state)) return;
+  if (skipWithoutFemur(state))
+    return;
   for (auto _ : state) {
     MeshLocator locator(femur()->mesh);
     benchmark::DoNotOptimize(&locator);
@@ -108,7 +112,8 @@ void BM_BuildFemur_echoreg(benchmark::State& state) {
 }
 
 void BM_BuildFemur_vtkStaticCellLocator(benchmark::State& state) {
-  if (skipWithoutFemur(state)) return;
+  if (skipWithoutFemur(state))
+    return;
   for (auto _ : state) {
     vtkNew<vtkStaticCellLocator> locator;
     locator->SetDataSet(femur()->polyData);
@@ -141,7 +146,8 @@ void BM_BuildIcosphere327k_vtkStaticCellLocator(benchmark::State& state) {
 }
 
 void BM_Closest_echoreg(benchmark::State& state) {
-  if (skipWithoutFemur(state)) return;
+  if (skipWithoutFemur(state))
+    return;
   const Scene& s = *femur();
   std::size_t i = 0;
   for (auto _ : state) {
@@ -151,7 +157,8 @@ void BM_Closest_echoreg(benchmark::State& state) {
 }
 
 void BM_Closest_vtkStaticCellLocator(benchmark::State& state) {
-  if (skipWithoutFemur(state)) return;
+  if (skipWithoutFemur(state))
+    return;
   const Scene& s = *femur();
   vtkNew<vtkGenericCell> cell;
   double closest[3], dist2 = 0.0;
@@ -174,7 +181,8 @@ void BM_Closest_vtkStaticCellLocator(benchmark::State& state) {
 }
 
 void BM_FirstHit_echoreg(benchmark::State& state) {
-  if (skipWithoutFemur(state)) return;
+  if (skipWithoutFemur(state))
+    return;
   const Scene& s = *femur();
   std::size_t i = 0;
   for (auto _ : state) {
@@ -185,7 +193,8 @@ void BM_FirstHit_echoreg(benchmark::State& state) {
 }
 
 void BM_FirstHit_vtkStaticCellLocator(benchmark::State& state) {
-  if (skipWithoutFemur(state)) return;
+  if (skipWithoutFemur(state))
+    return;
   const Scene& s = *femur();
   vtkNew<vtkGenericCell> cell;
   double t = 0.0, x[3], pcoords[3];
@@ -215,7 +224,8 @@ void BM_FirstHit_vtkStaticCellLocator(benchmark::State& state) {
 }
 
 void BM_AllHits_echoreg(benchmark::State& state) {
-  if (skipWithoutFemur(state)) return;
+  if (skipWithoutFemur(state))
+    return;
   const Scene& s = *femur();
   std::size_t i = 0;
   for (auto _ : state) {
@@ -226,15 +236,18 @@ void BM_AllHits_echoreg(benchmark::State& state) {
 }
 
 void BM_Inside_echoreg(benchmark::State& state) {
-  if (skipWithoutFemur(state)) return;
+  if (skipWithoutFemur(state))
+    return;
   const Scene& s = *femur();
   std::size_t i = 0;
-  for (auto _ : state) benchmark::DoNotOptimize(s.locator->inside(s.points[i++ % kQueries]));
+  for (auto _ : state)
+    benchmark::DoNotOptimize(s.locator->inside(s.points[i++ % kQueries]));
   reportQueries(state);
 }
 
 void BM_SignedDistance_echoreg(benchmark::State& state) {
-  if (skipWithoutFemur(state)) return;
+  if (skipWithoutFemur(state))
+    return;
   const Scene& s = *femur();
   std::size_t i = 0;
   for (auto _ : state) {

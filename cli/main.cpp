@@ -1,3 +1,5 @@
 #include "echoreg/cli/cli.hpp"
 
-int main(int argc, char** argv) { return echoreg::cli::run(argc, argv); }
+int main(int argc, char** argv) {
+  return echoreg::cli::run(argc, argv);
+}

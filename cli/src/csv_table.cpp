@@ -16,33 +16,41 @@ std::vector<std::string> splitCsvLine(const std::string& line) {
   std::stringstream in(line);
   std::string cell;
   while (std::getline(in, cell, ',')) {
-    while (!cell.empty() && (cell.back() == '\r' || cell.back() == ' ')) cell.pop_back();
-    while (!cell.empty() && cell.front() == ' ') cell.erase(cell.begin());
+    while (!cell.empty() && (cell.back() == '\r' || cell.back() == ' '))
+      cell.pop_back();
+    while (!cell.empty() && cell.front() == ' ')
+      cell.erase(cell.begin());
     cells.push_back(cell);
   }
-  if (!line.empty() && line.back() == ',') cells.emplace_back();
+  if (!line.empty() && line.back() == ',')
+    cells.emplace_back();
   return cells;
 }
 
 int CsvTable::column(const std::string& name) const {
   for (std::size_t i = 0; i < header.size(); ++i) {
-    if (header[i] == name) return static_cast<int>(i);
+    if (header[i] == name)
+      return static_cast<int>(i);
   }
   return -1;
 }
 
 CsvTable readCsvTable(const std::string& path) {
-  if (std::filesystem::is_directory(path)) throw FileError(path, "is a directory, expected a CSV file");
+  if (std::filesystem::is_directory(path))
+    throw FileError(path, "is a directory, expected a CSV file");
   std::ifstream in(path);
-  if (!in) throw FileError(path, "cannot open the CSV file");
+  if (!in)
+    throw FileError(path, "cannot open the CSV file");
   CsvTable table;
   std::string line;
-  if (!std::getline(in, line)) throw FileError(path, "is empty (no header row)");
+  if (!std::getline(in, line))
+    throw FileError(path, "is empty (no header row)");
   table.header = splitCsvLine(line);
   std::size_t lineNumber = 1;
   while (std::getline(in, line)) {
     ++lineNumber;
-    if (line.empty() || line == "\r") continue;
+    if (line.empty() || line == "\r")
+      continue;
     auto cells = splitCsvLine(line);
     if (cells.size() != table.header.size()) {
       throw FileError(path, fmt::format("line {} has {} cells, the header {}", lineNumber,
@@ -63,7 +71,8 @@ double parseCsvNumber(const std::string& cell, const std::string& path, std::siz
     used = 0;
   }
   if (used == 0 || used != cell.size() || !std::isfinite(value)) {
-    throw FileError(path, fmt::format("line {}: column {} is not a number: '{}'", line, column, cell));
+    throw FileError(path,
+                    fmt::format("line {}: column {} is not a number: '{}'", line, column, cell));
   }
   return value;
 }

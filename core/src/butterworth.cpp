@@ -60,7 +60,8 @@ void runDf2t(const IirCoefficients& filter, std::vector<double>& z, int count, R
     for (std::size_t k = 0; k + 1 < order; ++k) {
       z[k] = filter.b[k + 1] * x - filter.a[k + 1] * y + z[k + 1];
     }
-    if (order > 0) z[order - 1] = filter.b[order] * x - filter.a[order] * y;
+    if (order > 0)
+      z[order - 1] = filter.b[order] * x - filter.a[order] * y;
     write(i, y);
   }
 }
@@ -68,11 +69,14 @@ void runDf2t(const IirCoefficients& filter, std::vector<double>& z, int count, R
 // scipy.signal.lfilter_zi: the state of a filter that has seen a constant 1 forever.
 std::vector<double> steadyStateForUnitStep(const IirCoefficients& filter) {
   const int order = static_cast<int>(filter.a.size()) - 1;
-  if (order <= 0) return {};
+  if (order <= 0)
+    return {};
   Eigen::MatrixXd iMinusA = Eigen::MatrixXd::Identity(order, order);
   // companion(a).T: first column -a[1:], superdiagonal... (transpose of scipy's companion).
-  for (int r = 0; r < order; ++r) iMinusA(r, 0) += filter.a[static_cast<std::size_t>(r + 1)];
-  for (int r = 0; r + 1 < order; ++r) iMinusA(r, r + 1) -= 1.0;
+  for (int r = 0; r < order; ++r)
+    iMinusA(r, 0) += filter.a[static_cast<std::size_t>(r + 1)];
+  for (int r = 0; r + 1 < order; ++r)
+    iMinusA(r, r + 1) -= 1.0;
   Eigen::VectorXd rhs(order);
   for (int r = 0; r < order; ++r) {
     const auto k = static_cast<std::size_t>(r + 1);
@@ -114,9 +118,12 @@ IirCoefficients designButterworthLowPass(int order, double cutoffNormalized) {
   filter.b = polynomialFromRoots(
       std::vector<std::complex<double>>(static_cast<std::size_t>(order), {-1.0, 0.0}));
   double sumA = 0.0, sumB = 0.0;
-  for (double v : filter.a) sumA += v;
-  for (double v : filter.b) sumB += v;
-  for (double& v : filter.b) v *= sumA / sumB;
+  for (double v : filter.a)
+    sumA += v;
+  for (double v : filter.b)
+    sumB += v;
+  for (double& v : filter.b)
+    v *= sumA / sumB;
   return filter;
 }
 
@@ -145,15 +152,18 @@ void filterCausal(const IirCoefficients& filter, const float* in, int count, flo
 
 void filterZeroPhase(const IirCoefficients& filter, const float* in, int count, float* out) {
   checkFilter(filter);
-  if (count <= 0) return;
+  if (count <= 0)
+    return;
   const int padding = 3 * static_cast<int>(filter.a.size());
   const int pad = count > padding ? padding : 0;
   const int total = count + 2 * pad;
   // Odd extension: reflect the record about its end values, so the filter starts settled.
   std::vector<double> work(static_cast<std::size_t>(total));
   const double first = in[0], last = in[count - 1];
-  for (int i = 0; i < pad; ++i) work[static_cast<std::size_t>(i)] = 2.0 * first - in[pad - i];
-  for (int i = 0; i < count; ++i) work[static_cast<std::size_t>(pad + i)] = in[i];
+  for (int i = 0; i < pad; ++i)
+    work[static_cast<std::size_t>(i)] = 2.0 * first - in[pad - i];
+  for (int i = 0; i < count; ++i)
+    work[static_cast<std::size_t>(pad + i)] = in[i];
   for (int i = 0; i < pad; ++i) {
     work[static_cast<std::size_t>(pad + count + i)] = 2.0 * last - in[count - 2 - i];
   }
@@ -161,19 +171,22 @@ void filterZeroPhase(const IirCoefficients& filter, const float* in, int count, 
   std::vector<double> z(unitState.size());
 
   const double forwardStart = work.front();
-  for (std::size_t k = 0; k < z.size(); ++k) z[k] = unitState[k] * forwardStart;
+  for (std::size_t k = 0; k < z.size(); ++k)
+    z[k] = unitState[k] * forwardStart;
   runDf2t(
       filter, z, total, [&work](int i) { return work[static_cast<std::size_t>(i)]; },
       [&work](int i, double y) { work[static_cast<std::size_t>(i)] = y; });
 
   const double backwardStart = work.back();
-  for (std::size_t k = 0; k < z.size(); ++k) z[k] = unitState[k] * backwardStart;
+  for (std::size_t k = 0; k < z.size(); ++k)
+    z[k] = unitState[k] * backwardStart;
   const auto mirrored = [total](int i) { return static_cast<std::size_t>(total - 1 - i); };
   runDf2t(
       filter, z, total, [&work, &mirrored](int i) { return work[mirrored(i)]; },
       [&work, &mirrored](int i, double y) { work[mirrored(i)] = y; });
 
-  for (int i = 0; i < count; ++i) out[i] = static_cast<float>(work[static_cast<std::size_t>(pad + i)]);
+  for (int i = 0; i < count; ++i)
+    out[i] = static_cast<float>(work[static_cast<std::size_t>(pad + i)]);
 }
 
 }  // namespace echoreg

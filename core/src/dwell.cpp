@@ -31,7 +31,8 @@ Eigen::Vector3d medianPosition(const std::vector<Eigen::Vector3d>& positions,
   c.reserve(to - from);
   for (Eigen::Index k = 0; k < 3; ++k) {
     c.clear();
-    for (std::size_t i = from; i < to; ++i) c.push_back(positions[idx[i]][k]);
+    for (std::size_t i = from; i < to; ++i)
+      c.push_back(positions[idx[i]][k]);
     m[k] = medianOf(c);
   }
   return m;
@@ -50,7 +51,8 @@ std::vector<std::size_t> stableCore(const std::vector<Eigen::Vector3d>& position
   const Eigen::Vector3d median = medianPosition(positions, idx, run.begin, run.end);
   std::vector<std::size_t> core;
   for (std::size_t i = run.begin; i < run.end; ++i) {
-    if ((positions[idx[i]] - median).norm() <= 0.5 * options.maxMotionMm) core.push_back(idx[i]);
+    if ((positions[idx[i]] - median).norm() <= 0.5 * options.maxMotionMm)
+      core.push_back(idx[i]);
   }
   if (static_cast<int>(core.size()) < options.minFrames) {
     core.assign(idx.begin() + static_cast<std::ptrdiff_t>(run.begin),
@@ -62,7 +64,8 @@ std::vector<std::size_t> stableCore(const std::vector<Eigen::Vector3d>& position
 Eigen::Vector3d meanOf(const std::vector<Eigen::Vector3d>& positions,
                        const std::vector<std::size_t>& frames) {
   Eigen::Vector3d m = Eigen::Vector3d::Zero();
-  for (std::size_t f : frames) m += positions[f];
+  for (std::size_t f : frames)
+    m += positions[f];
   return m / static_cast<double>(frames.size());
 }
 
@@ -100,7 +103,8 @@ std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
   // The valid frames, checked.
   std::vector<std::size_t> idx;
   for (std::size_t f = 0; f < positions.size(); ++f) {
-    if (!valid[f]) continue;
+    if (!valid[f])
+      continue;
     if (!positions[f].allFinite() || !std::isfinite(timestampsS[f])) {
       throw std::invalid_argument("detectDwells: frame " + std::to_string(f) +
                                   " is valid but its position or timestamp is not finite");
@@ -121,8 +125,10 @@ std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
     const double half = 0.5 * options.smoothingS;
     for (std::size_t i = 0; i < idx.size(); ++i) {
       const double t = timestampsS[idx[i]];
-      while (hi < idx.size() && timestampsS[idx[hi]] <= t + half) sum += positions[idx[hi++]];
-      while (timestampsS[idx[lo]] < t - half) sum -= positions[idx[lo++]];
+      while (hi < idx.size() && timestampsS[idx[hi]] <= t + half)
+        sum += positions[idx[hi++]];
+      while (timestampsS[idx[lo]] < t - half)
+        sum -= positions[idx[lo++]];
       smooth[idx[i]] = sum / static_cast<double>(hi - lo);
     }
   }
@@ -135,7 +141,8 @@ std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
     Eigen::Vector3d anchor = smooth[idx[start]];
     std::size_t anchoredAt = 1;  // run length when the anchor was last recomputed
     while (end < idx.size()) {
-      if ((smooth[idx[end]] - anchor).norm() > options.maxMotionMm) break;
+      if ((smooth[idx[end]] - anchor).norm() > options.maxMotionMm)
+        break;
       ++end;
       if (end - start >= 2 * anchoredAt) {
         anchor = medianPosition(smooth, idx, start, end);
@@ -152,8 +159,8 @@ std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
       }
     }
     const double duration = timestampsS[idx[end - 1]] - timestampsS[idx[start]];
-    const bool longEnough = duration >= options.minDurationS &&
-                            static_cast<int>(end - start) >= options.minFrames;
+    const bool longEnough =
+        duration >= options.minDurationS && static_cast<int>(end - start) >= options.minFrames;
     if (longEnough) {
       runs.push_back({start, end});
       start = end;
@@ -179,7 +186,8 @@ std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
     d.lastFrame = static_cast<int>(idx[r.end - 1]);
     d.meanMm = meanOf(positions, core);
     double sum = 0.0;
-    for (std::size_t f : core) sum += (positions[f] - d.meanMm).squaredNorm();
+    for (std::size_t f : core)
+      sum += (positions[f] - d.meanMm).squaredNorm();
     d.spreadMm = std::sqrt(sum / static_cast<double>(core.size()));
     d.frames = static_cast<int>(core.size());
   }
@@ -212,18 +220,22 @@ DwellMatch matchDwellsInOrder(const std::vector<Dwell>& dwells,
   bool haveBest = false;
   std::string lastError;
   std::vector<std::size_t> pick(n);
-  for (std::size_t k = 0; k < n; ++k) pick[k] = k;
+  for (std::size_t k = 0; k < n; ++k)
+    pick[k] = k;
   std::vector<Eigen::Vector3d> to(n);
   while (true) {
-    for (std::size_t k = 0; k < n; ++k) to[k] = dwells[pick[k]].meanMm;
+    for (std::size_t k = 0; k < n; ++k)
+      to[k] = dwells[pick[k]].meanMm;
     ++best.candidates;
     try {
       PairedPointResult r = registerPairedPoints(landmarks, to);
       if (!haveBest || r.freMm < best.registration.freMm) {
-        if (haveBest) best.runnerUpFreMm = best.registration.freMm;
+        if (haveBest)
+          best.runnerUpFreMm = best.registration.freMm;
         best.registration = std::move(r);
         best.dwellIndex.clear();
-        for (std::size_t k : pick) best.dwellIndex.push_back(static_cast<int>(k));
+        for (std::size_t k : pick)
+          best.dwellIndex.push_back(static_cast<int>(k));
         haveBest = true;
       } else if (r.freMm < best.runnerUpFreMm) {
         best.runnerUpFreMm = r.freMm;
@@ -233,12 +245,16 @@ DwellMatch matchDwellsInOrder(const std::vector<Dwell>& dwells,
     }
     // Next combination in lexicographic order.
     std::size_t k = n;
-    while (k > 0 && pick[k - 1] == m - n + (k - 1)) --k;
-    if (k == 0) break;
+    while (k > 0 && pick[k - 1] == m - n + (k - 1))
+      --k;
+    if (k == 0)
+      break;
     ++pick[k - 1];
-    for (std::size_t j = k; j < n; ++j) pick[j] = pick[j - 1] + 1;
+    for (std::size_t j = k; j < n; ++j)
+      pick[j] = pick[j - 1] + 1;
   }
-  if (!haveBest) throw std::invalid_argument(lastError);
+  if (!haveBest)
+    throw std::invalid_argument(lastError);
   return best;
 }
 
@@ -250,14 +266,17 @@ StylusTrack stylusTipTrack(const Sequence& capture, const Eigen::Isometry3d& sty
     return std::find(names.begin(), names.end(), n) != names.end();
   };
   for (const std::string& n : {stylusTransform, referenceTransform}) {
-    if (n.empty() || has(n)) continue;
+    if (n.empty() || has(n))
+      continue;
     std::string list;
-    for (const std::string& h : names) list += (list.empty() ? "" : ", ") + h + "Transform";
-    throw std::invalid_argument("has no " + n + "Transform" +
-                                (list.empty() ? std::string(" (it has no transforms)")
-                                              : " (it has " + list + ")"));
+    for (const std::string& h : names)
+      list += (list.empty() ? "" : ", ") + h + "Transform";
+    throw std::invalid_argument(
+        "has no " + n + "Transform" +
+        (list.empty() ? std::string(" (it has no transforms)") : " (it has " + list + ")"));
   }
-  if (stylusTransform.empty()) throw std::invalid_argument("the stylus transform name is empty");
+  if (stylusTransform.empty())
+    throw std::invalid_argument("the stylus transform name is empty");
   const Eigen::Vector3d tipInStylus = stylusTipToStylus.translation();
   StylusTrack track;
   const std::size_t n = capture.frames.size();
@@ -269,18 +288,21 @@ StylusTrack stylusTipTrack(const Sequence& capture, const Eigen::Isometry3d& sty
     const SequenceFrame& frame = capture.frames[f];
     track.timestampsS[f] = frame.timestampS ? *frame.timestampS : static_cast<double>(f);
     const auto s = frame.transforms.find(stylusTransform);
-    if (s == frame.transforms.end() || !s->second.valid()) continue;
+    if (s == frame.transforms.end() || !s->second.valid())
+      continue;
     Eigen::Isometry3d stylusToTracker;
     stylusToTracker.matrix() = s->second.matrix;
     Eigen::Vector3d tip = stylusToTracker * tipInStylus;
     if (!referenceTransform.empty()) {
       const auto r = frame.transforms.find(referenceTransform);
-      if (r == frame.transforms.end() || !r->second.valid()) continue;
+      if (r == frame.transforms.end() || !r->second.valid())
+        continue;
       Eigen::Isometry3d referenceToTracker;
       referenceToTracker.matrix() = r->second.matrix;
       tip = referenceToTracker.inverse() * tip;
     }
-    if (!tip.allFinite()) continue;
+    if (!tip.allFinite())
+      continue;
     track.tipInReference[f] = tip;
     track.valid[f] = true;
     ++validCount;

@@ -28,7 +28,8 @@ double fastAcos(double x) {
       a * (-0.2145988016 +
            a * (0.0889789874 +
                 a * (-0.0501743046 +
-                     a * (0.0308918810 + a * (-0.0170881256 + a * (0.0066700901 + a * -0.0012624911))))));
+                     a * (0.0308918810 +
+                          a * (-0.0170881256 + a * (0.0066700901 + a * -0.0012624911))))));
   const double r = std::sqrt(1.0 - a) * p;
   return x >= 0.0 ? r : kPi - r;
 }
@@ -74,7 +75,8 @@ double linkCost(const LiveWireFeatures& f, const LiveWireOptions& o, std::size_t
 
 int neighbourIndex(int dx, int dy) {
   for (int n = 0; n < 8; ++n)
-    if (kDx[n] == dx && kDy[n] == dy) return n;
+    if (kDx[n] == dx && kDy[n] == dy)
+      return n;
   return -1;
 }
 
@@ -83,13 +85,15 @@ std::string pixelText(const Eigen::Vector2i& p) {
 }
 
 std::size_t toIndex(int x, int y, int width) {
-  return static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x);
+  return static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+         static_cast<std::size_t>(x);
 }
 
 // Normalised 1-D Gaussian of standard deviation `sigma` pixels, radius ceil(3 sigma); {1} for
 // sigma <= 0.
 std::vector<float> gaussianKernel(double sigma) {
-  if (!(sigma > 0.0)) return {1.0f};
+  if (!(sigma > 0.0))
+    return {1.0f};
   const int radius = std::max(1, static_cast<int>(std::ceil(3.0 * sigma)));
   std::vector<double> k(static_cast<std::size_t>(2 * radius + 1));
   double sum = 0.0;
@@ -123,14 +127,17 @@ std::vector<float> smooth(const std::vector<float>& image, int width, int height
       return sum;
     };
     const int interiorEnd = std::max(rx, width - rx);
-    for (int x = 0; x < std::min(rx, width); ++x) dst[x] = clamped(x);
+    for (int x = 0; x < std::min(rx, width); ++x)
+      dst[x] = clamped(x);
     for (int x = rx; x < interiorEnd; ++x) {
       float sum = 0.0f;
       const float* src = row + x - rx;
-      for (int i = 0; i <= 2 * rx; ++i) sum += kx[static_cast<std::size_t>(i)] * src[i];
+      for (int i = 0; i <= 2 * rx; ++i)
+        sum += kx[static_cast<std::size_t>(i)] * src[i];
       dst[x] = sum;
     }
-    for (int x = std::max(interiorEnd, std::min(rx, width)); x < width; ++x) dst[x] = clamped(x);
+    for (int x = std::max(interiorEnd, std::min(rx, width)); x < width; ++x)
+      dst[x] = clamped(x);
   }
   for (int y = 0; y < height; ++y) {
     float* dst = out.data() + toIndex(0, y, width);
@@ -154,7 +161,8 @@ void checkOptions(const LiveWireOptions& o) {
       throw std::invalid_argument("live-wire: cost weights must be finite and >= 0");
     sum += w;
   }
-  if (!(sum > 0.0)) throw std::invalid_argument("live-wire: the cost weights sum to 0");
+  if (!(sum > 0.0))
+    throw std::invalid_argument("live-wire: the cost weights sum to 0");
   if (o.costResolution < 1)
     throw std::invalid_argument("live-wire: costResolution must be >= 1");
   if (sum * o.costResolution > 65000.0)
@@ -189,24 +197,26 @@ LiveWire::LiveWire(const std::vector<float>& image, int width, int height,
   checkOptions(options);
   for (std::size_t i = 0; i < count; ++i) {
     if (!std::isfinite(image[i]))
-      throw std::invalid_argument("live-wire: pixel (" + std::to_string(i % static_cast<std::size_t>(width)) +
-                                  ", " + std::to_string(i / static_cast<std::size_t>(width)) +
-                                  ") is not finite");
+      throw std::invalid_argument(
+          "live-wire: pixel (" + std::to_string(i % static_cast<std::size_t>(width)) + ", " +
+          std::to_string(i / static_cast<std::size_t>(width)) + ") is not finite");
   }
 
   const double sx = spacingMm.x();
   const double sy = spacingMm.y();
   // Smoothing: a Gaussian of sigma mm along both axes, or of one pixel along each axis (0).
   const auto sigmaPixels = [&](double sigmaMm) -> Eigen::Vector2d {
-    if (sigmaMm == 0.0) return Eigen::Vector2d(1.0, 1.0);
+    if (sigmaMm == 0.0)
+      return Eigen::Vector2d(1.0, 1.0);
     return Eigen::Vector2d(sigmaMm / sx, sigmaMm / sy);
   };
 
   // Gradient: Gaussian smoothing, then central differences (one-sided at the border), per mm.
   const Eigen::Vector2d gradientSigma = sigmaPixels(options.gradientSigmaMm);
-  const std::vector<float> g = options.gradientSigmaMm >= 0.0
-                                   ? smooth(image, width, height, gradientSigma.x(), gradientSigma.y())
-                                   : image;
+  const std::vector<float> g =
+      options.gradientSigmaMm >= 0.0
+          ? smooth(image, width, height, gradientSigma.x(), gradientSigma.y())
+          : image;
   features_.gradientMagnitude.assign(count, 0.0f);
   features_.gradientDirection.assign(count, Eigen::Vector2f::Zero());
   double maxG = 0.0;
@@ -266,29 +276,35 @@ LiveWire::LiveWire(const std::vector<float>& image, int width, int height,
   }
   const float tolerance = 1e-5f * maxLap;
   for (float& v : lap)
-    if (std::abs(v) <= tolerance) v = 0.0f;
+    if (std::abs(v) <= tolerance)
+      v = 0.0f;
   features_.zeroCrossing.assign(count, 1.0f);
   const auto mark = [&](std::size_t a, std::size_t b) {
     const float va = lap[a];
     const float vb = lap[b];
-    if ((va < 0.0f) != (vb < 0.0f)) features_.zeroCrossing[std::abs(va) <= std::abs(vb) ? a : b] = 0.0f;
+    if ((va < 0.0f) != (vb < 0.0f))
+      features_.zeroCrossing[std::abs(va) <= std::abs(vb) ? a : b] = 0.0f;
   };
   for (int y = 0; y < height; ++y) {
     for (int x = 0; x < width; ++x) {
       const std::size_t i = toIndex(x, y, width);
-      if (x + 1 < width) mark(i, i + 1);
+      if (x + 1 < width)
+        mark(i, i + 1);
       if (y + 1 < height) {
         const std::size_t below = toIndex(x, y + 1, width);
         mark(i, below);
-        if (x + 1 < width) mark(i, below + 1);
-        if (x > 0) mark(i, below - 1);
+        if (x + 1 < width)
+          mark(i, below + 1);
+        if (x > 0)
+          mark(i, below - 1);
       }
     }
   }
   if (options.minEdgeGradientFraction > 0.0) {
     const double floor = options.minEdgeGradientFraction * cap;
     for (std::size_t i = 0; i < count; ++i)
-      if (features_.gradientMagnitude[i] < floor) features_.zeroCrossing[i] = 1.0f;
+      if (features_.gradientMagnitude[i] < floor)
+        features_.zeroCrossing[i] = 1.0f;
   }
 
   // Every directed link, quantised (rounded to the nearest integer). The same values as
@@ -311,7 +327,8 @@ LiveWire::LiveWire(const std::vector<float>& image, int width, int height,
     for (std::size_t x = 0; x < w; ++x) {
       for (std::size_t d = 0; d < 4; ++d) {
         const LinkGeometry& u = geometry[kUndirected[d]];
-        const double y = static_cast<double>(gradient[x].y()) * u.ux - static_cast<double>(gradient[x].x()) * u.uy;
+        const double y = static_cast<double>(gradient[x].y()) * u.ux -
+                         static_cast<double>(gradient[x].x()) * u.uy;
         acosAbs[base + 4 * x + d] = static_cast<float>(fastAcos(std::abs(y)));
         sign[base + 4 * x + d] = static_cast<signed char>(y > 0.0 ? 1 : y < 0.0 ? -1 : 0);
       }
@@ -323,18 +340,22 @@ LiveWire::LiveWire(const std::vector<float>& image, int width, int height,
   std::uint32_t maxLink = 1;
   prepareRow(0);
   for (int y = 0; y < height; ++y) {
-    if (y + 1 < height) prepareRow(y + 1);
+    if (y + 1 < height)
+      prepareRow(y + 1);
     for (int x = 0; x < width; ++x) {
       const std::size_t p = toIndex(x, y, width);
-      const std::size_t pr = static_cast<std::size_t>(y % 3) * 4 * w + 4 * static_cast<std::size_t>(x);
+      const std::size_t pr =
+          static_cast<std::size_t>(y % 3) * 4 * w + 4 * static_cast<std::size_t>(x);
       std::uint16_t* out = links_.data() + 8 * p;
       const bool interior = x > 0 && y > 0 && x + 1 < width && y + 1 < height;
       for (std::size_t n = 0; n < 8; ++n) {
         const int qx = x + kDx[n];
         const int qy = y + kDy[n];
-        if (!interior && (qx < 0 || qy < 0 || qx >= width || qy >= height)) continue;
+        if (!interior && (qx < 0 || qy < 0 || qx >= width || qy >= height))
+          continue;
         const std::size_t q = toIndex(qx, qy, width);
-        const std::size_t qr = static_cast<std::size_t>(qy % 3) * 4 * w + 4 * static_cast<std::size_t>(qx);
+        const std::size_t qr =
+            static_cast<std::size_t>(qy % 3) * 4 * w + 4 * static_cast<std::size_t>(qx);
         const std::size_t d = static_cast<std::size_t>(kDirectionOf[n]);
         const int sp = sign[pr + d];
         const int orientation = (sp != 0 ? sp : kSigmaOf[n]) * sign[qr + d];
@@ -368,13 +389,16 @@ double LiveWire::localCost(const Eigen::Vector2i& p, const Eigen::Vector2i& q) c
                   linkGeometry(spacing_)[link % 8]);
 }
 
-void LiveWire::setAnchor(const Eigen::Vector2i& anchor, const std::optional<Eigen::Vector2i>& target) {
+void LiveWire::setAnchor(const Eigen::Vector2i& anchor,
+                         const std::optional<Eigen::Vector2i>& target) {
   if (!contains(anchor))
     throw std::invalid_argument("live-wire: anchor " + pixelText(anchor) + " is outside the " +
-                                std::to_string(width_) + " x " + std::to_string(height_) + " image");
+                                std::to_string(width_) + " x " + std::to_string(height_) +
+                                " image");
   if (target && !contains(*target))
     throw std::invalid_argument("live-wire: target " + pixelText(*target) + " is outside the " +
-                                std::to_string(width_) + " x " + std::to_string(height_) + " image");
+                                std::to_string(width_) + " x " + std::to_string(height_) +
+                                " image");
   const std::size_t count = toIndex(0, height_, width_);
   distance_.assign(count, kUnreached);
   predecessor_.assign(count, 0);
@@ -382,12 +406,15 @@ void LiveWire::setAnchor(const Eigen::Vector2i& anchor, const std::optional<Eige
   // Dial's algorithm: a circular array of maxLink + 1 buckets holds every tentative distance
   // between the current one and current + maxLink. Stale entries are skipped when popped.
   const std::size_t bucketCount = static_cast<std::size_t>(maxLink_) + 1;
-  if (buckets_.size() != bucketCount) buckets_.assign(bucketCount, {});
-  for (auto& b : buckets_) b.clear();
+  if (buckets_.size() != bucketCount)
+    buckets_.assign(bucketCount, {});
+  for (auto& b : buckets_)
+    b.clear();
 
   const std::ptrdiff_t w = width_;
   std::ptrdiff_t offset[8];
-  for (int n = 0; n < 8; ++n) offset[n] = kDy[n] * w + kDx[n];
+  for (int n = 0; n < 8; ++n)
+    offset[n] = kDy[n] * w + kDx[n];
 
   const auto start = static_cast<std::uint32_t>(toIndex(anchor.x(), anchor.y(), width_));
   const std::uint32_t stop =
@@ -408,7 +435,8 @@ void LiveWire::setAnchor(const Eigen::Vector2i& anchor, const std::optional<Eige
       const std::uint32_t p = bucket.back();
       bucket.pop_back();
       --pending;
-      if (dist[p] != current || done[p]) continue;
+      if (dist[p] != current || done[p])
+        continue;
       done[p] = 1;
       if (p == stop) {
         finished = true;
@@ -417,27 +445,31 @@ void LiveWire::setAnchor(const Eigen::Vector2i& anchor, const std::optional<Eige
       const std::uint16_t* pl = links + 8 * static_cast<std::size_t>(p);
       for (int n = 0; n < 8; ++n) {
         const std::uint16_t c = pl[n];
-        if (c == kNoLink) continue;
+        if (c == kNoLink)
+          continue;
         const auto q = static_cast<std::uint32_t>(static_cast<std::ptrdiff_t>(p) + offset[n]);
         const std::uint32_t d = current + c;
         if (d < dist[q]) {
           dist[q] = d;
           pred[q] = static_cast<std::uint8_t>(n + 1);
           std::size_t s = slot + c;
-          if (s >= bucketCount) s -= bucketCount;
+          if (s >= bucketCount)
+            s -= bucketCount;
           buckets_[s].push_back(q);
           ++pending;
         }
       }
     }
     ++current;
-    if (++slot == bucketCount) slot = 0;
+    if (++slot == bucketCount)
+      slot = 0;
   }
   anchor_ = anchor;
 }
 
 LiveWirePathCost LiveWire::costTo(const Eigen::Vector2i& pixel) const {
-  if (!anchor_) throw std::logic_error("live-wire: costTo before setAnchor");
+  if (!anchor_)
+    throw std::logic_error("live-wire: costTo before setAnchor");
   if (!contains(pixel))
     throw std::invalid_argument("live-wire: pixel " + pixelText(pixel) + " is outside the image");
   const std::size_t i = toIndex(pixel.x(), pixel.y(), width_);
@@ -458,8 +490,10 @@ std::vector<Eigen::Vector2i> LiveWire::pathTo(const Eigen::Vector2i& pixel) cons
   for (std::size_t steps = 0;; ++steps) {
     path.push_back(p);
     const std::uint8_t n = predecessor_[toIndex(p.x(), p.y(), width_)];
-    if (n == 0) break;
-    if (steps > limit) throw std::logic_error("live-wire: the predecessor map has a loop");
+    if (n == 0)
+      break;
+    if (steps > limit)
+      throw std::logic_error("live-wire: the predecessor map has a loop");
     p -= Eigen::Vector2i(kDx[n - 1], kDy[n - 1]);
   }
   std::reverse(path.begin(), path.end());
@@ -472,7 +506,8 @@ LiveWirePathCost LiveWire::pathCost(const std::vector<Eigen::Vector2i>& path) co
     if (!contains(path[i]))
       throw std::invalid_argument("live-wire: path point " + std::to_string(i) + " " +
                                   pixelText(path[i]) + " is outside the image");
-    if (i == 0 || path[i] == path[i - 1]) continue;
+    if (i == 0 || path[i] == path[i - 1])
+      continue;
     result.quantised += links_[linkIndex(path[i - 1], path[i])];
   }
   result.cost = static_cast<double>(result.quantised) / options_.costResolution;
@@ -486,12 +521,15 @@ ClosedLiveWire closedLiveWire(LiveWire& wire, const std::vector<Eigen::Vector2i>
       throw std::invalid_argument("live-wire: anchor " + pixelText(a) + " is outside the " +
                                   std::to_string(wire.width()) + " x " +
                                   std::to_string(wire.height()) + " image");
-    if (distinct.empty() || distinct.back() != a) distinct.push_back(a);
+    if (distinct.empty() || distinct.back() != a)
+      distinct.push_back(a);
   }
-  while (distinct.size() > 1 && distinct.back() == distinct.front()) distinct.pop_back();
+  while (distinct.size() > 1 && distinct.back() == distinct.front())
+    distinct.pop_back();
   if (distinct.size() < 3)
-    throw std::invalid_argument("live-wire: a closed contour needs at least 3 distinct anchors, got " +
-                                std::to_string(distinct.size()));
+    throw std::invalid_argument(
+        "live-wire: a closed contour needs at least 3 distinct anchors, got " +
+        std::to_string(distinct.size()));
   ClosedLiveWire result;
   for (std::size_t i = 0; i < distinct.size(); ++i) {
     const Eigen::Vector2i& from = distinct[i];

@@ -41,7 +41,8 @@ static std::vector<Markup> interpretMarkups(const std::string& path, const nlohm
   int markupIndex = 0;
   for (const auto& m : doc["markups"]) {
     ++markupIndex;
-    if (!m.is_object()) throw FileError(path, "markup " + std::to_string(markupIndex) + " is not an object");
+    if (!m.is_object())
+      throw FileError(path, "markup " + std::to_string(markupIndex) + " is not an object");
     Markup markup;
     markup.type = m.value("type", std::string("Fiducial"));
     markup.name = m.value("name", std::string());
@@ -60,15 +61,18 @@ static std::vector<Markup> interpretMarkups(const std::string& path, const nlohm
     }
     if (m.contains("controlPoints")) {
       if (!m["controlPoints"].is_array()) {
-        throw FileError(path, "markup " + std::to_string(markupIndex) + ": controlPoints is not an array");
+        throw FileError(
+            path, "markup " + std::to_string(markupIndex) + ": controlPoints is not an array");
       }
       int pointIndex = 0;
       for (const auto& cp : m["controlPoints"]) {
         ++pointIndex;
-        const std::string where =
-            "markup " + std::to_string(markupIndex) + ", control point " + std::to_string(pointIndex);
-        if (!cp.is_object()) throw FileError(path, where + " is not an object");
-        if (cp.value("positionStatus", std::string("defined")) == "undefined") continue;
+        const std::string where = "markup " + std::to_string(markupIndex) + ", control point " +
+                                  std::to_string(pointIndex);
+        if (!cp.is_object())
+          throw FileError(path, where + " is not an object");
+        if (cp.value("positionStatus", std::string("defined")) == "undefined")
+          continue;
         if (!cp.contains("position") || !cp["position"].is_array() || cp["position"].size() != 3) {
           throw FileError(path, where + ": no position of 3 numbers");
         }
@@ -76,9 +80,11 @@ static std::vector<Markup> interpretMarkups(const std::string& path, const nlohm
         point.label = cp.value("label", std::string());
         for (int i = 0; i < 3; ++i) {
           const auto& v = cp["position"][static_cast<std::size_t>(i)];
-          if (!v.is_number()) throw FileError(path, where + ": position is not numeric");
+          if (!v.is_number())
+            throw FileError(path, where + ": position is not numeric");
           const double x = v.get<double>();
-          if (!std::isfinite(x)) throw FileError(path, where + ": position is not finite");
+          if (!std::isfinite(x))
+            throw FileError(path, where + ": position is not finite");
           point.positionLps[i] = (i < 2) ? flip * x : x;
         }
         markup.points.push_back(std::move(point));
@@ -92,10 +98,13 @@ static std::vector<Markup> interpretMarkups(const std::string& path, const nlohm
 std::vector<MarkupPoint> readMarkupPoints(const std::string& path) {
   std::vector<MarkupPoint> points;
   for (auto& markup : readMarkups(path)) {
-    if (markup.type != "Fiducial") continue;
-    for (auto& p : markup.points) points.push_back(std::move(p));
+    if (markup.type != "Fiducial")
+      continue;
+    for (auto& p : markup.points)
+      points.push_back(std::move(p));
   }
-  if (points.empty()) throw FileError(path, "holds no landmark (no Fiducial control point)");
+  if (points.empty())
+    throw FileError(path, "holds no landmark (no Fiducial control point)");
   return points;
 }
 
@@ -110,22 +119,21 @@ void writeMarkups(const std::string& path, const std::vector<Markup>& markups) {
           throw FileError(path, "point \"" + p.label + "\" is not finite; nothing written");
         }
       }
-      controlPoints.push_back({{"id", std::to_string(id++)},
-                               {"label", p.label},
-                               {"position", {p.positionLps.x(), p.positionLps.y(), p.positionLps.z()}},
-                               {"orientation", {-1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0}},
-                               {"selected", true},
-                               {"locked", false},
-                               {"visibility", true},
-                               {"positionStatus", "defined"}});
+      controlPoints.push_back(
+          {{"id", std::to_string(id++)},
+           {"label", p.label},
+           {"position", {p.positionLps.x(), p.positionLps.y(), p.positionLps.z()}},
+           {"orientation", {-1.0, 0.0, 0.0, 0.0, -1.0, 0.0, 0.0, 0.0, 1.0}},
+           {"selected", true},
+           {"locked", false},
+           {"visibility", true},
+           {"positionStatus", "defined"}});
     }
-    nlohmann::json m = {{"type", markup.type},
-                        {"coordinateSystem", "LPS"},
-                        {"coordinateUnits", "mm"},
-                        {"locked", false},
-                        {"labelFormat", "%N-%d"},
-                        {"controlPoints", controlPoints}};
-    if (!markup.name.empty()) m["name"] = markup.name;
+    nlohmann::json m = {{"type", markup.type},     {"coordinateSystem", "LPS"},
+                        {"coordinateUnits", "mm"}, {"locked", false},
+                        {"labelFormat", "%N-%d"},  {"controlPoints", controlPoints}};
+    if (!markup.name.empty())
+      m["name"] = markup.name;
     list.push_back(std::move(m));
   }
   nlohmann::json doc = {{"@schema", kSchema}, {"markups", list}};

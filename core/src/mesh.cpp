@@ -130,7 +130,8 @@ TriangleMesh uvSphere(const Eigen::Vector3d& centre, double radius, int rings, i
   mesh.vertices.push_back(centre - Eigen::Vector3d(0, 0, radius));
   const int south = static_cast<int>(mesh.vertices.size()) - 1;
   const auto at = [&](int r, int s) { return 1 + (r - 1) * segments + (s % segments); };
-  for (int s = 0; s < segments; ++s) mesh.triangles.push_back({0, at(1, s), at(1, s + 1)});
+  for (int s = 0; s < segments; ++s)
+    mesh.triangles.push_back({0, at(1, s), at(1, s + 1)});
   for (int r = 1; r < rings - 1; ++r) {
     for (int s = 0; s < segments; ++s) {
       mesh.triangles.push_back({at(r, s), at(r + 1, s), at(r + 1, s + 1)});

@@ -49,7 +49,8 @@ struct Box {
   bool empty() const { return low.x() > high.x(); }
   // Half the surface area (the SAH only compares areas).
   double halfArea() const {
-    if (empty()) return 0.0;
+    if (empty())
+      return 0.0;
     const Eigen::Vector3d d = high - low;
     return d.x() * d.y() + d.y() * d.z() + d.z() * d.x();
   }
@@ -191,19 +192,23 @@ inline Eigen::Vector3d closestOn(const Triangle& tri, const Eigen::Vector3d& p,
 // through a shared edge or vertex hits at least one of the triangles there.
 inline bool intersect(const Triangle& tri, const Eigen::Vector3d& origin,
                       const Eigen::Vector3d& direction, double& t, bool& entering) {
-  if (tri.degenerate) return false;
+  if (tri.degenerate)
+    return false;
   const Eigen::Vector3d e1 = tri.b - tri.a, e2 = tri.c - tri.a;
   const Eigen::Vector3d p = direction.cross(e2);
   const double det = e1.dot(p);  // = -dot(direction, e1 x e2)
   // Parallel to the plane (to 1e-13 rad): no crossing.
-  if (std::abs(det) <= 1e-13 * tri.doubleAreaMm2) return false;
+  if (std::abs(det) <= 1e-13 * tri.doubleAreaMm2)
+    return false;
   const double inverse = 1.0 / det;
   const Eigen::Vector3d s = origin - tri.a;
   const double u = s.dot(p) * inverse;
-  if (u < -kBaryTolerance || u > 1.0 + kBaryTolerance) return false;
+  if (u < -kBaryTolerance || u > 1.0 + kBaryTolerance)
+    return false;
   const Eigen::Vector3d q = s.cross(e1);
   const double v = direction.dot(q) * inverse;
-  if (v < -kBaryTolerance || u + v > 1.0 + kBaryTolerance) return false;
+  if (v < -kBaryTolerance || u + v > 1.0 + kBaryTolerance)
+    return false;
   t = e2.dot(q) * inverse;
   entering = det > 0.0;
   return true;
@@ -212,7 +217,8 @@ inline bool intersect(const Triangle& tri, const Eigen::Vector3d& origin,
 // Throws std::invalid_argument with message() (built only on failure: queries call this).
 template <typename Message>
 void require(bool condition, Message&& message) {
-  if (!condition) throw std::invalid_argument(message());
+  if (!condition)
+    throw std::invalid_argument(message());
 }
 
 std::string text(double value) {
@@ -260,11 +266,13 @@ struct MeshLocator::Impl {
     normals.resize(count, Eigen::Vector3d::Zero());
     items.resize(count);
     double scale = 1.0;
-    for (const Eigen::Vector3d& v : mesh.vertices) scale = std::max(scale, v.cwiseAbs().maxCoeff());
+    for (const Eigen::Vector3d& v : mesh.vertices)
+      scale = std::max(scale, v.cwiseAbs().maxCoeff());
     for (std::size_t i = 0; i < count; ++i) {
       const auto& tri = mesh.triangles[i];
       Item& item = items[i];
-      for (int k = 0; k < 3; ++k) item.box.grow(vertex(tri, k));
+      for (int k = 0; k < 3; ++k)
+        item.box.grow(vertex(tri, k));
       item.centroid = (vertex(tri, 0) + vertex(tri, 1) + vertex(tri, 2)) / 3.0;
       item.index = static_cast<int>(i);
     }
@@ -294,7 +302,8 @@ struct MeshLocator::Impl {
       out.index = index;
       out.degenerate =
           !(out.doubleAreaMm2 > 0.0) || tri[0] == tri[1] || tri[1] == tri[2] || tri[0] == tri[2];
-      if (!out.degenerate) normals[static_cast<std::size_t>(index)] = cross / out.doubleAreaMm2;
+      if (!out.degenerate)
+        normals[static_cast<std::size_t>(index)] = cross / out.doubleAreaMm2;
     }
     items = {};
   }
@@ -346,7 +355,8 @@ struct MeshLocator::Impl {
       return nodeIndex;
     }
     int middle = depth < kMaxSahDepth ? sahSplit(begin, end, centroidBox) : begin;
-    if (middle <= begin || middle >= end) middle = medianSplit(begin, end, centroidBox);
+    if (middle <= begin || middle >= end)
+      middle = medianSplit(begin, end, centroidBox);
     build(begin, middle, depth + 1);
     const int right = build(middle, end, depth + 1);
     nodes[static_cast<std::size_t>(nodeIndex)].first = right;  // `node` may have moved
@@ -376,7 +386,8 @@ struct MeshLocator::Impl {
     double bestCost = kInfinity;
     int bestAxis = -1, bestBin = 0;
     for (std::size_t axis = 0; axis < 3; ++axis) {
-      if (!(extent[static_cast<int>(axis)] > 0.0)) continue;
+      if (!(extent[static_cast<int>(axis)] > 0.0))
+        continue;
       // Areas and counts to the right of each split plane.
       std::array<double, kBins> rightArea{};
       std::array<int, kBins> rightCount{};
@@ -393,7 +404,8 @@ struct MeshLocator::Impl {
       for (std::size_t b = 1; b < kBins; ++b) {  // split between bin b - 1 and bin b
         left.grow(boxes[axis][b - 1]);
         leftSum += counts[axis][b - 1];
-        if (leftSum == 0 || rightCount[b] == 0) continue;
+        if (leftSum == 0 || rightCount[b] == 0)
+          continue;
         const double cost = left.halfArea() * leftSum + rightArea[b] * rightCount[b];
         if (cost < bestCost) {
           bestCost = cost;
@@ -402,7 +414,8 @@ struct MeshLocator::Impl {
         }
       }
     }
-    if (bestAxis < 0) return begin;
+    if (bestAxis < 0)
+      return begin;
     const auto first = items.begin() + begin, last = items.begin() + end;
     const auto split = std::partition(first, last, [&](const Item& item) {
       return binOf(item.centroid, low, scale, bestAxis) < bestBin;
@@ -420,8 +433,10 @@ struct MeshLocator::Impl {
   int medianSplit(int begin, int end, const Box& centroidBox) {
     const Eigen::Vector3d extent = centroidBox.high - centroidBox.low;
     int axis = 0;
-    if (extent.y() > extent[axis]) axis = 1;
-    if (extent.z() > extent[axis]) axis = 2;
+    if (extent.y() > extent[axis])
+      axis = 1;
+    if (extent.z() > extent[axis])
+      axis = 2;
     const int middle = begin + (end - begin) / 2;
     std::nth_element(items.begin() + begin, items.begin() + middle, items.begin() + end,
                      [axis](const Item& x, const Item& y) {
@@ -436,12 +451,14 @@ struct MeshLocator::Impl {
   template <typename Hits>
   void collect(const Eigen::Vector3d& origin, const Eigen::Vector3d& direction, double tMax,
                double tMin, bool firstOnly, Hits& hits) const {
-    if (nodes.empty()) return;
+    if (nodes.empty())
+      return;
     const Eigen::Vector3d inverse = direction.cwiseInverse();
     double limit = tMax;
     std::array<int, kStackSize> stack;
     int top = 0;
-    if (boxEntry(nodes[0], origin, inverse, tMin, limit) == kInfinity) return;
+    if (boxEntry(nodes[0], origin, inverse, tMin, limit) == kInfinity)
+      return;
     stack[static_cast<std::size_t>(top++)] = 0;
     while (top > 0) {
       const Node& node = nodes[static_cast<std::size_t>(stack[static_cast<std::size_t>(--top)])];
@@ -454,7 +471,8 @@ struct MeshLocator::Impl {
             continue;
           }
           hits.push_back(RawHit{t, tri.index, entering});
-          if (firstOnly) limit = std::min(limit, t + kFirstHitWindowMm);
+          if (firstOnly)
+            limit = std::min(limit, t + kFirstHitWindowMm);
         }
         continue;
       }
@@ -466,10 +484,13 @@ struct MeshLocator::Impl {
           boxEntry(nodes[static_cast<std::size_t>(rightIndex)], origin, inverse, tMin, limit);
       // Push the farther child first so that the nearer one is searched first.
       if (leftEntry <= rightEntry) {
-        if (rightEntry != kInfinity) stack[static_cast<std::size_t>(top++)] = rightIndex;
-        if (leftEntry != kInfinity) stack[static_cast<std::size_t>(top++)] = leftIndex;
+        if (rightEntry != kInfinity)
+          stack[static_cast<std::size_t>(top++)] = rightIndex;
+        if (leftEntry != kInfinity)
+          stack[static_cast<std::size_t>(top++)] = leftIndex;
       } else {
-        if (leftEntry != kInfinity) stack[static_cast<std::size_t>(top++)] = leftIndex;
+        if (leftEntry != kInfinity)
+          stack[static_cast<std::size_t>(top++)] = leftIndex;
         stack[static_cast<std::size_t>(top++)] = rightIndex;
       }
     }
@@ -499,7 +520,8 @@ struct MeshLocator::Impl {
     std::size_t i = 0;
     while (i < count) {
       std::size_t j = i + 1;
-      while (j < count && hits[j].t - hits[j - 1].t <= kSameHitMm) ++j;
+      while (j < count && hits[j].t - hits[j - 1].t <= kSameHitMm)
+        ++j;
       if (j - i == 1) {
         emit(hits[i]);
         i = j;
@@ -516,13 +538,15 @@ struct MeshLocator::Impl {
       }
       std::fill(label, label + n, -1);
       for (std::size_t k = 0; k < n; ++k) {
-        if (label[k] >= 0) continue;
+        if (label[k] >= 0)
+          continue;
         const int component = static_cast<int>(k);
         label[k] = component;
         for (bool grew = true; grew;) {
           grew = false;
           for (std::size_t m = k + 1; m < n; ++m) {
-            if (label[m] >= 0) continue;
+            if (label[m] >= 0)
+              continue;
             for (std::size_t r = k; r < n; ++r) {
               if (label[r] == component && adjacent(hits[i + m].triangle, hits[i + r].triangle)) {
                 label[m] = component;
@@ -534,10 +558,12 @@ struct MeshLocator::Impl {
         }
         bool enters = false, leaves = false;
         for (std::size_t m = k; m < n; ++m) {
-          if (label[m] != component) continue;
+          if (label[m] != component)
+            continue;
           (hits[i + m].entering ? enters : leaves) = true;
         }
-        if (!(enters && leaves)) emit(hits[i + k]);
+        if (!(enters && leaves))
+          emit(hits[i + k]);
       }
       i = j;
     }
@@ -584,7 +610,8 @@ std::optional<RayHit> MeshLocator::firstHit(const Eigen::Vector3d& origin,
   for (;;) {
     scratch.clear();
     impl_->collect(origin, direction, tMax, from, true, scratch);
-    if (scratch.empty()) return std::nullopt;
+    if (scratch.empty())
+      return std::nullopt;
     std::sort(scratch.begin(), scratch.end(), rawLess);
     // Only the hits near the nearest one are complete (farther boxes were skipped).
     const double nearest = scratch.front().t;
@@ -594,9 +621,11 @@ std::optional<RayHit> MeshLocator::firstHit(const Eigen::Vector3d& origin,
         scratch.begin());
     std::optional<RawHit> first;
     impl_->merge(scratch.data(), complete, [&first](const RawHit& hit) {
-      if (!first) first = hit;
+      if (!first)
+        first = hit;
     });
-    if (first) return impl_->toHit(*first, origin, direction);
+    if (first)
+      return impl_->toHit(*first, origin, direction);
     // The ray only touched the surface there: search on past it.
     from = scratch[complete - 1].t;
   }
@@ -627,7 +656,8 @@ ClosestPoint MeshLocator::closest(const Eigen::Vector3d& point, double maxDistan
   result.point = point;
   result.barycentric = Eigen::Vector3d::Zero();
   const auto& nodes = impl_->nodes;
-  if (nodes.empty()) return result;
+  if (nodes.empty())
+    return result;
   double best2 = maxDistance * maxDistance;
   int bestIndex = INT_MAX;
   int bestSlot = -1;  // position of the best triangle in leaf order
@@ -644,13 +674,15 @@ ClosestPoint MeshLocator::closest(const Eigen::Vector3d& point, double maxDistan
   heap.clear();
   Eigen::Vector3d weights;
   const double rootDistance2 = boxDistance2(nodes[0], point);
-  if (rootDistance2 > best2) return result;
+  if (rootDistance2 > best2)
+    return result;
   heap.push_back({rootDistance2, 0});
   while (!heap.empty()) {
     std::pop_heap(heap.begin(), heap.end());
     const Entry entry = heap.back();
     heap.pop_back();
-    if (entry.distance2 > best2) break;
+    if (entry.distance2 > best2)
+      break;
     int index = entry.node;
     for (;;) {
       const Node& node = nodes[static_cast<std::size_t>(index)];
@@ -677,11 +709,13 @@ ClosestPoint MeshLocator::closest(const Eigen::Vector3d& point, double maxDistan
         heap.push_back({far2, leftFirst ? rightIndex : leftIndex});
         std::push_heap(heap.begin(), heap.end());
       }
-      if (near2 > best2) break;
+      if (near2 > best2)
+        break;
       index = leftFirst ? leftIndex : rightIndex;
     }
   }
-  if (bestSlot < 0) return result;
+  if (bestSlot < 0)
+    return result;
   result.point =
       closestOn(impl_->triangles[static_cast<std::size_t>(bestSlot)], point, result.barycentric);
   result.distance = std::sqrt(best2);
@@ -693,16 +727,19 @@ bool MeshLocator::inside(const Eigen::Vector3d& point) const {
   require(point.allFinite(),
           [&] { return "MeshLocator::inside: point " + text(point) + " is not finite"; });
   const auto& nodes = impl_->nodes;
-  if (nodes.empty()) return false;
+  if (nodes.empty())
+    return false;
   for (int k = 0; k < 3; ++k) {
-    if (point[k] < nodes[0].low[k] || point[k] > nodes[0].high[k]) return false;
+    if (point[k] < nodes[0].low[k] || point[k] > nodes[0].high[k])
+      return false;
   }
   thread_local std::vector<RawHit> scratch;
   int votes = 0;
   for (std::size_t d = 0; d < 3; ++d) {
     votes += impl_->crossings(point, parityDirections()[d], scratch) % 2;
     // Two votes decide.
-    if (votes == 2 || (votes == 0 && d == 1)) break;
+    if (votes == 2 || (votes == 0 && d == 1))
+      break;
   }
   return votes >= 2;
 }

@@ -14,7 +14,9 @@ namespace echoreg::core {
 
 namespace {
 
-std::string pairName(std::size_t i) { return "pair " + std::to_string(i); }
+std::string pairName(std::size_t i) {
+  return "pair " + std::to_string(i);
+}
 
 // Largest and second principal RMS spread (mm) of the points with positive weight, about their
 // weighted centroid.
@@ -23,7 +25,8 @@ Eigen::Vector3d principalSpread(const std::vector<Eigen::Vector3d>& points,
                                 double weightSum) {
   Eigen::Matrix3d c = Eigen::Matrix3d::Zero();
   for (std::size_t i = 0; i < points.size(); ++i) {
-    if (w[i] <= 0.0) continue;
+    if (w[i] <= 0.0)
+      continue;
     const Eigen::Vector3d d = points[i] - centroid;
     c += w[i] * d * d.transpose();
   }
@@ -38,11 +41,10 @@ void checkNotCollinear(const Eigen::Vector3d& spread, const char* side) {
   // Collinear (or coincident) when the second principal spread is below 1e-3 of the first or
   // below 1e-6 mm: the rotation about the points' line is then undetermined.
   if (!(spread[0] > 1e-9) || spread[1] < 1e-3 * spread[0] || spread[1] < 1e-6) {
-    throw std::invalid_argument(std::string("the ") + side +
-                                " points are collinear (second principal spread " +
-                                std::to_string(spread[1]) + " mm against " +
-                                std::to_string(spread[0]) +
-                                " mm): the rotation about their line is undetermined");
+    throw std::invalid_argument(
+        std::string("the ") + side + " points are collinear (second principal spread " +
+        std::to_string(spread[1]) + " mm against " + std::to_string(spread[0]) +
+        " mm): the rotation about their line is undetermined");
   }
 }
 
@@ -102,7 +104,8 @@ PairedPointResult registerPairedPoints(const std::vector<Eigen::Vector3d>& from,
   }
   const Eigen::JacobiSVD<Eigen::Matrix3d> svd(h, Eigen::ComputeFullU | Eigen::ComputeFullV);
   Eigen::Matrix3d d = Eigen::Matrix3d::Identity();
-  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0) d(2, 2) = -1.0;
+  if ((svd.matrixU() * svd.matrixV().transpose()).determinant() < 0.0)
+    d(2, 2) = -1.0;
   const Eigen::Matrix3d r = svd.matrixU() * d * svd.matrixV().transpose();
 
   PairedPointResult result;
@@ -130,13 +133,15 @@ double expectedTargetErrorMm(const std::vector<Eigen::Vector3d>& fiducials, doub
   }
   Eigen::Vector3d c = Eigen::Vector3d::Zero();
   for (const Eigen::Vector3d& p : fiducials) {
-    if (!p.allFinite()) throw std::invalid_argument("expected TRE: a fiducial is not finite");
+    if (!p.allFinite())
+      throw std::invalid_argument("expected TRE: a fiducial is not finite");
     c += p;
   }
   const double n = static_cast<double>(fiducials.size());
   c /= n;
   Eigen::Matrix3d cov = Eigen::Matrix3d::Zero();
-  for (const Eigen::Vector3d& p : fiducials) cov += (p - c) * (p - c).transpose();
+  for (const Eigen::Vector3d& p : fiducials)
+    cov += (p - c) * (p - c).transpose();
   const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> eig(cov / n);
   const Eigen::Vector3d lambda = eig.eigenvalues().cwiseMax(0.0);  // mean squared coordinates
   const Eigen::Vector3d t = eig.eigenvectors().transpose() * (target - c);

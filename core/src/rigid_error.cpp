@@ -72,7 +72,8 @@ RigidError rigidError(const Eigen::Isometry3d& reference, const Eigen::Isometry3
 }
 
 RigidError meanAbsoluteError(const std::vector<RigidError>& rows) {
-  if (rows.empty()) throw std::invalid_argument("mean absolute error of no registrations");
+  if (rows.empty())
+    throw std::invalid_argument("mean absolute error of no registrations");
   RigidError mean;
   mean.targetErrorsMm.assign(rows.front().targetErrorsMm.size(), 0.0);
   for (std::size_t r = 0; r < rows.size(); ++r) {
@@ -91,7 +92,8 @@ RigidError meanAbsoluteError(const std::vector<RigidError>& rows) {
   const double n = static_cast<double>(rows.size());
   mean.translationMm /= n;
   mean.rotationDeg /= n;
-  for (double& t : mean.targetErrorsMm) t /= n;
+  for (double& t : mean.targetErrorsMm)
+    t /= n;
   return mean;
 }
 

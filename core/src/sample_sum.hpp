@@ -10,11 +10,14 @@ inline double sumOfSamples(const float* values, int count) {
   float partial[8] = {0, 0, 0, 0, 0, 0, 0, 0};
   int i = 0;
   for (; i + 8 <= count; i += 8) {
-    for (int lane = 0; lane < 8; ++lane) partial[lane] += values[i + lane];
+    for (int lane = 0; lane < 8; ++lane)
+      partial[lane] += values[i + lane];
   }
   double sum = 0.0;
-  for (float p : partial) sum += p;
-  for (; i < count; ++i) sum += values[i];
+  for (float p : partial)
+    sum += p;
+  for (; i < count; ++i)
+    sum += values[i];
   return sum;
 }
 

@@ -10,8 +10,10 @@
 namespace echoreg::core {
 
 double percentile(std::vector<double> values, double p) {
-  if (values.empty()) throw std::invalid_argument("percentile of no values");
-  if (!(p >= 0.0 && p <= 100.0)) throw std::invalid_argument("percentile outside 0..100");
+  if (values.empty())
+    throw std::invalid_argument("percentile of no values");
+  if (!(p >= 0.0 && p <= 100.0))
+    throw std::invalid_argument("percentile outside 0..100");
   std::sort(values.begin(), values.end());
   const double position = p / 100.0 * static_cast<double>(values.size() - 1);
   const auto lower = static_cast<std::size_t>(std::floor(position));
@@ -21,16 +23,19 @@ double percentile(std::vector<double> values, double p) {
 }
 
 BoxSummary boxSummary(const std::vector<double>& values) {
-  if (values.empty()) throw std::invalid_argument("box plot of an empty group");
+  if (values.empty())
+    throw std::invalid_argument("box plot of an empty group");
   for (double v : values) {
-    if (!std::isfinite(v)) throw std::invalid_argument("box plot: a value is not finite");
+    if (!std::isfinite(v))
+      throw std::invalid_argument("box plot: a value is not finite");
   }
   std::vector<double> sorted = values;
   std::sort(sorted.begin(), sorted.end());
   BoxSummary box;
   box.count = static_cast<int>(sorted.size());
   double sum = 0.0;
-  for (double v : sorted) sum += v;
+  for (double v : sorted)
+    sum += v;
   box.mean = sum / static_cast<double>(sorted.size());
   box.minimum = sorted.front();
   box.maximum = sorted.back();
@@ -54,7 +59,8 @@ BoxSummary boxSummary(const std::vector<double>& values) {
 }
 
 AnovaResult oneWayAnova(const std::vector<std::vector<double>>& groups) {
-  if (groups.size() < 2) throw std::invalid_argument("ANOVA needs at least two groups");
+  if (groups.size() < 2)
+    throw std::invalid_argument("ANOVA needs at least two groups");
   double total = 0.0;
   std::size_t n = 0;
   for (std::size_t g = 0; g < groups.size(); ++g) {
@@ -63,7 +69,8 @@ AnovaResult oneWayAnova(const std::vector<std::vector<double>>& groups) {
     }
     for (double v : groups[g]) {
       if (!std::isfinite(v)) {
-        throw std::invalid_argument("ANOVA: group " + std::to_string(g + 1) + " has a value that is not finite");
+        throw std::invalid_argument("ANOVA: group " + std::to_string(g + 1) +
+                                    " has a value that is not finite");
       }
       total += v;
       ++n;
@@ -78,15 +85,19 @@ AnovaResult oneWayAnova(const std::vector<std::vector<double>>& groups) {
   const double grandMean = total / static_cast<double>(n);
   for (const auto& group : groups) {
     double sum = 0.0;
-    for (double v : group) sum += v;
+    for (double v : group)
+      sum += v;
     const double mean = sum / static_cast<double>(group.size());
-    result.sumSquaresBetween += static_cast<double>(group.size()) * (mean - grandMean) * (mean - grandMean);
-    for (double v : group) result.sumSquaresWithin += (v - mean) * (v - mean);
+    result.sumSquaresBetween +=
+        static_cast<double>(group.size()) * (mean - grandMean) * (mean - grandMean);
+    for (double v : group)
+      result.sumSquaresWithin += (v - mean) * (v - mean);
   }
   const double msBetween = result.sumSquaresBetween / result.dfBetween;
   const double msWithin = result.sumSquaresWithin / result.dfWithin;
   if (msWithin == 0.0) {
-    if (msBetween == 0.0) throw std::invalid_argument("ANOVA: every value is equal; the test is undefined");
+    if (msBetween == 0.0)
+      throw std::invalid_argument("ANOVA: every value is equal; the test is undefined");
     result.f = std::numeric_limits<double>::infinity();
     result.pValue = 0.0;
     return result;

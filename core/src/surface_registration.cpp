@@ -196,8 +196,9 @@ std::vector<double> whitenedAbs(const std::vector<SurfacePoint>& points,
                                 const std::vector<Correspondence>& c) {
   std::vector<double> z(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) {
-    z[i] = c[i].excluded ? 1e6
-                         : std::abs(c[i].signedDistance - points[i].surfaceOffsetMm) / points[i].sigmaMm;
+    z[i] = c[i].excluded
+               ? 1e6
+               : std::abs(c[i].signedDistance - points[i].surfaceOffsetMm) / points[i].sigmaMm;
   }
   return z;
 }
@@ -205,7 +206,8 @@ std::vector<double> whitenedAbs(const std::vector<SurfacePoint>& points,
 // Points whose closest point lies on an excluded triangle are never inliers.
 std::vector<bool> dropExcluded(std::vector<bool> inlier, const std::vector<Correspondence>& c) {
   for (std::size_t i = 0; i < inlier.size(); ++i) {
-    if (c[i].excluded) inlier[i] = false;
+    if (c[i].excluded)
+      inlier[i] = false;
   }
   return inlier;
 }
@@ -257,8 +259,9 @@ double objective(const MeshLocator& locator, const std::vector<SurfacePoint>& po
       continue;
     const Correspondence c = correspond(locator, t * points[i].at(scale), o.excludedTriangles);
     // A point moved onto an excluded triangle costs as much as a gated outlier.
-    const double z = c.excluded ? o.gateSigmas
-                                : (c.signedDistance - points[i].surfaceOffsetMm) / points[i].sigmaMm;
+    const double z = c.excluded
+                         ? o.gateSigmas
+                         : (c.signedDistance - points[i].surfaceOffsetMm) / points[i].sigmaMm;
     double rho[3] = {z * z, 1.0, 0.0};
     if (loss != nullptr)
       loss->Evaluate(z * z, rho);
@@ -531,18 +534,22 @@ SurfacePoint beamSurfacePoint(const Eigen::Vector3d& origin, const Eigen::Vector
 
 std::vector<bool> scanEndCaps(const TriangleMesh& mesh, double toleranceMm) {
   std::vector<bool> caps(mesh.triangles.size(), false);
-  if (mesh.triangles.empty()) return caps;
+  if (mesh.triangles.empty())
+    return caps;
   const auto box = bounds(mesh);
   const double cosLimit = std::cos(10.0 * kPi / 180.0);
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
     bool low = true;
     bool high = true;
     for (int k = 0; k < 3; ++k) {
-      const double z = mesh.vertices[static_cast<std::size_t>(mesh.triangles[t][static_cast<std::size_t>(k)])].z();
+      const double z =
+          mesh.vertices[static_cast<std::size_t>(mesh.triangles[t][static_cast<std::size_t>(k)])]
+              .z();
       low = low && z <= box[0].z() + toleranceMm;
       high = high && z >= box[1].z() - toleranceMm;
     }
-    if (!low && !high) continue;
+    if (!low && !high)
+      continue;
     const Eigen::Vector3d n = triangleNormal(mesh, static_cast<int>(t));
     caps[t] = std::abs(n.z()) >= cosLimit;
   }
@@ -550,12 +557,15 @@ std::vector<bool> scanEndCaps(const TriangleMesh& mesh, double toleranceMm) {
   // point is the cap's edge is excluded whichever of the edge's triangles the search reports.
   std::vector<bool> capVertex(mesh.vertices.size(), false);
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    if (!caps[t]) continue;
-    for (int v : mesh.triangles[t]) capVertex[static_cast<std::size_t>(v)] = true;
+    if (!caps[t])
+      continue;
+    for (int v : mesh.triangles[t])
+      capVertex[static_cast<std::size_t>(v)] = true;
   }
   std::vector<bool> excluded = caps;
   for (std::size_t t = 0; t < mesh.triangles.size(); ++t) {
-    for (int v : mesh.triangles[t]) excluded[t] = excluded[t] || capVertex[static_cast<std::size_t>(v)];
+    for (int v : mesh.triangles[t])
+      excluded[t] = excluded[t] || capVertex[static_cast<std::size_t>(v)];
   }
   return excluded;
 }
@@ -637,18 +647,21 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
   std::string ambiguity;
   {
     Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
-    for (const SurfacePoint& p : points) centroid += chosen.transform * p.at(chosen.scale);
+    for (const SurfacePoint& p : points)
+      centroid += chosen.transform * p.at(chosen.scale);
     centroid /= static_cast<double>(points.size());
     for (const auto& [transform, cost] : solutions) {
-      if (cost > options.ambiguityCostRatio * bestCost + 1e-9) continue;
+      if (cost > options.ambiguityCostRatio * bestCost + 1e-9)
+        continue;
       const Eigen::Isometry3d d = transform * chosen.transform.inverse();
       const double angle = Eigen::AngleAxisd(d.linear()).angle() * 180.0 / kPi;
       const double shift = (d * centroid - centroid).norm();
       if (angle > options.ambiguityDeg || shift > options.ambiguityMm) {
-        ambiguity = "another start ends " + number(angle, "%.3g") + " deg / " + number(shift, "%.3g") +
-                    " mm away at a cost within " + number(options.ambiguityCostRatio, "%.3g") +
-                    " x the best: the points cannot tell the two poses apart; add landmarks (e.g. the "
-                    "hip centre) or points on other regions";
+        ambiguity =
+            "another start ends " + number(angle, "%.3g") + " deg / " + number(shift, "%.3g") +
+            " mm away at a cost within " + number(options.ambiguityCostRatio, "%.3g") +
+            " x the best: the points cannot tell the two poses apart; add landmarks (e.g. the "
+            "hip centre) or points on other regions";
         break;
       }
     }
@@ -693,22 +706,24 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
     Eigen::Vector3d centroid = Eigen::Vector3d::Zero();
     int used = 0;
     for (std::size_t i = 0; i < points.size(); ++i) {
-      if (!result.inlier[i]) continue;
+      if (!result.inlier[i])
+        continue;
       centroid += chosen.transform * points[i].at(chosen.scale);
       ++used;
     }
     if (used > 0) {
       centroid /= used;
       for (std::size_t i = 0; i < points.size(); ++i) {
-        if (!result.inlier[i]) continue;
+        if (!result.inlier[i])
+          continue;
         const Eigen::Vector3d y = chosen.transform * points[i].at(chosen.scale);
         Eigen::VectorXd j(dims);
         j.head<3>() = (y - centroid).cross(c[i].normal);
         j.segment<3>(3) = c[i].normal;
         if (withScale) {
-          j(6) = points[i].hasBeam
-                     ? c[i].normal.dot(chosen.transform.linear() * (points[i].depthMm * points[i].beamDirection))
-                     : 0.0;
+          j(6) = points[i].hasBeam ? c[i].normal.dot(chosen.transform.linear() *
+                                                     (points[i].depthMm * points[i].beamDirection))
+                                   : 0.0;
         }
         j /= points[i].sigmaMm;
         h += j * j.transpose();
@@ -743,11 +758,13 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
 
   // Points closest to an excluded triangle (beyond the scanned part of the model) are not
   // counted against the inlier fraction: nothing there could match them.
-  for (const Correspondence& ci : c) result.pointsBeyondModel += ci.excluded ? 1 : 0;
+  for (const Correspondence& ci : c)
+    result.pointsBeyondModel += ci.excluded ? 1 : 0;
   const int minimumInliers = std::max(
-      3, static_cast<int>(std::ceil(options.minInlierFraction *
-                                    static_cast<double>(points.size() -
-                                                        static_cast<std::size_t>(result.pointsBeyondModel)))));
+      3, static_cast<int>(
+             std::ceil(options.minInlierFraction *
+                       static_cast<double>(points.size() -
+                                           static_cast<std::size_t>(result.pointsBeyondModel)))));
   const int constraints =
       result.pointsUsed +
       (robust && options.useLandmarks ? 3 * static_cast<int>(landmarks.size()) : 0);
@@ -764,10 +781,10 @@ SurfaceRegistrationResult SurfaceRegistration::registerPoints(
     result.message =
         "did not settle within " + std::to_string(options.maxIterations) + " iterations";
   } else if (result.pointsUsed < minimumInliers) {
-    result.message = "only " + std::to_string(result.pointsUsed) + " of " +
-                     std::to_string(points.size() - static_cast<std::size_t>(result.pointsBeyondModel)) +
-                     " points lie near the surface (at least " + std::to_string(minimumInliers) +
-                     " needed)";
+    result.message =
+        "only " + std::to_string(result.pointsUsed) + " of " +
+        std::to_string(points.size() - static_cast<std::size_t>(result.pointsBeyondModel)) +
+        " points lie near the surface (at least " + std::to_string(minimumInliers) + " needed)";
   } else if (!ambiguity.empty()) {
     result.message = ambiguity;
   } else if (robust && (result.rotationSigmaDeg > options.maxRotationSigmaDeg ||

@@ -10,13 +10,13 @@
 #include <vtkGenericOpenGLRenderWindow.h>
 #include <vtkImageData.h>
 #include <vtkLogger.h>
+#include <vtkObjectFactory.h>
 #include <vtkOutputWindow.h>
-#include <vtkPointData.h>
 #include <vtkPNGWriter.h>
+#include <vtkPointData.h>
 #include <vtkRenderer.h>
 #include <vtkUnsignedCharArray.h>
 #include <vtkWindowToImageFilter.h>
-#include <vtkObjectFactory.h>
 
 #include <cstring>
 #include <iostream>
@@ -45,7 +45,8 @@ class FilteringOutputWindow : public vtkOutputWindow {
   static FilteringOutputWindow* New();
   vtkTypeMacro(FilteringOutputWindow, vtkOutputWindow)
   void DisplayText(const char* text) override {
-    if (text == nullptr || std::strstr(text, "GLEW could not be initialized") != nullptr) return;
+    if (text == nullptr || std::strstr(text, "GLEW could not be initialized") != nullptr)
+      return;
     std::cerr << text;
   }
 };
@@ -53,7 +54,8 @@ vtkStandardNewMacro(FilteringOutputWindow)
 
 void installOutputFilter() {
   static bool installed = false;
-  if (installed) return;
+  if (installed)
+    return;
   // VTK's error macros go to the log (loguru, printed on stderr) and to the output window; the
   // log's printing is turned off and the output window prints, minus that one message.
   vtkLogger::SetStderrVerbosity(vtkLogger::VERBOSITY_OFF);
@@ -63,7 +65,8 @@ void installOutputFilter() {
 }
 
 void markCurrent(vtkObject*, unsigned long, void*, void* callData) {
-  if (callData != nullptr) *static_cast<bool*>(callData) = true;
+  if (callData != nullptr)
+    *static_cast<bool*>(callData) = true;
 }
 
 }  // namespace
@@ -84,15 +87,28 @@ OffscreenWindow::OffscreenWindow(int width, int height) : impl_(std::make_unique
   installOutputFilter();
   impl_->width = width;
   impl_->height = height;
-  const int attributes[] = {OSMESA_FORMAT, OSMESA_RGBA, OSMESA_DEPTH_BITS, 24, OSMESA_STENCIL_BITS, 8,
-                            OSMESA_ACCUM_BITS, 0, OSMESA_PROFILE, OSMESA_CORE_PROFILE,
-                            OSMESA_CONTEXT_MAJOR_VERSION, 3, OSMESA_CONTEXT_MINOR_VERSION, 2, 0};
+  const int attributes[] = {OSMESA_FORMAT,
+                            OSMESA_RGBA,
+                            OSMESA_DEPTH_BITS,
+                            24,
+                            OSMESA_STENCIL_BITS,
+                            8,
+                            OSMESA_ACCUM_BITS,
+                            0,
+                            OSMESA_PROFILE,
+                            OSMESA_CORE_PROFILE,
+                            OSMESA_CONTEXT_MAJOR_VERSION,
+                            3,
+                            OSMESA_CONTEXT_MINOR_VERSION,
+                            2,
+                            0};
   impl_->context = OSMesaCreateContextAttribs(attributes, nullptr);
   if (impl_->context == nullptr) {
     throw std::runtime_error("OSMesa could not create an OpenGL 3.2 core context (libOSMesa)");
   }
   impl_->buffer.assign(static_cast<std::size_t>(width) * static_cast<std::size_t>(height) * 4, 0);
-  if (OSMesaMakeCurrent(impl_->context, impl_->buffer.data(), GL_UNSIGNED_BYTE, width, height) == 0) {
+  if (OSMesaMakeCurrent(impl_->context, impl_->buffer.data(), GL_UNSIGNED_BYTE, width, height) ==
+      0) {
     OSMesaDestroyContext(impl_->context);
     throw std::runtime_error("OSMesa could not make its context current");
   }
@@ -118,12 +134,19 @@ OffscreenWindow::~OffscreenWindow() {
     impl_->window->Finalize();
     impl_->window = nullptr;
   }
-  if (impl_->context != nullptr) OSMesaDestroyContext(impl_->context);
+  if (impl_->context != nullptr)
+    OSMesaDestroyContext(impl_->context);
 }
 
-int OffscreenWindow::width() const { return impl_->width; }
-int OffscreenWindow::height() const { return impl_->height; }
-vtkRenderWindow* OffscreenWindow::window() { return impl_->window; }
+int OffscreenWindow::width() const {
+  return impl_->width;
+}
+int OffscreenWindow::height() const {
+  return impl_->height;
+}
+vtkRenderWindow* OffscreenWindow::window() {
+  return impl_->window;
+}
 
 vtkRenderer* OffscreenWindow::addRenderer(double xmin, double ymin, double xmax, double ymax) {
   vtkNew<vtkRenderer> renderer;
@@ -133,7 +156,8 @@ vtkRenderer* OffscreenWindow::addRenderer(double xmin, double ymin, double xmax,
 }
 
 RgbImage OffscreenWindow::capture() {
-  OSMesaMakeCurrent(impl_->context, impl_->buffer.data(), GL_UNSIGNED_BYTE, impl_->width, impl_->height);
+  OSMesaMakeCurrent(impl_->context, impl_->buffer.data(), GL_UNSIGNED_BYTE, impl_->width,
+                    impl_->height);
   impl_->window->Render();
   vtkNew<vtkWindowToImageFilter> grab;
   grab->SetInput(impl_->window);
@@ -160,7 +184,9 @@ RgbImage OffscreenWindow::capture() {
   return out;
 }
 
-void OffscreenWindow::writePng(const std::string& path) { render::writePng(path, capture()); }
+void OffscreenWindow::writePng(const std::string& path) {
+  render::writePng(path, capture());
+}
 
 void writePng(const std::string& path, const RgbImage& image) {
   vtkNew<vtkImageData> data;

@@ -10,6 +10,7 @@
 #include <vtkChartXY.h>
 #include <vtkContextActor.h>
 #include <vtkContextScene.h>
+#include <vtkCoordinate.h>
 #include <vtkDoubleArray.h>
 #include <vtkPen.h>
 #include <vtkPlot.h>
@@ -18,7 +19,6 @@
 #include <vtkRenderer.h>
 #include <vtkStringArray.h>
 #include <vtkTable.h>
-#include <vtkCoordinate.h>
 #include <vtkTextActor.h>
 #include <vtkTextProperty.h>
 
@@ -42,7 +42,8 @@ void checkSeries(const Series& s, const std::string& where) {
   }
   for (std::size_t i = 0; i < s.x.size(); ++i) {
     if (!std::isfinite(s.x[i]) || !std::isfinite(s.y[i])) {
-      throw std::invalid_argument(fmt::format("{}: series \"{}\" value {} is not finite", where, s.name, i));
+      throw std::invalid_argument(
+          fmt::format("{}: series \"{}\" value {} is not finite", where, s.name, i));
     }
   }
 }
@@ -100,12 +101,14 @@ vtkChartXY* addChart(OffscreenWindow& window, const double viewport[4], const st
   chart->GetTitleProperties()->SetColor(0.05, 0.05, 0.05);
   actor->GetScene()->AddItem(chart);
   renderer->AddActor(actor);
-  if (rendererOut != nullptr) *rendererOut = renderer;
+  if (rendererOut != nullptr)
+    *rendererOut = renderer;
   return chart;  // owned by the scene, which the actor (owned by the renderer) holds
 }
 
 void addTitle(OffscreenWindow& window, const std::string& title, double height, int fontSize) {
-  if (title.empty()) return;
+  if (title.empty())
+    return;
   vtkRenderer* header = window.addRenderer(0.0, 1.0 - height, 1.0, 1.0);
   header->SetBackground(1, 1, 1);
   vtkNew<vtkTextActor> text;
@@ -122,10 +125,13 @@ void addTitle(OffscreenWindow& window, const std::string& title, double height, 
 
 RgbImage renderPlots(const std::vector<PlotPanel>& panels, int columns, const std::string& title,
                      const FigureSize& size) {
-  if (panels.empty()) throw std::invalid_argument("plot figure: no panel");
-  if (columns < 1) throw std::invalid_argument("plot figure: columns < 1");
+  if (panels.empty())
+    throw std::invalid_argument("plot figure: no panel");
+  if (columns < 1)
+    throw std::invalid_argument("plot figure: columns < 1");
   for (std::size_t p = 0; p < panels.size(); ++p) {
-    for (const Series& s : panels[p].series) checkSeries(s, fmt::format("panel {}", p + 1));
+    for (const Series& s : panels[p].series)
+      checkSeries(s, fmt::format("panel {}", p + 1));
   }
   OffscreenWindow window(size.width, size.height);
   const int fontSize = std::max(10, std::min(size.height, size.width) / 55);
@@ -135,8 +141,9 @@ RgbImage renderPlots(const std::vector<PlotPanel>& panels, int columns, const st
     const int row = static_cast<int>(p) / columns;
     const int col = static_cast<int>(p) % columns;
     const double h = (1.0 - titleHeight) / rows;
-    const double viewport[4] = {static_cast<double>(col) / columns, 1.0 - titleHeight - (row + 1) * h,
-                                static_cast<double>(col + 1) / columns, 1.0 - titleHeight - row * h};
+    const double viewport[4] = {
+        static_cast<double>(col) / columns, 1.0 - titleHeight - (row + 1) * h,
+        static_cast<double>(col + 1) / columns, 1.0 - titleHeight - row * h};
     const PlotPanel& panel = panels[p];
     vtkRenderer* renderer = nullptr;
     vtkChartXY* chart = addChart(window, viewport, panel.title, fontSize, &renderer);
@@ -144,11 +151,18 @@ RgbImage renderPlots(const std::vector<PlotPanel>& panels, int columns, const st
     double xmax = -xmin;
     for (const Series& s : panel.series) {
       addSeries(chart, s, fontSize);
-      for (double x : s.x) { xmin = std::min(xmin, x); xmax = std::max(xmax, x); }
+      for (double x : s.x) {
+        xmin = std::min(xmin, x);
+        xmax = std::max(xmax, x);
+      }
     }
-    if (panel.xRange) { xmin = (*panel.xRange)[0]; xmax = (*panel.xRange)[1]; }
+    if (panel.xRange) {
+      xmin = (*panel.xRange)[0];
+      xmax = (*panel.xRange)[1];
+    }
     for (const auto& [name, value] : panel.horizontalLines) {
-      if (!std::isfinite(xmin)) break;
+      if (!std::isfinite(xmin))
+        break;
       Series line;
       line.name = name;
       line.x = {xmin, xmax};
@@ -191,7 +205,8 @@ RgbImage renderPlots(const std::vector<PlotPanel>& panels, int columns, const st
 
 RgbImage renderBoxPlot(const std::vector<BoxGroup>& groups, const std::string& title,
                        const std::string& yLabel, const FigureSize& size) {
-  if (groups.empty()) throw std::invalid_argument("box plot: no group");
+  if (groups.empty())
+    throw std::invalid_argument("box plot: no group");
   std::vector<core::BoxSummary> boxes;
   std::vector<std::vector<double>> values;
   for (std::size_t g = 0; g < groups.size(); ++g) {
@@ -205,8 +220,9 @@ RgbImage renderBoxPlot(const std::vector<BoxGroup>& groups, const std::string& t
   if (groups.size() >= 2) {
     try {
       const core::AnovaResult r = core::oneWayAnova(values);
-      anova = fmt::format("one-way ANOVA: F({}, {}) = {:.3g}, p = {}", r.dfBetween, r.dfWithin, r.f,
-                          r.pValue < 1e-4 ? fmt::format("{:.1e}", r.pValue) : fmt::format("{:.4f}", r.pValue));
+      anova = fmt::format(
+          "one-way ANOVA: F({}, {}) = {:.3g}, p = {}", r.dfBetween, r.dfWithin, r.f,
+          r.pValue < 1e-4 ? fmt::format("{:.1e}", r.pValue) : fmt::format("{:.4f}", r.pValue));
     } catch (const std::invalid_argument& e) {
       anova = std::string("ANOVA undefined: ") + e.what();
     }

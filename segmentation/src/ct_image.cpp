@@ -7,8 +7,10 @@
 namespace echoreg::segmentation {
 
 double CtImage::sliceSpacingMm() const {
-  if (!uniform()) throw std::logic_error("the CT's slice spacing is not uniform (several groups)");
-  if (groups.empty() || groups.front().count < 2) return 1.0;
+  if (!uniform())
+    throw std::logic_error("the CT's slice spacing is not uniform (several groups)");
+  if (groups.empty() || groups.front().count < 2)
+    return 1.0;
   return groups.front().spacingMm;
 }
 
@@ -22,10 +24,16 @@ namespace {
 double slicePosition(const CtImage& image, double k) {
   const auto& z = image.slicePositionsMm;
   const int n = static_cast<int>(z.size());
-  if (n == 0) return 0.0;
-  if (n == 1) return k;  // one slice: unit spacing
-  if (k <= 0.0) return z[0] + k * (z[1] - z[0]);
-  if (k >= n - 1) return z[static_cast<std::size_t>(n - 1)] + (k - (n - 1)) * (z[static_cast<std::size_t>(n - 1)] - z[static_cast<std::size_t>(n - 2)]);
+  if (n == 0)
+    return 0.0;
+  if (n == 1)
+    return k;  // one slice: unit spacing
+  if (k <= 0.0)
+    return z[0] + k * (z[1] - z[0]);
+  if (k >= n - 1)
+    return z[static_cast<std::size_t>(n - 1)] +
+           (k - (n - 1)) *
+               (z[static_cast<std::size_t>(n - 1)] - z[static_cast<std::size_t>(n - 2)]);
   const int k0 = static_cast<int>(std::floor(k));
   const double f = k - k0;
   return (1.0 - f) * z[static_cast<std::size_t>(k0)] + f * z[static_cast<std::size_t>(k0 + 1)];
@@ -35,9 +43,12 @@ double slicePosition(const CtImage& image, double k) {
 double sliceIndex(const CtImage& image, double position) {
   const auto& z = image.slicePositionsMm;
   const int n = static_cast<int>(z.size());
-  if (n == 0) return 0.0;
-  if (n == 1) return position;
-  if (position <= z[0]) return (position - z[0]) / (z[1] - z[0]);
+  if (n == 0)
+    return 0.0;
+  if (n == 1)
+    return position;
+  if (position <= z[0])
+    return (position - z[0]) / (z[1] - z[0]);
   if (position >= z.back()) {
     return (n - 1) + (position - z.back()) / (z.back() - z[static_cast<std::size_t>(n - 2)]);
   }
@@ -71,9 +82,11 @@ CtImage resampleUniform(const CtImage& image, double spacingMm) {
     const auto& z = image.slicePositionsMm;
     for (std::size_t k = 1; k < z.size(); ++k) {
       const double step = z[k] - z[k - 1];
-      if (spacingMm == 0.0 || step < spacingMm) spacingMm = step;
+      if (spacingMm == 0.0 || step < spacingMm)
+        spacingMm = step;
     }
-    if (spacingMm <= 0.0) spacingMm = 1.0;
+    if (spacingMm <= 0.0)
+      spacingMm = 1.0;
   }
   const double length = image.slicePositionsMm.back();
   const int slices = static_cast<int>(std::floor(length / spacingMm + 1e-6)) + 1;
@@ -85,14 +98,16 @@ CtImage resampleUniform(const CtImage& image, double spacingMm) {
   out.seriesInstanceUid = image.seriesInstanceUid;
   out.folder = image.folder;
   out.slicePositionsMm.resize(static_cast<std::size_t>(slices));
-  for (int k = 0; k < slices; ++k) out.slicePositionsMm[static_cast<std::size_t>(k)] = k * spacingMm;
+  for (int k = 0; k < slices; ++k)
+    out.slicePositionsMm[static_cast<std::size_t>(k)] = k * spacingMm;
   out.groups = {CtSliceGroup{0, slices, slices > 1 ? spacingMm : 0.0}};
   const std::size_t plane =
       static_cast<std::size_t>(image.dimensions[0]) * static_cast<std::size_t>(image.dimensions[1]);
   out.hu.resize(plane * static_cast<std::size_t>(slices));
   const int last = image.dimensions[2] - 1;
   for (int k = 0; k < slices; ++k) {
-    const double source = std::clamp(sliceIndex(image, k * spacingMm), 0.0, static_cast<double>(last));
+    const double source =
+        std::clamp(sliceIndex(image, k * spacingMm), 0.0, static_cast<double>(last));
     const int k0 = std::min(static_cast<int>(std::floor(source)), last);
     const int k1 = std::min(k0 + 1, last);
     const double f = source - k0;

@@ -72,10 +72,14 @@ void silenceGdcm() {
 }
 
 std::string trimmed(std::string text) {
-  const auto blank = [](char c) { return c == ' ' || c == '\0' || c == '\t' || c == '\r' || c == '\n'; };
-  while (!text.empty() && blank(text.back())) text.pop_back();
+  const auto blank = [](char c) {
+    return c == ' ' || c == '\0' || c == '\t' || c == '\r' || c == '\n';
+  };
+  while (!text.empty() && blank(text.back()))
+    text.pop_back();
   std::size_t first = 0;
-  while (first < text.size() && blank(text[first])) ++first;
+  while (first < text.size() && blank(text[first]))
+    ++first;
   return text.substr(first);
 }
 
@@ -85,12 +89,15 @@ std::optional<std::vector<double>> numbers(const std::string& text) {
   std::size_t start = 0;
   while (start <= text.size()) {
     std::size_t end = text.find('\\', start);
-    if (end == std::string::npos) end = text.size();
+    if (end == std::string::npos)
+      end = text.size();
     const std::string part = trimmed(text.substr(start, end - start));
-    if (part.empty()) return std::nullopt;
+    if (part.empty())
+      return std::nullopt;
     char* stop = nullptr;
     const double value = std::strtod(part.c_str(), &stop);
-    if (stop != part.c_str() + part.size() || !std::isfinite(value)) return std::nullopt;
+    if (stop != part.c_str() + part.size() || !std::isfinite(value))
+      return std::nullopt;
     values.push_back(value);
     start = end + 1;
   }
@@ -102,10 +109,12 @@ std::string nameList(const std::vector<std::string>& names) {
   std::string out;
   const std::size_t shown = std::min(names.size(), kNamesInMessage);
   for (std::size_t n = 0; n < shown; ++n) {
-    if (n > 0) out += ", ";
+    if (n > 0)
+      out += ", ";
     out += names[n];
   }
-  if (names.size() > shown) out += fmt::format(" and {} more", names.size() - shown);
+  if (names.size() > shown)
+    out += fmt::format(" and {} more", names.size() - shown);
   return out;
 }
 
@@ -142,34 +151,41 @@ SliceHeader scanHeader(const fs::path& path) {
     // With the pixel data in `skip`, GDCM stops right after that element's header: the stream is
     // then at the first pixel byte, and no pixel is read.
     const std::set<gdcm::Tag> skip{gdcm::Tag(0x7fe0, 0x0010)};
-    if (!reader.ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010), skip)) return h;
+    if (!reader.ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010), skip))
+      return h;
     const gdcm::File& file = reader.GetFile();
     const gdcm::DataSet& ds = file.GetDataSet();
-    if (ds.IsEmpty()) return h;
+    if (ds.IsEmpty())
+      return h;
     h.dicom = true;
     std::error_code sizeError;
     h.fileSize = fs::file_size(path, sizeError);
-    if (sizeError) h.fileSize = 0;
+    if (sizeError)
+      h.fileSize = 0;
     const std::size_t position = reader.GetStreamCurrentPosition();
-    if (position != static_cast<std::size_t>(-1) && position < h.fileSize) h.pixelDataOffset = position;
+    if (position != static_cast<std::size_t>(-1) && position < h.fileSize)
+      h.pixelDataOffset = position;
     h.transferSyntax = trimmed(file.GetHeader().GetDataSetTransferSyntax().GetString()
                                    ? file.GetHeader().GetDataSetTransferSyntax().GetString()
                                    : "");
     gdcm::StringFilter filter;
     filter.SetFile(file);
-    const auto text = [&](std::uint16_t group, std::uint16_t element) -> std::optional<std::string> {
+    const auto text = [&](std::uint16_t group,
+                          std::uint16_t element) -> std::optional<std::string> {
       const gdcm::Tag tag(group, element);
-      if (!ds.FindDataElement(tag) || ds.GetDataElement(tag).IsEmpty()) return std::nullopt;
+      if (!ds.FindDataElement(tag) || ds.GetDataElement(tag).IsEmpty())
+        return std::nullopt;
       return trimmed(filter.ToString(tag));
     };
     const auto number = [&](std::uint16_t group, std::uint16_t element, const char* name,
                             std::size_t count) -> std::optional<std::vector<double>> {
       const auto value = text(group, element);
-      if (!value) return std::nullopt;
+      if (!value)
+        return std::nullopt;
       auto parsed = numbers(*value);
       if (!parsed || parsed->size() < count) {
-        h.problems.push_back(fmt::format("{} \"{}\" is not {} number{}", name, *value, count,
-                                         count > 1 ? "s" : ""));
+        h.problems.push_back(
+            fmt::format("{} \"{}\" is not {} number{}", name, *value, count, count > 1 ? "s" : ""));
         return std::nullopt;
       }
       return parsed;
@@ -206,9 +222,12 @@ SliceHeader scanHeader(const fs::path& path) {
         h.problems.push_back(fmt::format("PixelSpacing {}\\{} is not positive", (*s)[0], (*s)[1]));
       }
     }
-    if (const auto v = number(0x0028, 0x1053, "RescaleSlope", 1)) h.slope = (*v)[0];
-    if (const auto v = number(0x0028, 0x1052, "RescaleIntercept", 1)) h.intercept = (*v)[0];
-    if (const auto v = number(0x0018, 0x1120, "GantryDetectorTilt", 1)) h.gantryTiltDegrees = (*v)[0];
+    if (const auto v = number(0x0028, 0x1053, "RescaleSlope", 1))
+      h.slope = (*v)[0];
+    if (const auto v = number(0x0028, 0x1052, "RescaleIntercept", 1))
+      h.intercept = (*v)[0];
+    if (const auto v = number(0x0018, 0x1120, "GantryDetectorTilt", 1))
+      h.gantryTiltDegrees = (*v)[0];
   } catch (const std::exception&) {
     h.dicom = false;  // GDCM throws on some malformed files: not a DICOM file we can read
     h.image = false;
@@ -230,9 +249,11 @@ void parallelFor(int count, int threads, Fn&& fn) {
   std::exception_ptr error;
   const auto work = [&](int worker) {
     for (;;) {
-      if (stop.load()) return;
+      if (stop.load())
+        return;
       const int index = next.fetch_add(1);
-      if (index >= count) return;
+      if (index >= count)
+        return;
       try {
         fn(index, worker);
       } catch (...) {
@@ -250,17 +271,22 @@ void parallelFor(int count, int threads, Fn&& fn) {
   } else {
     std::vector<std::thread> pool;
     pool.reserve(static_cast<std::size_t>(threads));
-    for (int t = 0; t < threads; ++t) pool.emplace_back(work, t);
-    for (std::thread& thread : pool) thread.join();
+    for (int t = 0; t < threads; ++t)
+      pool.emplace_back(work, t);
+    for (std::thread& thread : pool)
+      thread.join();
   }
-  if (error) std::rethrow_exception(error);
+  if (error)
+    std::rethrow_exception(error);
 }
 
 int threadCount(const DicomReadOptions& options) {
   if (options.threads < 0) {
-    throw std::invalid_argument(fmt::format("DicomReadOptions.threads = {} is negative", options.threads));
+    throw std::invalid_argument(
+        fmt::format("DicomReadOptions.threads = {} is negative", options.threads));
   }
-  if (options.threads > 0) return options.threads;
+  if (options.threads > 0)
+    return options.threads;
   return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
 }
 
@@ -274,7 +300,8 @@ Scan scanFolder(const std::string& folder, int threads) {
   silenceGdcm();
   std::error_code ec;
   const fs::file_status status = fs::status(folder, ec);
-  if (ec || !fs::exists(status)) throw FileError(folder, "does not exist");
+  if (ec || !fs::exists(status))
+    throw FileError(folder, "does not exist");
   Scan scan;
   std::vector<fs::path> paths;
   if (fs::is_regular_file(status)) {
@@ -282,10 +309,12 @@ Scan scanFolder(const std::string& folder, int threads) {
     paths.emplace_back(folder);
   } else if (fs::is_directory(status)) {
     fs::directory_iterator it(folder, ec);
-    if (ec) throw FileError(folder, "cannot be listed: " + ec.message());
+    if (ec)
+      throw FileError(folder, "cannot be listed: " + ec.message());
     for (const fs::directory_entry& entry : it) {
       std::error_code typeError;
-      if (entry.is_regular_file(typeError)) paths.push_back(entry.path());
+      if (entry.is_regular_file(typeError))
+        paths.push_back(entry.path());
     }
     std::sort(paths.begin(), paths.end());
   } else {
@@ -293,12 +322,15 @@ Scan scanFolder(const std::string& folder, int threads) {
   }
   scan.headers.resize(paths.size());
   parallelFor(static_cast<int>(paths.size()), threads, [&](int index, int) {
-    scan.headers[static_cast<std::size_t>(index)] = scanHeader(paths[static_cast<std::size_t>(index)]);
+    scan.headers[static_cast<std::size_t>(index)] =
+        scanHeader(paths[static_cast<std::size_t>(index)]);
   });
   return scan;
 }
 
-std::string seriesLabel(const std::string& uid) { return uid.empty() ? std::string("(no SeriesInstanceUID)") : uid; }
+std::string seriesLabel(const std::string& uid) {
+  return uid.empty() ? std::string("(no SeriesInstanceUID)") : uid;
+}
 
 struct SeriesGroup {
   DicomSeriesSummary summary;
@@ -333,16 +365,19 @@ std::vector<SeriesGroup> groupSeries(const Scan& scan, std::vector<std::string>*
   }
   if (warnings != nullptr) {
     if (!notDicom.empty()) {
-      warnings->push_back(fmt::format("skipped {} file{} that GDCM cannot read as DICOM: {}", notDicom.size(),
-                                      notDicom.size() > 1 ? "s" : "", nameList(notDicom)));
+      warnings->push_back(fmt::format("skipped {} file{} that GDCM cannot read as DICOM: {}",
+                                      notDicom.size(), notDicom.size() > 1 ? "s" : "",
+                                      nameList(notDicom)));
     }
     if (!noImage.empty()) {
-      warnings->push_back(fmt::format("skipped {} DICOM file{} without an image: {}", noImage.size(),
-                                      noImage.size() > 1 ? "s" : "", nameList(noImage)));
+      warnings->push_back(fmt::format("skipped {} DICOM file{} without an image: {}",
+                                      noImage.size(), noImage.size() > 1 ? "s" : "",
+                                      nameList(noImage)));
     }
   }
   std::vector<SeriesGroup> series;
-  for (auto& [uid, group] : byUid) series.push_back(std::move(group));
+  for (auto& [uid, group] : byUid)
+    series.push_back(std::move(group));
   std::stable_sort(series.begin(), series.end(), [](const SeriesGroup& a, const SeriesGroup& b) {
     return a.summary.files > b.summary.files;
   });
@@ -352,10 +387,12 @@ std::vector<SeriesGroup> groupSeries(const Scan& scan, std::vector<std::string>*
 std::string describeSeries(const std::vector<SeriesGroup>& series) {
   std::string out;
   for (const SeriesGroup& s : series) {
-    if (!out.empty()) out += "; ";
+    if (!out.empty())
+      out += "; ";
     out += fmt::format("{} ({}, {} file{}: {}{})", seriesLabel(s.summary.seriesInstanceUid),
-                       s.summary.modality.empty() ? "no modality" : s.summary.modality, s.summary.files,
-                       s.summary.files > 1 ? "s" : "", s.summary.firstFile, s.summary.files > 1 ? "..." : "");
+                       s.summary.modality.empty() ? "no modality" : s.summary.modality,
+                       s.summary.files, s.summary.files > 1 ? "s" : "", s.summary.firstFile,
+                       s.summary.files > 1 ? "..." : "");
   }
   return out;
 }
@@ -375,10 +412,12 @@ Selection selectSeries(const std::string& folder, const DicomReadOptions& option
   selection.singleFile = scan.singleFile;
   if (scan.singleFile) {
     const SliceHeader& h = scan.headers.front();
-    if (!h.dicom) throw FileError(folder, "is not a DICOM file (GDCM cannot read it)");
+    if (!h.dicom)
+      throw FileError(folder, "is not a DICOM file (GDCM cannot read it)");
     if (!h.image) {
-      throw FileError(folder, fmt::format("is a DICOM file without an image (no Rows / Columns; SOP class {})",
-                                          h.sopClass.empty() ? "absent" : h.sopClass));
+      throw FileError(
+          folder, fmt::format("is a DICOM file without an image (no Rows / Columns; SOP class {})",
+                              h.sopClass.empty() ? "absent" : h.sopClass));
     }
   }
   std::vector<std::string> skipped;
@@ -389,23 +428,27 @@ Selection selectSeries(const std::string& folder, const DicomReadOptions& option
       std::error_code ec;
       for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec)) {
         std::error_code typeError;
-        if (entry.is_directory(typeError)) subfolders.push_back(entry.path().filename().string());
+        if (entry.is_directory(typeError))
+          subfolders.push_back(entry.path().filename().string());
       }
       std::sort(subfolders.begin(), subfolders.end());
     }
-    throw FileError(folder, fmt::format("is a directory with no DICOM image ({} file{}{}{}{}{})", scan.headers.size(),
-                                        scan.headers.size() == 1 ? "" : "s", skipped.empty() ? "" : "; ",
-                                        skipped.empty() ? "" : skipped.front(),
-                                        subfolders.empty() ? "" : "; subfolders are not searched, it has: ",
-                                        nameList(subfolders)));
+    throw FileError(folder,
+                    fmt::format("is a directory with no DICOM image ({} file{}{}{}{}{})",
+                                scan.headers.size(), scan.headers.size() == 1 ? "" : "s",
+                                skipped.empty() ? "" : "; ", skipped.empty() ? "" : skipped.front(),
+                                subfolders.empty() ? "" : "; subfolders are not searched, it has: ",
+                                nameList(subfolders)));
   }
   const SeriesGroup* chosen = nullptr;
   if (!options.seriesUid.empty()) {
     for (const SeriesGroup& s : series) {
-      if (s.summary.seriesInstanceUid == options.seriesUid) chosen = &s;
+      if (s.summary.seriesInstanceUid == options.seriesUid)
+        chosen = &s;
     }
     if (chosen == nullptr) {
-      throw FileError(folder, fmt::format("has no series {}; it has: {}", options.seriesUid, describeSeries(series)));
+      throw FileError(folder, fmt::format("has no series {}; it has: {}", options.seriesUid,
+                                          describeSeries(series)));
     }
   } else if (scan.singleFile) {
     chosen = &series.front();
@@ -424,11 +467,12 @@ Selection selectSeries(const std::string& folder, const DicomReadOptions& option
   if (series.size() > 1) {
     std::vector<SeriesGroup> others;
     for (const SeriesGroup& s : series) {
-      if (&s != chosen) others.push_back(s);
+      if (&s != chosen)
+        others.push_back(s);
     }
     selection.warnings.push_back(fmt::format("read series {}; left out {} other series: {}",
-                                             seriesLabel(chosen->summary.seriesInstanceUid), others.size(),
-                                             describeSeries(others)));
+                                             seriesLabel(chosen->summary.seriesInstanceUid),
+                                             others.size(), describeSeries(others)));
   }
   selection.modality = chosen->summary.modality;
   selection.uid = chosen->summary.seriesInstanceUid;
@@ -437,12 +481,17 @@ Selection selectSeries(const std::string& folder, const DicomReadOptions& option
         "modality {} is not CT: the voxels are the rescaled stored values, not Hounsfield units",
         selection.modality.empty() ? "(absent)" : selection.modality));
   }
-  for (std::size_t index : chosen->members) selection.slices.push_back(std::move(scan.headers[index]));
+  for (std::size_t index : chosen->members)
+    selection.slices.push_back(std::move(scan.headers[index]));
   return selection;
 }
 
-Eigen::Vector3d rowDirection(const std::array<double, 6>& o) { return {o[0], o[1], o[2]}; }
-Eigen::Vector3d columnDirection(const std::array<double, 6>& o) { return {o[3], o[4], o[5]}; }
+Eigen::Vector3d rowDirection(const std::array<double, 6>& o) {
+  return {o[0], o[1], o[2]};
+}
+Eigen::Vector3d columnDirection(const std::array<double, 6>& o) {
+  return {o[3], o[4], o[5]};
+}
 
 /// Checks the selected headers and computes the geometry; sorts `selection.slices` into slice
 /// order. The image gets everything but its voxels.
@@ -453,47 +502,62 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
 
   // Per-file problems first: each names its files.
   {
-    std::vector<std::string> unparsable, multiFrame, colour, noPosition, noOrientation, noSpacing, badBits;
+    std::vector<std::string> unparsable, multiFrame, colour, noPosition, noOrientation, noSpacing,
+        badBits;
     std::string firstProblem;
     for (const SliceHeader& h : slices) {
       if (!h.problems.empty()) {
         unparsable.push_back(h.name);
-        if (firstProblem.empty()) firstProblem = h.problems.front();
+        if (firstProblem.empty())
+          firstProblem = h.problems.front();
       }
       const auto frames = numbers(h.frames);
       if (!frames || frames->size() != 1) {
         unparsable.push_back(h.name);
-        if (firstProblem.empty()) firstProblem = "NumberOfFrames \"" + h.frames + "\" is not a number";
+        if (firstProblem.empty())
+          firstProblem = "NumberOfFrames \"" + h.frames + "\" is not a number";
       } else if ((*frames)[0] != 1.0) {
         multiFrame.push_back(h.name + " (" + h.frames + " frames)");
       }
-      if (h.samplesPerPixel != 1 ||
-          (!h.photometric.empty() && h.photometric != "MONOCHROME2" && h.photometric != "MONOCHROME1")) {
+      if (h.samplesPerPixel != 1 || (!h.photometric.empty() && h.photometric != "MONOCHROME2" &&
+                                     h.photometric != "MONOCHROME1")) {
         colour.push_back(h.name + (h.photometric.empty() ? "" : " (" + h.photometric + ")"));
       }
-      if (!h.position) noPosition.push_back(h.name);
-      if (!h.orientation) noOrientation.push_back(h.name);
-      if (!h.pixelSpacing) noSpacing.push_back(h.name);
-      if ((h.bitsAllocated != 8 && h.bitsAllocated != 16 && h.bitsAllocated != 32) || h.bitsStored < 1 ||
-          h.bitsStored > h.bitsAllocated || h.highBit + 1 < h.bitsStored || h.highBit >= h.bitsAllocated) {
-        badBits.push_back(fmt::format("{} ({}/{}/{})", h.name, h.bitsAllocated, h.bitsStored, h.highBit));
+      if (!h.position)
+        noPosition.push_back(h.name);
+      if (!h.orientation)
+        noOrientation.push_back(h.name);
+      if (!h.pixelSpacing)
+        noSpacing.push_back(h.name);
+      if ((h.bitsAllocated != 8 && h.bitsAllocated != 16 && h.bitsAllocated != 32) ||
+          h.bitsStored < 1 || h.bitsStored > h.bitsAllocated || h.highBit + 1 < h.bitsStored ||
+          h.highBit >= h.bitsAllocated) {
+        badBits.push_back(
+            fmt::format("{} ({}/{}/{})", h.name, h.bitsAllocated, h.bitsStored, h.highBit));
       }
     }
-    if (!unparsable.empty()) fail(fmt::format("unreadable values in {}: {}", nameList(unparsable), firstProblem));
+    if (!unparsable.empty())
+      fail(fmt::format("unreadable values in {}: {}", nameList(unparsable), firstProblem));
     if (!multiFrame.empty()) {
-      fail("multi-frame images are not supported (export the series as one file per slice): " + nameList(multiFrame));
+      fail("multi-frame images are not supported (export the series as one file per slice): " +
+           nameList(multiFrame));
     }
     if (!colour.empty()) {
-      fail("colour or palette images (not MONOCHROME1/2 with one sample per pixel) are not CT slices: " +
-           nameList(colour));
+      fail(
+          "colour or palette images (not MONOCHROME1/2 with one sample per pixel) are not CT "
+          "slices: " +
+          nameList(colour));
     }
     if (!badBits.empty()) {
       fail("unsupported pixel layout (BitsAllocated/BitsStored/HighBit): " + nameList(badBits));
     }
     if (!single) {
-      if (!noPosition.empty()) fail("slices without ImagePositionPatient: " + nameList(noPosition));
-      if (!noOrientation.empty()) fail("slices without ImageOrientationPatient: " + nameList(noOrientation));
-      if (!noSpacing.empty()) fail("slices without PixelSpacing: " + nameList(noSpacing));
+      if (!noPosition.empty())
+        fail("slices without ImagePositionPatient: " + nameList(noPosition));
+      if (!noOrientation.empty())
+        fail("slices without ImageOrientationPatient: " + nameList(noOrientation));
+      if (!noSpacing.empty())
+        fail("slices without PixelSpacing: " + nameList(noSpacing));
     }
   }
   DicomSeriesRead result;
@@ -502,11 +566,13 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
   SliceHeader& first = slices.front();
   if (!first.position) {
     first.position = Eigen::Vector3d::Zero();
-    result.warnings.push_back(first.name + " has no ImagePositionPatient: origin (0, 0, 0) assumed");
+    result.warnings.push_back(first.name +
+                              " has no ImagePositionPatient: origin (0, 0, 0) assumed");
   }
   if (!first.orientation) {
     first.orientation = std::array<double, 6>{1, 0, 0, 0, 1, 0};
-    result.warnings.push_back(first.name + " has no ImageOrientationPatient: axial (1 0 0, 0 1 0) assumed");
+    result.warnings.push_back(first.name +
+                              " has no ImageOrientationPatient: axial (1 0 0, 0 1 0) assumed");
   }
   if (!first.pixelSpacing) {
     first.pixelSpacing = Eigen::Vector2d(1.0, 1.0);
@@ -518,8 +584,8 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
   const Eigen::Vector3d column0 = columnDirection(*first.orientation);
   if (std::abs(row0.norm() - 1.0) > 1e-3 || std::abs(column0.norm() - 1.0) > 1e-3 ||
       std::abs(row0.dot(column0)) > 1e-3) {
-    fail(fmt::format("{}: ImageOrientationPatient ({}, {}) is not two orthogonal unit vectors", first.name,
-                     fmt::join(row0, " "), fmt::join(column0, " ")));
+    fail(fmt::format("{}: ImageOrientationPatient ({}, {}) is not two orthogonal unit vectors",
+                     first.name, fmt::join(row0, " "), fmt::join(column0, " ")));
   }
   {
     std::vector<std::string> size, spacing, orientation, tilt;
@@ -528,11 +594,14 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
         size.push_back(fmt::format("{} ({} x {})", h.name, h.columns, h.rows));
       }
       if (((*h.pixelSpacing - *first.pixelSpacing).array().abs() >
-           kSpacingRelativeTolerance * first.pixelSpacing->array()).any()) {
-        spacing.push_back(fmt::format("{} ({}\\{})", h.name, (*h.pixelSpacing)[0], (*h.pixelSpacing)[1]));
+           kSpacingRelativeTolerance * first.pixelSpacing->array())
+              .any()) {
+        spacing.push_back(
+            fmt::format("{} ({}\\{})", h.name, (*h.pixelSpacing)[0], (*h.pixelSpacing)[1]));
       }
       if ((rowDirection(*h.orientation) - row0).cwiseAbs().maxCoeff() > kOrientationTolerance ||
-          (columnDirection(*h.orientation) - column0).cwiseAbs().maxCoeff() > kOrientationTolerance) {
+          (columnDirection(*h.orientation) - column0).cwiseAbs().maxCoeff() >
+              kOrientationTolerance) {
         orientation.push_back(h.name);
       }
       if (std::abs(h.gantryTiltDegrees) > kGantryTiltDegrees) {
@@ -540,19 +609,20 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
       }
     }
     if (!size.empty()) {
-      fail(fmt::format("slices differ in size: {} is {} x {} but {}", first.name, first.columns, first.rows,
-                       nameList(size)));
+      fail(fmt::format("slices differ in size: {} is {} x {} but {}", first.name, first.columns,
+                       first.rows, nameList(size)));
     }
     if (!spacing.empty()) {
-      fail(fmt::format("slices differ in PixelSpacing: {} has {}\\{} but {}", first.name, (*first.pixelSpacing)[0],
-                       (*first.pixelSpacing)[1], nameList(spacing)));
+      fail(fmt::format("slices differ in PixelSpacing: {} has {}\\{} but {}", first.name,
+                       (*first.pixelSpacing)[0], (*first.pixelSpacing)[1], nameList(spacing)));
     }
     if (!orientation.empty()) {
-      fail(fmt::format("mixed orientations: {} has ImageOrientationPatient {}\\{} but {} differ{}", first.name,
-                       fmt::join(row0, "\\"), fmt::join(column0, "\\"), nameList(orientation),
-                       orientation.size() == 1 ? "s" : ""));
+      fail(fmt::format("mixed orientations: {} has ImageOrientationPatient {}\\{} but {} differ{}",
+                       first.name, fmt::join(row0, "\\"), fmt::join(column0, "\\"),
+                       nameList(orientation), orientation.size() == 1 ? "s" : ""));
     }
-    if (!tilt.empty()) fail("gantry tilt (GantryDetectorTilt) is not supported: " + nameList(tilt));
+    if (!tilt.empty())
+      fail("gantry tilt (GantryDetectorTilt) is not supported: " + nameList(tilt));
   }
 
   // Sort along the normal (`first` dangles from here on).
@@ -560,10 +630,13 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
   const Eigen::Vector3d column = (column0 - column0.dot(row) * row).normalized();
   const Eigen::Vector3d normal = row.cross(column);
   std::vector<double> along(slices.size());
-  for (std::size_t n = 0; n < slices.size(); ++n) along[n] = slices[n].position->dot(normal);
+  for (std::size_t n = 0; n < slices.size(); ++n)
+    along[n] = slices[n].position->dot(normal);
   std::vector<std::size_t> order(slices.size());
-  for (std::size_t n = 0; n < order.size(); ++n) order[n] = n;
-  std::stable_sort(order.begin(), order.end(), [&along](std::size_t a, std::size_t b) { return along[a] < along[b]; });
+  for (std::size_t n = 0; n < order.size(); ++n)
+    order[n] = n;
+  std::stable_sort(order.begin(), order.end(),
+                   [&along](std::size_t a, std::size_t b) { return along[a] < along[b]; });
   {
     std::vector<SliceHeader> sorted;
     std::vector<double> sortedAlong;
@@ -578,8 +651,8 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
   const std::size_t count = slices.size();
   for (std::size_t k = 1; k < count; ++k) {
     if (along[k] - along[k - 1] < kSamePositionMm) {
-      fail(fmt::format("duplicate slice position: {} and {} are both at {:.3f} mm along the normal", slices[k - 1].name,
-                       slices[k].name, along[k]));
+      fail(fmt::format("duplicate slice position: {} and {} are both at {:.3f} mm along the normal",
+                       slices[k - 1].name, slices[k].name, along[k]));
     }
   }
   const Eigen::Vector3d origin = *slices.front().position;
@@ -588,24 +661,28 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
     const double distance = offset.dot(normal);
     const double off = (offset - distance * normal).norm();
     if (off > kOffNormalMm + kOffNormalRelative * std::abs(distance)) {
-      fail(fmt::format("slices are not stacked along their normal (gantry tilt or a sheared series): {} lies "
-                       "{:.3f} mm off the normal through {} ({:.2f} degrees)",
-                       slices[k].name, off, slices.front().name, std::atan2(off, distance) * 180.0 / 3.14159265358979323846));
+      fail(fmt::format(
+          "slices are not stacked along their normal (gantry tilt or a sheared series): {} lies "
+          "{:.3f} mm off the normal through {} ({:.2f} degrees)",
+          slices[k].name, off, slices.front().name,
+          std::atan2(off, distance) * 180.0 / 3.14159265358979323846));
     }
   }
 
   // Steps, missing slices, groups.
   std::vector<double> steps;
-  for (std::size_t k = 1; k < count; ++k) steps.push_back(along[k] - along[k - 1]);
+  for (std::size_t k = 1; k < count; ++k)
+    steps.push_back(along[k] - along[k - 1]);
   const auto sameStep = [](double a, double b) {
     return std::abs(a - b) <= std::max(kGroupStepMm, kGroupStepRelative * std::min(a, b));
   };
   for (std::size_t k = 1; k + 1 < steps.size(); ++k) {
     const double before = steps[k - 1], after = steps[k + 1];
     if (sameStep(before, after) && steps[k] > 1.5 * before && steps[k] > 1.5 * after) {
-      fail(fmt::format("a slice seems missing between {} and {}: they are {:.3f} mm apart where the slices on "
-                       "both sides are {:.3f} mm apart",
-                       slices[k].name, slices[k + 1].name, steps[k], before));
+      fail(fmt::format(
+          "a slice seems missing between {} and {}: they are {:.3f} mm apart where the slices on "
+          "both sides are {:.3f} mm apart",
+          slices[k].name, slices[k + 1].name, steps[k], before));
     }
   }
   CtImage& image = result.image;
@@ -618,15 +695,18 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
   image.direction.col(2) = normal;
   // PixelSpacing is (between rows, between columns): i runs along a row, so its spacing is the
   // second value.
-  image.pixelSpacingMm = Eigen::Vector2d((*slices.front().pixelSpacing)[1], (*slices.front().pixelSpacing)[0]);
+  image.pixelSpacingMm =
+      Eigen::Vector2d((*slices.front().pixelSpacing)[1], (*slices.front().pixelSpacing)[0]);
   image.slicePositionsMm.resize(count);
-  for (std::size_t k = 0; k < count; ++k) image.slicePositionsMm[k] = along[k] - along[0];
+  for (std::size_t k = 0; k < count; ++k)
+    image.slicePositionsMm[k] = along[k] - along[0];
   {
     int start = 0;
     double groupFirstStep = -1.0, sum = 0.0;
     int groupSteps = 0;
     const auto close = [&](int last) {
-      image.groups.push_back(CtSliceGroup{start, last - start + 1, groupSteps > 0 ? sum / groupSteps : 0.0});
+      image.groups.push_back(
+          CtSliceGroup{start, last - start + 1, groupSteps > 0 ? sum / groupSteps : 0.0});
     };
     for (std::size_t k = 0; k < steps.size(); ++k) {
       const double step = steps[k];
@@ -647,7 +727,8 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
     close(static_cast<int>(count) - 1);
   }
   result.files.reserve(count);
-  for (const SliceHeader& h : slices) result.files.push_back(h.name);
+  for (const SliceHeader& h : slices)
+    result.files.push_back(h.name);
   return result;
 }
 
@@ -660,16 +741,19 @@ struct Scratch {
     int bitsAllocated = -1, bitsStored = -1, highBit = -1, pixelRepresentation = -1;
     double slope = 0, intercept = 0;
     bool operator==(const Key& o) const {
-      return bitsAllocated == o.bitsAllocated && bitsStored == o.bitsStored && highBit == o.highBit &&
-             pixelRepresentation == o.pixelRepresentation && slope == o.slope && intercept == o.intercept;
+      return bitsAllocated == o.bitsAllocated && bitsStored == o.bitsStored &&
+             highBit == o.highBit && pixelRepresentation == o.pixelRepresentation &&
+             slope == o.slope && intercept == o.intercept;
     }
   } key;
 };
 
 std::int16_t toHu(double value) {
   const double rounded = std::round(value);
-  if (!(rounded > std::numeric_limits<std::int16_t>::min())) return std::numeric_limits<std::int16_t>::min();
-  if (rounded >= std::numeric_limits<std::int16_t>::max()) return std::numeric_limits<std::int16_t>::max();
+  if (!(rounded > std::numeric_limits<std::int16_t>::min()))
+    return std::numeric_limits<std::int16_t>::min();
+  if (rounded >= std::numeric_limits<std::int16_t>::max())
+    return std::numeric_limits<std::int16_t>::max();
   return static_cast<std::int16_t>(rounded);
 }
 
@@ -684,7 +768,8 @@ std::int64_t storedValue(std::uint32_t word, const Scratch::Key& key) {
   return value;
 }
 
-void convert(const char* data, std::size_t pixels, const Scratch::Key& key, Scratch& scratch, std::int16_t* out) {
+void convert(const char* data, std::size_t pixels, const Scratch::Key& key, Scratch& scratch,
+             std::int16_t* out) {
   if (key.bitsAllocated == 32) {
     for (std::size_t p = 0; p < pixels; ++p) {
       std::uint32_t word = 0;
@@ -697,9 +782,9 @@ void convert(const char* data, std::size_t pixels, const Scratch::Key& key, Scra
   // stored bits, slope 1, intercept -1024 or -1000): a plain loop the compiler vectorises.
   const int intercept = static_cast<int>(key.intercept);
   const std::int64_t largest = (std::int64_t{1} << key.bitsStored) - 1 + intercept;
-  if (key.bitsAllocated == 16 && key.slope == 1.0 && key.intercept == static_cast<double>(intercept) &&
-      key.pixelRepresentation == 0 && key.highBit + 1 == key.bitsStored && intercept >= -32768 &&
-      largest <= 32767) {
+  if (key.bitsAllocated == 16 && key.slope == 1.0 &&
+      key.intercept == static_cast<double>(intercept) && key.pixelRepresentation == 0 &&
+      key.highBit + 1 == key.bitsStored && intercept >= -32768 && largest <= 32767) {
     const auto mask = static_cast<std::uint16_t>((1u << key.bitsStored) - 1u);
     for (std::size_t p = 0; p < pixels; ++p) {
       std::uint16_t word = 0;
@@ -712,15 +797,17 @@ void convert(const char* data, std::size_t pixels, const Scratch::Key& key, Scra
     const std::size_t size = std::size_t{1} << key.bitsAllocated;
     scratch.table.resize(size);
     for (std::size_t word = 0; word < size; ++word) {
-      scratch.table[word] = toHu(static_cast<double>(storedValue(static_cast<std::uint32_t>(word), key)) * key.slope +
-                                 key.intercept);
+      scratch.table[word] =
+          toHu(static_cast<double>(storedValue(static_cast<std::uint32_t>(word), key)) * key.slope +
+               key.intercept);
     }
     scratch.key = key;
   }
   const std::int16_t* table = scratch.table.data();
   if (key.bitsAllocated == 8) {
     const auto* bytes = reinterpret_cast<const unsigned char*>(data);
-    for (std::size_t p = 0; p < pixels; ++p) out[p] = table[bytes[p]];
+    for (std::size_t p = 0; p < pixels; ++p)
+      out[p] = table[bytes[p]];
   } else {
     for (std::size_t p = 0; p < pixels; ++p) {
       std::uint16_t word = 0;
@@ -743,25 +830,30 @@ bool hostIsLittleEndian() {
 /// the pixel data element's header (tag, VR OB/OW in explicit VR, a length covering the pixels);
 /// otherwise (an offset the scan got wrong, e.g. after a nested icon image) GDCM reads the file.
 /// True when done; false when this path does not apply.
-bool readNativeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out, Scratch& scratch) {
+bool readNativeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out,
+                     Scratch& scratch) {
   constexpr std::size_t kHeader = 12;
   if (h.pixelDataOffset < kHeader || !hostIsLittleEndian() ||
       (h.transferSyntax != "1.2.840.10008.1.2" && h.transferSyntax != "1.2.840.10008.1.2.1")) {
     return false;
   }
   const bool explicitVr = h.transferSyntax == "1.2.840.10008.1.2.1";
-  const Scratch::Key key{h.bitsAllocated, h.bitsStored, h.highBit, h.pixelRepresentation, h.slope, h.intercept};
+  const Scratch::Key key{h.bitsAllocated,       h.bitsStored, h.highBit,
+                         h.pixelRepresentation, h.slope,      h.intercept};
   const std::size_t pixels = static_cast<std::size_t>(h.rows) * static_cast<std::size_t>(h.columns);
   const std::size_t bytes = pixels * static_cast<std::size_t>(key.bitsAllocated / 8);
   const int fd = ::open(h.path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (fd < 0) throw FileError(folder, h.name + ": cannot be opened: " + std::strerror(errno));
+  if (fd < 0)
+    throw FileError(folder, h.name + ": cannot be opened: " + std::strerror(errno));
   scratch.buffer.resize(kHeader + bytes);
   std::size_t done = 0;
   while (done < kHeader + bytes) {
     const ssize_t n = ::pread(fd, scratch.buffer.data() + done, kHeader + bytes - done,
                               static_cast<off_t>(h.pixelDataOffset - kHeader + done));
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) break;
+    if (n < 0 && errno == EINTR)
+      continue;
+    if (n <= 0)
+      break;
     done += static_cast<std::size_t>(n);
   }
   ::close(fd);
@@ -771,22 +863,27 @@ bool readNativeSlice(const std::string& folder, const SliceHeader& h, std::int16
   std::memcpy(&length, head + 8, 4);
   const bool headerFound =
       done >= kHeader &&
-      (explicitVr ? std::memcmp(head, tag, 4) == 0 && (std::memcmp(head + 4, "OW", 2) == 0 ||
-                                                       std::memcmp(head + 4, "OB", 2) == 0)
+      (explicitVr ? std::memcmp(head, tag, 4) == 0 &&
+                        (std::memcmp(head + 4, "OW", 2) == 0 || std::memcmp(head + 4, "OB", 2) == 0)
                   : std::memcmp(head + 4, tag, 4) == 0) &&
       length != 0xffffffffu;
-  if (!headerFound) return false;
+  if (!headerFound)
+    return false;
   if (done != kHeader + bytes || length < bytes) {
-    throw FileError(folder, fmt::format("{}: truncated pixel data: {} bytes where {} x {} pixels of {} bits need {}",
-                                        h.name, std::min<std::size_t>(done - kHeader, length), h.columns, h.rows,
-                                        key.bitsAllocated, bytes));
+    throw FileError(
+        folder,
+        fmt::format("{}: truncated pixel data: {} bytes where {} x {} pixels of {} bits need {}",
+                    h.name, std::min<std::size_t>(done - kHeader, length), h.columns, h.rows,
+                    key.bitsAllocated, bytes));
   }
   convert(head + kHeader, pixels, key, scratch, out);
   return true;
 }
 
-void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out, Scratch& scratch) {
-  if (readNativeSlice(folder, h, out, scratch)) return;
+void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out,
+                 Scratch& scratch) {
+  if (readNativeSlice(folder, h, out, scratch))
+    return;
   gdcm::ImageReader reader;
   reader.SetFileName(h.path.c_str());
   bool read = false;
@@ -795,22 +892,32 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
   } catch (const std::exception&) {
     read = false;
   }
-  if (!read) throw FileError(folder, h.name + ": GDCM cannot read its image");
+  if (!read)
+    throw FileError(folder, h.name + ": GDCM cannot read its image");
   const gdcm::Image& image = reader.GetImage();
   const gdcm::PixelFormat& format = image.GetPixelFormat();
   const unsigned int* dims = image.GetDimensions();
   if (dims == nullptr || dims[0] != static_cast<unsigned int>(h.columns) ||
       dims[1] != static_cast<unsigned int>(h.rows) ||
       (image.GetNumberOfDimensions() > 2 && dims[2] != 1)) {
-    throw FileError(folder, h.name + ": GDCM reports image dimensions other than the header's Rows / Columns");
+    throw FileError(
+        folder, h.name + ": GDCM reports image dimensions other than the header's Rows / Columns");
   }
-  if (format.GetSamplesPerPixel() != 1) throw FileError(folder, h.name + ": not a one-sample (grey) image");
-  const Scratch::Key key{format.GetBitsAllocated(), format.GetBitsStored(), format.GetHighBit(),
-                         format.GetPixelRepresentation(), h.slope, h.intercept};
-  if ((key.bitsAllocated != 8 && key.bitsAllocated != 16 && key.bitsAllocated != 32) || key.bitsStored < 1 ||
-      key.bitsStored > key.bitsAllocated || key.highBit + 1 < key.bitsStored || key.highBit >= key.bitsAllocated) {
-    throw FileError(folder, fmt::format("{}: unsupported pixel format ({} bits allocated, {} stored, high bit {})",
-                                        h.name, key.bitsAllocated, key.bitsStored, key.highBit));
+  if (format.GetSamplesPerPixel() != 1)
+    throw FileError(folder, h.name + ": not a one-sample (grey) image");
+  const Scratch::Key key{format.GetBitsAllocated(),
+                         format.GetBitsStored(),
+                         format.GetHighBit(),
+                         format.GetPixelRepresentation(),
+                         h.slope,
+                         h.intercept};
+  if ((key.bitsAllocated != 8 && key.bitsAllocated != 16 && key.bitsAllocated != 32) ||
+      key.bitsStored < 1 || key.bitsStored > key.bitsAllocated ||
+      key.highBit + 1 < key.bitsStored || key.highBit >= key.bitsAllocated) {
+    throw FileError(
+        folder,
+        fmt::format("{}: unsupported pixel format ({} bits allocated, {} stored, high bit {})",
+                    h.name, key.bitsAllocated, key.bitsStored, key.highBit));
   }
   const std::size_t pixels = static_cast<std::size_t>(h.rows) * static_cast<std::size_t>(h.columns);
   const std::size_t bytes = pixels * static_cast<std::size_t>(key.bitsAllocated / 8);
@@ -822,15 +929,19 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
   const gdcm::TransferSyntax& syntax = image.GetTransferSyntax();
   if (raw != nullptr && !syntax.IsEncapsulated()) {
     if (h.pixelDataOffset > 0 && h.fileSize > 0 && h.pixelDataOffset + bytes > h.fileSize) {
-      throw FileError(folder, fmt::format("{}: truncated pixel data: the file ends {} bytes short of the {} x {} "
-                                          "pixels of {} bits",
-                                          h.name, h.pixelDataOffset + bytes - h.fileSize, h.columns,
-                                          h.rows, key.bitsAllocated));
+      throw FileError(
+          folder,
+          fmt::format("{}: truncated pixel data: the file ends {} bytes short of the {} x {} "
+                      "pixels of {} bits",
+                      h.name, h.pixelDataOffset + bytes - h.fileSize, h.columns, h.rows,
+                      key.bitsAllocated));
     }
     if (raw->GetLength() < bytes) {
-      throw FileError(folder, fmt::format("{}: truncated pixel data: {} bytes where {} x {} pixels of {} bits "
-                                          "need {}",
-                                          h.name, raw->GetLength(), h.columns, h.rows, key.bitsAllocated, bytes));
+      throw FileError(
+          folder,
+          fmt::format("{}: truncated pixel data: {} bytes where {} x {} pixels of {} bits "
+                      "need {}",
+                      h.name, raw->GetLength(), h.columns, h.rows, key.bitsAllocated, bytes));
     }
     if (hostIsLittleEndian() && syntax.GetSwapCode() == gdcm::SwapCode::LittleEndian) {
       convert(raw->GetPointer(), pixels, key, scratch, out);  // no copy for the common case
@@ -839,7 +950,8 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
   }
   const unsigned long length = image.GetBufferLength();
   if (length < bytes) {
-    throw FileError(folder, fmt::format("{}: GDCM decodes {} bytes where {} are needed", h.name, length, bytes));
+    throw FileError(folder, fmt::format("{}: GDCM decodes {} bytes where {} are needed", h.name,
+                                        length, bytes));
   }
   scratch.buffer.resize(length);
   bool decoded = false;
@@ -849,8 +961,9 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
     decoded = false;
   }
   if (!decoded) {
-    throw FileError(folder, fmt::format("{}: GDCM cannot decode its pixel data ({})", h.name,
-                                        syntax.GetString() ? syntax.GetString() : "unknown transfer syntax"));
+    throw FileError(
+        folder, fmt::format("{}: GDCM cannot decode its pixel data ({})", h.name,
+                            syntax.GetString() ? syntax.GetString() : "unknown transfer syntax"));
   }
   convert(scratch.buffer.data(), pixels, key, scratch, out);
 }
@@ -902,8 +1015,8 @@ void checkSizesBeforeAllocating(const std::string& folder, const std::vector<Sli
   }
 }
 
-DicomSeriesRead readGeometry(const std::string& folder, const DicomReadOptions& options, int threads,
-                             std::vector<SliceHeader>& slices) {
+DicomSeriesRead readGeometry(const std::string& folder, const DicomReadOptions& options,
+                             int threads, std::vector<SliceHeader>& slices) {
   Selection selection = selectSeries(folder, options, threads);
   DicomSeriesRead result = buildGeometry(folder, selection);
   slices = std::move(selection.slices);
@@ -912,32 +1025,38 @@ DicomSeriesRead readGeometry(const std::string& folder, const DicomReadOptions& 
 
 }  // namespace
 
-std::vector<DicomSeriesSummary> listDicomSeries(const std::string& folder, std::vector<std::string>* warnings) {
+std::vector<DicomSeriesSummary> listDicomSeries(const std::string& folder,
+                                                std::vector<std::string>* warnings) {
   const Scan scan = scanFolder(folder, threadCount({}));
   std::vector<DicomSeriesSummary> out;
-  for (const SeriesGroup& group : groupSeries(scan, warnings)) out.push_back(group.summary);
+  for (const SeriesGroup& group : groupSeries(scan, warnings))
+    out.push_back(group.summary);
   return out;
 }
 
-DicomSeriesRead readDicomSeriesGeometry(const std::string& folder, const DicomReadOptions& options) {
+DicomSeriesRead readDicomSeriesGeometry(const std::string& folder,
+                                        const DicomReadOptions& options) {
   std::vector<SliceHeader> slices;
   return readGeometry(folder, options, threadCount(options), slices);
 }
 
-DicomSeriesRead readDicomSeriesWithWarnings(const std::string& folder, const DicomReadOptions& options) {
+DicomSeriesRead readDicomSeriesWithWarnings(const std::string& folder,
+                                            const DicomReadOptions& options) {
   const int threads = threadCount(options);
   std::vector<SliceHeader> slices;
   DicomSeriesRead result = readGeometry(folder, options, threads, slices);
   CtImage& image = result.image;
   checkSizesBeforeAllocating(folder, slices, image);
-  const std::size_t plane = static_cast<std::size_t>(image.dimensions[0]) * static_cast<std::size_t>(image.dimensions[1]);
+  const std::size_t plane =
+      static_cast<std::size_t>(image.dimensions[0]) * static_cast<std::size_t>(image.dimensions[1]);
   image.hu.resize(image.voxelCount());
   const int total = static_cast<int>(slices.size());
   std::vector<Scratch> scratch(static_cast<std::size_t>(std::max(1, std::min(threads, total))));
   std::mutex progressMutex;
   int done = 0;
   parallelFor(total, threads, [&](int k, int worker) {
-    decodeSlice(folder, slices[static_cast<std::size_t>(k)], image.hu.data() + plane * static_cast<std::size_t>(k),
+    decodeSlice(folder, slices[static_cast<std::size_t>(k)],
+                image.hu.data() + plane * static_cast<std::size_t>(k),
                 scratch[static_cast<std::size_t>(worker)]);
     if (options.progress) {
       const std::lock_guard<std::mutex> lock(progressMutex);

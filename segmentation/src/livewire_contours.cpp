@@ -42,10 +42,12 @@ void checkCt(const CtImage& ct) {
 std::string inferPlane(const std::vector<Eigen::Vector3d>& anchors, SlicePlane& plane,
                        double& positionMm) {
   Eigen::Vector3d mean = Eigen::Vector3d::Zero();
-  for (const auto& a : anchors) mean += a;
+  for (const auto& a : anchors)
+    mean += a;
   mean /= static_cast<double>(anchors.size());
   Eigen::Vector3d spread = Eigen::Vector3d::Zero();
-  for (const auto& a : anchors) spread = spread.cwiseMax((a - mean).cwiseAbs());
+  for (const auto& a : anchors)
+    spread = spread.cwiseMax((a - mean).cwiseAbs());
   int agreeing = 0;
   int axis = -1;
   for (int i = 0; i < 3; ++i) {
@@ -58,7 +60,8 @@ std::string inferPlane(const std::vector<Eigen::Vector3d>& anchors, SlicePlane& 
     return "anchors are not in one sagittal, coronal or axial plane (they spread +-" +
            mm(spread.x()) + ", +-" + mm(spread.y()) + ", +-" + mm(spread.z()) +
            " mm along x, y, z; at most +-0.5 mm along the slice normal)";
-  if (agreeing > 1) return "anchors lie on a line";
+  if (agreeing > 1)
+    return "anchors lie on a line";
   plane = axis == 0 ? SlicePlane::Sagittal : axis == 1 ? SlicePlane::Coronal : SlicePlane::Axial;
   positionMm = mean[axis];
   return "";
@@ -70,7 +73,8 @@ void finishSet(const std::string& path, AnchorSet& set, const std::string& plane
     throw FileError(path, where + ": " + std::to_string(set.anchorsLps.size()) +
                               " anchors (at least 3 needed)");
   const std::string problem = inferPlane(set.anchorsLps, set.plane, set.positionMm);
-  if (!problem.empty()) throw FileError(path, where + ": " + problem);
+  if (!problem.empty())
+    throw FileError(path, where + ": " + problem);
   if (!planeInFile.empty() && planeInFile != slicePlaneName(set.plane))
     throw FileError(path, where + ": anchors lie in a " + slicePlaneName(set.plane) +
                               " plane, the file says \"" + planeInFile + "\"");
@@ -79,7 +83,8 @@ void finishSet(const std::string& path, AnchorSet& set, const std::string& plane
 std::vector<AnchorSet> readEchoregAnchors(const std::string& path, const nlohmann::json& doc) {
   std::string plane;
   if (doc.contains("plane")) {
-    if (!doc["plane"].is_string()) throw FileError(path, "\"plane\" is not a string");
+    if (!doc["plane"].is_string())
+      throw FileError(path, "\"plane\" is not a string");
     plane = doc["plane"].get<std::string>();
     try {
       parseSlicePlane(plane);
@@ -88,15 +93,18 @@ std::vector<AnchorSet> readEchoregAnchors(const std::string& path, const nlohman
     }
   }
   const auto& contours = doc["contours"];
-  if (!contours.is_array()) throw FileError(path, "\"contours\" is not an array");
+  if (!contours.is_array())
+    throw FileError(path, "\"contours\" is not an array");
   std::vector<AnchorSet> sets;
   for (std::size_t c = 0; c < contours.size(); ++c) {
     const auto& contour = contours[c];
     AnchorSet set;
     set.label = "contour " + std::to_string(c + 1);
-    if (!contour.is_object()) throw FileError(path, set.label + " is not an object");
+    if (!contour.is_object())
+      throw FileError(path, set.label + " is not an object");
     if (contour.contains("label")) {
-      if (!contour["label"].is_string()) throw FileError(path, set.label + ": label is not a string");
+      if (!contour["label"].is_string())
+        throw FileError(path, set.label + ": label is not a string");
       set.label = contour["label"].get<std::string>();
     }
     const std::string where = "contour \"" + set.label + "\"";
@@ -109,10 +117,12 @@ std::vector<AnchorSet> readEchoregAnchors(const std::string& path, const nlohman
         throw FileError(path, which + ": not 3 numbers [x, y, z]");
       Eigen::Vector3d p;
       for (std::size_t i = 0; i < 3; ++i) {
-        if (!anchor[i].is_number()) throw FileError(path, which + ": not 3 numbers [x, y, z]");
+        if (!anchor[i].is_number())
+          throw FileError(path, which + ": not 3 numbers [x, y, z]");
         p[static_cast<Eigen::Index>(i)] = anchor[i].get<double>();
       }
-      if (!p.allFinite()) throw FileError(path, which + ": not finite");
+      if (!p.allFinite())
+        throw FileError(path, which + ": not finite");
       set.anchorsLps.push_back(p);
     }
     finishSet(path, set, plane);
@@ -125,11 +135,13 @@ std::vector<AnchorSet> readSlicerAnchors(const std::string& path) {
   std::vector<AnchorSet> sets;
   int curve = 0;
   for (const core::Markup& markup : core::readMarkups(path)) {
-    if (markup.type != "ClosedCurve") continue;
+    if (markup.type != "ClosedCurve")
+      continue;
     ++curve;
     AnchorSet set;
     set.label = markup.name.empty() ? "closed curve " + std::to_string(curve) : markup.name;
-    for (const auto& p : markup.points) set.anchorsLps.push_back(p.positionLps);
+    for (const auto& p : markup.points)
+      set.anchorsLps.push_back(p.positionLps);
     finishSet(path, set, "");
     sets.push_back(std::move(set));
   }
@@ -140,25 +152,34 @@ std::vector<AnchorSet> readSlicerAnchors(const std::string& path) {
 
 const char* slicePlaneName(SlicePlane plane) {
   switch (plane) {
-    case SlicePlane::Sagittal: return "sagittal";
-    case SlicePlane::Coronal: return "coronal";
-    case SlicePlane::Axial: return "axial";
+    case SlicePlane::Sagittal:
+      return "sagittal";
+    case SlicePlane::Coronal:
+      return "coronal";
+    case SlicePlane::Axial:
+      return "axial";
   }
   return "sagittal";
 }
 
 SlicePlane parseSlicePlane(const std::string& name) {
-  if (name == "sagittal") return SlicePlane::Sagittal;
-  if (name == "coronal") return SlicePlane::Coronal;
-  if (name == "axial") return SlicePlane::Axial;
+  if (name == "sagittal")
+    return SlicePlane::Sagittal;
+  if (name == "coronal")
+    return SlicePlane::Coronal;
+  if (name == "axial")
+    return SlicePlane::Axial;
   throw std::invalid_argument("slice plane \"" + name + "\" (expected sagittal, coronal or axial)");
 }
 
 SlicePlaneAxes slicePlaneAxes(SlicePlane plane) {
   switch (plane) {
-    case SlicePlane::Sagittal: return {0, 1, 2};
-    case SlicePlane::Coronal: return {1, 0, 2};
-    case SlicePlane::Axial: return {2, 0, 1};
+    case SlicePlane::Sagittal:
+      return {0, 1, 2};
+    case SlicePlane::Coronal:
+      return {1, 0, 2};
+    case SlicePlane::Axial:
+      return {2, 0, 1};
   }
   return {0, 1, 2};
 }
@@ -174,7 +195,8 @@ Eigen::Vector3d CtSlice::lps(double col, double row) const {
 
 Eigen::Vector2d CtSlice::pixel(const Eigen::Vector3d& point) const {
   const SlicePlaneAxes axes = slicePlaneAxes(plane);
-  return {(point[axes.u] - originUvMm.x()) / spacingMm, (point[axes.v] - originUvMm.y()) / spacingMm};
+  return {(point[axes.u] - originUvMm.x()) / spacingMm,
+          (point[axes.v] - originUvMm.y()) / spacingMm};
 }
 
 double sampleCt(const CtImage& ct, const Eigen::Vector3d& lps) {
@@ -197,13 +219,15 @@ double sampleCt(const CtImage& ct, const Eigen::Vector3d& lps) {
     const int ck = corner & 4 ? i1[2] : i0[2];
     const double w = (corner & 1 ? f[0] : 1.0 - f[0]) * (corner & 2 ? f[1] : 1.0 - f[1]) *
                      (corner & 4 ? f[2] : 1.0 - f[2]);
-    if (w != 0.0) result += w * ct.at(ci, cj, ck);
+    if (w != 0.0)
+      result += w * ct.at(ci, cj, ck);
   }
   return result;
 }
 
 CtSlice resliceCt(const CtImage& ct, SlicePlane plane, double positionMm,
-                  const Eigen::Vector2d& minUvMm, const Eigen::Vector2d& maxUvMm, double spacingMm) {
+                  const Eigen::Vector2d& minUvMm, const Eigen::Vector2d& maxUvMm,
+                  double spacingMm) {
   checkCt(ct);
   if (!std::isfinite(spacingMm) || spacingMm <= 0.0)
     throw std::invalid_argument("reslice: the sample spacing must be positive");
@@ -212,7 +236,8 @@ CtSlice resliceCt(const CtImage& ct, SlicePlane plane, double positionMm,
   Eigen::Vector3d low = Eigen::Vector3d::Constant(std::numeric_limits<double>::infinity());
   Eigen::Vector3d high = -low;
   for (int corner = 0; corner < 8; ++corner) {
-    const Eigen::Vector3d ijk(corner & 1 ? ct.dimensions[0] - 1 : 0, corner & 2 ? ct.dimensions[1] - 1 : 0,
+    const Eigen::Vector3d ijk(corner & 1 ? ct.dimensions[0] - 1 : 0,
+                              corner & 2 ? ct.dimensions[1] - 1 : 0,
                               corner & 4 ? ct.dimensions[2] - 1 : 0);
     const Eigen::Vector3d p = ct.voxelToLps(ijk);
     low = low.cwiseMin(p);
@@ -225,7 +250,8 @@ CtSlice resliceCt(const CtImage& ct, SlicePlane plane, double positionMm,
   if (!(from.allFinite() && to.allFinite()) || positionMm < low[axes.normal] ||
       positionMm > high[axes.normal] || (to - from).minCoeff() < spacingMm)
     throw std::invalid_argument(std::string("reslice: the ") + slicePlaneName(plane) +
-                                " rectangle at " + kAxisNames[axes.normal] + " = " + mm(positionMm) +
+                                " rectangle at " + kAxisNames[axes.normal] + " = " +
+                                mm(positionMm) +
                                 " mm misses the CT volume or is smaller than 2 x 2 samples");
   CtSlice slice;
   slice.plane = plane;
@@ -247,7 +273,8 @@ CtSlice resliceCt(const CtImage& ct, SlicePlane plane, double positionMm,
 
 std::vector<AnchorSet> readAnchors(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw FileError(path, "cannot open the anchors file");
+  if (!in)
+    throw FileError(path, "cannot open the anchors file");
   nlohmann::json doc;
   try {
     doc = nlohmann::json::parse(in);
@@ -257,13 +284,16 @@ std::vector<AnchorSet> readAnchors(const std::string& path) {
   std::vector<AnchorSet> sets;
   if (doc.is_object() && doc.contains("markups")) {
     sets = readSlicerAnchors(path);
-    if (sets.empty()) throw FileError(path, "no contour (no ClosedCurve markup)");
+    if (sets.empty())
+      throw FileError(path, "no contour (no ClosedCurve markup)");
   } else if (doc.is_object() && doc.contains("contours")) {
     sets = readEchoregAnchors(path, doc);
-    if (sets.empty()) throw FileError(path, "no contour (\"contours\" is empty)");
+    if (sets.empty())
+      throw FileError(path, "no contour (\"contours\" is empty)");
   } else {
-    throw FileError(path, "neither echoreg anchors (\"contours\") nor a 3D Slicer .mrk.json "
-                          "(\"markups\")");
+    throw FileError(path,
+                    "neither echoreg anchors (\"contours\") nor a 3D Slicer .mrk.json "
+                    "(\"markups\")");
   }
   return sets;
 }
@@ -283,7 +313,8 @@ void writeAnchors(const std::string& path, const std::vector<AnchorSet>& anchors
       markup.points.push_back({name + "-" + std::to_string(i + 1), set.anchorsLps[i]});
     markups.push_back(std::move(markup));
   }
-  if (markups.empty()) throw FileError(path, "no contour to write; nothing written");
+  if (markups.empty())
+    throw FileError(path, "no contour to write; nothing written");
   core::writeMarkups(path, markups);
 }
 
@@ -303,9 +334,11 @@ SliceContour liveWireContour(const CtImage& ct, const AnchorSet& anchors,
   for (std::size_t i = 0; i < anchors.anchorsLps.size(); ++i) {
     const Eigen::Vector3d& a = anchors.anchorsLps[i];
     const std::string which = name + ", anchor " + std::to_string(i + 1) + " " + pointText(a);
-    if (!a.allFinite()) throw std::invalid_argument(which + " is not finite");
+    if (!a.allFinite())
+      throw std::invalid_argument(which + " is not finite");
     if (std::abs(a[axes.normal] - anchors.positionMm) > kPlaneToleranceMm)
-      throw std::invalid_argument(which + " is " + mm(std::abs(a[axes.normal] - anchors.positionMm)) +
+      throw std::invalid_argument(which + " is " +
+                                  mm(std::abs(a[axes.normal] - anchors.positionMm)) +
                                   " mm off the " + slicePlaneName(anchors.plane) + " slice at " +
                                   kAxisNames[axes.normal] + " = " + mm(anchors.positionMm) + " mm");
     const Eigen::Vector3d ijk = ct.lpsToVoxel(a);
@@ -320,8 +353,8 @@ SliceContour liveWireContour(const CtImage& ct, const AnchorSet& anchors,
                              ? options.sampleSpacingMm
                              : std::min(ct.pixelSpacingMm.x(), ct.pixelSpacingMm.y());
   const Eigen::Vector2d margin = Eigen::Vector2d::Constant(options.marginMm + 2.0 * spacing);
-  const CtSlice slice = resliceCt(ct, anchors.plane, anchors.positionMm, low - margin,
-                                  high + margin, spacing);
+  const CtSlice slice =
+      resliceCt(ct, anchors.plane, anchors.positionMm, low - margin, high + margin, spacing);
 
   core::LiveWire wire(slice.hu, slice.width, slice.height, Eigen::Vector2d(spacing, spacing),
                       options.liveWire);
@@ -352,10 +385,12 @@ SliceContour liveWireContour(const CtImage& ct, const AnchorSet& anchors,
   for (std::size_t i = 0; i < n; ++i) {
     const Eigen::Vector2d p = closed.points[i].cast<double>();
     refined[i] = p;
-    if (!options.subpixelRefine || n < 5) continue;
+    if (!options.subpixelRefine || n < 5)
+      continue;
     const Eigen::Vector2d tangent =
         (closed.points[(i + 2) % n] - closed.points[(i + n - 2) % n]).cast<double>();
-    if (tangent.norm() == 0.0) continue;
+    if (tangent.norm() == 0.0)
+      continue;
     const Eigen::Vector2d normal = Eigen::Vector2d(-tangent.y(), tangent.x()).normalized();
     double lo = std::numeric_limits<double>::infinity();
     double hi = -lo;
@@ -366,17 +401,21 @@ SliceContour liveWireContour(const CtImage& ct, const AnchorSet& anchors,
       lo = std::min(lo, v);
       hi = std::max(hi, v);
     }
-    if (!(hi - lo > 1e-6)) continue;
+    if (!(hi - lo > 1e-6))
+      continue;
     const double level = 0.5 * (lo + hi);
     double best = std::numeric_limits<double>::infinity();
     for (int k = -kHalf; k < kHalf; ++k) {
       const double a = profile[static_cast<std::size_t>(k + kHalf)] - level;
       const double b = profile[static_cast<std::size_t>(k + kHalf + 1)] - level;
-      if ((a < 0.0) == (b < 0.0)) continue;
+      if ((a < 0.0) == (b < 0.0))
+        continue;
       const double t = (k + a / (a - b)) * kStep;
-      if (std::abs(t) < std::abs(best)) best = t;
+      if (std::abs(t) < std::abs(best))
+        best = t;
     }
-    if (std::abs(best) <= kMaxShift) refined[i] = p + best * normal;
+    if (std::abs(best) <= kMaxShift)
+      refined[i] = p + best * normal;
   }
 
   SliceContour contour;
@@ -386,7 +425,8 @@ SliceContour liveWireContour(const CtImage& ct, const AnchorSet& anchors,
   contour.anchorIndices = closed.anchorIndices;
   contour.sampleSpacingMm = spacing;
   contour.pointsLps.reserve(n);
-  for (const auto& p : refined) contour.pointsLps.push_back(slice.lps(p.x(), p.y()));
+  for (const auto& p : refined)
+    contour.pointsLps.push_back(slice.lps(p.x(), p.y()));
   return contour;
 }
 

@@ -37,19 +37,23 @@ std::string header(const CtImage& g, const char* type, bool gzip) {
   }
   text += "\nkinds: domain domain domain\n";
   text += fmt::format("endian: little\nencoding: {}\n", gzip ? "gzip" : "raw");
-  text += fmt::format("space origin: ({},{},{})\n\n", g.originMm.x(), g.originMm.y(), g.originMm.z());
+  text +=
+      fmt::format("space origin: ({},{},{})\n\n", g.originMm.x(), g.originMm.y(), g.originMm.z());
   return text;
 }
 
-void writeBytes(const std::string& path, const CtImage& geometry, const char* type, const char* data,
-                std::size_t count, std::size_t elementSize, const NrrdWriteOptions& options) {
+void writeBytes(const std::string& path, const CtImage& geometry, const char* type,
+                const char* data, std::size_t count, std::size_t elementSize,
+                const NrrdWriteOptions& options) {
   if (!geometry.uniform()) {
-    throw std::invalid_argument("writeNrrdVolume: " + path +
-                                ": the CT grid has several slice spacings; resample it or extract one group");
+    throw std::invalid_argument(
+        "writeNrrdVolume: " + path +
+        ": the CT grid has several slice spacings; resample it or extract one group");
   }
   if (count != geometry.voxelCount() || count == 0) {
-    throw std::invalid_argument(fmt::format("writeNrrdVolume: {}: {} voxels for a {} x {} x {} grid", path, count,
-                                            geometry.dimensions[0], geometry.dimensions[1], geometry.dimensions[2]));
+    throw std::invalid_argument(
+        fmt::format("writeNrrdVolume: {}: {} voxels for a {} x {} x {} grid", path, count,
+                    geometry.dimensions[0], geometry.dimensions[1], geometry.dimensions[2]));
   }
   if (elementSize > 1 && !hostIsLittleEndian()) {
     throw std::runtime_error("writeNrrdVolume: big-endian hosts are not supported");
@@ -83,25 +87,30 @@ void writeBytes(const std::string& path, const CtImage& geometry, const char* ty
       } while (z.avail_out == 0);
     } while (done < bytes);
     deflateEnd(&z);
-    if (status != Z_STREAM_END) throw FileError(path, "zlib failed to compress the voxels");
+    if (status != Z_STREAM_END)
+      throw FileError(path, "zlib failed to compress the voxels");
   }
   file.commit();
 }
 
 std::string trimmed(const std::string& text) {
   std::size_t a = 0, b = text.size();
-  while (a < b && (text[a] == ' ' || text[a] == '\t')) ++a;
-  while (b > a && (text[b - 1] == ' ' || text[b - 1] == '\t' || text[b - 1] == '\r')) --b;
+  while (a < b && (text[a] == ' ' || text[a] == '\t'))
+    ++a;
+  while (b > a && (text[b - 1] == ' ' || text[b - 1] == '\t' || text[b - 1] == '\r'))
+    --b;
   return text.substr(a, b - a);
 }
 
 // "(a,b,c)" -> vector; false on a malformed triple.
 bool parseTriple(const std::string& text, Eigen::Vector3d& v) {
   std::string t = trimmed(text);
-  if (t.size() < 2 || t.front() != '(' || t.back() != ')') return false;
+  if (t.size() < 2 || t.front() != '(' || t.back() != ')')
+    return false;
   t = t.substr(1, t.size() - 2);
   for (char& c : t) {
-    if (c == ',') c = ' ';
+    if (c == ',')
+      c = ' ';
   }
   std::istringstream in(t);
   in >> v.x() >> v.y() >> v.z();
@@ -111,21 +120,25 @@ bool parseTriple(const std::string& text, Eigen::Vector3d& v) {
 
 }  // namespace
 
-void writeNrrdVolume(const std::string& path, const CtImage& geometry, const std::vector<std::int16_t>& voxels,
-                     const NrrdWriteOptions& options) {
-  writeBytes(path, geometry, "short", reinterpret_cast<const char*>(voxels.data()), voxels.size(), 2, options);
+void writeNrrdVolume(const std::string& path, const CtImage& geometry,
+                     const std::vector<std::int16_t>& voxels, const NrrdWriteOptions& options) {
+  writeBytes(path, geometry, "short", reinterpret_cast<const char*>(voxels.data()), voxels.size(),
+             2, options);
 }
 
-void writeNrrdVolume(const std::string& path, const CtImage& geometry, const std::vector<std::uint8_t>& voxels,
-                     const NrrdWriteOptions& options) {
-  writeBytes(path, geometry, "uchar", reinterpret_cast<const char*>(voxels.data()), voxels.size(), 1, options);
+void writeNrrdVolume(const std::string& path, const CtImage& geometry,
+                     const std::vector<std::uint8_t>& voxels, const NrrdWriteOptions& options) {
+  writeBytes(path, geometry, "uchar", reinterpret_cast<const char*>(voxels.data()), voxels.size(),
+             1, options);
 }
 
 NrrdVolume readNrrdVolume(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw FileError(path, "cannot be opened");
+  if (!in)
+    throw FileError(path, "cannot be opened");
   std::string line;
-  if (!std::getline(in, line) || line.rfind("NRRD000", 0) != 0) throw FileError(path, "is not a NRRD file");
+  if (!std::getline(in, line) || line.rfind("NRRD000", 0) != 0)
+    throw FileError(path, "is not a NRRD file");
   std::string type, space, encoding = "raw", endian = "little";
   int dimension = 0;
   std::array<int, 3> sizes{0, 0, 0};
@@ -133,14 +146,19 @@ NrrdVolume readNrrdVolume(const std::string& path) {
   bool haveDirections = false, haveOrigin = false;
   Eigen::Vector3d origin = Eigen::Vector3d::Zero();
   while (std::getline(in, line)) {
-    if (!line.empty() && line.back() == '\r') line.pop_back();
-    if (line.empty()) break;
-    if (line[0] == '#') continue;
+    if (!line.empty() && line.back() == '\r')
+      line.pop_back();
+    if (line.empty())
+      break;
+    if (line[0] == '#')
+      continue;
     const std::size_t colon = line.find(':');
-    if (colon == std::string::npos) throw FileError(path, "malformed header line \"" + line + "\"");
+    if (colon == std::string::npos)
+      throw FileError(path, "malformed header line \"" + line + "\"");
     const std::string key = trimmed(line.substr(0, colon));
     std::string value = line.substr(colon + 1);
-    if (!value.empty() && value[0] == '=') throw FileError(path, "key/value pairs (\":=\") are not supported");
+    if (!value.empty() && value[0] == '=')
+      throw FileError(path, "key/value pairs (\":=\") are not supported");
     value = trimmed(value);
     if (key == "type") {
       type = value;
@@ -149,7 +167,8 @@ NrrdVolume readNrrdVolume(const std::string& path) {
     } else if (key == "sizes") {
       std::istringstream s(value);
       s >> sizes[0] >> sizes[1] >> sizes[2];
-      if (s.fail()) throw FileError(path, "bad sizes \"" + value + "\"");
+      if (s.fail())
+        throw FileError(path, "bad sizes \"" + value + "\"");
     } else if (key == "space") {
       space = value;
     } else if (key == "space directions") {
@@ -157,11 +176,13 @@ NrrdVolume readNrrdVolume(const std::string& path) {
       for (Eigen::Vector3d& d : directions) {
         std::string word;
         s >> word;
-        if (!parseTriple(word, d)) throw FileError(path, "bad space directions \"" + value + "\"");
+        if (!parseTriple(word, d))
+          throw FileError(path, "bad space directions \"" + value + "\"");
       }
       haveDirections = true;
     } else if (key == "space origin") {
-      if (!parseTriple(value, origin)) throw FileError(path, "bad space origin \"" + value + "\"");
+      if (!parseTriple(value, origin))
+        throw FileError(path, "bad space origin \"" + value + "\"");
       haveOrigin = true;
     } else if (key == "encoding") {
       encoding = value;
@@ -171,7 +192,8 @@ NrrdVolume readNrrdVolume(const std::string& path) {
       throw FileError(path, "detached data files are not supported");
     }
   }
-  if (dimension != 3) throw FileError(path, fmt::format("dimension {} (expected 3)", dimension));
+  if (dimension != 3)
+    throw FileError(path, fmt::format("dimension {} (expected 3)", dimension));
   std::size_t elementSize = 0;
   bool isMask = false;
   if (type == "short" || type == "int16" || type == "int16_t" || type == "signed short") {
@@ -182,15 +204,18 @@ NrrdVolume readNrrdVolume(const std::string& path) {
   } else {
     throw FileError(path, "type \"" + type + "\" is not supported (short or uchar)");
   }
-  if (elementSize > 1 && endian != "little") throw FileError(path, "big-endian data is not supported");
-  if (!haveDirections || !haveOrigin) throw FileError(path, "has no space directions / space origin");
+  if (elementSize > 1 && endian != "little")
+    throw FileError(path, "big-endian data is not supported");
+  if (!haveDirections || !haveOrigin)
+    throw FileError(path, "has no space directions / space origin");
   double sign = 1.0;
   if (space == "right-anterior-superior" || space == "RAS") {
     sign = -1.0;
   } else if (space != "left-posterior-superior" && space != "LPS") {
     throw FileError(path, "space \"" + space + "\" is not supported (LPS or RAS)");
   }
-  if (sizes[0] < 1 || sizes[1] < 1 || sizes[2] < 1) throw FileError(path, "sizes must be positive");
+  if (sizes[0] < 1 || sizes[1] < 1 || sizes[2] < 1)
+    throw FileError(path, "sizes must be positive");
   NrrdVolume volume;
   volume.isMask = isMask;
   CtImage& image = volume.image;
@@ -201,7 +226,8 @@ NrrdVolume readNrrdVolume(const std::string& path) {
   for (int a = 0; a < 3; ++a) {
     const Eigen::Vector3d d = directions[static_cast<std::size_t>(a)].cwiseProduct(flip);
     spacing[a] = d.norm();
-    if (!(spacing[a] > 0.0)) throw FileError(path, "a space direction is zero");
+    if (!(spacing[a] > 0.0))
+      throw FileError(path, "a space direction is zero");
     image.direction.col(a) = d / spacing[a];
   }
   if (std::abs(image.direction.col(0).dot(image.direction.col(1))) > 1e-4 ||
@@ -210,17 +236,21 @@ NrrdVolume readNrrdVolume(const std::string& path) {
     throw FileError(path, "space directions are not orthogonal");
   }
   image.pixelSpacingMm = Eigen::Vector2d(spacing.x(), spacing.y());
-  for (int k = 0; k < sizes[2]; ++k) image.slicePositionsMm.push_back(k * spacing.z());
+  for (int k = 0; k < sizes[2]; ++k)
+    image.slicePositionsMm.push_back(k * spacing.z());
   image.groups = {CtSliceGroup{0, sizes[2], sizes[2] > 1 ? spacing.z() : 0.0}};
   const std::size_t bytes = image.voxelCount() * elementSize;
   std::vector<char> data(bytes);
   if (encoding == "raw") {
     in.read(data.data(), static_cast<std::streamsize>(bytes));
-    if (static_cast<std::size_t>(in.gcount()) != bytes) throw FileError(path, "truncated data");
+    if (static_cast<std::size_t>(in.gcount()) != bytes)
+      throw FileError(path, "truncated data");
   } else if (encoding == "gzip" || encoding == "gz") {
-    const std::string compressed((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const std::string compressed((std::istreambuf_iterator<char>(in)),
+                                 std::istreambuf_iterator<char>());
     z_stream z{};
-    if (inflateInit2(&z, 15 + 32) != Z_OK) throw FileError(path, "zlib cannot start decompressing");
+    if (inflateInit2(&z, 15 + 32) != Z_OK)
+      throw FileError(path, "zlib cannot start decompressing");
     z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(compressed.data()));
     z.avail_in = static_cast<uInt>(compressed.size());
     z.next_out = reinterpret_cast<Bytef*>(data.data());
@@ -229,7 +259,8 @@ NrrdVolume readNrrdVolume(const std::string& path) {
     const std::size_t produced = bytes - z.avail_out;
     inflateEnd(&z);
     if (status != Z_STREAM_END || produced != bytes) {
-      throw FileError(path, fmt::format("gzip data is truncated or corrupt ({} of {} bytes)", produced, bytes));
+      throw FileError(
+          path, fmt::format("gzip data is truncated or corrupt ({} of {} bytes)", produced, bytes));
     }
   } else {
     throw FileError(path, "encoding \"" + encoding + "\" is not supported (raw or gzip)");

@@ -39,7 +39,8 @@ void releaseVoxels(void* pointer) {
   {
     const std::lock_guard<std::mutex> lock(handedOverMutex());
     auto it = handedOver().find(pointer);
-    if (it == handedOver().end()) return;
+    if (it == handedOver().end())
+      return;
     owner = std::move(it->second);
     handedOver().erase(it);
   }
@@ -64,7 +65,8 @@ vtkSmartPointer<vtkImageData> emptyImage(const CtImage& image) {
   data->SetOrigin(image.originMm.x(), image.originMm.y(), image.originMm.z());
   double direction[9];
   for (int r = 0; r < 3; ++r) {
-    for (int c = 0; c < 3; ++c) direction[3 * r + c] = image.direction(r, c);
+    for (int c = 0; c < 3; ++c)
+      direction[3 * r + c] = image.direction(r, c);
   }
   data->SetDirectionMatrix(direction);
   return data;
@@ -91,16 +93,19 @@ CtImage resampledGeometry(const CtImage& image, double spacingMm) {
     spacingMm = 0.0;
     for (std::size_t k = 1; k < image.slicePositionsMm.size(); ++k) {
       const double step = image.slicePositionsMm[k] - image.slicePositionsMm[k - 1];
-      if (spacingMm == 0.0 || step < spacingMm) spacingMm = step;
+      if (spacingMm == 0.0 || step < spacingMm)
+        spacingMm = step;
     }
-    if (spacingMm <= 0.0) spacingMm = 1.0;
+    if (spacingMm <= 0.0)
+      spacingMm = 1.0;
   }
   CtImage out = geometryOnly(image);
   const double length = image.slicePositionsMm.empty() ? 0.0 : image.slicePositionsMm.back();
   const int slices = static_cast<int>(std::floor(length / spacingMm + 1e-6)) + 1;
   out.dimensions[2] = slices;
   out.slicePositionsMm.resize(static_cast<std::size_t>(slices));
-  for (int k = 0; k < slices; ++k) out.slicePositionsMm[static_cast<std::size_t>(k)] = k * spacingMm;
+  for (int k = 0; k < slices; ++k)
+    out.slicePositionsMm[static_cast<std::size_t>(k)] = k * spacingMm;
   out.groups = {CtSliceGroup{0, slices, slices > 1 ? spacingMm : 0.0}};
   return out;
 }
@@ -109,7 +114,8 @@ CtImage resampledGeometry(const CtImage& image, double spacingMm) {
 
 CtImage extractSliceGroup(const CtImage& image, int group) {
   if (group < 0 || static_cast<std::size_t>(group) >= image.groups.size()) {
-    throw std::invalid_argument("slice group " + std::to_string(group) + " does not exist (the CT has " +
+    throw std::invalid_argument("slice group " + std::to_string(group) +
+                                " does not exist (the CT has " +
                                 std::to_string(image.groups.size()) + ")");
   }
   const CtSliceGroup& g = image.groups[static_cast<std::size_t>(group)];
@@ -120,15 +126,19 @@ CtImage extractSliceGroup(const CtImage& image, int group) {
   out.direction = image.direction;
   out.pixelSpacingMm = image.pixelSpacingMm;
   for (int k = 0; k < g.count; ++k) {
-    out.slicePositionsMm.push_back(image.slicePositionsMm[static_cast<std::size_t>(g.firstSlice + k)] - first);
+    out.slicePositionsMm.push_back(
+        image.slicePositionsMm[static_cast<std::size_t>(g.firstSlice + k)] - first);
   }
   out.groups = {CtSliceGroup{0, g.count, g.spacingMm}};
   out.seriesInstanceUid = image.seriesInstanceUid;
   out.folder = image.folder;
   if (!image.hu.empty()) {
-    const std::size_t plane = static_cast<std::size_t>(image.dimensions[0]) * static_cast<std::size_t>(image.dimensions[1]);
-    const auto begin = image.hu.begin() + static_cast<std::ptrdiff_t>(plane * static_cast<std::size_t>(g.firstSlice));
-    out.hu.assign(begin, begin + static_cast<std::ptrdiff_t>(plane * static_cast<std::size_t>(g.count)));
+    const std::size_t plane = static_cast<std::size_t>(image.dimensions[0]) *
+                              static_cast<std::size_t>(image.dimensions[1]);
+    const auto begin = image.hu.begin() +
+                       static_cast<std::ptrdiff_t>(plane * static_cast<std::size_t>(g.firstSlice));
+    out.hu.assign(begin,
+                  begin + static_cast<std::ptrdiff_t>(plane * static_cast<std::size_t>(g.count)));
   }
   return out;
 }
@@ -165,7 +175,9 @@ vtkSmartPointer<vtkImageData> toImageData(CtImage&& image) {
 
 }  // namespace echoreg::segmentation
 
-vtkEchoregDicomSeriesReader::vtkEchoregDicomSeriesReader() { this->SetNumberOfInputPorts(0); }
+vtkEchoregDicomSeriesReader::vtkEchoregDicomSeriesReader() {
+  this->SetNumberOfInputPorts(0);
+}
 
 vtkEchoregDicomSeriesReader::~vtkEchoregDicomSeriesReader() = default;
 
@@ -179,13 +191,15 @@ void vtkEchoregDicomSeriesReader::PrintSelf(ostream& os, vtkIndent indent) {
 }
 
 void vtkEchoregDicomSeriesReader::SetDirectoryName(const std::string& folder) {
-  if (this->DirectoryName == folder) return;
+  if (this->DirectoryName == folder)
+    return;
   this->DirectoryName = folder;
   this->Modified();
 }
 
 void vtkEchoregDicomSeriesReader::SetSeriesUid(const std::string& uid) {
-  if (this->SeriesUid == uid) return;
+  if (this->SeriesUid == uid)
+    return;
   this->SeriesUid = uid;
   this->Modified();
 }
@@ -198,19 +212,21 @@ void vtkEchoregDicomSeriesReader::Fail(const std::string& message) {
 echoreg::segmentation::CtImage vtkEchoregDicomSeriesReader::OutputGeometry(
     const echoreg::segmentation::CtImage& series) const {
   using namespace echoreg::segmentation;
-  if (this->ResampleToUniform) return resampledGeometry(series, this->ResampleSpacing);
+  if (this->ResampleToUniform)
+    return resampledGeometry(series, this->ResampleSpacing);
   if (this->Group >= 0) {
     if (static_cast<std::size_t>(this->Group) >= series.groups.size()) {
       throw echoreg::FileError(series.folder, "has " + std::to_string(series.groups.size()) +
-                                                  " slice group(s); group " + std::to_string(this->Group) +
-                                                  " does not exist");
+                                                  " slice group(s); group " +
+                                                  std::to_string(this->Group) + " does not exist");
     }
     return extractSliceGroup(geometryOnly(series), this->Group);
   }
   if (!series.uniform()) {
     std::string groups;
     for (const CtSliceGroup& g : series.groups) {
-      groups += (groups.empty() ? "" : ", ") + std::to_string(g.count) + " at " + std::to_string(g.spacingMm) + " mm";
+      groups += (groups.empty() ? "" : ", ") + std::to_string(g.count) + " at " +
+                std::to_string(g.spacingMm) + " mm";
     }
     throw echoreg::FileError(series.folder, "has slices of several spacings (" + groups +
                                                 "): turn ResampleToUniform on or choose one Group");
@@ -223,7 +239,8 @@ int vtkEchoregDicomSeriesReader::RequestInformation(vtkInformation* /*request*/,
                                                     vtkInformationVector* outputVector) {
   vtkInformation* outInfo = outputVector->GetInformationObject(0);
   try {
-    if (this->DirectoryName.empty()) throw std::invalid_argument("no directory name set");
+    if (this->DirectoryName.empty())
+      throw std::invalid_argument("no directory name set");
     echoreg::segmentation::DicomReadOptions options;
     options.seriesUid = this->SeriesUid;
     echoreg::segmentation::DicomSeriesRead read =
@@ -231,14 +248,15 @@ int vtkEchoregDicomSeriesReader::RequestInformation(vtkInformation* /*request*/,
     this->SeriesGeometry = std::move(read.image);
     this->Warnings = std::move(read.warnings);
     const echoreg::segmentation::CtImage geometry = this->OutputGeometry(this->SeriesGeometry);
-    const int extent[6] = {0, geometry.dimensions[0] - 1, 0, geometry.dimensions[1] - 1, 0,
-                           geometry.dimensions[2] - 1};
+    const int extent[6] = {0, geometry.dimensions[0] - 1, 0, geometry.dimensions[1] - 1,
+                           0, geometry.dimensions[2] - 1};
     const Eigen::Vector3d spacing = geometry.spacingMm();
     const double spacingArray[3] = {spacing.x(), spacing.y(), spacing.z()};
     const double origin[3] = {geometry.originMm.x(), geometry.originMm.y(), geometry.originMm.z()};
     double direction[9];
     for (int r = 0; r < 3; ++r) {
-      for (int c = 0; c < 3; ++c) direction[3 * r + c] = geometry.direction(r, c);
+      for (int c = 0; c < 3; ++c)
+        direction[3 * r + c] = geometry.direction(r, c);
     }
     outInfo->Set(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent, 6);
     outInfo->Set(vtkDataObject::SPACING(), spacingArray, 3);
@@ -247,7 +265,8 @@ int vtkEchoregDicomSeriesReader::RequestInformation(vtkInformation* /*request*/,
     vtkDataObject::SetPointDataActiveScalarInfo(outInfo, VTK_SHORT, 1);
   } catch (const std::exception& e) {
     this->Fail(e.what());
-    if (vtkDataObject* output = outInfo->Get(vtkDataObject::DATA_OBJECT())) output->Initialize();
+    if (vtkDataObject* output = outInfo->Get(vtkDataObject::DATA_OBJECT()))
+      output->Initialize();
     return 0;
   }
   return 1;

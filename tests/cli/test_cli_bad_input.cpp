@@ -43,7 +43,8 @@ class CliBadInput : public ::testing::Test {
     std::string bytes = text_;
     const std::size_t at = bytes.find(from);
     EXPECT_NE(at, std::string::npos) << from;
-    if (at != std::string::npos) bytes.replace(at, from.size(), to);
+    if (at != std::string::npos)
+      bytes.replace(at, from.size(), to);
     const std::string path = dir_.file(name);
     spill(path, bytes);
     return path;
@@ -53,7 +54,8 @@ class CliBadInput : public ::testing::Test {
     const std::string csv = dir_.file("out.csv");
     for (const std::string& command : {std::string("detect"), std::string("info")}) {
       std::vector<std::string> args{command, capture};
-      if (command == "detect") args.insert(args.end(), {"--out", csv});
+      if (command == "detect")
+        args.insert(args.end(), {"--out", csv});
       const auto result = runEchoreg(args);
       EXPECT_EQ(result.exitCode, 1) << command << " " << capture << "\n" << result.err;
       EXPECT_NE(result.err.find(capture), std::string::npos) << result.err;
@@ -114,7 +116,8 @@ TEST_F(CliBadInput, NoElementDataFile) {
 TEST_F(CliBadInput, CompressedDataThatDoesNotInflate) {
   std::string bytes = slurp(dir_.file("zipped.igs.mha"));
   const std::size_t data = bytes.find("ElementDataFile = LOCAL\n") + 24;
-  for (std::size_t i = data + 10; i < bytes.size() && i < data + 200; ++i) bytes[i] = static_cast<char>(bytes[i] ^ 0x5A);
+  for (std::size_t i = data + 10; i < bytes.size() && i < data + 200; ++i)
+    bytes[i] = static_cast<char>(bytes[i] ^ 0x5A);
   const std::string path = dir_.file("corrupt.igs.mha");
   spill(path, bytes);
   expectRefused(path, "inflate");
@@ -135,7 +138,8 @@ TEST_F(CliBadInput, TransformWithFifteenNumbers) {
   const std::size_t end = text_.find('\n', begin);
   const std::string line = text_.substr(begin, end - begin);
   ASSERT_EQ(line.substr(line.size() - 2), " 1");
-  expectRefused(variant("fifteen.igs.mha", line, line.substr(0, line.size() - 2)), key.substr(0, 37));
+  expectRefused(variant("fifteen.igs.mha", line, line.substr(0, line.size() - 2)),
+                key.substr(0, 37));
 }
 
 TEST_F(CliBadInput, EmptySequence) {
@@ -143,7 +147,8 @@ TEST_F(CliBadInput, EmptySequence) {
   std::istringstream lines(header);
   std::string kept;
   for (std::string line; std::getline(lines, line);) {
-    if (line.rfind("Seq_Frame", 0) == 0) continue;
+    if (line.rfind("Seq_Frame", 0) == 0)
+      continue;
     kept += (line == "DimSize = 4096 1 8" ? std::string("DimSize = 4096 1 0") : line) + "\n";
   }
   const std::string path = dir_.file("empty.igs.mha");
@@ -157,7 +162,8 @@ TEST_F(CliBadInput, DirectoryAndMissingFile) {
 }
 
 TEST_F(CliBadInput, TrackerOnlyCaptureHasNoALinesToDetect) {
-  ECHOREG_REQUIRE_SHARED_FILE(capture, "plus/EightLandmarkPointsTrackedForPhantomRegistration.igs.mha");
+  ECHOREG_REQUIRE_SHARED_FILE(capture,
+                              "plus/EightLandmarkPointsTrackedForPhantomRegistration.igs.mha");
   const auto result = runEchoreg({"detect", capture, "--out", dir_.file("t.csv")});
   EXPECT_EQ(result.exitCode, 1);
   EXPECT_NE(result.err.find("no A-lines"), std::string::npos) << result.err;

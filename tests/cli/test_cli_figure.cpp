@@ -7,9 +7,9 @@
 #include "echoreg/core/transform_file.hpp"
 #include "echoreg/filters/MeshIO.h"
 
-#include <nlohmann/json.hpp>
 #include <vtkImageData.h>
 #include <vtkPNGReader.h>
+#include <nlohmann/json.hpp>
 
 #include <gtest/gtest.h>
 
@@ -47,20 +47,20 @@ TEST(CliFigure, RegistrationFigureCountsPointsPerBand) {
   echoreg::filters::writeMesh(dir.file("box.vtp"), boxMesh());
   // The points in the tracker's frame; FemurToCT shifts them by +10 mm in x.
   std::ofstream(dir.file("points.csv")) << "x,y,z\n"
-                                           "-10,0,-21\n"      // 1 mm below the bottom face
-                                           "-10,5,23.5\n"     // 3.5 mm above the top face
-                                           "-10,-30,0\n"      // 10 mm in front
-                                           "-10,0,0\n";       // 20 mm inside
+                                           "-10,0,-21\n"   // 1 mm below the bottom face
+                                           "-10,5,23.5\n"  // 3.5 mm above the top face
+                                           "-10,-30,0\n"   // 10 mm in front
+                                           "-10,0,0\n";    // 20 mm inside
   echoreg::TransformFile t;
   t.from = "Femur";
   t.to = "CT";
   t.matrix = Eigen::Matrix4d::Identity();
   t.matrix(0, 3) = 10.0;
   echoreg::writeTransformFile(dir.file("FemurToCT.json"), t, false);
-  const auto r = runEchoreg({"figure", "registration", "--model", dir.file("box.vtp"), "--points",
-                             dir.file("points.csv"), "--transform", dir.file("FemurToCT.json"),
-                             "--out", dir.file("reg.png"), "--width", "600", "--height", "300",
-                             "--json"});
+  const auto r =
+      runEchoreg({"figure", "registration", "--model", dir.file("box.vtp"), "--points",
+                  dir.file("points.csv"), "--transform", dir.file("FemurToCT.json"), "--out",
+                  dir.file("reg.png"), "--width", "600", "--height", "300", "--json"});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const auto json = nlohmann::json::parse(r.out);
   EXPECT_EQ(json["points"], 4);
@@ -73,21 +73,26 @@ TEST(CliFigure, RegistrationFigureCountsPointsPerBand) {
 
 TEST(CliFigure, CalibrationFigureReadsTheCalibrationsShots) {
   TempDir dir;
-  nlohmann::json cal = {{"from", "Beam"}, {"to", "Probe"},
+  nlohmann::json cal = {{"from", "Beam"},
+                        {"to", "Probe"},
                         {"matrix", {{1, 0, 0, 0}, {0, 1, 0, 0}, {0, 0, 1, 0}, {0, 0, 0, 1}}},
-                        {"sphere_center_mm", {10, 20, 30}}, {"sphere_radius_mm", 25.4}};
+                        {"sphere_center_mm", {10, 20, 30}},
+                        {"sphere_radius_mm", 25.4}};
   cal["shots"] = nlohmann::json::array();
   for (int i = 0; i < 20; ++i) {
     const double a = 0.3 * i;
     const double residual = i < 15 ? 0.2 : (i < 18 ? 0.7 : -1.5);
     const double r = 25.4 + residual;
-    cal["shots"].push_back({{"frame", i}, {"depth_mm", 20.0}, {"residual_mm", residual},
+    cal["shots"].push_back({{"frame", i},
+                            {"depth_mm", 20.0},
+                            {"residual_mm", residual},
                             {"used", true},
                             {"point_mm", {10 + r * std::cos(a), 20 + r * std::sin(a), 30.0}}});
   }
   std::ofstream(dir.file("cal.json")) << cal.dump();
-  const auto r = runEchoreg({"figure", "calibration", "--calibration", dir.file("cal.json"), "--out",
-                             dir.file("cal.png"), "--width", "600", "--height", "300", "--json"});
+  const auto r =
+      runEchoreg({"figure", "calibration", "--calibration", dir.file("cal.json"), "--out",
+                  dir.file("cal.png"), "--width", "600", "--height", "300", "--json"});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const auto json = nlohmann::json::parse(r.out);
   EXPECT_EQ(json["bands"][0]["points"], 15);
@@ -126,21 +131,25 @@ TEST(CliFigure, SignalsFigureGivesEachSettingsVerdict) {
 
 TEST(CliFigure, BoxplotFigureRunsTheAnova) {
   TempDir dir;
-  std::ofstream(dir.file("a.csv")) << "estimate,error_mm\na,0.24\nb,0.31\nc,0.18\nd,0.45\ne,0.29\nf,0.33\nmean_abs,0.3\n";
-  std::ofstream(dir.file("b.csv")) << "estimate,error_mm\na,0.52\nb,0.61\nc,0.47\nd,0.70\ne,0.39\nf,0.58\ng,0.66\n";
+  std::ofstream(dir.file("a.csv"))
+      << "estimate,error_mm\na,0.24\nb,0.31\nc,0.18\nd,0.45\ne,0.29\nf,0.33\nmean_abs,0.3\n";
+  std::ofstream(dir.file("b.csv"))
+      << "estimate,error_mm\na,0.52\nb,0.61\nc,0.47\nd,0.70\ne,0.39\nf,0.58\ng,0.66\n";
   std::ofstream(dir.file("c.csv")) << "estimate,knee\na,0.30\nb,0.28\nc,0.41\nd,0.36\ne,0.25\n";
-  const auto r = runEchoreg({"figure", "boxplot", "--group", "A=" + dir.file("a.csv"), "--group",
-                             "B=" + dir.file("b.csv"), "--group", "C=" + dir.file("c.csv") + ":knee",
-                             "--out", dir.file("box.png"), "--json"});
+  const auto r =
+      runEchoreg({"figure", "boxplot", "--group", "A=" + dir.file("a.csv"), "--group",
+                  "B=" + dir.file("b.csv"), "--group", "C=" + dir.file("c.csv") + ":knee", "--out",
+                  dir.file("box.png"), "--json"});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   const auto json = nlohmann::json::parse(r.out);
   EXPECT_EQ(json["groups"][0]["n"], 6);  // the mean_abs summary row is not a value
   EXPECT_NEAR(json["anova"]["p"].get<double>(), 0.0001989631127352939, 1e-10);
-  const auto missing = runEchoreg({"figure", "boxplot", "--group", "A=" + dir.file("a.csv") + ":nope",
-                                   "--out", dir.file("x.png")});
+  const auto missing = runEchoreg({"figure", "boxplot", "--group",
+                                   "A=" + dir.file("a.csv") + ":nope", "--out", dir.file("x.png")});
   EXPECT_EQ(missing.exitCode, 1);
   EXPECT_NE(missing.err.find("has no column \"nope\""), std::string::npos) << missing.err;
-  const auto usage = runEchoreg({"figure", "boxplot", "--group", "nofile", "--out", dir.file("x.png")});
+  const auto usage =
+      runEchoreg({"figure", "boxplot", "--group", "nofile", "--out", dir.file("x.png")});
   EXPECT_EQ(usage.exitCode, 1);
   EXPECT_FALSE(std::filesystem::exists(dir.file("x.png")));
 }

@@ -9,10 +9,10 @@
 #include "echoreg/core/transform_file.hpp"
 #include "echoreg/filters/MeshIO.h"
 
-#include <nlohmann/json.hpp>
 #include <vtkNew.h>
 #include <vtkPNGReader.h>
 #include <vtkTesting.h>
+#include <nlohmann/json.hpp>
 
 #include <gtest/gtest.h>
 
@@ -54,7 +54,8 @@ void expectMatchesBaseline(const std::string& png, const std::string& name) {
 
 // A 30 mm sphere standing in for a bone.
 void writeSphereModel(const std::string& path) {
-  const echoreg::core::TriangleMesh mesh = echoreg::core::uvSphere(Eigen::Vector3d::Zero(), 30.0, 24, 48);
+  const echoreg::core::TriangleMesh mesh =
+      echoreg::core::uvSphere(Eigen::Vector3d::Zero(), 30.0, 24, 48);
   echoreg::filters::writeMesh(path, mesh);
 }
 
@@ -89,12 +90,16 @@ TEST(FigureBaselines, Calibration) {
     const double a = 0.2 * i;
     const double residual = i % 5 == 0 ? 1.2 : (i % 5 == 1 ? 0.7 : 0.1);
     const double r = 25.4 + residual;
-    cal["shots"].push_back({{"frame", i}, {"residual_mm", residual}, {"used", true},
-                            {"point_mm", {r * std::cos(a) * 0.8, -r * 0.6, r * std::sin(a) * 0.8}}});
+    cal["shots"].push_back(
+        {{"frame", i},
+         {"residual_mm", residual},
+         {"used", true},
+         {"point_mm", {r * std::cos(a) * 0.8, -r * 0.6, r * std::sin(a) * 0.8}}});
   }
   std::ofstream(dir.file("cal.json")) << cal.dump();
-  const auto r = runEchoreg({"figure", "calibration", "--calibration", dir.file("cal.json"),
-                             "--width", "480", "--height", "220", "--out", dir.file("calibration.png")});
+  const auto r =
+      runEchoreg({"figure", "calibration", "--calibration", dir.file("cal.json"), "--width", "480",
+                  "--height", "220", "--out", dir.file("calibration.png")});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   expectMatchesBaseline(dir.file("calibration.png"), "calibration.png");
 }
@@ -115,9 +120,10 @@ TEST(FigureBaselines, Boxplot) {
   TempDir dir;
   std::ofstream(dir.file("a.csv")) << "e\n0.24\n0.31\n0.18\n0.45\n0.29\n0.33\n";
   std::ofstream(dir.file("b.csv")) << "e\n0.52\n0.61\n0.47\n0.70\n0.39\n0.58\n0.66\n1.9\n";
-  const auto r = runEchoreg({"figure", "boxplot", "--group", "glove=" + dir.file("a.csv"), "--group",
-                             "gel=" + dir.file("b.csv"), "--column", "e", "--title", "boxplot",
-                             "--width", "420", "--height", "320", "--out", dir.file("boxplot.png")});
+  const auto r =
+      runEchoreg({"figure", "boxplot", "--group", "glove=" + dir.file("a.csv"), "--group",
+                  "gel=" + dir.file("b.csv"), "--column", "e", "--title", "boxplot", "--width",
+                  "420", "--height", "320", "--out", dir.file("boxplot.png")});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   expectMatchesBaseline(dir.file("boxplot.png"), "boxplot.png");
 }

@@ -25,7 +25,8 @@ TEST(CliInfo, AgilentRecording) {
 }
 
 TEST(CliInfo, TrackerOnlyLandmarkRecording) {
-  ECHOREG_REQUIRE_SHARED_FILE(capture, "plus/EightLandmarkPointsTrackedForPhantomRegistration.igs.mha");
+  ECHOREG_REQUIRE_SHARED_FILE(capture,
+                              "plus/EightLandmarkPointsTrackedForPhantomRegistration.igs.mha");
   const auto result = runEchoreg({"info", capture, "--json"});
   ASSERT_EQ(result.exitCode, 0) << result.err;
   const auto info = nlohmann::json::parse(result.out);
@@ -33,12 +34,14 @@ TEST(CliInfo, TrackerOnlyLandmarkRecording) {
   EXPECT_EQ(info["samples_per_frame"], 0);
   EXPECT_EQ(info["element_type"], "none");
   ASSERT_EQ(info["transforms"].size(), 2U);
-  for (const auto& t : info["transforms"]) EXPECT_EQ(t["valid_frames"], 1000);
+  for (const auto& t : info["transforms"])
+    EXPECT_EQ(t["valid_frames"], 1000);
   EXPECT_NEAR(info["duration_s"].get<double>(), 347.0668714287492 - 280.4611428572264, 1e-9);
 
   const auto text = runEchoreg({"info", capture});
   EXPECT_NE(text.out.find("tracker-only capture: 1000 frames"), std::string::npos) << text.out;
-  EXPECT_NE(text.out.find("StylusToTrackerTransform: 1000 of 1000 frames valid"), std::string::npos);
+  EXPECT_NE(text.out.find("StylusToTrackerTransform: 1000 of 1000 frames valid"),
+            std::string::npos);
 }
 
 }  // namespace

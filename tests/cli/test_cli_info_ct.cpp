@@ -41,10 +41,12 @@ TEST(CliInfoCt, JsonHasTheDocumentedKeys) {
   const auto info = nlohmann::json::parse(result.out);
   std::vector<std::string> keys;  // in the printed order
   const auto ordered = nlohmann::ordered_json::parse(result.out);
-  for (const auto& item : ordered.items()) keys.push_back(item.key());
-  EXPECT_EQ(keys, (std::vector<std::string>{"kind", "dimensions", "spacing_mm", "origin_mm", "direction", "hu_range",
-                                            "slice_groups", "series_instance_uid", "modality", "folder", "files",
-                                            "first_file", "last_file", "warnings"}));
+  for (const auto& item : ordered.items())
+    keys.push_back(item.key());
+  EXPECT_EQ(keys,
+            (std::vector<std::string>{"kind", "dimensions", "spacing_mm", "origin_mm", "direction",
+                                      "hu_range", "slice_groups", "series_instance_uid", "modality",
+                                      "folder", "files", "first_file", "last_file", "warnings"}));
   EXPECT_EQ(info["kind"], "ct");
   EXPECT_EQ(info["dimensions"], nlohmann::json({4, 3, 5}));
   EXPECT_EQ(info["spacing_mm"][0], 0.5);
@@ -87,14 +89,17 @@ TEST(CliInfoCt, BadFolderExitsOneNamingIt) {
   const auto result = runEchoreg({"info", folder, "--json"});
   EXPECT_EQ(result.exitCode, 1);
   EXPECT_TRUE(result.out.empty()) << result.out;
-  EXPECT_NE(result.err.find("echoreg info: " + folder + ": duplicate slice position"), std::string::npos)
+  EXPECT_NE(result.err.find("echoreg info: " + folder + ": duplicate slice position"),
+            std::string::npos)
       << result.err;
   EXPECT_NE(result.err.find("again.dcm"), std::string::npos) << result.err;
 
   std::filesystem::create_directory(dir.file("empty"));
   const auto empty = runEchoreg({"info", dir.file("empty")});
   EXPECT_EQ(empty.exitCode, 1);
-  EXPECT_NE(empty.err.find(dir.file("empty") + ": is a directory with no DICOM image"), std::string::npos) << empty.err;
+  EXPECT_NE(empty.err.find(dir.file("empty") + ": is a directory with no DICOM image"),
+            std::string::npos)
+      << empty.err;
 }
 
 }  // namespace

@@ -20,16 +20,19 @@ std::vector<float> randomRecord(int count, unsigned seed) {
   std::mt19937 rng(seed);
   std::uniform_int_distribution<int> u(0, 255);
   std::vector<float> x(static_cast<std::size_t>(count));
-  for (float& v : x) v = static_cast<float>(u(rng));
+  for (float& v : x)
+    v = static_cast<float>(u(rng));
   return x;
 }
 
 std::vector<double> centred(const std::vector<float>& x, int ringDown) {
   double mean = 0.0;
-  for (float v : x) mean += v;
+  for (float v : x)
+    mean += v;
   mean /= static_cast<double>(x.size());
   std::vector<double> c(x.size());
-  for (std::size_t i = 0; i < x.size(); ++i) c[i] = static_cast<int>(i) < ringDown ? 0.0 : x[i] - mean;
+  for (std::size_t i = 0; i < x.size(); ++i)
+    c[i] = static_cast<int>(i) < ringDown ? 0.0 : x[i] - mean;
   return c;
 }
 
@@ -51,15 +54,19 @@ TEST(Envelope, HannIsTheWeightedMovingAverageOfTheRectifiedSignal) {
     const auto c = centred(x, 40);
     const int h = (window - 1) / 2;
     double weightSum = 0.0;
-    for (int k = 0; k < window; ++k) weightSum += 0.5 - 0.5 * std::cos(2.0 * kPi * (k + 1) / (window + 1));
+    for (int k = 0; k < window; ++k)
+      weightSum += 0.5 - 0.5 * std::cos(2.0 * kPi * (k + 1) / (window + 1));
     for (int i = 0; i < 1000; ++i) {
       double acc = 0.0;
       for (int k = 0; k < window; ++k) {
         const int m = i - h + k;
-        if (m < 0 || m >= 1000) continue;
-        acc += (0.5 - 0.5 * std::cos(2.0 * kPi * (k + 1) / (window + 1))) * std::fabs(c[static_cast<std::size_t>(m)]);
+        if (m < 0 || m >= 1000)
+          continue;
+        acc += (0.5 - 0.5 * std::cos(2.0 * kPi * (k + 1) / (window + 1))) *
+               std::fabs(c[static_cast<std::size_t>(m)]);
       }
-      ASSERT_NEAR(fast[static_cast<std::size_t>(i)], acc / weightSum, 1e-3) << "window " << window << " i " << i;
+      ASSERT_NEAR(fast[static_cast<std::size_t>(i)], acc / weightSum, 1e-3)
+          << "window " << window << " i " << i;
     }
   }
 }
@@ -74,10 +81,12 @@ TEST(Envelope, StdDevIsTheMovingStandardDeviation) {
   for (int i = 0; i < 800; ++i) {
     const int begin = std::max(0, i - 12), end = std::min(800, i - 12 + 25);
     double mean = 0.0;
-    for (int m = begin; m < end; ++m) mean += c[static_cast<std::size_t>(m)];
+    for (int m = begin; m < end; ++m)
+      mean += c[static_cast<std::size_t>(m)];
     mean /= end - begin;
     double var = 0.0;
-    for (int m = begin; m < end; ++m) var += std::pow(c[static_cast<std::size_t>(m)] - mean, 2);
+    for (int m = begin; m < end; ++m)
+      var += std::pow(c[static_cast<std::size_t>(m)] - mean, 2);
     var /= end - begin;
     ASSERT_NEAR(fast[static_cast<std::size_t>(i)], std::sqrt(var), 1e-3) << i;
   }
@@ -96,11 +105,14 @@ TEST(Envelope, MozesIsTheFilteredRectifiedSignal) {
   std::vector<double> y(c.size(), 0.0);
   for (std::size_t i = 0; i < c.size(); ++i) {
     double acc = 0.0;
-    for (std::size_t k = 0; k < 3 && k <= i; ++k) acc += f.b[k] * std::fabs(c[i - k]);
-    for (std::size_t k = 1; k < 3 && k <= i; ++k) acc -= f.a[k] * y[i - k];
+    for (std::size_t k = 0; k < 3 && k <= i; ++k)
+      acc += f.b[k] * std::fabs(c[i - k]);
+    for (std::size_t k = 1; k < 3 && k <= i; ++k)
+      acc -= f.a[k] * y[i - k];
     y[i] = acc;
   }
-  for (std::size_t i = 0; i < c.size(); ++i) ASSERT_NEAR(fast[i], y[i], 1e-3) << i;
+  for (std::size_t i = 0; i < c.size(); ++i)
+    ASSERT_NEAR(fast[i], y[i], 1e-3) << i;
 }
 
 TEST(Envelope, HilbertIsTheMagnitudeOfTheBandLimitedAnalyticSignal) {
@@ -114,29 +126,37 @@ TEST(Envelope, HilbertIsTheMagnitudeOfTheBandLimitedAnalyticSignal) {
   // Slow DFT, one-sided raised-cosine band, inverse DFT, magnitude, centred box of 3.
   std::vector<std::complex<double>> spectrum(n);
   for (int k = 0; k < n; ++k) {
-    for (int m = 0; m < n; ++m) spectrum[static_cast<std::size_t>(k)] += c[static_cast<std::size_t>(m)] * std::polar(1.0, -2.0 * kPi * k * m / n);
+    for (int m = 0; m < n; ++m)
+      spectrum[static_cast<std::size_t>(k)] +=
+          c[static_cast<std::size_t>(m)] * std::polar(1.0, -2.0 * kPi * k * m / n);
   }
   const double f0 = 9e6, bw = 0.8 * 9e6;
   for (int k = 0; k < n; ++k) {
     double gain = 0.0;
     if (k > 0 && k < n / 2) {
       const double off = std::fabs(50e6 * k / n - f0);
-      if (off <= bw / 4) gain = 1.0;
-      else if (off < 3 * bw / 4) gain = 0.5 * (1 + std::cos(kPi * (off - bw / 4) / (bw / 2)));
+      if (off <= bw / 4)
+        gain = 1.0;
+      else if (off < 3 * bw / 4)
+        gain = 0.5 * (1 + std::cos(kPi * (off - bw / 4) / (bw / 2)));
     }
     spectrum[static_cast<std::size_t>(k)] *= 2.0 * gain;
   }
   std::vector<double> magnitude(n);
   for (int m = 0; m < n; ++m) {
     std::complex<double> acc = 0.0;
-    for (int k = 0; k < n; ++k) acc += spectrum[static_cast<std::size_t>(k)] * std::polar(1.0, 2.0 * kPi * k * m / n);
+    for (int k = 0; k < n; ++k)
+      acc += spectrum[static_cast<std::size_t>(k)] * std::polar(1.0, 2.0 * kPi * k * m / n);
     magnitude[static_cast<std::size_t>(m)] = std::abs(acc) / n;
   }
   for (int i = 0; i < n; ++i) {
     const int begin = std::max(0, i - 1), end = std::min(n, i + 2);
     double acc = 0.0;
-    for (int m = begin; m < end; ++m) acc += magnitude[static_cast<std::size_t>(m)];
-    ASSERT_NEAR(fast[static_cast<std::size_t>(i)], acc / (end - begin), 2e-3 * (1.0 + acc / (end - begin))) << i;
+    for (int m = begin; m < end; ++m)
+      acc += magnitude[static_cast<std::size_t>(m)];
+    ASSERT_NEAR(fast[static_cast<std::size_t>(i)], acc / (end - begin),
+                2e-3 * (1.0 + acc / (end - begin)))
+        << i;
   }
 }
 

@@ -35,10 +35,12 @@ std::vector<float> ellipseImage(int width, int height, const Eigen::Vector2d& sp
         for (int i = 0; i < kSub; ++i) {
           const double px = (x - 0.5 + (i + 0.5) / kSub) * spacing.x() - centre.x();
           const double py = (y - 0.5 + (j + 0.5) / kSub) * spacing.y() - centre.y();
-          if ((px * px) / (a * a) + (py * py) / (b * b) <= 1.0) ++in;
+          if ((px * px) / (a * a) + (py * py) / (b * b) <= 1.0)
+            ++in;
         }
       }
-      image[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) + static_cast<std::size_t>(x)] =
+      image[static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
+            static_cast<std::size_t>(x)] =
           static_cast<float>(inside * in / (kSub * kSub) + rng.normal(0.0, noiseSigma));
     }
   }
@@ -46,7 +48,8 @@ std::vector<float> ellipseImage(int width, int height, const Eigen::Vector2d& sp
 }
 
 // Distance (mm) from a point to the ellipse, by dense sampling of the ellipse.
-double distanceToEllipse(const Eigen::Vector2d& p, const Eigen::Vector2d& centre, double a, double b) {
+double distanceToEllipse(const Eigen::Vector2d& p, const Eigen::Vector2d& centre, double a,
+                         double b) {
   double best = std::numeric_limits<double>::infinity();
   for (int k = 0; k < 7200; ++k) {
     const double t = 2.0 * kPi * k / 7200.0;
@@ -69,8 +72,8 @@ double pixelDistanceToEllipse(const Eigen::Vector2i& pixel, const Eigen::Vector2
 }
 
 // The pixel nearest to the ellipse point at angle t.
-Eigen::Vector2i ellipsePixel(const Eigen::Vector2d& spacing, const Eigen::Vector2d& centre, double a,
-                             double b, double t) {
+Eigen::Vector2i ellipsePixel(const Eigen::Vector2d& spacing, const Eigen::Vector2d& centre,
+                             double a, double b, double t) {
   const Eigen::Vector2d p = centre + Eigen::Vector2d(a * std::cos(t), b * std::sin(t));
   return Eigen::Vector2i(static_cast<int>(std::lround(p.x() / spacing.x())),
                          static_cast<int>(std::lround(p.y() / spacing.y())));
@@ -115,7 +118,8 @@ TEST(LiveWire, ClosedContourFollowsANoisyBlurredCircleWithinOnePixel) {
     for (std::size_t k = 0; k < anchors.size(); ++k)
       EXPECT_EQ(contour.points[contour.anchorIndices[k]], anchors[k]);
     double sum = 0.0;
-    for (double c : contour.segmentCosts) sum += c;
+    for (double c : contour.segmentCosts)
+      sum += c;
     EXPECT_NEAR(sum, contour.cost, 1e-9);
   }
 }
@@ -125,7 +129,8 @@ TEST(LiveWire, PathBetweenTwoAnchorsFollowsAnEllipseNotTheChord) {
   const Eigen::Vector2d centre(50.0, 40.0);
   for (std::uint64_t seed = 5; seed < 10; ++seed) {
     SCOPED_TRACE(seed);
-    const std::vector<float> image = ellipseImage(100, 80, spacing, centre, 35.0, 22.0, 100.0, 10.0, seed);
+    const std::vector<float> image =
+        ellipseImage(100, 80, spacing, centre, 35.0, 22.0, 100.0, 10.0, seed);
     LiveWire wire(image, 100, 80, spacing);
     const Eigen::Vector2i from = ellipsePixel(spacing, centre, 35.0, 22.0, 0.2);
     const Eigen::Vector2i to = ellipsePixel(spacing, centre, 35.0, 22.0, 1.9);
@@ -145,7 +150,8 @@ TEST(LiveWire, PathBetweenTwoAnchorsFollowsAnEllipseNotTheChord) {
     // The path's cost is its own cost under pathCost, and the straight chord costs more.
     EXPECT_EQ(wire.pathCost(path).quantised, wire.costTo(to).quantised);
     std::vector<Eigen::Vector2i> chord{from};
-    while (chord.back() != to) chord.push_back(chord.back() + (to - chord.back()).cwiseSign());
+    while (chord.back() != to)
+      chord.push_back(chord.back() + (to - chord.back()).cwiseSign());
     EXPECT_GT(wire.pathCost(chord).cost, wire.costTo(to).cost + 1.0);
     // Stopping at the target gives the same optimal cost.
     wire.setAnchor(from, to);
@@ -157,21 +163,26 @@ TEST(LiveWire, PathBetweenTwoAnchorsFollowsAnEllipseNotTheChord) {
 std::vector<std::uint64_t> referenceDistances(const LiveWire& wire, const Eigen::Vector2i& anchor) {
   const int w = wire.width();
   const int h = wire.height();
-  std::vector<std::uint64_t> dist(static_cast<std::size_t>(w * h), std::numeric_limits<std::uint64_t>::max());
+  std::vector<std::uint64_t> dist(static_cast<std::size_t>(w * h),
+                                  std::numeric_limits<std::uint64_t>::max());
   using Entry = std::pair<std::uint64_t, int>;
   std::priority_queue<Entry, std::vector<Entry>, std::greater<Entry>> queue;
-  const auto index = [w](const Eigen::Vector2i& p) { return static_cast<std::size_t>(p.y() * w + p.x()); };
+  const auto index = [w](const Eigen::Vector2i& p) {
+    return static_cast<std::size_t>(p.y() * w + p.x());
+  };
   dist[index(anchor)] = 0;
   queue.push({0, anchor.y() * w + anchor.x()});
   while (!queue.empty()) {
     const auto [d, i] = queue.top();
     queue.pop();
     const Eigen::Vector2i p(i % w, i / w);
-    if (d != dist[index(p)]) continue;
+    if (d != dist[index(p)])
+      continue;
     for (int dy = -1; dy <= 1; ++dy) {
       for (int dx = -1; dx <= 1; ++dx) {
         const Eigen::Vector2i q = p + Eigen::Vector2i(dx, dy);
-        if ((dx == 0 && dy == 0) || !wire.contains(q)) continue;
+        if ((dx == 0 && dy == 0) || !wire.contains(q))
+          continue;
         const std::uint64_t nd = d + wire.pathCost({p, q}).quantised;
         if (nd < dist[index(q)]) {
           dist[index(q)] = nd;
@@ -189,7 +200,8 @@ TEST(LiveWire, OptimalOnRandomImagesAgainstAPlainDijkstra) {
     const int w = 7 + static_cast<int>(rng.below(9));
     const int h = 5 + static_cast<int>(rng.below(9));
     std::vector<float> image(static_cast<std::size_t>(w * h));
-    for (auto& v : image) v = static_cast<float>(rng.uniform(0.0, 100.0));
+    for (auto& v : image)
+      v = static_cast<float>(rng.uniform(0.0, 100.0));
     const Eigen::Vector2d spacing(rng.uniform(0.5, 1.5), rng.uniform(0.5, 1.5));
     LiveWireOptions options;
     options.costResolution = seed % 2 == 0 ? 1024 : 7;  // coarse quantisation too
@@ -212,10 +224,12 @@ TEST(LiveWire, OptimalOnRandomImagesAgainstAPlainDijkstra) {
           std::vector<Eigen::Vector2i> walk{anchor};
           while (walk.back() != p && walk.size() < 200) {
             Eigen::Vector2i step = (p - walk.back()).cwiseSign();
-            if (rng.chance(0.4)) step = Eigen::Vector2i(static_cast<int>(rng.below(3)) - 1,
-                                                        static_cast<int>(rng.below(3)) - 1);
+            if (rng.chance(0.4))
+              step = Eigen::Vector2i(static_cast<int>(rng.below(3)) - 1,
+                                     static_cast<int>(rng.below(3)) - 1);
             const Eigen::Vector2i next = walk.back() + step;
-            if (wire.contains(next) && step != Eigen::Vector2i::Zero()) walk.push_back(next);
+            if (wire.contains(next) && step != Eigen::Vector2i::Zero())
+              walk.push_back(next);
           }
           if (walk.back() == p) {
             EXPECT_GE(wire.pathCost(walk).quantised, wire.costTo(p).quantised);
@@ -229,7 +243,8 @@ TEST(LiveWire, OptimalOnRandomImagesAgainstAPlainDijkstra) {
         for (int n = 0; n < 9; ++n) {
           const Eigen::Vector2i p(x, y);
           const Eigen::Vector2i q = p + Eigen::Vector2i(n % 3 - 1, n / 3 - 1);
-          if (q == p || !wire.contains(q)) continue;
+          if (q == p || !wire.contains(q))
+            continue;
           ASSERT_EQ(wire.pathCost({p, q}).quantised,
                     static_cast<std::uint64_t>(wire.localCost(p, q) * options.costResolution + 0.5))
               << "seed " << seed << " link " << x << "," << y << " -> " << q.transpose();
@@ -257,7 +272,8 @@ TEST(LiveWire, LinksAlongAStraightEdgeAreCheapAndAcrossItExpensive) {
   // A vertical step edge between columns 9 and 10: the path along it costs little per link.
   std::vector<float> image(20 * 20);
   for (int y = 0; y < 20; ++y)
-    for (int x = 0; x < 20; ++x) image[static_cast<std::size_t>(y * 20 + x)] = x < 10 ? 0.0f : 100.0f;
+    for (int x = 0; x < 20; ++x)
+      image[static_cast<std::size_t>(y * 20 + x)] = x < 10 ? 0.0f : 100.0f;
   LiveWire wire(image, 20, 20);
   const auto& f = wire.features();
   // The zero crossing of the LoG lies between columns 9 and 10: one of them is marked.
@@ -273,7 +289,8 @@ TEST(LiveWire, LinksAlongAStraightEdgeAreCheapAndAcrossItExpensive) {
   wire.setAnchor({edgeColumn, 1});
   const auto path = wire.pathTo({edgeColumn, 18});
   EXPECT_EQ(path.size(), 18u);
-  for (const auto& p : path) EXPECT_EQ(p.x(), edgeColumn);
+  for (const auto& p : path)
+    EXPECT_EQ(p.x(), edgeColumn);
 }
 
 TEST(LiveWire, AnisotropicSpacingIsHonoured) {
@@ -282,7 +299,8 @@ TEST(LiveWire, AnisotropicSpacingIsHonoured) {
   std::vector<float> ramp(30 * 12);
   for (int y = 0; y < 12; ++y)
     for (int x = 0; x < 30; ++x)
-      ramp[static_cast<std::size_t>(y * 30 + x)] = static_cast<float>(x * spacing.x() + 2.0 * y * spacing.y());
+      ramp[static_cast<std::size_t>(y * 30 + x)] =
+          static_cast<float>(x * spacing.x() + 2.0 * y * spacing.y());
   LiveWire rampWire(ramp, 30, 12, spacing);
   const std::size_t centre = 6 * 30 + 15;
   EXPECT_NEAR(rampWire.features().gradientMagnitude[centre], std::sqrt(5.0), 1e-4);
@@ -309,11 +327,13 @@ TEST(LiveWire, AnisotropicSpacingIsHonoured) {
     const std::vector<float> image = ellipseImage(120, 48, s, c, 18.0, 18.0, 100.0, 5.0, seed);
     LiveWire wire(image, 120, 48, s);
     std::vector<Eigen::Vector2i> anchors;
-    for (int k = 0; k < 5; ++k) anchors.push_back(ellipsePixel(s, c, 18.0, 18.0, 0.1 + k * 2.0 * kPi / 5.0));
+    for (int k = 0; k < 5; ++k)
+      anchors.push_back(ellipsePixel(s, c, 18.0, 18.0, 0.1 + k * 2.0 * kPi / 5.0));
     const ClosedLiveWire contour = closedLiveWire(wire, anchors);
     EXPECT_GT(contour.points.size(), 150u);
     double worst = 0.0;
-    for (const auto& p : contour.points) worst = std::max(worst, pixelDistanceToEllipse(p, s, c, 18.0, 18.0));
+    for (const auto& p : contour.points)
+      worst = std::max(worst, pixelDistanceToEllipse(p, s, c, 18.0, 18.0));
     EXPECT_LE(worst, 1.0);
   }
 }

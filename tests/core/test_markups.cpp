@@ -40,7 +40,8 @@ TEST(Markups, RoundTripKeepsLabelsPositionsAndTypes) {
 
 TEST(Markups, RasFilesAreConvertedToLps) {
   echoreg::test::TempDir dir;
-  writeText(dir.file("ras.mrk.json"), R"({"markups": [{"type": "Fiducial", "coordinateSystem": "RAS",
+  writeText(dir.file("ras.mrk.json"),
+            R"({"markups": [{"type": "Fiducial", "coordinateSystem": "RAS",
     "controlPoints": [{"label": "p", "position": [10, -20, 30]},
                       {"label": "skip", "position": [0, 0, 0], "positionStatus": "undefined"}]}]})");
   const auto points = echoreg::core::readMarkupPoints(dir.file("ras.mrk.json"));

@@ -91,7 +91,8 @@ TEST(MeshLocator, SphereFirstAndAllHitsEqualBruteForce) {
     const auto expected = test::bruteFirstHit(sphere, origin, direction);
     const auto found = locator.firstHit(origin, direction);
     ASSERT_EQ(found.has_value(), expected.has_value()) << i;
-    if (!found) continue;
+    if (!found)
+      continue;
     ++hits;
     ASSERT_NEAR(found->t, expected->t, 1e-9) << i;
     EXPECT_EQ(found->triangle, expected->triangle) << i;
@@ -103,7 +104,8 @@ TEST(MeshLocator, SphereFirstAndAllHitsEqualBruteForce) {
     ASSERT_FALSE(all.empty());
     EXPECT_EQ(all.front().t, found->t);
     EXPECT_EQ(all.size(), locator.inside(origin) ? 1u : 2u) << i;
-    for (std::size_t k = 1; k < all.size(); ++k) EXPECT_LT(all[k - 1].t, all[k].t);
+    for (std::size_t k = 1; k < all.size(); ++k)
+      EXPECT_LT(all[k - 1].t, all[k].t);
     // tMax and tMin cut the interval (tMin, tMax].
     EXPECT_FALSE(locator.firstHit(origin, direction, found->t * (1 - 1e-9)).has_value());
     EXPECT_EQ(locator.allHits(origin, direction, 1e30, found->t).size(), all.size() - 1);
@@ -241,7 +243,8 @@ TEST(MeshLocator, CubeRaysThroughVerticesAndEdgesCountEachCrossingOnce) {
     for (double y = -2.5; y <= 12.5; y += 1.25) {
       for (double z = -2.5; z <= 12.5; z += 1.25) {
         const bool onFace = x == 0 || x == kSize || y == 0 || y == kSize || z == 0 || z == kSize;
-        if (onFace) continue;
+        if (onFace)
+          continue;
         const bool expected = x > 0 && x < kSize && y > 0 && y < kSize && z > 0 && z < kSize;
         ASSERT_EQ(locator.inside({x, y, z}), expected) << x << " " << y << " " << z;
         const double d = locator.signedDistance({x, y, z});
@@ -258,7 +261,8 @@ TEST(MeshLocator, SameMeshSameAnswersOnEveryThread) {
   const MeshLocator first(sphere), second(sphere);
   Rng rng = Rng::derive(7, "threads");
   std::vector<Eigen::Vector3d> points;
-  for (int i = 0; i < 400; ++i) points.push_back(randomPoint(rng, 2.0 * kRadiusMm));
+  for (int i = 0; i < 400; ++i)
+    points.push_back(randomPoint(rng, 2.0 * kRadiusMm));
   auto run = [&](const MeshLocator& locator, std::vector<double>& out) {
     out.clear();
     for (const Eigen::Vector3d& p : points) {

@@ -24,14 +24,16 @@ Eigen::Isometry3d femurToCt() {
 TEST(RigidError, AnglesRoundTripAndFollowRzRyRx) {
   const Eigen::Vector3d angles(12.5, -33.0, 71.0);
   const Eigen::Matrix3d r = rotationFromAnglesZyxDeg(angles);
-  const Eigen::Matrix3d byHand = Eigen::AngleAxisd(71.0 * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
-                                 Eigen::AngleAxisd(-33.0 * kDeg, Eigen::Vector3d::UnitY()).toRotationMatrix() *
-                                 Eigen::AngleAxisd(12.5 * kDeg, Eigen::Vector3d::UnitX()).toRotationMatrix();
+  const Eigen::Matrix3d byHand =
+      Eigen::AngleAxisd(71.0 * kDeg, Eigen::Vector3d::UnitZ()).toRotationMatrix() *
+      Eigen::AngleAxisd(-33.0 * kDeg, Eigen::Vector3d::UnitY()).toRotationMatrix() *
+      Eigen::AngleAxisd(12.5 * kDeg, Eigen::Vector3d::UnitX()).toRotationMatrix();
   EXPECT_LT((r - byHand).cwiseAbs().maxCoeff(), 1e-14);
   EXPECT_LT((rotationAnglesZyxDeg(r) - angles).cwiseAbs().maxCoeff(), 1e-10);
   // Gimbal lock (ry = 90): the matrix is still reproduced.
   const Eigen::Matrix3d locked = rotationFromAnglesZyxDeg(Eigen::Vector3d(20.0, 90.0, 0.0));
-  EXPECT_LT((rotationFromAnglesZyxDeg(rotationAnglesZyxDeg(locked)) - locked).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((rotationFromAnglesZyxDeg(rotationAnglesZyxDeg(locked)) - locked).cwiseAbs().maxCoeff(),
+            1e-9);
   Eigen::Matrix3d notRotation = Eigen::Matrix3d::Identity();
   notRotation(0, 0) = -1.0;
   EXPECT_THROW(rotationAnglesZyxDeg(notRotation), std::invalid_argument);

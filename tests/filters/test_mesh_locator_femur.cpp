@@ -28,7 +28,8 @@ Femur loadFemur(const std::string& path) {
 // Uniform in the mesh's bounds grown by `marginMm` on every side.
 Eigen::Vector3d randomPoint(Rng& rng, const Femur& femur, double marginMm) {
   Eigen::Vector3d p;
-  for (int k = 0; k < 3; ++k) p[k] = rng.uniform(femur.low[k] - marginMm, femur.high[k] + marginMm);
+  for (int k = 0; k < 3; ++k)
+    p[k] = rng.uniform(femur.low[k] - marginMm, femur.high[k] + marginMm);
   return p;
 }
 
@@ -67,7 +68,8 @@ TEST(MeshLocatorFemur, FirstHitEqualsBruteForce) {
     const auto expected = test::bruteFirstHit(femur.mesh, origin, direction);
     const auto found = locator.firstHit(origin, direction);
     ASSERT_EQ(found.has_value(), expected.has_value()) << i;
-    if (!found) continue;
+    if (!found)
+      continue;
     ++hits;
     ASSERT_NEAR(found->t, expected->t, 1e-9) << i;
     EXPECT_EQ(found->triangle, expected->triangle) << i;

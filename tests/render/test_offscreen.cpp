@@ -5,8 +5,8 @@
 
 #include <vtkActor.h>
 #include <vtkCamera.h>
-#include <vtkPNGReader.h>
 #include <vtkImageData.h>
+#include <vtkPNGReader.h>
 #include <vtkPolyDataMapper.h>
 #include <vtkProperty.h>
 #include <vtkRenderer.h>
@@ -52,8 +52,10 @@ TEST(Offscreen, RendersWithoutAnXServer) {
   int left = 0;
   int right = 0;
   for (int y = 0; y < 120; ++y) {
-    for (int x = 0; x < 80; ++x) left += image.at(x, y, 1) < 128 ? 1 : 0;
-    for (int x = 80; x < 160; ++x) right += image.at(x, y, 1) < 128 ? 1 : 0;
+    for (int x = 0; x < 80; ++x)
+      left += image.at(x, y, 1) < 128 ? 1 : 0;
+    for (int x = 80; x < 160; ++x)
+      right += image.at(x, y, 1) < 128 ? 1 : 0;
   }
   EXPECT_GT(left, 1000);
   EXPECT_NEAR(left, right, 0.03 * left);
@@ -79,7 +81,8 @@ TEST(Offscreen, WritesAPngThatReadsBack) {
   // VTK's rows start at the bottom: the top-left pixel of the image is row 119 there.
   const auto* top = static_cast<unsigned char*>(reader->GetOutput()->GetScalarPointer(0, 119, 0));
   EXPECT_EQ(top[0], image.at(0, 0, 0));
-  EXPECT_THROW(echoreg::render::writePng(dir.file("missing/sphere.png"), image), echoreg::FileError);
+  EXPECT_THROW(echoreg::render::writePng(dir.file("missing/sphere.png"), image),
+               echoreg::FileError);
   EXPECT_FALSE(std::filesystem::exists(dir.file("missing")));
   EXPECT_THROW(echoreg::render::OffscreenWindow(4, 4), std::invalid_argument);
 }

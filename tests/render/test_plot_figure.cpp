@@ -18,7 +18,8 @@ int count(const echoreg::render::RgbImage& image, int r, int g, int b, int toler
   int n = 0;
   for (int y = 0; y < image.height; ++y) {
     for (int x = 0; x < image.width; ++x) {
-      if (std::abs(image.at(x, y, 0) - r) < tolerance && std::abs(image.at(x, y, 1) - g) < tolerance &&
+      if (std::abs(image.at(x, y, 0) - r) < tolerance &&
+          std::abs(image.at(x, y, 1) - g) < tolerance &&
           std::abs(image.at(x, y, 2) - b) < tolerance) {
         ++n;
       }

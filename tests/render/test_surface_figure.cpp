@@ -40,7 +40,8 @@ TEST(SurfaceFigure, PointsAreDrawnInTheirBandColours) {
   int redPixels = 0;
   for (int y = 100; y < 300; ++y) {
     for (int x = 100; x < 300; ++x) {
-      if (image.at(x, y, 0) > 150 && image.at(x, y, 1) < 60 && image.at(x, y, 2) < 60) ++redPixels;
+      if (image.at(x, y, 0) > 150 && image.at(x, y, 1) < 60 && image.at(x, y, 2) < 60)
+        ++redPixels;
     }
   }
   EXPECT_GT(redPixels, 50);
@@ -50,7 +51,8 @@ TEST(SurfaceFigure, PointsAreDrawnInTheirBandColours) {
   int greenPixels = 0;
   for (int y = 100; y < 300; ++y) {
     for (int x = 100; x < 300; ++x) {
-      if (green.at(x, y, 1) > 120 && green.at(x, y, 0) < 80 && green.at(x, y, 2) < 80) ++greenPixels;
+      if (green.at(x, y, 1) > 120 && green.at(x, y, 0) < 80 && green.at(x, y, 2) < 80)
+        ++greenPixels;
     }
   }
   EXPECT_GT(greenPixels, 50);

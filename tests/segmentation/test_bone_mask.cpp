@@ -409,7 +409,9 @@ TEST(MaskNrrd, AMaskReadsBackWithItsGeometry) {
   EXPECT_EQ(back.mask, mask.voxels);
   EXPECT_TRUE(back.image.originMm.isApprox(ct.originMm, 1e-12));
   EXPECT_TRUE(back.image.voxelToLps({3, 2, 1}).isApprox(ct.voxelToLps({3, 2, 1}), 1e-12));
-  EXPECT_THROW(segmentation::writeNrrdVolume(dir.file("missing/m.nrrd"), mask.geometry, mask.voxels), FileError);
+  EXPECT_THROW(
+      segmentation::writeNrrdVolume(dir.file("missing/m.nrrd"), mask.geometry, mask.voxels),
+      FileError);
 }
 
 }  // namespace

@@ -40,7 +40,7 @@ TEST(CtImage, ResampleUniformInterpolatesAlongTheSlices) {
   ASSERT_EQ(out.dimensions[2], 7);  // 0..6 mm at 1 mm
   EXPECT_DOUBLE_EQ(out.sliceSpacingMm(), 1.0);
   EXPECT_EQ(out.at(1, 0, 0), 100);
-  EXPECT_EQ(out.at(0, 0, 1), 10);   // 1/5 of the way from 0 to 50
+  EXPECT_EQ(out.at(0, 0, 1), 10);  // 1/5 of the way from 0 to 50
   EXPECT_EQ(out.at(1, 0, 5), 150);
   EXPECT_EQ(out.at(0, 0, 6), 60);
   EXPECT_TRUE(out.voxelToLps({0, 0, 6}).isApprox(threeSlices().voxelToLps({0, 0, 2}), 1e-12));

@@ -36,7 +36,8 @@ echoreg::simulation::CtVolume threeGroups() {
   v.sliceThicknessMm.assign(v.sliceZMm.size(), 1.0);
   for (int k = 0; k < v.slices(); ++k) {
     for (int j = 0; j < v.rows; ++j) {
-      for (int i = 0; i < v.columns; ++i) v.hu.push_back(static_cast<std::int16_t>(10 * i + 100 * j + k - 500));
+      for (int i = 0; i < v.columns; ++i)
+        v.hu.push_back(static_cast<std::int16_t>(10 * i + 100 * j + k - 500));
     }
   }
   return v;
@@ -59,7 +60,8 @@ TEST_F(CtVolumeIo, ReaderRefusesUnevenSlicesUnlessResampledOrOneGroup) {
   reader->SetDirectoryName(folder_);
   reader->GlobalWarningDisplayOff();
   reader->Update();
-  EXPECT_NE(reader->GetLastError().find("several spacings"), std::string::npos) << reader->GetLastError();
+  EXPECT_NE(reader->GetLastError().find("several spacings"), std::string::npos)
+      << reader->GetLastError();
   EXPECT_NE(reader->GetLastError().find(folder_), std::string::npos);
   EXPECT_EQ(reader->GetOutput()->GetNumberOfPoints(), 0);
   ASSERT_EQ(reader->GetSeriesGeometry().groups.size(), 3U);
@@ -80,7 +82,8 @@ TEST_F(CtVolumeIo, ReaderRefusesUnevenSlicesUnlessResampledOrOneGroup) {
   ASSERT_NE(scalars, nullptr);
   EXPECT_STREQ(scalars->GetName(), "HU");
   // Voxel (i=3, j=2) of group slice 1 = series slice 3.
-  EXPECT_EQ(scalars->GetValue(image->ComputePointId(std::array<int, 3>{3, 2, 1}.data())), 10 * 3 + 100 * 2 + 3 - 500);
+  EXPECT_EQ(scalars->GetValue(image->ComputePointId(std::array<int, 3>{3, 2, 1}.data())),
+            10 * 3 + 100 * 2 + 3 - 500);
   double lps[3];
   image->TransformIndexToPhysicalPoint(3, 2, 1, lps);
   EXPECT_NEAR(lps[0], 3.0 + 3 * 0.7, 1e-12);
@@ -101,7 +104,8 @@ TEST_F(CtVolumeIo, ReaderRefusesUnevenSlicesUnlessResampledOrOneGroup) {
 
   reader->SetDirectoryName(dir_.file("absent"));
   reader->Update();
-  EXPECT_NE(reader->GetLastError().find("does not exist"), std::string::npos) << reader->GetLastError();
+  EXPECT_NE(reader->GetLastError().find("does not exist"), std::string::npos)
+      << reader->GetLastError();
 }
 
 TEST_F(CtVolumeIo, ToImageDataCopiesOrTakesOverTheVoxels) {
@@ -121,7 +125,8 @@ TEST_F(CtVolumeIo, ToImageDataCopiesOrTakesOverTheVoxels) {
   auto* takenScalars = vtkShortArray::SafeDownCast(taken->GetPointData()->GetScalars());
   EXPECT_EQ(takenScalars->GetPointer(0), before);  // no copy
   auto* copiedScalars = vtkShortArray::SafeDownCast(copied->GetPointData()->GetScalars());
-  for (vtkIdType n = 0; n < 40; ++n) EXPECT_EQ(takenScalars->GetValue(n), copiedScalars->GetValue(n));
+  for (vtkIdType n = 0; n < 40; ++n)
+    EXPECT_EQ(takenScalars->GetValue(n), copiedScalars->GetValue(n));
   EXPECT_EQ(taken->GetDirectionMatrix()->GetElement(0, 1), -1.0);
   double lps[3];
   taken->TransformIndexToPhysicalPoint(1, 0, 0, lps);  // one step along i = +y in LPS
@@ -142,7 +147,8 @@ TEST_F(CtVolumeIo, NrrdRoundTripWithLpsGeometry) {
     EXPECT_EQ(bytes.rfind("NRRD0004\n", 0), 0U);
     EXPECT_NE(bytes.find("space: left-posterior-superior\n"), std::string::npos);
     EXPECT_NE(bytes.find("sizes: 5 4 5\n"), std::string::npos);
-    EXPECT_NE(bytes.find("space directions: (0.7,0,0) (0,0.7,0) (0,0,1)\n"), std::string::npos) << bytes.substr(0, 400);
+    EXPECT_NE(bytes.find("space directions: (0.7,0,0) (0,0.7,0) (0,0,1)\n"), std::string::npos)
+        << bytes.substr(0, 400);
     EXPECT_NE(bytes.find("space origin: (3,-4,20)\n"), std::string::npos);
     EXPECT_NE(bytes.find(gzip ? "encoding: gzip\n" : "encoding: raw\n"), std::string::npos);
     const auto back = echoreg::segmentation::readNrrdVolume(path);
@@ -154,7 +160,8 @@ TEST_F(CtVolumeIo, NrrdRoundTripWithLpsGeometry) {
     EXPECT_NEAR(back.image.sliceSpacingMm(), 1.0, 1e-12);
   }
   std::vector<std::uint8_t> mask(knee.voxelCount());
-  for (std::size_t n = 0; n < mask.size(); ++n) mask[n] = knee.hu[n] > -300 ? 1 : 0;
+  for (std::size_t n = 0; n < mask.size(); ++n)
+    mask[n] = knee.hu[n] > -300 ? 1 : 0;
   echoreg::segmentation::writeNrrdVolume(dir_.file("mask.nrrd"), knee, mask);
   const auto maskBack = echoreg::segmentation::readNrrdVolume(dir_.file("mask.nrrd"));
   EXPECT_TRUE(maskBack.isMask);
@@ -164,7 +171,8 @@ TEST_F(CtVolumeIo, NrrdRoundTripWithLpsGeometry) {
   EXPECT_THROW(echoreg::segmentation::writeNrrdVolume(dir_.file("series.nrrd"), series, series.hu),
                std::invalid_argument);
   mask.pop_back();
-  EXPECT_THROW(echoreg::segmentation::writeNrrdVolume(dir_.file("short.nrrd"), knee, mask), std::invalid_argument);
+  EXPECT_THROW(echoreg::segmentation::writeNrrdVolume(dir_.file("short.nrrd"), knee, mask),
+               std::invalid_argument);
   EXPECT_FALSE(std::filesystem::exists(dir_.file("series.nrrd")));
   EXPECT_FALSE(std::filesystem::exists(dir_.file("short.nrrd")));
   // A truncated file is refused naming it.

@@ -55,7 +55,8 @@ CtVolume volumeWithSlices(const std::vector<double>& z, int columns, int rows, d
   v.hu.resize(z.size() * static_cast<std::size_t>(rows * columns));
   for (int k = 0; k < v.slices(); ++k) {
     for (int j = 0; j < rows; ++j) {
-      for (int i = 0; i < columns; ++i) v.hu[v.index(i, j, k)] = pattern(i, j, k);
+      for (int i = 0; i < columns; ++i)
+        v.hu[v.index(i, j, k)] = pattern(i, j, k);
     }
   }
   return v;
@@ -90,7 +91,8 @@ void editElement(const std::string& path, const gdcm::DataElement& element) {
 
 void editString(const std::string& path, std::uint16_t group, std::uint16_t element, gdcm::VR vr,
                 std::string value) {
-  if (value.size() % 2 != 0) value.push_back(' ');
+  if (value.size() % 2 != 0)
+    value.push_back(' ');
   gdcm::DataElement de(gdcm::Tag(group, element));
   de.SetVR(vr);
   de.SetByteValue(value.data(), static_cast<std::uint32_t>(value.size()));
@@ -108,8 +110,9 @@ std::string refusal(const std::string& folder, const DicomReadOptions& options =
   return "";
 }
 
-#define EXPECT_CONTAINS(text, part) \
-  EXPECT_NE(std::string(text).find(part), std::string::npos) << "expected \"" << (part) << "\" in: " << (text)
+#define EXPECT_CONTAINS(text, part)                          \
+  EXPECT_NE(std::string(text).find(part), std::string::npos) \
+      << "expected \"" << (part) << "\" in: " << (text)
 
 TEST(DicomSeries, ThreeGroupsOfTheSimulatedProtocolGiveExactGeometryGroupsAndHu) {
   echoreg::test::TempDir dir;
@@ -117,10 +120,12 @@ TEST(DicomSeries, ThreeGroupsOfTheSimulatedProtocolGiveExactGeometryGroupsAndHu)
   // at 5 mm, with large gaps between the groups; 256 x 256 pixels of 0.8 mm.
   CtVolume volume = echoreg::simulation::ctGeometry(
       echoreg::simulation::smallProtocol(0.0, -430.0, -830.0, Eigen::Vector2d(5.0, -3.0)));
-  volume.hu.resize(static_cast<std::size_t>(volume.slices()) * static_cast<std::size_t>(volume.rows * volume.columns));
+  volume.hu.resize(static_cast<std::size_t>(volume.slices()) *
+                   static_cast<std::size_t>(volume.rows * volume.columns));
   for (int k = 0; k < volume.slices(); ++k) {
     for (int j = 0; j < volume.rows; ++j) {
-      for (int i = 0; i < volume.columns; ++i) volume.hu[volume.index(i, j, k)] = pattern(i, j, k);
+      for (int i = 0; i < volume.columns; ++i)
+        volume.hu[volume.index(i, j, k)] = pattern(i, j, k);
     }
   }
   const std::string folder = dir.file("ct");
@@ -155,7 +160,8 @@ TEST(DicomSeries, ThreeGroupsOfTheSimulatedProtocolGiveExactGeometryGroupsAndHu)
   for (int k = 0; k < 166; ++k) {
     EXPECT_NEAR(image.slicePositionsMm[static_cast<std::size_t>(k)],
                 volume.sliceZMm[static_cast<std::size_t>(k)] - volume.sliceZMm[0], 1e-9);
-    EXPECT_NEAR((image.voxelToLps(Eigen::Vector3d(7, 9, k)) - volume.voxelCentreMm(7, 9, k)).norm(), 0.0, 1e-9);
+    EXPECT_NEAR((image.voxelToLps(Eigen::Vector3d(7, 9, k)) - volume.voxelCentreMm(7, 9, k)).norm(),
+                0.0, 1e-9);
   }
   EXPECT_TRUE(image.hu == volume.hu);  // every voxel exactly
   EXPECT_EQ(read.files.front(), "IM000001.dcm");
@@ -207,7 +213,8 @@ TEST_F(DicomSeriesRefusal, ShuffledFileNamesStillSortByPosition) {
   }
   const DicomSeriesRead read = readDicomSeriesWithWarnings(folder_);
   EXPECT_TRUE(read.image.hu == volume_.hu);
-  EXPECT_EQ(read.files, (std::vector<std::string>{"z1.dcm", "z3.dcm", "z5.dcm", "z0.dcm", "z4.dcm", "z2.dcm"}));
+  EXPECT_EQ(read.files,
+            (std::vector<std::string>{"z1.dcm", "z3.dcm", "z5.dcm", "z0.dcm", "z4.dcm", "z2.dcm"}));
 }
 
 TEST_F(DicomSeriesRefusal, EachSliceUsesItsOwnRescale) {
@@ -289,7 +296,8 @@ TEST_F(DicomSeriesRefusal, GantryTiltFromPositions) {
 }
 
 TEST_F(DicomSeriesRefusal, GantryTiltTag) {
-  for (int k = 0; k < 6; ++k) editString(path(k), 0x0018, 0x1120, gdcm::VR::DS, "12");
+  for (int k = 0; k < 6; ++k)
+    editString(path(k), 0x0018, 0x1120, gdcm::VR::DS, "12");
   const std::string message = refusal(folder_);
   EXPECT_CONTAINS(message, "gantry tilt");
   EXPECT_CONTAINS(message, fileName(0));
@@ -348,7 +356,8 @@ TEST_F(DicomSeriesRefusal, MultiFrame) {
 }
 
 TEST_F(DicomSeriesRefusal, NoCtSeriesListsWhatThereIs) {
-  for (int k = 0; k < 6; ++k) editString(path(k), 0x0008, 0x0060, gdcm::VR::CS, "MR");
+  for (int k = 0; k < 6; ++k)
+    editString(path(k), 0x0008, 0x0060, gdcm::VR::CS, "MR");
   const std::string message = refusal(folder_);
   EXPECT_CONTAINS(message, "no CT series");
   EXPECT_CONTAINS(message, "(MR, 6 files: IM000001.dcm...)");
@@ -379,7 +388,8 @@ TEST_F(DicomSeriesRefusal, OneFileIsAOneSliceImage) {
   ASSERT_EQ(image.dimensions, (std::array<int, 3>{4, 3, 1}));
   EXPECT_NEAR(image.originMm.z(), 4.0, 1e-12);
   for (int j = 0; j < 3; ++j) {
-    for (int i = 0; i < 4; ++i) EXPECT_EQ(image.at(i, j, 0), pattern(i, j, 2));
+    for (int i = 0; i < 4; ++i)
+      EXPECT_EQ(image.at(i, j, 0), pattern(i, j, 2));
   }
 }
 
@@ -388,16 +398,21 @@ TEST_F(DicomSeriesRefusal, OneFileIsAOneSliceImage) {
 /// pydicom's view of a folder or file (tests/segmentation/read_ct_reference.py); null if python3
 /// or pydicom is missing.
 nlohmann::json pydicomReference(const std::string& folder, const std::vector<std::string>& voxels) {
-  std::string command = "/usr/bin/python3 " ECHOREG_SEGMENTATION_TEST_DIR "/read_ct_reference.py '" + folder + "'";
-  for (const std::string& v : voxels) command += " " + v;
+  std::string command =
+      "/usr/bin/python3 " ECHOREG_SEGMENTATION_TEST_DIR "/read_ct_reference.py '" + folder + "'";
+  for (const std::string& v : voxels)
+    command += " " + v;
   command += " 2>/dev/null";
   std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
-  if (!pipe) return nullptr;
+  if (!pipe)
+    return nullptr;
   std::string out;
   char buffer[4096];
   std::size_t n = 0;
-  while ((n = std::fread(buffer, 1, sizeof buffer, pipe.get())) > 0) out.append(buffer, n);
-  if (out.empty()) return nullptr;
+  while ((n = std::fread(buffer, 1, sizeof buffer, pipe.get())) > 0)
+    out.append(buffer, n);
+  if (out.empty())
+    return nullptr;
   return nlohmann::json::parse(out);
 }
 
@@ -414,13 +429,18 @@ TEST(DicomSeriesRealData, AbdomenMatchesPydicom) {
   EXPECT_LE(*low, -1000);  // air; intercept -1000 in this series
   EXPECT_GT(*high, 1000);  // cortical bone
 
-  const nlohmann::json ref = pydicomReference(folder, {"100,200,0", "256,300,60", "300,350,133", "10,20,77"});
-  if (ref.is_null()) GTEST_SKIP() << "python3 with pydicom is not available";
+  const nlohmann::json ref =
+      pydicomReference(folder, {"100,200,0", "256,300,60", "300,350,133", "10,20,77"});
+  if (ref.is_null())
+    GTEST_SKIP() << "python3 with pydicom is not available";
   for (int a = 0; a < 3; ++a) {
     EXPECT_NEAR(image.originMm[a], ref["origin"][static_cast<std::size_t>(a)].get<double>(), 1e-9);
-    EXPECT_NEAR(image.direction(a, 0), ref["row"][static_cast<std::size_t>(a)].get<double>(), 1e-12);
-    EXPECT_NEAR(image.direction(a, 1), ref["column"][static_cast<std::size_t>(a)].get<double>(), 1e-12);
-    EXPECT_NEAR(image.direction(a, 2), ref["normal"][static_cast<std::size_t>(a)].get<double>(), 1e-12);
+    EXPECT_NEAR(image.direction(a, 0), ref["row"][static_cast<std::size_t>(a)].get<double>(),
+                1e-12);
+    EXPECT_NEAR(image.direction(a, 1), ref["column"][static_cast<std::size_t>(a)].get<double>(),
+                1e-12);
+    EXPECT_NEAR(image.direction(a, 2), ref["normal"][static_cast<std::size_t>(a)].get<double>(),
+                1e-12);
   }
   EXPECT_DOUBLE_EQ(image.pixelSpacingMm.x(), ref["spacing"][0].get<double>());
   EXPECT_DOUBLE_EQ(image.pixelSpacingMm.y(), ref["spacing"][1].get<double>());
@@ -430,7 +450,8 @@ TEST(DicomSeriesRealData, AbdomenMatchesPydicom) {
     EXPECT_EQ(read.files[k], ref["files"][k].get<std::string>());
   }
   for (const auto& v : ref["voxels"]) {
-    EXPECT_EQ(image.at(v["i"], v["j"], v["k"]), static_cast<int>(v["hu"].get<double>())) << v.dump();
+    EXPECT_EQ(image.at(v["i"], v["j"], v["k"]), static_cast<int>(v["hu"].get<double>()))
+        << v.dump();
   }
 }
 
@@ -454,7 +475,8 @@ TEST(DicomSeriesRealData, Jpeg2000SeriesEqualsGdcmsOwnDecoding) {
     reader.SetFileName(path.c_str());
     ASSERT_TRUE(reader.Read());
     const gdcm::Image& slice = reader.GetImage();
-    EXPECT_NEAR(slice.GetOrigin()[2], image.originMm.z() + image.slicePositionsMm[static_cast<std::size_t>(k)], 1e-9);
+    EXPECT_NEAR(slice.GetOrigin()[2],
+                image.originMm.z() + image.slicePositionsMm[static_cast<std::size_t>(k)], 1e-9);
     std::vector<char> buffer(slice.GetBufferLength());
     ASSERT_EQ(buffer.size(), 512U * 512U * 2U);
     ASSERT_TRUE(slice.GetBuffer(buffer.data()));
@@ -536,10 +558,12 @@ TEST(DicomSeriesRealData, EveryBadFileIsReadCorrectlyOrRefusedClearly) {
   const nlohmann::json ref = pydicomReference(ctSmall, {"0,0,0", "64,64,0", "127,5,0", "30,100,0"});
   if (!ref.is_null()) {
     for (const auto& v : ref["voxels"]) {
-      EXPECT_EQ(small.image.at(v["i"], v["j"], v["k"]), static_cast<int>(v["hu"].get<double>())) << v.dump();
+      EXPECT_EQ(small.image.at(v["i"], v["j"], v["k"]), static_cast<int>(v["hu"].get<double>()))
+          << v.dump();
     }
     for (int a = 0; a < 3; ++a) {
-      EXPECT_NEAR(small.image.originMm[a], ref["origin"][static_cast<std::size_t>(a)].get<double>(), 1e-9);
+      EXPECT_NEAR(small.image.originMm[a], ref["origin"][static_cast<std::size_t>(a)].get<double>(),
+                  1e-9);
     }
   }
   // The lossy 12-bit JPEG decodes (NM, no patient geometry: said in the warnings).
@@ -556,7 +580,8 @@ TEST(DicomSeriesRealData, EveryBadFileIsReadCorrectlyOrRefusedClearly) {
   const DicomSeriesRead whole = readDicomSeriesWithWarnings(folder);
   EXPECT_TRUE(whole.image.hu == small.image.hu);
   std::string warnings;
-  for (const std::string& w : whole.warnings) warnings += w + "\n";
+  for (const std::string& w : whole.warnings)
+    warnings += w + "\n";
   EXPECT_CONTAINS(warnings, "no_meta.dcm");
   EXPECT_CONTAINS(warnings, "MR_truncated");
 }

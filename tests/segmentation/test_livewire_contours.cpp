@@ -40,24 +40,31 @@ Phantom spherePhantom() {
       1, 0, 0,              //
       0, 0, -1;
   ct.pixelSpacingMm = {0.8, 0.8};
-  for (int k = 0; k < 30; ++k) ct.slicePositionsMm.push_back(k < 20 ? k : 19.0 + 2.0 * (k - 19));
+  for (int k = 0; k < 30; ++k)
+    ct.slicePositionsMm.push_back(k < 20 ? k : 19.0 + 2.0 * (k - 19));
   ct.groups = {{0, 20, 1.0}, {20, 10, 2.0}};
   ph.centre = ct.voxelToLps({23.6, 24.3, 19.4});
   ct.hu.resize(ct.voxelCount());
   core::Rng rng(2008);
   const auto& z = ct.slicePositionsMm;
   for (int k = 0; k < 30; ++k) {
-    const double z0 = k == 0 ? z[0] - 0.5 : 0.5 * (z[static_cast<std::size_t>(k - 1)] + z[static_cast<std::size_t>(k)]);
-    const double z1 = k == 29 ? z[29] + 1.0 : 0.5 * (z[static_cast<std::size_t>(k)] + z[static_cast<std::size_t>(k + 1)]);
+    const double z0 =
+        k == 0 ? z[0] - 0.5
+               : 0.5 * (z[static_cast<std::size_t>(k - 1)] + z[static_cast<std::size_t>(k)]);
+    const double z1 =
+        k == 29 ? z[29] + 1.0
+                : 0.5 * (z[static_cast<std::size_t>(k)] + z[static_cast<std::size_t>(k + 1)]);
     for (int j = 0; j < 48; ++j) {
       for (int i = 0; i < 48; ++i) {
         int inside = 0;
         for (int c = 0; c < 4; ++c)
           for (int b = 0; b < 4; ++b)
             for (int a = 0; a < 4; ++a) {
-              const Eigen::Vector3d local((i - 0.5 + (a + 0.5) / 4) * 0.8, (j - 0.5 + (b + 0.5) / 4) * 0.8,
+              const Eigen::Vector3d local((i - 0.5 + (a + 0.5) / 4) * 0.8,
+                                          (j - 0.5 + (b + 0.5) / 4) * 0.8,
                                           z0 + (z1 - z0) * (c + 0.5) / 4);
-              if ((ct.originMm + ct.direction * local - ph.centre).norm() <= kRadius) ++inside;
+              if ((ct.originMm + ct.direction * local - ph.centre).norm() <= kRadius)
+                ++inside;
             }
         const double hu = kTissueHu + (kBoneHu - kTissueHu) * inside / 64.0 + rng.normal(0.0, 10.0);
         ct.hu[ct.index(i, j, k)] = static_cast<std::int16_t>(std::lround(hu));
@@ -105,13 +112,15 @@ TEST(LiveWireContour, SubpixelContourLiesOnTheSphereInEveryPlane) {
     const SliceContour contour = liveWireContour(ph.ct, anchors);
     const double r = std::sqrt(kRadius * kRadius - c.offset * c.offset);
     // Around the whole circle: at least one point per 1.2 samples of its length.
-    EXPECT_GT(contour.pointsLps.size(), static_cast<std::size_t>(2 * kPi * r / (1.2 * contour.sampleSpacingMm)));
+    EXPECT_GT(contour.pointsLps.size(),
+              static_cast<std::size_t>(2 * kPi * r / (1.2 * contour.sampleSpacingMm)));
     EXPECT_DOUBLE_EQ(contour.sampleSpacingMm, 0.8);
     EXPECT_EQ(contour.anchorIndices.size(), 6u);
     const int normal = slicePlaneAxes(c.plane).normal;
-    // Within 0.25 mm where the slices are 1 mm apart (0.09-0.10 mm measured). Where they are 2 mm apart (slices 19 on)
-    // a surface nearly parallel to them (the sphere's cap) is blurred over a slab thicker than
-    // its curvature allows to undo: within 0.45 mm there (0.39 mm measured on the coronal cap).
+    // Within 0.25 mm where the slices are 1 mm apart (0.09-0.10 mm measured). Where they are 2 mm
+    // apart (slices 19 on) a surface nearly parallel to them (the sphere's cap) is blurred over a
+    // slab thicker than its curvature allows to undo: within 0.45 mm there (0.39 mm measured on the
+    // coronal cap).
     double worstFine = 0.0;
     double worstThick = 0.0;
     double sum = 0.0;
@@ -131,7 +140,8 @@ TEST(LiveWireContour, SubpixelContourLiesOnTheSphereInEveryPlane) {
     grid.subpixelRefine = false;
     const SliceContour raw = liveWireContour(ph.ct, anchors, grid);
     double rawWorst = 0.0;
-    for (const auto& p : raw.pointsLps) rawWorst = std::max(rawWorst, std::abs((p - ph.centre).norm() - kRadius));
+    for (const auto& p : raw.pointsLps)
+      rawWorst = std::max(rawWorst, std::abs((p - ph.centre).norm() - kRadius));
     EXPECT_LE(rawWorst, 0.8 * std::sqrt(2.0));
     EXPECT_GT(rawWorst, 0.25);
     EXPECT_NEAR(raw.cost, contour.cost, 1e-12);
@@ -144,20 +154,24 @@ TEST(LiveWireContour, ResliceInterpolatesUnevenSlicesOnARotatedFrame) {
   // in the 2 mm group) it is the mean.
   const CtImage& ct = ph.ct;
   EXPECT_NEAR(sampleCt(ct, ct.voxelToLps({10, 12, 21})), ct.at(10, 12, 21), 1e-9);
-  EXPECT_NEAR(sampleCt(ct, ct.voxelToLps({10, 12, 21.5})), 0.5 * (ct.at(10, 12, 21) + ct.at(10, 12, 22)), 1e-9);
-  const CtSlice slice = resliceCt(ct, SlicePlane::Axial, ph.centre.z(), {-1000, -1000}, {1000, 1000}, 0.8);
+  EXPECT_NEAR(sampleCt(ct, ct.voxelToLps({10, 12, 21.5})),
+              0.5 * (ct.at(10, 12, 21) + ct.at(10, 12, 22)), 1e-9);
+  const CtSlice slice =
+      resliceCt(ct, SlicePlane::Axial, ph.centre.z(), {-1000, -1000}, {1000, 1000}, 0.8);
   // The axial plane spans the voxel centres: 48 samples 0.8 mm apart along x and y.
   EXPECT_EQ(slice.width, 48);
   EXPECT_EQ(slice.height, 48);
   const Eigen::Vector2d c = slice.pixel(ph.centre);
   const auto nearest = [&](const Eigen::Vector2d& q) {
-    return slice.hu[static_cast<std::size_t>(std::lround(q.y()) * slice.width + std::lround(q.x()))];
+    return slice
+        .hu[static_cast<std::size_t>(std::lround(q.y()) * slice.width + std::lround(q.x()))];
   };
   EXPECT_GT(nearest(c), 1000.0f);
   EXPECT_LT(nearest(Eigen::Vector2d(1, 1)), 100.0f);
   EXPECT_TRUE(slice.lps(c.x(), c.y()).isApprox(ph.centre, 1e-12));
-  EXPECT_THROW(resliceCt(ct, SlicePlane::Axial, ph.centre.z() + 500.0, {-1000, -1000}, {1000, 1000}, 0.8),
-               std::invalid_argument);
+  EXPECT_THROW(
+      resliceCt(ct, SlicePlane::Axial, ph.centre.z() + 500.0, {-1000, -1000}, {1000, 1000}, 0.8),
+      std::invalid_argument);
   EXPECT_THROW(resliceCt(ct, SlicePlane::Axial, ph.centre.z(), {-1000, -1000}, {1000, 1000}, 0.0),
                std::invalid_argument);
 }
@@ -267,15 +281,21 @@ TEST(LiveWireContour, BadAnchorsFilesAreRefusedNamingFileAndContour) {
   EXPECT_NE(m.find("no contour"), std::string::npos) << m;
   m = readError(dir, R"({"contours": [{"label": "t3", "anchors": [[1, 2, 3], [1, 5, 3]]}]})");
   EXPECT_NE(m.find("contour \"t3\": 2 anchors"), std::string::npos) << m;
-  m = readError(dir, R"({"contours": [{"label": "t4", "anchors": [[1, 2, 3], [2, 5, 4], [9, 1, 8]]}]})");
+  m = readError(dir,
+                R"({"contours": [{"label": "t4", "anchors": [[1, 2, 3], [2, 5, 4], [9, 1, 8]]}]})");
   EXPECT_NE(m.find("contour \"t4\": anchors are not in one"), std::string::npos) << m;
-  m = readError(dir, R"({"contours": [{"label": "t5", "anchors": [[1, 2, 3], [1, 2, 4], [1, 2, 8]]}]})");
+  m = readError(dir,
+                R"({"contours": [{"label": "t5", "anchors": [[1, 2, 3], [1, 2, 4], [1, 2, 8]]}]})");
   EXPECT_NE(m.find("contour \"t5\": anchors lie on a line"), std::string::npos) << m;
-  m = readError(dir, R"({"contours": [{"label": "t6", "anchors": [[1, 2, 3], [1, "a", 4], [1, 2, 8]]}]})");
+  m = readError(
+      dir, R"({"contours": [{"label": "t6", "anchors": [[1, 2, 3], [1, "a", 4], [1, 2, 8]]}]})");
   EXPECT_NE(m.find("contour \"t6\", anchor 2"), std::string::npos) << m;
-  m = readError(dir, R"({"plane": "oblique", "contours": [{"anchors": [[1, 2, 3], [1, 5, 4], [1, 2, 8]]}]})");
+  m = readError(
+      dir, R"({"plane": "oblique", "contours": [{"anchors": [[1, 2, 3], [1, 5, 4], [1, 2, 8]]}]})");
   EXPECT_NE(m.find("oblique"), std::string::npos) << m;
-  m = readError(dir, R"({"plane": "axial", "contours": [{"label": "t7", "anchors": [[1, 2, 3], [1, 5, 4], [1, 2, 8]]}]})");
+  m = readError(
+      dir,
+      R"({"plane": "axial", "contours": [{"label": "t7", "anchors": [[1, 2, 3], [1, 5, 4], [1, 2, 8]]}]})");
   EXPECT_NE(m.find("contour \"t7\": anchors lie in a sagittal plane"), std::string::npos) << m;
   m = readError(dir, R"({"markups": [{"type": "Fiducial", "controlPoints": []}]})");
   EXPECT_NE(m.find("no contour"), std::string::npos) << m;

@@ -75,10 +75,12 @@ TEST(StudyVariants, PhantomInWarmWaterBiasesDepthsByTheSpeedRatio) {
   const SequenceDetection detection = detectSequence(shots, params);
   std::vector<double> ratios, corrected;
   for (const ShotRow& shot : readShots(dir.file("s/truth/shots.csv"))) {
-    if (shot.capture != "calibration_shots.igs.mha" || !shot.shouldAccept) continue;
+    if (shot.capture != "calibration_shots.igs.mha" || !shot.shouldAccept)
+      continue;
     EXPECT_NEAR(shot.speedMps, water, 1e-3);
     const FrameDetection& f = detection.frames.at(static_cast<std::size_t>(shot.frame));
-    if (!f.accepted()) continue;
+    if (!f.accepted())
+      continue;
     ratios.push_back(*f.depthMm / shot.depthMm);
     corrected.push_back(std::abs(*f.depthMm * water / 1450.0 - shot.depthMm));
   }
@@ -133,7 +135,7 @@ TEST(StudyVariants, FixtureCtReadsBackIndependently) {
   std::map<double, int> thicknesses;
   for (const nlohmann::json& s : slices)
     ++thicknesses[s.at("thickness").get<double>()];
-  EXPECT_EQ(thicknesses[5.0], 6);   // hip and ankle: 3 slices at 5 mm each
+  EXPECT_EQ(thicknesses[5.0], 6);    // hip and ankle: 3 slices at 5 mm each
   EXPECT_EQ(thicknesses[1.0], 160);  // knee: 160 slices at 1 mm
   // Voxels: deep inside the femoral condyles (cancellous) and far from any bone (air).
   const core::MeshLocator femur(filters::readMesh(root + "/truth/femur.vtp"));

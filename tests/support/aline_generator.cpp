@@ -54,14 +54,19 @@ class SpecimenDrawer {
 
   LabelledALine draw() {
     const double kind = uniform(0.0, 1.0);
-    if (kind < 0.55) return boneOrOblique(true);
-    if (kind < 0.80) return boneOrOblique(false);
-    if (kind < 0.92) return noCoupling();
+    if (kind < 0.55)
+      return boneOrOblique(true);
+    if (kind < 0.80)
+      return boneOrOblique(false);
+    if (kind < 0.92)
+      return noCoupling();
     return boneBeyondRecord();
   }
 
  private:
-  double uniform(double low, double high) { return std::uniform_real_distribution<double>(low, high)(rng_); }
+  double uniform(double low, double high) {
+    return std::uniform_real_distribution<double>(low, high)(rng_);
+  }
   bool chance(double p) { return uniform(0.0, 1.0) < p; }
   double phase() { return uniform(0.0, 2.0 * kPi); }
 
@@ -82,7 +87,8 @@ class SpecimenDrawer {
     const double ph = phase();
     for (int i = 0; i < count(); ++i) {
       const double envelope = amplitude * std::exp(-i / decay);
-      if (envelope < 0.01) break;
+      if (envelope < 0.01)
+        break;
       record[static_cast<std::size_t>(i)] +=
           envelope * std::cos(2.0 * kPi * pulse_.cyclesPerSample * i + ph);
     }
@@ -93,7 +99,8 @@ class SpecimenDrawer {
                   double rmsAtSkin) {
     const int begin = std::max(0, static_cast<int>(beginSample));
     const int end = std::min(count(), static_cast<int>(endSample));
-    if (end <= begin) return;
+    if (end <= begin)
+      return;
     std::normal_distribution<double> scatter(0.0, 1.0);
     // The pulse's energy sets the RMS of white noise filtered by it.
     double energy = 0.0;
@@ -107,13 +114,15 @@ class SpecimenDrawer {
       const double strength = scatter(rng_) * rmsAtSkin * norm * attenuation(depthMm);
       for (int k = -pulse_.halfLength; k <= pulse_.halfLength; ++k) {
         const int i = s + k;
-        if (i >= 0 && i < count()) record[static_cast<std::size_t>(i)] += strength * pulse_.at(k, 0.0);
+        if (i >= 0 && i < count())
+          record[static_cast<std::size_t>(i)] += strength * pulse_.at(k, 0.0);
       }
     }
   }
 
   void addBurst(std::vector<double>& record) {
-    if (!chance(0.3)) return;
+    if (!chance(0.3))
+      return;
     const int length = static_cast<int>(uniform(15.0, 60.0));
     const int start = static_cast<int>(uniform(200.0, count() - 100.0));
     const double sigma = uniform(15.0, 45.0);
@@ -125,7 +134,8 @@ class SpecimenDrawer {
 
   void addElectronicNoise(std::vector<double>& record) {
     std::normal_distribution<double> noise(0.0, uniform(0.4, 1.0));
-    for (double& v : record) v += noise(rng_);
+    for (double& v : record)
+      v += noise(rng_);
   }
 
   // A standoff of water, the skin, tissue with speckle and maybe a fascia, then bone. A positive
@@ -137,7 +147,8 @@ class SpecimenDrawer {
       const double tissueMm = uniform(3.0, 18.0);
       const double angleDeg = clearEcho ? uniform(0.0, 12.0) : uniform(25.0, 45.0);
       std::optional<LabelledALine> line = drawGeometry(standoffMm, tissueMm, angleDeg, true);
-      if (line) return *line;
+      if (line)
+        return *line;
     }
   }
 
@@ -153,14 +164,18 @@ class SpecimenDrawer {
       std::vector<std::string> parts{clearEcho ? "bone" : "oblique"};
       addRingDown(record);
       const double skinSample = standoffMm * samplesPerMm(options_.speedOfSoundWaterMps);
-      const double boneSample = skinSample + tissueMm * samplesPerMm(options_.speedOfSoundTissueMps);
-      if (boneSample > count() - 300) return std::nullopt;
+      const double boneSample =
+          skinSample + tissueMm * samplesPerMm(options_.speedOfSoundTissueMps);
+      if (boneSample > count() - 300)
+        return std::nullopt;
 
       const bool skinMissing = chance(0.2);
       const double skinAmplitude = skinMissing ? uniform(0.0, 3.0) : uniform(20.0, 60.0);
-      if (skinMissing) parts.push_back("no-skin");
+      if (skinMissing)
+        parts.push_back("no-skin");
       pulse_.add(record, skinSample, skinAmplitude, phase());
-      pulse_.add(record, 2.0 * skinSample, 0.25 * skinAmplitude, phase());  // standoff reverberation
+      pulse_.add(record, 2.0 * skinSample, 0.25 * skinAmplitude,
+                 phase());  // standoff reverberation
 
       const double speckleRms = uniform(6.0, 14.0);
       addSpeckle(record, skinSample, boneSample, speckleRms);
@@ -175,7 +190,8 @@ class SpecimenDrawer {
       if (chance(0.35) && tissueMm > 2.5) {
         // A fascia (muscle sheath) as strong as the bone echo would be at normal incidence.
         const double fasciaMm = uniform(1.0, tissueMm - 1.5);
-        const double fasciaSample = skinSample + fasciaMm * samplesPerMm(options_.speedOfSoundTissueMps);
+        const double fasciaSample =
+            skinSample + fasciaMm * samplesPerMm(options_.speedOfSoundTissueMps);
         pulse_.add(record, fasciaSample, uniform(0.7, 1.3) * nominalBone, phase());
         parts.push_back("fascia");
       }
@@ -185,16 +201,17 @@ class SpecimenDrawer {
       // Label like an expert would; redraw the ambiguous middle ground.
       const bool clear = boneAmplitude >= 5.0 * speckleAtBone;
       const bool lost = boneAmplitude <= 1.0 * speckleAtBone;
-      if (strictLabels && (clearEcho ? !clear : !lost)) return std::nullopt;
+      if (strictLabels && (clearEcho ? !clear : !lost))
+        return std::nullopt;
       line.samples = quantise(record);
       line.hasBone = clear;
       line.boneSample = line.hasBone ? boneSample : -1.0;
       line.kind = parts.front();
-      for (std::size_t i = 1; i < parts.size(); ++i) line.kind += "+" + parts[i];
+      for (std::size_t i = 1; i < parts.size(); ++i)
+        line.kind += "+" + parts[i];
       return line;
     }
   }
-
 
  private:
   // The standoff is not coupled to the skin: its far wall against air rings back and forth.
@@ -240,7 +257,8 @@ std::vector<float> makeEchoRecord(int count, const std::vector<EchoSpec>& echoes
                                   std::uint64_t seed) {
   const Pulse pulse(pulseModel);
   std::vector<double> record(static_cast<std::size_t>(count), 0.0);
-  for (const EchoSpec& echo : echoes) pulse.add(record, echo.centreSample, echo.amplitude, 0.0);
+  for (const EchoSpec& echo : echoes)
+    pulse.add(record, echo.centreSample, echo.amplitude, 0.0);
   std::mt19937_64 rng(seed);
   std::normal_distribution<double> noise(0.0, noiseSigma > 0.0 ? noiseSigma : 1.0);
   std::vector<float> samples(static_cast<std::size_t>(count));
@@ -253,8 +271,11 @@ std::vector<float> makeEchoRecord(int count, const std::vector<EchoSpec>& echoes
 LabelledALine makeSpecimenALine(double standoffMm, double tissueMm, double incidenceDeg,
                                 const SpecimenSetOptions& options) {
   SpecimenDrawer drawer(options);
-  std::optional<LabelledALine> line = drawer.drawGeometry(standoffMm, tissueMm, incidenceDeg, false);
-  if (!line) return {std::vector<std::uint8_t>(static_cast<std::size_t>(options.samplesPerRecord), 128), false, -1.0, "beyond-record"};
+  std::optional<LabelledALine> line =
+      drawer.drawGeometry(standoffMm, tissueMm, incidenceDeg, false);
+  if (!line)
+    return {std::vector<std::uint8_t>(static_cast<std::size_t>(options.samplesPerRecord), 128),
+            false, -1.0, "beyond-record"};
   return *line;
 }
 
@@ -262,7 +283,8 @@ std::vector<LabelledALine> makeSpecimenSet(const SpecimenSetOptions& options) {
   SpecimenDrawer drawer(options);
   std::vector<LabelledALine> set;
   set.reserve(static_cast<std::size_t>(options.records));
-  for (int i = 0; i < options.records; ++i) set.push_back(drawer.draw());
+  for (int i = 0; i < options.records; ++i)
+    set.push_back(drawer.draw());
   return set;
 }
 

@@ -18,7 +18,8 @@ Sequence makeDemoSweep(const DemoSweepOptions& options, std::vector<double>* bon
   sequence.acquisition.speedOfSoundMps = 1540.0;
   sequence.acquisition.transducer = "single element 9 MHz, 6.35 mm, 25 mm focus (simulated)";
   sequence.pixels.reserve(static_cast<std::size_t>(options.frames) * 4096);
-  if (boneDepthMm) boneDepthMm->clear();
+  if (boneDepthMm)
+    boneDepthMm->clear();
 
   SpecimenSetOptions lineOptions;
   const DepthConversion depth;
@@ -33,7 +34,8 @@ Sequence makeDemoSweep(const DemoSweepOptions& options, std::vector<double>* bon
     lineOptions.seed = options.seed * 1000003ULL + static_cast<std::uint64_t>(f);
     const LabelledALine line = makeSpecimenALine(standoffMm, tissueMm, incidenceDeg, lineOptions);
     sequence.pixels.insert(sequence.pixels.end(), line.samples.begin(), line.samples.end());
-    if (boneDepthMm) boneDepthMm->push_back(line.hasBone ? depth.depthMm(line.boneSample) : -1.0);
+    if (boneDepthMm)
+      boneDepthMm->push_back(line.hasBone ? depth.depthMm(line.boneSample) : -1.0);
 
     SequenceFrame frame;
     frame.timestampS = 10.0 + t;

@@ -11,7 +11,8 @@ namespace {
 
 std::string readAll(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw std::runtime_error(path + ": cannot be read");
+  if (!in)
+    throw std::runtime_error(path + ": cannot be read");
   std::ostringstream s;
   s << in.rdbuf();
   return s.str();
@@ -24,11 +25,13 @@ std::string attribute(const std::string& tag, const std::string& name) {
     const bool boundary = at > 0 && (tag[at - 1] == ' ' || tag[at - 1] == '\n' ||
                                      tag[at - 1] == '\t' || tag[at - 1] == '\r');
     std::size_t p = at + name.size();
-    while (p < tag.size() && (tag[p] == ' ' || tag[p] == '\n' || tag[p] == '\t' || tag[p] == '\r')) ++p;
+    while (p < tag.size() && (tag[p] == ' ' || tag[p] == '\n' || tag[p] == '\t' || tag[p] == '\r'))
+      ++p;
     if (boundary && p < tag.size() && tag[p] == '=') {
       const std::size_t open = tag.find('"', p);
       const std::size_t close = tag.find('"', open + 1);
-      if (open == std::string::npos || close == std::string::npos) return "";
+      if (open == std::string::npos || close == std::string::npos)
+        return "";
       return tag.substr(open + 1, close - open - 1);
     }
     at = p;
@@ -43,10 +46,11 @@ std::vector<std::string> elements(const std::string& text, const std::string& na
   const std::string open = "<" + name;
   while ((at = text.find(open, at)) != std::string::npos) {
     const std::size_t after = at + open.size();
-    if (after < text.size() && (text[after] == ' ' || text[after] == '\n' || text[after] == '\t' ||
-                                text[after] == '\r')) {
+    if (after < text.size() &&
+        (text[after] == ' ' || text[after] == '\n' || text[after] == '\t' || text[after] == '\r')) {
       const std::size_t end = text.find('>', after);
-      if (end == std::string::npos) break;
+      if (end == std::string::npos)
+        break;
       out.push_back(text.substr(at, end - at + 1));
       at = end;
     } else {
@@ -58,15 +62,18 @@ std::vector<std::string> elements(const std::string& text, const std::string& na
 
 }  // namespace
 
-Eigen::Matrix4d plusTransform(const std::string& path, const std::string& from, const std::string& to) {
+Eigen::Matrix4d plusTransform(const std::string& path, const std::string& from,
+                              const std::string& to) {
   const std::string text = readAll(path);
   for (const std::string& tag : elements(text, "Transform")) {
-    if (attribute(tag, "From") != from || attribute(tag, "To") != to) continue;
+    if (attribute(tag, "From") != from || attribute(tag, "To") != to)
+      continue;
     std::istringstream values(attribute(tag, "Matrix"));
     Eigen::Matrix4d m;
     for (int r = 0; r < 4; ++r) {
       for (int c = 0; c < 4; ++c) {
-        if (!(values >> m(r, c))) throw std::runtime_error(path + ": bad Matrix of " + from + "To" + to);
+        if (!(values >> m(r, c)))
+          throw std::runtime_error(path + ": bad Matrix of " + from + "To" + to);
       }
     }
     return m;
@@ -85,10 +92,12 @@ std::vector<std::pair<std::string, Eigen::Vector3d>> plusLandmarks(const std::st
   for (const std::string& tag : elements(text.substr(begin, end - begin), "Landmark")) {
     std::istringstream values(attribute(tag, "Position"));
     Eigen::Vector3d p;
-    if (!(values >> p.x() >> p.y() >> p.z())) throw std::runtime_error(path + ": bad landmark " + tag);
+    if (!(values >> p.x() >> p.y() >> p.z()))
+      throw std::runtime_error(path + ": bad landmark " + tag);
     out.emplace_back(attribute(tag, "Name"), p);
   }
-  if (out.empty()) throw std::runtime_error(path + ": no <Landmark> in <Landmarks>");
+  if (out.empty())
+    throw std::runtime_error(path + ": no <Landmark> in <Landmarks>");
   return out;
 }
 

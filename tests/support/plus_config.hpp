@@ -12,7 +12,8 @@ namespace echoreg::test {
 
 /// The Matrix of the first <Transform From=FROM To=TO ...> element of a PLUS XML file. Throws
 /// std::runtime_error when the file cannot be read or has no such transform.
-Eigen::Matrix4d plusTransform(const std::string& path, const std::string& from, const std::string& to);
+Eigen::Matrix4d plusTransform(const std::string& path, const std::string& from,
+                              const std::string& to);
 
 /// The <Landmark Name=... Position="x y z"/> elements inside <Landmarks>, in order. Throws
 /// std::runtime_error when the file cannot be read or has none.

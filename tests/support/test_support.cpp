@@ -1,9 +1,9 @@
 #include "test_support.hpp"
 
+#include <unistd.h>
 #include <atomic>
 #include <cstdlib>
 #include <filesystem>
-#include <unistd.h>
 
 namespace echoreg::test {
 
@@ -17,7 +17,8 @@ std::string sharedDataDir() {
 
 std::string sharedDataFile(const std::string& relativePath) {
   const std::string dir = sharedDataDir();
-  if (dir.empty()) return {};
+  if (dir.empty())
+    return {};
   std::error_code ec;
   const fs::path file = fs::path(dir) / relativePath;
   return fs::exists(file, ec) ? file.string() : std::string();

@@ -29,6 +29,8 @@ inline bool operator==(const DepthConversion& a, const DepthConversion& b) {
   const auto& [samplingB, delayB, speedB] = b;
   return std::tie(samplingA, delayA, speedA) == std::tie(samplingB, delayB, speedB);
 }
-inline bool operator!=(const DepthConversion& a, const DepthConversion& b) { return !(a == b); }
+inline bool operator!=(const DepthConversion& a, const DepthConversion& b) {
+  return !(a == b);
+}
 
 }  // namespace echoreg

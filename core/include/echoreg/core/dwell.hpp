@@ -1,7 +1,8 @@
 // Dwell detection: where a tracked stylus tip rests on a landmark. The stylus is carried from one
 // landmark to the next, held still on each for a moment, and the tracker drops frames (INVALID)
 // now and then; each dwell gives one landmark position. Used by `echoreg landmarks` and by
-// `echoreg register --landmarks-capture` (initial, paired-point registration). docs/registration.md.
+// `echoreg register --landmarks-capture` (initial, paired-point registration).
+// docs/registration.md.
 #pragma once
 
 #include "echoreg/core/paired_point.hpp"
@@ -41,15 +42,16 @@ struct Dwell {
 /// The stylus' resting periods, in time order. Algorithm (docs/registration.md, "Dwells"):
 /// frames that are not `valid` are ignored (a gap does not end a dwell). The positions are
 /// smoothed by a centred moving mean over smoothingS for the motion test only. A run of
-/// consecutive valid frames is grown greedily from each start frame while every position stays within
-/// maxMotionMm of the run's component-wise median (checked as the run grows, against the median
-/// recomputed when the run has doubled); a run that lasts minDurationS and has minFrames valid
-/// frames is a dwell, and the search restarts after it; otherwise the start advances by one
+/// consecutive valid frames is grown greedily from each start frame while every position stays
+/// within maxMotionMm of the run's component-wise median (checked as the run grows, against the
+/// median recomputed when the run has doubled); a run that lasts minDurationS and has minFrames
+/// valid frames is a dwell, and the search restarts after it; otherwise the start advances by one
 /// frame. Consecutive runs whose means are within mergeDistanceMm are merged into one dwell.
 /// Each run contributes its stable core to the mean: its raw positions within maxMotionMm / 2
 /// of their median (all of them when that leaves fewer than minFrames).
 /// Throws std::invalid_argument when the three vectors differ in size, an option is not
-/// positive (mergeDistanceMm may be 0: no merging), timestamps decrease, or a valid frame has a non-finite position or timestamp.
+/// positive (mergeDistanceMm may be 0: no merging), timestamps decrease, or a valid frame has a
+/// non-finite position or timestamp.
 std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
                                 const std::vector<double>& timestampsS,
                                 const std::vector<bool>& valid, const DwellOptions& options);
@@ -57,7 +59,7 @@ std::vector<Dwell> detectDwells(const std::vector<Eigen::Vector3d>& positions,
 /// Dwells matched in time order to landmarks: which dwell is which landmark, and the paired-point
 /// registration landmarks -> dwell means.
 struct DwellMatch {
-  std::vector<int> dwellIndex;  ///< per landmark, the index of its dwell
+  std::vector<int> dwellIndex;     ///< per landmark, the index of its dwell
   PairedPointResult registration;  ///< landmarks (from) -> dwell means (to)
   /// FRE of the best other choice of dwells (infinity when there was no other): a value close to
   /// registration.freMm means the choice was ambiguous.
@@ -77,7 +79,7 @@ DwellMatch matchDwellsInOrder(const std::vector<Dwell>& dwells,
 struct StylusTrack {
   std::vector<Eigen::Vector3d> tipInReference;  ///< one per frame (zero where not valid)
   std::vector<double> timestampsS;              ///< one per frame (frame index when absent)
-  std::vector<bool> valid;  ///< both transforms present and OK in the frame
+  std::vector<bool> valid;                      ///< both transforms present and OK in the frame
 };
 
 /// The stylus tip in the reference marker's frame for every frame of `capture`:

@@ -43,11 +43,11 @@ struct LiveWireOptions {
 
 /// The feature maps, per pixel (row-major), kept for diagnostics and sub-pixel refinement.
 struct LiveWireFeatures {
-  std::vector<float> zeroCrossing;       ///< fZ: 0 on a zero crossing of the LoG, else 1
-  std::vector<float> gradientMagnitude;  ///< G, image units per mm (after smoothing)
-  std::vector<float> magnitudeCost;      ///< fG = 1 - min(G, cap) / cap
+  std::vector<float> zeroCrossing;                 ///< fZ: 0 on a zero crossing of the LoG, else 1
+  std::vector<float> gradientMagnitude;            ///< G, image units per mm (after smoothing)
+  std::vector<float> magnitudeCost;                ///< fG = 1 - min(G, cap) / cap
   std::vector<Eigen::Vector2f> gradientDirection;  ///< unit gradient (mm frame), 0 where G = 0
-  double magnitudeCap = 0.0;             ///< the cap used (max G when not set)
+  double magnitudeCap = 0.0;                       ///< the cap used (max G when not set)
 };
 
 /// Integer cost of a path, and the same in cost units (sum of the local costs l(p, q)).

@@ -57,6 +57,7 @@ Eigen::Vector3d triangleNormal(const TriangleMesh& mesh, int index);
 /// A closed latitude-longitude sphere wound outward (the calibration sphere in figures, test
 /// shapes): `rings` >= 2 bands from pole to pole, `segments` >= 3 around. Throws
 /// std::invalid_argument for a radius <= 0 or too few rings or segments.
-TriangleMesh uvSphere(const Eigen::Vector3d& centre, double radius, int rings = 36, int segments = 72);
+TriangleMesh uvSphere(const Eigen::Vector3d& centre, double radius, int rings = 36,
+                      int segments = 72);
 
 }  // namespace echoreg::core

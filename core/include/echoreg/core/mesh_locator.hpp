@@ -20,16 +20,16 @@
 namespace echoreg::core {
 
 struct RayHit {
-  double t = 0.0;           ///< distance along the ray (the direction is unit), mm
-  Eigen::Vector3d point;    ///< origin + t * direction
-  Eigen::Vector3d normal;   ///< the triangle's unit outward normal
+  double t = 0.0;          ///< distance along the ray (the direction is unit), mm
+  Eigen::Vector3d point;   ///< origin + t * direction
+  Eigen::Vector3d normal;  ///< the triangle's unit outward normal
   int triangle = -1;
-  bool entering = false;    ///< the ray goes from outside to inside here (dot(dir, normal) < 0)
+  bool entering = false;  ///< the ray goes from outside to inside here (dot(dir, normal) < 0)
 };
 
 struct ClosestPoint {
-  Eigen::Vector3d point;   ///< nearest point on the triangles
-  double distance = 0.0;   ///< unsigned, mm
+  Eigen::Vector3d point;  ///< nearest point on the triangles
+  double distance = 0.0;  ///< unsigned, mm
   int triangle = -1;
   /// Barycentric coordinates of `point` in `triangle` (weights of its three vertices).
   Eigen::Vector3d barycentric;

@@ -31,10 +31,10 @@ BoxSummary boxSummary(const std::vector<double>& values);
 double percentile(std::vector<double> values, double p);
 
 struct AnovaResult {
-  double f = 0.0;              ///< between-group mean square over within-group mean square
-  int dfBetween = 0;           ///< groups - 1
-  int dfWithin = 0;            ///< values - groups
-  double pValue = 1.0;         ///< P(F(dfBetween, dfWithin) > f)
+  double f = 0.0;       ///< between-group mean square over within-group mean square
+  int dfBetween = 0;    ///< groups - 1
+  int dfWithin = 0;     ///< values - groups
+  double pValue = 1.0;  ///< P(F(dfBetween, dfWithin) > f)
   double sumSquaresBetween = 0.0;
   double sumSquaresWithin = 0.0;
 };

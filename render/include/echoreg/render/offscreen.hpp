@@ -23,7 +23,9 @@ struct RgbImage {
   std::vector<std::uint8_t> pixels;
   std::uint8_t at(int x, int y, int channel) const {
     return pixels[(static_cast<std::size_t>(y) * static_cast<std::size_t>(width) +
-                   static_cast<std::size_t>(x)) * 3 + static_cast<std::size_t>(channel)];
+                   static_cast<std::size_t>(x)) *
+                      3 +
+                  static_cast<std::size_t>(channel)];
   }
 };
 

@@ -47,7 +47,8 @@ struct CtImage {
   }
   std::size_t index(int i, int j, int k) const {
     return (static_cast<std::size_t>(k) * static_cast<std::size_t>(dimensions[1]) +
-            static_cast<std::size_t>(j)) * static_cast<std::size_t>(dimensions[0]) +
+            static_cast<std::size_t>(j)) *
+               static_cast<std::size_t>(dimensions[0]) +
            static_cast<std::size_t>(i);
   }
   std::int16_t at(int i, int j, int k) const { return hu[index(i, j, k)]; }
@@ -67,8 +68,8 @@ struct CtImage {
 };
 
 /// Linear resampling along k onto slices `spacingMm` apart from slice 0 to the last slice (the
-/// in-plane grid is kept). spacingMm <= 0 uses the smallest step between consecutive slices. The result is
-/// uniform. Throws std::invalid_argument for an empty image.
+/// in-plane grid is kept). spacingMm <= 0 uses the smallest step between consecutive slices. The
+/// result is uniform. Throws std::invalid_argument for an empty image.
 CtImage resampleUniform(const CtImage& image, double spacingMm = 0.0);
 
 }  // namespace echoreg::segmentation

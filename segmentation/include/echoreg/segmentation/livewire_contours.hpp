@@ -26,9 +26,9 @@ SlicePlane parseSlicePlane(const std::string& name);
 /// The anchors of one closed contour, in order, all in one slice plane.
 struct AnchorSet {
   SlicePlane plane = SlicePlane::Sagittal;
-  double positionMm = 0.0;               ///< the slice's coordinate along the plane's normal axis
+  double positionMm = 0.0;  ///< the slice's coordinate along the plane's normal axis
   std::vector<Eigen::Vector3d> anchorsLps;  ///< at least 3
-  std::string label;                     ///< e.g. the curve's name, for messages
+  std::string label;                        ///< e.g. the curve's name, for messages
 };
 
 /// A closed contour on one slice (the last point joins the first; it is not repeated).
@@ -36,7 +36,7 @@ struct SliceContour {
   SlicePlane plane = SlicePlane::Sagittal;
   double positionMm = 0.0;
   std::vector<Eigen::Vector3d> pointsLps;
-  double cost = 0.0;  ///< total live-wire cost of the path (for diagnostics)
+  double cost = 0.0;                       ///< total live-wire cost of the path (for diagnostics)
   std::vector<std::size_t> anchorIndices;  ///< index in pointsLps of each anchor's point
   double sampleSpacingMm = 0.0;            ///< of the resliced slice the path was found on
 };
@@ -106,9 +106,9 @@ struct CtSlice {
 double sampleCt(const CtImage& ct, const Eigen::Vector3d& lps);
 
 /// Samples the CT on `plane` at `positionMm` over the rectangle [minUvMm, maxUvMm] (u, v in mm)
-/// intersected with the box of the CT's voxel centres, `spacingMm` apart. Throws std::invalid_argument for an
-/// empty CT, spacingMm <= 0, or a rectangle that misses the volume or is smaller than 2 x 2
-/// samples, or larger than 4096 x 4096.
+/// intersected with the box of the CT's voxel centres, `spacingMm` apart. Throws
+/// std::invalid_argument for an empty CT, spacingMm <= 0, or a rectangle that misses the volume or
+/// is smaller than 2 x 2 samples, or larger than 4096 x 4096.
 CtSlice resliceCt(const CtImage& ct, SlicePlane plane, double positionMm,
                   const Eigen::Vector2d& minUvMm, const Eigen::Vector2d& maxUvMm, double spacingMm);
 
