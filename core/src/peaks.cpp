@@ -895,9 +895,12 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       };
       std::vector<int> byValue(static_cast<std::size_t>(found));
       std::iota(byValue.begin(), byValue.end(), 0);
-      std::stable_sort(byValue.begin(), byValue.end(), [&](int a, int b) {
-        return result.peaks[static_cast<std::size_t>(a)].value >
-               result.peaks[static_cast<std::size_t>(b)].value;
+      // Strongest first, ties in depth order (std::sort with the index as tie-break is a stable
+      // sort without its buffer).
+      std::sort(byValue.begin(), byValue.end(), [&](int a, int b) {
+        const float va = result.peaks[static_cast<std::size_t>(a)].value;
+        const float vb = result.peaks[static_cast<std::size_t>(b)].value;
+        return va > vb || (va == vb && a < b);
       });
       float strongest = -1.F;
       for (int candidate : byValue) {
