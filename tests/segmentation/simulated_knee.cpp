@@ -1,8 +1,10 @@
 #include "simulated_knee.hpp"
 
+#include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/simulation/specimen.hpp"
 
 #include <unistd.h>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdint>
@@ -210,6 +212,40 @@ const SimulatedKnee& simulatedKnee(const KneeVariant& variant) {
   }
   built.emplace_back(variant, buildSimulatedKnee(variant));
   return *built.back().second;
+}
+
+std::optional<Eigen::Vector3d> insidePoint(const simulation::Bone& bone, double z) {
+  const core::MeshLocator locator(bone.mesh);
+  const auto b = core::bounds(bone.mesh);
+  std::vector<Eigen::Vector3d> inside;
+  for (double y = b[0].y(); y <= b[1].y(); y += 1.0) {
+    for (double x = b[0].x(); x <= b[1].x(); x += 1.0) {
+      if (locator.signedDistance({x, y, z}) < -3.0)
+        inside.emplace_back(x, y, z);
+    }
+  }
+  if (inside.empty())
+    return std::nullopt;
+  Eigen::Vector3d c = Eigen::Vector3d::Zero();
+  for (const auto& p : inside)
+    c += p;
+  c /= static_cast<double>(inside.size());
+  return *std::min_element(inside.begin(), inside.end(), [&](const auto& a, const auto& b2) {
+    return (a - c).norm() < (b2 - c).norm();
+  });
+}
+
+std::optional<Eigen::Vector3d> seedPoint(const SimulatedKnee& sim, simulation::BoneId id) {
+  const simulation::Bone& bone = sim.knee.bone(id);
+  const auto box = core::bounds(bone.mesh);
+  const double lo = std::max(sim.kneeZMinMm + 6.0, box[0].z() + 6.0);
+  const double hi = std::min(sim.kneeZMaxMm - 6.0, box[1].z() - 6.0);
+  // Femur and patella seeded high, tibia and fibula low: away from the joints.
+  const bool high = id == simulation::BoneId::Femur || id == simulation::BoneId::Patella;
+  std::optional<Eigen::Vector3d> p;
+  for (double t = 0.0; t <= 1.0 && !p; t += 0.1)
+    p = insidePoint(bone, high ? hi - t * (hi - lo) : lo + t * (hi - lo));
+  return p;
 }
 
 }  // namespace echoreg::test

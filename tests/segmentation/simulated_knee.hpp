@@ -9,6 +9,10 @@
 #include "echoreg/simulation/anatomy.hpp"
 #include "echoreg/simulation/ct.hpp"
 
+#include <Eigen/Core>
+
+#include <optional>
+
 namespace echoreg::test {
 
 struct SimulatedKnee {
@@ -33,5 +37,14 @@ struct KneeVariant {
 const SimulatedKnee& simulatedKnee();
 /// A variant (built on first use, kept for the program's life).
 const SimulatedKnee& simulatedKnee(const KneeVariant& variant);
+
+/// The inside point of `bone` at height z nearest the centroid of its points 3 mm or more deep;
+/// none when the section holds no such point.
+std::optional<Eigen::Vector3d> insidePoint(const simulation::Bone& bone, double z);
+
+/// A seed for `id` on a section at least 6 mm inside the scan and the bone, away from the joints
+/// (femur and patella from the top down, tibia and fibula from the bottom up): the point 3 mm or
+/// more deep nearest the centroid of such points; none when no section has one.
+std::optional<Eigen::Vector3d> seedPoint(const SimulatedKnee& sim, simulation::BoneId id);
 
 }  // namespace echoreg::test

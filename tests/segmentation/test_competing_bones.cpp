@@ -20,42 +20,12 @@ namespace {
 using namespace echoreg;
 using simulation::BoneId;
 
-// The inside point of `bone` at height z nearest the centroid of its points 3 mm or more deep.
-std::optional<Eigen::Vector3d> insidePoint(const simulation::Bone& bone, double z) {
-  const core::MeshLocator locator(bone.mesh);
-  const auto b = core::bounds(bone.mesh);
-  std::vector<Eigen::Vector3d> inside;
-  for (double y = b[0].y(); y <= b[1].y(); y += 1.0) {
-    for (double x = b[0].x(); x <= b[1].x(); x += 1.0) {
-      if (locator.signedDistance({x, y, z}) < -3.0)
-        inside.emplace_back(x, y, z);
-    }
-  }
-  if (inside.empty())
-    return std::nullopt;
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (const auto& p : inside)
-    c += p;
-  c /= static_cast<double>(inside.size());
-  return *std::min_element(inside.begin(), inside.end(), [&](const auto& a, const auto& b2) {
-    return (a - c).norm() < (b2 - c).norm();
-  });
-}
-
 // One seed per bone, on a section well inside the scanned slab.
 std::vector<segmentation::BoneSeed> seedsOf(const test::SimulatedKnee& sim,
                                             const std::vector<BoneId>& ids) {
   std::vector<segmentation::BoneSeed> seeds;
   for (BoneId id : ids) {
-    const simulation::Bone& bone = sim.knee.bone(id);
-    const auto box = core::bounds(bone.mesh);
-    const double lo = std::max(sim.kneeZMinMm + 6.0, box[0].z() + 6.0);
-    const double hi = std::min(sim.kneeZMaxMm - 6.0, box[1].z() - 6.0);
-    std::optional<Eigen::Vector3d> p;
-    // Femur and patella seeded high, tibia and fibula low: away from the joints.
-    const bool high = id == BoneId::Femur || id == BoneId::Patella;
-    for (double t = 0.0; t <= 1.0 && !p; t += 0.1)
-      p = insidePoint(bone, high ? hi - t * (hi - lo) : lo + t * (hi - lo));
+    const std::optional<Eigen::Vector3d> p = test::seedPoint(sim, id);
     EXPECT_TRUE(p.has_value()) << simulation::boneName(id) << ": no seed in the scan";
     seeds.push_back({std::string(simulation::boneName(id)), p.value_or(Eigen::Vector3d::Zero())});
   }
@@ -499,8 +469,8 @@ TEST(CompetingBones, RefusesSeedsItCannotUse) {
   const auto seeds = seedsOf(sim, {BoneId::Femur, BoneId::Tibia});
   // Two bones' seeds in the femur (its shaft, 20 mm apart).
   const simulation::Bone& femur = sim.knee.bone(BoneId::Femur);
-  const auto a = insidePoint(femur, sim.kneeZMaxMm - 4.0);
-  const auto b = insidePoint(femur, sim.kneeZMaxMm - 24.0);
+  const auto a = test::insidePoint(femur, sim.kneeZMaxMm - 4.0);
+  const auto b = test::insidePoint(femur, sim.kneeZMaxMm - 24.0);
   ASSERT_TRUE(a && b);
   std::string m = thrownMessage(sim, {{"femur", *a}, {"tibia", *b}});
   EXPECT_NE(m.find("lie in one bone"), std::string::npos) << m;

@@ -23,41 +23,12 @@ namespace {
 using namespace echoreg;
 using simulation::BoneId;
 
-// The inside point of `bone` at height z nearest the centroid of its points 3 mm or more deep.
-std::optional<Eigen::Vector3d> insidePoint(const simulation::Bone& bone, double z) {
-  const core::MeshLocator locator(bone.mesh);
-  const auto b = core::bounds(bone.mesh);
-  std::vector<Eigen::Vector3d> inside;
-  for (double y = b[0].y(); y <= b[1].y(); y += 1.0) {
-    for (double x = b[0].x(); x <= b[1].x(); x += 1.0) {
-      if (locator.signedDistance({x, y, z}) < -3.0)
-        inside.emplace_back(x, y, z);
-    }
-  }
-  if (inside.empty())
-    return std::nullopt;
-  Eigen::Vector3d c = Eigen::Vector3d::Zero();
-  for (const auto& p : inside)
-    c += p;
-  c /= static_cast<double>(inside.size());
-  return *std::min_element(inside.begin(), inside.end(), [&](const auto& a, const auto& b2) {
-    return (a - c).norm() < (b2 - c).norm();
-  });
-}
-
 const std::vector<BoneId> kAll = {BoneId::Femur, BoneId::Tibia, BoneId::Fibula, BoneId::Patella};
 
 std::vector<segmentation::BoneSeed> seedsOf(const test::SimulatedKnee& sim) {
   std::vector<segmentation::BoneSeed> seeds;
   for (BoneId id : kAll) {
-    const simulation::Bone& bone = sim.knee.bone(id);
-    const auto box = core::bounds(bone.mesh);
-    const double lo = std::max(sim.kneeZMinMm + 6.0, box[0].z() + 6.0);
-    const double hi = std::min(sim.kneeZMaxMm - 6.0, box[1].z() - 6.0);
-    std::optional<Eigen::Vector3d> p;
-    const bool high = id == BoneId::Femur || id == BoneId::Patella;
-    for (double t = 0.0; t <= 1.0 && !p; t += 0.1)
-      p = insidePoint(bone, high ? hi - t * (hi - lo) : lo + t * (hi - lo));
+    const std::optional<Eigen::Vector3d> p = test::seedPoint(sim, id);
     EXPECT_TRUE(p.has_value()) << simulation::boneName(id) << ": no seed in the scan";
     seeds.push_back({std::string(simulation::boneName(id)), p.value_or(Eigen::Vector3d::Zero())});
   }
