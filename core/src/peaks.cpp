@@ -137,6 +137,9 @@ double noiseFloorOf(const float* envelope, int count, std::vector<float>& scratc
 // the envelope of noise exceeds 5 times its median with a probability of about e^-17.
 constexpr double kQuietEchoFactor = 5.0;
 
+// An echo with one this many times stronger behind it is not bone (see prominencePolicy).
+constexpr float kStrongerBehind = 1.5F;
+
 // The level of the record's quietest stretch: the lower quartile of the medians of blocks of
 // `block` samples of envelope[begin, count). Where the tissue's speckle lies under the
 // digitiser's noise (8-bit records, water), a shadow behind bone is no quieter than the noise
@@ -286,7 +289,7 @@ float maxAround(const float* envelope, int count, double centre, int radius) {
 // stronger), with nothing between them. Bone returns half the energy at most, so its second
 // bounce is a quarter of the echo or less, and tissue fills the gaps with speckle.
 bool isAirTrain(const float* envelope, int count, int index, double ratio, int radius,
-                std::vector<float>& scratch) {
+                double emissionSample, int ringDownEnd, std::vector<float>& scratch) {
   const float value = envelope[index];
   const auto quiet = static_cast<float>(0.15 * value);
   int k = index;
@@ -305,6 +308,23 @@ bool isAirTrain(const float* envelope, int count, int index, double ratio, int r
   const int spacing = next - index;
   if (spacing < 2 * radius)
     return false;
+  // A reverberation needs a reflector at each end of its path: the transducer's face and the
+  // interface. Either the interface lies one spacing from the face (an air gap behind a
+  // standoff: the second echo at twice the first's time of flight), or the train starts at the
+  // face (the probe's own ringing in air, right after the ring-down), and then an echo deeper in
+  // it has its earlier bounces before it, each at least as strong as the next. A fascia 2 mm
+  // above bone, followed by the bone and the cortex's ringing, is spaced like neither.
+  const int slack = std::max(radius, spacing / 25);
+  const bool fromFace = std::fabs((index - emissionSample) - spacing) <= 2.0 * slack;
+  if (!fromFace) {
+    float later = value;
+    for (int at = index - spacing; at > ringDownEnd + slack; at -= spacing) {
+      const float earlier = maxAround(envelope, count, at, slack);
+      if (earlier < later)
+        return false;
+      later = earlier;
+    }
+  }
   const double between = medianOf(envelope, count, k, next - radius, scratch);
   if (between < 0.0 || between > quiet)
     return false;
@@ -422,8 +442,8 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     if (wall) {
       continue;
     }
-    const bool air =
-        isAirTrain(envelope, count, c.index, e.airReverberation, reverbRadius, scratch);
+    const bool air = isAirTrain(envelope, count, c.index, e.airReverberation, reverbRadius,
+                                params.emissionSample, ringDown, scratch);
     if (air) {
       // Nothing gets through air: every echo behind it is a reverberation.
       airAt = std::min(airAt, c.index);
@@ -481,6 +501,17 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     if (candidates[k].peak >= 0 && isReverberation(k) && candidates[k].passed) {
       candidates[k].passed = false;
     }
+  }
+  // Little gets through bone, and what does is lost in it: nothing behind bone echoes back
+  // stronger than bone itself. An echo with a much stronger one behind it (the skin or a fascia
+  // above the bone, whose tissue behind it rings like a cortex) is not bone.
+  float strongestBehind = 0.F;
+  for (std::size_t k = candidates.size(); k-- > 0;) {
+    EchoCandidate& c = candidates[k];
+    if (c.passed && strongestBehind > kStrongerBehind * c.value)
+      c.passed = false;
+    if (c.peak >= 0 && candidates[k].passed)
+      strongestBehind = std::max(strongestBehind, c.value);
   }
 
   // Bone: an echo with bone's signature behind it, a shadow or the cortex's ringing. The
@@ -716,7 +747,8 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       std::vector<float> scratch;
       const int radius = std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
       const int index = shifted.peaks[static_cast<std::size_t>(shifted.selected)].index;
-      if (isAirTrain(envelope, count, index, params.prominence.airReverberation, radius, scratch)) {
+      if (isAirTrain(envelope, count, index, params.prominence.airReverberation, radius,
+                     params.emissionSample, ringDown, scratch)) {
         shifted.reason = RejectReason::NotBone;
         shifted.selected = -1;
         shifted.sampleIndex = 0.0;

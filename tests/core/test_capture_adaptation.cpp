@@ -177,6 +177,80 @@ TEST(ProminencePolicy, UncoupledProbeIsNotBone) {
   EXPECT_NEAR(d.peaks.sampleIndex, 500.0, 2.0);
 }
 
+// Shallow bone in vivo under a fascia of similar strength: speckle from the skin, the fascia at
+// 700, the bone at 900 (three quarters of it) with the cortex ringing behind it for a millimetre
+// and its reverberations at 1100 and 1300. Fascia, bone and reverberations are spaced evenly
+// (200 samples) with little between the first two, as an air train is; but the fascia is 700
+// samples from the face and nothing lies one spacing before it, so no train can run through it.
+std::vector<float> fasciaOverRingingBone(std::uint64_t seed) {
+  test::PulseModel pulse;
+  std::vector<test::EchoSpec> echoes;
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<double> speckle(2.0, 4.0);
+  for (double s = 200.0; s < 690.0; s += 9.0)
+    echoes.push_back({s, speckle(random)});
+  echoes.push_back({700.0, 100.0});
+  for (double s = 710.0; s < 890.0; s += 9.0)
+    echoes.push_back({s, speckle(random)});
+  echoes.push_back({900.0, 78.0});
+  for (double s = 912.0; s < 980.0; s += 6.0)
+    echoes.push_back({s, 45.0});
+  echoes.push_back({1100.0, 45.0});
+  echoes.push_back({1300.0, 28.0});
+  return test::makeEchoRecord(4096, echoes, pulse, 0.0, 0.3, seed);
+}
+
+TEST(ProminencePolicy, EvenlySpacedEchoesUnderTissueAreNoAirTrain) {
+  DetectionParams params = detectionPreset("default");
+  params.peaks.prominence.shadow = ShadowRule::Auto;
+  params.peaks.ringDownEnd = 100;
+  SignalDetector detector(params);
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    const auto x = fasciaOverRingingBone(seed);
+    const SignalDetection d = detector.detect(x.data(), 4096);
+    ASSERT_TRUE(d.accepted()) << "seed " << seed << ": " << rejectReasonName(d.peaks.reason);
+    EXPECT_NEAR(d.peaks.sampleIndex, 900.0, 3.0) << "seed " << seed;
+  }
+  // A probe ringing in air right after its ring-down: the same spacing, the bounces from the
+  // face, nothing between them. Every echo of the train is air, the deeper ones too.
+  test::PulseModel pulse;
+  const auto air = test::makeEchoRecord(
+      4096, {{160.0, 100.0}, {360.0, 70.0}, {560.0, 49.0}, {760.0, 34.0}, {960.0, 24.0}}, pulse,
+      0.0, 0.3, 3);
+  params.peaks.prominence.shadow = ShadowRule::Ignored;
+  SignalDetector ignored(params);
+  EXPECT_FALSE(ignored.detect(air.data(), 4096).accepted());
+  params.peaks.prominence.shadow = ShadowRule::Required;
+  SignalDetector required(params);
+  EXPECT_FALSE(required.detect(air.data(), 4096).accepted());
+}
+
+TEST(ProminencePolicy, NothingBehindBoneIsStrongerThanBone) {
+  // The skin at the end of a water standoff (600) with the bright subcutis behind it, which
+  // keeps the envelope above 0.4 of the skin's echo for a millimetre as a ringing cortex does,
+  // then muscle, and a fascia three times as strong as the skin at 2000 with muscle behind it
+  // (no shadow). Neither is bone: the skin has a much stronger echo behind it, which bone never
+  // has; the fascia has neither a shadow nor a ringing behind it.
+  test::PulseModel pulse;
+  std::vector<test::EchoSpec> echoes;
+  std::mt19937_64 random(11);
+  std::uniform_real_distribution<double> subcutis(12.0, 18.0), muscle(3.0, 6.0);
+  echoes.push_back({600.0, 30.0});
+  for (double s = 608.0; s < 740.0; s += 6.0)
+    echoes.push_back({s, subcutis(random)});
+  for (double s = 745.0; s < 3500.0; s += 9.0)
+    echoes.push_back({s, muscle(random)});
+  echoes.push_back({2000.0, 100.0});
+  const auto x = test::makeEchoRecord(4096, echoes, pulse, 0.0, 0.3, 11);
+  DetectionParams params = detectionPreset("default");
+  params.peaks.prominence.shadow = ShadowRule::Auto;
+  params.peaks.ringDownEnd = 100;
+  SignalDetector detector(params);
+  const SignalDetection d = detector.detect(x.data(), 4096);
+  EXPECT_FALSE(d.accepted()) << "accepted at sample " << d.peaks.sampleIndex;
+  EXPECT_EQ(d.peaks.reason, RejectReason::NotBone);
+}
+
 // An 8-bit record: the digitiser rounds to whole codes, the noise is about a code, the tissue's
 // speckle barely above it. Bone's shadow is then no quieter than the tissue's median by half, but
 // as quiet as the record's quietest stretch; a fascia with the same speckle behind it is not.
