@@ -55,19 +55,28 @@ test::DetectionScore scoreRandomised(const DetectionParams& preset, const std::s
   return total;
 }
 
+// Seeds 1-3 were looked at while the default was built (stops 11-13 chose between candidate
+// values on them pooled); seeds 4-6 were first run after stop 13's changes, as a held-out check
+// (the default only).
 TEST(DetectionRandomised, EveryProfileAndSeed) {
   for (const char* profile : {"randomised", "invivo-holder", "specimen-standoff"}) {
-    for (std::uint64_t seed : {1U, 2U, 3U}) {
+    for (std::uint64_t seed : {1U, 2U, 3U, 4U, 5U, 6U}) {
       for (const char* name : {"default", "mozes2008", "shadow"}) {
+        const bool heldOut = seed >= 4;
+        if (heldOut && std::string(name) != "default")
+          continue;
         const test::DetectionScore score = scoreRandomised(detectionPreset(name), profile, seed);
-        std::cout << "[ measured ] " << profile << " seed " << seed << ", " << name << ": "
-                  << test::describe(score) << "\n";
+        std::cout << "[ measured ] " << profile << " seed " << seed
+                  << (heldOut ? " (held out)" : "") << ", " << name << ": " << test::describe(score)
+                  << "\n";
         if (std::string(name) == "default") {
-          // Regression bounds a little above what the default reaches today (FN 12-44 %, FP
-          // 2-21 %; issue 12 asks for 5 %: not met on these sets; docs/detection.md has the
-          // table). The old default ("shadow") misses 52-100 % of these bones.
-          EXPECT_LE(score.falseNegativeRate(), 0.47) << profile << " seed " << seed;
+          // Regression bounds a little above what the default reaches today (FN 13-40 %, FP
+          // 1-21 %, wrong echo 0-28 %; issue 12 asks for 5 %: not met on these sets;
+          // docs/detection.md has the table). The old default ("shadow") misses 52-100 % of
+          // these bones.
+          EXPECT_LE(score.falseNegativeRate(), 0.43) << profile << " seed " << seed;
           EXPECT_LE(score.falsePositiveRate(), 0.23) << profile << " seed " << seed;
+          EXPECT_LE(score.wrongEchoRate(), 0.31) << profile << " seed " << seed;
           EXPECT_LE(score.medianErrorMm(), 0.1) << profile << " seed " << seed;
         }
       }
