@@ -141,10 +141,16 @@ TEST(ProminencePolicy, AWindowEdgeOnAStrongerEchoTailIsNoEcho) {
   const SignalDetection d = detector.detect(x.data(), 4096);
   ASSERT_TRUE(d.accepted()) << rejectReasonName(d.peaks.reason);
   EXPECT_NEAR(d.peaks.sampleIndex, 1300.0, 2.0);
-  // The dissertation-era window-max returns the edge.
+  // window-max (calibration) takes the largest local maximum inside the window, not the edge.
   params.peaks.policy = PeakPolicy::WindowMax;
   SignalDetector windowMax(params);
-  EXPECT_LT(windowMax.detect(x.data(), 4096).peaks.sampleIndex, 1010.0);
+  const SignalDetection w = windowMax.detect(x.data(), 4096);
+  ASSERT_TRUE(w.accepted()) << rejectReasonName(w.peaks.reason);
+  EXPECT_NEAR(w.peaks.sampleIndex, 1300.0, 2.0);
+  // A window holding only the stronger echo's falling tail has no echo in it.
+  params.windowMaxMm = DepthConversion{}.depthMm(1030.0);
+  SignalDetector tailOnly(params);
+  EXPECT_FALSE(tailOnly.detect(x.data(), 4096).accepted());
 }
 
 TEST(ProminencePolicy, AWindowInsideTheRingDownSaysSo) {
