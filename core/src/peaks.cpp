@@ -531,7 +531,10 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     }
   }
   if (chosen < 0) {
-    result.reason = windowInRingDown ? RejectReason::InRingDown : RejectReason::NotBone;
+    // In the ring-down only when nothing prominent came after it: an echo that was judged and
+    // found not to be bone is not-bone, wherever the window starts.
+    result.reason =
+        windowInRingDown && result.peaks.empty() ? RejectReason::InRingDown : RejectReason::NotBone;
     return;
   }
   const EchoCandidate& strongest = candidates[static_cast<std::size_t>(chosen)];

@@ -163,6 +163,22 @@ TEST(ProminencePolicy, AWindowInsideTheRingDownSaysSo) {
   SignalDetector detector(params);
   EXPECT_EQ(detector.detect(x.data(), 4096).peaks.reason, RejectReason::InRingDown);
   EXPECT_EQ(rejectReasonName(RejectReason::InRingDown), "in-ring-down");
+  // A window that starts in the ring-down and reaches past it: an echo after the ring-down that
+  // was judged and is not bone (a fascia with the same speckle behind it) is not-bone, not
+  // in-ring-down; with nothing after the ring-down it stays in-ring-down.
+  std::vector<test::EchoSpec> fascia{{30.0, 200.0}, {1000.0, 60.0}};
+  std::mt19937_64 random(5);
+  std::uniform_real_distribution<double> speckle(3.0, 6.0);
+  for (double s = 400.0; s < 3000.0; s += 9.0)
+    if (std::fabs(s - 1000.0) > 20.0)
+      fascia.push_back({s, speckle(random)});
+  const auto y = test::makeEchoRecord(4096, fascia, pulse, 0.0, 0.2, 5);
+  params.windowMaxMm = 30.0;
+  params.peaks.prominence.shadow = ShadowRule::Auto;
+  SignalDetector wide(params);
+  EXPECT_EQ(wide.detect(y.data(), 4096).peaks.reason, RejectReason::NotBone);
+  const auto quiet = test::makeEchoRecord(4096, {{30.0, 200.0}}, pulse, 0.0, 0.2, 5);
+  EXPECT_EQ(wide.detect(quiet.data(), 4096).peaks.reason, RejectReason::InRingDown);
 }
 
 TEST(ProminencePolicy, UncoupledProbeIsNotBone) {
