@@ -199,6 +199,15 @@ TEST(ProminencePolicy, UncoupledProbeIsNotBone) {
   EXPECT_NEAR(d.peaks.sampleIndex, 500.0, 2.0);
 }
 
+// Scatterers of tissue: an echo every `step` samples in [from, to), each of a random amplitude in
+// [low, high).
+void addSpeckle(std::vector<test::EchoSpec>& echoes, double from, double to, double step,
+                double low, double high, std::mt19937_64& random) {
+  std::uniform_real_distribution<double> amplitude(low, high);
+  for (double s = from; s < to; s += step)
+    echoes.push_back({s, amplitude(random)});
+}
+
 // Shallow bone in vivo under a fascia of similar strength: speckle from the skin, the fascia at
 // 700, the bone at 900 (three quarters of it) with the cortex ringing behind it for a millimetre
 // and its reverberations at 1100 and 1300. Fascia, bone and reverberations are spaced evenly
@@ -208,12 +217,9 @@ std::vector<float> fasciaOverRingingBone(std::uint64_t seed) {
   test::PulseModel pulse;
   std::vector<test::EchoSpec> echoes;
   std::mt19937_64 random(seed);
-  std::uniform_real_distribution<double> speckle(2.0, 4.0);
-  for (double s = 200.0; s < 690.0; s += 9.0)
-    echoes.push_back({s, speckle(random)});
+  addSpeckle(echoes, 200.0, 690.0, 9.0, 2.0, 4.0, random);
   echoes.push_back({700.0, 100.0});
-  for (double s = 710.0; s < 890.0; s += 9.0)
-    echoes.push_back({s, speckle(random)});
+  addSpeckle(echoes, 710.0, 890.0, 9.0, 2.0, 4.0, random);
   echoes.push_back({900.0, 78.0});
   for (double s = 912.0; s < 980.0; s += 6.0)
     echoes.push_back({s, 45.0});
@@ -256,12 +262,9 @@ TEST(ProminencePolicy, NothingBehindBoneIsStrongerThanBone) {
   test::PulseModel pulse;
   std::vector<test::EchoSpec> echoes;
   std::mt19937_64 random(11);
-  std::uniform_real_distribution<double> subcutis(12.0, 18.0), muscle(3.0, 6.0);
   echoes.push_back({600.0, 30.0});
-  for (double s = 608.0; s < 740.0; s += 6.0)
-    echoes.push_back({s, subcutis(random)});
-  for (double s = 745.0; s < 3500.0; s += 9.0)
-    echoes.push_back({s, muscle(random)});
+  addSpeckle(echoes, 608.0, 740.0, 6.0, 12.0, 18.0, random);  // the subcutis
+  addSpeckle(echoes, 745.0, 3500.0, 9.0, 3.0, 6.0, random);   // muscle
   echoes.push_back({2000.0, 100.0});
   const auto x = test::makeEchoRecord(4096, echoes, pulse, 0.0, 0.3, 11);
   DetectionParams params = detectionPreset("default");
@@ -318,9 +321,7 @@ TEST(ProminencePolicy, TheInnerCortexBehindBoneIsNotTheBone) {
   test::PulseModel pulse;
   std::vector<test::EchoSpec> echoes;
   std::mt19937_64 random(7);
-  std::uniform_real_distribution<double> speckle(3.0, 6.0);
-  for (double s = 600.0; s < 990.0; s += 9.0)
-    echoes.push_back({s, speckle(random)});
+  addSpeckle(echoes, 600.0, 990.0, 9.0, 3.0, 6.0, random);
   echoes.push_back({1000.0, 100.0});
   for (double s = 1010.0; s < 1100.0; s += 9.0)
     echoes.push_back({s, 12.0});
