@@ -137,6 +137,10 @@ double noiseFloorOf(const float* envelope, int count, std::vector<float>& scratc
 // the envelope of noise exceeds 5 times its median with a probability of about e^-17.
 constexpr double kQuietEchoFactor = 5.0;
 
+// An air train's earlier bounce is at least this share of the next one (see isAirTrain): the
+// bounces weaken, but those nearest the face ride on the burst's tail and vary.
+constexpr float kEarlierBounce = 0.7F;
+
 // An echo with one this many times stronger behind it is not bone (see prominencePolicy).
 constexpr float kStrongerBehind = 1.5F;
 
@@ -312,15 +316,15 @@ bool isAirTrain(const float* envelope, int count, int index, double ratio, int r
   // interface. Either the interface lies one spacing from the face (an air gap behind a
   // standoff: the second echo at twice the first's time of flight), or the train starts at the
   // face (the probe's own ringing in air, right after the ring-down), and then an echo deeper in
-  // it has its earlier bounces before it, each at least as strong as the next. A fascia 2 mm
-  // above bone, followed by the bone and the cortex's ringing, is spaced like neither.
+  // it has its earlier bounces before it, each nearly as strong as the next or stronger. A fascia 2
+  // mm above bone, followed by the bone and the cortex's ringing, is spaced like neither.
   const int slack = std::max(radius, spacing / 25);
   const bool fromFace = std::fabs((index - emissionSample) - spacing) <= 2.0 * slack;
   if (!fromFace) {
     float later = value;
     for (int at = index - spacing; at > ringDownEnd + slack; at -= spacing) {
       const float earlier = maxAround(envelope, count, at, slack);
-      if (earlier < later)
+      if (earlier < kEarlierBounce * later)
         return false;
       later = earlier;
     }
