@@ -224,6 +224,8 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
     // Against the quiet level, the tissue before must stand above it as far as a shadow would
     // stand below it (minShadowRatio: water before an echo is as quiet as what follows), and
     // the echo far above it (a noise spike is a few times the noise, never kQuietEchoFactor).
+    // (The shadow mode keeps this stricter rule; the per-record rule of the prominence policy
+    // accepts a quiet record before the echo: see prominencePolicy.)
     if (before >= bone.minShadowRatio * std::max(after, tiny))
       return true;
     if (!bone.shadowAtQuietLevel)
@@ -456,11 +458,13 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     c.passed = true;
     const auto isShadow = [&](int from, int to) {
       const double behind = medianOf(envelope, count, from, to, scratch);
-      // The quiet-level conditions imply before >= behind: the level is computed only then.
+      // Behind the echo half the tissue before it, or as quiet as the record's quietest stretch
+      // (and no louder than before it) with the echo far above that: bone in water, and deep
+      // bone whose tissue is at the digitiser's noise, are as quiet before as behind. The level
+      // is computed only when before >= behind.
       return behind >= 0.0 &&
              (before >= e.shadowRatio * std::max(behind, tiny) ||
               (before * (1.0 + 1e-9) >= behind && behind <= e.shadowNoiseFactor * quietLevel() &&
-               before >= e.shadowNoiseFactor * quietLevel() &&
                c.value >= kQuietEchoFactor * quietLevel()));
     };
     // A shadow needs room behind the echo to be seen.

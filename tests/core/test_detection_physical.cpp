@@ -322,17 +322,18 @@ void scoreProfile(const std::string& profile, Bound defaultBound) {
   printKindsOfFailures(profile, detectionPreset("default"));
 }
 
-// Bounds on the default, seeds 1-3 pooled: 5 points above what it measured on 2026-12-04
-// (handheld FN 56.6 % FP 17.6 %, holder 37.7 % / 10.3 %, phantom-water 79.3 % / 14.7 %), to
-// catch a regression, not to claim the 5 %.
+// Bounds on the default, seeds 1-3 pooled: about 4 points above what it measures after stop
+// 13's changes (handheld FN 40.2 % FP 17.5 %, holder 29.8 % / 10.3 %, phantom-water 65.0 % /
+// 17.5 %; before them 56.6 / 17.6, 37.7 / 10.3, 79.3 / 14.7), to catch a regression, not to
+// claim the 5 %.
 TEST(DetectionPhysical, HandheldSweeps) {
-  scoreProfile("handheld", {0.62, 0.23});
+  scoreProfile("handheld", {0.44, 0.21});
 }
 TEST(DetectionPhysical, StrappedHolder) {
-  scoreProfile("holder", {0.43, 0.16});
+  scoreProfile("holder", {0.34, 0.14});
 }
 TEST(DetectionPhysical, PhantomInWater) {
-  scoreProfile("phantom-water", {0.85, 0.20});
+  scoreProfile("phantom-water", {0.69, 0.21});
 }
 
 }  // namespace
