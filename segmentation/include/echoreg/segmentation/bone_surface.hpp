@@ -35,6 +35,16 @@ struct BoneSurfaceOptions {
   /// ... and at least this many voxels along each axis (as bandVoxels); 0: mm only. 1 (1.5
   /// voxels was worse at 3 and 5 mm: the interior then eats the cortex's partial volume).
   double interiorVoxels = 1.0;
+  /// The bone's level taken locally (isoHu 0 only): each band voxel's edge lies half way
+  /// between the soft tissue and the brightest HU of the region and band within localLevelMm in
+  /// plane and one slice either way (at least localMinContrastHu above the soft tissue), not
+  /// half way to the one cortex level of the whole bone. On thick slices a bone's end seen
+  /// along z is a slab of mostly cancellous bone (~500 HU at 5 mm) while its shaft's cortex
+  /// reads 1500: one level puts the first too low and the second too high. false: the one
+  /// level (as before issue 13's thick slices).
+  bool localLevel = true;
+  double localLevelMm = 1.5;
+  double localMinContrastHu = 100.0;
   /// Windowed-sinc smoothing (Taubin): iterations (0: none) and pass band (0-2, lower smooths
   /// more).
   int smoothingIterations = 10;
