@@ -288,16 +288,16 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
           if (interior.voxels[v]) {
             value = 1.0f;
           } else if (counts(v)) {
+            // The brightest of this slice's region and band within the radius, at least the
+            // bone's one level: thin cortices and slabs of cancellous bone keep the one level.
             double top = std::max(soft + options.localMinContrastHu, levels.cortexHu);
-            for (int c = k; c <= k; ++c) {
-              for (int b = std::max(j - rj, 0); b <= std::min(j + rj, d[1] - 1); ++b) {
-                for (int a = std::max(i - ri, 0); a <= std::min(i + ri, d[0] - 1); ++a) {
-                  const double di = (a - i) * spacing.x(), dj = (b - j) * spacing.y();
-                  const std::size_t n = ct.index(a, b, c);
-                  if (di * di + dj * dj <= options.localLevelMm * options.localLevelMm + 1e-9 &&
-                      counts(n))
-                    top = std::max(top, static_cast<double>(ct.hu[n]));
-                }
+            for (int b = std::max(j - rj, 0); b <= std::min(j + rj, d[1] - 1); ++b) {
+              for (int a = std::max(i - ri, 0); a <= std::min(i + ri, d[0] - 1); ++a) {
+                const double di = (a - i) * spacing.x(), dj = (b - j) * spacing.y();
+                const std::size_t n = ct.index(a, b, k);
+                if (di * di + dj * dj <= options.localLevelMm * options.localLevelMm + 1e-9 &&
+                    counts(n))
+                  top = std::max(top, static_cast<double>(ct.hu[n]));
               }
             }
             value = static_cast<float>(std::clamp((ct.hu[v] - soft) / (top - soft), 0.0, 1.0));
