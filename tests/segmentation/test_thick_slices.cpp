@@ -138,7 +138,7 @@ std::map<std::string, ErrorClass> whereTheErrorIs(const core::TriangleMesh& mode
 }
 
 // With the local level (BoneSurfaceOptions::localLevel) the surfaces seen in plane (the shafts,
-// the condyles' sides) are within 0.15 mm on average at 3 and 5 mm slices; what remains at 5 mm
+// the condyles' sides) are within 0.1 mm on average at 3 mm, 0.16 mm at 5 mm; what remains at 5 mm
 // lies on the surfaces facing along z (the bones' ends at the joint, where a 5 mm slab holds
 // femur, joint space and tibia at once and the watershed gives the slab to one of them).
 TEST(ThickSlices, WhereTheErrorIs) {
@@ -161,7 +161,8 @@ TEST(ThickSlices, WhereTheErrorIs) {
       for (const auto& [what, e] : classes)
         total += e.areaMm2;
       const ErrorClass& inPlane = classes.at("facing in plane");
-      EXPECT_LE(inPlane.absSum / inPlane.areaMm2, 0.15)
+      // One level for the whole bone gave 0.16-0.20 mm at 3 mm, 0.17-0.24 mm at 5 mm.
+      EXPECT_LE(inPlane.absSum / inPlane.areaMm2, sliceMm == 3.0 ? 0.1 : 0.16)
           << sliceMm << " mm " << result.bones[b].bone;
       if (sliceMm == 5.0) {
         const ErrorClass& alongZ = classes.at("facing z");
