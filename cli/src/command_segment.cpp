@@ -736,7 +736,8 @@ CommandAction addSegmentCommand(CLI::App& app) {
       "joint grow against each other from their seeds, a watershed of the bone's distance\n"
       "map, neighbours without a seed found automatically). Either region is then refined by the "
       "CT itself: the\n"
-      "model is the iso-surface half way between cortex and soft tissue inside a band around the\n"
+      "model is the iso-surface half way between the cortex (the brightest HU within 1.5 mm in\n"
+      "the slice, at least the bone's median) and the soft tissue inside a band around the\n"
       "region (sub-voxel; --no-refine keeps the region's own smoothed surface). A series of\n"
       "several slice groups (hip 5 mm / knee 1 mm / ankle 5 mm) is segmented in the group of the\n"
       "seed or of most anchors; the model is closed at that group's ends.");
@@ -805,7 +806,8 @@ CommandAction addSegmentCommand(CLI::App& app) {
       ->check(finiteRange(0.0, 10.0))
       ->capture_default_str();
   cmd->add_option("--iso-hu", o->isoHu,
-                  "Iso level of the surface, HU (default: half way cortex - soft tissue)");
+                  "One iso level for the whole surface, HU (default: half way between the "
+                  "local cortex and the soft tissue, per voxel)");
   cmd->add_option("--band-mm", o->bandMm,
                   "Band around the region in which the CT decides the surface, mm")
       ->check(finiteRange(0.5, 10.0))
