@@ -23,6 +23,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cstdlib>
 #include <filesystem>
@@ -36,6 +37,15 @@ namespace echoreg::cli {
 namespace {
 
 namespace seg = echoreg::segmentation;
+
+// A corrections curve whose name begins with "absent" (any case) marks where the bone is not.
+bool isAbsentCurve(const std::string& label) {
+  static const std::string kWord = "absent";
+  return label.size() >= kWord.size() &&
+         std::equal(kWord.begin(), kWord.end(), label.begin(), [](char a, char b) {
+           return a == std::tolower(static_cast<unsigned char>(b));
+         });
+}
 
 struct SegmentOptions {
   std::string dicom, bone, anchors, out, mask, plane = "sagittal", series, anchorsOut;
@@ -463,8 +473,18 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   if (!correctionSets.empty()) {
     // The user's corrected slices (live-wire through their anchors) put into the automatic
     // region, fading over 3 mm into it.
-    std::vector<seg::SliceContour> contours;
+    // A curve named "absent..." marks an area that is not this bone (taken as drawn, straight
+    // between its anchors: it marks an area, not an edge to follow).
+    std::vector<seg::SliceContour> contours, absent;
     for (const auto& set : correctionSets) {
+      if (isAbsentCurve(set.label)) {
+        seg::SliceContour area;
+        area.plane = set.plane;
+        area.positionMm = set.positionMm;
+        area.pointsLps = set.anchorsLps;
+        absent.push_back(std::move(area));
+        continue;
+      }
       try {
         contours.push_back(seg::liveWireContour(volume, set));
       } catch (const std::invalid_argument& e) {
@@ -473,9 +493,15 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     }
     seg::SliceCorrectionResult corrected;
     try {
-      corrected = seg::correctOnSlices(region, contours);
+      corrected = seg::correctOnSlices(region, contours, 3.0, absent);
     } catch (const std::invalid_argument& e) {
       throw FileError(o.corrections, e.what());
+    }
+    // What the corrections took away is not this bone: the surface must not follow its HU back
+    // onto it (a bright neighbour, or the bone where the user says it is absent).
+    for (std::size_t i = 0; i < region.voxels.size(); ++i) {
+      if (region.voxels[i] && !corrected.region.voxels[i])
+        exclude.voxels[i] = 1;
     }
     region = std::move(corrected.region);
     for (auto& [name, mask] : neighbourMasks) {
@@ -484,11 +510,10 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     }
     for (std::size_t i = 0; i < exclude.voxels.size(); ++i)
       exclude.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
-    modeJson["corrections"] = {{"file", o.corrections},
-                               {"contours", contours.size()},
-                               {"slices", corrected.slices},
-                               {"voxels_added", corrected.added},
-                               {"voxels_removed", corrected.removed}};
+    modeJson["corrections"] = {
+        {"file", o.corrections},           {"contours", contours.size()},
+        {"absent", absent.size()},         {"slices", corrected.slices},
+        {"voxels_added", corrected.added}, {"voxels_removed", corrected.removed}};
   }
   if (neighbourMasks.empty()) {
     seg::VoxelMask others = exclude;
@@ -530,25 +555,33 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     if (o.anchorsWhere == "uncertain") {
       // Only the slices where the automatic boundary is uncertain: it touches another bone (the
       // joint) or has little contrast there.
+      // One entry per plane: a plane may cut the model in several loops (two condyles), which
+      // are one slice to check.
       std::vector<double> positions;
-      for (const auto& set : proposed)
-        positions.push_back(set.positionMm);
+      std::vector<std::size_t> loops;
+      for (const auto& set : proposed) {
+        if (positions.empty() || std::abs(set.positionMm - positions.back()) > 1e-6) {
+          positions.push_back(set.positionMm);
+          loops.push_back(0);
+        }
+        ++loops.back();
+      }
       std::vector<std::pair<std::string, const seg::VoxelMask*>> neighbours;
       for (const auto& [name, mask] : neighbourMasks)
         neighbours.emplace_back(name, &mask);
       const std::vector<seg::SliceUncertainty> u =
           seg::sliceUncertainty(volume, region, neighbours, plane, positions);
-      std::vector<seg::AnchorSet> kept;
+      std::vector<std::string> touches(u.size());
       uncertainJson = nlohmann::json::array();
-      for (std::size_t s = 0; s < proposed.size(); ++s) {
+      for (std::size_t s = 0; s < u.size(); ++s) {
         nlohmann::json names = nlohmann::json::array();
-        std::string text;
         for (const auto& n : u[s].neighbours) {
           const std::string shown = n.empty() ? "a bone found automatically" : n;
           names.push_back(shown);
-          text += (text.empty() ? "" : ", ") + shown;
+          touches[s] += (touches[s].empty() ? "" : ", ") + shown;
         }
         uncertainJson.push_back({{"position_mm", u[s].positionMm},
+                                 {"loops", loops[s]},
                                  {"uncertain", u[s].uncertain},
                                  {"share", u[s].share},
                                  {"contact_share", u[s].contactShare},
@@ -557,11 +590,18 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                                  {"contact_voxels", u[s].contactVoxels},
                                  {"low_contrast_voxels", u[s].lowContrastVoxels},
                                  {"touches", names}});
-        if (!u[s].uncertain)
+      }
+      std::vector<seg::AnchorSet> kept;
+      std::size_t at = 0;  // the plane of proposed[s]
+      for (std::size_t s = 0; s < proposed.size(); ++s) {
+        while (at + 1 < positions.size() && std::abs(proposed[s].positionMm - positions[at]) > 1e-6)
+          ++at;
+        if (!u[at].uncertain)
           continue;
         seg::AnchorSet set = proposed[s];
-        set.label = fmt::format("uncertain {} {:.1f} mm{}", o.plane, set.positionMm,
-                                text.empty() ? ": low contrast" : ": touches " + text);
+        set.label =
+            fmt::format("uncertain {} {:.1f} mm{}", o.plane, set.positionMm,
+                        touches[at].empty() ? ": low contrast" : ": touches " + touches[at]);
         kept.push_back(std::move(set));
       }
       proposed = std::move(kept);
@@ -696,7 +736,8 @@ CommandAction addSegmentCommand(CLI::App& app) {
       "joint grow against each other from their seeds, a watershed of the bone's distance\n"
       "map, neighbours without a seed found automatically). Either region is then refined by the "
       "CT itself: the\n"
-      "model is the iso-surface half way between cortex and soft tissue inside a band around the\n"
+      "model is the iso-surface half way between the cortex (the brightest HU within 1.5 mm in\n"
+      "the slice, at least the bone's median) and the soft tissue inside a band around the\n"
       "region (sub-voxel; --no-refine keeps the region's own smoothed surface). A series of\n"
       "several slice groups (hip 5 mm / knee 1 mm / ankle 5 mm) is segmented in the group of the\n"
       "seed or of most anchors; the model is closed at that group's ends.");
@@ -714,7 +755,9 @@ CommandAction addSegmentCommand(CLI::App& app) {
   cmd->add_option("--corrections", o->corrections,
                   "--auto: anchors of a few corrected slices (e.g. the --anchors-where uncertain "
                   "file, edited in Slicer): live-wire through them replaces the automatic "
-                  "boundary on their slices, fading into it over 3 mm");
+                  "boundary on their slices, fading into it over 3 mm; a curve named "
+                  "\"absent...\" encloses an area that is not this bone on its slice (around "
+                  "the whole section where the bone should be absent)");
   // 1 to 4 values per --seed so that the help says "[BONE] X Y Z" (CLI11 would print "x 3" for
   // 3 to 4); parseSeeds checks each --seed holds 3 numbers, after a name or not.
   cmd->add_option("--seed", o->seedTokens,
@@ -763,7 +806,8 @@ CommandAction addSegmentCommand(CLI::App& app) {
       ->check(finiteRange(0.0, 10.0))
       ->capture_default_str();
   cmd->add_option("--iso-hu", o->isoHu,
-                  "Iso level of the surface, HU (default: half way cortex - soft tissue)");
+                  "One iso level for the whole surface, HU (default: half way between the "
+                  "local cortex and the soft tissue, per voxel)");
   cmd->add_option("--band-mm", o->bandMm,
                   "Band around the region in which the CT decides the surface, mm")
       ->check(finiteRange(0.5, 10.0))

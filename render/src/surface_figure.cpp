@@ -113,6 +113,25 @@ void viewAxes(View view, Eigen::Vector3d& towardsCamera, Eigen::Vector3d& up) {
 
 }  // namespace
 
+std::vector<std::string> surfaceFigureLegend(const SurfaceFigure& figure) {
+  std::vector<std::string> entries;
+  if (figure.points.empty()) {
+    for (const ColourBand& band : figure.bands)
+      entries.push_back(band.label);
+    return entries;
+  }
+  std::vector<int> perBand(figure.bands.size(), 0);
+  for (double value : figure.valuesMm)
+    ++perBand[static_cast<std::size_t>(bandOf(figure.bands, value))];
+  for (std::size_t b = 0; b < figure.bands.size(); ++b) {
+    entries.push_back(fmt::format("{}: {} point{}", figure.bands[b].label, perBand[b],
+                                  perBand[b] == 1 ? "" : "s"));
+  }
+  if (!figure.valueName.empty())
+    entries.push_back(fmt::format("colour: {}", figure.valueName));
+  return entries;
+}
+
 RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size) {
   if (figure.points.size() != figure.valuesMm.size()) {
     throw std::invalid_argument(fmt::format("surface figure: {} points but {} values",
@@ -195,11 +214,9 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
   vtkNew<vtkUnsignedCharArray> colours;
   colours->SetNumberOfComponents(3);
   colours->SetName("colour");
-  std::vector<int> perBand(figure.bands.size(), 0);
   for (std::size_t i = 0; i < figure.points.size(); ++i) {
     pts->InsertNextPoint(figure.points[i].data());
     const int band = bandOf(figure.bands, figure.valuesMm[i]);
-    ++perBand[static_cast<std::size_t>(band)];
     const auto c = toBytes(figure.bands[static_cast<std::size_t>(band)].rgb);
     colours->InsertNextTypedTuple(c.data());
   }
@@ -283,12 +300,13 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
   }
 
   // Title and legend.
+  const std::vector<std::string> legend = surfaceFigureLegend(figure);
   vtkRenderer* footer = window.addRenderer(0.0, 0.0, 1.0, legendHeight);
   footer->SetBackground(1, 1, 1);
   const int fontSize = std::max(11, std::min(size.height / 30, size.width / 60));
   const double footerPx = size.height * legendHeight;
   // One row when the bands fit side by side, else one row per band.
-  const std::size_t entries = figure.bands.size() + 1;
+  const std::size_t entries = legend.size();
   const bool oneRow = size.width / static_cast<double>(entries) >= 13.0 * fontSize;
   const double step =
       oneRow ? std::min(15.0 * fontSize, (size.width - 40.0) / static_cast<double>(entries)) : 0.0;
@@ -310,9 +328,7 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
     swatch->SetPosition(at[0], at[1]);
     footer->AddViewProp(swatch);
     vtkNew<vtkTextActor> text;
-    text->SetInput(
-        fmt::format("{}: {} point{}", figure.bands[b].label, perBand[b], perBand[b] == 1 ? "" : "s")
-            .c_str());
+    text->SetInput(legend[b].c_str());
     text->GetTextProperty()->SetFontSize(fontSize);
     text->GetTextProperty()->SetColor(0.1, 0.1, 0.1);
     text->GetTextProperty()->SetFontFamilyToArial();
@@ -320,14 +336,16 @@ RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size
     text->SetPosition(textAt[0], textAt[1]);
     footer->AddViewProp(text);
   }
-  vtkNew<vtkTextActor> valueName;
-  valueName->SetInput(fmt::format("colour: {}", figure.valueName).c_str());
-  valueName->GetTextProperty()->SetFontSize(fontSize);
-  valueName->GetTextProperty()->SetColor(0.3, 0.3, 0.3);
-  valueName->GetTextProperty()->SetFontFamilyToArial();
-  const auto nameAt = place(figure.bands.size(), 0.0);
-  valueName->SetPosition(nameAt[0], nameAt[1]);
-  footer->AddViewProp(valueName);
+  if (legend.size() > figure.bands.size()) {
+    vtkNew<vtkTextActor> valueName;
+    valueName->SetInput(legend.back().c_str());
+    valueName->GetTextProperty()->SetFontSize(fontSize);
+    valueName->GetTextProperty()->SetColor(0.3, 0.3, 0.3);
+    valueName->GetTextProperty()->SetFontFamilyToArial();
+    const auto nameAt = place(figure.bands.size(), 0.0);
+    valueName->SetPosition(nameAt[0], nameAt[1]);
+    footer->AddViewProp(valueName);
+  }
   if (!figure.title.empty()) {
     vtkRenderer* header = window.addRenderer(0.0, 1.0 - titleHeight, 1.0, 1.0);
     header->SetBackground(1, 1, 1);

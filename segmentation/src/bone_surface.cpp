@@ -75,10 +75,11 @@ std::vector<core::TriangleMesh> components(const core::TriangleMesh& mesh) {
 }
 
 // Contours `field` (float, dims nx*ny*nz on the uniform grid of `geometry`, starting at voxel
-// `start`) at `level`, maps to LPS, smooths, keeps the closed pieces, decimates.
+// `start`) at `level`, maps to LPS, smooths, keeps the closed pieces, decimates. `levelHu` names
+// the level in messages.
 BoneSurfaceResult contourField(const std::vector<float>& field, const std::array<int, 3>& dims,
                                const Eigen::Vector3i& start, const CtImage& geometry, double level,
-                               const BoneSurfaceOptions& options) {
+                               const BoneSurfaceOptions& options, double levelHu) {
   const Eigen::Vector3d spacing = geometry.spacingMm();
   auto image = vtkSmartPointer<vtkImageData>::New();
   image->SetDimensions(dims[0], dims[1], dims[2]);
@@ -97,7 +98,7 @@ BoneSurfaceResult contourField(const std::vector<float>& field, const std::array
   contour->Update();
   vtkPolyData* surface = contour->GetOutput();
   if (surface->GetNumberOfPolys() == 0) {
-    throw std::invalid_argument(fmt::format("the surface at {:.0f} HU is empty", level));
+    throw std::invalid_argument(fmt::format("the surface at {:.0f} HU is empty", levelHu));
   }
   // To LPS (the grid is uniform: an affine map), before smoothing so that it works in mm.
   vtkPoints* points = surface->GetPoints();
@@ -143,7 +144,7 @@ BoneSurfaceResult contourField(const std::vector<float>& field, const std::array
   }
   if (kept.empty()) {
     throw std::invalid_argument(
-        fmt::format("the surface at {:.0f} HU has no closed piece of {:.0f} mm^3 or more", level,
+        fmt::format("the surface at {:.0f} HU has no closed piece of {:.0f} mm^3 or more", levelHu,
                     options.minComponentMm3));
   }
   if (options.targetTriangles > 0 && kept.triangles.size() > options.targetTriangles) {
@@ -269,8 +270,50 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
   Eigen::Vector3i lo, hi;
   maskBounds(band, 1, lo, hi);
   const std::array<int, 3> dims{hi.x() - lo.x() + 1, hi.y() - lo.y() + 1, hi.z() - lo.z() + 1};
-  std::vector<float> field(sz(dims[0]) * sz(dims[1]) * sz(dims[2]), low);
   const auto& d = ct.dimensions;
+  if (options.localLevel && options.isoHu == 0.0) {
+    // The field (HU - L) / (Hlocal - L), clamped to [0, 1], contoured at 0.5: 1 in the interior,
+    // 0 outside the band and on other bones.
+    const Eigen::Vector3d spacing = ct.spacingMm();
+    const int ri = static_cast<int>(std::floor(options.localLevelMm / spacing.x() + 1e-9));
+    const int rj = static_cast<int>(std::floor(options.localLevelMm / spacing.y() + 1e-9));
+    const double soft = levels.softTissueHu;
+    auto counts = [&](std::size_t v) { return band.voxels[v] && !excluded(v); };
+    std::vector<float> field(sz(dims[0]) * sz(dims[1]) * sz(dims[2]), 0.0f);
+    for (int k = std::max(lo.z(), 0); k <= std::min(hi.z(), d[2] - 1); ++k) {
+      for (int j = std::max(lo.y(), 0); j <= std::min(hi.y(), d[1] - 1); ++j) {
+        for (int i = std::max(lo.x(), 0); i <= std::min(hi.x(), d[0] - 1); ++i) {
+          const std::size_t v = ct.index(i, j, k);
+          float value = 0.0f;
+          if (interior.voxels[v]) {
+            value = 1.0f;
+          } else if (counts(v)) {
+            // The brightest of this slice's region and band within the radius, at least the
+            // bone's one level: thin cortices and slabs of cancellous bone keep the one level.
+            double top = std::max(soft + options.localMinContrastHu, levels.cortexHu);
+            for (int b = std::max(j - rj, 0); b <= std::min(j + rj, d[1] - 1); ++b) {
+              for (int a = std::max(i - ri, 0); a <= std::min(i + ri, d[0] - 1); ++a) {
+                const double di = (a - i) * spacing.x(), dj = (b - j) * spacing.y();
+                const std::size_t n = ct.index(a, b, k);
+                if (di * di + dj * dj <= options.localLevelMm * options.localLevelMm + 1e-9 &&
+                    counts(n))
+                  top = std::max(top, static_cast<double>(ct.hu[n]));
+              }
+            }
+            value = static_cast<float>(std::clamp((ct.hu[v] - soft) / (top - soft), 0.0, 1.0));
+          }
+          field[(sz(k - lo.z()) * sz(dims[1]) + sz(j - lo.y())) * sz(dims[0]) + sz(i - lo.x())] =
+              value;
+        }
+      }
+    }
+    BoneSurfaceResult result = contourField(field, dims, lo, ct, 0.5, options, iso);
+    result.isoHu = iso;
+    result.cortexHu = levels.cortexHu;
+    result.softTissueHu = levels.softTissueHu;
+    return result;
+  }
+  std::vector<float> field(sz(dims[0]) * sz(dims[1]) * sz(dims[2]), low);
   for (int k = std::max(lo.z(), 0); k <= std::min(hi.z(), d[2] - 1); ++k) {
     for (int j = std::max(lo.y(), 0); j <= std::min(hi.y(), d[1] - 1); ++j) {
       for (int i = std::max(lo.x(), 0); i <= std::min(hi.x(), d[0] - 1); ++i) {
@@ -286,7 +329,7 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
       }
     }
   }
-  BoneSurfaceResult result = contourField(field, dims, lo, ct, iso, options);
+  BoneSurfaceResult result = contourField(field, dims, lo, ct, iso, options, iso);
   result.cortexHu = levels.cortexHu;
   result.softTissueHu = levels.softTissueHu;
   return result;
@@ -349,7 +392,7 @@ BoneSurfaceResult maskSurface(const VoxelMask& mask, double sigmaMm,
       field.swap(out);
     }
   }
-  return contourField(field, dims, lo, mask.geometry, 0.5, options);
+  return contourField(field, dims, lo, mask.geometry, 0.5, options, 0.5);
 }
 
 }  // namespace echoreg::segmentation

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <limits>
 #include <map>
+#include <set>
 #include <stdexcept>
 #include <utility>
 
@@ -572,16 +573,19 @@ VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImag
 }
 
 SliceCorrectionResult correctOnSlices(const VoxelMask& region,
-                                      const std::vector<SliceContour>& contours, double falloffMm) {
-  if (contours.empty())
+                                      const std::vector<SliceContour>& contours, double falloffMm,
+                                      const std::vector<SliceContour>& absent) {
+  if (contours.empty() && absent.empty())
     throw std::invalid_argument("no corrected contour");
   const CtImage& g = region.geometry;
   if (!g.uniform() || region.voxels.size() != g.voxelCount() || g.voxelCount() == 0)
     throw std::invalid_argument("correctOnSlices: the region is empty or not on a uniform grid");
-  const SlicePlane plane = contours.front().plane;
-  for (const auto& c : contours) {
-    if (c.plane != plane)
-      throw std::invalid_argument("the corrected contours lie in several plane families");
+  const SlicePlane plane = contours.empty() ? absent.front().plane : contours.front().plane;
+  for (const auto* list : {&contours, &absent}) {
+    for (const auto& c : *list) {
+      if (c.plane != plane)
+        throw std::invalid_argument("the corrected contours lie in several plane families");
+    }
   }
   const int a = planeAxis(plane);
   const int ua = a == 0 ? 1 : 0, va = a == 2 ? 1 : 2;  // the in-plane voxel axes
@@ -589,8 +593,9 @@ SliceCorrectionResult correctOnSlices(const VoxelMask& region,
   const Eigen::Vector3d spacing = g.spacingMm();
   const int nu = d[sz(ua)], nv = d[sz(va)], nl = d[sz(a)];
   // Each contour's layer and its loop in voxel coordinates (u, v).
-  std::map<int, std::vector<std::vector<Eigen::Vector2d>>> loops;
-  for (const auto& c : contours) {
+  using Loops = std::map<int, std::vector<std::vector<Eigen::Vector2d>>>;
+  Loops loops, absentLoops;
+  auto addLoop = [&](const SliceContour& c, Loops& into) {
     if (c.pointsLps.size() < 3)
       throw std::invalid_argument("a corrected contour has fewer than 3 points");
     double along = 0.0;
@@ -608,8 +613,12 @@ SliceCorrectionResult correctOnSlices(const VoxelMask& region,
                       "the CT's slices",
                       slicePlaneName(plane), c.positionMm));
     }
-    loops[layer].push_back(std::move(loop));
-  }
+    into[layer].push_back(std::move(loop));
+  };
+  for (const auto& c : contours)
+    addLoop(c, loops);
+  for (const auto& c : absent)
+    addLoop(c, absentLoops);
   auto index = [&](int l, int u, int v) {
     int ijk[3];
     ijk[a] = l;
@@ -634,8 +643,8 @@ SliceCorrectionResult correctOnSlices(const VoxelMask& region,
       sd[i] = std::min(1e6f, m[i] ? -std::sqrt(in[i]) : std::sqrt(out[i]));
     return sd;
   };
-  std::map<int, std::vector<float>> corrected;
-  for (const auto& [layer, polys] : loops) {
+  // The even-odd fill of a layer's loops.
+  auto fillOf = [&](const std::vector<std::vector<Eigen::Vector2d>>& polys) {
     std::vector<std::uint8_t> fill(sz(nu) * sz(nv), 0);
     for (int v = 0; v < nv; ++v) {
       for (int u = 0; u < nu; ++u) {
@@ -652,7 +661,34 @@ SliceCorrectionResult correctOnSlices(const VoxelMask& region,
         fill[sz(v) * sz(nu) + sz(u)] = inside ? 1 : 0;
       }
     }
-    corrected[layer] = signedDistance(fill);
+    return fill;
+  };
+  std::set<int> layers;
+  for (const auto* list : {&loops, &absentLoops}) {
+    for (const auto& entry : *list)
+      layers.insert(entry.first);
+  }
+  std::map<int, std::vector<float>> corrected;
+  for (int layer : layers) {
+    std::vector<std::uint8_t> fill(sz(nu) * sz(nv), 0);
+    const auto drawn = loops.find(layer);
+    if (drawn != loops.end()) {
+      fill = fillOf(drawn->second);
+    } else {
+      for (int v = 0; v < nv; ++v)
+        for (int u = 0; u < nu; ++u)
+          fill[sz(v) * sz(nu) + sz(u)] = region.voxels[index(layer, u, v)];
+    }
+    const auto gone = absentLoops.find(layer);
+    if (gone != absentLoops.end()) {
+      const std::vector<std::uint8_t> out = fillOf(gone->second);
+      for (std::size_t p = 0; p < fill.size(); ++p)
+        fill[p] = static_cast<std::uint8_t>(fill[p] && !out[p]);
+    }
+    std::vector<float> sd = signedDistance(fill);
+    if (std::none_of(fill.begin(), fill.end(), [](std::uint8_t f) { return f != 0; }))
+      std::fill(sd.begin(), sd.end(), static_cast<float>(spacing[a]));
+    corrected[layer] = std::move(sd);
   }
   SliceCorrectionResult result;
   result.region = region;

@@ -443,6 +443,17 @@ void validate(const KneeOptions& options) {
         "joint), got " +
         std::to_string(options.tibiofemoralGapMm));
   }
+  if (!std::isfinite(options.osteophyteMm) || options.osteophyteMm < 0.0 ||
+      options.osteophyteMm > 8.0) {
+    throw std::invalid_argument("osteophyteMm must be within 0 to 8 mm, got " +
+                                std::to_string(options.osteophyteMm));
+  }
+  if (options.osteophyteMm > 0.0 && options.meshFiles.count(BoneId::Femur) != 0) {
+    throw std::invalid_argument(
+        "osteophyteMm needs the procedural femur (the osteophytes are grown on its shape), not "
+        "the femur mesh " +
+        options.meshFiles.at(BoneId::Femur));
+  }
   if (!std::isfinite(options.patellofemoralGapMm) || options.patellofemoralGapMm < 0.0 ||
       options.patellofemoralGapMm > 10.0) {
     throw std::invalid_argument("patellofemoralGapMm must be within 0 to 10 mm, got " +
@@ -459,6 +470,54 @@ double tibiofemoralGap(const core::MeshLocator& femur, const core::TriangleMesh&
       best = std::min(best, femur.closest(v).distance);
   }
   return best;
+}
+
+/// Marginal osteophytes (KneeOptions::osteophyteMm) on the placed femur and tibia: their fields
+/// in knee-local coordinates (the tibia's shifted by `tibiaShiftMm`, its move when the joint was
+/// narrowed), each joined smoothly with its ridges, the femur's cut back from the tibia, then
+/// the tibia's from the new femur, and both meshed again (the bones' landmarks and profiles stay:
+/// the ridges lie at the joint's margins only).
+void addOsteophytes(double radiusMm, const Specimen& s, const sdf::Field& femurField,
+                    const Eigen::AlignedBox3d& femurBox, const TibiaModel& tibiaShape,
+                    const Vector3d& tibiaShiftMm, double resolutionMm, Bone& femur, Bone& tibia) {
+  const double wf = s.femurWidth, wt = s.tibiaWidth;
+  const double plateauZ = -kPlateauBelowKneeMm + tibiaShiftMm.z();
+  const sdf::Field tibiaField = [=](const Vector3d& p) {
+    return tibiaShape.field(p - tibiaShiftMm);
+  };
+  std::vector<std::pair<Vector3d, Vector3d>> tibialRidges, femoralRidges;
+  for (double side : {1.0, -1.0}) {
+    const double xt = side * 31.0 * wt, xf = side * 31.0 * wf;
+    tibialRidges.emplace_back(Vector3d(xt, -12.0 * wt, plateauZ), Vector3d(xt, 8.0 * wt, plateauZ));
+    // The condyle's underside above the margin: from inside it, straight down.
+    const Vector3d under =
+        sdf::rayExit(femurField, Vector3d(xf, -2.0 * wf, 15.0 * wf), -Vector3d::UnitZ());
+    femoralRidges.emplace_back(Vector3d(xf, -14.0 * wf, under.z()),
+                               Vector3d(xf, 6.0 * wf, under.z()));
+  }
+  auto ridges = [radiusMm](const std::vector<std::pair<Vector3d, Vector3d>>& r, const Vector3d& p) {
+    double d = std::numeric_limits<double>::infinity();
+    for (const auto& [a, b] : r)
+      d = std::min(d, sdf::capsule(p, a, b, radiusMm));
+    return d;
+  };
+  const sdf::Field femurWithRidges = [=](const Vector3d& p) {
+    const double bone = sdf::smoothUnion(femurField(p), ridges(femoralRidges, p), 2.0);
+    return std::max(bone, kOsteophyteClearanceMm - tibiaField(p));
+  };
+  const sdf::Field tibiaWithRidges = [=](const Vector3d& p) {
+    const double bone = sdf::smoothUnion(tibiaField(p), ridges(tibialRidges, p), 2.0);
+    return std::max(bone, kOsteophyteClearanceMm - femurWithRidges(p));
+  };
+  const Vector3d knee = kKneeCentreCt;
+  femur.mesh =
+      core::transformed(meshedBone(BoneId::Femur, femurWithRidges, femurBox, resolutionMm).mesh,
+                        Eigen::Isometry3d(Eigen::Translation3d(knee)));
+  const Eigen::AlignedBox3d tibiaBox(tibiaShape.searchBox.min() + tibiaShiftMm,
+                                     tibiaShape.searchBox.max() + tibiaShiftMm);
+  tibia.mesh =
+      core::transformed(meshedBone(BoneId::Tibia, tibiaWithRidges, tibiaBox, resolutionMm).mesh,
+                        Eigen::Isometry3d(Eigen::Translation3d(knee)));
 }
 
 }  // namespace
@@ -575,6 +634,8 @@ Knee buildKnee(const KneeOptions& options) {
   // above (the mechanical axis along +z).
   Bone femur;
   double hipKneeLength = 0.0;
+  sdf::Field femurField;  // knee-local, the procedural femur's (for the osteophytes)
+  Eigen::AlignedBox3d femurBox;
   const auto userFemur = options.meshFiles.find(BoneId::Femur);
   if (userFemur != options.meshFiles.end()) {
     detail::PlacedFemur placed = detail::placeUserFemur(userFemur->second, knee);
@@ -583,6 +644,8 @@ Knee buildKnee(const KneeOptions& options) {
   } else {
     const FemurModel model = femurModel(specimen);
     femur = meshedBone(BoneId::Femur, model.field, model.searchBox, resolution);
+    femurField = model.field;
+    femurBox = model.searchBox;
     femur.landmarks["hip_centre"] = model.hip;
     femur.landmarks["knee_centre"] = Vector3d::Zero();
     femur.landmarks["medial_epicondyle"] =
@@ -626,6 +689,7 @@ Knee buildKnee(const KneeOptions& options) {
   detail::setAxisProfile(fibula, fibulaShape.distal, fibulaShape.head - fibulaShape.distal);
   translate(fibula, knee);
 
+  Vector3d tibiaShift = Vector3d::Zero();
   if (options.tibiofemoralGapMm >= 0.0) {
     // A narrowed joint: the tibia (and the fibula with it) moves up until its nearest vertex is
     // the gap from the femur (each step closes what is left; the gap shrinks about as fast as the
@@ -639,7 +703,12 @@ Knee buildKnee(const KneeOptions& options) {
       const Vector3d move(0.0, 0.0, 0.8 * left);
       translate(tibia, move);
       translate(fibula, move);
+      tibiaShift += move;
     }
+  }
+  if (options.osteophyteMm > 0.0) {
+    addOsteophytes(options.osteophyteMm, specimen, femurField, femurBox, tibiaShape, tibiaShift,
+                   resolution, femur, tibia);
   }
 
   Bone patella = patellaBone(

@@ -5,6 +5,7 @@
 #include "test_support.hpp"
 
 #include "echoreg/core/markups.hpp"
+#include "echoreg/filters/MeshIO.h"
 #include "echoreg/simulation/ct.hpp"
 
 #include <gtest/gtest.h>
@@ -121,9 +122,13 @@ TEST(CliSegmentSeeds, AnchorsOnlyWhereTheBonesTouch) {
   const auto json = nlohmann::json::parse(r.out);
   const auto& slices = json["anchors_out"]["slices"];
   ASSERT_EQ(slices.size(), 10u);
-  int uncertain = 0;
+  int uncertain = 0, uncertainLoops = 0;
   for (const auto& s : slices) {
     const double z = s["position_mm"].get<double>();
+    // One entry per plane, with the model's loops on it (the tube's section: one).
+    EXPECT_EQ(s["loops"].get<int>(), 1) << "z " << z;
+    if (s["uncertain"].get<bool>())
+      uncertainLoops += s["loops"].get<int>();
     if (!s["uncertain"].get<bool>()) {
       EXPECT_GT(std::abs(z), 4.0) << "z " << z << " touches the rod but is not uncertain";
       continue;
@@ -137,7 +142,7 @@ TEST(CliSegmentSeeds, AnchorsOnlyWhereTheBonesTouch) {
   }
   EXPECT_GE(uncertain, 2);
   EXPECT_LE(uncertain, 5);
-  EXPECT_EQ(json["anchors_out"]["contours"].get<int>(), uncertain);
+  EXPECT_EQ(json["anchors_out"]["contours"].get<int>(), uncertainLoops);
   const auto curves = core::readMarkups(anchors);
   ASSERT_EQ(static_cast<int>(curves.size()), uncertain);
   EXPECT_NE(curves[0].name.find("touches tibia"), std::string::npos) << curves[0].name;
@@ -188,6 +193,46 @@ TEST(CliSegmentSeeds, CorrectionsOnAFewSlices) {
   r = runEchoreg({"segment", "--dicom", series, "--bone", "femur", "--anchors", fix,
                   "--corrections", fix, "--out", model});
   EXPECT_EQ(r.exitCode, 2) << r.err;
+}
+
+// A corrections curve named "absent" around the tube's whole section on z = 10: the bone is not
+// there. The layer is emptied and the model does not bridge it (its voxels are excluded from the
+// surface, not left to their bright HU); the tube tapers toward it over 3 mm on either side.
+TEST(CliSegmentSeeds, CorrectionsCanSayTheBoneIsAbsentOnASlice) {
+  const test::TempDir dir;
+  const std::string series = writePhantom(dir.file("ct"));
+  const std::string model = dir.file("m.vtp"), fix = dir.file("absent.mrk.json");
+  core::Markup curve;
+  curve.type = "ClosedCurve";
+  curve.name = "Absent: not femur here";
+  const double corners[4][2] = {{-13, -13}, {13, -13}, {13, 13}, {-13, 13}};
+  for (int a = 0; a < 4; ++a) {
+    curve.points.push_back(
+        {"a-" + std::to_string(a + 1), Eigen::Vector3d(corners[a][0], corners[a][1], 10.0)});
+  }
+  core::writeMarkups(fix, {curve});
+  const auto r =
+      runEchoreg({"segment", "--dicom", series,  "--bone", "femur",         "--auto", "--seed",
+                  "femur",   "0",       "5",     "0",      "--seed",        "tibia",  "15",
+                  "0",       "0",       "--out", model,    "--corrections", fix,      "--json"});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto json = nlohmann::json::parse(r.out);
+  EXPECT_EQ(json["corrections"]["contours"], 0);
+  EXPECT_EQ(json["corrections"]["absent"], 1);
+  EXPECT_EQ(json["corrections"]["voxels_added"], 0);
+  // The tube's section is ~490 voxels (r 10 mm, 0.8 mm pixels); the layer and some of the
+  // tapering around it go.
+  EXPECT_GT(json["corrections"]["voxels_removed"].get<int>(), 450);
+  EXPECT_LT(json["corrections"]["voxels_removed"].get<int>(), 6 * 490);
+  // No wall of the model within 0.3 mm of the absent layer: it does not bridge it.
+  const core::TriangleMesh mesh = filters::readMesh(model);
+  int below = 0, through = 0;
+  for (const auto& v : mesh.vertices) {
+    below += v.z() < 5.0 ? 1 : 0;
+    through += std::abs(v.z() - 10.0) < 0.3 ? 1 : 0;
+  }
+  EXPECT_GT(below, 100);
+  EXPECT_EQ(through, 0) << "the model bridges the slice where the bone is absent";
 }
 
 // Metal beside the tube: reported with its streak counts, or refused with --refuse-metal

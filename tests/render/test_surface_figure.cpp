@@ -6,6 +6,8 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <string>
+#include <vector>
 
 namespace {
 
@@ -20,6 +22,23 @@ TEST(SurfaceFigure, BandsFollowTheDissertation) {
   EXPECT_EQ(echoreg::render::bandOf(bands, 5.01), 2);
   EXPECT_EQ(bands[1].label, "3-5 mm");
   EXPECT_THROW(echoreg::render::registrationBands(3, 2), std::invalid_argument);
+}
+
+// The legend counts points per band and names the colour only when there are points: a model
+// alone (the segmentation's figures) shows its bands' labels, not "0 points" and "colour:".
+TEST(SurfaceFigure, TheLegendCountsPointsOnlyWhenThereAreSome) {
+  SurfaceFigure figure;
+  figure.surface = echoreg::core::uvSphere(Eigen::Vector3d::Zero(), 25.0, 12, 24);
+  figure.bands = {{1e9, {0.9, 0.85, 0.8}, "femur"}};
+  EXPECT_EQ(echoreg::render::surfaceFigureLegend(figure), std::vector<std::string>{"femur"});
+  figure.bands = echoreg::render::registrationBands();
+  figure.points = {{0, -33, 0}, {0, 33, 0}, {33, 0, 0}};
+  figure.valuesMm = {8.0, 1.0, -0.5};
+  EXPECT_EQ(echoreg::render::surfaceFigureLegend(figure),
+            (std::vector<std::string>{"< 3 mm: 2 points", "3-5 mm: 0 points", "> 5 mm: 1 point",
+                                      "colour: distance to surface"}));
+  figure.valueName.clear();
+  EXPECT_EQ(echoreg::render::surfaceFigureLegend(figure).size(), 3u);
 }
 
 TEST(SurfaceFigure, PointsAreDrawnInTheirBandColours) {

@@ -141,6 +141,7 @@ std::unique_ptr<SimulatedKnee> buildSimulatedKnee(const KneeVariant& variant) {
   options.meshResolutionMm = 1.2;
   options.tibiofemoralGapMm = variant.tibiofemoralGapMm;
   options.patellofemoralGapMm = variant.patellofemoralGapMm;
+  options.osteophyteMm = variant.osteophyteMm;
   s->knee = simulation::buildKnee(options);
   const double tKnee =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -207,7 +208,7 @@ const SimulatedKnee& simulatedKnee(const KneeVariant& variant) {
     if (v.tibiofemoralGapMm == variant.tibiofemoralGapMm &&
         v.patellofemoralGapMm == variant.patellofemoralGapMm &&
         v.cancellousHu == variant.cancellousHu && v.halfRangeMm == variant.halfRangeMm &&
-        v.sliceMm == variant.sliceMm)
+        v.sliceMm == variant.sliceMm && v.osteophyteMm == variant.osteophyteMm)
       return *knee;
   }
   built.emplace_back(variant, buildSimulatedKnee(variant));

@@ -24,13 +24,15 @@ struct SimulatedKnee {
 /// The simulated CT as a CtImage (axial, identity direction, groups from the slice spacing).
 segmentation::CtImage toCtImage(const simulation::CtVolume& volume);
 
-/// A knee other than the shared one: a narrowed joint, a patella on the femur, faint bone.
+/// A knee other than the shared one: a narrowed joint, a patella on the femur, faint bone,
+/// osteophytes, thick slices.
 struct KneeVariant {
   double tibiofemoralGapMm = -1.0;  ///< simulation::KneeOptions (negative: healthy, ~3 mm)
   double patellofemoralGapMm = 4.0;
   double cancellousHu = 300.0;  ///< the simulator's tissue table's
   double halfRangeMm = 32.0;    ///< slices over the knee centre +- this
   double sliceMm = 1.0;         ///< slice spacing (and thickness): 3 mm, or the hip's 5 mm
+  double osteophyteMm = 0.0;    ///< simulation::KneeOptions (marginal osteophytes; 0: none)
 };
 
 /// The shared knee (built on first use).

@@ -117,6 +117,40 @@ TEST(CompetingBones, JointClosedToZero) {
   expectTargets(segmentAndCompare(test::simulatedKnee(v), kAll, kAll, "0 mm joint"));
 }
 
+// Marginal osteophytes of 4 mm (simulation::KneeOptions::osteophyteMm) on the femur and the
+// tibia, on a joint narrowed to 1 mm: at each margin the spurs bridge the joint to within
+// kOsteophyteClearanceMm (less than a pixel), so the bone mask is one solid across the margins
+// as well as at the contact. The truth's spurs are checked first (they are there, they bridge,
+// the bones do not overlap), then the four bones from one seed each.
+TEST(CompetingBones, OsteophytesBridgingTheJointMargins) {
+  test::KneeVariant v;
+  v.tibiofemoralGapMm = 1.0;
+  v.patellofemoralGapMm = 0.0;
+  v.osteophyteMm = 4.0;
+  v.halfRangeMm = 45.0;
+  const auto& sim = test::simulatedKnee(v);
+  const auto& femur = sim.knee.bone(BoneId::Femur).mesh;
+  const auto& tibia = sim.knee.bone(BoneId::Tibia).mesh;
+  const core::MeshLocator femurLocator(femur);
+  // Per margin (medial +x, lateral -x, beyond 25 mm from the knee's centre line): the nearest
+  // the tibia comes to the femur there, and that no tibia vertex lies inside the femur.
+  for (double side : {1.0, -1.0}) {
+    double nearest = 1e9;
+    for (const auto& p : tibia.vertices) {
+      if (side * (p.x() - sim.knee.kneeCentre.x()) < 25.0 || p.z() < sim.knee.kneeCentre.z() - 15.0)
+        continue;
+      const double d = femurLocator.signedDistance(p);
+      EXPECT_GT(d, 0.0) << "a tibia vertex inside the femur at " << p.transpose();
+      nearest = std::min(nearest, d);
+    }
+    std::cout << "[ measured ] osteophytes, " << (side > 0 ? "medial" : "lateral")
+              << " margin: tibia to femur " << nearest << " mm\n";
+    EXPECT_LT(nearest, simulation::kOsteophyteClearanceMm + 0.3) << side;
+  }
+  const auto results = segmentAndCompare(sim, kAll, kAll, "osteophytes 4 mm, 1 mm joint");
+  expectTargets(results);
+}
+
 // A metal plate (3000 HU, 40 x 8 x 3 mm) screwed onto the femur's lateral side: reported as
 // lying on the femur, left out of it, and the femur's model stays on the bone.
 TEST(CompetingBones, MetalIsLeftOutAndReported) {

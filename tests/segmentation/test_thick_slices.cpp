@@ -4,7 +4,8 @@
 // interiorVoxels make them at least that many voxels per axis. The simulated knee (seed 3, 0.8 mm
 // pixels) scanned at 3 and 5 mm over +-45 mm; four bones from one seed each, each model compared
 // with the truth inside the slab: the mask's own surface (--no-refine), the refinement in mm only
-// (before) and with the defaults, and the table of the candidates the defaults were chosen from.
+// (before), with one level for the whole bone (before the local level) and with the defaults,
+// and the table of the candidates the defaults were chosen from; then where the error lies.
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/segmentation/bone_labels.hpp"
 #include "echoreg/segmentation/bone_surface.hpp"
@@ -17,6 +18,7 @@
 
 #include <iostream>
 #include <map>
+#include <memory>
 
 namespace {
 
@@ -73,9 +75,109 @@ std::map<std::string, std::map<std::string, Row>> measure(
       record(fmt::format("band {} vx, interior {} vx", band, interior),
              segmentation::boneSurface(sim.ct, bone.mask, &others, so).mesh);
     }
+    segmentation::BoneSurfaceOptions oneLevel;
+    oneLevel.localLevel = false;
+    record("one level", segmentation::boneSurface(sim.ct, bone.mask, &others, oneLevel).mesh);
     record("defaults", segmentation::boneSurface(sim.ct, bone.mask, &others).mesh);
   }
   return out;
+}
+
+// Where a model's error lies: the truth's triangles inside the slab (by area), each one's
+// signed distance to the model at its centroid (positive: the truth inside the model, i.e. the
+// model too large there),
+// in classes of the truth's surface: facing along z (|n_z| >= 0.7: the bones' ends, the
+// plateau), oblique, facing in plane (|n_z| < 0.3: the shafts), and at a joint (within 3 mm of
+// another bone's truth, whatever its facing).
+struct ErrorClass {
+  double areaMm2 = 0.0, absSum = 0.0, signedSum = 0.0;
+};
+
+std::map<std::string, ErrorClass> whereTheErrorIs(const core::TriangleMesh& model,
+                                                  const test::SimulatedKnee& sim, BoneId id,
+                                                  double zMin, double zMax) {
+  const core::MeshLocator modelLocator(model);
+  std::vector<std::unique_ptr<core::MeshLocator>> others;
+  for (BoneId o : kAll) {
+    if (o != id)
+      others.push_back(std::make_unique<core::MeshLocator>(sim.knee.bone(o).mesh));
+  }
+  const auto& truth = sim.knee.bone(id).mesh;
+  std::map<std::string, ErrorClass> out;
+  for (std::size_t t = 0; t < truth.triangles.size(); ++t) {
+    const auto& tri = truth.triangles[t];
+    const Eigen::Vector3d c = (truth.vertices[static_cast<std::size_t>(tri[0])] +
+                               truth.vertices[static_cast<std::size_t>(tri[1])] +
+                               truth.vertices[static_cast<std::size_t>(tri[2])]) /
+                              3.0;
+    if (c.z() < zMin || c.z() > zMax)
+      continue;
+    const Eigen::Vector3d e1 = truth.vertices[static_cast<std::size_t>(tri[1])] -
+                               truth.vertices[static_cast<std::size_t>(tri[0])];
+    const Eigen::Vector3d e2 = truth.vertices[static_cast<std::size_t>(tri[2])] -
+                               truth.vertices[static_cast<std::size_t>(tri[0])];
+    const Eigen::Vector3d n = e1.cross(e2);
+    const double area = 0.5 * n.norm();
+    if (!(area > 0.0))
+      continue;
+    const double nz = std::abs(n.z()) / n.norm();
+    bool joint = false;
+    for (const auto& o : others)
+      joint = joint || o->closest(c, 3.0).triangle >= 0;
+    const std::string what = joint       ? "joint"
+                             : nz >= 0.7 ? "facing z"
+                             : nz >= 0.3 ? "oblique"
+                                         : "facing in plane";
+    const double d = -modelLocator.signedDistance(c);
+    ErrorClass& e = out[what];
+    e.areaMm2 += area;
+    e.absSum += area * std::abs(d);
+    e.signedSum += area * d;
+  }
+  return out;
+}
+
+// With the local level (BoneSurfaceOptions::localLevel) the surfaces seen in plane (the shafts,
+// the condyles' sides) are within 0.1 mm on average at 3 mm, 0.16 mm at 5 mm; what remains at 5 mm
+// lies on the surfaces facing along z (the bones' ends at the joint, where a 5 mm slab holds
+// femur, joint space and tibia at once and the watershed gives the slab to one of them).
+TEST(ThickSlices, WhereTheErrorIs) {
+  for (double sliceMm : {3.0, 5.0}) {
+    test::KneeVariant v;
+    v.sliceMm = sliceMm;
+    v.halfRangeMm = 45.0;
+    const auto& sim = test::simulatedKnee(v);
+    const auto result = segmentation::segmentCompetingBones(sim.ct, seedsOf(sim));
+    for (std::size_t b = 0; b < result.bones.size(); ++b) {
+      segmentation::VoxelMask others = segmentation::unite(result.unnamed, result.metalMask);
+      for (std::size_t o = 0; o < result.bones.size(); ++o) {
+        if (o != b)
+          others = segmentation::unite(others, result.bones[o].mask);
+      }
+      const auto model = segmentation::boneSurface(sim.ct, result.bones[b].mask, &others).mesh;
+      const auto classes =
+          whereTheErrorIs(model, sim, kAll[b], sim.kneeZMinMm + 2.0, sim.kneeZMaxMm - 2.0);
+      double total = 0.0;
+      for (const auto& [what, e] : classes)
+        total += e.areaMm2;
+      const ErrorClass& inPlane = classes.at("facing in plane");
+      // One level for the whole bone gave 0.16-0.20 mm at 3 mm, 0.17-0.24 mm at 5 mm.
+      EXPECT_LE(inPlane.absSum / inPlane.areaMm2, sliceMm == 3.0 ? 0.1 : 0.16)
+          << sliceMm << " mm " << result.bones[b].bone;
+      if (sliceMm == 5.0) {
+        const ErrorClass& alongZ = classes.at("facing z");
+        EXPECT_GT(alongZ.absSum / alongZ.areaMm2, 2.0 * inPlane.absSum / inPlane.areaMm2)
+            << result.bones[b].bone;
+      }
+      for (const auto& [what, e] : classes) {
+        std::cout << "[ measured ] " << sliceMm << " mm, " << result.bones[b].bone << ", " << what
+                  << ": " << fmt::format("{:.0f}", 100.0 * e.areaMm2 / total)
+                  << " % of the area, mean |d| " << fmt::format("{:.3f}", e.absSum / e.areaMm2)
+                  << " mm, mean d " << fmt::format("{:+.3f}", e.signedSum / e.areaMm2)
+                  << " mm (+: the model outside the truth)\n";
+      }
+    }
+  }
 }
 
 TEST(ThickSlices, MorphologyRadiiAreAtLeastTheVoxels) {
@@ -119,29 +221,35 @@ double meanMsd(const std::map<std::string, std::map<std::string, Row>>& rows,
   return sum / static_cast<double>(rows.size());
 }
 
-// At 3 mm the defaults beat the mask's surface and the mm-only refinement on every bone, and
-// the targets of the 1 mm knee hold (MSD <= 0.3 mm, Dice >= 0.97).
+// At 3 mm the defaults beat the mask's surface, the mm-only refinement and the one level of
+// before on every bone, and the targets of the 1 mm knee hold (MSD <= 0.3 mm, Dice >= 0.97).
 TEST(ThickSlices, RefinementWorksAtThreeMillimetreSlices) {
   const auto rows = measure(3.0, kCandidates);
   ASSERT_EQ(rows.size(), 4u);
   for (const auto& [bone, r] : rows) {
     EXPECT_LT(r.at("defaults").msd, r.at("no-refine").msd - 0.1) << bone;
     EXPECT_LT(r.at("defaults").msd, r.at("band 0 vx, interior 0 vx").msd - 0.01) << bone;
-    EXPECT_LE(r.at("defaults").msd, 0.3) << bone;
-    EXPECT_GE(r.at("defaults").dice, 0.97) << bone;
+    EXPECT_LT(r.at("defaults").msd, r.at("one level").msd - 0.05) << bone;
+    EXPECT_LE(r.at("defaults").msd, 0.22) << bone;
+    EXPECT_GE(r.at("defaults").dice, 0.98) << bone;
   }
 }
 
-// At the hip's 5 mm the defaults beat the mask's surface on every bone and the mm-only
-// refinement on average (the tibia alone is 0.02 mm worse: its plateau lies along the slices).
+// At the hip's 5 mm the defaults beat the mask's surface and the one level of before on every
+// bone; the targets (MSD <= 0.3 mm, Dice >= 0.97) hold for fibula and patella (MSD) and for
+// femur, tibia and patella (Dice), not for the femur's and tibia's MSD (0.43 / 0.55 mm: the
+// joint's slab, see WhereTheErrorIs).
 TEST(ThickSlices, RefinementWorksAtTheHipsFiveMillimetreSlices) {
   const auto rows = measure(5.0, kCandidates);
   ASSERT_EQ(rows.size(), 4u);
   for (const auto& [bone, r] : rows) {
     EXPECT_LT(r.at("defaults").msd, r.at("no-refine").msd - 0.1) << bone;
-    EXPECT_LE(r.at("defaults").msd, 0.65) << bone;
-    EXPECT_GE(r.at("defaults").dice, 0.96) << bone;
+    EXPECT_LT(r.at("defaults").msd, r.at("one level").msd - 0.02) << bone;
+    EXPECT_LE(r.at("defaults").msd, 0.6) << bone;
+    EXPECT_GE(r.at("defaults").dice, 0.965) << bone;
   }
+  EXPECT_LE(rows.at("fibula").at("defaults").msd, 0.3);
+  EXPECT_LE(rows.at("patella").at("defaults").msd, 0.3);
   EXPECT_LT(meanMsd(rows, "defaults"), meanMsd(rows, "band 0 vx, interior 0 vx") - 0.05);
 }
 

@@ -227,6 +227,47 @@ TEST(UncertainSlices, CorrectionsRefuseWhatTheyCannotUse) {
   EXPECT_EQ(r.added, r.region.count());
 }
 
+// Areas where the bone is absent: a square over half of a block's layer takes that half away on
+// the layer only (falloff 0); one around the whole section empties the layer, and with a falloff
+// the block tapers toward it (the layers next to it lose their rim, not their core) and is left
+// alone beyond the falloff.
+TEST(UncertainSlices, AbsentAreasTakeTheBoneAway) {
+  segmentation::CtImage g;
+  g.dimensions = {20, 20, 12};
+  g.pixelSpacingMm = {1.0, 1.0};
+  for (int k = 0; k < 12; ++k)
+    g.slicePositionsMm.push_back(k);
+  g.groups = {{0, 12, 1.0}};
+  segmentation::VoxelMask block = segmentation::emptyMask(g);
+  for (int k = 0; k < 12; ++k)
+    for (int j = 4; j < 16; ++j)
+      for (int i = 4; i < 16; ++i)
+        block.voxels[g.index(i, j, k)] = 1;
+  auto area = [](double x0, double x1, double y0, double y1, double z) {
+    segmentation::SliceContour c;
+    c.plane = segmentation::SlicePlane::Axial;
+    c.positionMm = z;
+    c.pointsLps = {{x0, y0, z}, {x1, y0, z}, {x1, y1, z}, {x0, y1, z}};
+    return c;
+  };
+  const auto half = segmentation::correctOnSlices(block, {}, 0.0, {area(9.5, 20, -1, 20, 6)});
+  EXPECT_EQ(half.slices, 1);
+  EXPECT_TRUE(half.region.at(8, 10, 6));
+  EXPECT_FALSE(half.region.at(11, 10, 6));
+  EXPECT_TRUE(half.region.at(11, 10, 5));
+  EXPECT_EQ(half.added, 0u);
+  EXPECT_EQ(half.removed, 6u * 12u);
+  const auto gone = segmentation::correctOnSlices(block, {}, 3.0, {area(-1, 20, -1, 20, 6)});
+  for (int j = 0; j < 20; ++j)
+    for (int i = 0; i < 20; ++i)
+      ASSERT_FALSE(gone.region.at(i, j, 6)) << i << " " << j;
+  EXPECT_TRUE(gone.region.at(10, 10, 5));  // the core next to the absent layer stays
+  EXPECT_FALSE(gone.region.at(4, 10, 5));  // its rim goes
+  EXPECT_TRUE(gone.region.at(4, 10, 9));   // at the falloff's end the block is whole
+  EXPECT_TRUE(gone.region.at(4, 10, 2));
+  EXPECT_EQ(gone.added, 0u);
+}
+
 TEST(UncertainSlices, RefusesMasksOfAnotherGrid) {
   segmentation::CtImage g;
   g.dimensions = {4, 4, 4};

@@ -1,6 +1,7 @@
 #include "echoreg/simulation/anatomy.hpp"
 
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/filters/MeshIO.h"
 #include "test_support.hpp"
 
@@ -475,6 +476,57 @@ TEST(Anatomy, NarrowedJointAndPatellaOnTheFemur) {
   EXPECT_THROW(buildKnee(bad), std::invalid_argument);
   bad = meanShape(2.0);
   bad.tibiofemoralGapMm = 12.0;
+  EXPECT_THROW(buildKnee(bad), std::invalid_argument);
+}
+
+// Marginal osteophytes: at each margin of the tibiofemoral joint the tibia rises to within the
+// clearance of the femur (without them the margin's wedge opens from the contact outward), the
+// bones stay apart (no tibia vertex inside the femur), the spurs are bone added only near the joint
+// (the tibia and the femur far from it unchanged), and the option is checked.
+TEST(Anatomy, OsteophytesBridgeTheJointMargins) {
+  KneeOptions options = meanShape(1.0);
+  options.tibiofemoralGapMm = 1.0;
+  const Knee plain = buildKnee(options);
+  options.osteophyteMm = 4.0;
+  const Knee arthritic = buildKnee(options);
+  const double z = plain.kneeCentre.z();
+  for (double side : {1.0, -1.0}) {
+    auto margin = [&](const Vector3d& v) {
+      return side * (v.x() - plain.kneeCentre.x()) > 25.0 && v.z() > z - 15.0;
+    };
+    const double before =
+        minDistance(plain.bone(BoneId::Tibia).mesh, plain.bone(BoneId::Femur).mesh, margin);
+    const double after =
+        minDistance(arthritic.bone(BoneId::Tibia).mesh, arthritic.bone(BoneId::Femur).mesh, margin);
+    std::cout << "[ measure  ] " << (side > 0 ? "medial" : "lateral") << " margin: tibia-femur "
+              << before << " mm without osteophytes, " << after << " mm with\n";
+    EXPECT_GT(before, after + 1.0);  // the wedge beside the contact, 1.6 mm at a 1 mm joint
+    EXPECT_NEAR(after, kOsteophyteClearanceMm, 0.3);
+  }
+  const core::MeshLocator femurSurface(arthritic.bone(BoneId::Femur).mesh);
+  for (const Vector3d& v : arthritic.bone(BoneId::Tibia).mesh.vertices) {
+    if (v.z() > z - 20.0) {
+      ASSERT_FALSE(femurSurface.inside(v)) << "tibia inside the femur at " << v.transpose();
+    }
+  }
+  // Far from the joint the bones are the same (the meshes of the same fields).
+  const auto top = [](const core::TriangleMesh& m) { return core::bounds(m)[1].z(); };
+  EXPECT_NEAR(top(arthritic.bone(BoneId::Femur).mesh), top(plain.bone(BoneId::Femur).mesh), 0.05);
+  EXPECT_NEAR(core::bounds(arthritic.bone(BoneId::Tibia).mesh)[0].z(),
+              core::bounds(plain.bone(BoneId::Tibia).mesh)[0].z(), 0.05);
+  // Bone added: the tibia's and the femur's volumes grow by the spurs (a few hundred mm^3).
+  for (BoneId id : {BoneId::Femur, BoneId::Tibia}) {
+    const double added = core::checkMesh(arthritic.bone(id).mesh).volumeMm3 -
+                         core::checkMesh(plain.bone(id).mesh).volumeMm3;
+    std::cout << "[ measure  ] " << boneName(id) << ": osteophytes add " << added << " mm^3\n";
+    EXPECT_GT(added, 100.0) << boneName(id);
+    EXPECT_LT(added, 3000.0) << boneName(id);
+    EXPECT_TRUE(core::checkMesh(arthritic.bone(id).mesh).closed()) << boneName(id);
+  }
+  KneeOptions bad = meanShape(2.0);
+  bad.osteophyteMm = 9.0;
+  EXPECT_THROW(buildKnee(bad), std::invalid_argument);
+  bad.osteophyteMm = -1.0;
   EXPECT_THROW(buildKnee(bad), std::invalid_argument);
 }
 

@@ -63,6 +63,11 @@ struct FigureSize {
   int height = 620;
 };
 
+/// The legend's entries: per band "LABEL: N points" (the points in it), then "colour: VALUE
+/// NAME". A figure without points (a model alone) has its bands' labels only and no colour
+/// entry: there is nothing they count or colour.
+std::vector<std::string> surfaceFigureLegend(const SurfaceFigure& figure);
+
 /// Renders the figure: one panel per view side by side, titled, with a legend of the bands (and
 /// how many points fall in each). Deterministic: fixed cameras (parallel projection fitted to
 /// the surface and points), a headlight, the same pixels for the same input. Throws

@@ -89,7 +89,7 @@ VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImag
 struct SliceCorrectionResult {
   VoxelMask region;
   std::size_t added = 0, removed = 0;  ///< voxels, against the region given
-  int slices = 0;                      ///< voxel layers the contours lie on
+  int slices = 0;                      ///< voxel layers the contours and absent areas lie on
 };
 
 /// A few slices corrected by the user (live-wire contours on the slices `--anchors-where
@@ -98,12 +98,17 @@ struct SliceCorrectionResult {
 /// region becomes the contours' even-odd fill; on the layers within `falloffMm` of it the
 /// in-plane signed distances of the region and of the contour are blended, the contour's weight
 /// falling linearly from 1 toward 0 (each layer takes its nearest corrected layer), so the
-/// correction fades into the automatic model instead of leaving a step. A slice where the bone
-/// should be absent cannot be said this way (a curve needs 3 points). Throws
-/// std::invalid_argument for no contour, contours of several plane families, or a contour
-/// outside the grid.
+/// correction fades into the automatic model instead of leaving a step. `absent` are areas
+/// where the bone is not (a curve drawn around what the automatic model wrongly holds, or
+/// around the whole section of a slice where the bone should be absent): on their layer the
+/// region (or the contours' fill there) loses what they enclose, faded the same way; a layer
+/// left empty counts as one layer's spacing outside everywhere, so the bone tapers toward it
+/// instead of vanishing on the layers around it. Throws std::invalid_argument for no
+/// contour and no absent area, contours of several plane families, or a contour outside the
+/// grid.
 SliceCorrectionResult correctOnSlices(const VoxelMask& region,
                                       const std::vector<SliceContour>& contours,
-                                      double falloffMm = 3.0);
+                                      double falloffMm = 3.0,
+                                      const std::vector<SliceContour>& absent = {});
 
 }  // namespace echoreg::segmentation

@@ -78,7 +78,20 @@ struct KneeOptions {
   double tibiofemoralGapMm = -1.0;
   /// The narrowest gap between patella and trochlea, mm (0: touching); 0 to 10.
   double patellofemoralGapMm = 4.0;
+  /// Marginal osteophytes of an arthritic knee, mm (0: none; at most 8): bony ridges along the
+  /// medial and lateral margins of the tibiofemoral joint, where the joint space opens into a
+  /// wedge between the rounded condyles and the flat plateau. One ridge rises from each side of
+  /// the tibial plateau (centred on its rim's level, 9 widths outside the condyle's centre line)
+  /// and one hangs from each femoral condyle's underside above it, each of this radius, along
+  /// the front-to-back middle of the compartment; each is cut back to kOsteophyteClearanceMm
+  /// from the other bone, so the spurs bridge the joint's margin (they touch through less than
+  /// a voxel of soft tissue). Added after the joint is narrowed (tibiofemoralGapMm); needs the
+  /// procedural femur.
+  double osteophyteMm = 0.0;
 };
+
+/// What the osteophytes leave between femur and tibia at the joint's margins, mm.
+inline constexpr double kOsteophyteClearanceMm = 0.5;
 
 /// The four bones of a right leg, supine: medial +x, anterior -y, proximal +z.
 struct Knee {
