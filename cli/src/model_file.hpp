@@ -322,6 +322,79 @@ inline void checkPlyFile(const std::string& path) {
   }
 }
 
+/// VTK 9.1's ASCII STL reader says only "holds no triangles" for a file with one malformed facet
+/// (a fourth vertex, a missing number, no endsolid), and reads "nan" as a number, so the text is
+/// checked first: solid, then facets of "facet normal N N N", "outer loop", three "vertex X Y Z"
+/// of finite numbers, "endloop", "endfacet", then endsolid (another solid may follow). Throws
+/// FileError naming the line and what was expected there.
+inline void checkAsciiStl(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  std::size_t lineNumber = 0;
+  // What comes next, in order; "vertex" three times.
+  static const std::vector<std::string> kFacet{"facet",  "outer",   "vertex",  "vertex",
+                                               "vertex", "endloop", "endfacet"};
+  std::size_t step = 0;  // within kFacet
+  bool inSolid = false;  // after "solid", before "endsolid"
+  const auto refuse = [&](const std::string& expected) {
+    const std::string found = in ? "\"" + line + "\"" : "the end of the file";
+    throw FileError(path,
+                    fmt::format("line {}: expected {}, found {} (not an ASCII STL file as VTK "
+                                "reads it)",
+                                lineNumber, expected, found));
+  };
+  // `count` numbers and nothing else; finite ones for vertices (exporters write "nan" normals of
+  // degenerate facets, which VTK ignores).
+  const auto numbers = [](std::istringstream& words, int count, bool finite) {
+    std::string word;
+    for (int i = 0; i < count; ++i) {
+      double value = 0.0;
+      if (!(words >> word))
+        return false;
+      const auto parsed = std::from_chars(word.data(), word.data() + word.size(), value);
+      if (parsed.ec != std::errc() || parsed.ptr != word.data() + word.size() ||
+          (finite && !std::isfinite(value)))
+        return false;
+    }
+    return !(words >> word);
+  };
+  while (std::getline(in, line)) {
+    ++lineNumber;
+    if (!line.empty() && line.back() == '\r')
+      line.pop_back();
+    std::istringstream words(line);
+    std::string keyword;
+    if (!(words >> keyword))
+      continue;  // a blank line
+    std::transform(keyword.begin(), keyword.end(), keyword.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (!inSolid) {
+      if (keyword != "solid")
+        refuse("\"solid NAME\"");
+      inSolid = true;
+      continue;
+    }
+    if (step == 0 && keyword == "endsolid") {
+      inSolid = false;
+      continue;
+    }
+    if (keyword != kFacet[step])
+      refuse(step == 0 ? "\"facet normal NX NY NZ\" or \"endsolid\"" : "\"" + kFacet[step] + "\"");
+    std::string word;
+    if (keyword == "facet" && !((words >> word) && word == "normal" && numbers(words, 3, false)))
+      refuse("\"facet normal NX NY NZ\"");
+    if (keyword == "outer" && !((words >> word) && word == "loop" && !(words >> word)))
+      refuse("\"outer loop\"");
+    if (keyword == "vertex" && !numbers(words, 3, true))
+      refuse("\"vertex X Y Z\" of three finite numbers (a triangle's facet has three)");
+    step = (step + 1) % kFacet.size();
+  }
+  if (inSolid) {
+    ++lineNumber;
+    refuse(step == 0 ? "\"endsolid\"" : "\"" + kFacet[step] + "\"");
+  }
+}
+
 /// VTK 9.1's STL reader allocates what a binary STL's header claims (the triangle count at byte 80)
 /// before reading: 13.9 GB for a 295-byte file (found by fuzz/fuzz_mesh). A file that is not plain
 /// ASCII text must be exactly 84 + 50 x count bytes. Throws FileError saying what the header
@@ -339,8 +412,10 @@ inline void checkStlSize(const std::string& path) {
         const auto u = static_cast<unsigned char>(c);
         return (u >= 32 && u < 127) || c == '\n' || c == '\r' || c == '\t';
       });
-  if (text)
+  if (text) {
+    checkAsciiStl(path);
     return;
+  }
   if (size < 84)
     throw FileError(path,
                     fmt::format("a binary STL of {} bytes, shorter than its 84-byte header", size));

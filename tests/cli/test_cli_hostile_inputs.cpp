@@ -135,6 +135,24 @@ class CliHostileInputs : public ::testing::Test {
       fs::create_directory(dir_.file(folder));
       std::ofstream(dir_.file(folder + "/study.json")) << manifest;
     }
+    // ASCII STL: a facet of four vertices, a NaN vertex, no endsolid ("holds no triangles" or a
+    // NaN read as a number, before).
+    const auto facet = [](const std::string& vertices) {
+      return "facet normal 0 0 1\nouter loop\n" + vertices + "endloop\nendfacet\n";
+    };
+    const std::string triangle = "vertex 0 0 0\nvertex 30 0 0\nvertex 0 30 0\n";
+    std::ofstream(dir_.file("good.stl"))
+        << "solid t\n"
+        << facet(triangle) << facet("vertex 0 0 0\nvertex 0 0 30\nvertex 30 0 0\n")
+        << facet("vertex 30 0 0\nvertex 0 0 30\nvertex 0 30 0\n")
+        << facet("vertex 0 30 0\nvertex 0 0 30\nvertex 0 0 0\n") << "endsolid t\n";
+    std::ofstream(dir_.file("four-corners.stl"))
+        << "solid t\n"
+        << facet(triangle + "vertex 0 0 30\n") << "endsolid t\n";
+    std::ofstream(dir_.file("nan.stl"))
+        << "solid t\n"
+        << facet("vertex 0 0 0\nvertex nan 0 0\nvertex 0 30 0\n") << "endsolid t\n";
+    std::ofstream(dir_.file("no-end.stl")) << "solid t\n" << facet(triangle);
     std::ofstream(dir_.file("points.csv")) << "x,y,z\n5,5,0\n5,0,5\n0,5,5\n10,10,10\n";
     TransformFile toCt;
     toCt.from = "Femur";
@@ -216,6 +234,12 @@ TEST_F(CliHostileInputs, TheGoodInputsOfTheTableAreAccepted) {
                                   dir_.file("FemurToCT.json"), "--out", dir_.file("binary.png")});
   ASSERT_EQ(binary.exitCode, 0) << binary.err;
   EXPECT_TRUE(fs::is_regular_file(dir_.file("binary.png")));
+  // The ASCII STL the checks read line by line.
+  const auto stl = runEchoreg({"figure", "registration", "--model", dir_.file("good.stl"),
+                               "--points", dir_.file("points.csv"), "--transform",
+                               dir_.file("FemurToCT.json"), "--out", dir_.file("stl.png")});
+  ASSERT_EQ(stl.exitCode, 0) << stl.err;
+  EXPECT_TRUE(fs::is_regular_file(dir_.file("stl.png")));
 }
 
 TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
@@ -248,6 +272,12 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
        "the file holds 134 bytes"},
       {figureWith({"--model", "@short-face.ply", "--out", "@out.png"}), 1,
        "@short-face.ply: line 17: element face: \"3 2\" has too few numbers"},
+      {figureWith({"--model", "@four-corners.stl", "--out", "@out.png"}), 1,
+       "@four-corners.stl: line 7: expected \"endloop\", found \"vertex 0 0 30\""},
+      {figureWith({"--model", "@nan.stl", "--out", "@out.png"}), 1,
+       "@nan.stl: line 5: expected \"vertex X Y Z\" of three finite numbers"},
+      {figureWith({"--model", "@no-end.stl", "--out", "@out.png"}), 1,
+       "@no-end.stl: line 9: expected \"endsolid\", found the end of the file"},
       {figureWith({"--model", "@two-formats.ply", "--out", "@out.png"}), 1,
        "@two-formats.ply: line 3: a second format line"},
       {figureWith({"--model", "@beyond-binary.ply", "--out", "@out.png"}), 1,
