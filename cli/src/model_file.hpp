@@ -16,8 +16,10 @@
 #include <charconv>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <initializer_list>
 #include <sstream>
 #include <string>
 #include <system_error>
@@ -88,22 +90,68 @@ inline void checkObjFile(const std::string& path) {
   }
 }
 
+namespace ply_detail {
+
+/// One binary PLY value of `type` (a PLY type name) from `in`; false at the end of the file.
+inline bool readBinaryValue(std::istream& in, const std::string& type, bool bigEndian,
+                            double& value) {
+  const auto is = [&](std::initializer_list<const char*> names) {
+    return std::any_of(names.begin(), names.end(), [&](const char* n) { return type == n; });
+  };
+  const std::size_t size = is({"char", "uchar", "int8", "uint8"})       ? 1
+                           : is({"short", "ushort", "int16", "uint16"}) ? 2
+                           : is({"double", "float64"})                  ? 8
+                                                                        : 4;
+  unsigned char bytes[8] = {};
+  if (!in.read(reinterpret_cast<char*>(bytes), static_cast<std::streamsize>(size)))
+    return false;
+  if (bigEndian)
+    std::reverse(bytes, bytes + size);  // to the little-endian order of the machines we build for
+  std::uint64_t bits = 0;
+  for (std::size_t b = 0; b < size; ++b)
+    bits |= static_cast<std::uint64_t>(bytes[b]) << (8 * b);
+  const bool isSigned = is({"char", "int8", "short", "int16", "int", "int32"});
+  if (is({"float", "float32"})) {
+    float f = 0.0f;
+    const auto narrow = static_cast<std::uint32_t>(bits);
+    std::memcpy(&f, &narrow, sizeof f);
+    value = f;
+  } else if (size == 8) {
+    std::memcpy(&value, &bits, sizeof value);
+  } else if (isSigned) {
+    const std::uint64_t sign = std::uint64_t{1} << (8 * size - 1);
+    value = static_cast<double>(static_cast<std::int64_t>((bits ^ sign) - sign));
+  } else {
+    value = static_cast<double>(bits);
+  }
+  return true;
+}
+
+}  // namespace ply_detail
+
 /// VTK 9.1's PLY reader crashes (a null pointer; found by fuzz/fuzz_mesh) on a header line it does
-/// not know ("propert} float z") and on an ASCII data line with too few numbers, so the file is
-/// checked first: the header's keywords, each element's count, an end, the vertex and face
-/// elements a model needs, and in an ASCII file every data line against its element's properties.
-/// Throws FileError naming the line.
+/// not know ("propert} float z") and on an ASCII data line with too few numbers, leaks what it read
+/// of a header with a second format line, and reads faces naming vertices beyond the file out of
+/// bounds, so the file is checked first: the header's keywords, one known format, each element's
+/// count, an end, the vertex and face elements a model needs, then the data against the header's
+/// properties (in an ASCII file line by line, in a binary one value by value): present in full,
+/// every face's corners vertices of the file. Throws FileError naming the line (or the element and
+/// row of binary data).
 inline void checkPlyFile(const std::string& path) {
   struct Element {
     std::string name;
     std::uint64_t count = 0;
     std::vector<bool> list;  ///< per property: a list (a count, then that many values)
     std::vector<std::string> names;
+    std::vector<std::string> types;       ///< per property: its type (a list's: its items' type)
+    std::vector<std::string> countTypes;  ///< per property: a list's count type ("" otherwise)
   };
   std::ifstream in(path, std::ios::binary);
   std::string line;
   std::size_t lineNumber = 0;
   bool ascii = false;
+  bool bigEndian = false;
+  int formats = 0;
   std::vector<Element> elements;
   const auto refuse = [&](const std::string& problem) {
     throw FileError(
@@ -135,9 +183,16 @@ inline void checkPlyFile(const std::string& path) {
     } else if (keyword == "end_header") {
       ended = true;
     } else if (keyword == "format") {
+      // VTK leaks what it read of a header with a second format line (LeakSanitizer, fuzz_mesh).
       std::string kind;
       words >> kind;
+      if (++formats > 1)
+        refuse("a second format line");
+      if (kind != "ascii" && kind != "binary_little_endian" && kind != "binary_big_endian")
+        refuse("\"" + line +
+               "\" is not \"format ascii|binary_little_endian|binary_big_endian 1.0\"");
       ascii = kind == "ascii";
+      bigEndian = kind == "binary_big_endian";
     } else if (keyword == "comment" || keyword == "obj_info") {
     } else if (keyword == "element") {
       Element element;
@@ -163,15 +218,17 @@ inline void checkPlyFile(const std::string& path) {
                "\" is not \"property TYPE NAME\" of an element (TYPE: char, "
                "uchar, short, ushort, int, uint, float, double or their sized names)");
       elements.back().list.push_back(type == "list");
+      std::string countType;
       if (type == "list") {
-        std::string itemType;
-        const std::string countType = name;
+        countType = name;
         name.clear();
-        words >> itemType >> name;
-        if (name.empty() || !known(countType) || !known(itemType))
+        words >> type >> name;
+        if (name.empty() || !known(countType) || !known(type))
           refuse("\"" + line + "\" is not \"property list COUNT_TYPE TYPE NAME\"");
       }
       elements.back().names.push_back(name);
+      elements.back().types.push_back(type);
+      elements.back().countTypes.push_back(countType);
     } else {
       refuse("\"" + line +
              "\" is not a PLY header line (format, comment, obj_info, element, "
@@ -196,11 +253,48 @@ inline void checkPlyFile(const std::string& path) {
     if (element.name == "face" && !named("vertex_indices"))
       refuse("the face element has no vertex_indices list");
   }
-  if (!ascii)
-    return;
+  if (formats == 0)
+    refuse("the header has no format line");
   std::uint64_t vertexCount = 0;
   for (const Element& element : elements)
     vertexCount = element.name == "vertex" ? element.count : vertexCount;
+  if (!ascii) {
+    // Value by value: each list's count, then its items; the file must hold every row, and a
+    // face's corners must be vertices (VTK reads faces beyond the vertices out of bounds).
+    for (const Element& element : elements) {
+      if (element.list.empty())
+        continue;  // no properties: no bytes, whatever the count
+      for (std::uint64_t row = 0; row < element.count; ++row) {
+        for (std::size_t p = 0; p < element.list.size(); ++p) {
+          const auto refuseData = [&](const std::string& problem) {
+            throw FileError(path, "binary data: " + problem + " (not a PLY file as VTK reads it)");
+          };
+          const auto truncated = [&] {
+            refuseData(fmt::format("the file ends within element {} (row {} of {})", element.name,
+                                   row + 1, element.count));
+          };
+          double items = 1.0;
+          if (element.list[p]) {
+            if (!ply_detail::readBinaryValue(in, element.countTypes[p], bigEndian, items))
+              truncated();
+            if (!(items >= 0 && items == std::floor(items)))
+              refuseData(fmt::format("element {} row {} has a list of {} items", element.name,
+                                     row + 1, items));
+          }
+          const bool corners = element.name == "face" && element.names[p] == "vertex_indices";
+          for (double k = 0; k < items; ++k) {
+            double item = 0.0;
+            if (!ply_detail::readBinaryValue(in, element.types[p], bigEndian, item))
+              truncated();
+            if (corners && !(item >= 0 && item < static_cast<double>(vertexCount)))
+              refuseData(fmt::format("face {} names vertex {}, not one from 0 to {}", row + 1, item,
+                                     static_cast<double>(vertexCount) - 1));
+          }
+        }
+      }
+    }
+    return;
+  }
   for (const Element& element : elements) {
     for (std::uint64_t row = 0; row < element.count; ++row) {
       ++lineNumber;
@@ -228,6 +322,79 @@ inline void checkPlyFile(const std::string& path) {
   }
 }
 
+/// VTK 9.1's ASCII STL reader says only "holds no triangles" for a file with one malformed facet
+/// (a fourth vertex, a missing number, no endsolid), and reads "nan" as a number, so the text is
+/// checked first: solid, then facets of "facet normal N N N", "outer loop", three "vertex X Y Z"
+/// of finite numbers, "endloop", "endfacet", then endsolid (another solid may follow). Throws
+/// FileError naming the line and what was expected there.
+inline void checkAsciiStl(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  std::size_t lineNumber = 0;
+  // What comes next, in order; "vertex" three times.
+  static const std::vector<std::string> kFacet{"facet",  "outer",   "vertex",  "vertex",
+                                               "vertex", "endloop", "endfacet"};
+  std::size_t step = 0;  // within kFacet
+  bool inSolid = false;  // after "solid", before "endsolid"
+  const auto refuse = [&](const std::string& expected) {
+    const std::string found = in ? "\"" + line + "\"" : "the end of the file";
+    throw FileError(path,
+                    fmt::format("line {}: expected {}, found {} (not an ASCII STL file as VTK "
+                                "reads it)",
+                                lineNumber, expected, found));
+  };
+  // `count` numbers and nothing else; finite ones for vertices (exporters write "nan" normals of
+  // degenerate facets, which VTK ignores).
+  const auto numbers = [](std::istringstream& words, int count, bool finite) {
+    std::string word;
+    for (int i = 0; i < count; ++i) {
+      double value = 0.0;
+      if (!(words >> word))
+        return false;
+      const auto parsed = std::from_chars(word.data(), word.data() + word.size(), value);
+      if (parsed.ec != std::errc() || parsed.ptr != word.data() + word.size() ||
+          (finite && !std::isfinite(value)))
+        return false;
+    }
+    return !(words >> word);
+  };
+  while (std::getline(in, line)) {
+    ++lineNumber;
+    if (!line.empty() && line.back() == '\r')
+      line.pop_back();
+    std::istringstream words(line);
+    std::string keyword;
+    if (!(words >> keyword))
+      continue;  // a blank line
+    std::transform(keyword.begin(), keyword.end(), keyword.begin(),
+                   [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+    if (!inSolid) {
+      if (keyword != "solid")
+        refuse("\"solid NAME\"");
+      inSolid = true;
+      continue;
+    }
+    if (step == 0 && keyword == "endsolid") {
+      inSolid = false;
+      continue;
+    }
+    if (keyword != kFacet[step])
+      refuse(step == 0 ? "\"facet normal NX NY NZ\" or \"endsolid\"" : "\"" + kFacet[step] + "\"");
+    std::string word;
+    if (keyword == "facet" && !((words >> word) && word == "normal" && numbers(words, 3, false)))
+      refuse("\"facet normal NX NY NZ\"");
+    if (keyword == "outer" && !((words >> word) && word == "loop" && !(words >> word)))
+      refuse("\"outer loop\"");
+    if (keyword == "vertex" && !numbers(words, 3, true))
+      refuse("\"vertex X Y Z\" of three finite numbers (a triangle's facet has three)");
+    step = (step + 1) % kFacet.size();
+  }
+  if (inSolid) {
+    ++lineNumber;
+    refuse(step == 0 ? "\"endsolid\"" : "\"" + kFacet[step] + "\"");
+  }
+}
+
 /// VTK 9.1's STL reader allocates what a binary STL's header claims (the triangle count at byte 80)
 /// before reading: 13.9 GB for a 295-byte file (found by fuzz/fuzz_mesh). A file that is not plain
 /// ASCII text must be exactly 84 + 50 x count bytes. Throws FileError saying what the header
@@ -245,8 +412,10 @@ inline void checkStlSize(const std::string& path) {
         const auto u = static_cast<unsigned char>(c);
         return (u >= 32 && u < 127) || c == '\n' || c == '\r' || c == '\t';
       });
-  if (text)
+  if (text) {
+    checkAsciiStl(path);
     return;
+  }
   if (size < 84)
     throw FileError(path,
                     fmt::format("a binary STL of {} bytes, shorter than its 84-byte header", size));

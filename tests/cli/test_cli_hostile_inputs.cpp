@@ -14,11 +14,13 @@
 
 #include <unistd.h>
 
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace echoreg {
@@ -86,6 +88,71 @@ class CliHostileInputs : public ::testing::Test {
         << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
            "property float z\nelement face 4\nproperty list uchar int vertex_indices\n"
            "end_header\n0 0 0\n30 0 0\n0 30 0\n0 0 30\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 2\n";
+    // Found by fuzz/fuzz_mesh: LeakSanitizer, what VTK read of a header with two format lines.
+    std::ofstream(dir_.file("two-formats.ply"))
+        << "ply\nformat ascii 1.0\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
+           "property float y\nproperty float z\nelement face 4\n"
+           "property list uchar int vertex_indices\nend_header\n0 0 0\n30 0 0\n0 30 0\n"
+           "0 0 30\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 2 0 3\n";
+    // Binary PLY faces were not checked: one naming vertex 9 of 4 was read out of bounds by VTK,
+    // and a file ending before its rows.
+    {
+      const std::string header =
+          "ply\nformat binary_little_endian 1.0\nelement vertex 4\nproperty float x\n"
+          "property float y\nproperty float z\nelement face 4\n"
+          "property list uchar int vertex_indices\nend_header\n";
+      std::string data;
+      for (const float v : {0.f, 0.f, 0.f, 30.f, 0.f, 0.f, 0.f, 30.f, 0.f, 0.f, 0.f, 30.f})
+        data.append(reinterpret_cast<const char*>(&v), 4);
+      const auto faces = [&](std::int32_t last) {
+        std::string bytes;
+        const std::int32_t corners[4][3] = {{0, 2, 1}, {0, 1, 3}, {1, 2, 3}, {2, 0, last}};
+        for (const auto& face : corners) {
+          bytes += '\3';
+          bytes.append(reinterpret_cast<const char*>(face), 12);
+        }
+        return bytes;
+      };
+      std::ofstream(dir_.file("good-binary.ply"), std::ios::binary) << header << data << faces(3);
+      std::ofstream(dir_.file("beyond-binary.ply"), std::ios::binary) << header << data << faces(9);
+      std::string cut = header + data + faces(3);
+      cut.resize(cut.size() - 5);
+      std::ofstream(dir_.file("cut-binary.ply"), std::ios::binary) << cut;
+    }
+    // detect --params files (fuzz/fuzz_params): a bad value named with its key, a whole number
+    // beyond an int (it was wrapped round to 7), the JSON reader's message without its codes.
+    std::ofstream(dir_.file("speed.json")) << R"({"speed-of-sound": -1450})";
+    std::ofstream(dir_.file("wide.json")) << R"({"envelope-window": 4294967303})";
+    std::ofstream(dir_.file("broken-params.json")) << R"({"envelope": )";
+    // Study manifests (fuzz/fuzz_manifest): a bone name is a part of its result files' names and a
+    // JSON pointer; a manifest that is not an object, or whose format is not a string, threw the
+    // JSON library's message.
+    for (const auto& [folder, manifest] : std::vector<std::pair<std::string, std::string>>{
+             {"bone-path", R"({"format": "echoreg-study", "bones": {"../escape": {}}})"},
+             {"bone-tilde", R"({"format": "echoreg-study", "bones": {"a~b": {}}})"},
+             {"format-number", R"({"format": 1, "bones": {"femur": {}}})"},
+             {"array-study", "[1, 2]"}}) {
+      fs::create_directory(dir_.file(folder));
+      std::ofstream(dir_.file(folder + "/study.json")) << manifest;
+    }
+    // ASCII STL: a facet of four vertices, a NaN vertex, no endsolid ("holds no triangles" or a
+    // NaN read as a number, before).
+    const auto facet = [](const std::string& vertices) {
+      return "facet normal 0 0 1\nouter loop\n" + vertices + "endloop\nendfacet\n";
+    };
+    const std::string triangle = "vertex 0 0 0\nvertex 30 0 0\nvertex 0 30 0\n";
+    std::ofstream(dir_.file("good.stl"))
+        << "solid t\n"
+        << facet(triangle) << facet("vertex 0 0 0\nvertex 0 0 30\nvertex 30 0 0\n")
+        << facet("vertex 30 0 0\nvertex 0 0 30\nvertex 0 30 0\n")
+        << facet("vertex 0 30 0\nvertex 0 0 30\nvertex 0 0 0\n") << "endsolid t\n";
+    std::ofstream(dir_.file("four-corners.stl"))
+        << "solid t\n"
+        << facet(triangle + "vertex 0 0 30\n") << "endsolid t\n";
+    std::ofstream(dir_.file("nan.stl"))
+        << "solid t\n"
+        << facet("vertex 0 0 0\nvertex nan 0 0\nvertex 0 30 0\n") << "endsolid t\n";
+    std::ofstream(dir_.file("no-end.stl")) << "solid t\n" << facet(triangle);
     std::ofstream(dir_.file("points.csv")) << "x,y,z\n5,5,0\n5,0,5\n0,5,5\n10,10,10\n";
     TransformFile toCt;
     toCt.from = "Femur";
@@ -140,7 +207,8 @@ class CliHostileInputs : public ::testing::Test {
     EXPECT_FALSE(fs::exists(dir_.file("out.jpg"))) << where;
     EXPECT_FALSE(fs::exists(dir_.file("out.json"))) << where;
     EXPECT_FALSE(fs::exists(dir_.file("out.vtp"))) << where;
-    for (const char* name : {"out.png", "out.jpg", "out.json", "out.vtp"})
+    EXPECT_FALSE(fs::exists(dir_.file("out.csv"))) << where;
+    for (const char* name : {"out.png", "out.jpg", "out.json", "out.vtp", "out.csv"})
       fs::remove(dir_.file(name));  // one case's failure does not fail the next
   }
 
@@ -160,6 +228,18 @@ TEST_F(CliHostileInputs, TheGoodInputsOfTheTableAreAccepted) {
                              "--out", dir_.file("good.png")});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_TRUE(fs::is_regular_file(dir_.file("good.png")));
+  // The binary PLY the checks read value by value, as written, with its faces within the file.
+  const auto binary = runEchoreg({"figure", "registration", "--model", dir_.file("good-binary.ply"),
+                                  "--points", dir_.file("points.csv"), "--transform",
+                                  dir_.file("FemurToCT.json"), "--out", dir_.file("binary.png")});
+  ASSERT_EQ(binary.exitCode, 0) << binary.err;
+  EXPECT_TRUE(fs::is_regular_file(dir_.file("binary.png")));
+  // The ASCII STL the checks read line by line.
+  const auto stl = runEchoreg({"figure", "registration", "--model", dir_.file("good.stl"),
+                               "--points", dir_.file("points.csv"), "--transform",
+                               dir_.file("FemurToCT.json"), "--out", dir_.file("stl.png")});
+  ASSERT_EQ(stl.exitCode, 0) << stl.err;
+  EXPECT_TRUE(fs::is_regular_file(dir_.file("stl.png")));
 }
 
 TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
@@ -192,6 +272,18 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
        "the file holds 134 bytes"},
       {figureWith({"--model", "@short-face.ply", "--out", "@out.png"}), 1,
        "@short-face.ply: line 17: element face: \"3 2\" has too few numbers"},
+      {figureWith({"--model", "@four-corners.stl", "--out", "@out.png"}), 1,
+       "@four-corners.stl: line 7: expected \"endloop\", found \"vertex 0 0 30\""},
+      {figureWith({"--model", "@nan.stl", "--out", "@out.png"}), 1,
+       "@nan.stl: line 5: expected \"vertex X Y Z\" of three finite numbers"},
+      {figureWith({"--model", "@no-end.stl", "--out", "@out.png"}), 1,
+       "@no-end.stl: line 9: expected \"endsolid\", found the end of the file"},
+      {figureWith({"--model", "@two-formats.ply", "--out", "@out.png"}), 1,
+       "@two-formats.ply: line 3: a second format line"},
+      {figureWith({"--model", "@beyond-binary.ply", "--out", "@out.png"}), 1,
+       "@beyond-binary.ply: binary data: face 4 names vertex 9, not one from 0 to 3"},
+      {figureWith({"--model", "@cut-binary.ply", "--out", "@out.png"}), 1,
+       "@cut-binary.ply: binary data: the file ends within element face (row 4 of 4)"},
       // Item 13: 15 lines of coloured VTK log came before "holds no triangles".
       {figureWith({"--model", "@empty.stl", "--out", "@out.png"}), 1,
        "@empty.stl: holds no triangles"},
@@ -231,6 +323,32 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
       {{"pivot", "--capture", "@capture.igs.mha", "--max-rms", "nan", "--out", "@out.json"},
        2,
        "--max-rms: must be a finite number > 0, got nan"},
+      // The previous stop's "noticed": detect's bad values did not name the flag (or the file).
+      {{"detect", "@capture.igs.mha", "--speed-of-sound", "0", "--out", "@out.csv"},
+       1,
+       "--speed-of-sound 0: speed of sound must be between 300 and 6000 m/s"},
+      {{"detect", "@capture.igs.mha", "--params", "@speed.json", "--out", "@out.csv"},
+       1,
+       "@speed.json: parameter \"speed-of-sound\" = -1450: speed of sound must be between 300 "
+       "and 6000 m/s"},
+      {{"detect", "@capture.igs.mha", "--params", "@wide.json", "--out", "@out.csv"},
+       1,
+       "@wide.json: parameter \"envelope-window\" must be a whole number, found 4294967303"},
+      {{"detect", "@capture.igs.mha", "--params", "@broken-params.json", "--out", "@out.csv"},
+       1,
+       "@broken-params.json: is not valid JSON: syntax error while parsing value"},
+      {{"study", "run", "@bone-path"},
+       1,
+       "@bone-path/study.json: bones: \"../escape\" is not a bone name"},
+      {{"study", "run", "@bone-tilde"},
+       1,
+       "@bone-tilde/study.json: bones: \"a~b\" is not a bone name"},
+      {{"study", "run", "@format-number"},
+       1,
+       "@format-number/study.json: is not an echoreg study manifest"},
+      {{"study", "run", "@array-study"},
+       1,
+       "@array-study/study.json: is not an echoreg study manifest"},
       // Item 12: register with more points than it takes.
       {{"register", "--model", "@good.obj", "--points", "@points.csv", "--initial",
         "@FemurToCT.json", "--max-points", "3", "--out", "@out.json"},

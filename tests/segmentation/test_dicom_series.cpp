@@ -17,11 +17,14 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <memory>
 #include <string>
 #include <vector>
@@ -346,6 +349,32 @@ TEST_F(DicomSeriesRefusal, RowsAndColumnsLargerThanTheFileAreRefusedBeforeAlloca
     EXPECT_CONTAINS(message, fileName(0) + ": truncated pixel data: its header claims " + claim);
     EXPECT_CONTAINS(message, "Rows / Columns in the header are wrong, or the file was cut short");
   }
+}
+
+// Found by fuzz/fuzz_dicom: GDCM allocates (and fills) the length an element declares before
+// reading it, 1.2 GB for a 1.5 kB file. Here SeriesDescription's VR "LO" (a 2-byte length) is
+// made "UT" (2 reserved bytes, then a 4-byte length: the first bytes of "reader test", about
+// 1.9 GB). The file is skipped as damaged, named with the element, before GDCM reads it.
+TEST_F(DicomSeriesRefusal, AnElementLongerThanTheFileIsNotAllocated) {
+  std::string bytes;
+  {
+    std::ifstream in(path(2), std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::size_t at = bytes.find(std::string("\x08\x00\x3e\x10LO", 6));
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at + 4, 2, "UT");
+  std::ofstream(path(2), std::ios::binary | std::ios::trunc) << bytes;
+  const std::string message = refusal(path(2));
+  EXPECT_CONTAINS(message, fileName(2) + ": is a damaged DICOM file: element (0008,103e) at byte ");
+  EXPECT_CONTAINS(message, "bytes, but ");
+  EXPECT_CONTAINS(message, "are left in the file");
+  // In the series: that slice is skipped (and said to be), the gap it leaves refused.
+  const std::string series = refusal(folder_);
+  EXPECT_CONTAINS(series, "missing");
+  struct rusage usage {};
+  getrusage(RUSAGE_SELF, &usage);
+  EXPECT_LT(usage.ru_maxrss, 1000L * 1024L) << "peak kB: the declared length was allocated";
 }
 
 TEST_F(DicomSeriesRefusal, MultiFrame) {

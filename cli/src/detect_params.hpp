@@ -1,0 +1,58 @@
+// The detection parameters as `echoreg detect` takes them: every tunable of the chain as a flag
+// and as a key of a --params file (JSON), and their resolution over the preset and the capture's
+// header. Apart from the command so that fuzz/fuzz_params can read --params files as detect does.
+#pragma once
+
+#include "echoreg/core/detection.hpp"
+#include "echoreg/core/sequence.hpp"
+
+#include <functional>
+#include <map>
+#include <set>
+#include <string>
+#include <variant>
+#include <vector>
+
+namespace echoreg::cli {
+
+// A value of one tunable, as typed on the command line or in a --params file.
+using TunableValue = std::variant<int, double, std::string, bool, std::vector<double>>;
+
+// One tunable of the chain: its flag (and, without the dashes, its key in --params files), its
+// help group and text, its type (the alternative held by `type`), and where it lands.
+struct Tunable {
+  const char* name;
+  const char* group;
+  const char* help;
+  TunableValue type;
+  std::function<void(DetectionParams&, const TunableValue&)> apply;
+};
+
+// Every tunable, in the order they are applied. "preset" is applied before all of them (it sets
+// the starting point), then the capture header, then these.
+const std::vector<Tunable>& tunables();
+
+// The tunables given so far, by name; flags first, then a --params file fills the rest.
+using TunableSettings = std::map<std::string, TunableValue>;
+
+/// Fills the tunables (and the preset) not given as flags from a --params file; returns the names
+/// it filled. Throws FileError naming the file for a file that is not a JSON object, an unknown
+/// key, or a value of the wrong type.
+std::set<std::string> mergeParamsFile(const std::string& file, std::string& preset,
+                                      TunableSettings& settings);
+
+/// Where the settings came from, for messages: `fromFile` names those of `paramsFile`, the others
+/// were flags.
+struct ParamsSources {
+  std::string paramsFile;
+  std::set<std::string> fromFile;
+};
+
+/// The parameters of `preset` (default when empty), then the capture header's acquisition values,
+/// then `settings`, validated. A value that is refused names where it was given: a flag
+/// (std::invalid_argument "--speed-of-sound 0: speed of sound must be ...") or the --params file
+/// (FileError). Values refused only together throw std::invalid_argument without a name.
+DetectionParams resolveParams(const std::string& preset, const TunableSettings& settings,
+                              const Sequence& sequence, const ParamsSources& sources = {});
+
+}  // namespace echoreg::cli

@@ -1,0 +1,73 @@
+#!/usr/bin/python3
+"""Writes fuzz/seeds/dicom: small synthetic CT series (8 x 8 pixels) as fuzz_dicom reads them, the
+files of a series joined by fuzz_input.hpp's kNextFile marker. Written once with pydicom (Debian's
+python3-pydicom); the seeds are committed, so the fuzzer and the replay test need nothing of this.
+
+    /usr/bin/python3 fuzz/make_dicom_seeds.py fuzz/seeds/dicom
+"""
+import io
+import sys
+
+import numpy as np
+import pydicom
+from pydicom.dataset import FileDataset, FileMetaDataset
+from pydicom.uid import ExplicitVRLittleEndian, ImplicitVRLittleEndian, RLELossless
+
+NEXT_FILE = b"\n--echoreg-fuzz-next-file--\n"
+SERIES = "1.2.826.0.1.3680043.8.498.1"
+
+
+def slice_bytes(z, rows=8, columns=8, syntax=ExplicitVRLittleEndian, signed=True, slope=1.0,
+                intercept=-1024.0, orientation=(1, 0, 0, 0, 1, 0), instance=1):
+    meta = FileMetaDataset()
+    meta.MediaStorageSOPClassUID = "1.2.840.10008.5.1.4.1.1.2"
+    meta.MediaStorageSOPInstanceUID = f"{SERIES}.{instance}"
+    meta.TransferSyntaxUID = ExplicitVRLittleEndian if syntax == RLELossless else syntax
+    ds = FileDataset(None, {}, file_meta=meta, preamble=b"\0" * 128)
+    ds.SOPClassUID = meta.MediaStorageSOPClassUID
+    ds.SOPInstanceUID = meta.MediaStorageSOPInstanceUID
+    ds.Modality = "CT"
+    ds.SeriesInstanceUID = SERIES
+    ds.StudyInstanceUID = SERIES + ".0"
+    ds.SeriesDescription = "fuzz seed"
+    ds.InstanceNumber = instance
+    ds.ImagePositionPatient = [-4.0, -4.0, float(z)]
+    ds.ImageOrientationPatient = list(orientation)
+    ds.PixelSpacing = [0.5, 0.5]
+    ds.SliceThickness = 1.0
+    ds.Rows, ds.Columns = rows, columns
+    ds.SamplesPerPixel = 1
+    ds.PhotometricInterpretation = "MONOCHROME2"
+    ds.BitsAllocated, ds.BitsStored, ds.HighBit = 16, 12, 11
+    ds.PixelRepresentation = 1 if signed else 0
+    ds.RescaleSlope, ds.RescaleIntercept = slope, intercept
+    values = (np.arange(rows * columns).reshape(rows, columns) * 37 + int(z) * 101) % 4096
+    ds.PixelData = values.astype(np.int16 if signed else np.uint16).tobytes()
+    ds.is_little_endian = True
+    ds.is_implicit_VR = syntax == ImplicitVRLittleEndian
+    if syntax == RLELossless:
+        ds.compress(RLELossless)
+    out = io.BytesIO()
+    ds.save_as(out, write_like_original=False)
+    return out.getvalue()
+
+
+def main(folder):
+    seeds = {
+        "one-slice": [slice_bytes(0)],
+        "three-slices": [slice_bytes(z, instance=z + 1) for z in range(3)],
+        "missing-slice": [slice_bytes(z, instance=z + 1) for z in (0, 1, 2, 4)],
+        "implicit-unsigned": [slice_bytes(z, syntax=ImplicitVRLittleEndian, signed=False,
+                                          slope=2.0, intercept=-2048.0, instance=z + 1)
+                              for z in range(2)],
+        "rle": [slice_bytes(z, syntax=RLELossless, instance=z + 1) for z in range(2)],
+        "uneven-orientations": [slice_bytes(0), slice_bytes(1, orientation=(0, 1, 0, 1, 0, 0),
+                                                            instance=2)],
+    }
+    for name, files in seeds.items():
+        with open(f"{folder}/{name}.dcm-series", "wb") as out:
+            out.write(NEXT_FILE.join(files))
+
+
+if __name__ == "__main__":
+    main(sys.argv[1])
