@@ -1,0 +1,103 @@
+#include "echoreg/live/incremental_registration.hpp"
+
+#include <stdexcept>
+#include <utility>
+
+namespace echoreg::live {
+
+IncrementalRegistration::IncrementalRegistration(const core::SurfaceRegistration& model,
+                                                 core::SurfaceRegistrationOptions options,
+                                                 std::vector<core::LandmarkPair> landmarks,
+                                                 std::size_t minPoints, double maxRateHz)
+    : model_(model),
+      options_(std::move(options)),
+      landmarks_(std::move(landmarks)),
+      minPoints_(minPoints),
+      minInterval_(maxRateHz > 0.0 ? 1.0 / maxRateHz : 0.0) {
+  if (minPoints < 3)
+    throw std::invalid_argument("a registration needs at least 3 points to start");
+  if (!(maxRateHz > 0.0))
+    throw std::invalid_argument("the registration rate must be > 0 Hz");
+  worker_ = std::thread([this] { work(); });
+}
+
+IncrementalRegistration::~IncrementalRegistration() {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  if (worker_.joinable())
+    worker_.join();
+}
+
+void IncrementalRegistration::addPoint(const core::SurfacePoint& point) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    points_.push_back(point);
+  }
+  wake_.notify_all();
+}
+
+std::optional<RegistrationUpdate> IncrementalRegistration::take() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::optional<RegistrationUpdate> update = std::move(latest_);
+  latest_.reset();
+  return update;
+}
+
+std::string IncrementalRegistration::problem() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return problem_;
+}
+
+void IncrementalRegistration::work() {
+  using Clock = std::chrono::steady_clock;
+  std::size_t usedPoints = 0;
+  Clock::time_point lastStart = Clock::now() - std::chrono::hours(1);
+  core::SurfaceRegistrationOptions options = options_;
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (true) {
+    wake_.wait_until(lock, lastStart + std::chrono::duration_cast<Clock::duration>(minInterval_),
+                     [&] { return stop_; });
+    if (stop_)
+      return;
+    if (points_.size() < minPoints_ || points_.size() == usedPoints ||
+        Clock::now() - lastStart < minInterval_) {
+      wake_.wait_for(lock, std::chrono::milliseconds(20), [&] { return stop_; });
+      if (stop_)
+        return;
+      continue;
+    }
+    const std::vector<core::SurfacePoint> points = points_;
+    lock.unlock();
+    lastStart = Clock::now();
+    RegistrationUpdate update;
+    std::string problem;
+    try {
+      update.result = model_.registerPoints(points, landmarks_, options);
+      update.points = points.size();
+      update.run = runs_.load() + 1;
+      update.seconds = std::chrono::duration<double>(Clock::now() - lastStart).count();
+    } catch (const std::exception& e) {
+      problem = e.what();
+    }
+    usedPoints = points.size();
+    lock.lock();
+    if (problem.empty()) {
+      ++runs_;
+      if (update.result.converged) {
+        // Later runs refine from here: the restarts and the search about a landmark axis were
+        // the first run's.
+        options.initial = update.result.transform;
+        options.restarts = 0;
+        options.searchAboutAxis = false;
+      }
+      latest_ = std::move(update);
+    } else {
+      problem_ = problem;
+    }
+  }
+}
+
+}  // namespace echoreg::live
