@@ -476,7 +476,11 @@ int LiveSession::run() {
     onDecided(detector_->flush(), true);
   connection_.reset();  // the server's graceful close waits for it
   results_.reset();
-  registration_.reset();
+  // The live registration on every point received (the stream may have ended between updates).
+  if (std::optional<live::RegistrationUpdate> update = registration_->finish()) {
+    ++updates_;
+    last_ = std::move(update);
+  }
   progress(true);
   for (const auto& [problem, count] : problems_)
     note(fmt::format("{} message(s) skipped: {}", count, problem));

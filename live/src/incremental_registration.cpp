@@ -22,6 +22,10 @@ IncrementalRegistration::IncrementalRegistration(const core::SurfaceRegistration
 }
 
 IncrementalRegistration::~IncrementalRegistration() {
+  stopWorker();
+}
+
+void IncrementalRegistration::stopWorker() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
@@ -29,6 +33,19 @@ IncrementalRegistration::~IncrementalRegistration() {
   wake_.notify_all();
   if (worker_.joinable())
     worker_.join();
+}
+
+std::optional<RegistrationUpdate> IncrementalRegistration::finish() {
+  stopWorker();
+  std::vector<core::SurfacePoint> points;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (points_.size() >= minPoints_ && points_.size() != usedPoints_)
+      points = points_;
+  }
+  if (!points.empty())
+    runOnce(points);
+  return take();
 }
 
 void IncrementalRegistration::addPoint(const core::SurfacePoint& point) {
@@ -51,52 +68,46 @@ std::string IncrementalRegistration::problem() const {
   return problem_;
 }
 
+void IncrementalRegistration::runOnce(const std::vector<core::SurfacePoint>& points) {
+  using Clock = std::chrono::steady_clock;
+  const Clock::time_point start = Clock::now();
+  RegistrationUpdate update;
+  std::string problem;
+  try {
+    update.result = model_.registerPoints(points, landmarks_, options_);
+    update.points = points.size();
+    update.run = runs_.load() + 1;
+    update.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  } catch (const std::exception& e) {
+    problem = e.what();
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  usedPoints_ = points.size();
+  if (!problem.empty()) {
+    problem_ = problem;
+    return;
+  }
+  ++runs_;
+  latest_ = std::move(update);
+}
+
 void IncrementalRegistration::work() {
   using Clock = std::chrono::steady_clock;
-  std::size_t usedPoints = 0;
   Clock::time_point lastStart = Clock::now() - std::chrono::hours(1);
-  core::SurfaceRegistrationOptions options = options_;
   std::unique_lock<std::mutex> lock(mutex_);
   while (true) {
-    wake_.wait_until(lock, lastStart + std::chrono::duration_cast<Clock::duration>(minInterval_),
-                     [&] { return stop_; });
+    wake_.wait_for(lock, std::chrono::milliseconds(20), [&] { return stop_; });
     if (stop_)
       return;
-    if (points_.size() < minPoints_ || points_.size() == usedPoints ||
+    if (points_.size() < minPoints_ || points_.size() == usedPoints_ ||
         Clock::now() - lastStart < minInterval_) {
-      wake_.wait_for(lock, std::chrono::milliseconds(20), [&] { return stop_; });
-      if (stop_)
-        return;
       continue;
     }
     const std::vector<core::SurfacePoint> points = points_;
     lock.unlock();
     lastStart = Clock::now();
-    RegistrationUpdate update;
-    std::string problem;
-    try {
-      update.result = model_.registerPoints(points, landmarks_, options);
-      update.points = points.size();
-      update.run = runs_.load() + 1;
-      update.seconds = std::chrono::duration<double>(Clock::now() - lastStart).count();
-    } catch (const std::exception& e) {
-      problem = e.what();
-    }
-    usedPoints = points.size();
+    runOnce(points);
     lock.lock();
-    if (problem.empty()) {
-      ++runs_;
-      if (update.result.converged) {
-        // Later runs refine from here: the restarts and the search about a landmark axis were
-        // the first run's.
-        options.initial = update.result.transform;
-        options.restarts = 0;
-        options.searchAboutAxis = false;
-      }
-      latest_ = std::move(update);
-    } else {
-      problem_ = problem;
-    }
   }
 }
 

@@ -1,6 +1,6 @@
 // `echoreg serve` of the fixture study's femur sweep into `echoreg live` on loopback: the session's
 // result equals `echoreg register` on the same capture (0.01 mm at the knee centre, 0.01 deg),
-// its recording holds every served frame, and the registration refined live converged near it.
+// its recording holds every served frame, and the registration refined live ends on the same pose.
 #include "cli_test_support.hpp"
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/transform_file.hpp"
@@ -107,11 +107,15 @@ TEST(Live, ServedFemurSweepRegistersAsRegisterDoes) {
   for (std::size_t f = 0; f < original.frames.size(); ++f)
     ASSERT_EQ(recorded.frames[f].timestampS, original.frames[f].timestampS) << "frame " << f;
 
-  // The registration refined while the points came converged, near the final one.
+  // The registration refined while the points came converged, on the final pose.
   ASSERT_TRUE(session.contains("live_registration")) << live.err;
   EXPECT_TRUE(session.at("live_registration").at("converged").get<bool>());
   const Eigen::Matrix4d liveMatrix = matrixFrom(session.at("live_registration").at("matrix"));
-  EXPECT_LT(((liveMatrix * a.matrix.inverse()) * knee - knee).head<3>().norm(), 1.0);
+  const double liveKneeMm = ((liveMatrix * a.matrix.inverse()) * knee - knee).head<3>().norm();
+  std::cout << "live registration (last update, " << session.at("live_registration").at("points")
+            << " points) vs register: " << liveKneeMm << " mm at the knee\n";
+  // The points found frame by frame are those of the offline chain here, so the fit is too.
+  EXPECT_LT(liveKneeMm, 0.01);
 }
 
 }  // namespace

@@ -1,9 +1,12 @@
 // The surface registration refined while points arrive: a worker thread runs the core's
 // SurfaceRegistration::registerPoints (the solver of `echoreg register`) on a copy of the points
-// once `minPoints` have come, from the session's start (an initial pose, or landmarks: the
-// options as `register` builds them), then again whenever new points have come, at most
-// `maxRateHz` times a second, each run started from the last converged pose (no restarts, no
-// search about a landmark axis: those were done by the first run).
+// once `minPoints` have come, then again whenever new points have come, at most `maxRateHz` times
+// a second. Every run starts from the session's start (an initial pose, or the landmarks, with the
+// options as `register` builds them), not from the previous result: a first fit on a small patch
+// of bone can slide to a wrong pose, and starting from it would keep the error (measured on the
+// simulated femur sweep: a first fit on the sweep's first points ended 24 mm off at the knee and
+// the refinements from it did not recover; every run from the landmarks, the last on all 100
+// points, matches register). The last run on all points is register's fit on the same points.
 #pragma once
 
 #include "echoreg/core/surface_registration.hpp"
@@ -40,6 +43,9 @@ class IncrementalRegistration {
   IncrementalRegistration& operator=(const IncrementalRegistration&) = delete;
 
   void addPoint(const core::SurfacePoint& point);
+  /// Stops the worker and, when points came after its last run (and enough are there), runs once
+  /// more on all of them, here. Returns the newest result not yet taken, if any.
+  std::optional<RegistrationUpdate> finish();
   /// The newest result not yet taken, if any.
   std::optional<RegistrationUpdate> take();
   /// Runs done so far.
@@ -49,6 +55,9 @@ class IncrementalRegistration {
 
  private:
   void work();
+  void stopWorker();
+  // One run on `points` (the worker's, then finish()'s).
+  void runOnce(const std::vector<core::SurfacePoint>& points);
 
   const core::SurfaceRegistration& model_;
   core::SurfaceRegistrationOptions options_;
@@ -60,6 +69,7 @@ class IncrementalRegistration {
   std::vector<core::SurfacePoint> points_;
   std::optional<RegistrationUpdate> latest_;
   std::string problem_;
+  std::size_t usedPoints_ = 0;
   bool stop_ = false;
   std::atomic<int> runs_{0};
   std::thread worker_;
