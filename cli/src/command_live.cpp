@@ -150,6 +150,7 @@ class LiveSession {
   std::string endedBy_;
   Clock::time_point started_ = Clock::now();
   Clock::time_point lastProgress_ = Clock::now();
+  double streamSeconds_ = 0.0;  // connected until the stream ended
 };
 
 void LiveSession::sendBack(const live::Packet& packet) {
@@ -378,6 +379,7 @@ nlohmann::json LiveSession::summary() const {
                            {"max", percentile(decisionLatenciesMs_, 1.0)}}},
                          {"registration_updates", updates_},
                          {"seconds", seconds},
+                         {"stream_seconds", streamSeconds_},
                          {"ended_by", endedBy_}};
   if (last_) {
     json["live_registration"] = {{"converged", last_->result.converged},
@@ -472,6 +474,7 @@ int LiveSession::run() {
     sendResults();
     progress(false);
   }
+  streamSeconds_ = std::chrono::duration<double>(Clock::now() - started_).count();
   if (detector_)
     onDecided(detector_->flush(), true);
   connection_.reset();  // the server's graceful close waits for it
