@@ -494,20 +494,11 @@ int LiveSession::run() {
       note(fmt::format("{} frame(s) refused as {}, e.g. {}", reasons_[reason], reason, example));
   }
 
-  if (!recorder_) {
-    throw std::runtime_error(
-        fmt::format("no A-line received ({}): nothing recorded, nothing "
-                    "registered",
-                    endedBy_));
-  }
-  const std::size_t recorded = recorder_->finish();
-  if (!pending_.empty()) {
-    for (const PendingTransform& p : pending_) {
-      SequenceFrame tracked;
-      tracked.timestampS = p.timestampS;
-      tracked.transforms[p.name] = p.transform;
-      unpaired_.frames.push_back(std::move(tracked));
-    }
+  for (const PendingTransform& p : pending_) {
+    SequenceFrame tracked;
+    tracked.timestampS = p.timestampS;
+    tracked.transforms[p.name] = p.transform;
+    unpaired_.frames.push_back(std::move(tracked));
   }
   std::string trackingPath;
   if (!unpaired_.frames.empty()) {
@@ -517,6 +508,14 @@ int LiveSession::run() {
             .string();
     writeSequence(unpaired_, trackingPath);
   }
+  if (!recorder_) {
+    throw std::runtime_error(
+        fmt::format("no A-line (IMAGE of 1 x N) received ({}): nothing registered{}", endedBy_,
+                    trackingPath.empty() ? std::string()
+                                         : fmt::format("; the {} transforms received are in {}",
+                                                       unpaired_.frames.size(), trackingPath)));
+  }
+  const std::size_t recorded = recorder_->finish();
   nlohmann::json session = summary();
   session["recorded_frames"] = recorded;
   if (!trackingPath.empty())
