@@ -19,7 +19,8 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
       "echoreg: register bones to CT with tracked A-mode ultrasound (Mozes 2008).\n"
       "Commands: info, detect, simulate, calibrate, pivot, segment, landmarks, register, "
       "evaluate,\n"
-      "figure, study. `echoreg study run DIR` is the main job: a study folder into a report.",
+      "figure, study, serve, live. `echoreg study run DIR` is the main job: a study folder into a "
+      "report.",
       "echoreg"};
   app.require_subcommand(1);
   app.set_version_flag("--version", "echoreg 0.1.0");
@@ -38,6 +39,8 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   actions["evaluate"] = addEvaluateCommand(app);
   actions["register"] = addRegisterCommand(app);
   actions["segment"] = addSegmentCommand(app);
+  actions["serve"] = addServeCommand(app);
+  actions["live"] = addLiveCommand(app);
 
   // An unknown command is named as such (CLI11 would say "A subcommand is required").
   if (!args.empty() && !args.front().empty() && args.front()[0] != '-' &&

@@ -2,11 +2,11 @@
 // (a capture run through the detection chain, or a CSV of points), optionally with stylus points
 // (the hybrid registration), started from an initial transform or from landmarks touched with
 // the stylus. docs/registration.md.
-#include "commands.hpp"
 #include "csv_table.hpp"
 #include "model_file.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
+#include "register_command.hpp"
 #include "validators.hpp"
 
 #include "echoreg/core/detection.hpp"
@@ -43,35 +43,6 @@ namespace {
 nlohmann::json vec(const Eigen::Vector3d& v) {
   return {v.x(), v.y(), v.z()};
 }
-
-struct RegisterOptions {
-  std::string model, bone = "Femur", out;
-  std::vector<std::string> captures;
-  std::string calibration, pointsCsv;
-  std::string initial, landmarksCt, landmarksCapture, tipFile, landmarkLabels;
-  std::vector<int> landmarkDwells;
-  double landmarkSigma = 3.0;
-  std::string hipCentre, hipLabel = "hip_centre";
-  double hipSigma = 2.0;
-  std::vector<std::string> stylusCaptures;
-  double stylusTipRadius = 0.0;
-  double stylusSigma = 0.3;
-  double stylusSpacing = 1.0;
-  double ultrasoundSigma = 0.5;
-  std::string preset = "default";
-  double speedOfSound = 0.0;
-  int history = 1;
-  double minSpreadMm = 1.0;
-  std::string method = "robust", loss = "huber";
-  bool fitSpeed = false;
-  bool openEnds = false;
-  int restarts = 0;
-  int axisStarts = 12;
-  std::uint64_t seed = 1;
-  double maxRms = 2.0;
-  int maxPoints = 100000;
-  bool json = false;
-};
 
 // Points from a CSV: x,y,z (or echoreg detect's x_mm,y_mm,z_mm, accepted rows only), optionally
 // ox,oy,oz,dx,dy,dz,depth_mm (the beam, same frame).
@@ -390,6 +361,100 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
   return init;
 }
 
+}  // namespace
+
+RegistrationModel loadRegistrationModel(const RegisterOptions& o) {
+  if (o.bone.empty() || o.bone.find("To") != std::string::npos) {
+    throw std::invalid_argument("--bone must name the bone's frame, e.g. Femur, got '" + o.bone +
+                                "'");
+  }
+  if (!(o.ultrasoundSigma > 0.0) || !(o.stylusSigma > 0.0) || !(o.landmarkSigma > 0.0)) {
+    throw std::invalid_argument(
+        "--ultrasound-sigma, --stylus-sigma and --landmark-sigma must be > 0 mm");
+  }
+  if (o.stylusTipRadius < 0.0)
+    throw std::invalid_argument("--stylus-tip-radius must be >= 0 mm");
+  RegistrationModel loaded;
+  core::SurfaceRegistrationOptions& options = loaded.options;
+  options.method = core::parseSurfaceMethod(o.method);
+  options.loss = core::parseRobustLoss(o.loss);
+  options.fitSpeedOfSound = o.fitSpeed;
+  options.restarts = o.restarts;
+  options.seed = o.seed;
+  options.axisStarts = o.axisStarts;
+  options.maxRmsMm = o.maxRms;
+
+  // The model first: a bad model fails before the long detection.
+  int& capTriangles = loaded.capTriangles;
+  try {
+    core::TriangleMesh mesh = readModelFile(o.model);
+    if (o.openEnds) {
+      options.excludedTriangles = core::scanEndCaps(mesh);
+      capTriangles = static_cast<int>(
+          std::count(options.excludedTriangles.begin(), options.excludedTriangles.end(), true));
+      if (capTriangles == 0) {
+        throw FileError(o.model,
+                        "--open-ends: the model has no flat cap at its lowest or highest z "
+                        "(was it cut by the scan range?)");
+      }
+    }
+    loaded.model = std::make_unique<core::SurfaceRegistration>(std::move(mesh));
+  } catch (const std::invalid_argument& e) {
+    throw FileError(o.model, e.what());
+  }
+
+  return loaded;
+}
+
+RegistrationStart registrationStart(const RegisterOptions& o,
+                                    core::SurfaceRegistrationOptions& options,
+                                    PoseNotes& poseNotes) {
+  const std::string reference = o.bone + "ToTracker";
+  RegistrationStart start;
+  std::vector<core::LandmarkPair>& landmarks = start.landmarks;
+  nlohmann::json& initReport = start.report;
+  if (!o.initial.empty()) {
+    const TransformFile initial = readTransformFile(o.initial, o.bone, "CT");
+    options.initial.matrix() = initial.matrix;
+    initReport = {{"initial", o.initial}};
+  } else {
+    LandmarkInit init = landmarksFromCapture(o, reference, poseNotes);
+    landmarks = init.pairs;
+    initReport = init.report;
+    const core::LandmarkSpread spread = core::landmarkSpread(landmarks);
+    if (!spread.collinear) {
+      std::vector<Eigen::Vector3d> bone, ct;
+      std::vector<double> weights;
+      for (const core::LandmarkPair& l : landmarks) {
+        bone.push_back(l.bone);
+        ct.push_back(l.model);
+        weights.push_back(1.0 / (l.sigmaMm * l.sigmaMm));
+      }
+      const core::PairedPointResult paired = core::registerPairedPoints(bone, ct, weights);
+      options.initial = paired.transform;
+      initReport["method"] = "paired-point";
+      initReport["fre_mm"] = paired.freMm;
+    } else {
+      // Two landmarks (or all on one line) leave the rotation about their line open: start from
+      // evenly spaced turns about it and keep the start of least robust cost.
+      const core::LandmarkPair& a = landmarks[static_cast<std::size_t>(spread.first)];
+      const core::LandmarkPair& b = landmarks[static_cast<std::size_t>(spread.second)];
+      try {
+        options.initial = core::poseFromTwoLandmarks(a, b);
+      } catch (const std::invalid_argument& e) {
+        throw FileError(o.landmarksCapture, e.what());
+      }
+      options.searchAboutAxis = true;
+      options.axisPoint = a.bone;
+      options.axisDirection = b.bone - a.bone;
+      initReport["method"] = "two-landmark line, rotation about it searched";
+      initReport["axis_starts"] = o.axisStarts;
+    }
+  }
+
+  return start;
+}
+
 int runRegister(const RegisterOptions& o, const Streams& io) {
   CommandPaths()
       .input("--model", o.model)
@@ -404,45 +469,11 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
       .input("--hip-centre", o.hipCentre)
       .transformOutput("--out", o.out)
       .check();
-  if (o.bone.empty() || o.bone.find("To") != std::string::npos) {
-    throw std::invalid_argument("--bone must name the bone's frame, e.g. Femur, got '" + o.bone +
-                                "'");
-  }
-  if (!(o.ultrasoundSigma > 0.0) || !(o.stylusSigma > 0.0) || !(o.landmarkSigma > 0.0)) {
-    throw std::invalid_argument(
-        "--ultrasound-sigma, --stylus-sigma and --landmark-sigma must be > 0 mm");
-  }
-  if (o.stylusTipRadius < 0.0)
-    throw std::invalid_argument("--stylus-tip-radius must be >= 0 mm");
   const std::string reference = o.bone + "ToTracker";
-  core::SurfaceRegistrationOptions options;
-  options.method = core::parseSurfaceMethod(o.method);
-  options.loss = core::parseRobustLoss(o.loss);
-  options.fitSpeedOfSound = o.fitSpeed;
-  options.restarts = o.restarts;
-  options.seed = o.seed;
-  options.axisStarts = o.axisStarts;
-  options.maxRmsMm = o.maxRms;
-
-  // The model first: a bad model fails before the long detection.
-  std::unique_ptr<core::SurfaceRegistration> model;
-  int capTriangles = 0;
-  try {
-    core::TriangleMesh mesh = readModelFile(o.model);
-    if (o.openEnds) {
-      options.excludedTriangles = core::scanEndCaps(mesh);
-      capTriangles = static_cast<int>(
-          std::count(options.excludedTriangles.begin(), options.excludedTriangles.end(), true));
-      if (capTriangles == 0) {
-        throw FileError(o.model,
-                        "--open-ends: the model has no flat cap at its lowest or highest z "
-                        "(was it cut by the scan range?)");
-      }
-    }
-    model = std::make_unique<core::SurfaceRegistration>(std::move(mesh));
-  } catch (const std::invalid_argument& e) {
-    throw FileError(o.model, e.what());
-  }
+  RegistrationModel loaded = loadRegistrationModel(o);
+  core::SurfaceRegistrationOptions& options = loaded.options;
+  const std::unique_ptr<core::SurfaceRegistration>& model = loaded.model;
+  const int capTriangles = loaded.capTriangles;
 
   // The points.
   PoseNotes poseNotes;
@@ -500,46 +531,9 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   }
 
   // The start.
-  std::vector<core::LandmarkPair> landmarks;
-  nlohmann::json initReport;
-  if (!o.initial.empty()) {
-    const TransformFile initial = readTransformFile(o.initial, o.bone, "CT");
-    options.initial.matrix() = initial.matrix;
-    initReport = {{"initial", o.initial}};
-  } else {
-    LandmarkInit init = landmarksFromCapture(o, reference, poseNotes);
-    landmarks = init.pairs;
-    initReport = init.report;
-    const core::LandmarkSpread spread = core::landmarkSpread(landmarks);
-    if (!spread.collinear) {
-      std::vector<Eigen::Vector3d> bone, ct;
-      std::vector<double> weights;
-      for (const core::LandmarkPair& l : landmarks) {
-        bone.push_back(l.bone);
-        ct.push_back(l.model);
-        weights.push_back(1.0 / (l.sigmaMm * l.sigmaMm));
-      }
-      const core::PairedPointResult paired = core::registerPairedPoints(bone, ct, weights);
-      options.initial = paired.transform;
-      initReport["method"] = "paired-point";
-      initReport["fre_mm"] = paired.freMm;
-    } else {
-      // Two landmarks (or all on one line) leave the rotation about their line open: start from
-      // evenly spaced turns about it and keep the start of least robust cost.
-      const core::LandmarkPair& a = landmarks[static_cast<std::size_t>(spread.first)];
-      const core::LandmarkPair& b = landmarks[static_cast<std::size_t>(spread.second)];
-      try {
-        options.initial = core::poseFromTwoLandmarks(a, b);
-      } catch (const std::invalid_argument& e) {
-        throw FileError(o.landmarksCapture, e.what());
-      }
-      options.searchAboutAxis = true;
-      options.axisPoint = a.bone;
-      options.axisDirection = b.bone - a.bone;
-      initReport["method"] = "two-landmark line, rotation about it searched";
-      initReport["axis_starts"] = o.axisStarts;
-    }
-  }
+  const RegistrationStart start = registrationStart(o, options, poseNotes);
+  const std::vector<core::LandmarkPair>& landmarks = start.landmarks;
+  const nlohmann::json& initReport = start.report;
 
   const core::SurfaceRegistrationResult r = model->registerPoints(points, landmarks, options);
 
@@ -629,42 +623,15 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   return 0;
 }
 
-}  // namespace
-
-CommandAction addRegisterCommand(CLI::App& app) {
-  auto o = std::make_shared<RegisterOptions>();
-  CLI::App* cmd = app.add_subcommand(
-      "register",
-      "Register a bone to its CT model from A-mode points (docs/registration.md): points in the\n"
-      "bone tracker's frame (--bone) from captures through the detection chain, or from a CSV;\n"
-      "optionally stylus points too (the hybrid registration, each source weighted by its sigma).\n"
-      "Start from --initial, or from landmarks touched with the stylus (paired-point with 3 or\n"
-      "more; with 2, their line, the rotation about it searched with the surface points).\n"
-      "Writes <Bone>ToCT JSON (rms_mm over the inliers, rms_all_mm, points_used, points_rejected,\n"
-      "speed_of_sound_scale, iterations, converged, per-point residuals) and a Slicer .tfm.\n"
-      "Exit 1 with a message for bad input. A registration that did not converge (did not\n"
-      "settle, too few inliers, or inliers' RMS above --max-rms) is still written, with\n"
-      "\"converged\": false, reported on stderr, and the exit code is 1.");
+CLI::Option* addRegistrationOptions(CLI::App* cmd, const std::shared_ptr<RegisterOptions>& o) {
   cmd->add_option("--model", o->model,
                   "Bone model in CT coordinates (.vtp, .stl, .ply, .obj), closed")
       ->required();
   cmd->add_option("--bone", o->bone, "The bone's tracker frame (its transform is <Bone>ToTracker)")
       ->capture_default_str();
-  auto* capture =
-      cmd->add_option("--capture", o->captures, "A-line capture(s) of the bone (PLUS sequence)")
-          ->group("Points");
   auto* calibration = cmd->add_option("--calibration", o->calibration,
                                       "BeamToProbe transform JSON (echoreg calibrate)")
                           ->group("Points");
-  auto* csv =
-      cmd->add_option(
-             "--points", o->pointsCsv,
-             "CSV of points in the bone frame: x,y,z [+ ox,oy,oz,dx,dy,dz,depth_mm], or the CSV "
-             "of echoreg detect --pose ... --reference (x_mm,y_mm,z_mm of accepted rows)")
-          ->group("Points");
-  capture->needs(calibration);
-  calibration->needs(capture);
-  csv->excludes(capture);
   cmd->add_option("--preset", o->preset, "Detection preset for --capture (see echoreg detect)")
       ->capture_default_str()
       ->group("Points");
@@ -688,21 +655,6 @@ CommandAction addRegisterCommand(CLI::App& app) {
   cmd->add_option("--ultrasound-sigma", o->ultrasoundSigma, "Ultrasound points' sigma, mm")
       ->capture_default_str()
       ->group("Points");
-  cmd->add_option(
-         "--stylus-points", o->stylusCaptures,
-         "Capture(s) of the stylus on the bone (hybrid registration; needs --stylus-tip-to-stylus)")
-      ->group("Stylus points");
-  cmd->add_option("--stylus-tip-radius", o->stylusTipRadius,
-                  "Ball-tip radius of that stylus, mm (study manifest)")
-      ->capture_default_str()
-      ->group("Stylus points");
-  cmd->add_option("--stylus-sigma", o->stylusSigma, "Stylus points' sigma, mm")
-      ->capture_default_str()
-      ->group("Stylus points");
-  cmd->add_option("--stylus-spacing", o->stylusSpacing,
-                  "Dwells of the stylus closer than this are one point, mm")
-      ->capture_default_str()
-      ->group("Stylus points");
   auto* initial =
       cmd->add_option("--initial", o->initial, "Initial <Bone>ToCT transform JSON")->group("Start");
   auto* landmarksCt =
@@ -773,6 +725,62 @@ CommandAction addRegisterCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(wholeNumber(3, 100000000));
   cmd->add_flag("--json", o->json, "Print the result as JSON");
+  return calibration;
+}
+
+void checkRegistrationStart(const std::string& command, const RegisterOptions& o) {
+  if (o.initial.empty() && o.landmarksCt.empty()) {
+    throw CLI::ValidationError(
+        command, "give the start: --initial, or --landmarks-ct with --landmarks-capture");
+  }
+  if (!o.hipCentre.empty() && o.landmarksCt.empty()) {
+    throw CLI::ValidationError(command,
+                               "--hip-centre needs --landmarks-ct and --landmarks-capture");
+  }
+}
+
+CommandAction addRegisterCommand(CLI::App& app) {
+  auto o = std::make_shared<RegisterOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "register",
+      "Register a bone to its CT model from A-mode points (docs/registration.md): points in the\n"
+      "bone tracker's frame (--bone) from captures through the detection chain, or from a CSV;\n"
+      "optionally stylus points too (the hybrid registration, each source weighted by its sigma).\n"
+      "Start from --initial, or from landmarks touched with the stylus (paired-point with 3 or\n"
+      "more; with 2, their line, the rotation about it searched with the surface points).\n"
+      "Writes <Bone>ToCT JSON (rms_mm over the inliers, rms_all_mm, points_used, points_rejected,\n"
+      "speed_of_sound_scale, iterations, converged, per-point residuals) and a Slicer .tfm.\n"
+      "Exit 1 with a message for bad input. A registration that did not converge (did not\n"
+      "settle, too few inliers, or inliers' RMS above --max-rms) is still written, with\n"
+      "\"converged\": false, reported on stderr, and the exit code is 1.");
+  CLI::Option* calibration = addRegistrationOptions(cmd, o);
+  auto* capture =
+      cmd->add_option("--capture", o->captures, "A-line capture(s) of the bone (PLUS sequence)")
+          ->group("Points");
+  auto* csv =
+      cmd->add_option(
+             "--points", o->pointsCsv,
+             "CSV of points in the bone frame: x,y,z [+ ox,oy,oz,dx,dy,dz,depth_mm], or the CSV "
+             "of echoreg detect --pose ... --reference (x_mm,y_mm,z_mm of accepted rows)")
+          ->group("Points");
+  capture->needs(calibration);
+  calibration->needs(capture);
+  csv->excludes(capture);
+  cmd->add_option(
+         "--stylus-points", o->stylusCaptures,
+         "Capture(s) of the stylus on the bone (hybrid registration; needs --stylus-tip-to-stylus)")
+      ->group("Stylus points");
+  cmd->add_option("--stylus-tip-radius", o->stylusTipRadius,
+                  "Ball-tip radius of that stylus, mm (study manifest)")
+      ->capture_default_str()
+      ->group("Stylus points");
+  cmd->add_option("--stylus-sigma", o->stylusSigma, "Stylus points' sigma, mm")
+      ->capture_default_str()
+      ->group("Stylus points");
+  cmd->add_option("--stylus-spacing", o->stylusSpacing,
+                  "Dwells of the stylus closer than this are one point, mm")
+      ->capture_default_str()
+      ->group("Stylus points");
   // Usage errors (exit 2) found once everything is parsed.
   cmd->parse_complete_callback([o] {
     if (o->captures.empty() && o->pointsCsv.empty() && o->stylusCaptures.empty()) {
@@ -780,14 +788,7 @@ CommandAction addRegisterCommand(CLI::App& app) {
                                  "give the points: --capture with --calibration, --points, or "
                                  "--stylus-points (the mechanical probe alone)");
     }
-    if (o->initial.empty() && o->landmarksCt.empty()) {
-      throw CLI::ValidationError(
-          "register", "give the start: --initial, or --landmarks-ct with --landmarks-capture");
-    }
-    if (!o->hipCentre.empty() && o->landmarksCt.empty()) {
-      throw CLI::ValidationError("register",
-                                 "--hip-centre needs --landmarks-ct and --landmarks-capture");
-    }
+    checkRegistrationStart("register", *o);
     if ((!o->landmarksCt.empty() || !o->stylusCaptures.empty()) && o->tipFile.empty()) {
       throw CLI::ValidationError(
           "register", "--landmarks-capture and --stylus-points need --stylus-tip-to-stylus");

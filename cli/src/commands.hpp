@@ -29,5 +29,7 @@ CommandAction addLandmarksCommand(CLI::App& app);
 CommandAction addEvaluateCommand(CLI::App& app);
 CommandAction addRegisterCommand(CLI::App& app);
 CommandAction addSegmentCommand(CLI::App& app);
+CommandAction addServeCommand(CLI::App& app);
+CommandAction addLiveCommand(CLI::App& app);
 
 }  // namespace echoreg::cli

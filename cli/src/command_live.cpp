@@ -1,0 +1,662 @@
+// `echoreg live`: a registration while the probe sweeps. A-lines and poses come in over
+// OpenIGTLink (from PLUS, or `echoreg serve`), are recorded to a PLUS capture as they arrive,
+// paired by timestamp, run through the detection chain frame by frame, and the points go into a
+// surface registration refined as they come; the points, the registration and its state go back
+// (to the server, or to --send-to, e.g. 3D Slicer). At the end the recording is registered
+// exactly as `echoreg register` registers a capture, into the same result files (docs/live.md).
+#include "commands.hpp"
+#include "interrupt.hpp"
+#include "path_check.hpp"
+#include "register_command.hpp"
+#include "validators.hpp"
+
+#include "echoreg/core/atomic_file.hpp"
+#include "echoreg/core/error.hpp"
+#include "echoreg/core/rigid_pose.hpp"
+#include "echoreg/core/sequence.hpp"
+#include "echoreg/core/transform_file.hpp"
+#include "echoreg/live/capture_recorder.hpp"
+#include "echoreg/live/connection.hpp"
+#include "echoreg/live/igtl_messages.hpp"
+#include "echoreg/live/incremental_registration.hpp"
+#include "echoreg/live/live_detector.hpp"
+#include "echoreg/live/pose_buffer.hpp"
+#include "echoreg/live/stream_metadata.hpp"
+
+#include <fmt/format.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <ostream>
+#include <string>
+#include <vector>
+
+namespace echoreg::cli {
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+struct LiveOptions {
+  std::string connect;  // HOST:PORT
+  int listenPort = -1;
+  std::string host = "127.0.0.1";
+  std::string sendTo;  // HOST:PORT
+  std::string record;
+  std::string sessionJson;
+  std::string pose = "ProbeToTracker";
+  double poseToleranceS = 0.1;
+  int minPoints = 30;
+  double updateHz = 10.0;
+  int adaptFrames = 64;
+  double durationS = 0.0;
+  double idleTimeoutS = 30.0;
+  double connectTimeoutS = 10.0;
+  double maxMessageMb = 64.0;
+  double samplingFrequencyHz = 0.0;
+};
+
+std::pair<std::string, int> hostAndPort(const std::string& text, const std::string& flag) {
+  const std::size_t colon = text.rfind(':');
+  int port = -1;
+  if (colon != std::string::npos && colon > 0) {
+    try {
+      std::size_t used = 0;
+      port = std::stoi(text.substr(colon + 1), &used);
+      if (used != text.size() - colon - 1)
+        port = -1;
+    } catch (const std::exception&) {
+      port = -1;
+    }
+  }
+  if (port < 1 || port > 65535)
+    throw std::invalid_argument(flag + " must be HOST:PORT (port 1-65535), got '" + text + "'");
+  return {text.substr(0, colon), port};
+}
+
+double percentile(std::vector<double> values, double fraction) {
+  if (values.empty())
+    return 0.0;
+  std::sort(values.begin(), values.end());
+  const auto index = static_cast<std::size_t>(
+      std::min<double>(static_cast<double>(values.size() - 1),
+                       std::ceil(fraction * static_cast<double>(values.size())) - 1.0));
+  return values[index];
+}
+
+// A transform received but not yet put into a recorded frame.
+struct PendingTransform {
+  std::string name;
+  double timestampS = 0.0;
+  TrackedTransform transform;
+};
+
+class LiveSession {
+ public:
+  LiveSession(const LiveOptions& o, const RegisterOptions& r, const Streams& io)
+      : o_(o), r_(r), io_(io), poses_(o.poseToleranceS) {}
+
+  int run();
+
+ private:
+  void onMessage(const live::Message& message, Clock::time_point arrival);
+  void onImage(const live::Message& message, Clock::time_point arrival);
+  // `waited`: the frames waited for the chain's adaptation (their latency is not the chain's).
+  void onDecided(const std::vector<live::LiveFrame>& frames, bool waited);
+  void sendResults();
+  void sendBack(const live::Packet& packet);
+  void progress(bool last);
+  void note(const std::string& text) { io_.err << "echoreg live: " << text << "\n"; }
+  nlohmann::json summary() const;
+
+  const LiveOptions& o_;
+  const RegisterOptions& r_;
+  const Streams& io_;
+  std::string bone_, reference_;
+  Eigen::Matrix4d beamToProbe_ = Eigen::Matrix4d::Identity();
+  RegistrationModel model_;
+  RegistrationStart start_;
+  DetectionParams params_;
+
+  std::optional<live::Connection> connection_;
+  std::optional<live::Connection> results_;
+  bool resultsBroken_ = false;
+  live::PoseBuffer poses_;
+  Sequence layout_;
+  bool haveCaptureHeader_ = false;
+  std::unique_ptr<live::CaptureRecorder> recorder_;
+  std::unique_ptr<live::LiveDetector> detector_;
+  std::unique_ptr<live::IncrementalRegistration> registration_;
+  std::vector<PendingTransform> pending_;
+  // echoreg serve's EchoregFrame of the next A-line, with the (1 ns) timestamp it came with.
+  std::optional<std::pair<double, live::FrameMetadata>> frameMetadata_;
+  Sequence unpaired_;  // transforms received at no A-line's time (a tracker-only capture)
+
+  int frames_ = 0, accepted_ = 0, updates_ = 0, skipped_ = 0;
+  std::map<std::string, int> reasons_;
+  std::map<std::string, std::string> reasonExamples_;
+  std::map<std::string, int> messagesByType_;
+  std::map<std::string, int> problems_;
+  std::vector<core::SurfacePoint> points_;
+  std::vector<double> latenciesMs_;          // accepted echoes: arrival -> POINT sent
+  std::vector<double> decisionLatenciesMs_;  // every frame: arrival -> its verdict
+  std::optional<live::RegistrationUpdate> last_;
+  std::string endedBy_;
+  Clock::time_point started_ = Clock::now();
+  Clock::time_point lastProgress_ = Clock::now();
+  double streamSeconds_ = 0.0;  // connected until the stream ended
+};
+
+void LiveSession::sendBack(const live::Packet& packet) {
+  if (resultsBroken_)
+    return;
+  live::Connection& target = results_ ? *results_ : *connection_;
+  try {
+    target.send(packet);
+  } catch (const live::ConnectionClosed& e) {
+    resultsBroken_ = true;
+    note(
+        fmt::format("warning: the results' receiver closed the connection ({}); nothing more is "
+                    "sent back, the session goes on",
+                    e.what()));
+  }
+}
+
+void LiveSession::onDecided(const std::vector<live::LiveFrame>& frames, bool waited) {
+  for (const live::LiveFrame& frame : frames) {
+    ++reasons_[frame.reason];
+    if (!waited) {
+      decisionLatenciesMs_.push_back(
+          std::chrono::duration<double, std::milli>(Clock::now() - frame.arrival).count());
+    }
+    if (!frame.detail.empty() && reasonExamples_.count(frame.reason) == 0)
+      reasonExamples_[frame.reason] = fmt::format("frame {}: {}", frame.frame, frame.detail);
+    if (!frame.accepted())
+      continue;
+    ++accepted_;
+    points_.push_back(*frame.point);
+    registration_->addPoint(*frame.point);
+    sendBack(live::encodePoints(bone_ + "Point", bone_, {frame.point->point}, frame.timestampS));
+    if (!waited) {
+      latenciesMs_.push_back(
+          std::chrono::duration<double, std::milli>(Clock::now() - frame.arrival).count());
+    }
+  }
+}
+
+void LiveSession::onImage(const live::Message& message, Clock::time_point arrival) {
+  const double t = message.header.timestampS;
+  if (message.rows != 1) {
+    ++problems_[fmt::format("IMAGE '{}' of {} x {} is not an A-line (1 x N): not recorded",
+                            message.header.deviceName, message.samples, message.rows)];
+    return;
+  }
+  if (!recorder_) {
+    layout_.elementType = message.elementType;
+    layout_.frameSize = {message.samples, 1};
+    if (!haveCaptureHeader_ && o_.samplingFrequencyHz > 0.0)
+      layout_.acquisition.samplingFrequencyHz = o_.samplingFrequencyHz;
+    recorder_ = std::make_unique<live::CaptureRecorder>(o_.record, layout_);
+    params_.depth = depthFromSequence(layout_, params_.depth);
+    if (r_.speedOfSound > 0.0)
+      params_.depth.speedOfSoundMps = r_.speedOfSound;
+    params_.envelope.samplingFrequencyHz = params_.depth.samplingFrequencyHz;
+    live::LiveDetectorOptions detection;
+    detection.params = params_;
+    detection.headerFrequencyHz = layout_.acquisition.transducerFrequencyHz;
+    detection.points.poseTransform = o_.pose;
+    detection.points.referenceTransform = reference_;
+    detection.points.beamToProbe = beamToProbe_;
+    detection.ultrasoundSigmaMm = r_.ultrasoundSigma;
+    detection.adaptFrames = o_.adaptFrames;
+    detector_ = std::make_unique<live::LiveDetector>(detection);
+  } else if (message.elementType != layout_.elementType ||
+             message.samples != layout_.frameSize[0]) {
+    ++problems_[fmt::format(
+        "IMAGE '{}' of {} {} samples differs from the first A-line ({} {}): "
+        "not recorded",
+        message.header.deviceName, message.samples, elementTypeName(message.elementType),
+        layout_.frameSize[0], elementTypeName(layout_.elementType))];
+    return;
+  }
+  // The frame: the transforms and fields received with this A-line's timestamp.
+  SequenceFrame frame;
+  frame.timestampS = t;
+  std::vector<PendingTransform> keep;
+  for (PendingTransform& p : pending_) {
+    if (p.timestampS == t) {
+      frame.transforms[p.name] = p.transform;
+    } else if (p.timestampS > t) {
+      keep.push_back(std::move(p));
+    } else {
+      SequenceFrame tracked;
+      tracked.timestampS = p.timestampS;
+      tracked.transforms[p.name] = p.transform;
+      unpaired_.frames.push_back(std::move(tracked));
+    }
+  }
+  pending_ = std::move(keep);
+  if (frameMetadata_ && frameMetadata_->first == t) {
+    frame.timestampS = frameMetadata_->second.timestampS;
+    frame.fields = frameMetadata_->second.fields;
+  }
+  frameMetadata_.reset();
+  recorder_->add(frame, message.pixels.data(), message.pixels.size());
+
+  Sequence single;
+  single.elementType = message.elementType;
+  single.frameSize = {message.samples, 1};
+  single.frames.resize(1);
+  single.pixels = message.pixels;
+  std::vector<float> samples;
+  single.frameSamples(0, samples);
+  const int index = frames_++;
+  const bool waited = !detector_->adapted();
+  onDecided(detector_->add(index, t, std::move(samples), poses_.at(o_.pose, t),
+                           poses_.at(reference_, t), arrival),
+            waited);
+}
+
+void LiveSession::onMessage(const live::Message& message, Clock::time_point arrival) {
+  ++messagesByType_[message.header.type];
+  const std::string& name = message.header.deviceName;
+  const double t = message.header.timestampS;
+  switch (message.kind) {
+    case live::MessageKind::Transform: {
+      PendingTransform p{name, t, {}};
+      p.transform.matrix = message.matrix;
+      const std::string problem = poseProblem(message.matrix);
+      if (!problem.empty()) {
+        // Recorded as received; refused for pairing, with the reason.
+        ++problems_[fmt::format("TRANSFORM '{}' is not a rigid pose ({}): used as INVALID", name,
+                                problem)];
+        poses_.add(name, {t, message.matrix, "INVALID"});
+      } else {
+        poses_.add(name, {t, reorthonormalised(message.matrix), "OK"});
+      }
+      pending_.push_back(std::move(p));
+      break;
+    }
+    case live::MessageKind::Status:
+      // echoreg serve's invalid pose: a STATUS named after the transform, its word as error name.
+      if (name.find("To") != std::string::npos && !message.statusName.empty() &&
+          message.statusCode != live::kStatusOk) {
+        PendingTransform p{name, t, {}};
+        p.transform.status = message.statusName;
+        poses_.add(name, {t, Eigen::Matrix4d::Identity(), message.statusName});
+        pending_.push_back(std::move(p));
+      }
+      break;
+    case live::MessageKind::String:
+      if (name == live::kCaptureHeaderName) {
+        live::applyCaptureHeader(message.text, layout_);
+        haveCaptureHeader_ = true;
+      } else if (name == live::kFrameName) {
+        frameMetadata_ = std::make_pair(t, live::parseFrameJson(message.text));
+      }
+      break;
+    case live::MessageKind::Image:
+      onImage(message, arrival);
+      break;
+    case live::MessageKind::Point:
+    case live::MessageKind::Other:
+      break;
+  }
+}
+
+void LiveSession::sendResults() {
+  std::optional<live::RegistrationUpdate> update = registration_->take();
+  if (!update)
+    return;
+  ++updates_;
+  const core::SurfaceRegistrationResult& r = update->result;
+  const double t = std::chrono::duration<double>(Clock::now() - started_).count();
+  if (r.converged)
+    sendBack(live::encodeTransform(bone_ + "ToCT", r.transform.matrix(), t));
+  sendBack(
+      live::encodeString(bone_ + "Status",
+                         fmt::format("RMS {:.3f} mm, {}, {} points, update {}{}", r.rmsMm,
+                                     r.converged ? "converged" : "not converged", update->points,
+                                     update->run, r.converged ? "" : ": " + r.message),
+                         t));
+  std::vector<Eigen::Vector3d> cloud;
+  cloud.reserve(points_.size());
+  for (const core::SurfacePoint& p : points_)
+    cloud.push_back(p.point);
+  sendBack(live::encodePoints(bone_ + "Points", bone_, cloud, t));
+  last_ = std::move(update);
+}
+
+void LiveSession::progress(bool last) {
+  if (!io_.errIsTerminal)
+    return;
+  const Clock::time_point now = Clock::now();
+  if (!last && now - lastProgress_ < std::chrono::milliseconds(250))
+    return;
+  lastProgress_ = now;
+  std::vector<double> recent(
+      latenciesMs_.end() -
+          std::min<std::ptrdiff_t>(200, static_cast<std::ptrdiff_t>(latenciesMs_.size())),
+      latenciesMs_.end());
+  io_.err << fmt::format(
+      "\rlive: {} frames in, {} echoes accepted, {} points, RMS {}, latency {:.2f} ms   {}",
+      frames_, accepted_, points_.size(),
+      last_ ? fmt::format("{:.3f} mm{}", last_->result.rmsMm,
+                          last_->result.converged ? "" : " (not converged)")
+            : std::string("-"),
+      percentile(recent, 0.5), last ? "\n" : "");
+  io_.err.flush();
+}
+
+nlohmann::json LiveSession::summary() const {
+  nlohmann::json reasons = nlohmann::json::object();
+  for (const auto& [reason, count] : reasons_)
+    reasons[reason] = count;
+  const double seconds = std::chrono::duration<double>(Clock::now() - started_).count();
+  nlohmann::json json = {{"record", o_.record},
+                         {"frames", frames_},
+                         {"accepted", accepted_},
+                         {"verdicts", reasons},
+                         {"refusal_examples", reasonExamples_},
+                         {"messages", messagesByType_},
+                         {"skipped", problems_},
+                         {"unpaired_transforms", unpaired_.frames.size()},
+                         {"latency_ms",
+                          {{"count", latenciesMs_.size()},
+                           {"median", percentile(latenciesMs_, 0.5)},
+                           {"p99", percentile(latenciesMs_, 0.99)},
+                           {"max", percentile(latenciesMs_, 1.0)}}},
+                         {"decision_latency_ms",
+                          {{"count", decisionLatenciesMs_.size()},
+                           {"median", percentile(decisionLatenciesMs_, 0.5)},
+                           {"p99", percentile(decisionLatenciesMs_, 0.99)},
+                           {"max", percentile(decisionLatenciesMs_, 1.0)}}},
+                         {"registration_updates", updates_},
+                         {"seconds", seconds},
+                         {"stream_seconds", streamSeconds_},
+                         {"ended_by", endedBy_}};
+  if (last_) {
+    json["live_registration"] = {{"converged", last_->result.converged},
+                                 {"rms_mm", last_->result.rmsMm},
+                                 {"points", last_->points},
+                                 {"matrix", matrixRows(last_->result.transform.matrix())}};
+  }
+  return json;
+}
+
+int LiveSession::run() {
+  bone_ = r_.bone;
+  reference_ = bone_ + "ToTracker";
+  model_ = loadRegistrationModel(r_);
+  beamToProbe_ = readTransformFile(r_.calibration, "Beam", "Probe").matrix;
+  PoseNotes poseNotes;
+  start_ = registrationStart(r_, model_.options, poseNotes);
+  try {
+    params_ = detectionPreset(r_.preset);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("--preset: ") + e.what());
+  }
+  params_.interSignal.history = r_.history;
+  params_.interSignal.minSpreadMm = r_.minSpreadMm;
+  registration_ = std::make_unique<live::IncrementalRegistration>(
+      *model_.model, model_.options, start_.landmarks, static_cast<std::size_t>(o_.minPoints),
+      o_.updateHz);
+
+  InterruptScope interrupt;
+  const std::atomic<bool>* stop = &interruptRequested();
+  if (!o_.connect.empty()) {
+    const auto [host, port] = hostAndPort(o_.connect, "--connect");
+    connection_ = live::Connection::connect(host, port, o_.connectTimeoutS, stop);
+  } else {
+    live::Listener listener(o_.host, o_.listenPort);
+    note(fmt::format("waiting for a server to connect to {}:{}", o_.host, listener.port()));
+    connection_ = listener.accept(o_.connectTimeoutS, stop);
+    if (!connection_) {
+      throw std::runtime_error(fmt::format("nothing connected to {}:{} within {} s", o_.host,
+                                           listener.port(), o_.connectTimeoutS));
+    }
+  }
+  if (!o_.sendTo.empty()) {
+    const auto [host, port] = hostAndPort(o_.sendTo, "--send-to");
+    results_ = live::Connection::connect(host, port, o_.connectTimeoutS, stop);
+  }
+  note(fmt::format("connected to {}; recording to {}", connection_->peer(), o_.record));
+  started_ = Clock::now();
+
+  live::MessageReader reader(static_cast<std::size_t>(o_.maxMessageMb * 1024.0 * 1024.0));
+  std::string failure;
+  Clock::time_point lastMessage = Clock::now();
+  while (true) {
+    if (stop->load()) {
+      endedBy_ = "interrupted (SIGINT)";
+      break;
+    }
+    if (o_.durationS > 0.0 &&
+        std::chrono::duration<double>(Clock::now() - started_).count() >= o_.durationS) {
+      endedBy_ = fmt::format("--duration {} s", o_.durationS);
+      break;
+    }
+    std::optional<live::MessageReader::Received> received;
+    try {
+      received = reader.next(*connection_, 0.1, stop);
+    } catch (const live::ConnectionClosed& e) {
+      endedBy_ = fmt::format("the server closed the connection ({})", e.what());
+      break;
+    } catch (const live::ProtocolError& e) {
+      failure = e.what();
+      endedBy_ = "a message broke the protocol";
+      break;
+    }
+    if (!received) {
+      if (std::chrono::duration<double>(Clock::now() - lastMessage).count() >= o_.idleTimeoutS) {
+        endedBy_ = fmt::format("no message for --idle-timeout {} s", o_.idleTimeoutS);
+        break;
+      }
+    } else {
+      const Clock::time_point arrival = Clock::now();
+      lastMessage = arrival;
+      if (received->message) {
+        try {
+          onMessage(*received->message, arrival);
+        } catch (const std::invalid_argument& e) {
+          ++problems_[e.what()];
+        }
+      } else {
+        ++problems_[received->problem];
+      }
+    }
+    sendResults();
+    progress(false);
+  }
+  streamSeconds_ = std::chrono::duration<double>(Clock::now() - started_).count();
+  if (detector_)
+    onDecided(detector_->flush(), true);
+  connection_.reset();  // the server's graceful close waits for it
+  results_.reset();
+  // The live registration on every point received (the stream may have ended between updates).
+  if (std::optional<live::RegistrationUpdate> update = registration_->finish()) {
+    ++updates_;
+    last_ = std::move(update);
+  }
+  progress(true);
+  for (const auto& [problem, count] : problems_)
+    note(fmt::format("{} message(s) skipped: {}", count, problem));
+  if (!failure.empty())
+    note("error: " + failure);
+  if (!reasonExamples_.empty()) {
+    for (const auto& [reason, example] : reasonExamples_)
+      note(fmt::format("{} frame(s) refused as {}, e.g. {}", reasons_[reason], reason, example));
+  }
+
+  for (const PendingTransform& p : pending_) {
+    SequenceFrame tracked;
+    tracked.timestampS = p.timestampS;
+    tracked.transforms[p.name] = p.transform;
+    unpaired_.frames.push_back(std::move(tracked));
+  }
+  std::string trackingPath;
+  if (!unpaired_.frames.empty()) {
+    const std::filesystem::path path(o_.record);
+    trackingPath =
+        (path.parent_path() / (path.stem().string() + ".tracking" + path.extension().string()))
+            .string();
+    writeSequence(unpaired_, trackingPath);
+  }
+  if (!recorder_) {
+    throw std::runtime_error(
+        fmt::format("no A-line (IMAGE of 1 x N) received ({}): nothing registered{}", endedBy_,
+                    trackingPath.empty() ? std::string()
+                                         : fmt::format("; the {} transforms received are in {}",
+                                                       unpaired_.frames.size(), trackingPath)));
+  }
+  const std::size_t recorded = recorder_->finish();
+  nlohmann::json session = summary();
+  session["recorded_frames"] = recorded;
+  if (!trackingPath.empty())
+    session["tracking_record"] = trackingPath;
+  io_.out << fmt::format(
+      "{}: {} frames recorded; {} echoes accepted live; latency median {:.2f} ms, p99 {:.2f} ms "
+      "over {} points; {} registration updates; ended by {}\n",
+      o_.record, recorded, accepted_, percentile(latenciesMs_, 0.5), percentile(latenciesMs_, 0.99),
+      latenciesMs_.size(), updates_, endedBy_);
+  if (!trackingPath.empty()) {
+    io_.out << fmt::format("{}: {} transforms received at no A-line's time\n", trackingPath,
+                           unpaired_.frames.size());
+  }
+  if (!o_.sessionJson.empty()) {
+    AtomicFile file(o_.sessionJson);
+    file.stream() << session.dump(2) << "\n";
+    file.commit();
+  }
+
+  // The result: the recording registered as `echoreg register --capture` registers it.
+  RegisterOptions final = r_;
+  final.captures = {o_.record};
+  const int code = runRegister(final, io_);
+  return failure.empty() ? code : 1;
+}
+
+}  // namespace
+
+CommandAction addLiveCommand(CLI::App& app) {
+  auto o = std::make_shared<LiveOptions>();
+  auto r = std::make_shared<RegisterOptions>();
+  CLI::App* cmd = app.add_subcommand(
+      "live",
+      "Register while the probe sweeps (docs/live.md): A-lines (IMAGE 1 x N) and poses (TRANSFORM\n"
+      "ProbeToTracker and <Bone>ToTracker) in over OpenIGTLink from a PLUS server or echoreg\n"
+      "serve (--connect), or from a client that connects (--listen). Everything received is\n"
+      "recorded to --record as it arrives (a partial file rewritten every second). A-lines are\n"
+      "paired with poses by timestamp (interpolated between the two nearest; stale or INVALID\n"
+      "poses refused with the reason), run through the detection chain and mapped to the bone;\n"
+      "once --min-points have come, the surface registration runs on all points so far, again\n"
+      "as more arrive (at most --update-hz), each time from --initial or the landmarks as\n"
+      "register starts; and once more on every point when the stream ends. Sent back:\n"
+      "TRANSFORM <Bone>ToCT, POINT <Bone>Point (each accepted echo), POINT <Bone>Points (all),\n"
+      "STRING <Bone>Status (RMS, converged, points). Ends when the server closes, on SIGINT, "
+      "after\n"
+      "--duration or --idle-timeout; then registers the recording exactly as `echoreg register\n"
+      "--capture` does and writes the same files (--out and its .tfm).");
+  auto* connect = cmd->add_option("--connect", o->connect, "HOST:PORT of the server (PLUS: 18944)")
+                      ->group("Connection");
+  auto* listen = cmd->add_option("--listen", o->listenPort, "Port to wait on for a server instead")
+                     ->check(wholeNumber(0, 65535))
+                     ->group("Connection");
+  connect->excludes(listen);
+  cmd->add_option("--host", o->host, "Address --listen binds")
+      ->capture_default_str()
+      ->group("Connection");
+  cmd->add_option("--send-to", o->sendTo,
+                  "HOST:PORT to send the results to (3D Slicer's OpenIGTLinkIF server) instead of "
+                  "back to the server")
+      ->group("Connection");
+  cmd->add_option("--connect-timeout", o->connectTimeoutS, "Seconds to wait for the connection")
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, false))
+      ->group("Connection");
+  cmd->add_option("--idle-timeout", o->idleTimeoutS,
+                  "End after this many seconds without a message")
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, false))
+      ->group("Connection");
+  cmd->add_option("--duration", o->durationS, "End after this many seconds (0: no limit)")
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, true))
+      ->group("Connection");
+  cmd->add_option("--max-message-mb", o->maxMessageMb,
+                  "Refuse a message whose body is larger (the connection is then closed)")
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, false))
+      ->group("Connection");
+  cmd->add_option("--record", o->record, "PLUS capture to record everything received to")
+      ->required()
+      ->group("Live");
+  cmd->add_option("--session-json", o->sessionJson,
+                  "Write the session's counts, refusals and latencies (JSON)")
+      ->group("Live");
+  cmd->add_option("--pose", o->pose, "The probe's transform")->capture_default_str()->group("Live");
+  cmd->add_option("--pose-tolerance", o->poseToleranceS,
+                  "Seconds a pose may be from its A-line (and half the widest gap interpolated)")
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, false))
+      ->group("Live");
+  cmd->add_option("--adapt-frames", o->adaptFrames,
+                  "A-lines the chain measures its capture-dependent settings on before deciding")
+      ->capture_default_str()
+      ->check(wholeNumber(1, 100000))
+      ->group("Live");
+  cmd->add_option("--min-points", o->minPoints, "Points before the registration starts")
+      ->capture_default_str()
+      ->check(wholeNumber(3, 100000000))
+      ->group("Live");
+  cmd->add_option("--update-hz", o->updateHz, "Most registration updates per second")
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, false))
+      ->group("Live");
+  cmd->add_option(
+         "--sampling-frequency", o->samplingFrequencyHz,
+         "A-lines' sampling frequency, Hz, when the server does not send echoreg's capture "
+         "header")
+      ->check(finiteNumber(0.0, false))
+      ->group("Live");
+  addRegistrationOptions(cmd, r)->required();
+  cmd->parse_complete_callback([o, r] {
+    if (o->connect.empty() && o->listenPort < 0)
+      throw CLI::ValidationError("live", "give --connect HOST:PORT or --listen PORT");
+    try {
+      if (!o->connect.empty())
+        hostAndPort(o->connect, "--connect");
+      if (!o->sendTo.empty())
+        hostAndPort(o->sendTo, "--send-to");
+    } catch (const std::invalid_argument& e) {
+      throw CLI::ValidationError("live", e.what());
+    }
+    checkRegistrationStart("live", *r);
+    if (!r->landmarksCt.empty() && r->tipFile.empty())
+      throw CLI::ValidationError("live", "--landmarks-capture needs --stylus-tip-to-stylus");
+  });
+  return [o, r](const Streams& io) {
+    CommandPaths()
+        .input("--model", r->model)
+        .input("--calibration", r->calibration)
+        .input("--initial", r->initial)
+        .input("--landmarks-ct", r->landmarksCt)
+        .input("--landmarks-capture", r->landmarksCapture)
+        .input("--stylus-tip-to-stylus", r->tipFile)
+        .input("--hip-centre", r->hipCentre)
+        .output("--record", o->record)
+        .optionalOutput("--session-json", o->sessionJson)
+        .transformOutput("--out", r->out)
+        .check();
+    LiveSession session(*o, *r, io);
+    return session.run();
+  };
+}
+
+}  // namespace echoreg::cli

@@ -1,0 +1,78 @@
+// The surface registration refined while points arrive: a worker thread runs the core's
+// SurfaceRegistration::registerPoints (the solver of `echoreg register`) on a copy of the points
+// once `minPoints` have come, then again whenever new points have come, at most `maxRateHz` times
+// a second. Every run starts from the session's start (an initial pose, or the landmarks, with the
+// options as `register` builds them), not from the previous result: a first fit on a small patch
+// of bone can slide to a wrong pose, and starting from it would keep the error (measured on the
+// simulated femur sweep: a first fit on the sweep's first points ended 24 mm off at the knee and
+// the refinements from it did not recover; every run from the landmarks, the last on all 100
+// points, matches register). The last run on all points is register's fit on the same points.
+#pragma once
+
+#include "echoreg/core/surface_registration.hpp"
+
+#include <atomic>
+#include <chrono>
+#include <condition_variable>
+#include <cstddef>
+#include <mutex>
+#include <optional>
+#include <thread>
+#include <vector>
+
+namespace echoreg::live {
+
+struct RegistrationUpdate {
+  core::SurfaceRegistrationResult result;
+  std::size_t points = 0;  ///< points the run used
+  int run = 0;             ///< 1 for the first run
+  double seconds = 0.0;    ///< the run's duration
+};
+
+class IncrementalRegistration {
+ public:
+  /// `model` must outlive this object. Throws std::invalid_argument for minPoints < 3 or a rate
+  /// <= 0.
+  IncrementalRegistration(const core::SurfaceRegistration& model,
+                          core::SurfaceRegistrationOptions options,
+                          std::vector<core::LandmarkPair> landmarks, std::size_t minPoints,
+                          double maxRateHz);
+  /// Stops the worker (a run in progress finishes first).
+  ~IncrementalRegistration();
+  IncrementalRegistration(const IncrementalRegistration&) = delete;
+  IncrementalRegistration& operator=(const IncrementalRegistration&) = delete;
+
+  void addPoint(const core::SurfacePoint& point);
+  /// Stops the worker and, when points came after its last run (and enough are there), runs once
+  /// more on all of them, here. Returns the newest result not yet taken, if any.
+  std::optional<RegistrationUpdate> finish();
+  /// The newest result not yet taken, if any.
+  std::optional<RegistrationUpdate> take();
+  /// Runs done so far.
+  int runs() const { return runs_.load(); }
+  /// The problem of the last run that threw ("" when none), e.g. too few points.
+  std::string problem() const;
+
+ private:
+  void work();
+  void stopWorker();
+  // One run on `points` (the worker's, then finish()'s).
+  void runOnce(const std::vector<core::SurfacePoint>& points);
+
+  const core::SurfaceRegistration& model_;
+  core::SurfaceRegistrationOptions options_;
+  std::vector<core::LandmarkPair> landmarks_;
+  std::size_t minPoints_;
+  std::chrono::duration<double> minInterval_;
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  std::vector<core::SurfacePoint> points_;
+  std::optional<RegistrationUpdate> latest_;
+  std::string problem_;
+  std::size_t usedPoints_ = 0;
+  bool stop_ = false;
+  std::atomic<int> runs_{0};
+  std::thread worker_;
+};
+
+}  // namespace echoreg::live

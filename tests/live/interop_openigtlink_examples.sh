@@ -1,0 +1,81 @@
+#!/usr/bin/env bash
+# Interoperability with Debian's OpenIGTLink 1.11 examples (openigtlink-examples ships their
+# sources): builds ReceiveServer, ReceiveClient, TrackerServer and ImagerServer into a temporary
+# folder and runs them against echoreg inside a new network namespace (`unshare -n`, as root),
+# where only loopback exists: the examples bind every interface, which there is loopback alone.
+# Not part of ctest (it needs root for the namespace); docs/live.md gives its last results.
+#
+#   tests/live/interop_openigtlink_examples.sh ECHOREG STUDY_DIR
+#
+# STUDY_DIR: a simulated study (echoreg simulate --size small): its femur sweep is served, its
+# truth model, calibration and FemurToCT (as the start) are live's inputs.
+set -euo pipefail
+echoreg=$(realpath "$1")
+study=$(realpath "$2")
+examples=/usr/share/doc/openigtlink-examples/examples
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+for source in Receiver/ReceiveServer Receiver/ReceiveClient Tracker/TrackerServer Imager/ImagerServer; do
+  g++ -O1 -w -I/usr/include/openigtlink "$examples/$source.cxx" -lOpenIGTLink -lpthread \
+    -o "$work/$(basename "$source")"
+done
+live_inputs=(--model "$study/truth/femur.vtp" --bone Femur --calibration "$study/truth/BeamToProbe.json"
+  --initial "$study/truth/FemurToCT.json")
+
+unshare -n bash -s "$echoreg" "$study" "$work" "${live_inputs[@]}" <<'INNER'
+set -uo pipefail
+echoreg=$1 study=$2 work=$3
+shift 3
+ip link set lo up
+cd "$work"
+capture="$study/captures/femur_ultrasound.igs.mha"
+
+echo "== 1. ReceiveClient reads what echoreg serve sends"
+"$echoreg" serve "$capture" --port 18944 --rate max --wait 10 > serve1.out 2> serve1.err &
+sleep 3  # serve reads the capture before it listens
+timeout 20 ./ReceiveClient 127.0.0.1 18944 > client.out 2>&1
+wait
+for type in TRANSFORM STATUS STRING IMAGE; do
+  echo "  $type parsed: $(grep -c "Receiving $type data type" client.out)"
+done
+echo "  CRC failures reported: $(grep -ci "crc" client.out)"
+cat serve1.out
+
+echo "== 2. ReceiveServer reads what echoreg live sends back (serve -> live --send-to ReceiveServer)"
+timeout 40 ./ReceiveServer 18945 > receiver.out 2>&1 &
+receiver=$!
+sleep 0.5
+"$echoreg" serve "$capture" --port 18944 --rate recorded --wait 10 > serve2.out 2> serve2.err &
+"$echoreg" live --connect 127.0.0.1:18944 --send-to 127.0.0.1:18945 --record live.igs.mha \
+  --out live.json --idle-timeout 5 "$@" > live2.out 2> live2.err
+echo "  live exit $?"
+wait %2 2>/dev/null
+sleep 0.5
+kill $receiver 2>/dev/null
+for type in TRANSFORM POINT STRING; do
+  echo "  $type parsed: $(grep -c "Receiving $type data type" receiver.out)"
+done
+echo "  CRC failures reported: $(grep -ci "crc" receiver.out)"
+cat live2.out
+
+echo "== 3. TrackerServer (TRANSFORM 'Tracker', no A-lines) into echoreg live"
+./TrackerServer 18946 50 > tracker.out 2>&1 &
+tracker=$!
+sleep 0.5
+"$echoreg" live --connect 127.0.0.1:18946 --record tracker.igs.mha --out t.json --duration 2 "$@" \
+  > live3.out 2> live3.err
+echo "  live exit $? (1 expected: no A-line to register)"
+kill $tracker 2>/dev/null
+grep -v "^$" live3.err | sed 's/^/  /'
+"$echoreg" info tracker.igs.tracking.mha | sed 's/^/  /' | head -4
+
+echo "== 4. ImagerServer (256 x 256 IMAGEs, not A-lines) into echoreg live"
+./ImagerServer 18947 10 /usr/share/doc/openigtlink-examples/examples/Imager/img > imager.out 2>&1 &
+imager=$!
+sleep 0.5
+"$echoreg" live --connect 127.0.0.1:18947 --record imager.igs.mha --out i.json --duration 2 "$@" \
+  > live4.out 2> live4.err
+echo "  live exit $? (1 expected: no A-line to register)"
+kill $imager 2>/dev/null
+grep -v "^$" live4.err | sed 's/^/  /'
+INNER

@@ -1,0 +1,314 @@
+// `echoreg serve` and `echoreg live` on loopback, in this process: everything served is
+// recorded; a peer that breaks the protocol, a pose stream that stops, a server that closes and
+// SIGINT each end or mark the session with a clear message and never hang (every wait in the
+// commands is bounded; the peers here stop by themselves). The registration itself against
+// `register` is tests/study/test_live.cpp (it needs the simulated study).
+#include "cli_test_support.hpp"
+#include "demo_capture.hpp"
+#include "test_support.hpp"
+
+#include "echoreg/core/sequence.hpp"
+#include "echoreg/core/transform_file.hpp"
+#include "echoreg/live/connection.hpp"
+#include "echoreg/live/igtl_messages.hpp"
+#include "echoreg/live/stream_metadata.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <csignal>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <future>
+#include <thread>
+
+namespace echoreg::live {
+namespace {
+
+namespace fs = std::filesystem;
+using test::CommandResult;
+using test::runEchoreg;
+
+int freePort() {
+  Listener listener("127.0.0.1", 0);
+  return listener.port();
+}
+
+// The demo sweep with a bone marker on every frame and a field (as PLUS writes ImageStatus).
+Sequence sweep(int frames) {
+  test::DemoSweepOptions options;
+  options.frames = frames;
+  Sequence s = test::makeDemoSweep(options);
+  for (std::size_t f = 0; f < s.frames.size(); ++f) {
+    TrackedTransform femur;
+    femur.matrix.topRightCorner<3, 1>() =
+        Eigen::Vector3d(5.0, -3.0, 20.0 + 0.01 * static_cast<double>(f));
+    s.frames[f].transforms["FemurToTracker"] = femur;
+    s.frames[f].fields = {{"ImageStatus", "OK"}};
+  }
+  s.extraHeader.push_back({"UltrasoundImageOrientation", "MF"});
+  return s;
+}
+
+class LiveSession : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    // A closed cube as the bone model, BeamToProbe and an initial FemurToCT: enough for live to
+    // run; these sweeps are not of the cube, so their final registration is not the point here.
+    std::ofstream cube(dir_.file("cube.obj"));
+    const double h = 50.0;
+    for (int i = 0; i < 8; ++i)
+      cube << "v " << ((i & 1) ? h : -h) << " " << ((i & 2) ? h : -h) << " " << ((i & 4) ? h : -h)
+           << "\n";
+    cube << "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
+    cube.close();
+    TransformFile calibration{"Beam", "Probe", Eigen::Matrix4d::Identity(), {}};
+    writeTransformFile(dir_.file("BeamToProbe.json"), calibration, false);
+    TransformFile initial{"Femur", "CT", Eigen::Matrix4d::Identity(), {}};
+    writeTransformFile(dir_.file("initial.json"), initial, false);
+  }
+
+  std::vector<std::string> liveArgs(int port, const std::vector<std::string>& more = {}) const {
+    std::vector<std::string> a{"live",
+                               "--connect",
+                               "127.0.0.1:" + std::to_string(port),
+                               "--record",
+                               dir_.file("rec.igs.mha"),
+                               "--model",
+                               dir_.file("cube.obj"),
+                               "--calibration",
+                               dir_.file("BeamToProbe.json"),
+                               "--initial",
+                               dir_.file("initial.json"),
+                               "--out",
+                               dir_.file("FemurToCT.json"),
+                               "--session-json",
+                               dir_.file("session.json"),
+                               "--idle-timeout",
+                               "5",
+                               "--connect-timeout",
+                               "10",
+                               "--adapt-frames",
+                               "20"};
+    a.insert(a.end(), more.begin(), more.end());
+    return a;
+  }
+
+  nlohmann::json session() const {
+    std::ifstream in(dir_.file("session.json"));
+    return nlohmann::json::parse(in);
+  }
+
+  // A hand-made server: sends what `feed` sends to the first client, then closes.
+  std::future<void> fakeServer(int port, std::function<void(Connection&)> feed) {
+    auto listener = std::make_shared<Listener>("127.0.0.1", port);
+    return std::async(std::launch::async, [listener, feed] {
+      std::optional<Connection> client = listener->accept(10.0);
+      if (client) {
+        feed(*client);
+        client->closeGracefully(5.0);
+      }
+    });
+  }
+
+  test::TempDir dir_;
+};
+
+void sendFrame(Connection& c, const Sequence& s, std::size_t f, bool withProbe = true) {
+  const SequenceFrame& frame = s.frames[f];
+  const double t = *frame.timestampS;
+  for (const auto& [name, transform] : frame.transforms) {
+    if (name == "ProbeToTracker" && !withProbe)
+      continue;
+    if (transform.valid())
+      c.send(encodeTransform(name, transform.matrix, t));
+  }
+  const std::size_t bytes = s.samplesPerFrame() * elementSize(s.elementType);
+  c.send(encodeImage("Image", s.elementType, s.pixels.data() + f * bytes, s.frameSize[0], 1, t));
+}
+
+TEST_F(LiveSession, RecordsEverythingServedAndEndsWhenTheServerCloses) {
+  const Sequence served = sweep(400);
+  writeSequence(served, dir_.file("served.igs.mha"));
+  const int port = freePort();
+  auto serve = std::async(std::launch::async, [&] {
+    return runEchoreg({"serve", dir_.file("served.igs.mha"), "--port", std::to_string(port),
+                       "--rate", "max", "--wait", "10"});
+  });
+  const CommandResult live = runEchoreg(liveArgs(port));
+  const CommandResult server = serve.get();
+  ASSERT_EQ(server.exitCode, 0) << server.err;
+  EXPECT_NE(server.out.find("served 400 of 400 frames"), std::string::npos) << server.out;
+  // The sweep is not of the cube: the final registration may fail, the session must not.
+  ASSERT_TRUE(fs::exists(dir_.file("rec.igs.mha"))) << live.err;
+  EXPECT_FALSE(fs::exists(dir_.file("rec.igs.partial.mha")));
+  const nlohmann::json s = session();
+  EXPECT_EQ(s.at("frames"), 400);
+  EXPECT_EQ(s.at("recorded_frames"), 400);
+  EXPECT_NE(s.at("ended_by").get<std::string>().find("the server closed the connection"),
+            std::string::npos);
+  // Frames 300-319 of the sweep have an INVALID probe, served as STATUS and refused by the pose.
+  EXPECT_EQ(s.at("verdicts").at("invalid-pose"), 20);
+  EXPECT_NE(s.at("refusal_examples")
+                .at("invalid-pose")
+                .get<std::string>()
+                .find("ProbeToTracker is INVALID"),
+            std::string::npos);
+
+  // The recording reads back as the served capture: pixels and timestamps exactly, statuses and
+  // fields as served, the header's keys, and the poses to OpenIGTLink's float precision.
+  const Sequence recorded = readSequence(dir_.file("rec.igs.mha"));
+  ASSERT_EQ(recorded.frames.size(), served.frames.size());
+  EXPECT_EQ(recorded.elementType, served.elementType);
+  EXPECT_EQ(recorded.frameSize, served.frameSize);
+  EXPECT_EQ(recorded.pixels, served.pixels);
+  EXPECT_EQ(recorded.acquisition.samplingFrequencyHz, served.acquisition.samplingFrequencyHz);
+  EXPECT_EQ(recorded.acquisition.speedOfSoundMps, served.acquisition.speedOfSoundMps);
+  EXPECT_EQ(recorded.extraHeader, served.extraHeader);
+  for (std::size_t f = 0; f < served.frames.size(); ++f) {
+    const SequenceFrame& a = served.frames[f];
+    const SequenceFrame& b = recorded.frames[f];
+    ASSERT_EQ(a.timestampS, b.timestampS) << "frame " << f;
+    EXPECT_EQ(a.fields, b.fields) << "frame " << f;
+    ASSERT_EQ(a.transforms.size(), b.transforms.size()) << "frame " << f;
+    for (const auto& [name, transform] : a.transforms) {
+      const TrackedTransform& got = b.transforms.at(name);
+      EXPECT_EQ(got.status, transform.status) << "frame " << f << " " << name;
+      if (transform.valid()) {
+        EXPECT_LT((got.matrix - transform.matrix).cwiseAbs().maxCoeff(), 1e-4)
+            << "frame " << f << " " << name;
+      }
+    }
+  }
+}
+
+TEST_F(LiveSession, AnOversizedMessageEndsTheSessionWithAClearMessageAndKeepsTheRecording) {
+  const Sequence s = sweep(30);
+  const int port = freePort();
+  auto server = fakeServer(port, [&](Connection& c) {
+    c.send(encodeString(kCaptureHeaderName, captureHeaderJson(s), 10.0));
+    for (std::size_t f = 0; f < 30; ++f)
+      sendFrame(c, s, f);
+    Packet huge = encodeString("Huge", "x", 11.0);
+    for (int i = 0; i < 8; ++i)  // body size: 2^32 bytes
+      huge[42 + static_cast<std::size_t>(i)] = i == 3 ? 1 : 0;
+    c.send(huge);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  });
+  const CommandResult live = runEchoreg(liveArgs(port));
+  server.get();
+  EXPECT_EQ(live.exitCode, 1);
+  EXPECT_NE(live.err.find("STRING 'Huge' announces a body of 4294967296 bytes, more than the "
+                          "limit of 67108864 bytes"),
+            std::string::npos)
+      << live.err;
+  EXPECT_EQ(readSequence(dir_.file("rec.igs.mha")).frames.size(), 30u);
+}
+
+TEST_F(LiveSession, ADamagedMessageIsSkippedAndTheSessionGoesOn) {
+  const Sequence s = sweep(40);
+  const int port = freePort();
+  auto server = fakeServer(port, [&](Connection& c) {
+    c.send(encodeString(kCaptureHeaderName, captureHeaderJson(s), 10.0));
+    for (std::size_t f = 0; f < 40; ++f) {
+      if (f == 10) {
+        Packet broken = encodeTransform("ProbeToTracker", Eigen::Matrix4d::Identity(), 10.095);
+        broken[kHeaderBytes + 3] ^= 0x10;
+        c.send(broken);
+      }
+      sendFrame(c, s, f);
+    }
+  });
+  const CommandResult live = runEchoreg(liveArgs(port));
+  server.get();
+  EXPECT_NE(live.err.find("1 message(s) skipped: TRANSFORM 'ProbeToTracker': the body does not "
+                          "unpack (CRC mismatch"),
+            std::string::npos)
+      << live.err;
+  EXPECT_EQ(session().at("recorded_frames"), 40);
+}
+
+TEST_F(LiveSession, APoseStreamThatStopsIsRefusedAsStaleWithTheReason) {
+  const Sequence s = sweep(200);
+  const int port = freePort();
+  auto server = fakeServer(port, [&](Connection& c) {
+    c.send(encodeString(kCaptureHeaderName, captureHeaderJson(s), 10.0));
+    for (std::size_t f = 0; f < 200; ++f)
+      sendFrame(c, s, f, f < 100);
+  });
+  const CommandResult live = runEchoreg(liveArgs(port));
+  server.get();
+  const nlohmann::json result = session();
+  EXPECT_NEAR(result.at("verdicts").at("stale-pose").get<int>(), 90, 1);
+  EXPECT_NE(live.err.find("frame(s) refused as stale-pose, e.g. frame 1"), std::string::npos)
+      << live.err;
+  EXPECT_NE(live.err.find("stale pose: the newest ProbeToTracker is 0.1"), std::string::npos)
+      << live.err;
+  // Every frame is recorded, the ones without a probe pose too.
+  EXPECT_EQ(result.at("recorded_frames"), 200);
+}
+
+TEST_F(LiveSession, SigintEndsTheSessionCleanly) {
+  const Sequence s = sweep(50);
+  const int port = freePort();
+  std::promise<void> sent;
+  std::atomic<bool> release{false};
+  auto server = fakeServer(port, [&](Connection& c) {
+    c.send(encodeString(kCaptureHeaderName, captureHeaderJson(s), 10.0));
+    for (std::size_t f = 0; f < 50; ++f)
+      sendFrame(c, s, f);
+    sent.set_value();
+    // Then silent, connection open, until the test is done (at most 10 s).
+    for (int i = 0; i < 200 && !release.load(); ++i)
+      std::this_thread::sleep_for(std::chrono::milliseconds(50));
+  });
+  // A harmless handler while live is not running, so that the signal never ends the test program.
+  const auto previous = std::signal(SIGINT, [](int) {});
+  auto live = std::async(std::launch::async, [&] { return runEchoreg(liveArgs(port)); });
+  sent.get_future().wait();
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  std::raise(SIGINT);
+  const CommandResult result = live.get();
+  release = true;
+  server.get();
+  std::signal(SIGINT, previous);
+  EXPECT_EQ(session().at("ended_by"), "interrupted (SIGINT)") << result.err;
+  EXPECT_EQ(session().at("recorded_frames"), 50);
+}
+
+TEST_F(LiveSession, UsageAndPeerProblemsAreNamed) {
+  CommandResult r =
+      runEchoreg({"live", "--record", dir_.file("r.igs.mha"), "--model", dir_.file("cube.obj"),
+                  "--calibration", dir_.file("BeamToProbe.json"), "--initial",
+                  dir_.file("initial.json"), "--out", dir_.file("o.json")});
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.err.find("give --connect HOST:PORT or --listen PORT"), std::string::npos) << r.err;
+  std::vector<std::string> a = liveArgs(freePort());
+  a[2] = "127.0.0.1";  // no port
+  r = runEchoreg(a);
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.err.find("--connect must be HOST:PORT"), std::string::npos) << r.err;
+  a = liveArgs(freePort());
+  *(std::find(a.begin(), a.end(), "--connect-timeout") + 1) = "0.3";
+  r = runEchoreg(a);
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("no OpenIGTLink server at 127.0.0.1:"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir_.file("rec.igs.mha")));
+
+  Sequence negative = sweep(3);
+  negative.frames[1].timestampS = -1.0;
+  writeSequence(negative, dir_.file("negative.igs.mha"));
+  r = runEchoreg({"serve", dir_.file("negative.igs.mha"), "--port", "0", "--wait", "0.2"});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("negative.igs.mha: frame 1 has timestamp -1"), std::string::npos) << r.err;
+  writeSequence(sweep(3), dir_.file("three.igs.mha"));
+  r = runEchoreg({"serve", dir_.file("three.igs.mha"), "--port", "0", "--wait", "0.2"});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("no client connected to 127.0.0.1:"), std::string::npos) << r.err;
+}
+
+}  // namespace
+}  // namespace echoreg::live
