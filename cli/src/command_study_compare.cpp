@@ -243,7 +243,7 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
   const std::string title = fmt::format("Comparison of {} studies", studies.size());
   report.heading(title, 1);
   report.paragraph(fmt::format(
-      "Studies grouped by {}. Each study's numbers are those its own `echoreg study run` wrote "
+      "Studies grouped by {}. Each study's numbers are those its own study run wrote "
       "to results/results.json; nothing is recomputed but the means and the statistics between "
       "groups.",
       o.groupBy.empty() ? "folder (each study its own group)" : "the manifest's " + o.groupBy));
