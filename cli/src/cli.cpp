@@ -23,7 +23,7 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
       "report.",
       "echoreg"};
   app.require_subcommand(1);
-  app.set_version_flag("--version", "echoreg 0.1.0");
+  app.set_version_flag("--version", "echoreg " ECHOREG_VERSION);
   app.footer(
       "Exit codes: 0 success, 1 the work failed (the message names the file), 2 wrong usage.");
 

@@ -1012,7 +1012,10 @@ CommandAction addStudyCommand(CLI::App& app) {
   run->add_flag("--given-models", o->givenModels,
                 "Use the manifest's bone models instead of segmenting the CT from its seeds");
   run->add_flag("--json", o->json, "Print every number of the report as JSON");
-  return [o](const Streams& streams) { return runStudy(*o, streams); };
+  const CommandAction compare = addStudyCompareCommand(*cmd);
+  return [o, run, compare](const Streams& streams) {
+    return run->parsed() ? runStudy(*o, streams) : compare(streams);
+  };
 }
 
 }  // namespace echoreg::cli

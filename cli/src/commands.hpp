@@ -25,6 +25,8 @@ CommandAction addCalibrateCommand(CLI::App& app);
 CommandAction addPivotCommand(CLI::App& app);
 CommandAction addFigureCommand(CLI::App& app);
 CommandAction addStudyCommand(CLI::App& app);
+/// `study compare`, registered on the `study` command by addStudyCommand.
+CommandAction addStudyCompareCommand(CLI::App& study);
 CommandAction addLandmarksCommand(CLI::App& app);
 CommandAction addEvaluateCommand(CLI::App& app);
 CommandAction addRegisterCommand(CLI::App& app);

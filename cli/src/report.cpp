@@ -1,5 +1,6 @@
 #include "report.hpp"
 
+#include <cstdlib>
 #include <sstream>
 
 namespace echoreg::cli {
@@ -50,6 +51,26 @@ std::string markdownCell(const std::string& text) {
   return out;
 }
 
+/// Which columns hold numbers (every cell a number, "-" or empty): those are right-aligned, so
+/// that digits line up; the first column and columns of words are left-aligned.
+std::vector<bool> numericColumns(const ReportBlock& table) {
+  std::vector<bool> numeric(table.header.size(), true);
+  if (!numeric.empty())
+    numeric[0] = false;
+  for (const auto& row : table.rows) {
+    for (std::size_t c = 1; c < row.size() && c < numeric.size(); ++c) {
+      const std::string& cell = row[c];
+      if (cell.empty() || cell == "-")
+        continue;
+      char* end = nullptr;
+      std::strtod(cell.c_str(), &end);
+      if (end != cell.c_str() + cell.size())
+        numeric[c] = false;
+    }
+  }
+  return numeric;
+}
+
 }  // namespace
 
 std::string Report::markdown() const {
@@ -67,8 +88,8 @@ std::string Report::markdown() const {
         for (const auto& h : b.header)
           md << ' ' << markdownCell(h) << " |";
         md << "\n|";
-        for (std::size_t i = 0; i < b.header.size(); ++i)
-          md << (i == 0 ? " :-- |" : " --: |");
+        for (const bool numeric : numericColumns(b))
+          md << (numeric ? " --: |" : " :-- |");
         md << '\n';
         for (const auto& row : b.rows) {
           md << '|';
@@ -117,8 +138,7 @@ std::string Report::html(const std::string& title) const {
     << "body{font-family:Helvetica,Arial,sans-serif;max-width:1100px;margin:2em auto;padding:0 1em;"
        "color:#222;line-height:1.45}\n"
     << "table{border-collapse:collapse;margin:0.5em 0 1.5em}th,td{border:1px solid #ccc;"
-       "padding:3px 9px;text-align:right}th{background:#f2f2f2}td:first-child,th:first-child"
-       "{text-align:left}\n"
+       "padding:3px 9px;text-align:left}th{background:#f2f2f2}.n{text-align:right}\n"
     << "figure{margin:1em 0 2em}figure img{max-width:100%;border:1px solid #ddd}"
        "figcaption{font-style:italic;color:#555}\n</style>\n</head>\n<body>\n";
   for (const ReportBlock& b : blocks_) {
@@ -129,19 +149,29 @@ std::string Report::html(const std::string& title) const {
       case ReportBlock::Kind::Paragraph:
         h << "<p>" << htmlEscape(b.text) << "</p>\n";
         break;
-      case ReportBlock::Kind::Table:
+      case ReportBlock::Kind::Table: {
+        const std::vector<bool> numeric = numericColumns(b);
+        auto open = [&](const char* tag, std::size_t column) {
+          const bool right = column < numeric.size() && numeric[column];
+          h << '<' << tag << (right ? " class=\"n\">" : ">");
+        };
         h << "<table>\n<tr>";
-        for (const auto& c : b.header)
-          h << "<th>" << htmlEscape(c) << "</th>";
+        for (std::size_t c = 0; c < b.header.size(); ++c) {
+          open("th", c);
+          h << htmlEscape(b.header[c]) << "</th>";
+        }
         h << "</tr>\n";
         for (const auto& row : b.rows) {
           h << "<tr>";
-          for (const auto& c : row)
-            h << "<td>" << htmlEscape(c) << "</td>";
+          for (std::size_t c = 0; c < row.size(); ++c) {
+            open("td", c);
+            h << htmlEscape(row[c]) << "</td>";
+          }
           h << "</tr>\n";
         }
         h << "</table>\n";
         break;
+      }
       case ReportBlock::Kind::Figure:
         h << "<figure><img src=\"" << htmlEscape(b.image) << "\" alt=\"" << htmlEscape(b.text)
           << "\"><figcaption>" << htmlEscape(b.text) << "</figcaption></figure>\n";
