@@ -1,5 +1,6 @@
 // `echoreg calibrate`: BeamToProbe from a sphere in a water bath (Mozes 2008, section 4.2), and
 // `echoreg pivot`: the fixed point of a marker's poses (a stylus tip, the hip centre).
+#include "capture_detection.hpp"
 #include "commands.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
@@ -165,7 +166,12 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   }
 
   // 2. The sphere's echo in every shot: the calibration preset (window-max) in the window.
-  const Sequence shotsSequence = readTrackedSequence(o.capture, {"ProbeToTracker"}, poseNotes);
+  // reader -> envelope -> peaks -> beam points -> inter-signal (capture_detection.hpp)
+  const std::unique_ptr<CaptureDetection> shotsCapture = openCapture(o.capture, {"ProbeToTracker"});
+  poseNotes.reorthonormalised += shotsCapture->poseNotes.reorthonormalised;
+  poseNotes.lines.insert(poseNotes.lines.end(), shotsCapture->poseNotes.lines.begin(),
+                         shotsCapture->poseNotes.lines.end());
+  const Sequence& shotsSequence = shotsCapture->sequence();
   DetectionParams params = detectionPreset("calibration");
   params.depth = depthFromSequence(shotsSequence, params.depth);
   if (speedGiven) {
@@ -186,13 +192,8 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   params.interSignal.minSpreadMm = 0.0;
   PointFrameOptions points;
   points.poseTransform = "ProbeToTracker";
-  SequenceDetection detection;
-  try {
-    validate(params);
-    detection = detectSequence(shotsSequence, params, points);
-  } catch (const std::invalid_argument& e) {
-    throw FileError(o.capture, e.what());
-  }
+  runDetection(*shotsCapture, params, points);
+  const SequenceDetection& detection = shotsCapture->detection;
   std::vector<core::BeamShot> shots;
   std::vector<int> shotFrames;
   for (const FrameDetection& f : detection.frames) {

@@ -2,7 +2,7 @@
 // (a capture run through the detection chain, or a CSV of points), optionally with stylus points
 // (the hybrid registration), started from an initial transform or from landmarks touched with
 // the stylus. docs/registration.md.
-#include "commands.hpp"
+#include "command_register.hpp"
 #include "csv_table.hpp"
 #include "model_file.hpp"
 #include "path_check.hpp"
@@ -43,35 +43,6 @@ namespace {
 nlohmann::json vec(const Eigen::Vector3d& v) {
   return {v.x(), v.y(), v.z()};
 }
-
-struct RegisterOptions {
-  std::string model, bone = "Femur", out;
-  std::vector<std::string> captures;
-  std::string calibration, pointsCsv;
-  std::string initial, landmarksCt, landmarksCapture, tipFile, landmarkLabels;
-  std::vector<int> landmarkDwells;
-  double landmarkSigma = 3.0;
-  std::string hipCentre, hipLabel = "hip_centre";
-  double hipSigma = 2.0;
-  std::vector<std::string> stylusCaptures;
-  double stylusTipRadius = 0.0;
-  double stylusSigma = 0.3;
-  double stylusSpacing = 1.0;
-  double ultrasoundSigma = 0.5;
-  std::string preset = "default";
-  double speedOfSound = 0.0;
-  int history = 1;
-  double minSpreadMm = 1.0;
-  std::string method = "robust", loss = "huber";
-  bool fitSpeed = false;
-  bool openEnds = false;
-  int restarts = 0;
-  int axisStarts = 12;
-  std::uint64_t seed = 1;
-  double maxRms = 2.0;
-  int maxPoints = 100000;
-  bool json = false;
-};
 
 // Points from a CSV: x,y,z (or echoreg detect's x_mm,y_mm,z_mm, accepted rows only), optionally
 // ox,oy,oz,dx,dy,dz,depth_mm (the beam, same frame).
@@ -158,57 +129,33 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
   return points;
 }
 
-// Points (with their beams, in the bone frame) from an A-line capture through the detection chain.
-std::vector<core::SurfacePoint> capturePoints(const std::string& path,
-                                              const Eigen::Matrix4d& beamToProbe,
-                                              const std::string& referenceTransform,
-                                              const RegisterOptions& o, double& speedOfSound,
-                                              nlohmann::json& report, PoseNotes& poseNotes) {
-  const Sequence sequence =
-      readTrackedSequence(path, {"ProbeToTracker", referenceTransform}, poseNotes);
-  DetectionParams params;
-  try {
-    params = detectionPreset(o.preset);
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(std::string("--preset: ") + e.what());
-  }
-  params.depth = depthFromSequence(sequence, params.depth);
-  if (o.speedOfSound > 0.0)
-    params.depth.speedOfSoundMps = o.speedOfSound;
-  params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
-  params.interSignal.history = o.history;
-  params.interSignal.minSpreadMm = o.minSpreadMm;
-  PointFrameOptions frameOptions;
-  frameOptions.poseTransform = "ProbeToTracker";
-  frameOptions.referenceTransform = referenceTransform;
-  frameOptions.beamToProbe = beamToProbe;
-  SequenceDetection detection;
-  try {
-    validate(params);
-    detection = detectSequence(sequence, params, frameOptions);
-  } catch (const std::invalid_argument& e) {
-    throw FileError(path, e.what());
-  }
-  speedOfSound = params.depth.speedOfSoundMps;
+// Points (with their beams, in the bone frame) of a capture's detection: each accepted frame's
+// beam, from the same poses the pipeline placed its point with.
+std::vector<core::SurfacePoint> capturePoints(const CaptureDetection& capture,
+                                              const CaptureDetectionRequest& request,
+                                              double ultrasoundSigma, nlohmann::json& report) {
+  const SequenceDetection& detection = capture.detection;
+  const Sequence& sequence = capture.sequence();
   std::vector<core::SurfacePoint> points;
   for (const FrameDetection& f : detection.frames) {
     if (!f.accepted() || !f.depthMm || !f.pointMm)
       continue;
     const auto& transforms = sequence.frames[static_cast<std::size_t>(f.frame)].transforms;
-    const Eigen::Matrix4d beamToBone = transforms.at(referenceTransform).matrix.inverse() *
-                                       transforms.at("ProbeToTracker").matrix * beamToProbe;
+    const Eigen::Matrix4d beamToBone = transforms.at(request.referenceTransform).matrix.inverse() *
+                                       transforms.at(request.poseTransform).matrix *
+                                       request.beamToProbe;
     const Eigen::Vector3d origin = beamToBone.topRightCorner<3, 1>();
     const Eigen::Vector3d direction = beamToBone.block<3, 1>(0, 2).normalized();
-    points.push_back(core::beamSurfacePoint(origin, direction, *f.depthMm, o.ultrasoundSigma));
+    points.push_back(core::beamSurfacePoint(origin, direction, *f.depthMm, ultrasoundSigma));
   }
   nlohmann::json rejected = nlohmann::json::object();
   for (const auto& [reason, count] : detection.rejectedByReason)
     rejected[reason] = count;
-  report.push_back({{"capture", path},
+  report.push_back({{"capture", request.capture},
                     {"frames", detection.frames.size()},
                     {"accepted", detection.accepted},
                     {"rejected_by_reason", rejected},
-                    {"speed_of_sound_mps", params.depth.speedOfSoundMps}});
+                    {"speed_of_sound_mps", detection.params.depth.speedOfSoundMps}});
   return points;
 }
 
@@ -390,7 +337,62 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
   return init;
 }
 
-int runRegister(const RegisterOptions& o, const Streams& io) {
+}  // namespace
+
+CaptureDetectionRequest sweepDetectionRequest(const RegisterOptions& o, const std::string& capture,
+                                              const Eigen::Matrix4d& beamToProbe) {
+  CaptureDetectionRequest request;
+  request.capture = capture;
+  request.preset = o.preset;
+  if (o.speedOfSound > 0.0)
+    request.speedOfSoundMps = o.speedOfSound;
+  request.history = o.history;
+  request.minSpreadMm = o.minSpreadMm;
+  request.poseTransform = "ProbeToTracker";
+  request.referenceTransform = o.bone + "ToTracker";
+  request.beamToProbe = beamToProbe;
+  return request;
+}
+
+nlohmann::json requestJson(const RegisterOptions& o) {
+  return {{"model", o.model},
+          {"bone", o.bone},
+          {"out", o.out},
+          {"captures", o.captures},
+          {"calibration", o.calibration},
+          {"points", o.pointsCsv},
+          {"initial", o.initial},
+          {"landmarks_ct", o.landmarksCt},
+          {"landmarks_capture", o.landmarksCapture},
+          {"stylus_tip_to_stylus", o.tipFile},
+          {"landmark_labels", o.landmarkLabels},
+          {"landmark_dwells", o.landmarkDwells},
+          {"landmark_sigma_mm", o.landmarkSigma},
+          {"hip_centre", o.hipCentre},
+          {"hip_label", o.hipLabel},
+          {"hip_sigma_mm", o.hipSigma},
+          {"stylus_points", o.stylusCaptures},
+          {"stylus_tip_radius_mm", o.stylusTipRadius},
+          {"stylus_sigma_mm", o.stylusSigma},
+          {"stylus_spacing_mm", o.stylusSpacing},
+          {"ultrasound_sigma_mm", o.ultrasoundSigma},
+          {"preset", o.preset},
+          {"speed_of_sound_mps", o.speedOfSound},
+          {"history", o.history},
+          {"min_spread_mm", o.minSpreadMm},
+          {"method", o.method},
+          {"loss", o.loss},
+          {"fit_speed_of_sound", o.fitSpeed},
+          {"open_ends", o.openEnds},
+          {"restarts", o.restarts},
+          {"axis_starts", o.axisStarts},
+          {"seed", o.seed},
+          {"max_rms_mm", o.maxRms},
+          {"max_points", o.maxPoints},
+          {"json", o.json}};
+}
+
+int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* shared) {
   CommandPaths()
       .input("--model", o.model)
       .inputs("--capture", o.captures)
@@ -414,6 +416,10 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   }
   if (o.stylusTipRadius < 0.0)
     throw std::invalid_argument("--stylus-tip-radius must be >= 0 mm");
+  if (o.speedOfSound != 0.0 && !(o.speedOfSound >= 1000.0 && o.speedOfSound <= 2000.0)) {
+    throw std::invalid_argument(
+        fmt::format("--speed-of-sound must be between 1000 and 2000 m/s, got {}", o.speedOfSound));
+  }
   const std::string reference = o.bone + "ToTracker";
   core::SurfaceRegistrationOptions options;
   options.method = core::parseSurfaceMethod(o.method);
@@ -455,8 +461,16 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   } else if (!o.captures.empty()) {
     const TransformFile calibration = readTransformFile(o.calibration, "Beam", "Probe");
     for (const std::string& capture : o.captures) {
-      const std::vector<core::SurfacePoint> found = capturePoints(
-          capture, calibration.matrix, reference, o, speedOfSound, sources, poseNotes);
+      const CaptureDetectionRequest request = sweepDetectionRequest(o, capture, calibration.matrix);
+      std::unique_ptr<CaptureDetection> own;
+      CaptureDetection& detected =
+          shared != nullptr ? shared->get(request) : *(own = detectCapture(request));
+      poseNotes.reorthonormalised += detected.poseNotes.reorthonormalised;
+      poseNotes.lines.insert(poseNotes.lines.end(), detected.poseNotes.lines.begin(),
+                             detected.poseNotes.lines.end());
+      speedOfSound = detected.detection.params.depth.speedOfSoundMps;
+      const std::vector<core::SurfacePoint> found =
+          capturePoints(detected, request, o.ultrasoundSigma, sources);
       points.insert(points.end(), found.begin(), found.end());
     }
   }
@@ -628,8 +642,6 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   }
   return 0;
 }
-
-}  // namespace
 
 CommandAction addRegisterCommand(CLI::App& app) {
   auto o = std::make_shared<RegisterOptions>();

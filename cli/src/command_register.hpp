@@ -1,0 +1,63 @@
+// `echoreg register` as a typed request: the command parses its flags into RegisterOptions, and
+// the study fills one per registration (no command line in between) and shares each sweep's
+// detection between the sweep's points and its registration (CaptureDetections).
+#pragma once
+
+#include "capture_detection.hpp"
+#include "commands.hpp"
+
+#include <Eigen/Core>
+#include <nlohmann/json.hpp>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace echoreg::cli {
+
+/// Every setting of a registration; the defaults are the command's.
+struct RegisterOptions {
+  std::string model, bone = "Femur", out;
+  std::vector<std::string> captures;
+  std::string calibration, pointsCsv;
+  std::string initial, landmarksCt, landmarksCapture, tipFile, landmarkLabels;
+  std::vector<int> landmarkDwells;
+  double landmarkSigma = 3.0;
+  std::string hipCentre, hipLabel = "hip_centre";
+  double hipSigma = 2.0;
+  std::vector<std::string> stylusCaptures;
+  double stylusTipRadius = 0.0;
+  double stylusSigma = 0.3;
+  double stylusSpacing = 1.0;
+  double ultrasoundSigma = 0.5;
+  std::string preset = "default";
+  double speedOfSound = 0.0;
+  int history = 1;
+  double minSpreadMm = 1.0;
+  std::string method = "robust", loss = "huber";
+  bool fitSpeed = false;
+  bool openEnds = false;
+  int restarts = 0;
+  int axisStarts = 12;
+  std::uint64_t seed = 1;
+  double maxRms = 2.0;
+  int maxPoints = 100000;
+  bool json = false;
+};
+
+/// The detection request of one capture of a registration: its preset, speed of sound, temporal
+/// and spatial filters, the probe's pose in the bone's frame, through `beamToProbe`.
+CaptureDetectionRequest sweepDetectionRequest(const RegisterOptions& options,
+                                              const std::string& capture,
+                                              const Eigen::Matrix4d& beamToProbe);
+
+/// The request as JSON, every field: the study's cache key.
+nlohmann::json requestJson(const RegisterOptions& options);
+
+/// Runs the registration and writes its <Bone>ToCT JSON and .tfm; returns the exit code (1 when
+/// it did not converge). With `shared`, each capture's detection is taken from (or run into) it.
+/// Throws for bad input as the command does.
+int runRegister(const RegisterOptions& options, const Streams& io,
+                CaptureDetections* shared = nullptr);
+
+}  // namespace echoreg::cli
