@@ -7,10 +7,9 @@
 namespace echoreg::cli {
 
 bool CaptureDetectionRequest::operator==(const CaptureDetectionRequest& other) const {
-  return capture == other.capture && preset == other.preset &&
-         speedOfSoundMps == other.speedOfSoundMps && history == other.history &&
-         minSpreadMm == other.minSpreadMm && poseTransform == other.poseTransform &&
-         referenceTransform == other.referenceTransform && beamToProbe == other.beamToProbe;
+  return capture == other.capture && preset == other.preset && settings == other.settings &&
+         poseTransform == other.poseTransform && referenceTransform == other.referenceTransform &&
+         beamToProbe == other.beamToProbe;
 }
 
 nlohmann::json CaptureDetectionRequest::json() const {
@@ -19,10 +18,7 @@ nlohmann::json CaptureDetectionRequest::json() const {
     rows.push_back({beamToProbe(r, 0), beamToProbe(r, 1), beamToProbe(r, 2), beamToProbe(r, 3)});
   return {{"capture", capture},
           {"preset", preset},
-          {"speed_of_sound_mps",
-           speedOfSoundMps ? nlohmann::json(*speedOfSoundMps) : nlohmann::json(nullptr)},
-          {"history", history},
-          {"min_spread_mm", minSpreadMm},
+          {"settings", settingsJson(settings)},
           {"pose", poseTransform},
           {"reference", referenceTransform},
           {"beam_to_probe", rows}};
@@ -51,19 +47,16 @@ void runDetection(CaptureDetection& capture, const DetectionParams& params,
 }
 
 DetectionParams requestParams(const CaptureDetectionRequest& request, const Sequence& sequence) {
-  DetectionParams params;
   try {
-    params = detectionPreset(request.preset);
+    detectionPreset(request.preset);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("--preset: ") + e.what());
   }
-  params.depth = depthFromSequence(sequence, params.depth);
-  if (request.speedOfSoundMps)
-    params.depth.speedOfSoundMps = *request.speedOfSoundMps;
-  params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
-  params.interSignal.history = request.history;
-  params.interSignal.minSpreadMm = request.minSpreadMm;
-  return params;
+  try {
+    return resolveParams(request.preset, request.settings, sequence);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("bad parameter: ") + e.what());
+  }
 }
 
 std::unique_ptr<CaptureDetection> detectCapture(const CaptureDetectionRequest& request) {

@@ -4,6 +4,7 @@
 // registration share one detection (CaptureDetections).
 #pragma once
 
+#include "detection_params.hpp"
 #include "pose_check.hpp"
 
 #include "echoreg/core/sequence_detection.hpp"
@@ -13,20 +14,17 @@
 #include <nlohmann/json.hpp>
 
 #include <memory>
-#include <optional>
 #include <string>
 #include <vector>
 
 namespace echoreg::cli {
 
 /// The settings that decide a tracked capture's detection, as `register` and the study give them:
-/// a preset, the capture's header, then these.
+/// a preset, the capture header, then the tunables (detection_params.hpp).
 struct CaptureDetectionRequest {
   std::string capture;
   std::string preset = "default";
-  std::optional<double> speedOfSoundMps;  ///< else the capture header's, else the preset's
-  int history = 1;                        ///< the temporal filter (1 = off)
-  double minSpreadMm = 1.0;               ///< the spatial filter (0 = off)
+  TunableSettings settings;
   std::string poseTransform = "ProbeToTracker";
   std::string referenceTransform;  ///< e.g. FemurToTracker; empty: points in the tracker
   Eigen::Matrix4d beamToProbe = Eigen::Matrix4d::Identity();
@@ -56,8 +54,9 @@ std::unique_ptr<CaptureDetection> openCapture(const std::string& path,
 void runDetection(CaptureDetection& capture, const DetectionParams& params,
                   const PointFrameOptions& points);
 
-/// The request's parameters: its preset, the capture header's acquisition settings, then its
-/// own. std::invalid_argument for an unknown preset ("--preset: ...").
+/// The request's parameters through the one resolver (resolveParams): its preset, the capture
+/// header's acquisition settings, then its settings. std::invalid_argument for an unknown preset
+/// ("--preset: ...") or a bad value ("bad parameter: ...").
 DetectionParams requestParams(const CaptureDetectionRequest& request, const Sequence& sequence);
 
 /// openCapture, requestParams and runDetection for a request.

@@ -344,10 +344,15 @@ CaptureDetectionRequest sweepDetectionRequest(const RegisterOptions& o, const st
   CaptureDetectionRequest request;
   request.capture = capture;
   request.preset = o.preset;
-  if (o.speedOfSound > 0.0)
-    request.speedOfSoundMps = o.speedOfSound;
-  request.history = o.history;
-  request.minSpreadMm = o.minSpreadMm;
+  request.settings = o.detection;
+  if (!o.paramsFile.empty())
+    mergeParamsFile(o.paramsFile, request.preset, request.settings);
+  // register's own defaults, below --params and the flags: each echo judged alone (the robust
+  // loss rejects strays), and points at least 1 mm apart.
+  request.settings.emplace("history", 1);
+  request.settings.emplace("min-spread-mm", 1.0);
+  if (request.preset.empty())
+    request.preset = "default";
   request.poseTransform = "ProbeToTracker";
   request.referenceTransform = o.bone + "ToTracker";
   request.beamToProbe = beamToProbe;
@@ -377,9 +382,8 @@ nlohmann::json requestJson(const RegisterOptions& o) {
           {"stylus_spacing_mm", o.stylusSpacing},
           {"ultrasound_sigma_mm", o.ultrasoundSigma},
           {"preset", o.preset},
-          {"speed_of_sound_mps", o.speedOfSound},
-          {"history", o.history},
-          {"min_spread_mm", o.minSpreadMm},
+          {"params", o.paramsFile},
+          {"detection", settingsJson(o.detection)},
           {"method", o.method},
           {"loss", o.loss},
           {"fit_speed_of_sound", o.fitSpeed},
@@ -397,6 +401,7 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
       .input("--model", o.model)
       .inputs("--capture", o.captures)
       .input("--calibration", o.calibration)
+      .input("--params", o.paramsFile)
       .input("--points", o.pointsCsv)
       .inputs("--stylus-points", o.stylusCaptures)
       .input("--initial", o.initial)
@@ -416,10 +421,7 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
   }
   if (o.stylusTipRadius < 0.0)
     throw std::invalid_argument("--stylus-tip-radius must be >= 0 mm");
-  if (o.speedOfSound != 0.0 && !(o.speedOfSound >= 1000.0 && o.speedOfSound <= 2000.0)) {
-    throw std::invalid_argument(
-        fmt::format("--speed-of-sound must be between 1000 and 2000 m/s, got {}", o.speedOfSound));
-  }
+
   const std::string reference = o.bone + "ToTracker";
   core::SurfaceRegistrationOptions options;
   options.method = core::parseSurfaceMethod(o.method);
@@ -677,26 +679,36 @@ CommandAction addRegisterCommand(CLI::App& app) {
   capture->needs(calibration);
   calibration->needs(capture);
   csv->excludes(capture);
-  cmd->add_option("--preset", o->preset, "Detection preset for --capture (see echoreg detect)")
-      ->capture_default_str()
+  cmd->add_option("--preset", o->preset,
+                  "Detection preset for --capture (see echoreg detect; default: the --params "
+                  "file's, else default)")
       ->group("Points");
-  cmd->add_option("--speed-of-sound", o->speedOfSound,
-                  "Assumed speed, m/s (default: the capture's header)")
+  cmd->add_option("--params", o->paramsFile,
+                  "JSON object of detection parameters named as echoreg detect's flags, without "
+                  "dashes (samples/params/); flags win over it")
+      ->group("Points")
+      ->needs(capture);
+  // The detection's flags: three with register's ranges and defaults, the rest from the table
+  // every command that detects shares (detection_params.hpp).
+  TunableSettings& detection = o->detection;
+  cmd->add_option_function<double>(
+         "--speed-of-sound", [&detection](double v) { detection["speed-of-sound"] = v; },
+         "Assumed speed, m/s (default: the capture's header)")
       ->check(finiteRange(1000.0, 2000.0))
       ->group("Points");
-  cmd->add_option(
-         "--history", o->history,
-         "Temporal filter: consecutive agreeing frames (1 = off: each echo judged alone and the "
-         "robust loss rejects strays; echoreg detect's default 3 drops most frames of a quick "
+  cmd->add_option_function<int>(
+         "--history", [&detection](int v) { detection["history"] = v; },
+         "Temporal filter: frames that must agree (default 1 = off: each echo judged alone and "
+         "the robust loss rejects strays; echoreg detect's default drops many frames of a quick "
          "sweep)")
-      ->capture_default_str()
       ->check(wholeNumber(1, 100))
       ->group("Points");
-  cmd->add_option("--min-spread-mm", o->minSpreadMm,
-                  "Spatial filter: min distance between points, mm (0 = off)")
-      ->capture_default_str()
+  cmd->add_option_function<double>(
+         "--min-spread-mm", [&detection](double v) { detection["min-spread-mm"] = v; },
+         "Spatial filter: min distance between points, mm (default 1; 0 = off)")
       ->check(finiteRange(0.0, 100.0))
       ->group("Points");
+  addTunableFlags(cmd, o->detection, {"speed-of-sound", "history", "min-spread-mm"});
   cmd->add_option("--ultrasound-sigma", o->ultrasoundSigma, "Ultrasound points' sigma, mm")
       ->capture_default_str()
       ->group("Points");

@@ -30,10 +30,11 @@ struct RegisterOptions {
   double stylusSigma = 0.3;
   double stylusSpacing = 1.0;
   double ultrasoundSigma = 0.5;
-  std::string preset = "default";
-  double speedOfSound = 0.0;
-  int history = 1;
-  double minSpreadMm = 1.0;
+  std::string preset;      ///< detection preset; "" = the --params file's, else "default"
+  std::string paramsFile;  ///< --params: the detection's tunables as a JSON object
+  /// The detection's tunables given (detection_params.hpp); register's own defaults, below
+  /// --params, are history 1 and min-spread-mm 1 (sweepDetectionRequest).
+  TunableSettings detection;
   std::string method = "robust", loss = "huber";
   bool fitSpeed = false;
   bool openEnds = false;

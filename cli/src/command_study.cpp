@@ -563,7 +563,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         reg.preset = preset;
         reg.fitSpeed = true;
         if (const auto c = manifest.at("/detection/speed_of_sound_mps"); c.is_number())
-          reg.speedOfSound = c.get<double>();
+          reg.detection["speed-of-sound"] = c.get<double>();
         reg.out = fmt::format("{}/registrations/{}_ultrasound_{}.json", results, bone, n);
         const std::string points = fmt::format("{}/points/{}_ultrasound_{}.csv", results, bone, n);
         const auto sweepRequest = [reg, path, calibration] {

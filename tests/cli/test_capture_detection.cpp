@@ -2,6 +2,7 @@
 // VTK pipeline (filters/DetectionPipeline.h), kept and re-used inside one process.
 #include "capture_detection.hpp"
 #include "cli_test_support.hpp"
+#include "command_register.hpp"
 #include "demo_capture.hpp"
 #include "test_support.hpp"
 
@@ -10,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 
@@ -25,7 +27,7 @@ cli::CaptureDetectionRequest sweepRequest(const std::string& capture) {
   cli::CaptureDetectionRequest request;
   request.capture = capture;
   request.preset = "default";
-  request.history = 1;
+  request.settings["history"] = 1;
   request.poseTransform = "ProbeToTracker";
   return request;
 }
@@ -87,7 +89,7 @@ TEST(CaptureDetection, SharedDetectionRunsOncePerRequestAndIsTheDetectCommandsBy
 
   // Another request (a new speed of sound) is a new detection, with other depths.
   cli::CaptureDetectionRequest faster = request;
-  faster.speedOfSoundMps = 1600.0;
+  faster.settings["speed-of-sound"] = 1600.0;
   cli::CaptureDetection& other = detections.get(faster);
   EXPECT_EQ(detections.runs(), 2);
   EXPECT_EQ(other.detection.params.depth.speedOfSoundMps, 1600.0);
@@ -154,6 +156,60 @@ TEST(CaptureDetection, BadCaptureNamesTheFile) {
   cli::CaptureDetectionRequest preset = sweepRequest(capture);
   preset.preset = "nonsense";
   EXPECT_THROW(cli::detectCapture(preset), std::invalid_argument);
+}
+
+// register's detection: its own defaults (history 1, min-spread-mm 1) under --params, the flags
+// over both; the same resolver as detect's.
+TEST(CaptureDetection, RegisterResolvesFlagsOverParamsOverItsDefaults) {
+  test::TempDir dir;
+  const std::string params = dir.file("params.json");
+  std::ofstream(params) << R"({"preset": "shadow", "history": 3, "speed-of-sound": 1500,
+                              "echo-snr": 5})";
+  cli::RegisterOptions options;
+  options.bone = "Femur";
+  options.paramsFile = params;
+  options.detection["speed-of-sound"] = 1600.0;
+  const cli::CaptureDetectionRequest request =
+      cli::sweepDetectionRequest(options, "sweep.igs.mha", Eigen::Matrix4d::Identity());
+  EXPECT_EQ(request.preset, "shadow");
+  EXPECT_EQ(std::get<int>(request.settings.at("history")), 3);
+  EXPECT_EQ(std::get<double>(request.settings.at("speed-of-sound")), 1600.0);
+  EXPECT_EQ(std::get<double>(request.settings.at("min-spread-mm")), 1.0);
+  EXPECT_EQ(std::get<double>(request.settings.at("echo-snr")), 5.0);
+  EXPECT_EQ(request.referenceTransform, "FemurToTracker");
+
+  cli::RegisterOptions plain;
+  const cli::CaptureDetectionRequest defaults =
+      cli::sweepDetectionRequest(plain, "sweep.igs.mha", Eigen::Matrix4d::Identity());
+  EXPECT_EQ(defaults.preset, "default");
+  EXPECT_EQ(std::get<int>(defaults.settings.at("history")), 1);
+
+  const std::string unknown = dir.file("unknown.json");
+  std::ofstream(unknown) << R"({"histroy": 3})";
+  cli::RegisterOptions bad;
+  bad.paramsFile = unknown;
+  try {
+    cli::sweepDetectionRequest(bad, "sweep.igs.mha", Eigen::Matrix4d::Identity());
+    FAIL() << "an unknown parameter was accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find(unknown), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("histroy"), std::string::npos) << e.what();
+  }
+}
+
+TEST(CaptureDetection, RegisterTakesParamsOnlyWithACapture) {
+  test::TempDir dir;
+  const std::string params = dir.file("params.json");
+  std::ofstream(params) << R"({"history": 3})";
+  const auto result = test::runEchoreg({"register", "--model", dir.file("m.vtp"), "--points",
+                                        dir.file("p.csv"), "--params", params, "--initial",
+                                        dir.file("i.json"), "--out", dir.file("o.json")});
+  EXPECT_EQ(result.exitCode, 2) << result.err;
+  EXPECT_NE(result.err.find("--params"), std::string::npos) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(dir.file("o.json")));
+  const auto help = test::runEchoreg({"register", "--help"});
+  EXPECT_NE(help.out.find("--params"), std::string::npos);
+  EXPECT_NE(help.out.find("--echo-snr"), std::string::npos);  // the shared table's flags
 }
 
 }  // namespace

@@ -1,0 +1,319 @@
+#include "detection_params.hpp"
+
+#include "echoreg/core/error.hpp"
+#include "echoreg/core/sequence_detection.hpp"
+
+#include <fmt/format.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <type_traits>
+
+namespace echoreg::cli {
+
+namespace {
+
+// One tunable of the chain: its flag (and, without the dashes, its key in --params files), its
+// help group and text, its type (the alternative held by `type`), and where it lands.
+struct Tunable {
+  const char* name;
+  const char* group;
+  const char* help;
+  TunableValue type;
+  std::function<void(DetectionParams&, const TunableValue&)> apply;
+};
+
+template <typename T>
+const T& as(const TunableValue& value) {
+  return std::get<T>(value);
+}
+
+// Every tunable, in the order they are applied. "preset" is applied before all of them (it sets
+// the starting point), then the capture header, then these.
+const std::vector<Tunable>& tunables() {
+  using P = DetectionParams;
+  using V = TunableValue;
+  static const std::vector<Tunable> list{
+      {"envelope", "Envelope", "Envelope: mozes | hann | stddev | hilbert (default hann)",
+       std::string(),
+       [](P& p, const V& v) { p.envelope.method = parseEnvelopeMethod(as<std::string>(v)); }},
+      {"transducer-frequency", "Envelope",
+       "Transducer centre frequency, Hz (default: capture header, else measured from the "
+       "capture's spectrum); sets the high-pass, the envelope window and the hilbert band",
+       0.0,
+       [](P& p, const V& v) {
+         p.transducerFrequencyHz = as<double>(v);
+         p.envelope.transducerFrequencyHz = as<double>(v);
+       }},
+      {"ring-down", "Envelope",
+       "Samples of ring-down at the start of each record (default: measured where the median "
+       "record's burst ends; mozes2008 and calibration: 200)",
+       0,
+       [](P& p, const V& v) {
+         p.adapt.ringDown = false;
+         p.envelope.ringDownSamples = as<int>(v);
+       }},
+      {"high-pass", "Envelope",
+       "Conditioning high-pass corner, Hz, 0 = remove the mean only (default: half the "
+       "transducer frequency; mozes2008: 0)",
+       0.0,
+       [](P& p, const V& v) {
+         p.adapt.highPassOfTransducer = 0.0;
+         p.adapt.highPassHz = as<double>(v);
+         p.envelope.highPassSamples = 0;
+       }},
+      {"butterworth-order", "Envelope", "mozes: Butterworth order 1..12, default 2", 0,
+       [](P& p, const V& v) { p.envelope.butterworthOrder = as<int>(v); }},
+      {"cutoff", "Envelope", "mozes: cutoff as a fraction of Nyquist, default 0.01", 0.0,
+       [](P& p, const V& v) { p.envelope.cutoffNormalized = as<double>(v); }},
+      {"causal", "Envelope",
+       "mozes: one causal pass as the dissertation (delays peaks by 45 samples, 0.69 mm at "
+       "50 MHz/1540 m/s, for order 2 at 0.01); --causal=false is zero-phase (the default)",
+       false, [](P& p, const V& v) { p.envelope.zeroPhase = !as<bool>(v); }},
+      {"envelope-window", "Envelope",
+       "hann/stddev: window in samples (default: 1.25 transducer periods, 7 for 9 MHz at "
+       "50 MHz; PLUS uses 153 at 420 MHz)",
+       0,
+       [](P& p, const V& v) {
+         p.adapt.envelopeCycles = 0.0;
+         p.envelope.windowSamples = as<int>(v);
+       }},
+      {"relative-bandwidth", "Envelope", "hilbert: -6 dB band / centre, default 0.8", 0.0,
+       [](P& p, const V& v) { p.envelope.relativeBandwidth = as<double>(v); }},
+      {"smoothing", "Envelope", "hilbert: box smoothing in samples, default 5", 0,
+       [](P& p, const V& v) { p.envelope.smoothingSamples = as<int>(v); }},
+      {"threshold-factor", "Peaks", "Threshold = factor x mean envelope (default 1.5)", 0.0,
+       [](P& p, const V& v) {
+         p.peaks.thresholdMode = ThresholdMode::FactorOfMean;
+         p.peaks.thresholdFactor = as<double>(v);
+       }},
+      {"threshold-of-max", "Peaks", "Threshold = fraction x max envelope, (0, 1]", 0.0,
+       [](P& p, const V& v) {
+         p.peaks.thresholdMode = ThresholdMode::FractionOfMax;
+         p.peaks.thresholdOfMax = as<double>(v);
+       }},
+      {"window-mm", "Peaks", "Processing window MIN MAX in mm", std::vector<double>(),
+       [](P& p, const V& v) {
+         p.windowMinMm = as<std::vector<double>>(v).at(0);
+         p.windowMaxMm = as<std::vector<double>>(v).at(1);
+       }},
+      {"peaks", "Peaks",
+       "Policy: prominence (default) | bone | single | double | window-max | first | max",
+       std::string(),
+       [](P& p, const V& v) { p.peaks.policy = parsePeakPolicy(as<std::string>(v)); }},
+      {"echo-snr", "Prominence policy", "prominence: min peak / noise floor (8)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.minSnr = as<double>(v); }},
+      {"echo-over-median", "Prominence policy", "prominence: min peak / median envelope (3)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.minOverMedian = as<double>(v); }},
+      {"echo-prominence", "Prominence policy", "prominence: min prominence / peak, (0, 1] (0.5)",
+       0.0, [](P& p, const V& v) { p.peaks.prominence.minProminence = as<double>(v); }},
+      {"echo-max-rise", "Prominence policy", "prominence: max leading edge, transducer periods (3)",
+       0.0, [](P& p, const V& v) { p.peaks.prominence.maxRiseCycles = as<double>(v); }},
+      {"echo-contrast", "Prominence policy", "prominence: min peak / median before it (2)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.minContrast = as<double>(v); }},
+      {"echo-region-mm", "Prominence policy", "prominence: before/after region, mm (2)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.regionMm = as<double>(v); }},
+      {"echo-wall-step", "Prominence policy",
+       "prominence: median after / before an echo at which it is a wall (skin, membrane) (3)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.wallStep = as<double>(v); }},
+      {"echo-air-reverberation", "Prominence policy",
+       "prominence: a second bounce this strong (x peak) means air, an uncoupled probe (0.35)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.airReverberation = as<double>(v); }},
+      {"echo-shadow", "Prominence policy",
+       "prominence: auto (default: required where bone casts a shadow in a fifth of the "
+       "capture, else each echo by its own shadow or ringing) | required | ignored",
+       std::string(),
+       [](P& p, const V& v) { p.peaks.prominence.shadow = parseShadowRule(as<std::string>(v)); }},
+      {"echo-ringing", "Prominence policy",
+       "prominence: ringing = the envelope behind the echo stays above this fraction of it (0.4)",
+       0.0, [](P& p, const V& v) { p.peaks.prominence.ringingFraction = as<double>(v); }},
+      {"echo-ringing-contrast", "Prominence policy",
+       "prominence: ringing counts only for an echo this many times the median before it (6)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.ringingContrast = as<double>(v); }},
+      {"echo-inner-ratio", "Prominence policy",
+       "prominence, shadow required: an echo this many times stronger just above the chosen one "
+       "is the bone, the chosen one its inner cortex (2.5; 0 = off)",
+       0.0, [](P& p, const V& v) { p.peaks.prominence.innerEchoRatio = as<double>(v); }},
+      {"echo-similar", "Prominence policy",
+       "prominence: echoes within this fraction of the strongest compete on depth (0.6)", 0.0,
+       [](P& p, const V& v) { p.peaks.prominence.similarRatio = as<double>(v); }},
+      {"no-subsample", "Peaks", "Report the integer sample of the peak (no parabola)", false,
+       [](P& p, const V& v) { p.peaks.subsample = !as<bool>(v); }},
+      {"bone-region-mm", "Bone policy", "bone: tissue/shadow region length, mm (3)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.regionMm = as<double>(v); }},
+      {"bone-gap-mm", "Bone policy", "bone: gap between the echo and the regions, mm (0.3)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.gapMm = as<double>(v); }},
+      {"bone-shadow-ratio", "Bone policy", "bone: min tissue/shadow median ratio (2)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.minShadowRatio = as<double>(v); }},
+      {"bone-contrast", "Bone policy", "bone: min peak/tissue median ratio (3.5)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.minContrast = as<double>(v); }},
+      {"bone-max-width-mm", "Bone policy", "bone: max echo width at half maximum, mm (1)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.maxWidthMm = as<double>(v); }},
+      {"bone-noise-factor", "Bone policy", "bone: shadow within this x noise floor counts (1.2)",
+       0.0, [](P& p, const V& v) { p.peaks.bone.noiseFloorFactor = as<double>(v); }},
+      {"bone-tissue-over-noise", "Bone policy", "bone: min tissue median / noise floor (1.5)", 0.0,
+       [](P& p, const V& v) { p.peaks.bone.minTissueOverNoise = as<double>(v); }},
+      {"sampling-frequency", "Depth", "Hz; default: capture header, else 50e6", 0.0,
+       [](P& p, const V& v) { p.depth.samplingFrequencyHz = as<double>(v); }},
+      {"delay", "Depth", "Acquisition delay, s; default: capture header, else 0", 0.0,
+       [](P& p, const V& v) { p.depth.delayS = as<double>(v); }},
+      {"speed-of-sound", "Depth", "m/s; default: capture header, else 1540", 0.0,
+       [](P& p, const V& v) { p.depth.speedOfSoundMps = as<double>(v); }},
+      {"temporal", "Inter-signal",
+       "Temporal filter: neighbours (default: each depth against the frames nearest in time) | "
+       "run (the dissertation's consecutive 3D run)",
+       std::string(),
+       [](P& p, const V& v) { p.interSignal.temporal = parseTemporalMode(as<std::string>(v)); }},
+      {"history", "Inter-signal",
+       "Temporal filter: frames that must agree, this one included (default 2; run: 3; 1 = off)", 0,
+       [](P& p, const V& v) { p.interSignal.history = as<int>(v); }},
+      {"consistency-mm", "Inter-signal", "Temporal filter: agreement, mm, default 0.5", 0.0,
+       [](P& p, const V& v) { p.interSignal.consistencyMm = as<double>(v); }},
+      {"max-depth-rate", "Inter-signal",
+       "neighbours: how fast the depth may change, mm/s, default 30", 0.0,
+       [](P& p, const V& v) { p.interSignal.maxDepthRateMmPerS = as<double>(v); }},
+      {"max-gap", "Inter-signal", "neighbours: longest time to a neighbour, s, default 0.1", 0.0,
+       [](P& p, const V& v) { p.interSignal.maxGapS = as<double>(v); }},
+      {"min-spread-mm", "Inter-signal",
+       "Spatial filter on tracked points (--pose): min distance between points, mm, default 1 "
+       "(0 = off)",
+       0.0, [](P& p, const V& v) { p.interSignal.minSpreadMm = as<double>(v); }},
+  };
+  return list;
+}
+
+// The tunables given so far, by name; flags first, then a --params file fills the rest.
+
+}  // namespace
+
+// Registers every tunable as a flag of `cmd`, storing what is given into `settings`.
+void addTunableFlags(CLI::App* cmd, TunableSettings& settings,
+                     const std::set<std::string>& except) {
+  for (const Tunable& tunable : tunables()) {
+    if (except.count(tunable.name) != 0)
+      continue;
+    const std::string flag = std::string("--") + tunable.name;
+    const std::string name = tunable.name;
+    CLI::Option* option = std::visit(
+        [&](const auto& type) -> CLI::Option* {
+          using T = std::decay_t<decltype(type)>;
+          if constexpr (std::is_same_v<T, bool>) {
+            // --causal, --causal=true and --causal=false all mean what they say.
+            return cmd->add_flag_function(
+                flag, [&settings, name](std::int64_t count) { settings[name] = count > 0; },
+                tunable.help);
+          } else {
+            return cmd->add_option_function<T>(
+                flag, [&settings, name](const T& value) { settings[name] = value; }, tunable.help);
+          }
+        },
+        tunable.type);
+    if (std::holds_alternative<std::vector<double>>(tunable.type))
+      option->expected(2);
+    option->group(tunable.group);
+  }
+}
+
+// Fills the tunables not given as flags from a --params file; unknown keys are errors.
+void mergeParamsFile(const std::string& file, std::string& preset, TunableSettings& settings) {
+  if (std::filesystem::is_directory(file))
+    throw FileError(file, "is a directory, expected a JSON file");
+  std::ifstream in(file);
+  if (!in)
+    throw FileError(file, "cannot be opened");
+  nlohmann::json params;
+  try {
+    params = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::parse_error& e) {
+    throw FileError(file, std::string("is not valid JSON: ") + e.what());
+  }
+  if (!params.is_object())
+    throw FileError(file, "must hold a JSON object of parameters");
+  for (const auto& [key, value] : params.items()) {
+    if (key == "preset") {
+      if (!value.is_string())
+        throw FileError(file, "parameter \"preset\" must be a string");
+      if (preset.empty())
+        preset = value.get<std::string>();
+      continue;
+    }
+    const auto& list = tunables();
+    const auto tunable = std::find_if(list.begin(), list.end(),
+                                      [&key = key](const Tunable& t) { return key == t.name; });
+    if (tunable == list.end()) {
+      throw FileError(file,
+                      fmt::format("unknown parameter \"{}\" (see echoreg detect --help)", key));
+    }
+    if (settings.count(key) != 0)
+      continue;  // the flag wins
+    try {
+      settings[key] = std::visit(
+          [&value = value](const auto& type) -> TunableValue {
+            using T = std::decay_t<decltype(type)>;
+            if constexpr (std::is_same_v<T, int>) {
+              // 30 and 30.0 are the same count of samples; 30.5 is not a count.
+              if (value.is_number_float()) {
+                const double number = value.get<double>();
+                if (!(std::floor(number) == number) || std::fabs(number) > 1e9) {
+                  throw nlohmann::json::type_error::create(302, "", nullptr);
+                }
+                return static_cast<int>(number);
+              }
+              if (!value.is_number_integer())
+                throw nlohmann::json::type_error::create(302, "", nullptr);
+            }
+            return value.get<T>();
+          },
+          tunable->type);
+    } catch (const nlohmann::json::exception&) {
+      const char* expected = std::visit(
+          [](const auto& type) -> const char* {
+            using T = std::decay_t<decltype(type)>;
+            if constexpr (std::is_same_v<T, int>)
+              return "a whole number";
+            if constexpr (std::is_same_v<T, double>)
+              return "a number";
+            if constexpr (std::is_same_v<T, bool>)
+              return "true or false";
+            if constexpr (std::is_same_v<T, std::string>)
+              return "a string";
+            return "[min, max]";
+          },
+          tunable->type);
+      throw FileError(
+          file, fmt::format("parameter \"{}\" must be {}, found {}", key, expected, value.dump()));
+    }
+    if (key == "window-mm" && as<std::vector<double>>(settings[key]).size() != 2) {
+      throw FileError(file, "parameter \"window-mm\" must be [min, max] in mm");
+    }
+  }
+}
+
+DetectionParams resolveParams(const std::string& preset, const TunableSettings& settings,
+                              const Sequence& sequence) {
+  if (settings.count("threshold-factor") != 0 && settings.count("threshold-of-max") != 0) {
+    throw std::invalid_argument("give threshold-factor or threshold-of-max, not both");
+  }
+  DetectionParams params = detectionPreset(preset.empty() ? "default" : preset);
+  params.depth = depthFromSequence(sequence, params.depth);
+  for (const Tunable& tunable : tunables()) {
+    const auto given = settings.find(tunable.name);
+    if (given != settings.end())
+      tunable.apply(params, given->second);
+  }
+  params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
+  validate(params);
+  return params;
+}
+
+nlohmann::json settingsJson(const TunableSettings& settings) {
+  nlohmann::json json = nlohmann::json::object();
+  for (const auto& [name, value] : settings)
+    std::visit([&json, &name = name](const auto& v) { json[name] = v; }, value);
+  return json;
+}
+
+}  // namespace echoreg::cli
