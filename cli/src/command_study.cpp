@@ -6,7 +6,9 @@
 #include "command_register.hpp"
 #include "commands.hpp"
 #include "csv_table.hpp"
+#include "detection_params.hpp"
 #include "model_file.hpp"
+#include "path_check.hpp"
 #include "report.hpp"
 #include "study_runner.hpp"
 
@@ -41,6 +43,7 @@ struct StudyOptions {
   std::string dir;
   bool force = false;
   bool givenModels = false;
+  std::string paramsFile;  ///< --params: detection parameters of the sweeps, over the manifest's
   bool json = false;
 };
 
@@ -263,6 +266,17 @@ std::string capitalised(std::string name) {
 int runStudy(const StudyOptions& o, const Streams& streams) {
   const auto started = std::chrono::steady_clock::now();
   const Manifest manifest(o.dir);
+  // --params, read before the study folder becomes the working directory: the sweeps' detection
+  // parameters (detection_params.hpp), over the manifest's detection.preset and speed of sound.
+  std::string paramsPreset;
+  TunableSettings paramsSettings;
+  const std::string paramsFile =
+      o.paramsFile.empty() ? std::string()
+                           : fs::absolute(o.paramsFile).lexically_normal().generic_string();
+  if (!paramsFile.empty()) {
+    CommandPaths().input("--params", o.paramsFile).check();
+    mergeParamsFile(paramsFile, paramsPreset, paramsSettings);
+  }
   // Named as the user gave it, for messages; read from inside.
   const std::string studyDir = manifest.dir();
   const StudyFolder inside(studyDir);
@@ -389,7 +403,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
 
   // --- Bones: hip centre, models, detection, registrations, evaluation, figures ---------------
   const nlohmann::json bones = manifest.at("/bones");
-  const std::string preset = manifest.at("/detection/preset").is_string()
+  const std::string preset = !paramsPreset.empty() ? paramsPreset
+                             : manifest.at("/detection/preset").is_string()
                                  ? manifest.at("/detection/preset").get<std::string>()
                                  : "default";
   const std::string ctLandmarks = manifest.file("/landmarks/ct", false);
@@ -564,6 +579,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         reg.fitSpeed = true;
         if (const auto c = manifest.at("/detection/speed_of_sound_mps"); c.is_number())
           reg.detection["speed-of-sound"] = c.get<double>();
+        for (const auto& [name, value] : paramsSettings)
+          reg.detection[name] = value;  // --params over the manifest
         reg.out = fmt::format("{}/registrations/{}_ultrasound_{}.json", results, bone, n);
         const std::string points = fmt::format("{}/points/{}_ultrasound_{}.csv", results, bone, n);
         const auto sweepRequest = [reg, path, calibration] {
@@ -798,13 +815,18 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
           std::vector<std::string> args = {"detect",          sweep, "--history", "1",
                                            "--min-spread-mm", "0",   "--out",     out};
           args.insert(args.end(), settings[k].second.begin(), settings[k].second.end());
-          if (const auto c = manifest.at("/detection/speed_of_sound_mps"); c.is_number()) {
+          const bool study = k + 1 == settings.size() && !paramsFile.empty();
+          if (const auto c = manifest.at("/detection/speed_of_sound_mps");
+              c.is_number() && !(study && paramsSettings.count("speed-of-sound") != 0)) {
             args.insert(args.end(), {"--speed-of-sound", fmt::format("{}", c.get<double>())});
           }
+          if (study)
+            args.insert(args.end(), {"--params", paramsFile});  // the study's own setting
           stage.push_back({fmt::format("detect-rates-{}-{}", run.name, k + 1),
                            fmt::format("{}: detection rates, {}", run.name, settings[k].first),
                            args,
-                           {sweep},
+                           study ? std::vector<std::string>{sweep, paramsFile}
+                                 : std::vector<std::string>{sweep},
                            {out},
                            false});
           detectionRates.push_back({run.name, settings[k].first, out, sweep});
@@ -1202,8 +1224,9 @@ CommandAction addStudyCommand(CLI::App& app) {
       "Runs the study: stylus pivot, calibration, hip centre, the bones segmented from the CT\n"
       "(the manifest's seeds), detection, registrations from ultrasound and from the mechanical\n"
       "probe, evaluation, figures; then writes DIR/results/report.html, report.md and\n"
-      "results.json (docs/study.md). Steps whose command line and input files did not change\n"
-      "since the last run, and whose outputs are as they wrote them, are not run again (--force\n"
+      "results.json (docs/study.md). Steps whose request (or command line) and input files did\n"
+      "not change since the last run, and whose outputs are as they wrote them, are not run again "
+      "(--force\n"
       "runs all). Exits 1 when a requested result is missing (a step failed or was skipped),\n"
       "naming each. Progress on a terminal.");
   run->add_option("dir", o->dir, "Study folder (holds study.json)")->required();
@@ -1211,6 +1234,10 @@ CommandAction addStudyCommand(CLI::App& app) {
   run->add_flag("--given-models", o->givenModels,
                 "Use the manifest's bone models instead of segmenting the CT from its seeds");
   run->add_flag("--json", o->json, "Print every number of the report as JSON");
+  run->add_option("--params", o->paramsFile,
+                  "JSON object of detection parameters for the sweeps, named as echoreg detect's "
+                  "flags without dashes; over the manifest's detection.preset and "
+                  "speed_of_sound_mps (a change re-runs the sweeps' points and registrations)");
   return [o](const Streams& streams) { return runStudy(*o, streams); };
 }
 

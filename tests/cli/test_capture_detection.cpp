@@ -212,5 +212,25 @@ TEST(CaptureDetection, RegisterTakesParamsOnlyWithACapture) {
   EXPECT_NE(help.out.find("--echo-snr"), std::string::npos);  // the shared table's flags
 }
 
+// study run --params: read and checked before any step, a bad one named, nothing written.
+TEST(CaptureDetection, StudyRefusesABadParamsFileBeforeAnyStep) {
+  test::TempDir dir;
+  const std::string study = dir.file("study");
+  std::filesystem::create_directories(study);
+  std::ofstream(study + "/study.json")
+      << R"({"format": "echoreg-study", "version": 1, "bones": {"femur": {}}})";
+  const std::string params = dir.file("params.json");
+  std::ofstream(params) << R"({"echo-snr": "six"})";
+  const auto result = test::runEchoreg({"study", "run", study, "--params", params});
+  EXPECT_EQ(result.exitCode, 1) << result.err;
+  EXPECT_NE(result.err.find(params), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("echo-snr"), std::string::npos) << result.err;
+  EXPECT_FALSE(std::filesystem::exists(study + "/results"));
+  const auto missing = test::runEchoreg({"study", "run", study, "--params", dir.file("no.json")});
+  EXPECT_EQ(missing.exitCode, 1) << missing.err;
+  EXPECT_NE(missing.err.find("no.json"), std::string::npos) << missing.err;
+  EXPECT_FALSE(std::filesystem::exists(study + "/results"));
+}
+
 }  // namespace
 }  // namespace echoreg
