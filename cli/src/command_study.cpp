@@ -1225,10 +1225,9 @@ CommandAction addStudyCommand(CLI::App& app) {
       "(the manifest's seeds), detection, registrations from ultrasound and from the mechanical\n"
       "probe, evaluation, figures; then writes DIR/results/report.html, report.md and\n"
       "results.json (docs/study.md). Steps whose request (or command line) and input files did\n"
-      "not change since the last run, and whose outputs are as they wrote them, are not run again "
-      "(--force\n"
-      "runs all). Exits 1 when a requested result is missing (a step failed or was skipped),\n"
-      "naming each. Progress on a terminal.");
+      "not change since the last run, and whose outputs are as they wrote them, are not run\n"
+      "again (--force runs all). Exits 1 when a requested result is missing (a step failed or\n"
+      "was skipped), naming each. Progress on a terminal.");
   run->add_option("dir", o->dir, "Study folder (holds study.json)")->required();
   run->add_flag("--force", o->force, "Run every step again");
   run->add_flag("--given-models", o->givenModels,
