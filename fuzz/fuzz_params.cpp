@@ -1,12 +1,12 @@
 // libFuzzer harness of `echoreg detect --params` files: the input merged as detect merges it
-// (cli/src/detect_params), resolved over a small capture's header, then the detection chain run
+// (cli/src/detection_params), resolved over a small capture's header, then the detection chain run
 // over that capture with the parameters. A FileError naming the file (the reader) or a
 // std::invalid_argument (a value out of range: detect's "bad parameter") is the expected answer
 // to bad bytes; any other exception, a crash, a sanitizer report, a hang (parameters that make
 // the chain run for ever) or an allocation beyond the fuzzer's limit is a finding.
 #include "fuzz_input.hpp"
 
-#include "detect_params.hpp"
+#include "detection_params.hpp"
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/sequence_detection.hpp"

@@ -1,6 +1,8 @@
 // `echoreg calibrate`: BeamToProbe from a sphere in a water bath (Mozes 2008, section 4.2), and
 // `echoreg pivot`: the fixed point of a marker's poses (a stylus tip, the hip centre).
+#include "capture_detection.hpp"
 #include "commands.hpp"
+#include "detection_params.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
 #include "validators.hpp"
@@ -72,6 +74,8 @@ struct CalibrateOptions {
   double speedOfSound = 0.0;
   const CLI::Option* speedOfSoundOption = nullptr;  ///< given when its count() > 0
   std::vector<double> windowMm;
+  std::string paramsFile;     ///< --params: detection tunables (detection_params.hpp)
+  TunableSettings detection;  ///< the shared table's flags given
   std::string mode = "translation";
   bool fitSpeed = false;
   bool json = false;
@@ -85,6 +89,7 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
       .input("--sphere-capture", o.sphereCapture)
       .input("--stylus-tip-to-stylus", o.tipFile)
       .input("--capture", o.capture)
+      .input("--params", o.paramsFile)
       .transformOutput("--out", o.out)
       .check();
   if (!(o.sphereRadius > 0.0 && std::isfinite(o.sphereRadius))) {
@@ -165,34 +170,50 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   }
 
   // 2. The sphere's echo in every shot: the calibration preset (window-max) in the window.
-  const Sequence shotsSequence = readTrackedSequence(o.capture, {"ProbeToTracker"}, poseNotes);
-  DetectionParams params = detectionPreset("calibration");
-  params.depth = depthFromSequence(shotsSequence, params.depth);
-  if (speedGiven) {
-    params.depth.speedOfSoundMps = o.speedOfSound;
-  } else if (!(params.depth.speedOfSoundMps >= gate.minSpeedOfSoundMps &&
-               params.depth.speedOfSoundMps <= gate.maxSpeedOfSoundMps)) {
+  // reader -> envelope -> peaks -> beam points -> inter-signal (capture_detection.hpp)
+  const std::unique_ptr<CaptureDetection> shotsCapture = openCapture(o.capture, {"ProbeToTracker"});
+  poseNotes.reorthonormalised += shotsCapture->poseNotes.reorthonormalised;
+  poseNotes.lines.insert(poseNotes.lines.end(), shotsCapture->poseNotes.lines.begin(),
+                         shotsCapture->poseNotes.lines.end());
+  const Sequence& shotsSequence = shotsCapture->sequence();
+  // The parameters through the resolver every command that detects uses: the calibration
+  // preset (or the --params file's), the header, --params, the flags.
+  std::string preset;
+  TunableSettings settings = o.detection;
+  if (speedGiven)
+    settings["speed-of-sound"] = o.speedOfSound;
+  if (o.windowMm.size() == 2)
+    settings["window-mm"] = o.windowMm;
+  if (!o.paramsFile.empty())
+    mergeParamsFile(o.paramsFile, preset, settings);
+  if (preset.empty())
+    preset = "calibration";
+  // The shots are independent: no temporal or spatial filter, whatever --params says.
+  settings["history"] = 1;
+  settings["min-spread-mm"] = 0.0;
+  DetectionParams params;
+  try {
+    params = resolveParams(preset, settings, shotsSequence);
+  } catch (const std::invalid_argument& e) {
+    throw std::invalid_argument(std::string("bad parameter: ") + e.what());
+  }
+  const double speed = params.depth.speedOfSoundMps;
+  if (!(speed >= gate.minSpeedOfSoundMps && speed <= gate.maxSpeedOfSoundMps)) {
+    if (settings.count("speed-of-sound") != 0) {
+      throw FileError(o.paramsFile,
+                      fmt::format("speed-of-sound must be the bath's speed of sound within {} "
+                                  "(--speed-of-sound-range), got {}",
+                                  speedRange, speed));
+    }
     throw FileError(o.capture,
                     fmt::format("the speed of sound of its header, {} m/s, is outside {} "
                                 "(--speed-of-sound-range): give the bath's with --speed-of-sound",
-                                params.depth.speedOfSoundMps, speedRange));
+                                speed, speedRange));
   }
-  if (o.windowMm.size() == 2) {
-    params.windowMinMm = o.windowMm[0];
-    params.windowMaxMm = o.windowMm[1];
-  }
-  params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
-  params.interSignal.history = 1;  // shots are independent
-  params.interSignal.minSpreadMm = 0.0;
   PointFrameOptions points;
   points.poseTransform = "ProbeToTracker";
-  SequenceDetection detection;
-  try {
-    validate(params);
-    detection = detectSequence(shotsSequence, params, points);
-  } catch (const std::invalid_argument& e) {
-    throw FileError(o.capture, e.what());
-  }
+  runDetection(*shotsCapture, params, points);
+  const SequenceDetection& detection = shotsCapture->detection;
   std::vector<core::BeamShot> shots;
   std::vector<int> shotFrames;
   for (const FrameDetection& f : detection.frames) {
@@ -427,6 +448,14 @@ CommandAction addCalibrateCommand(CLI::App& app) {
                       "within --speed-of-sound-range");
   cmd->add_option("--window-mm", o->windowMm, "Processing window MIN MAX, mm from the beam origin")
       ->expected(2);
+  auto* params =
+      cmd->add_option("--params", o->paramsFile,
+                      "JSON object of detection parameters named as echoreg detect's "
+                      "flags, without dashes (default preset: calibration; history and "
+                      "min-spread-mm are fixed at 1 and 0, the shots being independent)");
+  params->group("Detection");
+  // The rest of the detection's flags, from the table every command that detects shares.
+  addTunableFlags(cmd, o->detection, {"speed-of-sound", "window-mm", "history", "min-spread-mm"});
   cmd->add_option("--out", o->out, "Calibration JSON to write (a .tfm is written beside it)")
       ->required();
   cmd->add_option(

@@ -1,6 +1,6 @@
 // `echoreg detect CAPTURE --out depths.csv`: the A-line chain over a capture.
 #include "commands.hpp"
-#include "detect_params.hpp"
+#include "detection_params.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
 
@@ -45,31 +45,6 @@ struct DetectOptions {
   bool json = false;
   TunableSettings settings;
 };
-
-// Registers every tunable as a flag of `cmd`, storing what is given into `settings`.
-void addTunableFlags(CLI::App* cmd, TunableSettings& settings) {
-  for (const Tunable& tunable : tunables()) {
-    const std::string flag = std::string("--") + tunable.name;
-    const std::string name = tunable.name;
-    CLI::Option* option = std::visit(
-        [&](const auto& type) -> CLI::Option* {
-          using T = std::decay_t<decltype(type)>;
-          if constexpr (std::is_same_v<T, bool>) {
-            // --causal, --causal=true and --causal=false all mean what they say.
-            return cmd->add_flag_function(
-                flag, [&settings, name](std::int64_t count) { settings[name] = count > 0; },
-                tunable.help);
-          } else {
-            return cmd->add_option_function<T>(
-                flag, [&settings, name](const T& value) { settings[name] = value; }, tunable.help);
-          }
-        },
-        tunable.type);
-    if (std::holds_alternative<std::vector<double>>(tunable.type))
-      option->expected(2);
-    option->group(tunable.group);
-  }
-}
 
 nlohmann::json summary(const SequenceDetection& detection, const DetectionParams& params,
                        const DetectOptions& options, const std::string& preset,

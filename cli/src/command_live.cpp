@@ -4,10 +4,11 @@
 // surface registration refined as they come; the points, the registration and its state go back
 // (to the server, or to --send-to, e.g. 3D Slicer). At the end the recording is registered
 // exactly as `echoreg register` registers a capture, into the same result files (docs/live.md).
+#include "command_register.hpp"
 #include "commands.hpp"
+#include "detection_params.hpp"
 #include "interrupt.hpp"
 #include "path_check.hpp"
-#include "register_command.hpp"
 #include "validators.hpp"
 
 #include "echoreg/core/atomic_file.hpp"
@@ -123,6 +124,8 @@ class LiveSession {
   RegistrationModel model_;
   RegistrationStart start_;
   DetectionParams params_;
+  std::string preset_;
+  TunableSettings settings_;
 
   std::optional<live::Connection> connection_;
   std::optional<live::Connection> results_;
@@ -203,10 +206,8 @@ void LiveSession::onImage(const live::Message& message, Clock::time_point arriva
     if (!haveCaptureHeader_ && o_.samplingFrequencyHz > 0.0)
       layout_.acquisition.samplingFrequencyHz = o_.samplingFrequencyHz;
     recorder_ = std::make_unique<live::CaptureRecorder>(o_.record, layout_);
-    params_.depth = depthFromSequence(layout_, params_.depth);
-    if (r_.speedOfSound > 0.0)
-      params_.depth.speedOfSoundMps = r_.speedOfSound;
-    params_.envelope.samplingFrequencyHz = params_.depth.samplingFrequencyHz;
+    // As register resolves them: the preset, the stream's header, then the tunables given.
+    params_ = resolveParams(preset_, settings_, layout_);
     live::LiveDetectorOptions detection;
     detection.params = params_;
     detection.headerFrequencyHz = layout_.acquisition.transducerFrequencyHz;
@@ -397,13 +398,18 @@ int LiveSession::run() {
   beamToProbe_ = readTransformFile(r_.calibration, "Beam", "Probe").matrix;
   PoseNotes poseNotes;
   start_ = registrationStart(r_, model_.options, poseNotes);
-  try {
-    params_ = detectionPreset(r_.preset);
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(std::string("--preset: ") + e.what());
-  }
-  params_.interSignal.history = r_.history;
-  params_.interSignal.minSpreadMm = r_.minSpreadMm;
+  // The detection's settings as register takes them (flags over --params over register's own
+  // defaults: each echo judged alone, points at least 1 mm apart), resolved against the stream's
+  // header when its first A-line arrives; a bad value is refused now, before connecting.
+  preset_ = r_.preset;
+  settings_ = r_.detection;
+  if (!r_.paramsFile.empty())
+    mergeParamsFile(r_.paramsFile, preset_, settings_);
+  settings_.emplace("history", 1);
+  settings_.emplace("min-spread-mm", 1.0);
+  if (preset_.empty())
+    preset_ = "default";
+  params_ = resolveParams(preset_, settings_, Sequence{});
   registration_ = std::make_unique<live::IncrementalRegistration>(
       *model_.model, model_.options, start_.landmarks, static_cast<std::size_t>(o_.minPoints),
       o_.updateHz);
@@ -625,7 +631,7 @@ CommandAction addLiveCommand(CLI::App& app) {
          "header")
       ->check(finiteNumber(0.0, false))
       ->group("Live");
-  addRegistrationOptions(cmd, r)->required();
+  addRegistrationOptions(cmd, r, {"sampling-frequency"})->required();
   cmd->parse_complete_callback([o, r] {
     if (o->connect.empty() && o->listenPort < 0)
       throw CLI::ValidationError("live", "give --connect HOST:PORT or --listen PORT");

@@ -2,11 +2,11 @@
 // (a capture run through the detection chain, or a CSV of points), optionally with stylus points
 // (the hybrid registration), started from an initial transform or from landmarks touched with
 // the stylus. docs/registration.md.
+#include "command_register.hpp"
 #include "csv_table.hpp"
 #include "model_file.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
-#include "register_command.hpp"
 #include "validators.hpp"
 
 #include "echoreg/core/detection.hpp"
@@ -129,57 +129,33 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
   return points;
 }
 
-// Points (with their beams, in the bone frame) from an A-line capture through the detection chain.
-std::vector<core::SurfacePoint> capturePoints(const std::string& path,
-                                              const Eigen::Matrix4d& beamToProbe,
-                                              const std::string& referenceTransform,
-                                              const RegisterOptions& o, double& speedOfSound,
-                                              nlohmann::json& report, PoseNotes& poseNotes) {
-  const Sequence sequence =
-      readTrackedSequence(path, {"ProbeToTracker", referenceTransform}, poseNotes);
-  DetectionParams params;
-  try {
-    params = detectionPreset(o.preset);
-  } catch (const std::invalid_argument& e) {
-    throw std::invalid_argument(std::string("--preset: ") + e.what());
-  }
-  params.depth = depthFromSequence(sequence, params.depth);
-  if (o.speedOfSound > 0.0)
-    params.depth.speedOfSoundMps = o.speedOfSound;
-  params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
-  params.interSignal.history = o.history;
-  params.interSignal.minSpreadMm = o.minSpreadMm;
-  PointFrameOptions frameOptions;
-  frameOptions.poseTransform = "ProbeToTracker";
-  frameOptions.referenceTransform = referenceTransform;
-  frameOptions.beamToProbe = beamToProbe;
-  SequenceDetection detection;
-  try {
-    validate(params);
-    detection = detectSequence(sequence, params, frameOptions);
-  } catch (const std::invalid_argument& e) {
-    throw FileError(path, e.what());
-  }
-  speedOfSound = params.depth.speedOfSoundMps;
+// Points (with their beams, in the bone frame) of a capture's detection: each accepted frame's
+// beam, from the same poses the pipeline placed its point with.
+std::vector<core::SurfacePoint> capturePoints(const CaptureDetection& capture,
+                                              const CaptureDetectionRequest& request,
+                                              double ultrasoundSigma, nlohmann::json& report) {
+  const SequenceDetection& detection = capture.detection;
+  const Sequence& sequence = capture.sequence();
   std::vector<core::SurfacePoint> points;
   for (const FrameDetection& f : detection.frames) {
     if (!f.accepted() || !f.depthMm || !f.pointMm)
       continue;
     const auto& transforms = sequence.frames[static_cast<std::size_t>(f.frame)].transforms;
-    const Eigen::Matrix4d beamToBone = transforms.at(referenceTransform).matrix.inverse() *
-                                       transforms.at("ProbeToTracker").matrix * beamToProbe;
+    const Eigen::Matrix4d beamToBone = transforms.at(request.referenceTransform).matrix.inverse() *
+                                       transforms.at(request.poseTransform).matrix *
+                                       request.beamToProbe;
     const Eigen::Vector3d origin = beamToBone.topRightCorner<3, 1>();
     const Eigen::Vector3d direction = beamToBone.block<3, 1>(0, 2).normalized();
-    points.push_back(core::beamSurfacePoint(origin, direction, *f.depthMm, o.ultrasoundSigma));
+    points.push_back(core::beamSurfacePoint(origin, direction, *f.depthMm, ultrasoundSigma));
   }
   nlohmann::json rejected = nlohmann::json::object();
   for (const auto& [reason, count] : detection.rejectedByReason)
     rejected[reason] = count;
-  report.push_back({{"capture", path},
+  report.push_back({{"capture", request.capture},
                     {"frames", detection.frames.size()},
                     {"accepted", detection.accepted},
                     {"rejected_by_reason", rejected},
-                    {"speed_of_sound_mps", params.depth.speedOfSoundMps}});
+                    {"speed_of_sound_mps", detection.params.depth.speedOfSoundMps}});
   return points;
 }
 
@@ -455,11 +431,69 @@ RegistrationStart registrationStart(const RegisterOptions& o,
   return start;
 }
 
-int runRegister(const RegisterOptions& o, const Streams& io) {
+CaptureDetectionRequest sweepDetectionRequest(const RegisterOptions& o, const std::string& capture,
+                                              const Eigen::Matrix4d& beamToProbe) {
+  CaptureDetectionRequest request;
+  request.capture = capture;
+  request.preset = o.preset;
+  request.settings = o.detection;
+  if (!o.paramsFile.empty())
+    mergeParamsFile(o.paramsFile, request.preset, request.settings);
+  // register's own defaults, below --params and the flags: each echo judged alone (the robust
+  // loss rejects strays), and points at least 1 mm apart.
+  request.settings.emplace("history", 1);
+  request.settings.emplace("min-spread-mm", 1.0);
+  if (request.preset.empty())
+    request.preset = "default";
+  request.poseTransform = "ProbeToTracker";
+  request.referenceTransform = o.bone + "ToTracker";
+  request.beamToProbe = beamToProbe;
+  return request;
+}
+
+nlohmann::json requestJson(const RegisterOptions& o) {
+  return {{"model", o.model},
+          {"bone", o.bone},
+          {"out", o.out},
+          {"captures", o.captures},
+          {"calibration", o.calibration},
+          {"points", o.pointsCsv},
+          {"initial", o.initial},
+          {"landmarks_ct", o.landmarksCt},
+          {"landmarks_capture", o.landmarksCapture},
+          {"stylus_tip_to_stylus", o.tipFile},
+          {"landmark_labels", o.landmarkLabels},
+          {"landmark_dwells", o.landmarkDwells},
+          {"landmark_sigma_mm", o.landmarkSigma},
+          {"hip_centre", o.hipCentre},
+          {"hip_label", o.hipLabel},
+          {"hip_sigma_mm", o.hipSigma},
+          {"stylus_points", o.stylusCaptures},
+          {"stylus_tip_radius_mm", o.stylusTipRadius},
+          {"stylus_sigma_mm", o.stylusSigma},
+          {"stylus_spacing_mm", o.stylusSpacing},
+          {"ultrasound_sigma_mm", o.ultrasoundSigma},
+          {"preset", o.preset},
+          {"params", o.paramsFile},
+          {"detection", settingsJson(o.detection)},
+          {"method", o.method},
+          {"loss", o.loss},
+          {"fit_speed_of_sound", o.fitSpeed},
+          {"open_ends", o.openEnds},
+          {"restarts", o.restarts},
+          {"axis_starts", o.axisStarts},
+          {"seed", o.seed},
+          {"max_rms_mm", o.maxRms},
+          {"max_points", o.maxPoints},
+          {"json", o.json}};
+}
+
+int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* shared) {
   CommandPaths()
       .input("--model", o.model)
       .inputs("--capture", o.captures)
       .input("--calibration", o.calibration)
+      .input("--params", o.paramsFile)
       .input("--points", o.pointsCsv)
       .inputs("--stylus-points", o.stylusCaptures)
       .input("--initial", o.initial)
@@ -486,8 +520,16 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   } else if (!o.captures.empty()) {
     const TransformFile calibration = readTransformFile(o.calibration, "Beam", "Probe");
     for (const std::string& capture : o.captures) {
-      const std::vector<core::SurfacePoint> found = capturePoints(
-          capture, calibration.matrix, reference, o, speedOfSound, sources, poseNotes);
+      const CaptureDetectionRequest request = sweepDetectionRequest(o, capture, calibration.matrix);
+      std::unique_ptr<CaptureDetection> own;
+      CaptureDetection& detected =
+          shared != nullptr ? shared->get(request) : *(own = detectCapture(request));
+      poseNotes.reorthonormalised += detected.poseNotes.reorthonormalised;
+      poseNotes.lines.insert(poseNotes.lines.end(), detected.poseNotes.lines.begin(),
+                             detected.poseNotes.lines.end());
+      speedOfSound = detected.detection.params.depth.speedOfSoundMps;
+      const std::vector<core::SurfacePoint> found =
+          capturePoints(detected, request, o.ultrasoundSigma, sources);
       points.insert(points.end(), found.begin(), found.end());
     }
   }
@@ -623,7 +665,8 @@ int runRegister(const RegisterOptions& o, const Streams& io) {
   return 0;
 }
 
-CLI::Option* addRegistrationOptions(CLI::App* cmd, const std::shared_ptr<RegisterOptions>& o) {
+CLI::Option* addRegistrationOptions(CLI::App* cmd, const std::shared_ptr<RegisterOptions>& o,
+                                    const std::set<std::string>& ownTunables) {
   cmd->add_option("--model", o->model,
                   "Bone model in CT coordinates (.vtp, .stl, .ply, .obj), closed")
       ->required();
@@ -632,26 +675,37 @@ CLI::Option* addRegistrationOptions(CLI::App* cmd, const std::shared_ptr<Registe
   auto* calibration = cmd->add_option("--calibration", o->calibration,
                                       "BeamToProbe transform JSON (echoreg calibrate)")
                           ->group("Points");
-  cmd->add_option("--preset", o->preset, "Detection preset for --capture (see echoreg detect)")
-      ->capture_default_str()
+  cmd->add_option("--preset", o->preset,
+                  "Detection preset for --capture (see echoreg detect; default: the --params "
+                  "file's, else default)")
       ->group("Points");
-  cmd->add_option("--speed-of-sound", o->speedOfSound,
-                  "Assumed speed, m/s (default: the capture's header)")
+  cmd->add_option("--params", o->paramsFile,
+                  "JSON object of detection parameters named as echoreg detect's flags, without "
+                  "dashes (samples/params/); flags win over it")
+      ->group("Points");
+  // The detection's flags: three with register's ranges and defaults, the rest from the table
+  // every command that detects shares (detection_params.hpp).
+  TunableSettings& detection = o->detection;
+  cmd->add_option_function<double>(
+         "--speed-of-sound", [&detection](double v) { detection["speed-of-sound"] = v; },
+         "Assumed speed, m/s (default: the capture's header)")
       ->check(finiteRange(1000.0, 2000.0))
       ->group("Points");
-  cmd->add_option(
-         "--history", o->history,
-         "Temporal filter: consecutive agreeing frames (1 = off: each echo judged alone and the "
-         "robust loss rejects strays; echoreg detect's default 3 drops most frames of a quick "
+  cmd->add_option_function<int>(
+         "--history", [&detection](int v) { detection["history"] = v; },
+         "Temporal filter: frames that must agree (default 1 = off: each echo judged alone and "
+         "the robust loss rejects strays; echoreg detect's default drops many frames of a quick "
          "sweep)")
-      ->capture_default_str()
       ->check(wholeNumber(1, 100))
       ->group("Points");
-  cmd->add_option("--min-spread-mm", o->minSpreadMm,
-                  "Spatial filter: min distance between points, mm (0 = off)")
-      ->capture_default_str()
+  cmd->add_option_function<double>(
+         "--min-spread-mm", [&detection](double v) { detection["min-spread-mm"] = v; },
+         "Spatial filter: min distance between points, mm (default 1; 0 = off)")
       ->check(finiteRange(0.0, 100.0))
       ->group("Points");
+  std::set<std::string> declared = ownTunables;
+  declared.insert({"speed-of-sound", "history", "min-spread-mm"});
+  addTunableFlags(cmd, o->detection, declared);
   cmd->add_option("--ultrasound-sigma", o->ultrasoundSigma, "Ultrasound points' sigma, mm")
       ->capture_default_str()
       ->group("Points");
@@ -766,6 +820,7 @@ CommandAction addRegisterCommand(CLI::App& app) {
   capture->needs(calibration);
   calibration->needs(capture);
   csv->excludes(capture);
+  cmd->get_option("--params")->needs(capture);
   cmd->add_option(
          "--stylus-points", o->stylusCaptures,
          "Capture(s) of the stylus on the bone (hybrid registration; needs --stylus-tip-to-stylus)")

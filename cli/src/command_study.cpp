@@ -3,9 +3,12 @@
 // centre, bone models, detection, registrations, evaluation, figures — then the report
 // (results/report.md, report.html, results.json). Steps whose inputs did not change are not run
 // again (study_runner.hpp).
+#include "command_register.hpp"
 #include "commands.hpp"
 #include "csv_table.hpp"
+#include "detection_params.hpp"
 #include "model_file.hpp"
+#include "path_check.hpp"
 #include "report.hpp"
 #include "study_manifest.hpp"
 #include "study_runner.hpp"
@@ -15,6 +18,7 @@
 #include "echoreg/core/json_file.hpp"
 #include "echoreg/core/markups.hpp"
 #include "echoreg/core/mesh.hpp"
+#include "echoreg/core/transform_file.hpp"
 #include "echoreg/filters/MeshIO.h"
 #include "echoreg/segmentation/surface_metrics.hpp"
 
@@ -40,6 +44,7 @@ struct StudyOptions {
   std::string dir;
   bool force = false;
   bool givenModels = false;
+  std::string paramsFile;  ///< --params: detection parameters of the sweeps, over the manifest's
   bool json = false;
 };
 
@@ -77,6 +82,17 @@ std::string capitalised(std::string name) {
 int runStudy(const StudyOptions& o, const Streams& streams) {
   const auto started = std::chrono::steady_clock::now();
   const Manifest manifest(o.dir);
+  // --params, read before the study folder becomes the working directory: the sweeps' detection
+  // parameters (detection_params.hpp), over the manifest's detection.preset and speed of sound.
+  std::string paramsPreset;
+  TunableSettings paramsSettings;
+  const std::string paramsFile =
+      o.paramsFile.empty() ? std::string()
+                           : fs::absolute(o.paramsFile).lexically_normal().generic_string();
+  if (!paramsFile.empty()) {
+    CommandPaths().input("--params", o.paramsFile).check();
+    mergeParamsFile(paramsFile, paramsPreset, paramsSettings);
+  }
   // Named as the user gave it, for messages; read from inside.
   const std::string studyDir = manifest.dir();
   const StudyFolder inside(studyDir);
@@ -87,6 +103,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   if (ec)
     throw FileError(results, "cannot be created: " + ec.message());
   StudyRunner runner(results + "/.study-state.json", o.force);
+  // Each sweep's detection, shared by its points and its registration (each sweep detected once).
+  CaptureDetections detections;
   std::vector<StepOutcome> outcomes;
   std::string failure;
 
@@ -167,6 +185,10 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                      {"--stylus-tip-radius",
                       fmt::format("{}", manifest.number("/calibration/stylus_tip_radius_mm"))});
   }
+  // The bath's speed of sound as the manifest gives it (else the shots' header gives it).
+  if (const auto speed = manifest.at("/calibration/speed_of_sound_mps"); speed.is_number()) {
+    calibrate.insert(calibrate.end(), {"--speed-of-sound", fmt::format("{}", speed.get<double>())});
+  }
   if (const auto initial = manifest.at("/calibration/initial_beam_to_probe_mm");
       initial.is_array()) {
     calibrate.push_back("--initial");
@@ -197,7 +219,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
 
   // --- Bones: hip centre, models, detection, registrations, evaluation, figures ---------------
   const nlohmann::json bones = manifest.at("/bones");
-  const std::string preset = manifest.at("/detection/preset").is_string()
+  const std::string preset = !paramsPreset.empty() ? paramsPreset
+                             : manifest.at("/detection/preset").is_string()
                                  ? manifest.at("/detection/preset").get<std::string>()
                                  : "default";
   const std::string ctLandmarks = manifest.file("/landmarks/ct", false);
@@ -242,14 +265,14 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   // Landmarks touched on each bone, in touch order (the femur's epicondyles, the malleoli of the
   // tibia and fibula).
   auto landmarksOf = [&](const std::string& bone) {
-    std::pair<std::vector<std::string>, std::vector<std::string>> labelsAndDwells;
+    std::pair<std::vector<std::string>, std::vector<int>> labelsAndDwells;
     for (std::size_t i = 0; i < landmarkOrder.size(); ++i) {
       const std::string& label = landmarkOrder[i];
       const bool femoral = label.find("epicondyle") != std::string::npos;
       const bool ankle = label.find("malleolus") != std::string::npos;
       if ((bone == "femur" && femoral) || (bone == "tibia" && ankle)) {
         labelsAndDwells.first.push_back(label);
-        labelsAndDwells.second.push_back(std::to_string(i));  // touched in the manifest's order
+        labelsAndDwells.second.push_back(static_cast<int>(i));  // touched in the manifest's order
       }
     }
     return labelsAndDwells;
@@ -329,25 +352,29 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         run.model = manifest.file("/bones/" + bone + "/model");
       }
       // The start: the landmarks touched on this bone (+ the hip centre for the femur).
-      std::vector<std::string> start;
+      RegisterOptions start;
+      start.model = run.model;
+      start.bone = Bone;
+      start.openEnds = run.segmented;  // a segmented model is cut by the scan range
       std::vector<std::string> startInputs;
       const auto [labels, dwells] = landmarksOf(bone);
       if (!ctLandmarks.empty() && !landmarkCapture.empty() && !labels.empty()) {
         std::string joined;
         for (const std::string& l : labels)
           joined += (joined.empty() ? "" : ",") + l;
-        start = {"--landmarks-ct",         ctLandmarks, "--landmarks-capture", landmarkCapture,
-                 "--stylus-tip-to-stylus", stylusTip,   "--landmark-labels",   joined,
-                 "--landmark-dwells"};
-        start.insert(start.end(), dwells.begin(), dwells.end());
+        start.landmarksCt = ctLandmarks;
+        start.landmarksCapture = landmarkCapture;
+        start.tipFile = stylusTip;
+        start.landmarkLabels = joined;
+        start.landmarkDwells = dwells;
         startInputs = {ctLandmarks, landmarkCapture, stylusTip};
         if (bone == "femur" && !hipCapture.empty()) {
-          start.insert(start.end(), {"--hip-centre", hipCentre});
+          start.hipCentre = hipCentre;
           startInputs.push_back(hipCentre);
         }
       } else if (const std::string initial = manifest.file("/bones/" + bone + "/initial", false);
                  !initial.empty()) {
-        start = {"--initial", initial};
+        start.initial = initial;
         startInputs = {initial};
       } else {
         throw FileError(manifest.dir() + "/study.json",
@@ -359,74 +386,79 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
       for (const auto& capture : entry.value("ultrasound", nlohmann::json::array())) {
         ++n;
         const std::string path = manifest.resolve(capture.get<std::string>());
-        // The points, for the figures (the registration runs the same chain on the capture).
+        // One detection of the sweep (capture_detection.hpp) gives both its points, for the
+        // figures, and its registration.
+        RegisterOptions reg = start;
+        reg.captures = {path};
+        reg.calibration = calibration;
+        reg.preset = preset;
+        reg.fitSpeed = true;
+        if (const auto c = manifest.at("/detection/speed_of_sound_mps"); c.is_number())
+          reg.detection["speed-of-sound"] = c.get<double>();
+        for (const auto& [name, value] : paramsSettings)
+          reg.detection[name] = value;  // --params over the manifest
+        reg.out = fmt::format("{}/registrations/{}_ultrasound_{}.json", results, bone, n);
         const std::string points = fmt::format("{}/points/{}_ultrasound_{}.csv", results, bone, n);
-        std::vector<std::string> detect = {
-            "detect",          path,        "--pose",   "ProbeToTracker", "--reference", marker,
-            "--beam-to-probe", calibration, "--preset", preset,           "--history",   "1",
-            "--out",           points};
-        std::vector<std::string> speed;
-        if (const auto c = manifest.at("/detection/speed_of_sound_mps"); c.is_number()) {
-          speed = {"--speed-of-sound", fmt::format("{}", c.get<double>())};
-          detect.insert(detect.end(), speed.begin(), speed.end());
-        }
-        stage.push_back({fmt::format("detect-{}-{}", bone, n),
-                         fmt::format("{} sweep {}: bone echoes", bone, n),
-                         detect,
-                         {path, calibration},
-                         {points},
-                         true});
+        const auto sweepRequest = [reg, path, calibration] {
+          return sweepDetectionRequest(reg, path,
+                                       readTransformFile(calibration, "Beam", "Probe").matrix);
+        };
+        nlohmann::json pointsRequest = sweepRequest().json();
+        pointsRequest.erase("beam_to_probe");  // the calibration's bytes are an input
+        pointsRequest["beam_to_probe_file"] = calibration;
+        pointsRequest["out"] = points;
+        StudyStep pointsStep{fmt::format("detect-{}-{}", bone, n),
+                             fmt::format("{} sweep {}: bone echoes", bone, n),
+                             {},
+                             {path, calibration},
+                             {points},
+                             true};
+        pointsStep.command = "detect";
+        pointsStep.request = pointsRequest.dump();
+        pointsStep.action = [&detections, sweepRequest, points](const Streams&) {
+          detections.get(sweepRequest()).pipeline.write(points);
+          return 0;
+        };
+        stage.push_back(std::move(pointsStep));
         run.points.push_back(points);
-        const std::string out =
-            fmt::format("{}/registrations/{}_ultrasound_{}.json", results, bone, n);
-        std::vector<std::string> reg = {"register",  "--model",   run.model, "--bone",
-                                        Bone,        "--capture", path,      "--calibration",
-                                        calibration, "--preset",  preset,    "--fit-speed-of-sound",
-                                        "--out",     out};
-        if (run.segmented)
-          reg.push_back("--open-ends");  // cut by the scan range
-        reg.insert(reg.end(), speed.begin(), speed.end());
-        reg.insert(reg.end(), start.begin(), start.end());
         std::vector<std::string> inputs = {run.model, path, calibration};
         inputs.insert(inputs.end(), startInputs.begin(), startInputs.end());
-        stage.push_back({fmt::format("register-{}-ultrasound-{}", bone, n),
-                         fmt::format("{} registration {} from ultrasound", bone, n),
-                         reg,
-                         inputs,
-                         {out},
-                         false});
-        run.ultrasound.push_back(out);
+        StudyStep registerStep{fmt::format("register-{}-ultrasound-{}", bone, n),
+                               fmt::format("{} registration {} from ultrasound", bone, n),
+                               {},
+                               inputs,
+                               {reg.out},
+                               false};
+        registerStep.command = "register";
+        registerStep.request = requestJson(reg).dump();
+        registerStep.action = [&detections, reg](const Streams& io) {
+          return runRegister(reg, io, &detections);
+        };
+        stage.push_back(std::move(registerStep));
+        run.ultrasound.push_back(reg.out);
       }
       // The reference: the mechanical probe on the exposed bone (section 5.2).
       if (const std::string mech = manifest.file("/bones/" + bone + "/mechanical", false);
           !mech.empty()) {
         run.mechanical = fmt::format("{}/registrations/{}_mechanical.json", results, bone);
-        std::vector<std::string> reg = {
-            "register",
-            "--model",
-            run.model,
-            "--bone",
-            Bone,
-            "--stylus-points",
-            mech,
-            "--stylus-tip-radius",
-            fmt::format("{}", entry.value("mechanical_tip_radius_mm", 0.0)),
-            "--out",
-            run.mechanical};
-        if (run.segmented)
-          reg.push_back("--open-ends");
-        if (std::find(start.begin(), start.end(), "--stylus-tip-to-stylus") == start.end()) {
-          reg.insert(reg.end(), {"--stylus-tip-to-stylus", stylusTip});
-        }
-        reg.insert(reg.end(), start.begin(), start.end());
+        RegisterOptions reg = start;
+        reg.stylusCaptures = {mech};
+        reg.stylusTipRadius = entry.value("mechanical_tip_radius_mm", 0.0);
+        reg.tipFile = stylusTip;
+        reg.out = run.mechanical;
         std::vector<std::string> inputs = {run.model, mech, stylusTip};
         inputs.insert(inputs.end(), startInputs.begin(), startInputs.end());
-        stage.push_back({fmt::format("register-{}-mechanical", bone),
-                         fmt::format("{} registration from the mechanical probe (reference)", bone),
-                         reg,
-                         inputs,
-                         {run.mechanical},
-                         false});
+        StudyStep mechanicalStep{
+            fmt::format("register-{}-mechanical", bone),
+            fmt::format("{} registration from the mechanical probe (reference)", bone),
+            {},
+            inputs,
+            {run.mechanical},
+            false};
+        mechanicalStep.command = "register";
+        mechanicalStep.request = requestJson(reg).dump();
+        mechanicalStep.action = [reg](const Streams& io) { return runRegister(reg, io); };
+        stage.push_back(std::move(mechanicalStep));
       }
       boneRuns.push_back(run);
     }
@@ -599,13 +631,18 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
           std::vector<std::string> args = {"detect",          sweep, "--history", "1",
                                            "--min-spread-mm", "0",   "--out",     out};
           args.insert(args.end(), settings[k].second.begin(), settings[k].second.end());
-          if (const auto c = manifest.at("/detection/speed_of_sound_mps"); c.is_number()) {
+          const bool study = k + 1 == settings.size() && !paramsFile.empty();
+          if (const auto c = manifest.at("/detection/speed_of_sound_mps");
+              c.is_number() && !(study && paramsSettings.count("speed-of-sound") != 0)) {
             args.insert(args.end(), {"--speed-of-sound", fmt::format("{}", c.get<double>())});
           }
+          if (study)
+            args.insert(args.end(), {"--params", paramsFile});  // the study's own setting
           stage.push_back({fmt::format("detect-rates-{}-{}", run.name, k + 1),
                            fmt::format("{}: detection rates, {}", run.name, settings[k].first),
                            args,
-                           {sweep},
+                           study ? std::vector<std::string>{sweep, paramsFile}
+                                 : std::vector<std::string>{sweep},
                            {out},
                            false});
           detectionRates.push_back({run.name, settings[k].first, out, sweep});
@@ -1003,15 +1040,19 @@ CommandAction addStudyCommand(CLI::App& app) {
       "Runs the study: stylus pivot, calibration, hip centre, the bones segmented from the CT\n"
       "(the manifest's seeds), detection, registrations from ultrasound and from the mechanical\n"
       "probe, evaluation, figures; then writes DIR/results/report.html, report.md and\n"
-      "results.json (docs/study.md). Steps whose command line and input files did not change\n"
-      "since the last run, and whose outputs are as they wrote them, are not run again (--force\n"
-      "runs all). Exits 1 when a requested result is missing (a step failed or was skipped),\n"
-      "naming each. Progress on a terminal.");
+      "results.json (docs/study.md). Steps whose request (or command line) and input files did\n"
+      "not change since the last run, and whose outputs are as they wrote them, are not run\n"
+      "again (--force runs all). Exits 1 when a requested result is missing (a step failed or\n"
+      "was skipped), naming each. Progress on a terminal.");
   run->add_option("dir", o->dir, "Study folder (holds study.json)")->required();
   run->add_flag("--force", o->force, "Run every step again");
   run->add_flag("--given-models", o->givenModels,
                 "Use the manifest's bone models instead of segmenting the CT from its seeds");
   run->add_flag("--json", o->json, "Print every number of the report as JSON");
+  run->add_option("--params", o->paramsFile,
+                  "JSON object of detection parameters for the sweeps, named as echoreg detect's "
+                  "flags without dashes; over the manifest's detection.preset and "
+                  "speed_of_sound_mps (a change re-runs the sweeps' points and registrations)");
   const CommandAction compare = addStudyCompareCommand(*cmd);
   return [o, run, compare](const Streams& streams) {
     return run->parsed() ? runStudy(*o, streams) : compare(streams);

@@ -3,6 +3,7 @@
 #include "echoreg/cli/cli.hpp"
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/json_file.hpp"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -11,6 +12,8 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <new>
+#include <ostream>
 #include <sstream>
 
 namespace echoreg::cli {
@@ -126,6 +129,22 @@ std::vector<std::string> outputHashes(const StudyStep& step) {
   return hashes;
 }
 
+// A typed step's work, its failures reported in the words `echoreg COMMAND` would use.
+int runAction(const StudyStep& step, std::ostream& out, std::ostream& err) {
+  const Streams streams{out, err, false};
+  try {
+    return step.action(streams);
+  } catch (const std::bad_alloc&) {
+    err << "echoreg " << step.command << ": out of memory\n";
+  } catch (const nlohmann::json::exception& e) {
+    err << "echoreg " << step.command
+        << ": a JSON file holds a value of another type than expected: " << jsonProblem(e) << "\n";
+  } catch (const std::exception& e) {
+    err << "echoreg " << step.command << ": " << e.what() << "\n";
+  }
+  return 1;
+}
+
 }  // namespace
 
 StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int index, int total) {
@@ -135,6 +154,7 @@ StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int 
   std::uint64_t h = kFnvOffset;
   for (const std::string& arg : step.args)
     mix(h, arg.data(), arg.size() + 1);  // with the '\0'
+  mix(h, step.request.data(), step.request.size());
   for (const std::string& input : step.inputs) {
     const std::uint64_t part = contentHash(input);
     mix(h, reinterpret_cast<const char*>(&part), sizeof part);
@@ -162,7 +182,7 @@ StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int 
   std::ostringstream out;
   std::ostringstream err;
   const auto start = std::chrono::steady_clock::now();
-  const int code = echoreg::cli::run(step.args, out, err);
+  const int code = step.action ? runAction(step, out, err) : echoreg::cli::run(step.args, out, err);
   outcome.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   outcome.output = out.str();
   if (code != 0) {

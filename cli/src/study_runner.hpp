@@ -1,6 +1,7 @@
-// The engine of `echoreg study run`: a study is a list of steps, each one echoreg command with
-// the files it reads and writes. A step runs again only when its command line or the content of
-// a file it reads changed, or an output is missing (the state is kept in
+// The engine of `echoreg study run`: a study is a list of steps, each a typed request (a function
+// and the request as JSON) or, for the steps not yet typed, an echoreg command line, with the
+// files it reads and writes. A step runs again only when its request (or command line) or the
+// content of a file it reads changed, or an output is missing (the state is kept in
 // results/.study-state.json), so re-running after a change redoes exactly what the change affects:
 // outputs are deterministic, so a step whose inputs come out byte-identical stops the chain there.
 #pragma once
@@ -10,17 +11,34 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace echoreg::cli {
 
 struct StudyStep {
+  StudyStep() = default;
+  StudyStep(std::string stepId, std::string stepTitle, std::vector<std::string> commandLine,
+            std::vector<std::string> reads, std::vector<std::string> writes, bool isRequired)
+      : id(std::move(stepId)),
+        title(std::move(stepTitle)),
+        args(std::move(commandLine)),
+        inputs(std::move(reads)),
+        outputs(std::move(writes)),
+        required(isRequired) {}
+
   std::string id;                    ///< unique, e.g. "register-femur-ultrasound-1"
   std::string title;                 ///< for progress and the report
-  std::vector<std::string> args;     ///< the echoreg command line (without "echoreg")
+  std::vector<std::string> args;     ///< an echoreg command line (without "echoreg"), or empty
   std::vector<std::string> inputs;   ///< files or folders read (folders: every file in them)
   std::vector<std::string> outputs;  ///< files written
   bool required = true;              ///< a failed optional step is reported, the study goes on
+  /// A typed step (instead of `args`): the command it stands for ("register", for messages),
+  /// its request as JSON (with the inputs' bytes, the key of the re-run cache) and its work,
+  /// which returns the exit code and throws for bad input as the command would.
+  std::string command;
+  std::string request;
+  std::function<int(const Streams&)> action;
 };
 
 struct StepOutcome {

@@ -260,5 +260,35 @@ TEST_F(Calibrate, RefusesBadDataWithoutWritingAnything) {
                 dir_.file("one-direction.igs.mha"), "determine");
 }
 
+// --params: the detection's parameters from the table every command that detects shares. A window
+// given in the file is the same calibration as --window-mm; a speed of sound in it outside the
+// gate's range is refused naming the file, nothing written.
+TEST_F(Calibrate, ParamsFileGivesTheDetectionsParameters) {
+  fs::copy_file(path("truth/StylusTipToStylus.json"), dir_.file("tip.json"));
+  const test::CommandResult flags =
+      runEchoreg(calibrateArgs(dir_.file("tip.json"), dir_.file("flags.json")));
+  ASSERT_EQ(flags.exitCode, 0) << flags.err;
+  std::vector<std::string> args = calibrateArgs(dir_.file("tip.json"), dir_.file("params.json"));
+  args.erase(args.end() - 5, args.end() - 2);  // "--window-mm", "14", "34"
+  ASSERT_EQ(args[args.size() - 2], "--out");
+  std::ofstream(dir_.file("window.json")) << R"({"window-mm": [14, 34]})";
+  args.insert(args.end() - 2, {"--params", dir_.file("window.json")});
+  const test::CommandResult file = runEchoreg(args);
+  ASSERT_EQ(file.exitCode, 0) << file.err;
+  const nlohmann::json a = readJson(dir_.file("flags.json"));
+  const nlohmann::json b = readJson(dir_.file("params.json"));
+  EXPECT_EQ(a.at("matrix"), b.at("matrix"));
+  EXPECT_EQ(a.at("shots"), b.at("shots"));
+
+  std::ofstream(dir_.file("fast.json")) << R"({"speed-of-sound": 1900})";
+  args = calibrateArgs(dir_.file("tip.json"), dir_.file("fast-out.json"));
+  args.insert(args.end() - 2, {"--params", dir_.file("fast.json")});
+  const test::CommandResult fast = runEchoreg(args);
+  EXPECT_EQ(fast.exitCode, 1);
+  EXPECT_NE(fast.err.find(dir_.file("fast.json")), std::string::npos) << fast.err;
+  EXPECT_NE(fast.err.find("speed-of-sound"), std::string::npos) << fast.err;
+  EXPECT_FALSE(fs::exists(dir_.file("fast-out.json")));
+}
+
 }  // namespace
 }  // namespace echoreg::simulation

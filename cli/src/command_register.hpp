@@ -1,21 +1,27 @@
-// `echoreg register`'s options and its steps that `echoreg live` shares: the model, the solver's
-// options, the start (an initial pose or landmarks), and the whole command on given captures.
+// `echoreg register` as a typed request: the command parses its flags into RegisterOptions, and
+// the study fills one per registration (no command line in between) and shares each sweep's
+// detection between the sweep's points and its registration (CaptureDetections). `echoreg live`
+// shares the options, the model, the solver's options and the start.
 #pragma once
 
+#include "capture_detection.hpp"
 #include "commands.hpp"
 #include "pose_check.hpp"
 
 #include "echoreg/core/surface_registration.hpp"
 
+#include <Eigen/Core>
 #include <nlohmann/json.hpp>
 
 #include <cstdint>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
 namespace echoreg::cli {
 
+/// Every setting of a registration; the defaults are the command's.
 struct RegisterOptions {
   std::string model, bone = "Femur", out;
   std::vector<std::string> captures;
@@ -30,10 +36,11 @@ struct RegisterOptions {
   double stylusSigma = 0.3;
   double stylusSpacing = 1.0;
   double ultrasoundSigma = 0.5;
-  std::string preset = "default";
-  double speedOfSound = 0.0;
-  int history = 1;
-  double minSpreadMm = 1.0;
+  std::string preset;      ///< detection preset; "" = the --params file's, else "default"
+  std::string paramsFile;  ///< --params: the detection's tunables as a JSON object
+  /// The detection's tunables given (detection_params.hpp); register's own defaults, below
+  /// --params, are history 1 and min-spread-mm 1 (sweepDetectionRequest).
+  TunableSettings detection;
   std::string method = "robust", loss = "huber";
   bool fitSpeed = false;
   bool openEnds = false;
@@ -46,11 +53,14 @@ struct RegisterOptions {
 };
 
 /// The options register and live share: --model, --bone, --calibration, the detection group
-/// (--preset, --speed-of-sound, --history, --min-spread-mm, --ultrasound-sigma), the start group
+/// (--preset, --params, every tunable of detection_params.hpp, --ultrasound-sigma), the start group
 /// (--initial or the landmarks, the hip centre), the solver (--method, --loss, --open-ends,
 /// --fit-speed-of-sound, --restarts, --seed, --max-rms, --max-points), --out and --json. Returns
 /// the --calibration option (register ties it to --capture).
-CLI::Option* addRegistrationOptions(CLI::App* cmd, const std::shared_ptr<RegisterOptions>& o);
+/// `ownTunables`: detection tunables the command declares itself (live: --sampling-frequency,
+/// which also goes into its recording's header).
+CLI::Option* addRegistrationOptions(CLI::App* cmd, const std::shared_ptr<RegisterOptions>& o,
+                                    const std::set<std::string>& ownTunables = {});
 
 /// Usage errors of the start (exit 2), for a parse_complete_callback.
 void checkRegistrationStart(const std::string& command, const RegisterOptions& o);
@@ -74,7 +84,19 @@ RegistrationStart registrationStart(const RegisterOptions& o,
                                     core::SurfaceRegistrationOptions& options,
                                     PoseNotes& poseNotes);
 
-/// `echoreg register` on parsed options (o.captures, o.pointsCsv or o.stylusCaptures given).
-int runRegister(const RegisterOptions& o, const Streams& io);
+/// The detection request of one capture of a registration: its preset, speed of sound, temporal
+/// and spatial filters, the probe's pose in the bone's frame, through `beamToProbe`.
+CaptureDetectionRequest sweepDetectionRequest(const RegisterOptions& options,
+                                              const std::string& capture,
+                                              const Eigen::Matrix4d& beamToProbe);
+
+/// The request as JSON, every field: the study's cache key.
+nlohmann::json requestJson(const RegisterOptions& options);
+
+/// Runs the registration and writes its <Bone>ToCT JSON and .tfm; returns the exit code (1 when
+/// it did not converge). With `shared`, each capture's detection is taken from (or run into) it.
+/// Throws for bad input as the command does.
+int runRegister(const RegisterOptions& options, const Streams& io,
+                CaptureDetections* shared = nullptr);
 
 }  // namespace echoreg::cli

@@ -1,10 +1,15 @@
-// The detection parameters as `echoreg detect` takes them: every tunable of the chain as a flag
-// and as a key of a --params file (JSON), and their resolution over the preset and the capture's
-// header. Apart from the command so that fuzz/fuzz_params can read --params files as detect does.
+// The detection's parameters from one place, for every command that detects (`detect`,
+// `register`, `calibrate`, `live`, the study's sweeps): one table of tunables, each a flag and a
+// --params key with its help group and where it lands in DetectionParams, and one resolver.
+// Precedence: flags > --params file > the command's own defaults > capture header > --preset.
+// Apart from the commands also so that fuzz/fuzz_params reads --params files as they do.
 #pragma once
 
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/sequence.hpp"
+
+#include <CLI/CLI.hpp>
+#include <nlohmann/json.hpp>
 
 #include <functional>
 #include <map>
@@ -35,6 +40,11 @@ const std::vector<Tunable>& tunables();
 // The tunables given so far, by name; flags first, then a --params file fills the rest.
 using TunableSettings = std::map<std::string, TunableValue>;
 
+/// Registers every tunable but those named in `except` (which the command declares itself) as a
+/// flag of `cmd`, storing what is given into `settings`.
+void addTunableFlags(CLI::App* cmd, TunableSettings& settings,
+                     const std::set<std::string>& except = {});
+
 /// Fills the tunables (and the preset) not given as flags from a --params file; returns the names
 /// it filled. Throws FileError naming the file for a file that is not a JSON object, an unknown
 /// key, or a value of the wrong type.
@@ -54,5 +64,8 @@ struct ParamsSources {
 /// (FileError). Values refused only together throw std::invalid_argument without a name.
 DetectionParams resolveParams(const std::string& preset, const TunableSettings& settings,
                               const Sequence& sequence, const ParamsSources& sources = {});
+
+/// The settings as a JSON object (the study's cache key).
+nlohmann::json settingsJson(const TunableSettings& settings);
 
 }  // namespace echoreg::cli

@@ -1,5 +1,5 @@
-// The detection parameters as `echoreg detect` takes them (detect_params.hpp).
-#include "detect_params.hpp"
+// The detection parameters of every command that detects (detection_params.hpp).
+#include "detection_params.hpp"
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/json_file.hpp"
@@ -177,6 +177,34 @@ const std::vector<Tunable>& tunables() {
   return list;
 }
 
+// Registers every tunable as a flag of `cmd`, storing what is given into `settings`.
+void addTunableFlags(CLI::App* cmd, TunableSettings& settings,
+                     const std::set<std::string>& except) {
+  for (const Tunable& tunable : tunables()) {
+    if (except.count(tunable.name) != 0)
+      continue;
+    const std::string flag = std::string("--") + tunable.name;
+    const std::string name = tunable.name;
+    CLI::Option* option = std::visit(
+        [&](const auto& type) -> CLI::Option* {
+          using T = std::decay_t<decltype(type)>;
+          if constexpr (std::is_same_v<T, bool>) {
+            // --causal, --causal=true and --causal=false all mean what they say.
+            return cmd->add_flag_function(
+                flag, [&settings, name](std::int64_t count) { settings[name] = count > 0; },
+                tunable.help);
+          } else {
+            return cmd->add_option_function<T>(
+                flag, [&settings, name](const T& value) { settings[name] = value; }, tunable.help);
+          }
+        },
+        tunable.type);
+    if (std::holds_alternative<std::vector<double>>(tunable.type))
+      option->expected(2);
+    option->group(tunable.group);
+  }
+}
+
 std::set<std::string> mergeParamsFile(const std::string& file, std::string& preset,
                                       TunableSettings& settings) {
   // The project's JSON reader: the file named, the problem without the library's codes.
@@ -323,6 +351,13 @@ DetectionParams resolveParams(const std::string& preset, const TunableSettings& 
     throw;
   }
   return params;
+}
+
+nlohmann::json settingsJson(const TunableSettings& settings) {
+  nlohmann::json json = nlohmann::json::object();
+  for (const auto& [name, value] : settings)
+    std::visit([&json, &name = name](const auto& v) { json[name] = v; }, value);
+  return json;
 }
 
 }  // namespace echoreg::cli
