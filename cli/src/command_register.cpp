@@ -676,7 +676,7 @@ CLI::Option* addRegistrationOptions(CLI::App* cmd, const std::shared_ptr<Registe
                                       "BeamToProbe transform JSON (echoreg calibrate)")
                           ->group("Points");
   cmd->add_option("--preset", o->preset,
-                  "Detection preset for --capture (see echoreg detect; default: the --params "
+                  "Detection preset of the A-lines (see echoreg detect; default: the --params "
                   "file's, else default)")
       ->group("Points");
   cmd->add_option("--params", o->paramsFile,
