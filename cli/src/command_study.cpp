@@ -961,6 +961,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     const std::vector<std::string> outside(manifest.outside().begin(), manifest.outside().end());
     numbers["provenance"] = {{"paths", "relative to the study folder"},
                              {"read_outside_study", outside}};
+    // Which echoreg made these numbers (echoreg study compare lists it per study).
+    numbers["echoreg_version"] = ECHOREG_VERSION;
     report.heading("Provenance");
     if (outside.empty()) {
       report.paragraph(

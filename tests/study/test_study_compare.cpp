@@ -128,6 +128,11 @@ TEST(StudyCompare, TablesAndAnovaOverStudiesGroupedByAManifestValue) {
   EXPECT_EQ(provenance["manifest_fnv1a64"], merged["studies"][1]["provenance"]["manifest_fnv1a64"]);
   EXPECT_NE(provenance["manifest_fnv1a64"], merged["studies"][2]["provenance"]["manifest_fnv1a64"]);
   EXPECT_EQ(provenance["parameters"]["generator"]["seed"], 7);
+  // study run records the echoreg that made each study's numbers, and compare lists it.
+  const std::string version = runEchoreg({"--version"}).out;
+  ASSERT_TRUE(provenance["echoreg_version"].is_string()) << provenance.dump();
+  EXPECT_NE(version.find(provenance["echoreg_version"].get<std::string>()), std::string::npos)
+      << version;
   EXPECT_EQ(merged["studies"][2]["provenance"]["parameters"]["generator"]["standoff"], "gel");
   EXPECT_EQ(merged["studies"][0]["results"]["registrations"], studyResults["registrations"]);
 
