@@ -109,6 +109,14 @@ int halfMaximumWidth(const float* envelope, int count, int index) {
   return right - left + 1;
 }
 
+// A local maximum of the whole envelope (the first sample of a plateau; the record's ends count
+// as lower), whatever window is looked at.
+bool isLocalMaximum(const float* envelope, int count, int i) {
+  const float left = i > 0 ? envelope[i - 1] : -1.F;
+  const float right = i + 1 < count ? envelope[i + 1] : -1.F;
+  return envelope[i] >= left && envelope[i] > right;
+}
+
 // Largest of eight consecutive values (branch-free, so it vectorises).
 float blockMax8(const float* values) {
   float a = std::max(values[0], values[4]);
@@ -384,9 +392,7 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
         ++i;
       continue;
     }
-    const float left = i > 0 ? envelope[i - 1] : -1.F;
-    const float right = i + 1 < count ? envelope[i + 1] : -1.F;
-    if (envelope[i] >= left && envelope[i] > right) {
+    if (isLocalMaximum(envelope, count, i)) {
       EchoCandidate candidate;
       candidate.index = i;
       candidate.value = envelope[i];
@@ -514,12 +520,13 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   // stronger than bone itself. An echo with a much stronger one behind it (the skin or a fascia
   // above the bone, whose tissue behind it rings like a cortex) is not bone.
   float strongestBehind = 0.F;
-  for (std::size_t k = candidates.size(); k-- > 0;) {
-    EchoCandidate& c = candidates[k];
-    if (c.passed && strongestBehind > kStrongerBehind * c.value)
-      c.passed = false;
-    if (c.peak >= 0 && candidates[k].passed)
-      strongestBehind = std::max(strongestBehind, c.value);
+  for (auto c = candidates.rbegin(); c != candidates.rend(); ++c) {
+    if (!c->passed)
+      continue;
+    if (strongestBehind > kStrongerBehind * c->value)
+      c->passed = false;
+    else
+      strongestBehind = std::max(strongestBehind, c->value);
   }
 
   // Bone: an echo with bone's signature behind it, a shadow or the cortex's ringing. The
@@ -846,10 +853,7 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       // the largest value but no echo (real in-vivo recordings: 1.4-2.8 % of accepted frames).
       int index = -1;
       for (int i = windowBegin; i < windowEnd; ++i) {
-        const float left = i > 0 ? envelope[i - 1] : -1.F;
-        const float right = i + 1 < count ? envelope[i + 1] : -1.F;
-        if (envelope[i] >= left && envelope[i] > right &&
-            (index < 0 || envelope[i] > envelope[index]))
+        if (isLocalMaximum(envelope, count, i) && (index < 0 || envelope[i] > envelope[index]))
           index = i;
       }
       if (index < 0 || !(envelope[index] > threshold)) {

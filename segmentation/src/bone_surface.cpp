@@ -14,6 +14,7 @@
 #include <fmt/format.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <numeric>
 #include <stdexcept>
@@ -279,6 +280,15 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
     const int rj = static_cast<int>(std::floor(options.localLevelMm / spacing.y() + 1e-9));
     const double soft = levels.softTissueHu;
     auto counts = [&](std::size_t v) { return band.voxels[v] && !excluded(v); };
+    // The in-slice offsets within the radius, once.
+    std::vector<std::array<int, 2>> disc;
+    for (int b = -rj; b <= rj; ++b) {
+      for (int a = -ri; a <= ri; ++a) {
+        const double di = a * spacing.x(), dj = b * spacing.y();
+        if (di * di + dj * dj <= options.localLevelMm * options.localLevelMm + 1e-9)
+          disc.push_back({a, b});
+      }
+    }
     std::vector<float> field(sz(dims[0]) * sz(dims[1]) * sz(dims[2]), 0.0f);
     for (int k = std::max(lo.z(), 0); k <= std::min(hi.z(), d[2] - 1); ++k) {
       for (int j = std::max(lo.y(), 0); j <= std::min(hi.y(), d[1] - 1); ++j) {
@@ -291,14 +301,13 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
             // The brightest of this slice's region and band within the radius, at least the
             // bone's one level: thin cortices and slabs of cancellous bone keep the one level.
             double top = std::max(soft + options.localMinContrastHu, levels.cortexHu);
-            for (int b = std::max(j - rj, 0); b <= std::min(j + rj, d[1] - 1); ++b) {
-              for (int a = std::max(i - ri, 0); a <= std::min(i + ri, d[0] - 1); ++a) {
-                const double di = (a - i) * spacing.x(), dj = (b - j) * spacing.y();
-                const std::size_t n = ct.index(a, b, k);
-                if (di * di + dj * dj <= options.localLevelMm * options.localLevelMm + 1e-9 &&
-                    counts(n))
-                  top = std::max(top, static_cast<double>(ct.hu[n]));
-              }
+            for (const auto& [da, db] : disc) {
+              const int a = i + da, b = j + db;
+              if (a < 0 || a >= d[0] || b < 0 || b >= d[1])
+                continue;
+              const std::size_t n = ct.index(a, b, k);
+              if (counts(n))
+                top = std::max(top, static_cast<double>(ct.hu[n]));
             }
             value = static_cast<float>(std::clamp((ct.hu[v] - soft) / (top - soft), 0.0, 1.0));
           }

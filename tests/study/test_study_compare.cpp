@@ -5,6 +5,7 @@
 #include "study_checks.hpp"
 
 #include "cli_test_support.hpp"
+#include "csv_table.hpp"
 #include "test_support.hpp"
 
 #include "echoreg/core/statistics.hpp"
@@ -42,11 +43,7 @@ std::vector<double> inlierResiduals(const std::string& csv, double shiftMm = 0.0
   rewritten << line << "\n";
   std::vector<double> values;
   while (std::getline(in, line)) {
-    std::vector<std::string> cells;
-    std::stringstream ss(line);
-    std::string cell;
-    while (std::getline(ss, cell, ','))
-      cells.push_back(cell);
+    const std::vector<std::string> cells = cli::splitCsvLine(line);
     EXPECT_EQ(cells.size(), 4U) << line;
     double value = std::stod(cells[2]);
     if (cells[3] == "1") {
