@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <complex>
 #include <random>
@@ -172,6 +173,58 @@ TEST(Envelope, EveryMethodPeaksAtAnIsolatedEcho) {
     const auto peak = std::max_element(envelope.begin(), envelope.end()) - envelope.begin();
     EXPECT_NEAR(static_cast<double>(peak), 1500.0, 2.0) << envelopeMethodName(method);
   }
+}
+
+// The high-pass's moving average against the definition (each window clipped to the record and
+// summed afresh in double): whole 12-bit codes (the integer prefix path, four samples at a time
+// and the remainder), a fraction or a NaN anywhere (the float path, including in the last
+// samples a four-wide pass leaves to the scalar tail), and windows longer than the record.
+TEST(Envelope, MovingAverageMatchesItsDefinitionOnEveryPath) {
+  const auto reference = [](const std::vector<float>& x, int window) {
+    const int count = static_cast<int>(x.size());
+    const int length = std::min(window, count);
+    const int before = (length - 1) / 2, after = length - 1 - before;
+    std::vector<double> out(x.size());
+    for (int i = 0; i < count; ++i) {
+      const int b = std::max(0, i - before), e = std::min(count, i + after + 1);
+      double sum = 0.0;
+      for (int j = b; j < e; ++j)
+        sum += x[static_cast<std::size_t>(j)];
+      out[static_cast<std::size_t>(i)] = x[static_cast<std::size_t>(i)] - sum / (e - b);
+    }
+    return out;
+  };
+  std::mt19937 rng(11);
+  std::uniform_int_distribution<int> code(-2048, 2047);
+  for (int count : {4096, 4097, 4099, 30}) {
+    for (int window : {3, 21, 85, 5001}) {
+      for (int fraction : {-1, 0, count - 1, count / 2}) {
+        std::vector<float> x(static_cast<std::size_t>(count));
+        for (float& v : x)
+          v = static_cast<float>(code(rng) * 16);
+        if (fraction >= 0)
+          x[static_cast<std::size_t>(fraction)] += 0.5F;
+        std::vector<float> out(x.size());
+        subtractMovingAverage(x.data(), count, window, out.data());
+        const auto expected = reference(x, window);
+        for (std::size_t i = 0; i < x.size(); ++i) {
+          // float rounding of values up to 2^15: a few 1e-3 at most; truncating the 0.5 to a
+          // whole code would be off by 0.5 / window (>= 1e-4) and is caught for small windows.
+          ASSERT_NEAR(out[i], expected[i], 4e-3 + 1e-7 * std::fabs(expected[i]))
+              << "count " << count << ", window " << window << ", fraction at " << fraction
+              << ", sample " << i;
+        }
+      }
+    }
+  }
+  // A NaN is never taken for a whole code: the windows over it are NaN, the others are not.
+  std::vector<float> x(4097, 32.F);
+  x[4096] = std::nanf("");
+  std::vector<float> out(x.size());
+  subtractMovingAverage(x.data(), 4097, 5, out.data());
+  EXPECT_TRUE(std::isnan(out[4096]));
+  EXPECT_TRUE(std::isnan(out[4094]));
+  EXPECT_FLOAT_EQ(out[100], 0.F);
 }
 
 TEST(Envelope, NamesRoundTripAndBadParametersAreRefused) {
