@@ -152,6 +152,41 @@ constexpr float kEarlierBounce = 0.7F;
 // An echo with one this many times stronger behind it is not bone (see prominencePolicy).
 constexpr float kStrongerBehind = 1.5F;
 
+// A leading echo rises from at most this share of its height before it (see ringingTailOf).
+constexpr float kLeaderRise = 0.1F;
+
+struct RingingTail {
+  int end = -1;      // the tail's peak; -1: the echo does not lead a ringing tail
+  float rise = 0.F;  // the echo's height over the tissue before it
+};
+
+// The ringing tail of the echo at `index`, if it leads one: shallow bone in vivo rings, and the
+// cortex's reverberation just behind its echo can peak a little higher than the echo itself, with
+// no valley between them (the envelope never falls to half). The echo then has little
+// topographic prominence, and the tail's peak looks like an echo that rose slowly. The echo leads
+// when it rises from quiet tissue (to at most kLeaderRise of its height, looking back to the
+// ring-down or a higher sample), the envelope next exceeds it within `reach` samples, and the peak
+// it climbs to there is at most kStrongerBehind times the echo. The tail's end is that peak.
+RingingTail ringingTailOf(const float* envelope, int ringDown, int count, int index, int reach) {
+  const float value = envelope[index];
+  float leftMin = value;
+  for (int i = index - 1; i >= ringDown && envelope[i] <= value; --i)
+    leftMin = std::min(leftMin, envelope[i]);
+  if (leftMin > kLeaderRise * value)
+    return {};
+  int higher = index + 1;
+  while (higher < count && envelope[higher] <= value)
+    ++higher;
+  if (higher >= count || higher - index > reach)
+    return {};
+  int top = higher;
+  while (top + 1 < count && envelope[top + 1] >= envelope[top])
+    ++top;
+  if (envelope[top] > kStrongerBehind * value)
+    return {};
+  return {top, value - leftMin};
+}
+
 // The level of the record's quietest stretch: the lower quartile of the medians of blocks of
 // `block` samples of envelope[begin, count). Where the tissue's speckle lies under the
 // digitiser's noise (8-bit records, water), a shadow behind bone is no quieter than the noise
@@ -414,10 +449,19 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   const int reverbRadius = std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
   LazyLevel quietLevel(envelope, count, ringDown, region / 2);
   int airAt = count;  // the first air interface, if any
+  int tailEnd = -1;   // the ringing tail of a leading echo (ringingTailOf): not echoes of its own
   for (EchoCandidate& c : candidates) {
     if (c.index > airAt)
       break;
+    if (c.index <= tailEnd)
+      continue;
     c.prominence = prominenceOf(envelope, ringDown, count, c.index);
+    RingingTail tail;
+    if (c.prominence < e.minProminence * c.value) {
+      tail = ringingTailOf(envelope, ringDown, count, c.index, region);
+      if (tail.end >= 0)  // its prominence is its rise over the tissue before it
+        c.prominence = tail.rise;
+    }
     Peak peak;
     peak.index = c.index;
     peak.value = c.value;
@@ -444,6 +488,7 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     if (before >= 0.0 && c.value < e.minContrast * std::max(before, tiny)) {
       continue;
     }
+    tailEnd = std::max(tailEnd, tail.end);
     // A wall (skin, standoff membrane): the envelope steps up from quiet water before it to the
     // tissue's speckle after it. Bone is followed by its shadow, or (shallow in vivo) by
     // reverberation no stronger than the tissue before it.

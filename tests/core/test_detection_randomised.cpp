@@ -75,6 +75,12 @@ TEST(DetectionRandomised, EveryProfileAndSeed) {
           // docs/detection.md has the table). The old default ("shadow") misses 52-100 % of
           // these bones.
           EXPECT_LE(score.falseNegativeRate(), 0.43) << profile << " seed " << seed;
+          // In vivo, bone whose cortex rings just behind its echo (a leading echo and its
+          // ringing tail, peaks.cpp's ringingTailOf): FN 10.6-17.6 % per seed today, 19-28 %
+          // before the leading echo was recognised.
+          if (std::string(profile) == "invivo-holder") {
+            EXPECT_LE(score.falseNegativeRate(), 0.20) << profile << " seed " << seed;
+          }
           EXPECT_LE(score.falsePositiveRate(), 0.23) << profile << " seed " << seed;
           EXPECT_LE(score.wrongEchoRate(), 0.31) << profile << " seed " << seed;
           EXPECT_LE(score.medianErrorMm(), 0.1) << profile << " seed " << seed;
