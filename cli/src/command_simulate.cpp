@@ -24,6 +24,7 @@ struct SimulateOptions {
   std::string size = "full";
   std::vector<std::string> bones;
   double flexionDeg = 0.0;
+  double osteophyteMm = 0.0;
   std::string standoff = "glove";
   double speedOfSound = 0.0;
   double waterTemperature = 24.0;
@@ -46,6 +47,7 @@ simulation::StudyOptions toStudyOptions(const SimulateOptions& o) {
   s.seed = o.seed;
   s.size = o.size == "small" ? simulation::StudySize::Small : simulation::StudySize::Full;
   s.flexionDeg = o.flexionDeg;
+  s.osteophyteMm = o.osteophyteMm;
   s.standoff = o.standoff == "gel"    ? simulation::Standoff::GelPad
                : o.standoff == "none" ? simulation::Standoff::None
                                       : simulation::Standoff::GloveFinger;
@@ -125,6 +127,14 @@ CommandAction addSimulateCommand(CLI::App& app) {
                   "Knee flexion in degrees, 0 (straight) to 90, in the CT and the captures")
       ->check(finiteRange(0.0, 90.0))
       ->capture_default_str();
+  cmd->add_option("--osteophytes", o->osteophyteMm,
+                  "Marginal osteophytes of an arthritic knee, mm, 0 (none) to 8: bony ridges of\n"
+                  "this radius along the medial and lateral margins of the tibiofemoral joint,\n"
+                  "on the plateau and under the condyles, cut back to 0.5 mm from the other\n"
+                  "bone (they bridge the joint). In the CT and the truth meshes; needs the\n"
+                  "procedural femur (not with --bone femur=FILE)")
+      ->check(finiteRange(0.0, 8.0))
+      ->capture_default_str();
   cmd->add_option("--standoff", o->standoff,
                   "glove (water-filled glove finger), gel (Aquaflex-like pad) or none (cadaver)")
       ->check(CLI::IsMember({"glove", "gel", "none"}))
@@ -176,6 +186,14 @@ CommandAction addSimulateCommand(CLI::App& app) {
       ->check(wholeNumber(1, 20))
       ->capture_default_str();
   cmd->add_flag("--json", o->json, "Print the summary as JSON");
+  cmd->parse_complete_callback([o] {
+    if (o->osteophyteMm > 0.0 && !o->bones.empty()) {
+      throw CLI::ValidationError("simulate",
+                                 "--osteophytes needs the procedural femur (the spurs are grown "
+                                 "on its shape), not --bone " +
+                                     o->bones.front());
+    }
+  });
 
   return [o](const Streams& io) {
     const simulation::StudyOptions options = toStudyOptions(*o);

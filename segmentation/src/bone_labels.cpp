@@ -199,6 +199,9 @@ std::vector<std::uint8_t> jointLines(const CtImage& image, const VoxelMask& soli
     int di, dj, dk, reach;
   };
   std::vector<Dir> dirs;
+  const std::ptrdiff_t plane = static_cast<std::ptrdiff_t>(nx) * ny;
+  std::vector<std::ptrdiff_t> steps;  // each direction's step in the voxel index
+  int maxReach = 0;
   for (int k = -1; k <= 1; ++k) {
     for (int j = -1; j <= 1; ++j) {
       for (int i = -1; i <= 1; ++i) {
@@ -208,29 +211,47 @@ std::vector<std::uint8_t> jointLines(const CtImage& image, const VoxelMask& soli
           continue;
         const double len = Eigen::Vector3d(i * s.x(), j * s.y(), k * s.z()).norm();
         dirs.push_back({i, j, k, std::clamp(static_cast<int>(std::lround(reachMm / len)), 1, 3)});
+        steps.push_back(k * plane + static_cast<std::ptrdiff_t>(j) * nx + i);
+        maxReach = std::max(maxReach, dirs.back().reach);
       }
     }
   }
+  const std::int16_t* hu = image.hu.data();
   for (int k = 0; k < nz; ++k) {
+    const bool innerK = k >= maxReach && k < nz - maxReach;
     for (int j = 0; j < ny; ++j) {
+      const bool innerJK = innerK && j >= maxReach && j < ny - maxReach;
       for (int i = 0; i < nx; ++i) {
         const std::size_t v = image.index(i, j, k);
         if (!solid.voxels[v])
           continue;
-        const double hu = image.hu[v];
-        const double need = std::max(strong, hu + dip);
-        for (const Dir& d : dirs) {
-          double side[2] = {-1e9, -1e9};
-          for (int sign = 0; sign < 2; ++sign) {
-            const int m = sign == 0 ? -1 : 1;
+        // A side is bright when one of its voxels within reach is at or above `need`: for
+        // integer HU, at or above its ceiling.
+        const double need = std::max(strong, hu[v] + dip);
+        const int needHu = static_cast<int>(std::ceil(std::min(need, 40000.0)));
+        const bool inner = innerJK && i >= maxReach && i < nx - maxReach;
+        for (std::size_t t = 0; t < dirs.size(); ++t) {
+          const Dir& d = dirs[t];
+          auto bright = [&](int m) {
+            if (inner) {
+              const std::ptrdiff_t step = m * steps[t];
+              const std::int16_t* p = hu + v;
+              for (int r = 1; r <= d.reach; ++r) {
+                if (p[r * step] >= needHu)
+                  return true;
+              }
+              return false;
+            }
             for (int r = 1; r <= d.reach; ++r) {
               const int a = i + m * r * d.di, b = j + m * r * d.dj, c = k + m * r * d.dk;
               if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz)
-                break;
-              side[sign] = std::max(side[sign], static_cast<double>(image.at(a, b, c)));
+                return false;
+              if (image.at(a, b, c) >= needHu)
+                return true;
             }
-          }
-          if (side[0] >= need && side[1] >= need) {
+            return false;
+          };
+          if (bright(-1) && bright(1)) {
             out[v] = 1;
             break;
           }
@@ -1269,6 +1290,65 @@ ThresholdEstimate estimateBoneThreshold(const CtImage& image,
   return e;
 }
 
+// The bounding box (lo..hi, voxels) of thresholdBone(image, threshold)'s voxels; hi.x() < 0 when
+// there are none. Every voxel of a hysteresis threshold, and every path that connects it to a
+// strong one, is at or above the weak level: the threshold runs on the box of those voxels only,
+// and the answer is the same as on the whole image without a mask of the whole field of view.
+static void boneBox(const CtImage& image, const BoneThreshold& threshold, Eigen::Vector3i& lo,
+                    Eigen::Vector3i& hi) {
+  const auto& d = image.dimensions;
+  // hu >= weakHu for integer HU, in integers (the scan of every voxel vectorises).
+  const int weak = static_cast<int>(std::ceil(std::clamp(threshold.weakHu, -40000.0, 40000.0)));
+  Eigen::Vector3i wlo(d[0], d[1], d[2]), whi(-1, -1, -1);
+  for (int k = 0; k < d[2]; ++k) {
+    for (int j = 0; j < d[1]; ++j) {
+      const std::int16_t* row = image.hu.data() + image.index(0, j, k);
+      int first = d[0], last = -1;
+      for (int i = 0; i < d[0]; ++i) {
+        const bool above = row[i] >= weak;
+        first = above && i < first ? i : first;
+        last = above ? i : last;
+      }
+      if (last < 0)
+        continue;
+      wlo = wlo.cwiseMin(Eigen::Vector3i(first, j, k));
+      whi = whi.cwiseMax(Eigen::Vector3i(last, j, k));
+    }
+  }
+  lo = Eigen::Vector3i(d[0], d[1], d[2]);
+  hi = Eigen::Vector3i(-1, -1, -1);
+  if (whi.x() < 0)
+    return;
+  CtImage box;
+  box.dimensions = {whi.x() - wlo.x() + 1, whi.y() - wlo.y() + 1, whi.z() - wlo.z() + 1};
+  box.pixelSpacingMm = image.pixelSpacingMm;
+  for (int k = wlo.z(); k <= whi.z(); ++k)
+    box.slicePositionsMm.push_back(image.slicePositionsMm[sz(k)]);
+  box.hu.resize(box.voxelCount());
+  const auto& b = box.dimensions;
+  for (int k = 0; k < b[2]; ++k) {
+    for (int j = 0; j < b[1]; ++j)
+      std::copy_n(image.hu.data() + image.index(wlo.x(), wlo.y() + j, wlo.z() + k), b[0],
+                  box.hu.data() + box.index(0, j, k));
+  }
+  const VoxelMask bone = thresholdBone(box, threshold);
+  for (int k = 0; k < b[2]; ++k) {
+    for (int j = 0; j < b[1]; ++j) {
+      const std::uint8_t* row = bone.voxels.data() + box.index(0, j, k);
+      for (int i = 0; i < b[0]; ++i) {
+        if (row[i]) {
+          lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
+          hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
+        }
+      }
+    }
+  }
+  if (hi.x() >= 0) {
+    lo += wlo;
+    hi += wlo;
+  }
+}
+
 CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<BoneSeed>& seeds,
                                       const CompetingOptions& given) {
   if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount() || !image.uniform() ||
@@ -1301,20 +1381,9 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
   };
   // Everything happens on the box of the bone voxels (plus a margin of 2): the distance map,
   // the hills, the flood and the masks cost the bones' size, not the field of view's.
-  const VoxelMask bone = thresholdBone(image, options.threshold);
   const auto& d = image.dimensions;
-  Eigen::Vector3i lo(d[0], d[1], d[2]), hi(-1, -1, -1);
-  for (int k = 0; k < d[2]; ++k) {
-    for (int j = 0; j < d[1]; ++j) {
-      const std::uint8_t* row = bone.voxels.data() + image.index(0, j, k);
-      for (int i = 0; i < d[0]; ++i) {
-        if (row[i]) {
-          lo = lo.cwiseMin(Eigen::Vector3i(i, j, k));
-          hi = hi.cwiseMax(Eigen::Vector3i(i, j, k));
-        }
-      }
-    }
-  }
+  Eigen::Vector3i lo, hi;
+  boneBox(image, options.threshold, lo, hi);
   const Eigen::Vector3i last(d[0] - 1, d[1] - 1, d[2] - 1);
   if (hi.x() < 0 || ((lo.array() <= 2).all() && (hi.array() >= last.array() - 2).all()))
     return finish(segmentOnGrid(image, seeds, options));
@@ -1331,6 +1400,7 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
     if (!inImage)
       return finish(segmentOnGrid(image, seeds, options));  // the outside-the-volume message
     if ((q.array() < lo.array()).any() || (q.array() > hi.array()).any()) {
+      const VoxelMask bone = thresholdBone(image, options.threshold);
       throw std::invalid_argument(
           fmt::format("{} ({})", notInBone(image, bone, q, s.pointLps, options.threshold), s.bone));
     }
@@ -1365,9 +1435,7 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
   geometry.seriesInstanceUid = image.seriesInstanceUid;
   geometry.folder = image.folder;
   auto expand = [&](VoxelMask& m) {
-    VoxelMask full;
-    full.geometry = geometry;
-    full.voxels.assign(image.voxelCount(), 0);
+    VoxelMask full = emptyMask(geometry);
     for (int k = 0; k < b[2]; ++k) {
       for (int j = 0; j < b[1]; ++j)
         std::copy_n(m.voxels.data() + box.index(0, j, k), b[0],

@@ -4,8 +4,14 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
+
+#if defined(__linux__)
+#include <sys/mman.h>
+#include <unistd.h>
+#endif
 
 namespace echoreg::segmentation {
 
@@ -176,7 +182,22 @@ std::size_t VoxelMask::count() const {
 VoxelMask emptyMask(const CtImage& image) {
   VoxelMask m;
   m.geometry = geometryOf(image);
-  m.voxels.assign(image.voxelCount(), 0);
+  const std::size_t n = image.voxelCount();
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  // A mask of a whole large CT is hundreds of MB, and the kernel's fault of each fresh 4 kB page
+  // cost more than the work on it (the 1000-slice benchmark's 512 x 512 masks: about a million
+  // faults, half its time). Asked for as transparent huge pages (2 MB) it faults 512 times less
+  // often; where the kernel does not give them, the advice is ignored and nothing changes.
+  if (n >= (std::size_t{32} << 20)) {
+    m.voxels.reserve(n);
+    const auto page = static_cast<std::uintptr_t>(sysconf(_SC_PAGESIZE));
+    const auto first = reinterpret_cast<std::uintptr_t>(m.voxels.data());
+    const std::uintptr_t begin = (first + page - 1) / page * page;
+    if (page > 0 && first + n > begin)
+      madvise(reinterpret_cast<void*>(begin), first + n - begin, MADV_HUGEPAGE);
+  }
+#endif
+  m.voxels.assign(n, 0);
   return m;
 }
 

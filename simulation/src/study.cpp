@@ -1104,6 +1104,14 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
     throw std::invalid_argument("soft tissue scale must be in (0, 1], got " +
                                 std::to_string(options.underSkinScale));
   }
+  if (!(options.osteophyteMm >= 0.0 && options.osteophyteMm <= 8.0)) {
+    throw std::invalid_argument("osteophytes must be within 0 to 8 mm, got " +
+                                std::to_string(options.osteophyteMm));
+  }
+  if (options.osteophyteMm > 0.0 && options.meshFiles.count(BoneId::Femur) != 0) {
+    throw std::invalid_argument(
+        "osteophytes need the procedural femur (they are grown on its shape), not a mesh file");
+  }
   if (options.probeFrequencyHz != 0.0 &&
       !(options.probeFrequencyHz >= 1e6 && options.probeFrequencyHz <= 20e6)) {
     throw std::invalid_argument("probe frequency must be in [1, 20] MHz, got " +
@@ -1139,6 +1147,7 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   kneeOptions.meshResolutionMm = sizes.meshResolutionMm;
   kneeOptions.seed = options.seed;
   kneeOptions.meshFiles = options.meshFiles;
+  kneeOptions.osteophyteMm = options.osteophyteMm;
   Knee knee = buildKnee(kneeOptions);
   summary.stepSeconds.push_back({"bones", secondsSince(stepStart)});
 
@@ -1250,6 +1259,8 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   // Written only when asked for: a default study's manifest stays as it was.
   if (options.underSkinScale != 1.0)
     manifest["generator"]["soft_tissue_scale"] = options.underSkinScale;
+  if (options.osteophyteMm > 0.0)
+    manifest["generator"]["osteophyte_mm"] = options.osteophyteMm;
   if (options.probeFrequencyHz > 0.0)
     manifest["generator"]["probe_frequency_hz"] = options.probeFrequencyHz;
   if (options.adc == AdcFormat::Int16Left12)

@@ -3,6 +3,9 @@
 #include "cli_test_support.hpp"
 #include "test_support.hpp"
 
+#include "echoreg/core/mesh.hpp"
+#include "echoreg/filters/MeshIO.h"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
@@ -26,6 +29,9 @@ TEST(CliSimulate, UsageErrorsExitTwo) {
         std::vector<std::string>{"simulate", "--out", dir.file("s"), "--adc", "int12"},
         std::vector<std::string>{"simulate", "--out", dir.file("s"), "--soft-tissue-scale", "1.5"},
         std::vector<std::string>{"simulate", "--out", dir.file("s"), "--probe-frequency", "40e6"},
+        std::vector<std::string>{"simulate", "--out", dir.file("s"), "--osteophytes", "-1"},
+        std::vector<std::string>{"simulate", "--out", dir.file("s"), "--osteophytes", "9"},
+        std::vector<std::string>{"simulate", "--out", dir.file("s"), "--osteophytes", "nan"},
         std::vector<std::string>{"simulate"}}) {
     const test::CommandResult r = runEchoreg(args);
     EXPECT_EQ(r.exitCode, 2) << args.back() << ": " << r.err;
@@ -36,8 +42,60 @@ TEST(CliSimulate, UsageErrorsExitTwo) {
   EXPECT_EQ(help.exitCode, 0);
   EXPECT_NE(help.out.find("--preset"), std::string::npos);
   EXPECT_NE(help.out.find("--fibula-in-tibia"), std::string::npos);
-  for (const char* option : {"--probe-frequency", "--adc", "--soft-tissue-scale"})
+  for (const char* option : {"--probe-frequency", "--adc", "--soft-tissue-scale", "--osteophytes"})
     EXPECT_NE(help.out.find(option), std::string::npos) << option;
+}
+
+// Osteophytes out of range or on a user's femur are refused naming the flag, writing nothing.
+TEST(CliSimulate, BadOsteophytesAreRefusedNamingTheFlag) {
+  test::TempDir dir;
+  for (const char* value : {"-0.5", "8.5", "inf", "four"}) {
+    const test::CommandResult r =
+        runEchoreg({"simulate", "--out", dir.file("s"), "--osteophytes", value});
+    EXPECT_EQ(r.exitCode, 2) << value << ": " << r.err;
+    EXPECT_NE(r.err.find("--osteophytes"), std::string::npos) << value << ": " << r.err;
+    EXPECT_NE(r.err.find("0 to 8"), std::string::npos) << value << ": " << r.err;
+  }
+  std::ofstream(dir.file("femur.stl")) << "solid femur\nendsolid femur\n";
+  const test::CommandResult r = runEchoreg({"simulate", "--out", dir.file("s"), "--osteophytes",
+                                            "4", "--bone", "femur=" + dir.file("femur.stl")});
+  EXPECT_EQ(r.exitCode, 2) << r.err;
+  EXPECT_NE(r.err.find("--osteophytes"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("procedural femur"), std::string::npos) << r.err;
+  EXPECT_FALSE(fs::exists(dir.file("s")));
+}
+
+// The spurs reach the study's truth meshes (the femur and the tibia gain bone; fibula and patella
+// stay) and its manifest; a study without them records nothing.
+TEST(CliSimulate, OsteophytesReachTheTruthAndTheManifest) {
+  test::TempDir dir;
+  for (const char* name : {"plain", "spurs"}) {
+    std::vector<std::string> args = {
+        "simulate", "--out", dir.file(name), "--size", "small", "--frames-per-bone", "20"};
+    if (std::string(name) == "spurs") {
+      args.push_back("--osteophytes");
+      args.push_back("4");
+    }
+    const test::CommandResult r = runEchoreg(args);
+    ASSERT_EQ(r.exitCode, 0) << name << ": " << r.err;
+  }
+  auto volumeMm3 = [&](const std::string& study, const std::string& bone) {
+    return core::checkMesh(filters::readMesh(dir.file(study + "/truth/" + bone + ".vtp")))
+        .volumeMm3;
+  };
+  // The library's Anatomy.OsteophytesBridgeTheJointMargins: 4 mm spurs add about 1,800 mm^3 to
+  // the femur and 900 mm^3 to the tibia (on a 1 mm joint; the healthy joint here).
+  for (const char* bone : {"femur", "tibia"}) {
+    const double added = volumeMm3("spurs", bone) - volumeMm3("plain", bone);
+    EXPECT_GT(added, 300.0) << bone;
+    EXPECT_LT(added, 4000.0) << bone;
+  }
+  for (const char* bone : {"fibula", "patella"})
+    EXPECT_NEAR(volumeMm3("spurs", bone), volumeMm3("plain", bone), 1e-6) << bone;
+  std::ifstream spurs(dir.file("spurs/study.json"));
+  EXPECT_EQ(nlohmann::json::parse(spurs).at("generator").at("osteophyte_mm"), 4.0);
+  std::ifstream plain(dir.file("plain/study.json"));
+  EXPECT_FALSE(nlohmann::json::parse(plain).at("generator").contains("osteophyte_mm"));
 }
 
 TEST(CliSimulate, FailuresNameTheFileAndLeaveNothing) {

@@ -25,6 +25,9 @@ struct StudyOptions {
   std::uint64_t seed = 1;
   StudySize size = StudySize::Full;
   double flexionDeg = 0.0;
+  /// Marginal osteophytes of an arthritic knee, mm (KneeOptions::osteophyteMm: 0 none, at most
+  /// 8; needs the procedural femur).
+  double osteophyteMm = 0.0;
   std::map<BoneId, std::string> meshFiles;  ///< --bone femur=FILE.stl
   Standoff standoff = Standoff::GloveFinger;
   /// Speed of sound the capture software assumes (written in the captures' headers); 0 = the
