@@ -155,10 +155,8 @@ const std::vector<Tunable>& tunables() {
       {"delay", "Depth", "Acquisition delay, s; default: capture header, else 0", 0.0,
        [](P& p, const V& v) { p.depth.delayS = as<double>(v); }},
       {"speed-of-sound", "Depth",
-       fmt::format("m/s, {:.0f} to {:.0f}; default: capture header, else {:.0f} (calibration "
-                   "preset: {:.0f})",
-                   kMinSpeedOfSoundMps, kMaxSpeedOfSoundMps, kTissueSpeedOfSoundMps,
-                   kWaterSpeedOfSoundMps),
+       fmt::format("m/s; default: capture header, else {:.0f} (calibration preset: {:.0f})",
+                   kTissueSpeedOfSoundMps, kWaterSpeedOfSoundMps),
        0.0, [](P& p, const V& v) { p.depth.speedOfSoundMps = as<double>(v); },
        std::array<double, 2>{kMinSpeedOfSoundMps, kMaxSpeedOfSoundMps}},
       {"temporal", "Inter-signal",
