@@ -24,6 +24,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <ostream>
 #include <stdexcept>
 
@@ -71,8 +72,7 @@ struct CalibrateOptions {
   double tipRadius = 0.0;
   bool freeRadius = false;
   std::vector<double> initial;
-  double speedOfSound = 0.0;
-  const CLI::Option* speedOfSoundOption = nullptr;  ///< given when its count() > 0
+  std::optional<double> speedOfSound;  ///< the bath's, when given (else the header's)
   std::vector<double> windowMm;
   std::string paramsFile;     ///< --params: detection tunables (detection_params.hpp)
   TunableSettings detection;  ///< the shared table's flags given
@@ -125,13 +125,12 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   }
   const std::string speedRange =
       fmt::format("{:.0f}-{:.0f} m/s", gate.minSpeedOfSoundMps, gate.maxSpeedOfSoundMps);
-  const bool speedGiven = o.speedOfSoundOption != nullptr && o.speedOfSoundOption->count() > 0;
-  if (speedGiven &&
-      !(o.speedOfSound >= gate.minSpeedOfSoundMps && o.speedOfSound <= gate.maxSpeedOfSoundMps)) {
+  if (o.speedOfSound &&
+      !(*o.speedOfSound >= gate.minSpeedOfSoundMps && *o.speedOfSound <= gate.maxSpeedOfSoundMps)) {
     throw std::invalid_argument(fmt::format(
         "--speed-of-sound must be the bath's speed of sound within {} (--speed-of-sound-range), "
         "got {}",
-        speedRange, o.speedOfSound));
+        speedRange, *o.speedOfSound));
   }
   if (o.windowMm.size() == 2 && !(o.windowMm[0] >= 0.0 && o.windowMm[1] > o.windowMm[0])) {
     throw std::invalid_argument(
@@ -180,8 +179,8 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   // preset (or the --params file's), the header, --params, the flags.
   std::string preset;
   TunableSettings settings = o.detection;
-  if (speedGiven)
-    settings["speed-of-sound"] = o.speedOfSound;
+  if (o.speedOfSound)
+    settings["speed-of-sound"] = *o.speedOfSound;
   if (o.windowMm.size() == 2)
     settings["window-mm"] = o.windowMm;
   if (!o.paramsFile.empty())
@@ -442,10 +441,10 @@ CommandAction addCalibrateCommand(CLI::App& app) {
                   "Initial BeamToProbe translation X Y Z, mm (e.g. a CMM measurement)")
       ->expected(3)
       ->required();
-  o->speedOfSoundOption =
-      cmd->add_option("--speed-of-sound", o->speedOfSound,
-                      "Assumed speed of sound in the bath, m/s (default: the capture's header); "
-                      "within --speed-of-sound-range");
+  cmd->add_option_function<double>(
+      "--speed-of-sound", [o](double mps) { o->speedOfSound = mps; },
+      "Assumed speed of sound in the bath, m/s (default: the capture's header, else the "
+      "calibration preset's); within --speed-of-sound-range");
   cmd->add_option("--window-mm", o->windowMm, "Processing window MIN MAX, mm from the beam origin")
       ->expected(2);
   auto* params =

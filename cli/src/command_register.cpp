@@ -30,6 +30,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <optional>
 #include <ostream>
 #include <sstream>
 #include <stdexcept>
@@ -513,7 +514,7 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
   PoseNotes poseNotes;
   std::vector<core::SurfacePoint> points;
   nlohmann::json sources = nlohmann::json::array();
-  double speedOfSound = 0.0;
+  std::optional<double> speedOfSound;  ///< the detection's, when the points were detected here
   if (!o.pointsCsv.empty()) {
     points = readPointsCsv(o.pointsCsv, o.ultrasoundSigma);
     sources.push_back({{"points", o.pointsCsv}, {"count", points.size()}});
@@ -621,8 +622,8 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
       {"start", initReport},
       {"landmark_residuals", landmarkResiduals},
       {"points", residuals}};
-  if (speedOfSound > 0.0)
-    out.extra["speed_of_sound_mps"] = speedOfSound * r.speedOfSoundScale;
+  if (speedOfSound)
+    out.extra["speed_of_sound_mps"] = *speedOfSound * r.speedOfSoundScale;
   if (!r.converged)
     out.extra["message"] = r.message;
   // A start from two landmarks leaves the rotation about their line to the surface points: on a
@@ -689,7 +690,7 @@ CLI::Option* addRegistrationOptions(CLI::App* cmd, const std::shared_ptr<Registe
   cmd->add_option_function<double>(
          "--speed-of-sound", [&detection](double v) { detection["speed-of-sound"] = v; },
          "Assumed speed, m/s (default: the capture's header)")
-      ->check(finiteRange(1000.0, 2000.0))
+      ->check(finiteRange(kMinSpeedOfSoundMps, kMaxSpeedOfSoundMps))
       ->group("Points");
   cmd->add_option_function<int>(
          "--history", [&detection](int v) { detection["history"] = v; },

@@ -81,7 +81,15 @@ std::string capitalised(std::string name) {
 
 int runStudy(const StudyOptions& o, const Streams& streams) {
   const auto started = std::chrono::steady_clock::now();
-  const Manifest manifest(o.dir);
+  const StudyManifest manifest = readStudyManifest(o.dir);
+  // The manifest's files the study reads, named as it names them; those outside the study folder
+  // are listed in the provenance.
+  std::set<std::string> outside;
+  const auto read = [&outside](const std::string& file) -> const std::string& {
+    if (!file.empty() && outsideStudyFolder(file))
+      outside.insert(file);
+    return file;
+  };
   // --params, read before the study folder becomes the working directory: the sweeps' detection
   // parameters (detection_params.hpp), over the manifest's detection.preset and speed of sound.
   std::string paramsPreset;
@@ -94,7 +102,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     mergeParamsFile(paramsFile, paramsPreset, paramsSettings);
   }
   // Named as the user gave it, for messages; read from inside.
-  const std::string studyDir = manifest.dir();
+  const std::string studyDir = manifest.dir;
   const StudyFolder inside(studyDir);
   const std::string results = "results";
   std::error_code ec;
@@ -157,7 +165,9 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   // --- Calibration ---------------------------------------------------------------------------
   std::vector<StudyStep> stage;
   const std::string stylusTip = results + "/stylus_tip.json";
-  const std::string pivotCapture = manifest.file("/calibration/pivot_capture");
+  const ManifestCalibration& given = manifest.calibration;
+  const std::string pivotCapture =
+      read(manifest.require(given.pivotCapture, "calibration.pivot_capture"));
   stage.push_back({"pivot-stylus",
                    "stylus tip (pivot)",
                    {"pivot", "--capture", pivotCapture, "--out", stylusTip},
@@ -165,40 +175,39 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                    {stylusTip},
                    true});
   const std::string calibration = results + "/calibration.json";
-  const std::string sphereCapture = manifest.file("/calibration/sphere_capture");
-  const std::string shotsCapture = manifest.file("/calibration/capture");
-  std::vector<std::string> calibrate = {
-      "calibrate",
-      "--sphere-capture",
-      sphereCapture,
-      "--stylus-tip-to-stylus",
-      stylusTip,
-      "--capture",
-      shotsCapture,
-      "--sphere-radius",
-      fmt::format("{}", manifest.number("/calibration/sphere_radius_mm")),
-      "--fit-speed-of-sound",
-      "--out",
-      calibration};
-  if (!manifest.at("/calibration/stylus_tip_radius_mm").is_null()) {
+  const std::string sphereCapture =
+      read(manifest.require(given.sphereCapture, "calibration.sphere_capture"));
+  const std::string shotsCapture = read(manifest.require(given.capture, "calibration.capture"));
+  if (!given.sphereRadiusMm)
+    throw FileError(manifest.path, "names no calibration.sphere_radius_mm");
+  std::vector<std::string> calibrate = {"calibrate",
+                                        "--sphere-capture",
+                                        sphereCapture,
+                                        "--stylus-tip-to-stylus",
+                                        stylusTip,
+                                        "--capture",
+                                        shotsCapture,
+                                        "--sphere-radius",
+                                        fmt::format("{}", *given.sphereRadiusMm),
+                                        "--fit-speed-of-sound",
+                                        "--out",
+                                        calibration};
+  if (given.stylusTipRadiusMm) {
     calibrate.insert(calibrate.end(),
-                     {"--stylus-tip-radius",
-                      fmt::format("{}", manifest.number("/calibration/stylus_tip_radius_mm"))});
+                     {"--stylus-tip-radius", fmt::format("{}", *given.stylusTipRadiusMm)});
   }
   // The bath's speed of sound as the manifest gives it (else the shots' header gives it).
-  if (const auto speed = manifest.at("/calibration/speed_of_sound_mps"); speed.is_number()) {
-    calibrate.insert(calibrate.end(), {"--speed-of-sound", fmt::format("{}", speed.get<double>())});
-  }
-  if (const auto initial = manifest.at("/calibration/initial_beam_to_probe_mm");
-      initial.is_array()) {
+  if (given.speedOfSoundMps)
+    calibrate.insert(calibrate.end(),
+                     {"--speed-of-sound", fmt::format("{}", *given.speedOfSoundMps)});
+  if (given.initialBeamToProbeMm) {
     calibrate.push_back("--initial");
-    for (const auto& v : initial)
-      calibrate.push_back(fmt::format("{}", v.get<double>()));
+    for (const double v : *given.initialBeamToProbeMm)
+      calibrate.push_back(fmt::format("{}", v));
   }
-  if (const auto window = manifest.at("/calibration/window_mm");
-      window.is_array() && window.size() == 2) {
-    calibrate.insert(calibrate.end(), {"--window-mm", fmt::format("{}", window[0].get<double>()),
-                                       fmt::format("{}", window[1].get<double>())});
+  if (given.windowMm) {
+    calibrate.insert(calibrate.end(), {"--window-mm", fmt::format("{}", (*given.windowMm)[0]),
+                                       fmt::format("{}", (*given.windowMm)[1])});
   }
   stage.push_back({"calibrate",
                    "transducer calibration (BeamToProbe)",
@@ -218,19 +227,12 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   runSteps(stage);
 
   // --- Bones: hip centre, models, detection, registrations, evaluation, figures ---------------
-  const nlohmann::json bones = manifest.at("/bones");
-  const std::string preset = !paramsPreset.empty() ? paramsPreset
-                             : manifest.at("/detection/preset").is_string()
-                                 ? manifest.at("/detection/preset").get<std::string>()
-                                 : "default";
-  const std::string ctLandmarks = manifest.file("/landmarks/ct", false);
-  const std::string landmarkCapture = manifest.file("/landmarks/capture", false);
-  std::vector<std::string> landmarkOrder;
-  for (const auto& label : manifest.at("/landmarks/order").is_array()
-                               ? manifest.at("/landmarks/order")
-                               : nlohmann::json::array()) {
-    landmarkOrder.push_back(label.get<std::string>());
-  }
+  const std::string preset = !paramsPreset.empty()       ? paramsPreset
+                             : manifest.detection.preset ? *manifest.detection.preset
+                                                         : "default";
+  const std::string ctLandmarks = read(manifest.landmarks.ct);
+  const std::string landmarkCapture = read(manifest.landmarks.capture);
+  const std::vector<std::string>& landmarkOrder = manifest.landmarks.order;
   // Targets of the evaluation, in CT, from the CT landmarks: the knee centre (between the
   // epicondyles), the hip centre, the ankle centre (between the malleoli).
   std::map<std::string, Eigen::Vector3d> targets;
@@ -289,10 +291,11 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     std::string figure;
   };
   std::vector<BoneRun> boneRuns;
-  if (failure.empty() && bones.is_object()) {
+  if (failure.empty()) {
     stage.clear();
     const std::string hipCentre = results + "/hip_centre.json";
-    const std::string hipCapture = manifest.file("/bones/femur/hip_rotation", false);
+    const ManifestBone* femur = manifest.bone("femur");
+    const std::string hipCapture = femur != nullptr ? read(femur->hipRotation) : std::string();
     if (!hipCapture.empty()) {
       stage.push_back(
           {"pivot-hip",
@@ -304,43 +307,32 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     }
     fs::create_directories(results + "/registrations", ec);
     fs::create_directories(results + "/evaluation", ec);
-    for (const auto& [bone, entry] : bones.items()) {
+    for (const ManifestBone& entry : manifest.bones) {
+      const std::string& bone = entry.name;
       BoneRun run;
       run.name = bone;
       const std::string Bone = capitalised(bone);
       const std::string marker = Bone + "ToTracker";
       // The model: segmented from the CT when the manifest gives seeds (unless --given-models),
       // else the manifest's model.
-      const nlohmann::json seeds = manifest.at("/bones/" + bone + "/segment/seeds_ct");
-      const std::string ctFolder = manifest.file("/ct/dicom", false);
-      if (!o.givenModels && seeds.is_array() && !seeds.empty() && !ctFolder.empty()) {
+      const std::string ctFolder = read(manifest.ctDicom);
+      if (!o.givenModels && !entry.seedsCt.empty() && !ctFolder.empty()) {
         fs::create_directories(results + "/models", ec);
         run.model = fmt::format("{}/models/{}.vtp", results, bone);
         run.segmented = true;
         std::vector<std::string> args = {"segment", "--dicom", ctFolder, "--bone", bone, "--auto"};
         // The manifest's seeds of every bone compete: this bone's make the model, the others'
         // keep it out of the bones it touches (a tibia+fibula's second seed is the fibula's).
-        for (const auto& [other, otherEntry] : bones.items()) {
-          const nlohmann::json otherSeeds = manifest.at("/bones/" + other + "/segment/seeds_ct");
-          if (!otherSeeds.is_array())
-            continue;
-          const bool withFibula =
-              manifest.at("/bones/" + other + "/segment/with_fibula") == nlohmann::json(true);
-          for (std::size_t n = 0; n < otherSeeds.size(); ++n) {
-            const auto& seed = otherSeeds[n];
-            if (!seed.is_array() || seed.size() != 3) {
-              throw FileError(manifest.dir() + "/study.json",
-                              "bones." + other + ".segment.seeds_ct: each seed is [x, y, z]");
-            }
+        for (const ManifestBone& other : manifest.bones) {
+          for (std::size_t n = 0; n < other.seedsCt.size(); ++n) {
             args.push_back("--seed");
-            args.push_back(withFibula && n == 1 ? std::string("fibula") : other);
-            for (const auto& v : seed)
-              args.push_back(fmt::format("{}", v.get<double>()));
+            args.push_back(other.withFibula && n == 1 ? std::string("fibula") : other.name);
+            for (const double v : other.seedsCt[n])
+              args.push_back(fmt::format("{}", v));
           }
         }
-        if (manifest.at("/bones/" + bone + "/segment/with_fibula") == nlohmann::json(true)) {
+        if (entry.withFibula)
           args.push_back("--with-fibula");
-        }
         args.insert(args.end(), {"--out", run.model});
         stage.push_back({"segment-" + bone,
                          bone + " model segmented from the CT",
@@ -349,7 +341,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                          {run.model},
                          true});
       } else {
-        run.model = manifest.file("/bones/" + bone + "/model");
+        run.model = read(manifest.require(entry.model, "bones." + bone + ".model"));
       }
       // The start: the landmarks touched on this bone (+ the hip centre for the femur).
       RegisterOptions start;
@@ -372,20 +364,19 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
           start.hipCentre = hipCentre;
           startInputs.push_back(hipCentre);
         }
-      } else if (const std::string initial = manifest.file("/bones/" + bone + "/initial", false);
-                 !initial.empty()) {
+      } else if (const std::string initial = read(entry.initial); !initial.empty()) {
         start.initial = initial;
         startInputs = {initial};
       } else {
-        throw FileError(manifest.dir() + "/study.json",
+        throw FileError(manifest.path,
                         "bones." + bone +
                             ": no landmarks (landmarks.ct, landmarks.capture, "
                             "landmarks.order) and no initial transform to start the registration");
       }
       int n = 0;
-      for (const auto& capture : entry.value("ultrasound", nlohmann::json::array())) {
+      for (const std::string& capture : entry.ultrasound) {
         ++n;
-        const std::string path = manifest.resolve(capture.get<std::string>());
+        const std::string path = read(capture);
         // One detection of the sweep (capture_detection.hpp) gives both its points, for the
         // figures, and its registration.
         RegisterOptions reg = start;
@@ -393,8 +384,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         reg.calibration = calibration;
         reg.preset = preset;
         reg.fitSpeed = true;
-        if (const auto c = manifest.at("/detection/speed_of_sound_mps"); c.is_number())
-          reg.detection["speed-of-sound"] = c.get<double>();
+        if (manifest.detection.speedOfSoundMps)
+          reg.detection["speed-of-sound"] = *manifest.detection.speedOfSoundMps;
         for (const auto& [name, value] : paramsSettings)
           reg.detection[name] = value;  // --params over the manifest
         reg.out = fmt::format("{}/registrations/{}_ultrasound_{}.json", results, bone, n);
@@ -438,12 +429,11 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         run.ultrasound.push_back(reg.out);
       }
       // The reference: the mechanical probe on the exposed bone (section 5.2).
-      if (const std::string mech = manifest.file("/bones/" + bone + "/mechanical", false);
-          !mech.empty()) {
+      if (const std::string mech = read(entry.mechanical); !mech.empty()) {
         run.mechanical = fmt::format("{}/registrations/{}_mechanical.json", results, bone);
         RegisterOptions reg = start;
         reg.stylusCaptures = {mech};
-        reg.stylusTipRadius = entry.value("mechanical_tip_radius_mm", 0.0);
+        reg.stylusTipRadius = entry.mechanicalTipRadiusMm;
         reg.tipFile = stylusTip;
         reg.out = run.mechanical;
         std::vector<std::string> inputs = {run.model, mech, stylusTip};
@@ -466,7 +456,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
 
     // Evaluation and figures: only the registrations that exist.
     stage.clear();
-    const std::string truthTransforms = manifest.file("/truth/transforms", false);
+    const std::string truthTransforms = read(manifest.truth.transforms);
     for (BoneRun& run : boneRuns) {
       const std::string Bone = capitalised(run.name);
       std::vector<std::string> estimates;
@@ -505,7 +495,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                          {run.evaluationMechanical},
                          false});
       }
-      const std::string truth = manifest.resolve(fmt::format("truth/{}ToCT.json", Bone));
+      const std::string truth = fmt::format("truth/{}ToCT.json", Bone);
       if (!truthTransforms.empty() && fs::exists(truth)) {
         run.evaluationTruth = fmt::format("{}/evaluation/{}_vs_truth.csv", results, run.name);
         std::vector<std::string> args = {"evaluate", "--reference", truth};
@@ -544,7 +534,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
           run.figure};
       std::vector<std::string> figureInputs = {run.model, run.points.front(), reference};
       // The patella beside the femur (a simulated study's truth): where its stray echoes land.
-      if (const std::string patella = manifest.file("/truth/patella", false);
+      if (const std::string patella = read(manifest.truth.patella);
           run.name == "femur" && !patella.empty() && fs::exists(patella)) {
         figureArgs.insert(figureArgs.end(), {"--context", patella});
         figureInputs.push_back(patella);
@@ -569,9 +559,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   if (failure.empty() && !boneRuns.empty()) {
     stage.clear();
     const BoneRun& first = boneRuns.front();
-    const std::string capture =
-        manifest.resolve(manifest.at("/bones/" + first.name + "/ultrasound/0").get<std::string>());
     if (!first.points.empty() && fs::exists(first.points.front())) {
+      const std::string capture = read(manifest.bone(first.name)->ultrasound.front());
       const CsvTable table = readCsvTable(first.points.front());
       const int status = table.column("status");
       const int reason = table.column("reason");
@@ -614,7 +603,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     }
     // Table 6.1: the single-signal chain's detection rates under several filter settings, on
     // every ultrasound sweep, against the simulation's truth (when it has one).
-    const std::string shots = manifest.file("/truth/shots", false);
+    const std::string shots = read(manifest.truth.shots);
     if (!shots.empty() && fs::exists(shots)) {
       fs::create_directories(results + "/detection", ec);
       const std::vector<std::pair<std::string, std::vector<std::string>>> settings = {
@@ -623,8 +612,10 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
           {"mozes2008, cutoff 0.02", {"--preset", "mozes2008", "--cutoff", "0.02"}},
           {preset + " (the study's)", {"--preset", preset}}};
       for (const BoneRun& run : boneRuns) {
-        const std::string sweep = manifest.resolve(
-            manifest.at("/bones/" + run.name + "/ultrasound/0").get<std::string>());
+        const std::vector<std::string>& sweeps = manifest.bone(run.name)->ultrasound;
+        if (sweeps.empty())
+          continue;  // no sweep to rate
+        const std::string sweep = read(sweeps.front());
         for (std::size_t k = 0; k < settings.size(); ++k) {
           const std::string out =
               fmt::format("{}/detection/{}_setting_{}.csv", results, run.name, k + 1);
@@ -632,9 +623,9 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                                            "--min-spread-mm", "0",   "--out",     out};
           args.insert(args.end(), settings[k].second.begin(), settings[k].second.end());
           const bool study = k + 1 == settings.size() && !paramsFile.empty();
-          if (const auto c = manifest.at("/detection/speed_of_sound_mps");
-              c.is_number() && !(study && paramsSettings.count("speed-of-sound") != 0)) {
-            args.insert(args.end(), {"--speed-of-sound", fmt::format("{}", c.get<double>())});
+          if (const auto c = manifest.detection.speedOfSoundMps;
+              c && !(study && paramsSettings.count("speed-of-sound") != 0)) {
+            args.insert(args.end(), {"--speed-of-sound", fmt::format("{}", *c)});
           }
           if (study)
             args.insert(args.end(), {"--params", paramsFile});  // the study's own setting
@@ -694,7 +685,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     studyPath = studyPath.parent_path();  // "S/"
   const std::string studyName = studyPath.filename().string();
   report.heading("Study report: " + studyName, 1);
-  const nlohmann::json generator = manifest.at("/generator");
+  const nlohmann::json& generator = manifest.generator;
   if (generator.is_object()) {
     report.paragraph(fmt::format(
         "Simulated by {} (preset {}, seed {}, size {}).", generator.value("tool", std::string("?")),
@@ -728,7 +719,9 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     for (const BoneRun& run : boneRuns) {
       if (!run.segmented || !fs::exists(run.model))
         continue;
-      const std::string truthModel = manifest.file("/truth/" + run.name, false);
+      const auto truthEntry = manifest.truth.model.find(run.name);
+      const std::string truthModel =
+          truthEntry == manifest.truth.model.end() ? std::string() : read(truthEntry->second);
       if (truthModel.empty() || !fs::exists(truthModel))
         continue;
       const core::TriangleMesh model = readModelFile(run.model);
@@ -855,7 +848,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     numbers["registrations"] = registrations;
   if (!detectionRates.empty()) {
     // Truth per frame of each capture: should a correct detector accept it?
-    const CsvTable truth = readCsvTable(manifest.file("/truth/shots"));
+    const CsvTable truth = readCsvTable(manifest.truth.shots);
     const int capCol = truth.column("capture"), frameCol = truth.column("frame"),
               acceptCol = truth.column("should_accept");
     std::map<std::pair<std::string, std::string>, bool> shouldAccept;
@@ -958,9 +951,9 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   // Provenance: every path in the results is relative to the study folder; what was read from
   // outside it is listed, so that a copy of the folder alone is known to be incomplete.
   {
-    const std::vector<std::string> outside(manifest.outside().begin(), manifest.outside().end());
+    const std::vector<std::string> outsideList(outside.begin(), outside.end());
     numbers["provenance"] = {{"paths", "relative to the study folder"},
-                             {"read_outside_study", outside}};
+                             {"read_outside_study", outsideList}};
     // Which echoreg made these numbers (echoreg study compare lists it per study).
     numbers["echoreg_version"] = ECHOREG_VERSION;
     report.heading("Provenance");

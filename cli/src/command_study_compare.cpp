@@ -6,6 +6,7 @@
 #include "commands.hpp"
 #include "csv_table.hpp"
 #include "report.hpp"
+#include "study_manifest.hpp"
 #include "study_runner.hpp"
 
 #include "echoreg/core/atomic_file.hpp"
@@ -49,7 +50,7 @@ struct StudyResults {
   std::string manifestPath;
   std::string manifestHash;  ///< FNV-1a of study.json's bytes, as `study run` hashes inputs
   nlohmann::json results;
-  nlohmann::json manifest;
+  StudyManifest manifest;  ///< read and checked as `study run` reads it
 };
 
 /// The six components of Eq. 4.5 in the order of Tables 5.3-5.7.
@@ -75,13 +76,13 @@ std::string groupLabel(const StudyResults& study, const std::string& key) {
     start = dot + 1;
   }
   const nlohmann::json::json_pointer at(pointer);
-  if (!study.manifest.contains(at)) {
+  if (!study.manifest.document.contains(at)) {
     throw FileError(study.manifestPath,
                     fmt::format("has no \"{}\" to group by (--group-by {}; a dotted path into "
                                 "study.json such as generator.standoff)",
                                 key, key));
   }
-  const nlohmann::json& value = study.manifest.at(at);
+  const nlohmann::json& value = study.manifest.document.at(at);
   if (value.is_string())
     return value.get<std::string>();
   if (value.is_object() || value.is_array()) {
@@ -123,9 +124,7 @@ StudyResults loadStudy(const std::string& dir, const std::string& groupBy) {
                                   bone));
     }
   }
-  study.manifest = readJsonFile(study.manifestPath, "study manifest");
-  if (!study.manifest.is_object())
-    throw FileError(study.manifestPath, "is not a study manifest (not a JSON object)");
+  study.manifest = readStudyManifest(dir);
   study.manifestHash = fmt::format("{:016x}", contentHash(study.manifestPath));
   study.group = groupBy.empty() ? study.name : groupLabel(study, groupBy);
   return study;
@@ -254,7 +253,7 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
   nlohmann::json studyList = nlohmann::json::array();
   for (const StudyResults& s : studies) {
     const nlohmann::json version = s.results.value("echoreg_version", nlohmann::json(nullptr));
-    const nlohmann::json generator = s.manifest.value("generator", nlohmann::json(nullptr));
+    const nlohmann::json& generator = s.manifest.generator;
     std::string parameters;
     if (generator.is_object()) {
       for (const auto& [key, value] : generator.items()) {
@@ -276,8 +275,9 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
            {"echoreg_version", version},
            {"parameters",
             {{"generator", generator},
-             {"detection", s.manifest.value("detection", nlohmann::json(nullptr))},
-             {"registration", s.manifest.value("registration", nlohmann::json(nullptr))}}}}},
+             {"detection", s.manifest.document.value("detection", nlohmann::json(nullptr))},
+             {"registration",
+              s.manifest.document.value("registration", nlohmann::json(nullptr))}}}}},
          {"results", s.results}});
   }
   report.table({"study", "group", "manifest (FNV-1a 64)", "echoreg", "simulation parameters"},

@@ -1,6 +1,8 @@
 // The detection parameters of every command that detects (detection_params.hpp).
 #include "detection_params.hpp"
 
+#include "validators.hpp"
+
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/json_file.hpp"
 #include "echoreg/core/sequence_detection.hpp"
@@ -152,8 +154,11 @@ const std::vector<Tunable>& tunables() {
        [](P& p, const V& v) { p.depth.samplingFrequencyHz = as<double>(v); }},
       {"delay", "Depth", "Acquisition delay, s; default: capture header, else 0", 0.0,
        [](P& p, const V& v) { p.depth.delayS = as<double>(v); }},
-      {"speed-of-sound", "Depth", "m/s; default: capture header, else 1540", 0.0,
-       [](P& p, const V& v) { p.depth.speedOfSoundMps = as<double>(v); }},
+      {"speed-of-sound", "Depth",
+       fmt::format("m/s; default: capture header, else {:.0f} (calibration preset: {:.0f})",
+                   kTissueSpeedOfSoundMps, kWaterSpeedOfSoundMps),
+       0.0, [](P& p, const V& v) { p.depth.speedOfSoundMps = as<double>(v); },
+       std::array<double, 2>{kMinSpeedOfSoundMps, kMaxSpeedOfSoundMps}},
       {"temporal", "Inter-signal",
        "Temporal filter: neighbours (default: each depth against the frames nearest in time) | "
        "run (the dissertation's consecutive 3D run)",
@@ -201,6 +206,8 @@ void addTunableFlags(CLI::App* cmd, TunableSettings& settings,
         tunable.type);
     if (std::holds_alternative<std::vector<double>>(tunable.type))
       option->expected(2);
+    if (tunable.flagRange)
+      option->check(finiteRange((*tunable.flagRange)[0], (*tunable.flagRange)[1]));
     option->group(tunable.group);
   }
 }

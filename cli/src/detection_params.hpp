@@ -11,8 +11,10 @@
 #include <CLI/CLI.hpp>
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <functional>
 #include <map>
+#include <optional>
 #include <set>
 #include <string>
 #include <variant>
@@ -24,13 +26,15 @@ namespace echoreg::cli {
 using TunableValue = std::variant<int, double, std::string, bool, std::vector<double>>;
 
 // One tunable of the chain: its flag (and, without the dashes, its key in --params files), its
-// help group and text, its type (the alternative held by `type`), and where it lands.
+// help group and text, its type (the alternative held by `type`), where it lands, and the range
+// its flag is checked against where the flag is parsed (exit 2 naming the flag), when it has one.
 struct Tunable {
   const char* name;
   const char* group;
-  const char* help;
+  std::string help;
   TunableValue type;
   std::function<void(DetectionParams&, const TunableValue&)> apply;
+  std::optional<std::array<double, 2>> flagRange = std::nullopt;
 };
 
 // Every tunable, in the order they are applied. "preset" is applied before all of them (it sets

@@ -1,24 +1,20 @@
-// The study manifest (DIR/study.json, docs/formats.md) as `echoreg study run` reads it: its size
-// and its lists bounded, every value the study reads checked for its type before any step runs,
-// and every path it names resolved against the study folder. Apart from command_study.cpp so that
-// fuzz/fuzz_manifest reads manifests as the study does.
+// The study manifest (DIR/study.json, docs/formats.md "study.json") as one typed value,
+// StudyManifest: read and checked once by readStudyManifest (its size and its lists bounded, every
+// value the study reads checked for its type before any step runs, every file name made relative
+// to the study folder), then used through its fields by `study run`, `study compare` and
+// fuzz/fuzz_manifest. No command reads the manifest's JSON by pointer.
 #pragma once
 
 #include "echoreg/core/error.hpp"
-#include "echoreg/core/json_file.hpp"
 
-#include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
-#include <algorithm>
-#include <cctype>
+#include <array>
 #include <cstddef>
-#include <cstdint>
-#include <filesystem>
-#include <set>
+#include <map>
+#include <optional>
 #include <string>
-#include <system_error>
-#include <utility>
+#include <vector>
 
 namespace echoreg::cli {
 
@@ -31,193 +27,83 @@ constexpr std::size_t kMaxCapturesPerBone = 500;
 constexpr std::size_t kMaxSeedsPerBone = 64;
 constexpr std::size_t kMaxLandmarks = 256;
 
-inline nlohmann::json readManifestJson(const std::string& path) {
-  std::error_code sizeError;
-  const std::uintmax_t bytes = std::filesystem::file_size(path, sizeError);
-  if (!sizeError && bytes > kMaxManifestBytes) {
-    throw FileError(path,
-                    fmt::format("is {:.1f} MB, more than the {} MB a study manifest may be "
-                                "(a manifest names files; it does not hold data)",
-                                static_cast<double>(bytes) / (1 << 20), kMaxManifestBytes >> 20));
-  }
-  return echoreg::readJsonFile(path);
-}
+// File names below are as the study reads them: relative to the study folder (the working
+// directory while it runs, so that no result embeds where the study lies), lexically normal, a
+// "#member" suffix dropped; "" when the manifest leaves them out. Whether a file is needed is the
+// study's to say (StudyManifest::require), since that depends on what it runs.
 
-// The manifest, with every path resolved against the study folder and checked on use.
-class Manifest {
- public:
-  Manifest(std::string dir) : dir_(std::move(dir)), path_(dir_ + "/study.json") {
-    if (!std::filesystem::is_directory(dir_))
-      throw FileError(dir_, "is not a study folder");
-    doc_ = readManifestJson(path_);
-    // (value() on a document that is not an object, or a "format" that is not a string, threw
-    // the JSON library's own message; found by fuzz/fuzz_manifest.)
-    if (!doc_.is_object() || !doc_.contains("format") || doc_["format"] != "echoreg-study") {
-      throw FileError(path_, "is not an echoreg study manifest (\"format\": \"echoreg-study\")");
-    }
-    validate();
-  }
-  const std::string& dir() const { return dir_; }
-  const nlohmann::json& doc() const { return doc_; }
-  /// The value at a JSON pointer, or null.
-  nlohmann::json at(const std::string& pointer) const {
-    const nlohmann::json::json_pointer p(pointer);
-    return doc_.contains(p) ? doc_[p] : nlohmann::json();
-  }
-  /// A file named by the manifest at `pointer`, resolved; "" when absent and not required.
-  std::string file(const std::string& pointer, bool required = true) const {
-    const nlohmann::json v = at(pointer);
-    if (v.is_null()) {
-      if (required)
-        throw FileError(path_, "names no " + pointer.substr(1));
-      return "";
-    }
-    if (!v.is_string())
-      throw FileError(path_, pointer.substr(1) + " is not a file name");
-    return resolve(v.get<std::string>());
-  }
-  /// A manifest path as the study reads it: relative to the study folder, which is the working
-  /// directory while the study runs (StudyFolder), so that no result embeds where the study lies
-  /// and a study moved or copied gives the same bytes. A path that leaves the folder (absolute, or
-  /// through "..") is allowed and listed in outside().
-  std::string resolve(const std::string& relative) const {
-    const auto hash = relative.find('#');  // "truth/transforms.json#Name" names a member
-    const std::string name = hash == std::string::npos ? relative : relative.substr(0, hash);
-    const std::filesystem::path path = std::filesystem::path(name).lexically_normal();
-    if (path.is_absolute() || (!path.empty() && *path.begin() == "..")) {
-      outside_.insert(path.generic_string());
-    }
-    return path.generic_string();
-  }
-  /// The files and folders read outside the study folder, for the report's provenance.
-  const std::set<std::string>& outside() const { return outside_; }
-  double number(const std::string& pointer) const {
-    const nlohmann::json v = at(pointer);
-    if (!v.is_number())
-      throw FileError(path_, pointer.substr(1) + " is not a number");
-    return v.get<double>();
-  }
-
- private:
-  // "/bones/femur/ultrasound" -> "bones.femur.ultrasound", as the user reads the file.
-  static std::string dotted(const std::string& pointer) {
-    std::string name = pointer.substr(1);
-    std::replace(name.begin(), name.end(), '/', '.');
-    return name;
-  }
-  [[noreturn]] void wrongType(const std::string& pointer, const std::string& expected) const {
-    throw FileError(
-        path_, fmt::format("{} must be {}, got {}", dotted(pointer), expected, at(pointer).dump()));
-  }
-  // A value the manifest may leave out, but of the right type when given.
-  void optionalNumber(const std::string& pointer, bool positive = false) const {
-    const nlohmann::json v = at(pointer);
-    if (v.is_null())
-      return;
-    if (!v.is_number() || (positive && !(v.get<double>() > 0.0)))
-      wrongType(pointer, positive ? "a number > 0" : "a number");
-  }
-  void optionalNumbers(const std::string& pointer, std::size_t count,
-                       const std::string& expected) const {
-    const nlohmann::json v = at(pointer);
-    if (v.is_null())
-      return;
-    if (!v.is_array() || v.size() != count ||
-        !std::all_of(v.begin(), v.end(), [](const nlohmann::json& x) { return x.is_number(); }))
-      wrongType(pointer, expected);
-  }
-  void optionalString(const std::string& pointer) const {
-    const nlohmann::json v = at(pointer);
-    if (!v.is_null() && !v.is_string())
-      wrongType(pointer, "a string");
-  }
-  void optionalStrings(const std::string& pointer, const std::string& expected) const {
-    const nlohmann::json v = at(pointer);
-    if (v.is_null())
-      return;
-    if (!v.is_array() ||
-        !std::all_of(v.begin(), v.end(), [](const nlohmann::json& x) { return x.is_string(); }))
-      wrongType(pointer, expected);
-  }
-
-  // A list the study runs through, bounded: "bones.femur.ultrasound lists 1000000 captures, more
-  // than the 500 registrations ...".
-  void atMost(const std::string& pointer, std::size_t most, const std::string& what,
-              const std::string& why) const {
-    const nlohmann::json v = at(pointer);
-    if (v.is_array() && v.size() > most) {
-      throw FileError(path_, fmt::format("{} lists {} {}, more than the {} {}", dotted(pointer),
-                                         v.size(), what, most, why));
-    }
-  }
-
-  // Every value the study reads, checked before any step runs (docs/formats.md, "study.json"):
-  // the version, the bones, and the type of each optional value, so that none is silently ignored.
-  void validate() const {
-    const nlohmann::json version = at("/version");
-    if (!version.is_null() && version != nlohmann::json(1)) {
-      throw FileError(path_, fmt::format("\"version\": {} is not a manifest version this echoreg "
-                                         "reads (1)",
-                                         version.dump()));
-    }
-    const nlohmann::json bones = at("/bones");
-    if (!bones.is_object() || bones.empty()) {
-      throw FileError(path_,
-                      "names no bones (\"bones\": {\"femur\": {...}, ...}): nothing to "
-                      "register");
-    }
-    if (bones.size() > kMaxBones) {
-      throw FileError(path_, fmt::format("names {} bones, more than the {} a study may register "
-                                         "(split the study)",
-                                         bones.size(), kMaxBones));
-    }
-    optionalNumber("/calibration/stylus_tip_radius_mm");
-    optionalNumber("/calibration/speed_of_sound_mps", true);
-    optionalNumbers("/calibration/initial_beam_to_probe_mm", 3, "[X, Y, Z] in mm");
-    optionalNumbers("/calibration/window_mm", 2, "[MIN, MAX] in mm");
-    optionalString("/detection/preset");
-    optionalNumber("/detection/speed_of_sound_mps", true);
-    optionalStrings("/landmarks/order", "a list of landmark names");
-    atMost("/landmarks/order", kMaxLandmarks, "landmarks", "a registration's landmarks");
-    for (const auto& [bone, entry] : bones.items()) {
-      // A bone's name names its result files (results/models/NAME.vtp, ...) and is looked up as
-      // a JSON pointer: "../x" wrote outside the results, "a~b" threw the JSON library's message.
-      const bool plain =
-          !bone.empty() && bone.size() <= 64 && std::all_of(bone.begin(), bone.end(), [](char c) {
-            return std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-';
-          });
-      if (!plain) {
-        throw FileError(path_, fmt::format("bones: {} is not a bone name (1 to 64 letters, digits, "
-                                           "_ or -: it names the bone's result files)",
-                                           nlohmann::json(bone).dump()));
-      }
-      const std::string key = "/bones/" + bone;
-      if (!entry.is_object())
-        wrongType(key, "an object");
-      optionalStrings(key + "/ultrasound", "a list of capture file names");
-      atMost(key + "/ultrasound", kMaxCapturesPerBone, "captures",
-             "registrations a study may run per bone (each capture is a detection and a "
-             "registration; split the study)");
-      optionalNumber(key + "/mechanical_tip_radius_mm");
-      const nlohmann::json fibula = at(key + "/segment/with_fibula");
-      if (!fibula.is_null() && !fibula.is_boolean())
-        wrongType(key + "/segment/with_fibula", "true or false");
-      const nlohmann::json seeds = at(key + "/segment/seeds_ct");
-      if (seeds.is_null())
-        continue;
-      if (!seeds.is_array())
-        wrongType(key + "/segment/seeds_ct", "a list of seeds [x, y, z]");
-      atMost(key + "/segment/seeds_ct", kMaxSeedsPerBone, "seeds",
-             "seeds a bone's segmentation takes");
-      for (std::size_t i = 0; i < seeds.size(); ++i)
-        optionalNumbers(fmt::format("{}/segment/seeds_ct/{}", key, i), 3, "[x, y, z] in mm");
-    }
-  }
-
-  std::string dir_;
-  std::string path_;
-  nlohmann::json doc_;
-  mutable std::set<std::string> outside_;
+/// One bone, bones.<name>.
+struct ManifestBone {
+  std::string name;     ///< 1 to 64 letters, digits, _ or - (it names the bone's result files)
+  std::string model;    ///< model: the bone's model in CT, when the CT is not segmented
+  std::string initial;  ///< initial: a <Bone>ToCT transform to start from, without landmarks
+  std::vector<std::string> ultrasound;  ///< ultrasound: the sweeps, each a registration
+  std::string mechanical;               ///< mechanical: the stylus on the exposed bone
+  double mechanicalTipRadiusMm = 0.0;   ///< mechanical_tip_radius_mm (not checked for sign here)
+  std::string hipRotation;              ///< hip_rotation: the leg circling about the hip (femur)
+  std::vector<std::array<double, 3>> seedsCt;  ///< segment.seeds_ct, LPS mm
+  bool withFibula = false;  ///< segment.with_fibula: the 2nd seed is the fibula's
 };
+
+struct ManifestCalibration {
+  std::string pivotCapture;                 ///< pivot_capture: the stylus pivoting in a divot
+  std::string sphereCapture;                ///< sphere_capture: the stylus on the sphere
+  std::string capture;                      ///< capture: the A-line shots at the sphere
+  std::optional<double> sphereRadiusMm;     ///< sphere_radius_mm
+  std::optional<double> stylusTipRadiusMm;  ///< stylus_tip_radius_mm
+  std::optional<double> speedOfSoundMps;    ///< speed_of_sound_mps (> 0): the bath's, assumed
+  std::optional<std::array<double, 3>> initialBeamToProbeMm;  ///< initial_beam_to_probe_mm
+  std::optional<std::array<double, 2>> windowMm;              ///< window_mm [MIN, MAX]
+};
+
+struct ManifestDetection {
+  std::optional<std::string> preset;      ///< preset of echoreg detect
+  std::optional<double> speedOfSoundMps;  ///< speed_of_sound_mps (> 0) the sweeps assume
+};
+
+struct ManifestLandmarks {
+  std::string ct;                  ///< ct: the landmarks picked on the CT (Slicer markups)
+  std::string capture;             ///< capture: the stylus dwelling on each, in `order`
+  std::vector<std::string> order;  ///< order: the landmarks' names in touch order
+};
+
+/// A simulated study's truth (truth.*), for the evaluation.
+struct ManifestTruth {
+  std::string transforms;                    ///< transforms
+  std::string shots;                         ///< shots: per frame, should it be accepted
+  std::string patella;                       ///< patella: context in the femur's figure
+  std::map<std::string, std::string> model;  ///< truth.<bone>: a bone's true surface, by bone
+};
+
+struct StudyManifest {
+  std::string dir;   ///< the study folder as the user gave it
+  std::string path;  ///< dir + "/study.json", the name every message gives
+  ManifestCalibration calibration;
+  std::vector<ManifestBone> bones;  ///< at least one, by name
+  std::string ctDicom;              ///< ct.dicom: the CT series folder
+  ManifestLandmarks landmarks;
+  ManifestDetection detection;
+  ManifestTruth truth;
+  /// generator: who made the study, free-form key/values reported as they are (null if absent).
+  nlohmann::json generator;
+  /// The file as read, for what is free-form by design: study compare's --group-by (a dotted path
+  /// of the user's choosing) and its provenance, which quotes the manifest's own sections.
+  nlohmann::json document;
+
+  /// The bone of that name, or null.
+  const ManifestBone* bone(const std::string& name) const;
+  /// `file` when the manifest gives it; else FileError naming the manifest and `key` (dotted, as
+  /// the file spells it: "calibration.pivot_capture").
+  const std::string& require(const std::string& file, const std::string& key) const;
+};
+
+/// Reads DIR/study.json and checks it (docs/formats.md): FileError naming the folder (not a
+/// folder) or the manifest and the key (not a manifest, an unknown version, no bones, a value of
+/// the wrong type, a list longer than its bound).
+StudyManifest readStudyManifest(const std::string& dir);
+
+/// Whether a manifest's file name leaves the study folder (absolute, or through ".."): such a file
+/// is read, and listed in the study's provenance, since a copy of the folder alone lacks it.
+bool outsideStudyFolder(const std::string& file);
 
 }  // namespace echoreg::cli

@@ -84,7 +84,7 @@ DetectionParams detectionPreset(std::string_view name) {
     params.envelope.windowSamples = 21;
     params.envelope.ringDownSamples = 200;
     params.peaks.policy = PeakPolicy::WindowMax;
-    params.depth.speedOfSoundMps = 1480.0;
+    params.depth.speedOfSoundMps = kWaterSpeedOfSoundMps;
     return params;
   }
   throw std::invalid_argument("unknown preset '" + std::string(name) +

@@ -2,6 +2,7 @@
 // header scanning, pixel data (raw or zlib/gzip), per-frame keys, checks before writing.
 #include "echoreg/core/sequence.hpp"
 
+#include "echoreg/core/depth.hpp"
 #include "echoreg/core/error.hpp"
 #include "sequence_io_detail.hpp"
 
@@ -376,12 +377,15 @@ bool applyAcquisitionEntry(const std::string& path, const HeaderEntry& entry,
     double low, high;
     const char* what;
   };
+  static_assert(kMinSpeedOfSoundMps == 1000.0 && kMaxSpeedOfSoundMps == 2000.0,
+                "the speed of sound's bounds are named in the message below");
   const Bounds bounds =
       entry.key == kSamplingFrequencyKey ? Bounds{1e3, 1e10, "sampling frequency (1e3 to 1e10 Hz)"}
       : entry.key == kDelayKey
           ? Bounds{-1e-3, 1e-3, "acquisition delay (-1e-3 to 1e-3 s: 1 ms is 770 mm of tissue)"}
-      : entry.key == kSpeedOfSoundKey ? Bounds{1000.0, 2000.0, "speed of sound (1000 to 2000 m/s)"}
-                                      : Bounds{1e5, 1e9, "transducer frequency (1e5 to 1e9 Hz)"};
+      : entry.key == kSpeedOfSoundKey
+          ? Bounds{kMinSpeedOfSoundMps, kMaxSpeedOfSoundMps, "speed of sound (1000 to 2000 m/s)"}
+          : Bounds{1e5, 1e9, "transducer frequency (1e5 to 1e9 Hz)"};
   if (!(**target >= bounds.low && **target <= bounds.high)) {
     throw FileError(path, quote(entry.key) + " = " + std::string(entry.value) +
                               " in the capture's header is not a plausible " + bounds.what);

@@ -11,6 +11,7 @@
 #include <Eigen/Core>
 
 #include <algorithm>
+#include <mutex>
 #include <stdexcept>
 
 namespace echoreg::filters {
@@ -105,10 +106,38 @@ void DetectionPipeline::throwFirstError(const std::string& fallback) const {
   throw std::runtime_error(fallback);
 }
 
+namespace {
+
+std::mutex executionsMutex;
+std::map<std::string, DetectionPipeline::Executions>& executionsTally() {
+  static std::map<std::string, DetectionPipeline::Executions> tally;
+  return tally;
+}
+
+}  // namespace
+
+std::map<std::string, DetectionPipeline::Executions> DetectionPipeline::executionsByCapture() {
+  const std::lock_guard<std::mutex> lock(executionsMutex);
+  return executionsTally();
+}
+
+void DetectionPipeline::update() {
+  const int envelopes = envelope->GetExecutionCount();
+  const int detections = peaks->GetExecutionCount();
+  const int updated = interSignal->GetExecutive()->Update();
+  {
+    const std::lock_guard<std::mutex> lock(executionsMutex);
+    Executions& executions = executionsTally()[capturePath_];
+    executions.envelope += envelope->GetExecutionCount() - envelopes;
+    executions.peaks += peaks->GetExecutionCount() - detections;
+  }
+  if (updated != 1)
+    throwFirstError(capturePath_ + ": the detection pipeline failed");
+}
+
 SequenceDetection DetectionPipeline::run() {
   const VtkMessageCapture quiet;
-  if (interSignal->GetExecutive()->Update() != 1)
-    throwFirstError(capturePath_ + ": the detection pipeline failed");
+  update();
   SequenceDetection detection = sequenceDetectionOf(interSignal->GetOutput());
   detection.params = params_;
   detection.analysis = analysis_;
@@ -118,8 +147,7 @@ SequenceDetection DetectionPipeline::run() {
 void DetectionPipeline::write(const std::string& path) {
   const VtkMessageCapture quiet;
   // The chain first: a writer whose input failed is never asked to write, and would not say so.
-  if (interSignal->GetExecutive()->Update() != 1)
-    throwFirstError(capturePath_ + ": the detection pipeline failed");
+  update();
   writer->SetFileName(path);
   const int writes = writer->GetExecutionCount();
   if (writer->Write() != 1 || writer->GetExecutionCount() != writes + 1 ||

@@ -2,6 +2,8 @@
 
 #include "echoreg/filters/SequenceFieldData.h"
 
+#include "echoreg/core/depth.hpp"
+
 #include <vtkDataArray.h>
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
@@ -138,7 +140,7 @@ int vtkEchoregBeamCalibrationFilter::RequestData(vtkInformation* /*request*/,
   options.assumedSpeedOfSoundMps = !std::isnan(this->AssumedSpeedOfSoundMps)
                                        ? this->AssumedSpeedOfSoundMps
                                    : std::isfinite(headerSpeed) ? headerSpeed
-                                                                : 1450.0;
+                                                                : echoreg::kWaterSpeedOfSoundMps;
 
   auto* frames = vtkDataArray::SafeDownCast(shotsTable->GetColumnByName("frame"));
   auto* depths = vtkDataArray::SafeDownCast(shotsTable->GetColumnByName("depth_mm"));

@@ -225,7 +225,6 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
       {"detect", capture, "--out", csv, "--envelope", "gauss"},
       {"detect", capture, "--out", csv, "--peaks", "triple"},
       {"detect", capture, "--out", csv, "--window-mm", "20", "10"},
-      {"detect", capture, "--out", csv, "--speed-of-sound", "-1"},
       {"detect", capture, "--out", csv, "--params", dir.file("typo.json")},
       {"detect", capture, "--out", csv, "--params", dir.file("broken.json")},
       {"detect", capture, "--out", csv, "--params", dir.file("type.json")},
@@ -244,6 +243,34 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
       runEchoreg({"detect", capture, "--out", csv, "--params", dir.file("typo.json")});
   EXPECT_NE(typo.err.find("typo.json"), std::string::npos);
   EXPECT_NE(typo.err.find("envelope-widnow"), std::string::npos);
+}
+
+// --speed-of-sound is checked where the flag is parsed, with register's and calibrate's range
+// (echoreg::kMinSpeedOfSoundMps..kMaxSpeedOfSoundMps): a usage error naming the flag, before the
+// capture is read, and nothing written. 999 and 2001 lie just outside; 1000 and 2000 are taken.
+TEST(CliDetect, SpeedOfSoundOutsideItsRangeIsAUsageErrorNamingTheFlag) {
+  test::TempDir dir;
+  const std::string capture = dir.file("sweep.igs.mha");
+  writeSequence(test::makeDemoSweep({30}), capture);
+  const std::string csv = dir.file("d.csv");
+  for (const std::string bad : {"-1", "0", "999", "2001", "1e308", "nan", "fast"}) {
+    const auto result = runEchoreg({"detect", capture, "--out", csv, "--speed-of-sound", bad});
+    EXPECT_EQ(result.exitCode, 2) << bad << ": " << result.err;
+    EXPECT_NE(result.err.find("--speed-of-sound: must be a number from 1000 to 2000, got " + bad),
+              std::string::npos)
+        << result.err;
+    EXPECT_FALSE(std::filesystem::exists(csv)) << bad;
+    EXPECT_EQ(std::distance(std::filesystem::directory_iterator(dir.path()),
+                            std::filesystem::directory_iterator()),
+              1)
+        << bad << ": something besides the capture was written";
+  }
+  for (const std::string good : {"1000", "2000"}) {
+    const auto result =
+        runEchoreg({"detect", capture, "--out", csv, "--json", "--speed-of-sound", good});
+    ASSERT_EQ(result.exitCode, 0) << good << ": " << result.err;
+    EXPECT_EQ(nlohmann::json::parse(result.out)["speed_of_sound_mps"], std::stod(good));
+  }
 }
 
 TEST(CliDetect, UsageErrorsExitTwo) {

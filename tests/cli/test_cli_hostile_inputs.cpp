@@ -324,9 +324,10 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
        2,
        "--max-rms: must be a finite number > 0, got nan"},
       // The previous stop's "noticed": detect's bad values did not name the flag (or the file).
+      // ... and now the flag's range is checked where it is parsed, as register's and calibrate's.
       {{"detect", "@capture.igs.mha", "--speed-of-sound", "0", "--out", "@out.csv"},
-       1,
-       "--speed-of-sound 0: speed of sound must be between 300 and 6000 m/s"},
+       2,
+       "--speed-of-sound: must be a number from 1000 to 2000, got 0"},
       {{"detect", "@capture.igs.mha", "--params", "@speed.json", "--out", "@out.csv"},
        1,
        "@speed.json: parameter \"speed-of-sound\" = -1450: speed of sound must be between 300 "

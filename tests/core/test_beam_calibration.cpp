@@ -493,6 +493,12 @@ TEST(BeamCalibration, BadInputRefusedNamingTheValue) {
               o.assumedSpeedOfSoundMps = 0.0;
             }).find("assumedSpeedOfSoundMps"),
             std::string::npos);
+  // The speed the depths were measured with has no default: options that do not say it are
+  // refused, not solved at a speed the shots never assumed.
+  EXPECT_NE(withOptions([](BeamCalibrationOptions& o) {
+              o.assumedSpeedOfSoundMps = BeamCalibrationOptions{}.assumedSpeedOfSoundMps;
+            }).find("assumedSpeedOfSoundMps must be > 0 m/s, got nan"),
+            std::string::npos);
   EXPECT_NE(withOptions([](BeamCalibrationOptions& o) { o.maxRounds = 0; }).find("maxRounds"),
             std::string::npos);
   EXPECT_NE(withOptions([](BeamCalibrationOptions& o) {

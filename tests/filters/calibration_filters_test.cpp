@@ -3,6 +3,7 @@
 // its core function on the same data and recovers the simulated truth; a change on one side
 // re-runs only what is downstream of it; errors go through the executive.
 #include "echoreg/core/beam_calibration.hpp"
+#include "echoreg/core/detection.hpp"
 #include "echoreg/core/fits.hpp"
 #include "echoreg/filters/SequenceFieldData.h"
 #include "echoreg/filters/vtkEchoregBeamCalibrationFilter.h"
@@ -198,6 +199,29 @@ TEST(BeamCalibrationFilter, EqualsCalibrateBeamAndRecoversTheBeamOrigin) {
       pipeline.beam->GetOutput()->GetFieldData()->GetArray("BeamToProbe"));
   ASSERT_NE(matrix, nullptr);
   EXPECT_EQ(matrix->GetComponent(0, 3), expected.beamToProbe.translation().x()) << "row-major";
+}
+
+// The speed the shots' depths were measured with: the one set, else the capture header's, else
+// the calibration preset's (as echoreg calibrate assumes); the result reports the one used.
+TEST(BeamCalibrationFilter, AssumedSpeedIsTheSetOneElseTheHeadersElseTheCalibrationPresets) {
+  CalibrationPipeline pipeline;
+  pipeline.beam->Update();
+  ASSERT_EQ(pipeline.beam->GetLastError(), "");
+  EXPECT_EQ(pipeline.beam->GetLastResult().speedOfSoundMps, 1450.0) << "the header's";
+  pipeline.beam->SetAssumedSpeedOfSoundMps(1500.0);
+  pipeline.beam->Update();
+  EXPECT_EQ(pipeline.beam->GetLastResult().speedOfSoundMps, 1500.0) << "the one set";
+  pipeline.beam->SetAssumedSpeedOfSoundMps(std::numeric_limits<double>::quiet_NaN());
+  vtkTable* shots = vtkTable::SafeDownCast(pipeline.shots->GetOutputDataObject(0));
+  ASSERT_NE(shots->GetFieldData()->GetArray("SpeedOfSoundMps"), nullptr);
+  shots->GetFieldData()->RemoveArray("SpeedOfSoundMps");
+  shots->Modified();
+  pipeline.beam->Update();
+  ASSERT_EQ(pipeline.beam->GetLastError(), "");
+  EXPECT_EQ(pipeline.beam->GetLastResult().speedOfSoundMps,
+            detectionPreset("calibration").depth.speedOfSoundMps)
+      << "without a header: the calibration preset's";
+  EXPECT_EQ(pipeline.beam->GetLastResult().speedOfSoundMps, kWaterSpeedOfSoundMps);
 }
 
 TEST(CalibrationPipeline, AChangeReRunsOnlyWhatIsDownstream) {

@@ -7,6 +7,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -28,7 +29,9 @@ struct BeamCalibrationOptions {
   BeamCalibrationMode mode = BeamCalibrationMode::Translation;
   /// Fit the speed of sound as one more parameter (depths are scaled by c / assumed).
   bool fitSpeedOfSound = false;
-  double assumedSpeedOfSoundMps = 1450.0;
+  /// The speed the shots' depths were measured with, m/s. No default: it is the detection's
+  /// (echoreg calibrate: the resolved detection parameters; the filter: the capture's header).
+  double assumedSpeedOfSoundMps = std::numeric_limits<double>::quiet_NaN();
   Eigen::Vector3d sphereCentreTracker = Eigen::Vector3d::Zero();
   double sphereRadiusMm = 25.4;
   /// Initial guess (the dissertation's CMM measurement). In Translation mode its rotation is kept.

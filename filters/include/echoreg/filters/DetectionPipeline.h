@@ -21,6 +21,7 @@
 #include <vtkNew.h>
 #include <vtkSmartPointer.h>
 
+#include <map>
 #include <string>
 
 class vtkStringOutputWindow;
@@ -73,6 +74,17 @@ class DetectionPipeline {
   /// The parameters as configure() resolved them.
   const DetectionParams& params() const { return params_; }
 
+  /// How often the envelope and the peak filter executed (RequestData) in the updates of run()
+  /// and write().
+  struct Executions {
+    int envelope = 0;
+    int peaks = 0;
+  };
+  /// The executions of every DetectionPipeline of this process so far, by capture path as given
+  /// to open(): how tests show that a command detects each capture once
+  /// (tests/study/test_execution_counts.cpp).
+  static std::map<std::string, Executions> executionsByCapture();
+
   vtkNew<vtkEchoregSequenceReader> reader;
   vtkNew<vtkEchoregEnvelopeFilter> envelope;
   vtkNew<vtkEchoregPeakFilter> peaks;
@@ -81,6 +93,9 @@ class DetectionPipeline {
   vtkNew<vtkEchoregDetectionWriter> writer;
 
  private:
+  /// Updates the chain up to the inter-signal filter, counting the executions; throws the failing
+  /// step's message.
+  void update();
   /// Throws the first upstream step's error, if any.
   void throwFirstError(const std::string& fallback) const;
 

@@ -16,8 +16,8 @@
  * "ConditionNumber", "Iterations", "Converged"; GetLastResult() the core's result.
  *
  * The assumed speed of sound is AssumedSpeedOfSoundMps, or when NaN (the default) the shots'
- * field data "SpeedOfSoundMps" (the capture header's), else 1450 m/s (the dissertation's
- * distilled water, as calibrate assumes). Defaults otherwise: those of
+ * field data "SpeedOfSoundMps" (the capture header's), else echoreg::kWaterSpeedOfSoundMps
+ * (1480 m/s, the calibration preset's, as echoreg calibrate assumes). Defaults otherwise: those of
  * echoreg::core::BeamCalibrationOptions, "ProbeToTracker", initial BeamToProbe identity.
  */
 #pragma once
