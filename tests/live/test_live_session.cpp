@@ -144,7 +144,8 @@ TEST_F(LiveSession, RecordsEverythingServedAndEndsWhenTheServerCloses) {
   EXPECT_NE(server.out.find("served 400 of 400 frames"), std::string::npos) << server.out;
   // The sweep is not of the cube: the final registration may fail, the session must not.
   ASSERT_TRUE(fs::exists(dir_.file("rec.igs.mha"))) << live.err;
-  EXPECT_FALSE(fs::exists(dir_.file("rec.igs.partial.mha")));
+  EXPECT_FALSE(fs::exists(dir_.file("rec.igs.partial.mhd")));
+  EXPECT_FALSE(fs::exists(dir_.file("rec.igs.partial.raw")));
   const nlohmann::json s = session();
   EXPECT_EQ(s.at("frames"), 400);
   EXPECT_EQ(s.at("recorded_frames"), 400);
@@ -182,6 +183,55 @@ TEST_F(LiveSession, RecordsEverythingServedAndEndsWhenTheServerCloses) {
             << "frame " << f << " " << name;
       }
     }
+  }
+}
+
+TEST_F(LiveSession, ReconnectsWhenTheServerComesBackAndGivesUpWhenItDoesNot) {
+  // The second stream is the sweep 100 s later, as a restarted PLUS server's clock goes on.
+  const Sequence first = sweep(150);
+  Sequence second = sweep(150);
+  for (SequenceFrame& frame : second.frames)
+    *frame.timestampS += 100.0;
+  writeSequence(first, dir_.file("first.igs.mha"));
+  writeSequence(second, dir_.file("second.igs.mha"));
+  const int port = freePort();
+  const auto serve = [&](const std::string& capture) {
+    return runEchoreg({"serve", dir_.file(capture), "--port", std::to_string(port), "--rate", "max",
+                       "--wait", "10"});
+  };
+  auto live = std::async(std::launch::async, [&] {
+    return runEchoreg(liveArgs(port, {"--reconnect", "3"}));
+  });
+  const CommandResult server1 = serve("first.igs.mha");
+  ASSERT_EQ(server1.exitCode, 0) << server1.err;
+  std::this_thread::sleep_for(std::chrono::milliseconds(700));  // live retries meanwhile
+  const CommandResult server2 = serve("second.igs.mha");
+  ASSERT_EQ(server2.exitCode, 0) << server2.err;
+  const CommandResult result = live.get();
+
+  // Back once; then the server stays away: exit 1, with the recording of both streams written.
+  EXPECT_EQ(result.exitCode, 1) << result.err;
+  const std::string address = "127.0.0.1:" + std::to_string(port);
+  EXPECT_NE(result.err.find("reconnecting to " + address + " for up to 3 s"), std::string::npos)
+      << result.err;
+  EXPECT_NE(result.err.find("reconnected to 127.0.0.1"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("did not come back within --reconnect 3 s; the recording holds the "
+                            "300 frames received"),
+            std::string::npos)
+      << result.err;
+  const nlohmann::json s = session();
+  EXPECT_EQ(s.at("frames"), 300);
+  EXPECT_EQ(s.at("recorded_frames"), 300);
+  EXPECT_EQ(s.at("reconnections"), 1);
+  EXPECT_GE(s.at("disconnected_seconds").get<double>(), 3.0);
+  const Sequence recorded = readSequence(dir_.file("rec.igs.mha"));
+  ASSERT_EQ(recorded.frames.size(), 300U);
+  std::vector<std::uint8_t> both = first.pixels;
+  both.insert(both.end(), second.pixels.begin(), second.pixels.end());
+  EXPECT_EQ(recorded.pixels, both);
+  for (std::size_t f = 0; f < 150; ++f) {
+    ASSERT_EQ(recorded.frames[f].timestampS, first.frames[f].timestampS) << f;
+    ASSERT_EQ(recorded.frames[150 + f].timestampS, second.frames[f].timestampS) << f;
   }
 }
 
