@@ -62,6 +62,7 @@ struct LiveOptions {
   double idleTimeoutS = 30.0;
   double connectTimeoutS = 10.0;
   double reconnectS = 0.0;
+  double sendTimeoutS = 5.0;
   double maxMessageMb = 64.0;
   double samplingFrequencyHz = 0.0;
 };
@@ -224,12 +225,12 @@ void LiveSession::sendBack(const live::Packet& packet) {
     return;
   live::Connection& target = results_ ? *results_ : *connection_;
   try {
-    target.send(packet);
+    target.send(packet, o_.sendTimeoutS, &interruptRequested());
   } catch (const live::ConnectionClosed& e) {
     resultsBroken_ = true;
     note(
-        fmt::format("warning: the results' receiver closed the connection ({}); nothing more is "
-                    "sent back, the session goes on",
+        fmt::format("warning: sending to the results' receiver failed: {}; nothing more is sent "
+                    "back, the session goes on",
                     e.what()));
   }
 }
@@ -700,16 +701,17 @@ CommandAction addLiveCommand(CLI::App& app) {
       "Register while the probe sweeps (docs/live.md): A-lines (IMAGE 1 x N) and poses (TRANSFORM\n"
       "ProbeToTracker and <Bone>ToTracker) in over OpenIGTLink from a PLUS server or echoreg\n"
       "serve (--connect), or from a client that connects (--listen). Everything received is\n"
-      "recorded to --record as it arrives (a partial file rewritten every second). A-lines are\n"
-      "paired with poses by timestamp (interpolated between the two nearest; stale or INVALID\n"
-      "poses refused with the reason), run through the detection chain and mapped to the bone;\n"
+      "recorded to --record as it arrives (appended to <stem>.partial.mhd/.raw each second).\n"
+      "A-lines are paired with poses by timestamp (interpolated between the two nearest; stale\n"
+      "or INVALID poses refused with the reason), run through the detection chain and mapped to "
+      "the bone;\n"
       "once --min-points have come, the surface registration runs on all points so far, again\n"
       "as more arrive (at most --update-hz), each time from --initial or the landmarks as\n"
       "register starts; and once more on every point when the stream ends. Sent back:\n"
       "TRANSFORM <Bone>ToCT, POINT <Bone>Point (each accepted echo), POINT <Bone>Points (all),\n"
-      "STRING <Bone>Status (RMS, converged, points). Ends when the server closes, on SIGINT, "
-      "after\n"
-      "--duration or --idle-timeout; then registers the recording exactly as `echoreg register\n"
+      "STRING <Bone>Status (RMS, converged, points). Ends when the server closes (with\n"
+      "--reconnect: when it has not come back within that time), on SIGINT, after --duration or\n"
+      "--idle-timeout; then registers the recording exactly as `echoreg register\n"
       "--capture` does and writes the same files (--out and its .tfm).");
   auto* connect = cmd->add_option("--connect", o->connect, "HOST:PORT of the server (PLUS: 18944)")
                       ->group("Connection");
@@ -735,6 +737,12 @@ CommandAction addLiveCommand(CLI::App& app) {
                   "the recording and the result (0: the session ends at the disconnect)")
       ->capture_default_str()
       ->check(finiteNumber(0.0, true))
+      ->group("Connection");
+  cmd->add_option("--send-timeout", o->sendTimeoutS,
+                  "Seconds the results' receiver may leave its socket full (not reading) before "
+                  "live stops sending back; the session goes on")
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, false))
       ->group("Connection");
   cmd->add_option("--idle-timeout", o->idleTimeoutS,
                   "End after this many seconds without a message")

@@ -235,6 +235,84 @@ TEST_F(LiveSession, ReconnectsWhenTheServerComesBackAndGivesUpWhenItDoesNot) {
   }
 }
 
+TEST(SlowConsumer, ASendToAPeerThatDoesNotReadGivesUpAfterItsTimeoutOrOnStop) {
+  Listener listener("127.0.0.1", 0);
+  Connection sender = Connection::connect("127.0.0.1", listener.port(), 5.0);
+  std::optional<Connection> receiver = listener.accept(5.0);  // never reads
+  ASSERT_TRUE(receiver);
+  const Packet megabyte(std::size_t{1} << 20, 0x5a);
+  const auto start = std::chrono::steady_clock::now();
+  std::size_t sent = 0;
+  std::string problem;
+  try {
+    for (; sent < 256; ++sent)  // far more than loopback's socket buffers hold
+      sender.send(megabyte, 0.3);
+  } catch (const ConnectionClosed& e) {
+    problem = e.what();
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_LT(sent, 256U);
+  EXPECT_NE(problem.find("the peer read nothing for 0.3 s"), std::string::npos) << problem;
+  EXPECT_LT(seconds, 10.0);
+  // Without a timeout the send waits for the reader, and a stop flag ends the wait.
+  std::atomic<bool> stop{false};
+  auto stopper = std::async(std::launch::async, [&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    stop = true;
+  });
+  EXPECT_THROW(sender.send(megabyte, -1.0, &stop), ConnectionClosed);
+  stopper.get();
+}
+
+TEST_F(LiveSession, ServeWaitsForAClientThatStallsAndDropsNothing) {
+  // 6000 A-lines of 4096 bytes at 3000 a second (24 MB in 2 s, more than loopback buffers
+  // hold); the client reads nothing for 3 s, then everything.
+  test::DemoSweepOptions options;
+  options.frames = 600;
+  options.frameRateHz = 3000.0;
+  const Sequence once = test::makeDemoSweep(options);
+  Sequence fast = once;
+  for (int copy = 1; copy < 10; ++copy) {
+    for (SequenceFrame frame : once.frames) {
+      *frame.timestampS += 0.2 * copy;
+      fast.frames.push_back(std::move(frame));
+    }
+    fast.pixels.insert(fast.pixels.end(), once.pixels.begin(), once.pixels.end());
+  }
+  writeSequence(fast, dir_.file("fast.igs.mha"));
+  const int port = freePort();
+  auto serve = std::async(std::launch::async, [&] {
+    return runEchoreg({"serve", dir_.file("fast.igs.mha"), "--port", std::to_string(port), "--rate",
+                       "recorded", "--wait", "10"});
+  });
+  std::vector<double> timestamps;
+  {
+    Connection client = Connection::connect("127.0.0.1", port, 10.0);
+    std::this_thread::sleep_for(std::chrono::seconds(3));
+    MessageReader reader(std::size_t{1} << 26);
+    try {
+      while (auto received = reader.next(client, 5.0, nullptr)) {
+        if (received->message && received->message->kind == MessageKind::Image)
+          timestamps.push_back(received->message->header.timestampS);
+      }
+    } catch (const ConnectionClosed&) {
+      // serve closes after the last frame; closing here ends its graceful close
+    }
+  }
+  const CommandResult server = serve.get();
+  ASSERT_EQ(server.exitCode, 0) << server.err;
+  EXPECT_NE(server.out.find("served 6000 of 6000 frames"), std::string::npos) << server.out;
+  EXPECT_NE(server.out.find("s behind the recorded timing (the client read more slowly)"),
+            std::string::npos)
+      << server.out;
+  EXPECT_NE(server.err.find("the client reads more slowly than the recording's rate"),
+            std::string::npos)
+      << server.err;
+  ASSERT_EQ(timestamps.size(), 6000U);
+  EXPECT_TRUE(std::is_sorted(timestamps.begin(), timestamps.end()));
+}
+
 TEST_F(LiveSession, AnOversizedMessageEndsTheSessionWithAClearMessageAndKeepsTheRecording) {
   const Sequence s = sweep(30);
   const int port = freePort();
