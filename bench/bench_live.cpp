@@ -232,8 +232,11 @@ int soak(double seconds, double rateHz, double reportEveryS) {
       s.at("latency_ms").at("median").get<double>(), s.at("latency_ms").at("p99").get<double>(),
       s.at("latency_ms").at("count").get<int>(), s.at("registration_updates").get<int>(),
       wall - s.at("stream_seconds").get<double>(), rss, hwm);
-  if (code != 0 && code != 1)
-    std::printf("%s\n", err.str().c_str());
+  if (code != 0) {  // e.g. the final registration on the cube the sweep is not of
+    const std::string text = err.str();
+    std::printf("live's stderr (end):\n%s\n",
+                text.substr(text.size() > 1500 ? text.size() - 1500 : 0).c_str());
+  }
   return s.at("recorded_frames").get<long>() == sent.load() ? 0 : 1;
 }
 
