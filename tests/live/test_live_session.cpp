@@ -235,6 +235,37 @@ TEST_F(LiveSession, ReconnectsWhenTheServerComesBackAndGivesUpWhenItDoesNot) {
   }
 }
 
+TEST_F(LiveSession, ListeningLiveTakesAClientThatComesBackIntoTheSameRecording) {
+  const Sequence s = sweep(60);
+  const int port = freePort();
+  std::vector<std::string> args = liveArgs(port, {"--reconnect", "2"});
+  args[1] = "--listen";  // "--connect", "127.0.0.1:PORT" -> "--listen", "PORT"
+  args[2] = std::to_string(port);
+  auto live = std::async(std::launch::async, [&] { return runEchoreg(args); });
+  for (std::size_t part = 0; part < 2; ++part) {
+    Connection client = Connection::connect("127.0.0.1", port, 10.0);
+    if (part == 0)
+      client.send(encodeString(kCaptureHeaderName, captureHeaderJson(s), 10.0));
+    for (std::size_t f = part * 30; f < part * 30 + 30; ++f)
+      sendFrame(client, s, f);
+    client.closeGracefully(5.0);
+  }
+  const CommandResult result = live.get();
+  EXPECT_EQ(result.exitCode, 1) << result.err;
+  EXPECT_NE(result.err.find("waiting for a server to connect to 127.0.0.1:" + std::to_string(port) +
+                            " for up to 2 s"),
+            std::string::npos)
+      << result.err;
+  EXPECT_NE(result.err.find("did not come back within --reconnect 2 s"), std::string::npos)
+      << result.err;
+  const nlohmann::json j = session();
+  EXPECT_EQ(j.at("reconnections"), 1);
+  EXPECT_EQ(j.at("recorded_frames"), 60);
+  const Sequence recorded = readSequence(dir_.file("rec.igs.mha"));
+  ASSERT_EQ(recorded.frames.size(), 60U);
+  EXPECT_EQ(recorded.pixels, s.pixels);
+}
+
 TEST(SlowConsumer, ASendToAPeerThatDoesNotReadGivesUpAfterItsTimeoutOrOnStop) {
   Listener listener("127.0.0.1", 0);
   Connection sender = Connection::connect("127.0.0.1", listener.port(), 5.0);
