@@ -28,6 +28,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -36,6 +37,7 @@
 #include <optional>
 #include <ostream>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace echoreg::cli {
@@ -59,6 +61,8 @@ struct LiveOptions {
   double durationS = 0.0;
   double idleTimeoutS = 30.0;
   double connectTimeoutS = 10.0;
+  double reconnectS = 0.0;
+  double sendTimeoutS = 5.0;
   double maxMessageMb = 64.0;
   double samplingFrequencyHz = 0.0;
 };
@@ -91,6 +95,59 @@ double percentile(std::vector<double> values, double fraction) {
   return values[index];
 }
 
+// Latencies in bounded memory (a session may run for hours): counts in log-spaced bins 0.5 %
+// wide from 1 us to 1000 s, so a percentile is its bin's geometric centre (within 0.25 %, clamped
+// to the smallest and largest value seen); the maximum is exact. The last 200 are kept for the
+// progress line.
+class LatencyStats {
+ public:
+  void add(double ms) {
+    const double clamped = std::clamp(ms, kMinMs, kMaxMs);
+    const auto bin = static_cast<std::size_t>(std::log(clamped / kMinMs) / std::log(kRatio));
+    ++bins_[std::min(bin, bins_.size() - 1)];
+    min_ = count_ == 0 ? ms : std::min(min_, ms);
+    max_ = count_ == 0 ? ms : std::max(max_, ms);
+    ++count_;
+    recent_[next_++ % recent_.size()] = ms;
+  }
+  std::size_t count() const { return count_; }
+  /// The value at `fraction` (0 when empty), ranked as the smallest value with at least that
+  /// fraction of all at or below it.
+  double at(double fraction) const {
+    if (count_ == 0)
+      return 0.0;
+    if (fraction >= 1.0)
+      return max_;
+    const auto rank = static_cast<std::uint64_t>(
+        std::max(1.0, std::ceil(fraction * static_cast<double>(count_))));
+    std::uint64_t seen = 0;
+    for (std::size_t bin = 0; bin < bins_.size(); ++bin) {
+      seen += bins_[bin];
+      if (seen >= rank) {
+        const double centre = kMinMs * std::pow(kRatio, static_cast<double>(bin) + 0.5);
+        return std::clamp(centre, min_, max_);
+      }
+    }
+    return max_;
+  }
+  /// The median of the last 200.
+  double recentMedian() const {
+    std::vector<double> recent(
+        recent_.begin(),
+        recent_.begin() + static_cast<std::ptrdiff_t>(std::min(next_, recent_.size())));
+    return percentile(std::move(recent), 0.5);
+  }
+
+ private:
+  static constexpr double kMinMs = 1e-3, kMaxMs = 1e6, kRatio = 1.005;
+  std::vector<std::uint64_t> bins_ = std::vector<std::uint64_t>(
+      static_cast<std::size_t>(std::log(kMaxMs / kMinMs) / std::log(kRatio)) + 1);
+  std::uint64_t count_ = 0;
+  double min_ = 0.0, max_ = 0.0;
+  std::array<double, 200> recent_{};
+  std::size_t next_ = 0;
+};
+
 // A transform received but not yet put into a recorded frame.
 struct PendingTransform {
   std::string name;
@@ -111,6 +168,10 @@ class LiveSession {
   // `waited`: the frames waited for the chain's adaptation (their latency is not the chain's).
   void onDecided(const std::vector<live::LiveFrame>& frames, bool waited);
   void sendResults();
+  // After a disconnect: connects again (--connect) or waits for a client (--listen) with a
+  // growing pause (0.1 s doubling up to 2 s) until --reconnect seconds have passed; false when it
+  // gave up, was interrupted or --duration passed.
+  bool reconnect(const std::string& why, const std::atomic<bool>* stop);
   void sendBack(const live::Packet& packet);
   void progress(bool last);
   void note(const std::string& text) { io_.err << "echoreg live: " << text << "\n"; }
@@ -128,6 +189,9 @@ class LiveSession {
   TunableSettings settings_;
 
   std::optional<live::Connection> connection_;
+  std::unique_ptr<live::Listener> listener_;  // --listen
+  int reconnections_ = 0;
+  double disconnectedSeconds_ = 0.0;
   std::optional<live::Connection> results_;
   bool resultsBroken_ = false;
   live::PoseBuffer poses_;
@@ -147,8 +211,8 @@ class LiveSession {
   std::map<std::string, int> messagesByType_;
   std::map<std::string, int> problems_;
   std::vector<core::SurfacePoint> points_;
-  std::vector<double> latenciesMs_;          // accepted echoes: arrival -> POINT sent
-  std::vector<double> decisionLatenciesMs_;  // every frame: arrival -> its verdict
+  LatencyStats latencies_;          // accepted echoes: arrival -> POINT sent
+  LatencyStats decisionLatencies_;  // every frame: arrival -> its verdict
   std::optional<live::RegistrationUpdate> last_;
   std::string endedBy_;
   Clock::time_point started_ = Clock::now();
@@ -161,12 +225,12 @@ void LiveSession::sendBack(const live::Packet& packet) {
     return;
   live::Connection& target = results_ ? *results_ : *connection_;
   try {
-    target.send(packet);
+    target.send(packet, o_.sendTimeoutS, &interruptRequested());
   } catch (const live::ConnectionClosed& e) {
     resultsBroken_ = true;
     note(
-        fmt::format("warning: the results' receiver closed the connection ({}); nothing more is "
-                    "sent back, the session goes on",
+        fmt::format("warning: sending to the results' receiver failed: {}; nothing more is sent "
+                    "back, the session goes on",
                     e.what()));
   }
 }
@@ -175,7 +239,7 @@ void LiveSession::onDecided(const std::vector<live::LiveFrame>& frames, bool wai
   for (const live::LiveFrame& frame : frames) {
     ++reasons_[frame.reason];
     if (!waited) {
-      decisionLatenciesMs_.push_back(
+      decisionLatencies_.add(
           std::chrono::duration<double, std::milli>(Clock::now() - frame.arrival).count());
     }
     if (!frame.detail.empty() && reasonExamples_.count(frame.reason) == 0)
@@ -187,7 +251,7 @@ void LiveSession::onDecided(const std::vector<live::LiveFrame>& frames, bool wai
     registration_->addPoint(*frame.point);
     sendBack(live::encodePoints(bone_ + "Point", bone_, {frame.point->point}, frame.timestampS));
     if (!waited) {
-      latenciesMs_.push_back(
+      latencies_.add(
           std::chrono::duration<double, std::milli>(Clock::now() - frame.arrival).count());
     }
   }
@@ -341,17 +405,13 @@ void LiveSession::progress(bool last) {
   if (!last && now - lastProgress_ < std::chrono::milliseconds(250))
     return;
   lastProgress_ = now;
-  std::vector<double> recent(
-      latenciesMs_.end() -
-          std::min<std::ptrdiff_t>(200, static_cast<std::ptrdiff_t>(latenciesMs_.size())),
-      latenciesMs_.end());
   io_.err << fmt::format(
       "\rlive: {} frames in, {} echoes accepted, {} points, RMS {}, latency {:.2f} ms   {}",
       frames_, accepted_, points_.size(),
       last_ ? fmt::format("{:.3f} mm{}", last_->result.rmsMm,
                           last_->result.converged ? "" : " (not converged)")
             : std::string("-"),
-      percentile(recent, 0.5), last ? "\n" : "");
+      latencies_.recentMedian(), last ? "\n" : "");
   io_.err.flush();
 }
 
@@ -369,16 +429,18 @@ nlohmann::json LiveSession::summary() const {
                          {"skipped", problems_},
                          {"unpaired_transforms", unpaired_.frames.size()},
                          {"latency_ms",
-                          {{"count", latenciesMs_.size()},
-                           {"median", percentile(latenciesMs_, 0.5)},
-                           {"p99", percentile(latenciesMs_, 0.99)},
-                           {"max", percentile(latenciesMs_, 1.0)}}},
+                          {{"count", latencies_.count()},
+                           {"median", latencies_.at(0.5)},
+                           {"p99", latencies_.at(0.99)},
+                           {"max", latencies_.at(1.0)}}},
                          {"decision_latency_ms",
-                          {{"count", decisionLatenciesMs_.size()},
-                           {"median", percentile(decisionLatenciesMs_, 0.5)},
-                           {"p99", percentile(decisionLatenciesMs_, 0.99)},
-                           {"max", percentile(decisionLatenciesMs_, 1.0)}}},
+                          {{"count", decisionLatencies_.count()},
+                           {"median", decisionLatencies_.at(0.5)},
+                           {"p99", decisionLatencies_.at(0.99)},
+                           {"max", decisionLatencies_.at(1.0)}}},
                          {"registration_updates", updates_},
+                         {"reconnections", reconnections_},
+                         {"disconnected_seconds", disconnectedSeconds_},
                          {"seconds", seconds},
                          {"stream_seconds", streamSeconds_},
                          {"ended_by", endedBy_}};
@@ -389,6 +451,62 @@ nlohmann::json LiveSession::summary() const {
                                  {"matrix", matrixRows(last_->result.transform.matrix())}};
   }
   return json;
+}
+
+bool LiveSession::reconnect(const std::string& why, const std::atomic<bool>* stop) {
+  connection_.reset();
+  const Clock::time_point begin = Clock::now();
+  const auto elapsed = [&begin] {
+    return std::chrono::duration<double>(Clock::now() - begin).count();
+  };
+  const std::string target =
+      listener_ ? fmt::format("a server to connect to {}:{}", o_.host, listener_->port())
+                : o_.connect;
+  note(fmt::format("{}; {} for up to {} s (--reconnect), recording on into {}", why,
+                   listener_ ? "waiting for " + target : "reconnecting to " + target, o_.reconnectS,
+                   o_.record));
+  double pause = 0.1;
+  int attempts = 0;
+  std::string lastProblem;
+  const auto pastDuration = [this] {
+    return o_.durationS > 0.0 &&
+           std::chrono::duration<double>(Clock::now() - started_).count() >= o_.durationS;
+  };
+  while (!stop->load() && !pastDuration()) {
+    ++attempts;
+    if (listener_) {
+      connection_ =
+          listener_->accept(std::min(pause, std::max(0.0, o_.reconnectS - elapsed())), stop);
+    } else {
+      try {
+        const auto [host, port] = hostAndPort(o_.connect, "--connect");
+        connection_ = live::Connection::connect(host, port, 0.0, stop);
+      } catch (const std::exception& e) {
+        lastProblem = e.what();
+      }
+    }
+    if (connection_) {
+      ++reconnections_;
+      disconnectedSeconds_ += elapsed();
+      note(fmt::format("reconnected to {} after {:.1f} s ({} attempt(s)); the session goes on",
+                       connection_->peer(), elapsed(), attempts));
+      return true;
+    }
+    if (elapsed() >= o_.reconnectS)
+      break;
+    if (!listener_) {
+      const Clock::time_point wake =
+          Clock::now() + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
+                             std::min(pause, std::max(0.0, o_.reconnectS - elapsed()))));
+      while (Clock::now() < wake && !stop->load())
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    pause = std::min(2.0 * pause, 2.0);
+  }
+  disconnectedSeconds_ += elapsed();
+  note(fmt::format("gave up reconnecting after {:.1f} s ({} attempt(s){})", elapsed(), attempts,
+                   lastProblem.empty() ? std::string() : ", last: " + lastProblem));
+  return false;
 }
 
 int LiveSession::run() {
@@ -420,12 +538,12 @@ int LiveSession::run() {
     const auto [host, port] = hostAndPort(o_.connect, "--connect");
     connection_ = live::Connection::connect(host, port, o_.connectTimeoutS, stop);
   } else {
-    live::Listener listener(o_.host, o_.listenPort);
-    note(fmt::format("waiting for a server to connect to {}:{}", o_.host, listener.port()));
-    connection_ = listener.accept(o_.connectTimeoutS, stop);
+    listener_ = std::make_unique<live::Listener>(o_.host, o_.listenPort);
+    note(fmt::format("waiting for a server to connect to {}:{}", o_.host, listener_->port()));
+    connection_ = listener_->accept(o_.connectTimeoutS, stop);
     if (!connection_) {
       throw std::runtime_error(fmt::format("nothing connected to {}:{} within {} s", o_.host,
-                                           listener.port(), o_.connectTimeoutS));
+                                           listener_->port(), o_.connectTimeoutS));
     }
   }
   if (!o_.sendTo.empty()) {
@@ -453,7 +571,32 @@ int LiveSession::run() {
       received = reader.next(*connection_, 0.1, stop);
     } catch (const live::ConnectionClosed& e) {
       endedBy_ = fmt::format("the server closed the connection ({})", e.what());
-      break;
+      if (o_.reconnectS <= 0.0)
+        break;
+      if (!reconnect(endedBy_, stop)) {
+        if (stop->load()) {
+          endedBy_ = "interrupted (SIGINT) while reconnecting";
+        } else if (o_.durationS > 0.0 &&
+                   std::chrono::duration<double>(Clock::now() - started_).count() >= o_.durationS) {
+          endedBy_ = fmt::format("--duration {} s (while reconnecting)", o_.durationS);
+        } else {
+          failure = fmt::format(
+              "{} and did not come back within --reconnect {} s; the recording holds the {} "
+              "frames received",
+              endedBy_, o_.reconnectS, frames_);
+          endedBy_ += fmt::format(", not back within --reconnect {} s", o_.reconnectS);
+        }
+        break;
+      }
+      // A new stream: a message cut by the disconnect is gone, poses before the gap are not
+      // paired with A-lines after it (a restarted server may start its clock again).
+      reader = live::MessageReader(static_cast<std::size_t>(o_.maxMessageMb * 1024.0 * 1024.0));
+      frameMetadata_.reset();
+      poses_ = live::PoseBuffer(o_.poseToleranceS);
+      if (!results_)
+        resultsBroken_ = false;
+      lastMessage = Clock::now();
+      continue;
     } catch (const live::ProtocolError& e) {
       failure = e.what();
       endedBy_ = "a message broke the protocol";
@@ -529,8 +672,8 @@ int LiveSession::run() {
   io_.out << fmt::format(
       "{}: {} frames recorded; {} echoes accepted live; latency median {:.2f} ms, p99 {:.2f} ms "
       "over {} points; {} registration updates; ended by {}\n",
-      o_.record, recorded, accepted_, percentile(latenciesMs_, 0.5), percentile(latenciesMs_, 0.99),
-      latenciesMs_.size(), updates_, endedBy_);
+      o_.record, recorded, accepted_, latencies_.at(0.5), latencies_.at(0.99), latencies_.count(),
+      updates_, endedBy_);
   if (!trackingPath.empty()) {
     io_.out << fmt::format("{}: {} transforms received at no A-line's time\n", trackingPath,
                            unpaired_.frames.size());
@@ -558,16 +701,17 @@ CommandAction addLiveCommand(CLI::App& app) {
       "Register while the probe sweeps (docs/live.md): A-lines (IMAGE 1 x N) and poses (TRANSFORM\n"
       "ProbeToTracker and <Bone>ToTracker) in over OpenIGTLink from a PLUS server or echoreg\n"
       "serve (--connect), or from a client that connects (--listen). Everything received is\n"
-      "recorded to --record as it arrives (a partial file rewritten every second). A-lines are\n"
-      "paired with poses by timestamp (interpolated between the two nearest; stale or INVALID\n"
-      "poses refused with the reason), run through the detection chain and mapped to the bone;\n"
+      "recorded to --record as it arrives (appended to <stem>.partial.mhd/.raw each second).\n"
+      "A-lines are paired with poses by timestamp (interpolated between the two nearest; stale\n"
+      "or INVALID poses refused with the reason), run through the detection chain and mapped to "
+      "the bone;\n"
       "once --min-points have come, the surface registration runs on all points so far, again\n"
       "as more arrive (at most --update-hz), each time from --initial or the landmarks as\n"
       "register starts; and once more on every point when the stream ends. Sent back:\n"
       "TRANSFORM <Bone>ToCT, POINT <Bone>Point (each accepted echo), POINT <Bone>Points (all),\n"
-      "STRING <Bone>Status (RMS, converged, points). Ends when the server closes, on SIGINT, "
-      "after\n"
-      "--duration or --idle-timeout; then registers the recording exactly as `echoreg register\n"
+      "STRING <Bone>Status (RMS, converged, points). Ends when the server closes (with\n"
+      "--reconnect: when it has not come back within that time), on SIGINT, after --duration or\n"
+      "--idle-timeout; then registers the recording exactly as `echoreg register\n"
       "--capture` does and writes the same files (--out and its .tfm).");
   auto* connect = cmd->add_option("--connect", o->connect, "HOST:PORT of the server (PLUS: 18944)")
                       ->group("Connection");
@@ -583,6 +727,20 @@ CommandAction addLiveCommand(CLI::App& app) {
                   "back to the server")
       ->group("Connection");
   cmd->add_option("--connect-timeout", o->connectTimeoutS, "Seconds to wait for the connection")
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, false))
+      ->group("Connection");
+  cmd->add_option("--reconnect", o->reconnectS,
+                  "When the server closes the connection, connect again (--listen: wait for a "
+                  "client) for up to this many seconds, pausing 0.1 s doubling to 2 s between "
+                  "tries, and go on into the same recording; gives up with exit 1 after writing "
+                  "the recording and the result (0: the session ends at the disconnect)")
+      ->capture_default_str()
+      ->check(finiteNumber(0.0, true))
+      ->group("Connection");
+  cmd->add_option("--send-timeout", o->sendTimeoutS,
+                  "Seconds the results' receiver may leave its socket full (not reading) before "
+                  "live stops sending back; the session goes on")
       ->capture_default_str()
       ->check(finiteNumber(0.0, false))
       ->group("Connection");

@@ -64,17 +64,21 @@ int runServe(const ServeOptions& o, const Streams& io) {
   checkServable(sequence, o.capture, o.imageName);
   InterruptScope interrupt;
   const std::atomic<bool>* stop = &interruptRequested();
-  live::Listener listener(o.host, o.port);
+  auto listener = std::make_unique<live::Listener>(o.host, o.port);
+  const int port = listener->port();
   io.err << fmt::format("echoreg serve: {}: {} frames, waiting for a client on {}:{}\n", o.capture,
-                        sequence.frameCount(), o.host, listener.port());
-  std::optional<live::Connection> client = listener.accept(o.waitS, stop);
+                        sequence.frameCount(), o.host, port);
+  std::optional<live::Connection> client = listener->accept(o.waitS, stop);
+  // One client only: a second one (e.g. live reconnecting) is refused at once rather than left
+  // waiting in the listening socket's queue.
+  listener.reset();
   if (!client) {
     if (stop->load()) {
       io.err << "echoreg serve: interrupted before a client connected\n";
       return 1;
     }
-    throw std::runtime_error(fmt::format("no client connected to {}:{} within --wait {} s", o.host,
-                                         listener.port(), o.waitS));
+    throw std::runtime_error(
+        fmt::format("no client connected to {}:{} within --wait {} s", o.host, port, o.waitS));
   }
   const std::string peer = client->peer();
   io.err << fmt::format("echoreg serve: streaming to {}\n", peer);
@@ -107,8 +111,10 @@ int runServe(const ServeOptions& o, const Streams& io) {
   const double firstTimestamp = *sequence.frames.front().timestampS;
   const std::size_t frameBytes = sequence.samplesPerFrame() * elementSize(sequence.elementType);
   std::size_t messages = 0, bytes = 0, sent = 0;
+  double behindS = 0.0;  // --rate recorded: how late the slowest frame went out
+  bool warnedBehind = false;
   const auto send = [&](const live::Packet& packet) {
-    client->send(packet);
+    client->send(packet, -1.0, stop);  // a slow reader is waited for (SIGINT ends it)
     ++messages;
     bytes += packet.size();
   };
@@ -144,19 +150,36 @@ int runServe(const ServeOptions& o, const Streams& io) {
                                sequence.frameSize[1], t));
       }
       ++sent;
+      if (o.rate == "recorded") {
+        const double late =
+            std::chrono::duration<double>(Clock::now() - start).count() - (t - firstTimestamp);
+        behindS = std::max(behindS, late);
+        if (late > 1.0 && !warnedBehind) {
+          warnedBehind = true;
+          io.err << fmt::format(
+              "echoreg serve: the client reads more slowly than the recording's rate: frame {} "
+              "went out {:.1f} s late; nothing is dropped, the stream waits for it\n",
+              f, late);
+        }
+      }
     }
   } catch (const live::ConnectionClosed& e) {
-    throw std::runtime_error(
-        fmt::format("{} after {} of {} frames: {}", peer, sent, sequence.frameCount(), e.what()));
+    if (!stop->load())
+      throw std::runtime_error(
+          fmt::format("{} after {} of {} frames: {}", peer, sent, sequence.frameCount(), e.what()));
   }
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   // The client reads to the end before the connection goes (it may still be sending).
   joinDrain.join();
   client->closeGracefully(5.0);
-  io.out << fmt::format("{}: served {} of {} frames ({} messages, {:.1f} MB) to {} in {:.2f} s{}\n",
-                        o.capture, sent, sequence.frameCount(), messages,
-                        static_cast<double>(bytes) / 1e6, peer, seconds,
-                        stop->load() ? ", interrupted" : "");
+  io.out << fmt::format(
+      "{}: served {} of {} frames ({} messages, {:.1f} MB) to {} in {:.2f} s{}{}\n", o.capture,
+      sent, sequence.frameCount(), messages, static_cast<double>(bytes) / 1e6, peer, seconds,
+      behindS > 0.1 ? fmt::format(", up to {:.2f} s behind the recorded timing (the client read "
+                                  "more slowly)",
+                                  behindS)
+                    : std::string(),
+      stop->load() ? ", interrupted" : "");
   return 0;
 }
 

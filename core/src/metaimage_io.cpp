@@ -274,6 +274,52 @@ Sequence readMetaImage(InputFile& file) {
   return assembleSequence(file, parsed);
 }
 
+std::string metaImageHeaderPrefix(const Sequence& layout, std::optional<std::size_t> frames,
+                                  std::optional<std::uint64_t> compressedBytes) {
+  const std::vector<TextEntry> acquisition = acquisitionEntries(layout);
+  std::string header;
+  header.reserve(512);
+  appendLine(header, "ObjectType", "Image");
+  appendLine(header, "NDims", "3");
+  appendLine(header, "BinaryData", "True");
+  appendLine(header, "BinaryDataByteOrderMSB", "False");
+  appendLine(header, "CompressedData", compressedBytes ? "True" : "False");
+  if (compressedBytes)
+    appendLine(header, "CompressedDataSize", std::to_string(*compressedBytes));
+  if (frames)
+    appendLine(header, "DimSize", metaImageDimSize(layout, *frames));
+  appendLine(header, "ElementNumberOfChannels", "1");
+  appendLine(
+      header, "ElementType",
+      metaImageTypeName(layout.samplesPerFrame() > 0 ? layout.elementType : ElementType::None));
+  for (const auto& [key, value] : layout.extraHeader) {
+    // NRRD fields (axes, space directions) mean nothing in MetaImage: see sequence_io_detail.hpp.
+    if (key.compare(0, kNrrdFieldPrefix.size(), kNrrdFieldPrefix) == 0)
+      continue;
+    checkEntry(key, value);
+    appendLine(header, key, value);
+  }
+  for (const TextEntry& entry : acquisition) {
+    checkEntry(entry.key, entry.value);
+    appendLine(header, entry.key, entry.value);
+  }
+  return header;
+}
+
+std::string metaImageDimSize(const Sequence& layout, std::size_t frames) {
+  return std::to_string(layout.frameSize[0]) + " " + std::to_string(layout.frameSize[1]) + " " +
+         std::to_string(frames);
+}
+
+void appendMetaImageFrameLines(const SequenceFrame& frame, std::size_t index, std::string& out) {
+  std::vector<TextEntry> entries;
+  appendFrameMetadata(frame, index, entries);
+  for (const TextEntry& entry : entries) {
+    checkEntry(entry.key, entry.value);
+    appendLine(out, entry.key, entry.value);
+  }
+}
+
 void writeMetaImage(const Sequence& sequence, const std::string& path, bool compress) {
   namespace fs = std::filesystem;
   const bool hasData = !sequence.pixels.empty();
@@ -292,34 +338,11 @@ void writeMetaImage(const Sequence& sequence, const std::string& path, bool comp
     compressed = compressBytes(sequence.pixels, Compression::Zlib);
   const std::vector<std::uint8_t>& data = compressData ? compressed : sequence.pixels;
 
-  const std::vector<TextEntry> metadata = metadataEntries(sequence);
-  std::string header;
-  header.reserve(512 + metadata.size() * 64);
-  appendLine(header, "ObjectType", "Image");
-  appendLine(header, "NDims", "3");
-  appendLine(header, "BinaryData", "True");
-  appendLine(header, "BinaryDataByteOrderMSB", "False");
-  appendLine(header, "CompressedData", compressData ? "True" : "False");
-  if (compressData)
-    appendLine(header, "CompressedDataSize", std::to_string(data.size()));
-  appendLine(header, "DimSize",
-             std::to_string(sequence.frameSize[0]) + " " + std::to_string(sequence.frameSize[1]) +
-                 " " + std::to_string(sequence.frames.size()));
-  appendLine(header, "ElementNumberOfChannels", "1");
-  appendLine(
-      header, "ElementType",
-      metaImageTypeName(sequence.samplesPerFrame() > 0 ? sequence.elementType : ElementType::None));
-  for (const auto& [key, value] : sequence.extraHeader) {
-    // NRRD fields (axes, space directions) mean nothing in MetaImage: see sequence_io_detail.hpp.
-    if (key.compare(0, kNrrdFieldPrefix.size(), kNrrdFieldPrefix) == 0)
-      continue;
-    checkEntry(key, value);
-    appendLine(header, key, value);
-  }
-  for (const TextEntry& entry : metadata) {
-    checkEntry(entry.key, entry.value);
-    appendLine(header, entry.key, entry.value);
-  }
+  std::string header = metaImageHeaderPrefix(
+      sequence, sequence.frames.size(),
+      compressData ? std::optional<std::uint64_t>(data.size()) : std::nullopt);
+  for (std::size_t i = 0; i < sequence.frames.size(); ++i)
+    appendMetaImageFrameLines(sequence.frames[i], i, header);
   appendLine(header, kElementDataFile,
              detached ? fs::path(dataPath).filename().string() : std::string(kLocal));
 

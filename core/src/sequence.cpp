@@ -900,9 +900,8 @@ void checkTrackerOnlyHeader(const Sequence& sequence, std::size_t headerBytes) {
   }
 }
 
-std::vector<TextEntry> metadataEntries(const Sequence& sequence) {
+std::vector<TextEntry> acquisitionEntries(const Sequence& sequence) {
   std::vector<TextEntry> entries;
-  entries.reserve(4 + sequence.frames.size() * 4);
   const AcquisitionSettings& acquisition = sequence.acquisition;
   const auto appendNumber = [&entries](std::string_view key, const std::optional<double>& value) {
     if (!value)
@@ -918,6 +917,17 @@ std::vector<TextEntry> metadataEntries(const Sequence& sequence) {
   if (!acquisition.transducer.empty()) {
     entries.push_back({std::string(kTransducerKey), acquisition.transducer});
   }
+  return entries;
+}
+
+void appendFrameMetadata(const SequenceFrame& frame, std::size_t index,
+                         std::vector<TextEntry>& entries) {
+  appendFrameEntries(frame, index, entries);
+}
+
+std::vector<TextEntry> metadataEntries(const Sequence& sequence) {
+  std::vector<TextEntry> entries = acquisitionEntries(sequence);
+  entries.reserve(entries.size() + sequence.frames.size() * 4);
   for (std::size_t i = 0; i < sequence.frames.size(); ++i) {
     appendFrameEntries(sequence.frames[i], i, entries);
   }
@@ -1007,6 +1017,34 @@ void writeSequence(const Sequence& sequence, const std::string& path,
   } else {
     detail::writeMetaImage(sequence, path, options.compress);
   }
+}
+
+std::string metaImageHeaderStart(const Sequence& layout, std::optional<std::size_t> frames,
+                                 std::optional<std::uint64_t> compressedBytes) {
+  if (layout.frameSize[0] < 0 || layout.frameSize[1] < 0)
+    throw std::invalid_argument("writeSequence: negative frame size");
+  detail::checkFinite(layout.acquisition.samplingFrequencyHz, "the sampling frequency");
+  detail::checkFinite(layout.acquisition.delayS, "the delay");
+  detail::checkFinite(layout.acquisition.speedOfSoundMps, "the speed of sound");
+  detail::checkExtraHeader(layout);
+  return detail::metaImageHeaderPrefix(layout, frames, compressedBytes);
+}
+
+std::string metaImageFrameLines(const SequenceFrame& frame, std::size_t index) {
+  detail::checkFinite(frame.timestampS, "the timestamp of frame " + std::to_string(index));
+  for (const auto& [name, transform] : frame.transforms) {
+    if (!transform.matrix.allFinite()) {
+      throw std::invalid_argument("writeSequence: transform " + detail::quote(name) + " of frame " +
+                                  std::to_string(index) + " is not finite");
+    }
+  }
+  std::string out;
+  detail::appendMetaImageFrameLines(frame, index, out);
+  return out;
+}
+
+std::string metaImageDimSizeLine(const Sequence& layout, std::size_t frames) {
+  return "DimSize = " + detail::metaImageDimSize(layout, frames) + "\n";
 }
 
 }  // namespace echoreg

@@ -161,6 +161,15 @@ class DuplicateKeyCheck {
 };
 
 Sequence readMetaImage(InputFile& file);
+
+/// The MetaImage header writeSequence writes, up to the per-frame keys (see
+/// echoreg::metaImageHeaderStart); `frames` nullopt leaves out DimSize.
+std::string metaImageHeaderPrefix(const Sequence& layout, std::optional<std::size_t> frames,
+                                  std::optional<std::uint64_t> compressedBytes);
+/// DimSize's value for `frames` frames of `layout`.
+std::string metaImageDimSize(const Sequence& layout, std::size_t frames);
+/// Frame `index`'s `key = value` lines, appended to `out`.
+void appendMetaImageFrameLines(const SequenceFrame& frame, std::size_t index, std::string& out);
 Sequence readNrrd(InputFile& file);
 
 // ---- Per-frame keys -----------------------------------------------------------------------------
@@ -196,6 +205,14 @@ void checkTrackerOnlyHeader(const Sequence& sequence, std::size_t headerBytes);
 /// The acquisition keys and the per-frame keys, in writing order: frame after frame; within a
 /// frame transforms by name (matrix, then status), the timestamp, then fields in their order.
 std::vector<TextEntry> metadataEntries(const Sequence& sequence);
+
+/// The acquisition keys alone (the start of metadataEntries).
+std::vector<TextEntry> acquisitionEntries(const Sequence& sequence);
+
+/// Frame `index`'s keys as metadataEntries writes them, appended to `entries` (no finiteness
+/// check: checkWritable does that for a whole sequence).
+void appendFrameMetadata(const SequenceFrame& frame, std::size_t index,
+                         std::vector<TextEntry>& entries);
 
 /// Throws std::invalid_argument when `key`/`value` would not read back as themselves from a
 /// header line (line breaks, surrounding blanks, an empty key).

@@ -1,32 +1,242 @@
 #include "echoreg/live/capture_recorder.hpp"
 
+#include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
 
 #include <fmt/format.h>
+#include <zlib.h>
 
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <stdexcept>
 #include <utility>
 
 namespace echoreg::live {
 
+namespace {
+
+constexpr std::size_t kChunkBytes = std::size_t{1} << 20;
+
+std::string systemError() {
+  return std::strerror(errno);
+}
+
+int openForWriting(const std::string& path) {
+  const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
+  if (fd < 0)
+    throw FileError(path, "cannot be created: " + systemError());
+  return fd;
+}
+
+void closeFd(int& fd) {
+  if (fd >= 0)
+    ::close(fd);
+  fd = -1;
+}
+
+// Writes every byte at `offset` (or at the end of the file when offset is negative).
+void writeAll(int fd, const std::string& path, const void* data, std::size_t bytes,
+              std::int64_t offset = -1) {
+  const auto* p = static_cast<const std::uint8_t*>(data);
+  while (bytes > 0) {
+    const ssize_t n =
+        offset < 0 ? ::write(fd, p, bytes) : ::pwrite(fd, p, bytes, static_cast<off_t>(offset));
+    if (n < 0) {
+      if (errno == EINTR)
+        continue;
+      throw FileError(path, "cannot be written: " + systemError());
+    }
+    p += n;
+    bytes -= static_cast<std::size_t>(n);
+    if (offset >= 0)
+      offset += n;
+  }
+}
+
+// Reads up to `bytes` at `offset`; returns the count (0 at the end of the file).
+std::size_t readAt(int fd, const std::string& path, std::uint8_t* out, std::size_t bytes,
+                   std::uint64_t offset) {
+  while (true) {
+    const ssize_t n = ::pread(fd, out, bytes, static_cast<off_t>(offset));
+    if (n >= 0)
+      return static_cast<std::size_t>(n);
+    if (errno != EINTR)
+      throw FileError(path, "cannot be read back: " + systemError());
+  }
+}
+
+// Copies [begin, end) of `fd` to `out`.
+void copyRange(int fd, const std::string& path, std::uint64_t begin, std::uint64_t end,
+               std::ostream& out, std::vector<std::uint8_t>& buffer) {
+  buffer.resize(kChunkBytes);
+  while (begin < end) {
+    const std::size_t want =
+        static_cast<std::size_t>(std::min<std::uint64_t>(kChunkBytes, end - begin));
+    const std::size_t got = readAt(fd, path, buffer.data(), want, begin);
+    if (got == 0)
+      throw FileError(path, "ended early while it was copied into the recording");
+    out.write(reinterpret_cast<const char*>(buffer.data()), static_cast<std::streamsize>(got));
+    begin += got;
+  }
+}
+
+// zlib-compresses the whole of `fd` into `outFd` as writeSequence compresses a capture's pixels
+// (one stream, level 1, window bits 15, memory level 8, default strategy: the same bytes as
+// core's one-shot compression). Returns the compressed size.
+std::uint64_t deflateFile(int fd, const std::string& path, int outFd, const std::string& outPath) {
+  z_stream zs{};
+  if (deflateInit2(&zs, Z_BEST_SPEED, Z_DEFLATED, 15, 8, Z_DEFAULT_STRATEGY) != Z_OK)
+    throw std::runtime_error("the recording: zlib cannot start compressing");
+  struct DeflateEnd {
+    z_stream& zs;
+    ~DeflateEnd() { deflateEnd(&zs); }
+  } guard{zs};
+  std::vector<std::uint8_t> in(kChunkBytes), out(kChunkBytes);
+  std::uint64_t offset = 0, produced = 0;
+  bool last = false;
+  for (int status = Z_OK; status != Z_STREAM_END;) {
+    if (zs.avail_in == 0 && !last) {
+      const std::size_t got = readAt(fd, path, in.data(), in.size(), offset);
+      offset += got;
+      last = got == 0;
+      zs.next_in = in.data();
+      zs.avail_in = static_cast<uInt>(got);
+    }
+    zs.next_out = out.data();
+    zs.avail_out = static_cast<uInt>(out.size());
+    status = deflate(&zs, last ? Z_FINISH : Z_NO_FLUSH);
+    if (status != Z_OK && status != Z_STREAM_END && status != Z_BUF_ERROR)
+      throw std::runtime_error("the recording: zlib compression failed");
+    const std::size_t bytes = out.size() - zs.avail_out;
+    writeAll(outFd, outPath, out.data(), bytes);
+    produced += bytes;
+  }
+  return produced;
+}
+
+bool isMha(const std::string& path) {
+  std::string extension = std::filesystem::path(path).extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return extension == ".mha";
+}
+
+}  // namespace
+
 std::string partialCapturePath(const std::string& path) {
   const std::filesystem::path p(path);
-  return (p.parent_path() / (p.stem().string() + ".partial" + p.extension().string())).string();
+  return (p.parent_path() / (p.stem().string() + ".partial.mhd")).string();
 }
 
 CaptureRecorder::CaptureRecorder(std::string path, Sequence layout, double flushIntervalS)
     : path_(std::move(path)),
       partialPath_(partialCapturePath(path_)),
+      partialDataPath_(std::filesystem::path(partialPath_).replace_extension(".raw").string()),
       flushIntervalS_(flushIntervalS),
-      sequence_(std::move(layout)) {
-  sequence_.frames.clear();
-  sequence_.pixels.clear();
+      layout_(std::move(layout)) {
+  layout_.frames.clear();
+  layout_.pixels.clear();
+  frameBytes_ = layout_.samplesPerFrame() * elementSize(layout_.elementType);
+  metaImageHeaderStart(layout_, std::nullopt, std::nullopt);  // refuses a bad header now
   writer_ = std::thread([this] { writerLoop(); });
 }
 
 CaptureRecorder::~CaptureRecorder() {
+  stopWriter();
+  try {
+    flush();
+  } catch (const std::exception&) {
+    // The session is failing already; what was flushed before stays.
+  }
+  closeFd(headerFd_);
+  closeFd(dataFd_);
+}
+
+void CaptureRecorder::add(const SequenceFrame& frame, const std::uint8_t* pixels,
+                          std::size_t bytes) {
+  if (bytes != frameBytes_) {
+    throw std::invalid_argument(fmt::format(
+        "a frame of {} bytes does not fit the recording's frames of {} bytes", bytes, frameBytes_));
+  }
+  // Only this thread adds, so added_ does not change until the frame is appended below.
+  std::size_t index = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    index = added_;
+  }
+  const std::string lines = metaImageFrameLines(frame, index);
+  std::lock_guard<std::mutex> lock(mutex_);
+  pendingLines_ += lines;
+  pendingPixels_.insert(pendingPixels_.end(), pixels, pixels + bytes);
+  ++pendingFrames_;
+  ++added_;
+}
+
+std::size_t CaptureRecorder::frames() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return added_;
+}
+
+void CaptureRecorder::flush() {
+  std::size_t frames = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    frames = pendingFrames_;
+    flushLines_.clear();
+    flushPixels_.clear();
+    std::swap(flushLines_, pendingLines_);
+    std::swap(flushPixels_, pendingPixels_);
+    pendingFrames_ = 0;
+  }
+  if (frames == 0 || failed_)
+    return;
+  try {
+    if (headerFd_ < 0) {
+      dataFd_ = openForWriting(partialDataPath_);
+      headerFd_ = openForWriting(partialPath_);
+      const std::string start = metaImageHeaderStart(layout_, std::nullopt, std::nullopt);
+      writeAll(headerFd_, partialPath_, start.data(), start.size(), 0);
+      frameLinesBegin_ = frameLinesEnd_ = start.size();
+    }
+    // The pixels first, then the header that declares them, in one write over its old last
+    // lines (DimSize grows, so the new lines are never shorter than the old).
+    writeAll(dataFd_, partialDataPath_, flushPixels_.data(), flushPixels_.size());
+    const std::size_t frameLineBytes = flushLines_.size();
+    flushLines_ += metaImageDimSizeLine(layout_, flushed_ + frames);
+    flushLines_ +=
+        "ElementDataFile = " + std::filesystem::path(partialDataPath_).filename().string() + "\n";
+    writeAll(headerFd_, partialPath_, flushLines_.data(), flushLines_.size(),
+             static_cast<std::int64_t>(frameLinesEnd_));
+    frameLinesEnd_ += frameLineBytes;
+    flushed_ += frames;
+  } catch (const std::exception& e) {
+    failed_ = true;
+    std::lock_guard<std::mutex> lock(mutex_);
+    writerProblem_ = e.what();
+  }
+}
+
+void CaptureRecorder::writerLoop() {
+  const auto interval = std::chrono::duration<double>(flushIntervalS_);
+  std::unique_lock<std::mutex> lock(mutex_);
+  while (!stop_) {
+    wake_.wait_for(lock, interval, [this] { return stop_; });
+    if (stop_)
+      break;
+    lock.unlock();
+    flush();
+    lock.lock();
+  }
+}
+
+void CaptureRecorder::stopWriter() {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
@@ -34,51 +244,6 @@ CaptureRecorder::~CaptureRecorder() {
   wake_.notify_all();
   if (writer_.joinable())
     writer_.join();
-}
-
-void CaptureRecorder::add(SequenceFrame frame, const std::uint8_t* pixels, std::size_t bytes) {
-  const std::size_t expected = sequence_.samplesPerFrame() * elementSize(sequence_.elementType);
-  if (bytes != expected) {
-    throw std::invalid_argument(fmt::format(
-        "a frame of {} bytes does not fit the recording's frames of {} bytes", bytes, expected));
-  }
-  std::lock_guard<std::mutex> lock(mutex_);
-  pendingFrames_.push_back(std::move(frame));
-  pendingPixels_.insert(pendingPixels_.end(), pixels, pixels + bytes);
-}
-
-void CaptureRecorder::takePending() {
-  std::lock_guard<std::mutex> lock(mutex_);
-  for (SequenceFrame& frame : pendingFrames_)
-    sequence_.frames.push_back(std::move(frame));
-  sequence_.pixels.insert(sequence_.pixels.end(), pendingPixels_.begin(), pendingPixels_.end());
-  pendingFrames_.clear();
-  pendingPixels_.clear();
-}
-
-void CaptureRecorder::writerLoop() {
-  const auto interval = std::chrono::duration<double>(flushIntervalS_);
-  std::size_t written = 0;
-  std::unique_lock<std::mutex> lock(mutex_);
-  while (!stop_) {
-    wake_.wait_for(lock, interval, [this] { return stop_; });
-    if (stop_)
-      break;
-    lock.unlock();
-    takePending();
-    if (sequence_.frames.size() != written) {
-      try {
-        SequenceWriteOptions options;
-        options.compress = false;  // the rewrite must stay quick
-        writeSequence(sequence_, partialPath_, options);
-        written = sequence_.frames.size();
-      } catch (const std::exception& e) {
-        std::lock_guard<std::mutex> problemLock(mutex_);
-        writerProblem_ = e.what();
-      }
-    }
-    lock.lock();
-  }
 }
 
 std::string CaptureRecorder::writerProblem() const {
@@ -86,19 +251,49 @@ std::string CaptureRecorder::writerProblem() const {
   return writerProblem_;
 }
 
-std::size_t CaptureRecorder::finish() {
-  {
-    std::lock_guard<std::mutex> lock(mutex_);
-    stop_ = true;
+void CaptureRecorder::writeFinal() {
+  if (!isMha(path_)) {
+    // Other formats (.mhd, .nrrd) are converted from the partial capture in memory.
+    writeSequence(readSequence(partialPath_), path_);
+    return;
   }
-  wake_.notify_all();
-  if (writer_.joinable())
-    writer_.join();
-  takePending();
-  writeSequence(sequence_, path_);
+  const std::string compressedPath =
+      std::filesystem::path(partialPath_).replace_extension(".zraw").string();
+  int compressedFd = openForWriting(compressedPath);
+  struct Cleanup {
+    int& fd;
+    const std::string& path;
+    ~Cleanup() {
+      closeFd(fd);
+      std::error_code ignored;
+      std::filesystem::remove(path, ignored);
+    }
+  } cleanup{compressedFd, compressedPath};
+  const std::uint64_t compressedBytes =
+      deflateFile(dataFd_, partialDataPath_, compressedFd, compressedPath);
+  AtomicFile file(path_);
+  file.stream() << metaImageHeaderStart(layout_, flushed_, compressedBytes);
+  std::vector<std::uint8_t> buffer;
+  copyRange(headerFd_, partialPath_, frameLinesBegin_, frameLinesEnd_, file.stream(), buffer);
+  file.stream() << "ElementDataFile = LOCAL\n";
+  copyRange(compressedFd, compressedPath, 0, compressedBytes, file.stream(), buffer);
+  file.commit();
+}
+
+std::size_t CaptureRecorder::finish() {
+  stopWriter();
+  flush();
+  if (failed_)
+    throw FileError(partialPath_, "the recording could not be written: " + writerProblem());
+  if (flushed_ == 0)
+    throw FileError(path_, "the sequence has no frames");
+  writeFinal();
+  closeFd(headerFd_);
+  closeFd(dataFd_);
   std::error_code ignored;
   std::filesystem::remove(partialPath_, ignored);
-  return sequence_.frames.size();
+  std::filesystem::remove(partialDataPath_, ignored);
+  return flushed_;
 }
 
 }  // namespace echoreg::live

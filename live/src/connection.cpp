@@ -98,17 +98,34 @@ Connection Connection::connect(const std::string& host, int port, double timeout
   }
 }
 
-void Connection::send(const Packet& packet) {
+void Connection::send(const Packet& packet, double timeoutS, const std::atomic<bool>* stop) {
   std::size_t sent = 0;
+  Clock::time_point lastProgress = Clock::now();
   while (sent < packet.size()) {
-    const ssize_t n = ::send(socket_, packet.data() + sent, packet.size() - sent, MSG_NOSIGNAL);
-    if (n < 0) {
-      if (errno == EINTR)
-        continue;
+    // Without waiting while the socket takes bytes; when it is full (the peer does not read),
+    // wait for room in slices that look at `stop` and the timeout.
+    const ssize_t n =
+        ::send(socket_, packet.data() + sent, packet.size() - sent, MSG_NOSIGNAL | MSG_DONTWAIT);
+    if (n > 0) {
+      sent += static_cast<std::size_t>(n);
+      lastProgress = Clock::now();
+      continue;
+    }
+    if (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR) {
       throw ConnectionClosed(
           fmt::format("the peer closed the connection ({})", std::strerror(errno)));
     }
-    sent += static_cast<std::size_t>(n);
+    if (stopped(stop))
+      throw ConnectionClosed("stopped while sending");
+    if (timeoutS >= 0.0 && secondsSince(lastProgress) >= timeoutS) {
+      throw ConnectionClosed(fmt::format(
+          "the peer read nothing for {} s (its socket is full; {} of {} bytes of a message sent)",
+          timeoutS, sent, packet.size()));
+    }
+    pollfd descriptor{socket_, POLLOUT, 0};
+    const int ready = ::poll(&descriptor, 1, kPollSliceMs);
+    if (ready < 0 && errno != EINTR)
+      throw ConnectionClosed(fmt::format("the connection broke ({})", std::strerror(errno)));
   }
 }
 

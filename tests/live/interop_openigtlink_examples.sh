@@ -1,18 +1,33 @@
 #!/usr/bin/env bash
 # Interoperability with Debian's OpenIGTLink 1.11 examples (openigtlink-examples ships their
 # sources): builds ReceiveServer, ReceiveClient, TrackerServer and ImagerServer into a temporary
-# folder and runs them against echoreg inside a new network namespace (`unshare -n`, as root),
-# where only loopback exists: the examples bind every interface, which there is loopback alone.
-# Not part of ctest (it needs root for the namespace); docs/live.md gives its last results.
+# folder and runs them against echoreg inside new user and network namespaces (`unshare -rn`: no
+# root needed where unprivileged user namespaces are allowed, as on Debian), where only loopback
+# exists: the examples' servers bind every interface, which there is loopback alone. Exits 1 when
+# a check fails, 77 (ctest: skipped) with a message when the examples, a C++ compiler or the
+# namespaces are not available. ctest runs it as live_interop_openigtlink_examples on the fixture
+# study; docs/live.md gives its results.
 #
 #   tests/live/interop_openigtlink_examples.sh ECHOREG STUDY_DIR
 #
 # STUDY_DIR: a simulated study (echoreg simulate --size small): its femur sweep is served, its
 # truth model, calibration and FemurToCT (as the start) are live's inputs.
 set -euo pipefail
+examples=/usr/share/doc/openigtlink-examples/examples
+if [ ! -d "$examples" ] || [ ! -e /usr/include/openigtlink/igtlClientSocket.h ]; then
+  echo "SKIP: Debian's openigtlink-examples or libopenigtlink-dev is not installed" >&2
+  exit 77
+fi
+if ! command -v g++ > /dev/null; then
+  echo "SKIP: no g++ to build the OpenIGTLink examples" >&2
+  exit 77
+fi
+if ! unshare -rn true 2> /dev/null; then
+  echo "SKIP: unshare -rn (user and network namespaces) is not allowed here" >&2
+  exit 77
+fi
 echoreg=$(realpath "$1")
 study=$(realpath "$2")
-examples=/usr/share/doc/openigtlink-examples/examples
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 for source in Receiver/ReceiveServer Receiver/ReceiveClient Tracker/TrackerServer Imager/ImagerServer; do
@@ -22,10 +37,21 @@ done
 live_inputs=(--model "$study/truth/femur.vtp" --bone Femur --calibration "$study/truth/BeamToProbe.json"
   --initial "$study/truth/FemurToCT.json")
 
-unshare -n bash -s "$echoreg" "$study" "$work" "${live_inputs[@]}" <<'INNER'
+unshare -rn bash -s "$echoreg" "$study" "$work" "${live_inputs[@]}" <<'INNER'
 set -uo pipefail
 echoreg=$1 study=$2 work=$3
 shift 3
+failures=0
+check() {  # check DESCRIPTION CONDITION...
+  local what=$1
+  shift
+  if "$@"; then
+    echo "  ok: $what"
+  else
+    echo "  FAILED: $what"
+    failures=$((failures + 1))
+  fi
+}
 ip link set lo up
 cd "$work"
 capture="$study/captures/femur_ultrasound.igs.mha"
@@ -40,6 +66,12 @@ for type in TRANSFORM STATUS STRING IMAGE; do
 done
 echo "  CRC failures reported: $(grep -ci "crc" client.out)"
 cat serve1.out
+frames=$(sed -n 's/.*served \([0-9]*\) of \([0-9]*\) frames.*/\1/p' serve1.out)
+check "serve served every frame" grep -q "served $frames of $frames frames" serve1.out
+check "ReceiveClient parsed one IMAGE per frame ($frames)" \
+  test "$(grep -c "Receiving IMAGE data type" client.out)" = "${frames:-x}"
+check "ReceiveClient parsed TRANSFORMs" test "$(grep -c "Receiving TRANSFORM data type" client.out)" -gt 0
+check "ReceiveClient reported no CRC failure" test "$(grep -ci "crc" client.out)" = 0
 
 echo "== 2. ReceiveServer reads what echoreg live sends back (serve -> live --send-to ReceiveServer)"
 timeout 40 ./ReceiveServer 18945 > receiver.out 2>&1 &
@@ -48,7 +80,8 @@ sleep 0.5
 "$echoreg" serve "$capture" --port 18944 --rate recorded --wait 10 > serve2.out 2> serve2.err &
 "$echoreg" live --connect 127.0.0.1:18944 --send-to 127.0.0.1:18945 --record live.igs.mha \
   --out live.json --idle-timeout 5 "$@" > live2.out 2> live2.err
-echo "  live exit $?"
+live2=$?
+echo "  live exit $live2"
 wait %2 2>/dev/null
 sleep 0.5
 kill $receiver 2>/dev/null
@@ -57,6 +90,12 @@ for type in TRANSFORM POINT STRING; do
 done
 echo "  CRC failures reported: $(grep -ci "crc" receiver.out)"
 cat live2.out
+check "live ended cleanly" test "$live2" = 0
+for type in TRANSFORM POINT STRING; do
+  check "ReceiveServer parsed $type messages" \
+    test "$(grep -c "Receiving $type data type" receiver.out)" -gt 0
+done
+check "ReceiveServer reported no CRC failure" test "$(grep -ci "crc" receiver.out)" = 0
 
 echo "== 3. TrackerServer (TRANSFORM 'Tracker', no A-lines) into echoreg live"
 ./TrackerServer 18946 50 > tracker.out 2>&1 &
@@ -64,10 +103,14 @@ tracker=$!
 sleep 0.5
 "$echoreg" live --connect 127.0.0.1:18946 --record tracker.igs.mha --out t.json --duration 2 "$@" \
   > live3.out 2> live3.err
-echo "  live exit $? (1 expected: no A-line to register)"
+live3=$?
+echo "  live exit $live3 (1 expected: no A-line to register)"
 kill $tracker 2>/dev/null
 grep -v "^$" live3.err | sed 's/^/  /'
 "$echoreg" info tracker.igs.tracking.mha | sed 's/^/  /' | head -4
+check "live exited 1 without an A-line" test "$live3" = 1
+check "live said why" grep -q "no A-line (IMAGE of 1 x N) received" live3.err
+check "TrackerServer's transforms are in the .tracking capture" test -s tracker.igs.tracking.mha
 
 echo "== 4. ImagerServer (256 x 256 IMAGEs, not A-lines) into echoreg live"
 ./ImagerServer 18947 10 /usr/share/doc/openigtlink-examples/examples/Imager/img > imager.out 2>&1 &
@@ -75,7 +118,13 @@ imager=$!
 sleep 0.5
 "$echoreg" live --connect 127.0.0.1:18947 --record imager.igs.mha --out i.json --duration 2 "$@" \
   > live4.out 2> live4.err
-echo "  live exit $? (1 expected: no A-line to register)"
+live4=$?
+echo "  live exit $live4 (1 expected: no A-line to register)"
 kill $imager 2>/dev/null
 grep -v "^$" live4.err | sed 's/^/  /'
+check "live exited 1 without an A-line" test "$live4" = 1
+check "live named the 256 x 256 IMAGEs as not A-lines" grep -q "is not an A-line (1 x N)" live4.err
+
+echo "== $failures check(s) failed"
+exit $((failures > 0))
 INNER

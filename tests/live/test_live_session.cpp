@@ -144,7 +144,8 @@ TEST_F(LiveSession, RecordsEverythingServedAndEndsWhenTheServerCloses) {
   EXPECT_NE(server.out.find("served 400 of 400 frames"), std::string::npos) << server.out;
   // The sweep is not of the cube: the final registration may fail, the session must not.
   ASSERT_TRUE(fs::exists(dir_.file("rec.igs.mha"))) << live.err;
-  EXPECT_FALSE(fs::exists(dir_.file("rec.igs.partial.mha")));
+  EXPECT_FALSE(fs::exists(dir_.file("rec.igs.partial.mhd")));
+  EXPECT_FALSE(fs::exists(dir_.file("rec.igs.partial.raw")));
   const nlohmann::json s = session();
   EXPECT_EQ(s.at("frames"), 400);
   EXPECT_EQ(s.at("recorded_frames"), 400);
@@ -183,6 +184,164 @@ TEST_F(LiveSession, RecordsEverythingServedAndEndsWhenTheServerCloses) {
       }
     }
   }
+}
+
+TEST_F(LiveSession, ReconnectsWhenTheServerComesBackAndGivesUpWhenItDoesNot) {
+  // The second stream is the sweep 100 s later, as a restarted PLUS server's clock goes on.
+  const Sequence first = sweep(150);
+  Sequence second = sweep(150);
+  for (SequenceFrame& frame : second.frames)
+    *frame.timestampS += 100.0;
+  writeSequence(first, dir_.file("first.igs.mha"));
+  writeSequence(second, dir_.file("second.igs.mha"));
+  const int port = freePort();
+  const auto serve = [&](const std::string& capture) {
+    return runEchoreg({"serve", dir_.file(capture), "--port", std::to_string(port), "--rate", "max",
+                       "--wait", "10"});
+  };
+  auto live = std::async(std::launch::async, [&] {
+    return runEchoreg(liveArgs(port, {"--reconnect", "3"}));
+  });
+  const CommandResult server1 = serve("first.igs.mha");
+  ASSERT_EQ(server1.exitCode, 0) << server1.err;
+  std::this_thread::sleep_for(std::chrono::milliseconds(700));  // live retries meanwhile
+  const CommandResult server2 = serve("second.igs.mha");
+  ASSERT_EQ(server2.exitCode, 0) << server2.err;
+  const CommandResult result = live.get();
+
+  // Back once; then the server stays away: exit 1, with the recording of both streams written.
+  EXPECT_EQ(result.exitCode, 1) << result.err;
+  const std::string address = "127.0.0.1:" + std::to_string(port);
+  EXPECT_NE(result.err.find("reconnecting to " + address + " for up to 3 s"), std::string::npos)
+      << result.err;
+  EXPECT_NE(result.err.find("reconnected to 127.0.0.1"), std::string::npos) << result.err;
+  EXPECT_NE(result.err.find("did not come back within --reconnect 3 s; the recording holds the "
+                            "300 frames received"),
+            std::string::npos)
+      << result.err;
+  const nlohmann::json s = session();
+  EXPECT_EQ(s.at("frames"), 300);
+  EXPECT_EQ(s.at("recorded_frames"), 300);
+  EXPECT_EQ(s.at("reconnections"), 1);
+  EXPECT_GE(s.at("disconnected_seconds").get<double>(), 3.0);
+  const Sequence recorded = readSequence(dir_.file("rec.igs.mha"));
+  ASSERT_EQ(recorded.frames.size(), 300U);
+  std::vector<std::uint8_t> both = first.pixels;
+  both.insert(both.end(), second.pixels.begin(), second.pixels.end());
+  EXPECT_EQ(recorded.pixels, both);
+  for (std::size_t f = 0; f < 150; ++f) {
+    ASSERT_EQ(recorded.frames[f].timestampS, first.frames[f].timestampS) << f;
+    ASSERT_EQ(recorded.frames[150 + f].timestampS, second.frames[f].timestampS) << f;
+  }
+}
+
+TEST_F(LiveSession, ListeningLiveTakesAClientThatComesBackIntoTheSameRecording) {
+  const Sequence s = sweep(60);
+  const int port = freePort();
+  std::vector<std::string> args = liveArgs(port, {"--reconnect", "2"});
+  args[1] = "--listen";  // "--connect", "127.0.0.1:PORT" -> "--listen", "PORT"
+  args[2] = std::to_string(port);
+  auto live = std::async(std::launch::async, [&] { return runEchoreg(args); });
+  for (std::size_t part = 0; part < 2; ++part) {
+    Connection client = Connection::connect("127.0.0.1", port, 10.0);
+    if (part == 0)
+      client.send(encodeString(kCaptureHeaderName, captureHeaderJson(s), 10.0));
+    for (std::size_t f = part * 30; f < part * 30 + 30; ++f)
+      sendFrame(client, s, f);
+    client.closeGracefully(5.0);
+  }
+  const CommandResult result = live.get();
+  EXPECT_EQ(result.exitCode, 1) << result.err;
+  EXPECT_NE(result.err.find("waiting for a server to connect to 127.0.0.1:" + std::to_string(port) +
+                            " for up to 2 s"),
+            std::string::npos)
+      << result.err;
+  EXPECT_NE(result.err.find("did not come back within --reconnect 2 s"), std::string::npos)
+      << result.err;
+  const nlohmann::json j = session();
+  EXPECT_EQ(j.at("reconnections"), 1);
+  EXPECT_EQ(j.at("recorded_frames"), 60);
+  const Sequence recorded = readSequence(dir_.file("rec.igs.mha"));
+  ASSERT_EQ(recorded.frames.size(), 60U);
+  EXPECT_EQ(recorded.pixels, s.pixels);
+}
+
+TEST(SlowConsumer, ASendToAPeerThatDoesNotReadGivesUpAfterItsTimeoutOrOnStop) {
+  Listener listener("127.0.0.1", 0);
+  Connection sender = Connection::connect("127.0.0.1", listener.port(), 5.0);
+  std::optional<Connection> receiver = listener.accept(5.0);  // never reads
+  ASSERT_TRUE(receiver);
+  const Packet megabyte(std::size_t{1} << 20, 0x5a);
+  const auto start = std::chrono::steady_clock::now();
+  std::size_t sent = 0;
+  std::string problem;
+  try {
+    for (; sent < 256; ++sent)  // far more than loopback's socket buffers hold
+      sender.send(megabyte, 0.3);
+  } catch (const ConnectionClosed& e) {
+    problem = e.what();
+  }
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_LT(sent, 256U);
+  EXPECT_NE(problem.find("the peer read nothing for 0.3 s"), std::string::npos) << problem;
+  EXPECT_LT(seconds, 10.0);
+  // Without a timeout the send waits for the reader, and a stop flag ends the wait.
+  std::atomic<bool> stop{false};
+  auto stopper = std::async(std::launch::async, [&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(200));
+    stop = true;
+  });
+  EXPECT_THROW(sender.send(megabyte, -1.0, &stop), ConnectionClosed);
+  stopper.get();
+}
+
+TEST_F(LiveSession, ServeWaitsForAClientThatStallsAndDropsNothing) {
+  // 6000 A-lines of 4096 bytes at 3000 a second (24 MB in 2 s, more than loopback buffers
+  // hold); the client reads nothing for 3 s, then everything.
+  test::DemoSweepOptions options;
+  options.frames = 600;
+  options.frameRateHz = 3000.0;
+  const Sequence once = test::makeDemoSweep(options);
+  Sequence fast = once;
+  for (int copy = 1; copy < 10; ++copy) {
+    for (SequenceFrame frame : once.frames) {
+      *frame.timestampS += 0.2 * copy;
+      fast.frames.push_back(std::move(frame));
+    }
+    fast.pixels.insert(fast.pixels.end(), once.pixels.begin(), once.pixels.end());
+  }
+  writeSequence(fast, dir_.file("fast.igs.mha"));
+  const int port = freePort();
+  auto serve = std::async(std::launch::async, [&] {
+    return runEchoreg({"serve", dir_.file("fast.igs.mha"), "--port", std::to_string(port), "--rate",
+                       "recorded", "--wait", "10"});
+  });
+  std::vector<double> timestamps;
+  {
+    Connection client = Connection::connect("127.0.0.1", port, 10.0);
+    std::this_thread::sleep_for(std::chrono::seconds(3));
+    MessageReader reader(std::size_t{1} << 26);
+    try {
+      while (auto received = reader.next(client, 5.0, nullptr)) {
+        if (received->message && received->message->kind == MessageKind::Image)
+          timestamps.push_back(received->message->header.timestampS);
+      }
+    } catch (const ConnectionClosed&) {
+      // serve closes after the last frame; closing here ends its graceful close
+    }
+  }
+  const CommandResult server = serve.get();
+  ASSERT_EQ(server.exitCode, 0) << server.err;
+  EXPECT_NE(server.out.find("served 6000 of 6000 frames"), std::string::npos) << server.out;
+  EXPECT_NE(server.out.find("s behind the recorded timing (the client read more slowly)"),
+            std::string::npos)
+      << server.out;
+  EXPECT_NE(server.err.find("the client reads more slowly than the recording's rate"),
+            std::string::npos)
+      << server.err;
+  ASSERT_EQ(timestamps.size(), 6000U);
+  EXPECT_TRUE(std::is_sorted(timestamps.begin(), timestamps.end()));
 }
 
 TEST_F(LiveSession, AnOversizedMessageEndsTheSessionWithAClearMessageAndKeepsTheRecording) {

@@ -101,4 +101,19 @@ Sequence readSequence(const std::string& path);
 void writeSequence(const Sequence& sequence, const std::string& path,
                    const SequenceWriteOptions& options = {});
 
+/// Streaming MetaImage output, for a writer that cannot hold a whole capture in memory (live/'s
+/// recorder). writeSequence writes an .mha of N frames as metaImageHeaderStart(layout, N, size),
+/// then metaImageFrameLines(frame i, i) for i = 0 .. N-1, then "ElementDataFile = LOCAL\n" and the
+/// pixels: raw, or (`compressedBytes` given) one zlib stream of them at level 1 (Z_BEST_SPEED),
+/// window bits 15, memory level 8, default strategy. `layout`'s frames and pixels are ignored;
+/// `frames` nullopt leaves out the DimSize line (the reader takes it anywhere before
+/// ElementDataFile: a growing file can put metaImageDimSizeLine last). Both throw
+/// std::invalid_argument for what writeSequence refuses (a number that is not finite, a name that
+/// would not read back as itself).
+std::string metaImageHeaderStart(const Sequence& layout, std::optional<std::size_t> frames,
+                                 std::optional<std::uint64_t> compressedBytes);
+std::string metaImageFrameLines(const SequenceFrame& frame, std::size_t index);
+/// "DimSize = <samples> <rows> <frames>\n".
+std::string metaImageDimSizeLine(const Sequence& layout, std::size_t frames);
+
 }  // namespace echoreg

@@ -34,8 +34,10 @@ class Connection {
   static Connection connect(const std::string& host, int port, double timeoutS,
                             const std::atomic<bool>* stop = nullptr);
 
-  /// Sends every byte; throws ConnectionClosed when the peer has gone.
-  void send(const Packet& packet);
+  /// Sends every byte; throws ConnectionClosed when the peer has gone, when `stop` is set while
+  /// the socket is full, or when `timeoutS` (>= 0) passes without the peer taking a byte (a peer
+  /// that does not read). A negative timeout waits as long as the peer is connected.
+  void send(const Packet& packet, double timeoutS = -1.0, const std::atomic<bool>* stop = nullptr);
 
   /// Reads exactly `count` bytes. Returns false when `stop` was set or `idleTimeoutS` passed
   /// before the first byte; throws ConnectionClosed when the peer closes (mid-message included).
