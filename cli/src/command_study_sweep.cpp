@@ -20,9 +20,11 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <signal.h>
 #include <unistd.h>
 
 #include <algorithm>
+#include <cerrno>
 #include <cstdint>
 #include <filesystem>
 #include <fstream>
@@ -381,8 +383,19 @@ void makeFolderAtomically(const fs::path& target, Fill fill) {
   std::error_code ec;
   if (fs::exists(target, ec))
     return;
-  const fs::path temporary =
-      target.parent_path() / fmt::format(".{}.tmp-{}", target.filename().string(), ::getpid());
+  const std::string prefix = fmt::format(".{}.tmp-", target.filename().string());
+  const fs::path temporary = target.parent_path() / fmt::format("{}{}", prefix, ::getpid());
+  // What a killed run left under a temporary name (its process is gone) is removed; a temporary
+  // folder of a shard still running is not.
+  for (const fs::directory_entry& e : fs::directory_iterator(target.parent_path(), ec)) {
+    const std::string name = e.path().filename().string();
+    if (name.rfind(prefix, 0) != 0)
+      continue;
+    const std::string pid = name.substr(
+        prefix.size(), name.find_first_not_of("0123456789", prefix.size()) - prefix.size());
+    if (pid.empty() || (::kill(static_cast<pid_t>(std::stol(pid)), 0) != 0 && errno == ESRCH))
+      fs::remove_all(e.path(), ec);
+  }
   fs::remove_all(temporary, ec);
   fs::create_directories(temporary.parent_path(), ec);
   if (ec)

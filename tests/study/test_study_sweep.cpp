@@ -135,14 +135,20 @@ TEST(StudySweep, DetectionSweepRunsInShardsResumesAndGivesTheSameBytes) {
   EXPECT_NE(r.out.find("sweep: 0 points ran, 2 were done"), std::string::npos) << r.out;
   EXPECT_EQ(bytesOf(out + "/results.jsonl"), table);
 
-  // A run killed before the first point's row: that point alone runs again, same bytes.
+  // A run killed while it made the first point's folder: its temporary folder is left (its
+  // process gone), the point has no folder, no row. That point alone runs again, same bytes.
   fs::remove(out + "/rows/" + first + ".json");
   fs::remove(out + "/results.jsonl");
-  fs::remove(out + "/points/" + first + "/results/results.json");
+  fs::remove_all(out + "/points/" + first);
+  const std::string stale = out + "/points/." + first + ".tmp-999999999";
+  fs::create_directories(stale);
+  std::ofstream(stale + "/study.json") << "{";
   r = runEchoreg({"study", "sweep", sweepFile, "--out", out, "--point", first});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_NE(r.out.find("sweep: point " + first + " ran"), std::string::npos) << r.out;
   EXPECT_FALSE(fs::exists(out + "/results.jsonl"));  // --point does not gather
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::is_regular_file(out + "/points/" + first + "/results/results.json"));
   r = runEchoreg({"study", "sweep", sweepFile, "--out", out});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   EXPECT_NE(r.out.find("sweep: 0 points ran, 2 were done"), std::string::npos) << r.out;
