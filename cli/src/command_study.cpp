@@ -1049,8 +1049,12 @@ CommandAction addStudyCommand(CLI::App& app) {
                   "flags without dashes; over the manifest's detection.preset and "
                   "speed_of_sound_mps (a change re-runs the sweeps' points and registrations)");
   const CommandAction compare = addStudyCompareCommand(*cmd);
-  return [o, run, compare](const Streams& streams) {
-    return run->parsed() ? runStudy(*o, streams) : compare(streams);
+  const CommandAction sweep = addStudySweepCommand(*cmd);
+  CLI::App* sweepCmd = cmd->get_subcommand("sweep");
+  return [o, run, compare, sweep, sweepCmd](const Streams& streams) {
+    return run->parsed()        ? runStudy(*o, streams)
+           : sweepCmd->parsed() ? sweep(streams)
+                                : compare(streams);
   };
 }
 

@@ -27,6 +27,8 @@ CommandAction addFigureCommand(CLI::App& app);
 CommandAction addStudyCommand(CLI::App& app);
 /// `study compare`, registered on the `study` command by addStudyCommand.
 CommandAction addStudyCompareCommand(CLI::App& study);
+/// `study sweep`, registered on the `study` command by addStudyCommand.
+CommandAction addStudySweepCommand(CLI::App& study);
 CommandAction addLandmarksCommand(CLI::App& app);
 CommandAction addEvaluateCommand(CLI::App& app);
 CommandAction addRegisterCommand(CLI::App& app);

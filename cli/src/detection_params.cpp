@@ -215,7 +215,11 @@ void addTunableFlags(CLI::App* cmd, TunableSettings& settings,
 std::set<std::string> mergeParamsFile(const std::string& file, std::string& preset,
                                       TunableSettings& settings) {
   // The project's JSON reader: the file named, the problem without the library's codes.
-  const nlohmann::json params = readJsonFile(file);
+  return mergeParams(readJsonFile(file), file, preset, settings);
+}
+
+std::set<std::string> mergeParams(const nlohmann::json& params, const std::string& file,
+                                  std::string& preset, TunableSettings& settings) {
   std::set<std::string> filled;
   if (!params.is_object())
     throw FileError(file, "must hold a JSON object of parameters");

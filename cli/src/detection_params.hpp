@@ -55,6 +55,11 @@ void addTunableFlags(CLI::App* cmd, TunableSettings& settings,
 std::set<std::string> mergeParamsFile(const std::string& file, std::string& preset,
                                       TunableSettings& settings);
 
+/// As mergeParamsFile, for parameters already read (a sweep's point, docs/many-studies.md); errors
+/// name `source` as the file.
+std::set<std::string> mergeParams(const nlohmann::json& params, const std::string& source,
+                                  std::string& preset, TunableSettings& settings);
+
 /// Where the settings came from, for messages: `fromFile` names those of `paramsFile`, the others
 /// were flags.
 struct ParamsSources {

@@ -1,0 +1,292 @@
+// `echoreg study sweep`: a detection sweep over a copy of the fixture study run in two shards
+// (the rows against each point's own results.json and against the study's Table 6.1 at the same
+// cutoff), a second run that runs nothing, a point whose row was lost run again to the same bytes,
+// a simulated sweep's derived seeds, and bad sweep files that name the file and key, exit 2 and
+// write nothing.
+#include "study_checks.hpp"
+
+#include "cli_test_support.hpp"
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <regex>
+#include <sstream>
+#include <string>
+#include <vector>
+
+namespace echoreg::simulation {
+namespace {
+
+namespace fs = std::filesystem;
+using test::runEchoreg;
+
+std::string bytesOf(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), {}};
+}
+
+std::vector<nlohmann::json> readJsonLines(const std::string& path) {
+  std::ifstream in(path);
+  std::vector<nlohmann::json> rows;
+  std::string line;
+  while (std::getline(in, line))
+    rows.push_back(nlohmann::json::parse(line));
+  return rows;
+}
+
+/// The detection rates of `setting` for `bone` in a results.json's detection_rates.
+nlohmann::json ratesOf(const nlohmann::json& rates, const std::string& bone,
+                       const std::string& setting) {
+  for (const nlohmann::json& row : rates) {
+    if (row.at("bone") == bone && row.at("setting") == setting)
+      return row;
+  }
+  ADD_FAILURE() << "no detection rates of " << bone << " under " << setting << ": " << rates;
+  return {};
+}
+
+TEST(StudySweep, DetectionSweepRunsInShardsResumesAndGivesTheSameBytes) {
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  test::TempDir dir;
+  const std::string study = dir.file("study");
+  fs::copy(fixture, study, fs::copy_options::recursive);
+  fs::remove_all(study + "/results");
+  const std::string sweepFile = dir.file("sweep.json");
+  // The study relative to the sweep file; the manifest's models (no segmentation).
+  std::ofstream(sweepFile) << R"({"study": "study", "given_models": true,
+      "parameters": {"detect.preset": ["mozes2008"], "detect.cutoff": [0.005, 0.02]}})";
+  const std::string out = dir.file("out");
+
+  // The plan: two points, in the order of the values, writing nothing.
+  test::CommandResult r = runEchoreg({"study", "sweep", sweepFile, "--out", out, "--plan"});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json plan = nlohmann::json::parse(r.out);
+  ASSERT_EQ(plan["points"].size(), 2U);
+  EXPECT_EQ(plan["points"][0]["parameters"]["detect.cutoff"], 0.005);
+  EXPECT_EQ(plan["points"][1]["parameters"]["detect.cutoff"], 0.02);
+  EXPECT_TRUE(plan["studies"].empty());
+  const std::string first = plan["points"][0]["id"], second = plan["points"][1]["id"];
+  EXPECT_TRUE(std::regex_match(first, std::regex("p-[0-9a-f]{12}"))) << first;
+  EXPECT_NE(first, second);
+  EXPECT_FALSE(fs::exists(out));
+
+  // The second shard first: its point's row, no table yet.
+  r = runEchoreg({"study", "sweep", sweepFile, "--out", out, "--shard", "2/2"});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("shard 2/2: 1 points ran, 0 were done; 1 of 2 points"), std::string::npos)
+      << r.out;
+  EXPECT_TRUE(fs::is_regular_file(out + "/rows/" + second + ".json"));
+  EXPECT_FALSE(fs::exists(out + "/rows/" + first + ".json"));
+  EXPECT_FALSE(fs::exists(out + "/results.jsonl"));
+  // The first shard finishes the sweep and writes the table.
+  r = runEchoreg({"study", "sweep", sweepFile, "--out", out, "--shard", "1/2"});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("shard 1/2: 1 points ran, 0 were done; 2 rows in"), std::string::npos)
+      << r.out;
+  const std::vector<nlohmann::json> rows = readJsonLines(out + "/results.jsonl");
+  ASSERT_EQ(rows.size(), 2U);
+  const std::vector<std::string> ids = {first, second};
+  const std::vector<double> cutoffs = {0.005, 0.02};
+  for (std::size_t i = 0; i < 2; ++i) {
+    const nlohmann::json& row = rows[i];
+    EXPECT_EQ(row["point"], ids[i]);
+    EXPECT_EQ(row["parameters"]["detect.cutoff"], cutoffs[i]);
+    EXPECT_TRUE(row["seed"].is_null());
+    EXPECT_FALSE(row.contains("seconds"));  // times would break the same bytes
+    // The point is a study of its own, linking the data, holding its detection parameters.
+    const std::string folder = out + "/points/" + ids[i];
+    EXPECT_TRUE(fs::is_symlink(folder + "/study.json"));
+    EXPECT_EQ(readJson(folder + "/sweep-params.json"),
+              (nlohmann::json{{"preset", "mozes2008"}, {"cutoff", cutoffs[i]}}));
+    const nlohmann::json results = readJson(folder + "/results/results.json");
+    // The dissertation's single-signal chain leaves registrations unconverged on this study:
+    // the row says so, as the study does.
+    EXPECT_EQ(row["status"], results.contains("missing") ? "incomplete" : "done");
+    EXPECT_EQ(row.value("missing", nlohmann::json()), results.value("missing", nlohmann::json()));
+    EXPECT_EQ(row["registrations"], results["registrations"]);
+    EXPECT_EQ(row["calibration"], results["calibration"]);
+    EXPECT_EQ(row["detection_rates"], results["detection_rates"]);
+    // The point's own detection is the dissertation's chain at its cutoff: its Table 6.1 row
+    // equals the study's fixed "mozes2008, cutoff C" row.
+    for (const char* bone : {"femur", "tibia"}) {
+      nlohmann::json own = ratesOf(row["detection_rates"], bone, "mozes2008 (the study's)");
+      nlohmann::json fixed = ratesOf(row["detection_rates"], bone,
+                                     i == 0 ? "mozes2008, cutoff 0.005" : "mozes2008, cutoff 0.02");
+      own.erase("setting");
+      fixed.erase("setting");
+      EXPECT_EQ(own, fixed) << bone;
+    }
+  }
+  // The cutoff changed the detection.
+  EXPECT_NE(ratesOf(rows[0]["detection_rates"], "femur", "mozes2008 (the study's)"),
+            ratesOf(rows[1]["detection_rates"], "femur", "mozes2008 (the study's)"));
+  const std::string table = bytesOf(out + "/results.jsonl");
+
+  // A second run does nothing and writes the same bytes.
+  r = runEchoreg({"study", "sweep", sweepFile, "--out", out});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("sweep: 0 points ran, 2 were done"), std::string::npos) << r.out;
+  EXPECT_EQ(bytesOf(out + "/results.jsonl"), table);
+
+  // A run killed while it made the first point's folder: its temporary folder is left (its
+  // process gone), the point has no folder, no row. That point alone runs again, same bytes.
+  fs::remove(out + "/rows/" + first + ".json");
+  fs::remove(out + "/results.jsonl");
+  fs::remove_all(out + "/points/" + first);
+  const std::string stale = out + "/points/." + first + ".tmp-999999999";
+  fs::create_directories(stale);
+  std::ofstream(stale + "/study.json") << "{";
+  r = runEchoreg({"study", "sweep", sweepFile, "--out", out, "--point", first});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("sweep: point " + first + " ran"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(out + "/results.jsonl"));  // --point does not gather
+  EXPECT_FALSE(fs::exists(stale));
+  EXPECT_TRUE(fs::is_regular_file(out + "/points/" + first + "/results/results.json"));
+  r = runEchoreg({"study", "sweep", sweepFile, "--out", out});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("sweep: 0 points ran, 2 were done"), std::string::npos) << r.out;
+  EXPECT_EQ(bytesOf(out + "/results.jsonl"), table);
+}
+
+TEST(StudySweep, SimulatedStudiesGetSeedsDerivedFromTheirParameters) {
+  test::TempDir dir;
+  const std::string sweepFile = dir.file("sweep.json");
+  const auto planOf = [&](const std::string& text) {
+    std::ofstream(sweepFile) << text;
+    const test::CommandResult r =
+        runEchoreg({"study", "sweep", sweepFile, "--out", dir.file("out"), "--plan"});
+    EXPECT_EQ(r.exitCode, 0) << r.err;
+    return nlohmann::json::parse(r.out);
+  };
+  const std::string grid = R"({"simulate": {"size": "small", "seed": 5},
+      "parameters": {"simulate.standoff": ["glove", "gel"], "replicate": [1, 2],
+                     "detect.preset": ["mozes2008"], "detect.cutoff": [0.005, 0.02]}})";
+  const nlohmann::json plan = planOf(grid);
+  // 2 x 2 studies, each detected at 2 cutoffs; the detection does not change the data.
+  ASSERT_EQ(plan["points"].size(), 8U);
+  ASSERT_EQ(plan["studies"].size(), 4U);
+  std::set<std::uint64_t> seeds;
+  for (const nlohmann::json& s : plan["studies"])
+    seeds.insert(s["seed"].get<std::uint64_t>());
+  EXPECT_EQ(seeds.size(), 4U);
+  // Keys sorted, the last varying fastest: detect.cutoff, detect.preset, replicate, standoff.
+  EXPECT_EQ(plan["points"][0]["parameters"]["simulate.standoff"], "glove");
+  EXPECT_EQ(plan["points"][1]["parameters"]["simulate.standoff"], "gel");
+  EXPECT_EQ(plan["points"][0]["study"], plan["points"][4]["study"]);  // cutoffs share data
+  EXPECT_NE(plan["points"][0]["id"], plan["points"][4]["id"]);
+  EXPECT_EQ(plan["points"][0]["seed"], plan["points"][4]["seed"]);
+  // Same file, same plan; another base seed, other seeds.
+  EXPECT_EQ(planOf(grid), plan);
+  std::string other = grid;
+  other.replace(other.find("\"seed\": 5"), 9, "\"seed\": 6");
+  EXPECT_NE(planOf(other)["studies"][0]["seed"], plan["studies"][0]["seed"]);
+  EXPECT_FALSE(fs::exists(dir.file("out")));
+
+  // One simulated point, run: the study is simulated with the derived seed and its options.
+  std::ofstream(sweepFile) << R"({"simulate": {"size": "small", "seed": 5,
+      "frames-per-bone": 100}, "given_models": true,
+      "parameters": {"simulate.standoff": ["gel"]}})";
+  const std::string out = dir.file("out");
+  const test::CommandResult p = runEchoreg({"study", "sweep", sweepFile, "--out", out, "--plan"});
+  ASSERT_EQ(p.exitCode, 0) << p.err;
+  const nlohmann::json one = nlohmann::json::parse(p.out);
+  const test::CommandResult r = runEchoreg({"study", "sweep", sweepFile, "--out", out});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json manifest =
+      readJson(out + "/" + one["studies"][0]["folder"].get<std::string>() + "/study.json");
+  EXPECT_EQ(manifest["generator"]["seed"], one["studies"][0]["seed"]);
+  EXPECT_EQ(manifest["generator"]["standoff"], "gel");
+  const std::vector<nlohmann::json> rows = readJsonLines(out + "/results.jsonl");
+  ASSERT_EQ(rows.size(), 1U);
+  EXPECT_EQ(rows[0]["seed"], one["studies"][0]["seed"]);
+  EXPECT_EQ(rows[0]["registrations"],
+            readJson(out + "/points/" + one["points"][0]["id"].get<std::string>() +
+                     "/results/results.json")["registrations"]);
+}
+
+TEST(StudySweep, BadSweepFilesNameTheKeyExitTwoAndWriteNothing) {
+  test::TempDir dir;
+  const std::string sweepFile = dir.file("sweep.json");
+  const std::string out = dir.file("out");
+  fs::create_directories(dir.file("study"));
+  std::ofstream(dir.file("study/study.json")) << "{}";
+  auto expectRefused = [&](const std::string& text, const std::string& problem,
+                           const std::vector<std::string>& extra = {}) {
+    std::ofstream(sweepFile) << text;
+    std::vector<std::string> args = {"study", "sweep", sweepFile, "--out", out};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const test::CommandResult r = runEchoreg(args);
+    EXPECT_EQ(r.exitCode, 2) << text << "\n" << r.err;
+    EXPECT_NE(r.err.find(sweepFile + ": "), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(problem), std::string::npos) << text << "\n" << r.err;
+    EXPECT_FALSE(fs::exists(out)) << "a refused sweep wrote " << out;
+  };
+  expectRefused("{\"study\": ", "is not a JSON sweep file");
+  expectRefused("[1]", "must hold a JSON object");
+  expectRefused(R"({"study": "study", "parameters": {"detect.cutoff": [0.01]}, "x": 1})",
+                "unknown key \"x\"");
+  expectRefused(R"({"parameters": {"detect.cutoff": [0.01]}})", "needs exactly one base");
+  expectRefused(R"({"study": "nowhere", "parameters": {"detect.cutoff": [0.01]}})",
+                "nowhere holds no study.json");
+  expectRefused(R"({"study": "study"})", "\"parameters\" must be an object");
+  expectRefused(R"({"study": "study", "parameters": {"detect.cutoff": 0.01}})",
+                "\"parameters\": \"detect.cutoff\" must be a non-empty list");
+  expectRefused(R"({"study": "study", "parameters": {"detect.cutoff": [0.01, 0.01]}})",
+                "lists 0.01 twice");
+  expectRefused(R"({"study": "study", "parameters": {"detect.cutof": [0.01]}})",
+                "\"detect.cutof\" = 0.01: unknown parameter \"cutof\"");
+  expectRefused(R"({"study": "study", "parameters": {"detect.cutoff": [0.01, 3]}})",
+                "\"detect.cutoff\" = 3: parameter \"cutoff\" = 3: cutoff must be in (0, 1)");
+  expectRefused(R"({"study": "study", "parameters": {"detect.cutoff": ["low"]}})",
+                "parameter \"cutoff\" must be a number");
+  expectRefused(R"({"study": "study", "parameters": {"simulate.standoff": ["gel"]}})",
+                "the simulator's options need a \"simulate\" base");
+  expectRefused(R"({"study": "study", "parameters": {"replicate": [1]}})",
+                "replicates need a \"simulate\" base");
+  expectRefused(R"({"study": "study", "parameters": {"registration.loss": ["huber"]}})",
+                "a parameter is \"simulate.OPTION\"");
+  expectRefused(R"({"simulate": {"standoff": "foam"}, "parameters": {"replicate": [1]}})",
+                "\"simulate\": --standoff: foam not in {glove,gel,none}");
+  expectRefused(R"({"simulate": {"seed": -1}, "parameters": {"replicate": [1]}})",
+                "\"seed\" must be a whole number >= 0");
+  expectRefused(R"({"simulate": {"out": "x"}, "parameters": {"replicate": [1]}})",
+                "\"out\" is not an option of echoreg simulate a sweep can set");
+  expectRefused(R"({"simulate": {}, "parameters": {"simulate.flexion": [30, 120]}})",
+                "\"simulate.flexion\" = 120: --flexion");
+  expectRefused(R"({"simulate": {}, "parameters": {"simulate.seed": [1, 2]}})",
+                "seeds are derived");
+  expectRefused(
+      R"({"simulate": {"standoff": "gel"}, "parameters": {"simulate.standoff": ["glove"]}})",
+      "is both fixed in \"simulate\" and swept");
+  expectRefused(R"({"simulate": {}, "parameters": {"replicate": [-1]}})",
+                "-1 is not a whole number >= 0");
+  expectRefused(R"({"study": "study", "given_models": 1, "parameters": {"detect.cutoff": [0.01]}})",
+                "\"given_models\" must be true or false");
+  // The options: a shard or a point that is not there.
+  const std::string good = R"({"study": "study", "parameters": {"detect.cutoff": [0.01]}})";
+  for (const std::string shard : {"0/2", "3/2", "1", "1/0", "a/b", "1/2x"}) {
+    std::ofstream(sweepFile) << good;
+    const test::CommandResult r =
+        runEchoreg({"study", "sweep", sweepFile, "--out", out, "--shard", shard});
+    EXPECT_EQ(r.exitCode, 2) << shard;
+    EXPECT_NE(r.err.find("--shard " + shard + ": expected I/N"), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(out));
+  }
+  const test::CommandResult r =
+      runEchoreg({"study", "sweep", sweepFile, "--out", out, "--point", "p-000000000000"});
+  EXPECT_EQ(r.exitCode, 2);
+  EXPECT_NE(r.err.find("--point p-000000000000: " + sweepFile + " has no such point"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+}  // namespace
+}  // namespace echoreg::simulation
