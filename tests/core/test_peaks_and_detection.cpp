@@ -125,6 +125,46 @@ TEST(Detection, BonePolicyFindsBoneBehindAStrongerFascia) {
   EXPECT_FALSE(m.accepted() && std::fabs(m.peaks.sampleIndex - 1700.0) < 5.0);
 }
 
+// Shallow bone in vivo whose cortex rings: the echo (sample 1000, rising from the tissue's level)
+// is followed, with no valley between them, by its ringing tail peaking 1.2 times higher 12
+// samples later, then reverberation at 0.45 of the echo for 3 mm before the shadow. The echo is
+// the bone; the tail's peak is not an echo of its own. Before the leading echo was recognised the
+// tail's peak was taken (0.18 mm too deep) or the record rejected.
+TEST(Detection, ProminencePolicyTakesTheEchoThatLeadsItsRingingTail) {
+  std::vector<float> envelope(4096);
+  for (std::size_t i = 0; i < envelope.size(); ++i)
+    envelope[i] =
+        1.F + 0.3F * static_cast<float>(std::pow(std::sin(0.7 * static_cast<double>(i)), 2.0));
+  const float rise[] = {3.F, 8.F, 14.F, 18.F};  // samples 996-999
+  for (int k = 0; k < 4; ++k)
+    envelope[static_cast<std::size_t>(996 + k)] = rise[k];
+  envelope[1000] = 20.F;
+  for (int i = 1001; i <= 1005; ++i)  // dips to 14, no valley below half the echo
+    envelope[static_cast<std::size_t>(i)] = 20.F - 1.2F * static_cast<float>(i - 1000);
+  for (int i = 1006; i <= 1012; ++i)  // climbs to the tail's peak, 1.2 x the echo
+    envelope[static_cast<std::size_t>(i)] = 14.F + 10.F * static_cast<float>(i - 1005) / 7.F;
+  for (int i = 1013; i <= 1020; ++i)  // falls to the reverberation's level
+    envelope[static_cast<std::size_t>(i)] = 24.F - 14.5F * static_cast<float>(i - 1012) / 8.F;
+  for (int i = 1021; i < 1220; ++i)  // 3 mm of reverberation, then the shadow
+    envelope[static_cast<std::size_t>(i)] = 9.F + 0.5F * static_cast<float>(i % 2);
+
+  DetectionParams params = detectionPreset("default");
+  params.transducerFrequencyHz = 7.5e6;
+  PeakParams peaks = resolvePeakParams(params);
+  peaks.ringDownEnd = 0;
+  peaks.prominence.shadow = ShadowRule::Auto;
+  const PeakResult result = findPeaks(peaks, envelope.data(), 4096);
+  ASSERT_TRUE(result.accepted()) << rejectReasonName(result.reason);
+  EXPECT_NEAR(result.sampleIndex, 1000.0, 1.0);
+
+  // On a ramp of tissue climbing to it, the echo stands barely above what lies before it and is
+  // still refused: the tail changes only the echo's prominence, not the policy's other tests.
+  for (int i = 900; i < 996; ++i)
+    envelope[static_cast<std::size_t>(i)] = 3.F + 0.1F * static_cast<float>(i - 900);
+  const PeakResult ramp = findPeaks(peaks, envelope.data(), 4096);
+  EXPECT_FALSE(ramp.accepted() && std::fabs(ramp.sampleIndex - 1000.0) < 1.0);
+}
+
 TEST(InterSignal, TemporalConsistencyNeedsHistoryAgreeingFrames) {
   InterSignalParams params;
   params.history = 3;
