@@ -160,15 +160,7 @@ int soak(double seconds, double rateHz, double reportEveryS) {
     if (!client)
       return;
     // What live sends back is read and dropped, as serve and a PLUS server do.
-    std::atomic<bool> draining{true};
-    std::thread drain([&] {
-      live::MessageReader reader(std::size_t{1} << 30);
-      try {
-        while (draining.load())
-          reader.next(*client, 0.05, &draining);
-      } catch (const std::exception&) {
-      }
-    });
+    live::IncomingDiscarder discard(*client);
     try {
       for (long i = 0; i < total; ++i) {
         const double t = static_cast<double>(i) / rateHz;
@@ -187,8 +179,7 @@ int soak(double seconds, double rateHz, double reportEveryS) {
     } catch (const std::exception& e) {
       std::cerr << "soak server: " << e.what() << "\n";
     }
-    draining = false;
-    drain.join();
+    discard.stop();
     client->closeGracefully(30.0);
   });
   auto reporter = std::async(std::launch::async, [&] {

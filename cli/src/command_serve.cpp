@@ -85,26 +85,7 @@ int runServe(const ServeOptions& o, const Streams& io) {
 
   // What the client sends back (echoreg live's points and registration, Slicer's messages) is
   // read and dropped, so that its sends never fill the socket and block both sides.
-  std::atomic<bool> draining{true};
-  std::thread drain([&] {
-    live::MessageReader reader(std::size_t{1} << 30);
-    try {
-      while (draining.load())
-        reader.next(*client, 0.05, &draining);
-    } catch (const std::exception&) {
-      // The client went away or sent something unreadable: the sending side reports it.
-    }
-  });
-  struct JoinDrain {
-    std::atomic<bool>& flag;
-    std::thread& thread;
-    void join() {
-      flag = false;
-      if (thread.joinable())
-        thread.join();
-    }
-    ~JoinDrain() { join(); }
-  } joinDrain{draining, drain};
+  live::IncomingDiscarder discard(*client);
 
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
@@ -170,7 +151,7 @@ int runServe(const ServeOptions& o, const Streams& io) {
   }
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   // The client reads to the end before the connection goes (it may still be sending).
-  joinDrain.join();
+  discard.stop();
   client->closeGracefully(5.0);
   io.out << fmt::format(
       "{}: served {} of {} frames ({} messages, {:.1f} MB) to {} in {:.2f} s{}{}\n", o.capture,

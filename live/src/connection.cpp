@@ -252,4 +252,25 @@ std::optional<MessageReader::Received> MessageReader::next(Connection& connectio
   return received;
 }
 
+IncomingDiscarder::IncomingDiscarder(Connection& connection)
+    : thread_([this, &connection] {
+        MessageReader reader(std::size_t{1} << 30);
+        try {
+          while (!stop_.load())
+            reader.next(connection, 0.05, &stop_);
+        } catch (const std::exception&) {
+          // The peer went away or sent something unreadable: the sending side reports it.
+        }
+      }) {}
+
+IncomingDiscarder::~IncomingDiscarder() {
+  stop();
+}
+
+void IncomingDiscarder::stop() {
+  stop_ = true;
+  if (thread_.joinable())
+    thread_.join();
+}
+
 }  // namespace echoreg::live

@@ -296,6 +296,28 @@ TEST(SlowConsumer, ASendToAPeerThatDoesNotReadGivesUpAfterItsTimeoutOrOnStop) {
   stopper.get();
 }
 
+// A server that only streams reads and drops what its client sends (serve's IncomingDiscarder),
+// so that the client's sends never block: 64 MB of images, far more than loopback's buffers hold,
+// all go through with a 2 s send timeout. (serve's own loop had its stop flag the wrong way round
+// and read nothing.)
+TEST(SlowConsumer, TheDiscarderReadsWhatAStreamingServersClientSends) {
+  Listener listener("127.0.0.1", 0);
+  Connection client = Connection::connect("127.0.0.1", listener.port(), 5.0);
+  std::optional<Connection> server = listener.accept(5.0);
+  ASSERT_TRUE(server);
+  const std::vector<std::uint8_t> pixels(std::size_t{1} << 20, 7);
+  const Packet image = encodeImage("Image", ElementType::UInt8, pixels.data(),
+                                   static_cast<int>(pixels.size()), 1, 1.0);
+  std::size_t sent = 0;
+  {
+    IncomingDiscarder discard(*server);
+    for (; sent < 64; ++sent)
+      client.send(image, 2.0);
+    discard.stop();
+  }
+  EXPECT_EQ(sent, 64U);
+}
+
 TEST_F(LiveSession, ServeWaitsForAClientThatStallsAndDropsNothing) {
   // 6000 A-lines of 4096 bytes at 3000 a second (24 MB in 2 s, more than loopback buffers
   // hold); the client reads nothing for 3 s, then everything.

@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <optional>
 #include <string>
+#include <thread>
 
 namespace echoreg::live {
 
@@ -93,6 +94,23 @@ class MessageReader {
   std::size_t maxBodyBytes_;
   std::uint8_t header_[kHeaderBytes] = {};
   std::vector<std::uint8_t> body_;
+};
+
+/// Reads and drops whatever the peer sends, on a thread of its own, so that the peer's sends never
+/// fill the socket and block both sides (a server that only streams, as `echoreg serve` and a PLUS
+/// server do). Runs until stop() or destruction, or until the peer goes away or sends something
+/// that cannot be followed (the sending side reports that).
+class IncomingDiscarder {
+ public:
+  explicit IncomingDiscarder(Connection& connection);
+  ~IncomingDiscarder();
+  IncomingDiscarder(const IncomingDiscarder&) = delete;
+  IncomingDiscarder& operator=(const IncomingDiscarder&) = delete;
+  void stop();
+
+ private:
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
 };
 
 }  // namespace echoreg::live
