@@ -70,17 +70,8 @@ const std::set<std::string> kSimulateOptions = {"preset",          "size",
 /// Options that are flags without a value: true gives the flag, false leaves it out.
 const std::set<std::string> kSimulateFlags = {"fibula-in-tibia"};
 
-std::uint64_t fnv1a64(const std::string& bytes) {
-  std::uint64_t h = 1469598103934665603ULL;
-  for (const char c : bytes) {
-    h ^= static_cast<unsigned char>(c);
-    h *= 1099511628211ULL;
-  }
-  return h;
-}
-
 std::string shortHash(const std::string& bytes) {
-  return fmt::format("{:016x}", fnv1a64(bytes)).substr(0, 12);
+  return fmt::format("{:016x}", bytesHash(bytes)).substr(0, 12);
 }
 
 /// One simulated study of the sweep (simulate bases only).
@@ -333,7 +324,7 @@ Sweep readSweep(const std::string& file) {
       const auto found = std::find_if(sweep.studies.begin(), sweep.studies.end(),
                                       [&](const SweepStudy& s) { return s.id == id; });
       if (found == sweep.studies.end()) {
-        sweep.studies.push_back({id, fnv1a64("seed " + definition) & 0xffffffffULL, options});
+        sweep.studies.push_back({id, bytesHash("seed " + definition) & 0xffffffffULL, options});
         point.study = static_cast<int>(sweep.studies.size()) - 1;
       } else {
         point.study = static_cast<int>(found - sweep.studies.begin());

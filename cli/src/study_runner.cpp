@@ -59,6 +59,12 @@ void mixFile(std::uint64_t& h, const std::string& path) {
 
 }  // namespace
 
+std::uint64_t bytesHash(std::string_view bytes) {
+  std::uint64_t h = kFnvOffset;
+  mix(h, bytes.data(), bytes.size());
+  return h;
+}
+
 std::uint64_t contentHash(const std::string& path) {
   std::uint64_t h = kFnvOffset;
   std::error_code ec;

@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <functional>
 #include <string>
+#include <string_view>
 #include <utility>
 #include <vector>
 
@@ -55,6 +56,9 @@ const char* statusName(StepOutcome::Status status);
 /// 64-bit FNV-1a of a file's bytes (folders: of their files' relative names and bytes, sorted).
 /// Throws FileError when the path cannot be read.
 std::uint64_t contentHash(const std::string& path);
+
+/// 64-bit FNV-1a of `bytes` (the same hash as contentHash's of a file holding them).
+std::uint64_t bytesHash(std::string_view bytes);
 
 class StudyRunner {
  public:
