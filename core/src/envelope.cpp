@@ -21,6 +21,8 @@
 // function multi-versioning through an ifunc); elsewhere once.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__) && defined(__linux__)
 #define ECHOREG_VECTOR_CLONES __attribute__((target_clones("avx2", "default")))
+#define ECHOREG_HAVE_AVX2_PATH 1
+#include <immintrin.h>
 #else
 #define ECHOREG_VECTOR_CLONES
 #endif
@@ -98,34 +100,79 @@ namespace detail {
 // window is clipped, the sums run.
 namespace {
 
+#if defined(ECHOREG_HAVE_AVX2_PATH)
+// The same pass eight samples at a time where the CPU has AVX2 (the four-lane version is bound by
+// its instruction count): a scan within each 128-bit half, the low half's total added to the high
+// half, then the carry of the blocks before.
+__attribute__((target("avx2"))) std::size_t wholeCodePrefixAvx2(const float* samples, std::size_t n,
+                                                                std::int32_t* prefix, bool& whole) {
+  const __m256 limit = _mm256_set1_ps(65535.F);
+  const __m256 magnitude = _mm256_castsi256_ps(_mm256_set1_epi32(0x7fffffff));
+  const __m256i last = _mm256_set1_epi32(7);
+  __m256 bad = _mm256_setzero_ps();
+  __m256i carry = _mm256_setzero_si256();
+  std::size_t i = 0;
+  for (; i + 8 <= n; i += 8) {
+    const __m256 x = _mm256_loadu_ps(samples + i);
+    const __m256i code = _mm256_cvttps_epi32(x);
+    bad = _mm256_or_ps(
+        bad, _mm256_or_ps(_mm256_cmp_ps(_mm256_cvtepi32_ps(code), x, _CMP_NEQ_UQ),
+                          _mm256_cmp_ps(_mm256_and_ps(x, magnitude), limit, _CMP_NLE_UQ)));
+    __m256i sum = _mm256_add_epi32(code, _mm256_slli_si256(code, 4));
+    sum = _mm256_add_epi32(sum, _mm256_slli_si256(sum, 8));
+    // The low half's total (its lane 3) into every lane of the high half.
+    const __m256i lowTotal = _mm256_shuffle_epi32(sum, _MM_SHUFFLE(3, 3, 3, 3));
+    sum = _mm256_add_epi32(sum, _mm256_permute2x128_si256(lowTotal, lowTotal, 0x08));
+    _mm256_storeu_si256(reinterpret_cast<__m256i*>(prefix + i + 1), _mm256_add_epi32(sum, carry));
+    // The block's total joins the carry by one addition: the cross-lane permute stays off the
+    // chain from block to block.
+    carry = _mm256_add_epi32(carry, _mm256_permutevar8x32_epi32(sum, last));
+  }
+  whole = _mm256_movemask_ps(bad) == 0;
+  return i;
+}
+
+bool cpuHasAvx2() {
+  static const bool has = __builtin_cpu_supports("avx2") != 0;
+  return has;
+}
+#endif
+
 // prefix[i + 1] = samples[0] + ... + samples[i] in 32-bit integers, and whether every sample is
 // a whole number within 16 bits (NaN is not): only then is the conversion exact and defined, and
-// the prefix meaningful. One pass: with SSE2 four samples at a time, the conversion, the check
-// and a four-lane scan with the carry of the lanes before (integer sums, so the same numbers as
-// the scalar loop in any order).
+// the prefix meaningful. One pass: four samples at a time with SSE2 (eight with AVX2, above), the
+// conversion, the check and a four-lane scan with the carry of the lanes before (integer sums, so
+// the same numbers as the scalar loop in any order).
 bool wholeCodePrefix(const float* samples, std::size_t n, std::int32_t* prefix) {
   prefix[0] = 0;
   std::size_t i = 0;
   bool whole = true;
-#if defined(__SSE2__)
-  const __m128 limit = _mm_set1_ps(65535.F);
-  const __m128 magnitude = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
-  __m128 bad = _mm_setzero_ps();
-  __m128i carry = _mm_setzero_si128();
-  for (; i + 4 <= n; i += 4) {
-    const __m128 x = _mm_loadu_ps(samples + i);
-    const __m128i code = _mm_cvttps_epi32(x);
-    // Not whole (or NaN): converting back does not give x. Out of range (or NaN): |x| > 65535.
-    bad = _mm_or_ps(bad, _mm_or_ps(_mm_cmpneq_ps(_mm_cvtepi32_ps(code), x),
-                                   _mm_cmpnle_ps(_mm_and_ps(x, magnitude), limit)));
-    __m128i sum = _mm_add_epi32(code, _mm_slli_si128(code, 4));
-    sum = _mm_add_epi32(sum, _mm_slli_si128(sum, 8));
-    sum = _mm_add_epi32(sum, carry);
-    _mm_storeu_si128(reinterpret_cast<__m128i*>(prefix + i + 1), sum);
-    carry = _mm_shuffle_epi32(sum, _MM_SHUFFLE(3, 3, 3, 3));
-  }
-  whole = _mm_movemask_ps(bad) == 0;
+#if defined(ECHOREG_HAVE_AVX2_PATH)
+  if (cpuHasAvx2()) {
+    i = wholeCodePrefixAvx2(samples, n, prefix, whole);
+  } else
 #endif
+  {
+#if defined(__SSE2__)
+    const __m128 limit = _mm_set1_ps(65535.F);
+    const __m128 magnitude = _mm_castsi128_ps(_mm_set1_epi32(0x7fffffff));
+    __m128 bad = _mm_setzero_ps();
+    __m128i carry = _mm_setzero_si128();
+    for (; i + 4 <= n; i += 4) {
+      const __m128 x = _mm_loadu_ps(samples + i);
+      const __m128i code = _mm_cvttps_epi32(x);
+      // Not whole (or NaN): converting back does not give x. Out of range (or NaN): |x| > 65535.
+      bad = _mm_or_ps(bad, _mm_or_ps(_mm_cmpneq_ps(_mm_cvtepi32_ps(code), x),
+                                     _mm_cmpnle_ps(_mm_and_ps(x, magnitude), limit)));
+      __m128i sum = _mm_add_epi32(code, _mm_slli_si128(code, 4));
+      sum = _mm_add_epi32(sum, _mm_slli_si128(sum, 8));
+      sum = _mm_add_epi32(sum, carry);
+      _mm_storeu_si128(reinterpret_cast<__m128i*>(prefix + i + 1), sum);
+      carry = _mm_shuffle_epi32(sum, _MM_SHUFFLE(3, 3, 3, 3));
+    }
+    whole = _mm_movemask_ps(bad) == 0;
+#endif
+  }
   for (; whole && i < n; ++i) {
     const float x = samples[i];
     if (!(std::fabs(x) <= 65535.F) || std::trunc(x) != x)

@@ -176,9 +176,10 @@ TEST(Envelope, EveryMethodPeaksAtAnIsolatedEcho) {
 }
 
 // The high-pass's moving average against the definition (each window clipped to the record and
-// summed afresh in double): whole 12-bit codes (the integer prefix path, four samples at a time
-// and the remainder), a fraction or a NaN anywhere (the float path, including in the last
-// samples a four-wide pass leaves to the scalar tail), and windows longer than the record.
+// summed afresh in double): whole 12-bit codes (the integer prefix path, four or eight samples at
+// a time and every remainder), a fraction, a whole code beyond 16 bits or a NaN anywhere (the
+// float path, including in either half of an eight-wide block and in the last samples a wide pass
+// leaves to the scalar tail), and windows longer than the record.
 TEST(Envelope, MovingAverageMatchesItsDefinitionOnEveryPath) {
   const auto reference = [](const std::vector<float>& x, int window) {
     const int count = static_cast<int>(x.size());
@@ -196,14 +197,16 @@ TEST(Envelope, MovingAverageMatchesItsDefinitionOnEveryPath) {
   };
   std::mt19937 rng(11);
   std::uniform_int_distribution<int> code(-2048, 2047);
-  for (int count : {4096, 4097, 4099, 30}) {
+  for (int count : {4096, 4097, 4099, 4100, 4103, 30}) {
     for (int window : {3, 21, 85, 5001}) {
-      for (int fraction : {-1, 0, count - 1, count / 2}) {
+      for (int fraction : {-1, 0, count - 1, count / 2, 13}) {
         std::vector<float> x(static_cast<std::size_t>(count));
         for (float& v : x)
           v = static_cast<float>(code(rng) * 16);
         if (fraction >= 0)
           x[static_cast<std::size_t>(fraction)] += 0.5F;
+        if (fraction == 13)  // and a whole code that 16 bits cannot hold, in a block's high half
+          x[22] = 70000.F;
         std::vector<float> out(x.size());
         subtractMovingAverage(x.data(), count, window, out.data());
         const auto expected = reference(x, window);
