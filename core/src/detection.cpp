@@ -97,8 +97,10 @@ void validate(const DetectionParams& params) {
   require(std::isfinite(fs) && fs >= 1e5 && fs <= 1e11,
           "sampling frequency must be between 100 kHz and 100 GHz");
   const double c = params.depth.speedOfSoundMps;
-  require(std::isfinite(c) && c >= 300.0 && c <= 6000.0,
-          "speed of sound must be between 300 and 6000 m/s (soft tissue 1450-1600, water 1480)");
+  // The same bounds as a flag or a capture header's value (core/depth.hpp), so that a --params
+  // file or a manifest cannot hold what the flag refuses.
+  require(std::isfinite(c) && c >= kMinSpeedOfSoundMps && c <= kMaxSpeedOfSoundMps,
+          "speed of sound must be between 1000 and 2000 m/s (soft tissue 1450-1600, water 1480)");
   require(std::isfinite(params.depth.delayS) && params.depth.delayS >= 0.0 &&
               params.depth.delayS <= 1e-3,
           "delay must be between 0 and 1 ms (the time from the pulse to sample 0; a negative "

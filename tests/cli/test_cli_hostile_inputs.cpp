@@ -330,8 +330,8 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
        "--speed-of-sound: must be a number from 1000 to 2000, got 0"},
       {{"detect", "@capture.igs.mha", "--params", "@speed.json", "--out", "@out.csv"},
        1,
-       "@speed.json: parameter \"speed-of-sound\" = -1450: speed of sound must be between 300 "
-       "and 6000 m/s"},
+       "@speed.json: parameter \"speed-of-sound\" = -1450: speed of sound must be between 1000 "
+       "and 2000 m/s"},
       {{"detect", "@capture.igs.mha", "--params", "@wide.json", "--out", "@out.csv"},
        1,
        "@wide.json: parameter \"envelope-window\" must be a whole number, found 4294967303"},

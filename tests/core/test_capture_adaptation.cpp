@@ -419,6 +419,16 @@ TEST(Detection, BoundsOnTheAcquisitionFacts) {
   } catch (const std::invalid_argument& e) {
     EXPECT_NE(std::string(e.what()).find("speed of sound"), std::string::npos) << e.what();
   }
+  // The bounds a flag and a header are held to hold for parameters set any other way (--params,
+  // a manifest): once 300-6000 m/s was accepted here.
+  for (double speed : {500.0, 999.0, 2001.0, 5000.0}) {
+    params.depth.speedOfSoundMps = speed;
+    EXPECT_THROW(validate(params), std::invalid_argument) << speed;
+  }
+  for (double speed : {1000.0, 1480.0, 2000.0}) {
+    params.depth.speedOfSoundMps = speed;
+    EXPECT_NO_THROW(validate(params)) << speed;
+  }
 }
 
 }  // namespace
