@@ -2,8 +2,9 @@
 // OpenIGTLink (from PLUS, or `echoreg serve`), are recorded to a PLUS capture as they arrive,
 // paired by timestamp, run through the detection chain frame by frame, and the points go into a
 // surface registration refined as they come; the points, the registration and its state go back
-// (to the server, or to --send-to, e.g. 3D Slicer). At the end the recording is registered
-// exactly as `echoreg register` registers a capture, into the same result files (docs/live.md).
+// (to the server, or to --send-to, e.g. 3D Slicer). At the end `echoreg register`'s solver runs on
+// the points detected live and writes register's result files; the recording is not read back,
+// so the memory of a session does not grow with its length (docs/live.md).
 #include "command_register.hpp"
 #include "commands.hpp"
 #include "detection_params.hpp"
@@ -184,6 +185,10 @@ class LiveSession {
   Eigen::Matrix4d beamToProbe_ = Eigen::Matrix4d::Identity();
   RegistrationModel model_;
   RegistrationStart start_;
+  PoseNotes startNotes_;  // what the rigid-pose rule did to the landmarks capture's poses
+  // What the rule did to the received poses register uses (--pose and <Bone>ToTracker), counted
+  // as register counts them in a capture.
+  std::map<std::string, RigidPoseReport> rigidPoses_;
   DetectionParams params_;
   std::string preset_;
   TunableSettings settings_;
@@ -343,6 +348,13 @@ void LiveSession::onMessage(const live::Message& message, Clock::time_point arri
                                 problem)];
         poses_.add(name, {t, message.matrix, "INVALID"});
       } else {
+        if (name == o_.pose || name == reference_) {
+          RigidPoseReport& report = rigidPoses_[name];
+          const double deviation = poseOrthonormalDeviation(message.matrix);
+          ++report.checked;
+          report.largestDeviation = std::max(report.largestDeviation, deviation);
+          report.reorthonormalised += deviation > kPoseExactTolerance ? 1 : 0;
+        }
         poses_.add(name, {t, reorthonormalised(message.matrix), "OK"});
       }
       pending_.push_back(std::move(p));
@@ -514,8 +526,7 @@ int LiveSession::run() {
   reference_ = bone_ + "ToTracker";
   model_ = loadRegistrationModel(r_);
   beamToProbe_ = readTransformFile(r_.calibration, "Beam", "Probe").matrix;
-  PoseNotes poseNotes;
-  start_ = registrationStart(r_, model_.options, poseNotes);
+  start_ = registrationStart(r_, model_.options, startNotes_);
   // The detection's settings as register takes them (flags over --params over register's own
   // defaults: each echo judged alone, points at least 1 mm apart), resolved against the stream's
   // header when its first A-line arrives; a bad value is refused now, before connecting.
@@ -684,10 +695,33 @@ int LiveSession::run() {
     file.commit();
   }
 
-  // The result: the recording registered as `echoreg register --capture` registers it.
+  // The result: register's solver and files on the points detected while the A-lines came
+  // (register's chain, frame by frame), instead of reading the recording back: that held the
+  // whole capture and every step's output in memory (11.2 GB for 150 s at 3000 A-lines/s).
   RegisterOptions final = r_;
   final.captures = {o_.record};
-  const int code = runRegister(final, io_);
+  RegistrationPoints gathered;
+  gathered.points = std::move(points_);
+  nlohmann::json rejected = nlohmann::json::object();
+  for (const auto& [reason, count] : reasons_) {
+    if (reason != "accepted")
+      rejected[reason] = count;
+  }
+  gathered.speedOfSoundMps = detector_->params().depth.speedOfSoundMps;
+  gathered.sources.push_back({{"capture", o_.record},
+                              {"frames", frames_},
+                              {"accepted", accepted_},
+                              {"rejected_by_reason", rejected},
+                              {"speed_of_sound_mps", *gathered.speedOfSoundMps},
+                              {"detected", "live"}});
+  gathered.poseNotes = startNotes_;
+  for (const auto& [name, report] : rigidPoses_) {
+    gathered.poseNotes.reorthonormalised += report.reorthonormalised;
+    if (auto line = rigidPoseNote(report, o_.record, name))
+      gathered.poseNotes.lines.push_back(*line);
+  }
+  checkRegistrationPoints(final, gathered.points);
+  const int code = solveAndWrite(final, model_, start_, gathered, io_);
   return failure.empty() ? code : 1;
 }
 
@@ -711,8 +745,9 @@ CommandAction addLiveCommand(CLI::App& app) {
       "TRANSFORM <Bone>ToCT, POINT <Bone>Point (each accepted echo), POINT <Bone>Points (all),\n"
       "STRING <Bone>Status (RMS, converged, points). Ends when the server closes (with\n"
       "--reconnect: when it has not come back within that time), on SIGINT, after --duration or\n"
-      "--idle-timeout; then registers the recording exactly as `echoreg register\n"
-      "--capture` does and writes the same files (--out and its .tfm).");
+      "--idle-timeout; then runs register's solver (its options and start) on the points\n"
+      "detected live and writes register's files (--out and its .tfm); the recording is not\n"
+      "read back.");
   auto* connect = cmd->add_option("--connect", o->connect, "HOST:PORT of the server (PLUS: 18944)")
                       ->group("Connection");
   auto* listen = cmd->add_option("--listen", o->listenPort, "Port to wait on for a server instead")

@@ -489,6 +489,37 @@ nlohmann::json requestJson(const RegisterOptions& o) {
           {"json", o.json}};
 }
 
+void checkRegistrationPoints(const RegisterOptions& o,
+                             const std::vector<core::SurfacePoint>& points) {
+  // Bounded before the solver runs: its time and memory grow with the points (10^6 took 103 s and
+  // 1.6 GB), and an A-mode registration uses tens to thousands.
+  if (points.size() > static_cast<std::size_t>(o.maxPoints)) {
+    const std::string from = !o.pointsCsv.empty()     ? "--points " + o.pointsCsv
+                             : o.captures.size() == 1 ? "--capture " + o.captures.front()
+                             : !o.captures.empty()    ? std::string("--capture")
+                                                      : std::string("--stylus-points");
+    throw std::invalid_argument(fmt::format(
+        "{} gives {} points, more than --max-points {} (the registration's time and memory grow "
+        "with the points; A-mode registrations use tens to thousands): thin the points, or raise "
+        "--max-points",
+        from, points.size(), o.maxPoints));
+  }
+  if (points.size() < 3) {
+    const std::string from = !o.pointsCsv.empty()        ? o.pointsCsv
+                             : !o.captures.empty()       ? o.captures.front()
+                             : !o.stylusCaptures.empty() ? o.stylusCaptures.front()
+                                                         : o.model;
+    throw FileError(from, fmt::format("{} point(s) found: at least 3 are needed for a registration",
+                                      points.size()));
+  }
+  if (o.fitSpeed && std::none_of(points.begin(), points.end(),
+                                 [](const core::SurfacePoint& p) { return p.hasBeam; })) {
+    throw std::invalid_argument(
+        "--fit-speed-of-sound needs the points' beams: give --capture, or a CSV with "
+        "ox,oy,oz,dx,dy,dz,depth_mm");
+  }
+}
+
 int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* shared) {
   CommandPaths()
       .input("--model", o.model)
@@ -507,8 +538,6 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
   const std::string reference = o.bone + "ToTracker";
   RegistrationModel loaded = loadRegistrationModel(o);
   core::SurfaceRegistrationOptions& options = loaded.options;
-  const std::unique_ptr<core::SurfaceRegistration>& model = loaded.model;
-  const int capTriangles = loaded.capTriangles;
 
   // The points.
   PoseNotes poseNotes;
@@ -534,7 +563,6 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
       points.insert(points.end(), found.begin(), found.end());
     }
   }
-  const int ultrasoundCount = static_cast<int>(points.size());
   if (!o.stylusCaptures.empty()) {
     const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
     Eigen::Isometry3d tipToStylus;
@@ -546,39 +574,34 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
       sources.push_back({{"stylus_capture", capture}, {"points", found.size()}});
     }
   }
-  // Bounded before the solver runs: its time and memory grow with the points (10^6 took 103 s and
-  // 1.6 GB), and an A-mode registration uses tens to thousands.
-  if (points.size() > static_cast<std::size_t>(o.maxPoints)) {
-    const std::string from = !o.pointsCsv.empty()  ? "--points " + o.pointsCsv
-                             : !o.captures.empty() ? std::string("--capture")
-                                                   : std::string("--stylus-points");
-    throw std::invalid_argument(fmt::format(
-        "{} gives {} points, more than --max-points {} (the registration's time and memory grow "
-        "with the points; A-mode registrations use tens to thousands): thin the points, or raise "
-        "--max-points",
-        from, points.size(), o.maxPoints));
-  }
-  if (points.size() < 3) {
-    const std::string from = !o.pointsCsv.empty()        ? o.pointsCsv
-                             : !o.captures.empty()       ? o.captures.front()
-                             : !o.stylusCaptures.empty() ? o.stylusCaptures.front()
-                                                         : o.model;
-    throw FileError(from, fmt::format("{} point(s) found: at least 3 are needed for a registration",
-                                      points.size()));
-  }
-  if (o.fitSpeed && std::none_of(points.begin(), points.end(),
-                                 [](const core::SurfacePoint& p) { return p.hasBeam; })) {
-    throw std::invalid_argument(
-        "--fit-speed-of-sound needs the points' beams: give --capture, or a CSV with "
-        "ox,oy,oz,dx,dy,dz,depth_mm");
-  }
+  checkRegistrationPoints(o, points);
 
   // The start.
   const RegistrationStart start = registrationStart(o, options, poseNotes);
+  RegistrationPoints gathered;
+  gathered.points = std::move(points);
+  gathered.sources = std::move(sources);
+  gathered.speedOfSoundMps = speedOfSound;
+  gathered.poseNotes = std::move(poseNotes);
+  return solveAndWrite(o, loaded, start, gathered, io);
+}
+
+int solveAndWrite(const RegisterOptions& o, const RegistrationModel& loaded,
+                  const RegistrationStart& start, const RegistrationPoints& gathered,
+                  const Streams& io) {
+  const std::vector<core::SurfacePoint>& points = gathered.points;
+  const core::SurfaceRegistrationOptions& options = loaded.options;
+  const PoseNotes& poseNotes = gathered.poseNotes;
+  const int capTriangles = loaded.capTriangles;
+  const int ultrasoundCount =
+      static_cast<int>(std::count_if(points.begin(), points.end(), [](const core::SurfacePoint& p) {
+        return p.source == core::PointSource::Ultrasound;
+      }));
   const std::vector<core::LandmarkPair>& landmarks = start.landmarks;
   const nlohmann::json& initReport = start.report;
 
-  const core::SurfaceRegistrationResult r = model->registerPoints(points, landmarks, options);
+  const core::SurfaceRegistrationResult r =
+      loaded.model->registerPoints(points, landmarks, options);
 
   TransformFile out;
   out.from = o.bone;
@@ -618,12 +641,12 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
       {"method", o.method},
       {"loss", options.method == core::SurfaceMethod::Robust ? nlohmann::json(o.loss)
                                                              : nlohmann::json(nullptr)},
-      {"sources", sources},
+      {"sources", gathered.sources},
       {"start", initReport},
       {"landmark_residuals", landmarkResiduals},
       {"points", residuals}};
-  if (speedOfSound)
-    out.extra["speed_of_sound_mps"] = *speedOfSound * r.speedOfSoundScale;
+  if (gathered.speedOfSoundMps)
+    out.extra["speed_of_sound_mps"] = *gathered.speedOfSoundMps * r.speedOfSoundScale;
   if (!r.converged)
     out.extra["message"] = r.message;
   // A start from two landmarks leaves the rotation about their line to the surface points: on a

@@ -15,6 +15,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <set>
 #include <string>
 #include <vector>
@@ -93,6 +94,29 @@ CaptureDetectionRequest sweepDetectionRequest(const RegisterOptions& options,
 /// The request as JSON, every field: the study's cache key.
 nlohmann::json requestJson(const RegisterOptions& options);
 
+/// The points a registration runs on and where they came from.
+struct RegistrationPoints {
+  std::vector<core::SurfacePoint> points;
+  /// The result's "sources": one object per capture, CSV or stylus capture.
+  nlohmann::json sources = nlohmann::json::array();
+  /// The detection's speed of sound, m/s, when the points were detected from A-lines.
+  std::optional<double> speedOfSoundMps;
+  PoseNotes poseNotes;
+};
+/// The bounds the solver needs (at most --max-points, at least 3, beams for
+/// --fit-speed-of-sound), checked before it runs: std::invalid_argument, or FileError naming the
+/// points' file (the first of --points, --capture, --stylus-points, else --model).
+void checkRegistrationPoints(const RegisterOptions& options,
+                             const std::vector<core::SurfacePoint>& points);
+/// register's last step: the solver on `points` (give them to checkRegistrationPoints first)
+/// from `start`, then the <Bone>ToCT JSON (with the sources, the residual of every point, the
+/// start's report) and its .tfm written, the summary on io.out and the warnings on io.err;
+/// returns 1 when it did not converge. `live`
+/// calls it with the points it detected while the A-lines came, so the end of a session writes
+/// register's files without reading its recording again.
+int solveAndWrite(const RegisterOptions& options, const RegistrationModel& model,
+                  const RegistrationStart& start, const RegistrationPoints& points,
+                  const Streams& io);
 /// Runs the registration and writes its <Bone>ToCT JSON and .tfm; returns the exit code (1 when
 /// it did not converge). With `shared`, each capture's detection is taken from (or run into) it.
 /// Throws for bad input as the command does.

@@ -432,6 +432,64 @@ TEST_F(LiveSession, APoseStreamThatStopsIsRefusedAsStaleWithTheReason) {
   EXPECT_EQ(result.at("recorded_frames"), 200);
 }
 
+// The end of a session registers the points detected while the A-lines came and does not read
+// the recording back (that held the whole capture and every step's output in memory: 11.2 GB
+// for 150 s at 3000 A-lines/s). A pose that is not rigid shows it: live records it as received
+// and refuses its frame, while reading the recording as `register --capture` refuses the whole
+// capture, so a session that read it back would end without a result.
+TEST_F(LiveSession, TheResultComesFromTheLivePointsNotFromReadingTheRecordingBack) {
+  const Sequence s = sweep(300);
+  const int port = freePort();
+  auto server = fakeServer(port, [&](Connection& c) {
+    c.send(encodeString(kCaptureHeaderName, captureHeaderJson(s), 10.0));
+    for (std::size_t f = 0; f < 300; ++f) {
+      if (f == 150) {  // a scaled probe pose: recorded, refused for pairing
+        Eigen::Matrix4d scaled = s.frames[f].transforms.at("ProbeToTracker").matrix;
+        scaled.topLeftCorner<3, 3>() *= 1.05;
+        c.send(encodeTransform("ProbeToTracker", scaled, *s.frames[f].timestampS));
+        c.send(encodeTransform("FemurToTracker", s.frames[f].transforms.at("FemurToTracker").matrix,
+                               *s.frames[f].timestampS));
+        const std::size_t bytes = s.samplesPerFrame() * elementSize(s.elementType);
+        c.send(encodeImage("Image", s.elementType, s.pixels.data() + f * bytes, s.frameSize[0], 1,
+                           *s.frames[f].timestampS));
+        continue;
+      }
+      sendFrame(c, s, f);
+    }
+  });
+  const CommandResult live = runEchoreg(liveArgs(port));
+  server.get();
+  const nlohmann::json session = this->session();
+  ASSERT_EQ(session.at("recorded_frames"), 300) << live.err;
+  EXPECT_EQ(session.at("verdicts").at("invalid-pose"), 1);
+  // The recording holds the pose as received, which register refuses.
+  const CommandResult offline =
+      runEchoreg({"register", "--capture", dir_.file("rec.igs.mha"), "--calibration",
+                  dir_.file("BeamToProbe.json"), "--model", dir_.file("cube.obj"), "--initial",
+                  dir_.file("initial.json"), "--out", dir_.file("offline.json")});
+  EXPECT_EQ(offline.exitCode, 1);
+  EXPECT_NE(offline.err.find("frame 150: its ProbeToTrackerTransform is not a rigid pose"),
+            std::string::npos)
+      << offline.err;
+
+  // live's result: register's file, from its own points. The cube is not what the sweep is of, so
+  // it may not converge (exit 1); it is written either way.
+  ASSERT_TRUE(fs::exists(dir_.file("FemurToCT.json"))) << live.err;
+  EXPECT_EQ(live.err.find("its ProbeToTrackerTransform is not a rigid pose"), std::string::npos)
+      << live.err;
+  const TransformFile result = readTransformFile(dir_.file("FemurToCT.json"), "Femur", "CT");
+  const int accepted = session.at("accepted").get<int>();
+  ASSERT_GE(accepted, 3);
+  EXPECT_EQ(result.extra.at("ultrasound_points"), accepted);
+  EXPECT_EQ(result.extra.at("points").size(), static_cast<std::size_t>(accepted));
+  const nlohmann::json& source = result.extra.at("sources").at(0);
+  EXPECT_EQ(source.at("capture"), dir_.file("rec.igs.mha"));
+  EXPECT_EQ(source.at("detected"), "live");
+  EXPECT_EQ(source.at("frames"), 300);
+  EXPECT_EQ(source.at("accepted"), accepted);
+  EXPECT_EQ(source.at("rejected_by_reason").at("invalid-pose"), 1);
+}
+
 TEST_F(LiveSession, SigintEndsTheSessionCleanly) {
   const Sequence s = sweep(50);
   const int port = freePort();

@@ -99,6 +99,14 @@ TEST(Live, ServedFemurSweepRegistersAsRegisterDoes) {
   EXPECT_LT(kneeMm, 0.01);
   EXPECT_LT(angleDeg, 0.01);
   EXPECT_EQ(a.extra.at("points_used"), b.extra.at("points_used"));
+  // live's result comes from the points it detected as the A-lines came, in register's format.
+  const nlohmann::json& offlineSource = a.extra.at("sources").at(0);
+  const nlohmann::json& liveSource = b.extra.at("sources").at(0);
+  EXPECT_EQ(liveSource.at("detected"), "live");
+  EXPECT_EQ(liveSource.at("frames"), offlineSource.at("frames"));
+  EXPECT_EQ(liveSource.at("accepted"), offlineSource.at("accepted"));
+  EXPECT_EQ(liveSource.at("speed_of_sound_mps"), offlineSource.at("speed_of_sound_mps"));
+  EXPECT_EQ(b.extra.at("points").size(), a.extra.at("points").size());
 
   const Sequence original = readSequence(capture);
   const Sequence recorded = readSequence(dir.file("recorded.igs.mha"));
