@@ -92,8 +92,8 @@ files += ["sweep/" + json.loads(l)["study"] + "/results/results.json" for l in o
 for f in files:
     a, b = (timeless(json.load(open(os.path.join(d, f)))) for d in (".", sys.argv[1]))
     assert a == b, f
-# Every other file the studies wrote (figures, meshes, signals), byte for byte; the reports and
-# the step state carry the wall-clock times.
+# Every other file the studies and points wrote (CSV tables, PNG figures, transforms), byte for
+# byte; the reports and the step state carry the wall-clock times.
 count = 0
 for top in ("glove/results", "gel/results", "sweep"):
     for root, _, names in os.walk(top):
