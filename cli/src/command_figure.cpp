@@ -2,6 +2,7 @@
 // figures, rendered off-screen (render/, OSMesa: no X server needed).
 #include "commands.hpp"
 #include "csv_table.hpp"
+#include "detection_params.hpp"
 #include "model_file.hpp"
 #include "path_check.hpp"
 #include "validators.hpp"
@@ -14,11 +15,18 @@
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/core/statistics.hpp"
 #include "echoreg/core/transform_file.hpp"
+#include "echoreg/filters/DetectionPipeline.h"
 #include "echoreg/filters/MeshIO.h"
 #include "echoreg/render/plot_figure.hpp"
 #include "echoreg/render/surface_figure.hpp"
 
 #include <fmt/format.h>
+#include <vtkDataArray.h>
+#include <vtkDoubleArray.h>
+#include <vtkImageData.h>
+#include <vtkIntArray.h>
+#include <vtkPointData.h>
+#include <vtkTable.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -332,6 +340,8 @@ struct SignalsOptions {
   std::string capture;
   int frame = 0;
   std::vector<std::string> presets{"mozes2008", "default"};
+  std::string paramsFile;
+  TunableSettings settings;
   std::string out;
   std::string title;
   int width = 1400;
@@ -339,31 +349,70 @@ struct SignalsOptions {
   bool json = false;
 };
 
+// One row of the envelope image (x sample, y frame) of the envelope filter's output.
+std::vector<double> envelopeRow(vtkImageData* image, int frame) {
+  int dimensions[3];
+  image->GetDimensions(dimensions);
+  vtkDataArray* scalars = image->GetPointData()->GetScalars();
+  const int row = frame - image->GetExtent()[2];
+  std::vector<double> values(static_cast<std::size_t>(dimensions[0]));
+  for (int i = 0; i < dimensions[0]; ++i) {
+    values[static_cast<std::size_t>(i)] =
+        scalars->GetComponent(static_cast<vtkIdType>(row) * dimensions[0] + i, 0);
+  }
+  return values;
+}
+
 CommandAction addSignalsFigure(CLI::App* parent) {
   auto o = std::make_shared<SignalsOptions>();
   CLI::App* cmd = parent->add_subcommand(
       "signals",
       "One raw A-line and its envelope under several filter settings, with the threshold, the\n"
-      "peaks found and each setting's verdict (Figs. 5.10-5.29).");
+      "peaks found and each setting's verdict (Figs. 5.10-5.29). Each setting is a --preset with\n"
+      "the --params file and the flags over it, resolved as `echoreg detect` resolves them, and\n"
+      "runs through detect's pipeline (reader -> envelope -> peaks).");
   cmd->add_option("--capture", o->capture, "A-line capture (.igs.mha, .igs.nrrd)")->required();
   cmd->add_option("--frame", o->frame, "Frame index (from 0)")->capture_default_str();
-  cmd->add_option("--preset", o->presets,
-                  "Detection presets to compare (repeat): " +
-                      fmt::format("{}", fmt::join(detectionPresetNames(), ", ")))
-      ->capture_default_str();
+  CLI::Option* preset =
+      cmd->add_option("--preset", o->presets,
+                      "Detection presets to compare (repeat): " +
+                          fmt::format("{}", fmt::join(detectionPresetNames(), ", ")) +
+                          "; without it, the --params file's preset alone when it names one")
+          ->capture_default_str();
+  cmd->add_option("--params", o->paramsFile,
+                  "JSON object of detection parameters named as detect's flags, without dashes,\n"
+                  "applied over each preset");
   cmd->add_option("--out", o->out, "PNG to write")->required();
   cmd->add_option("--title", o->title, "Title over the figure");
   addSizeOptions(cmd, o->width, o->height, 300);
   cmd->add_flag("--json", o->json, "Print each setting's verdict as JSON");
-  return [o](const Streams& streams) {
-    CommandPaths().input("--capture", o->capture).output("--out", o->out).check();
+  addTunableFlags(cmd, o->settings);
+  return [o, preset](const Streams& streams) {
+    CommandPaths()
+        .input("--capture", o->capture)
+        .input("--params", o->paramsFile)
+        .output("--out", o->out)
+        .check();
     requirePngName("--out", o->out);
-    const Sequence sequence = readSequence(o->capture);
+    // reader -> envelope -> peaks (with its peak list), reconfigured per setting: the capture is
+    // read once (DetectionPipeline.h).
+    filters::DetectionPipeline pipeline;
+    const Sequence& sequence = pipeline.open(o->capture, {});
     if (!sequence.hasPixels())
       throw FileError(o->capture, "holds no A-lines (tracker-only capture)");
     if (o->frame < 0 || static_cast<std::size_t>(o->frame) >= sequence.frameCount()) {
       throw FileError(o->capture, fmt::format("has no frame {} (frames 0-{})", o->frame,
                                               sequence.frameCount() - 1));
+    }
+    // The settings compared: each --preset with the file and the flags over it; without
+    // --preset, the file's own preset when it names one.
+    std::vector<std::string> presets = o->presets;
+    if (preset->count() == 0 && !o->paramsFile.empty()) {
+      std::string filePreset;
+      TunableSettings ignored;
+      mergeParamsFile(o->paramsFile, filePreset, ignored);
+      if (!filePreset.empty())
+        presets = {filePreset};
     }
     std::vector<float> samples;
     sequence.frameSamples(static_cast<std::size_t>(o->frame), samples);
@@ -385,51 +434,82 @@ CommandAction addSignalsFigure(CLI::App* parent) {
     panels.push_back(raw);
     const std::array<std::array<double, 3>, 4> colours{
         {{0.0, 0.3, 0.85}, {0.0, 0.55, 0.3}, {0.55, 0.2, 0.7}, {0.75, 0.45, 0.0}}};
-    for (std::size_t s = 0; s < o->presets.size(); ++s) {
-      DetectionParams params = detectionPreset(o->presets[s]);
-      params.depth = depthFromSequence(sequence, params.depth);
-      params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
-      // What the preset measures from the capture (ring-down, transducer band), as detect does.
-      params = adaptToSequence(sequence, params);
-      SignalDetector detector(params);
-      const SignalDetection detection =
-          detector.detect(samples.data(), static_cast<int>(samples.size()));
+    const bool tuned = !o->paramsFile.empty() || !o->settings.empty();
+    pipeline.peaks->PeakListOn();
+    for (std::size_t s = 0; s < presets.size(); ++s) {
+      std::string name = presets[s];
+      TunableSettings settings = o->settings;
+      ParamsSources sources{o->paramsFile, {}};
+      if (!o->paramsFile.empty())
+        sources.fromFile = mergeParamsFile(o->paramsFile, name, settings);
+      const DetectionParams params = [&] {
+        try {
+          return resolveParams(name, settings, sequence, sources);
+        } catch (const std::invalid_argument& e) {
+          throw std::invalid_argument(std::string("bad parameter: ") + e.what());
+        }
+      }();
+      try {
+        pipeline.configure(params, PointFrameOptions{});
+      } catch (const std::invalid_argument& e) {
+        throw FileError(o->capture, e.what());
+      }
+      pipeline.peaks->Update();
+      if (pipeline.peaks->GetLastError().size() > 0 ||
+          pipeline.envelope->GetLastError().size() > 0) {
+        throw FileError(o->capture, pipeline.envelope->GetLastError().empty()
+                                        ? pipeline.peaks->GetLastError()
+                                        : pipeline.envelope->GetLastError());
+      }
+      const DetectionParams& used = pipeline.params();
+      vtkTable* verdict = pipeline.peaks->GetOutput(0);
+      vtkTable* peakList = pipeline.peaks->GetOutput(1);
+      const auto row = static_cast<vtkIdType>(o->frame);
+      const std::string reason = verdict->GetValueByName(row, "reason").ToString();
+      const double threshold = verdict->GetValueByName(row, "threshold").ToDouble();
+      const double depthMm = verdict->GetValueByName(row, "depth_mm").ToDouble();
+      const bool accepted = reason.empty();
       render::PlotPanel panel;
-      panel.title = fmt::format("envelope: preset \"{}\"", o->presets[s]);
+      panel.title = tuned ? fmt::format("envelope: preset \"{}\" with the given settings", name)
+                          : fmt::format("envelope: preset \"{}\"", name);
       panel.xLabel = "depth (mm)";
       panel.yLabel = "envelope";
       render::Series env;
       env.name = "envelope";
       env.rgb = colours[s % colours.size()];
-      for (std::size_t i = 0; i < detector.envelope().size(); ++i) {
-        env.x.push_back(params.depth.depthMm(static_cast<double>(i)));
-        env.y.push_back(detector.envelope()[i]);
+      const std::vector<double> envelope = envelopeRow(pipeline.envelope->GetOutput(), o->frame);
+      for (std::size_t i = 0; i < envelope.size(); ++i) {
+        env.x.push_back(used.depth.depthMm(static_cast<double>(i)));
+        env.y.push_back(envelope[i]);
       }
       panel.series.push_back(env);
       render::Series peaks;
       peaks.name = "peaks";
       peaks.markersOnly = true;
       peaks.rgb = {0.85, 0.1, 0.1};
-      for (const Peak& p : detection.peaks.peaks) {
-        peaks.x.push_back(params.depth.depthMm(p.index));
-        peaks.y.push_back(p.value);
+      auto* listFrames = vtkIntArray::SafeDownCast(peakList->GetColumnByName("frame"));
+      auto* listIndices = vtkIntArray::SafeDownCast(peakList->GetColumnByName("sample_index"));
+      auto* listValues = vtkDoubleArray::SafeDownCast(peakList->GetColumnByName("value"));
+      for (vtkIdType p = 0; p < peakList->GetNumberOfRows(); ++p) {
+        if (listFrames->GetValue(p) != o->frame)
+          continue;
+        peaks.x.push_back(used.depth.depthMm(listIndices->GetValue(p)));
+        peaks.y.push_back(listValues->GetValue(p));
       }
       if (!peaks.x.empty())
         panel.series.push_back(peaks);
-      panel.horizontalLines.push_back({"threshold", detection.peaks.threshold});
-      const bool accepted = detection.accepted();
-      panel.note = accepted ? fmt::format("accepted: {:.2f} mm", detection.depthMm)
-                            : fmt::format("rejected: {}", rejectReasonName(detection.peaks.reason));
+      panel.horizontalLines.push_back({"threshold", threshold});
+      panel.note = accepted ? fmt::format("accepted: {:.2f} mm", depthMm)
+                            : fmt::format("rejected: {}", reason);
       panel.noteRgb =
           accepted ? std::array<double, 3>{0.0, 0.5, 0.15} : std::array<double, 3>{0.75, 0.1, 0.1};
       panels.push_back(panel);
-      verdicts.push_back(
-          {{"preset", o->presets[s]},
-           {"accepted", accepted},
-           {"reason", std::string(rejectReasonName(detection.peaks.reason))},
-           {"peaks", detection.peaks.peaks.size()},
-           {"threshold", detection.peaks.threshold},
-           {"depth_mm", accepted ? nlohmann::json(detection.depthMm) : nlohmann::json()}});
+      verdicts.push_back({{"preset", name},
+                          {"accepted", accepted},
+                          {"reason", reason},
+                          {"peaks", verdict->GetValueByName(row, "peaks").ToInt()},
+                          {"threshold", threshold},
+                          {"depth_mm", accepted ? nlohmann::json(depthMm) : nlohmann::json()}});
     }
     const int columns = panels.size() <= 2 ? 1 : 2;
     const std::string title =
@@ -447,7 +527,7 @@ CommandAction addSignalsFigure(CLI::App* parent) {
                   << "\n";
     } else {
       streams.out << fmt::format("signals figure: frame {}, {} settings; wrote {}\n", o->frame,
-                                 o->presets.size(), o->out);
+                                 presets.size(), o->out);
     }
     return 0;
   };
