@@ -25,7 +25,8 @@ struct SurfaceFigure {
   /// where stray echoes land), cropped like the surface; they do not move the cameras.
   std::vector<core::TriangleMesh> context;
   std::vector<Eigen::Vector3d> points;  ///< CT coordinates
-  std::vector<double> valuesMm;         ///< per point, the value coloured (distance to surface)
+  std::vector<double>
+      valuesMm;  ///< per point, the value (distance to surface); its magnitude is coloured
   std::vector<ColourBand> bands = registrationBands();
   double pointRadiusMm = 1.5;
   std::vector<View> views{View::Coronal, View::Sagittal, View::Transverse};
