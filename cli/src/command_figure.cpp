@@ -2,6 +2,7 @@
 // figures, rendered off-screen (render/, OSMesa: no X server needed).
 #include "commands.hpp"
 #include "csv_table.hpp"
+#include "detection_params.hpp"
 #include "model_file.hpp"
 #include "path_check.hpp"
 #include "validators.hpp"
@@ -14,11 +15,20 @@
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/core/statistics.hpp"
 #include "echoreg/core/transform_file.hpp"
+#include "echoreg/filters/DetectionPipeline.h"
 #include "echoreg/filters/MeshIO.h"
 #include "echoreg/render/plot_figure.hpp"
 #include "echoreg/render/surface_figure.hpp"
 
 #include <fmt/format.h>
+#include <vtkDataArray.h>
+#include <vtkDoubleArray.h>
+#include <vtkImageData.h>
+#include <vtkIntArray.h>
+#include <vtkPointData.h>
+#include <vtkPoints.h>
+#include <vtkPolyData.h>
+#include <vtkTable.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
@@ -139,41 +149,49 @@ void addCropOption(CLI::App* cmd, SurfaceOptions& o, double margin) {
       ->check(finiteNumber(0.0, true));
 }
 
-// Renders, writes, and reports the per-band counts and distance statistics.
-int finishSurfaceFigure(render::SurfaceFigure& figure, const SurfaceOptions& o,
-                        const std::vector<double>& signedValues, const Streams& streams,
-                        const std::string& kind) {
+// The figure's scene: its bands, views, point radius, title and crop from the options.
+render::Scene surfaceSceneOf(render::SurfaceFigure& figure, const SurfaceOptions& o) {
   figure.bands = render::registrationBands(o.greenBelow, o.redAbove);
   figure.views = parseViews(o.views);
   figure.pointRadiusMm = o.pointRadius;
   figure.title = o.title;
   figure.cropMarginMm = o.cropMargin;
-  const render::RgbImage image = render::renderSurfaceFigure(figure, {o.width, o.height});
-  render::writePng(o.out, image);
-  std::vector<int> counts(figure.bands.size(), 0);
+  return render::surfaceScene(figure, {o.width, o.height});
+}
+
+// Renders the scene, writes it, and reports the per-band counts and distance statistics of its
+// point set (signed values; the bands colour their magnitude).
+int finishSurfaceFigure(const render::Scene& scene, const SurfaceOptions& o, const Streams& streams,
+                        const std::string& kind) {
+  render::writePng(o.out, render::renderScene(scene, {o.width, o.height}));
+  const render::ScenePoints& set = scene.pointSets.front();
+  vtkDataArray* values = set.points->GetPointData()->GetArray(set.scalarName.c_str());
+  const auto count = static_cast<std::size_t>(set.points->GetNumberOfPoints());
+  std::vector<int> counts(set.colourMap.size(), 0);
   double sumSquares = 0.0;
   double sumSigned = 0.0;
-  for (std::size_t i = 0; i < figure.valuesMm.size(); ++i) {
-    ++counts[static_cast<std::size_t>(render::bandOf(figure.bands, figure.valuesMm[i]))];
-    sumSquares += figure.valuesMm[i] * figure.valuesMm[i];
-    sumSigned += signedValues[i];
+  for (std::size_t i = 0; i < count; ++i) {
+    const double value = values->GetComponent(static_cast<vtkIdType>(i), 0);
+    ++counts[static_cast<std::size_t>(render::bandOf(set.colourMap, value))];
+    sumSquares += value * value;
+    sumSigned += value;
   }
-  const double n = static_cast<double>(figure.valuesMm.size());
+  const double n = static_cast<double>(count);
   nlohmann::json bands = nlohmann::json::array();
-  for (std::size_t b = 0; b < figure.bands.size(); ++b) {
-    bands.push_back({{"label", figure.bands[b].label}, {"points", counts[b]}});
+  for (std::size_t b = 0; b < set.colourMap.size(); ++b) {
+    bands.push_back({{"label", set.colourMap[b].label}, {"points", counts[b]}});
   }
   const nlohmann::json summary = {{"figure", kind},
                                   {"out", o.out},
-                                  {"points", figure.valuesMm.size()},
+                                  {"points", count},
                                   {"rms_mm", n > 0 ? std::sqrt(sumSquares / n) : 0.0},
                                   {"mean_signed_mm", n > 0 ? sumSigned / n : 0.0},
                                   {"bands", bands}};
   if (o.json) {
     streams.out << summary.dump(2) << "\n";
   } else {
-    streams.out << fmt::format("{} figure: {} points, rms {:.2f} mm; wrote {}\n", kind,
-                               figure.valuesMm.size(), summary["rms_mm"].get<double>(), o.out);
+    streams.out << fmt::format("{} figure: {} points, rms {:.2f} mm; wrote {}\n", kind, count,
+                               summary["rms_mm"].get<double>(), o.out);
   }
   return 0;
 }
@@ -224,16 +242,29 @@ CommandAction addRegistrationFigure(CLI::App* parent) {
       figure.context.push_back(readModelFile(path));
     const TransformFile transform = readTransformFile(o->transform, "", "CT");
     const Eigen::Isometry3d toCt(transform.matrix);
+    // The points in CT with their signed distance to the model as "DistanceMm", the array
+    // vtkEchoregPointToSurfaceDistance writes (MeshLocator::signedDistance, as that filter
+    // computes it). Not the filter itself yet: running it in the process before rendering changed
+    // about one pixel in 10,000 by one level (of 255) in the demo study's PNGs, cause not found.
     const core::MeshLocator locator(figure.surface);
-    std::vector<double> signedValues;
+    auto distances = vtkSmartPointer<vtkPolyData>::New();
+    vtkNew<vtkPoints> inCt;
+    inCt->SetDataTypeToDouble();
+    vtkNew<vtkDoubleArray> signedDistance;
+    signedDistance->SetName("DistanceMm");
     for (const Eigen::Vector3d& p : readPointsCsv(o->points)) {
       const Eigen::Vector3d q = toCt * p;
-      const double d = locator.signedDistance(q);
-      figure.points.push_back(q);
-      figure.valuesMm.push_back(std::abs(d));
-      signedValues.push_back(d);
+      inCt->InsertNextPoint(q.data());
+      signedDistance->InsertNextValue(locator.signedDistance(q));
     }
-    return finishSurfaceFigure(figure, *o, signedValues, streams, "registration");
+    distances->SetPoints(inCt);
+    distances->GetPointData()->AddArray(signedDistance);
+    render::Scene scene = surfaceSceneOf(figure, *o);
+    render::ScenePoints& points = scene.pointSets.front();
+    points.points = distances;
+    points.scalarName = "DistanceMm";
+    scene.legend = render::pointsLegend(points, figure.valueName);
+    return finishSurfaceFigure(scene, *o, streams, "registration");
   };
 }
 
@@ -265,7 +296,6 @@ CommandAction addCalibrationFigure(CLI::App* parent) {
     }
     render::SurfaceFigure figure;
     figure.surfaceRgb = {0.80, 0.84, 0.90};
-    std::vector<double> signedValues;
     // Values of another type or count than `echoreg calibrate` writes are named, not reported as
     // nlohmann's "type must be number, but is null".
     const auto point = [&](const nlohmann::json& value, const std::string& name) {
@@ -310,8 +340,7 @@ CommandAction addCalibrationFigure(CLI::App* parent) {
                         where + ".residual_mm is not a finite number, got " + residualValue.dump());
       }
       const double residual = residualValue.get<double>();
-      figure.valuesMm.push_back(std::abs(residual));
-      signedValues.push_back(residual);
+      figure.valuesMm.push_back(residual);  // signed; coloured by its magnitude
     }
     if (figure.points.empty())
       throw FileError(o->calibration, "has no used shot to draw");
@@ -322,7 +351,7 @@ CommandAction addCalibrationFigure(CLI::App* parent) {
                                   : view == "sagittal" ? "along tracker +x"
                                                        : "along tracker -z");
     }
-    return finishSurfaceFigure(figure, *o, signedValues, streams, "calibration");
+    return finishSurfaceFigure(surfaceSceneOf(figure, *o), *o, streams, "calibration");
   };
 }
 
@@ -332,6 +361,8 @@ struct SignalsOptions {
   std::string capture;
   int frame = 0;
   std::vector<std::string> presets{"mozes2008", "default"};
+  std::string paramsFile;
+  TunableSettings settings;
   std::string out;
   std::string title;
   int width = 1400;
@@ -339,31 +370,70 @@ struct SignalsOptions {
   bool json = false;
 };
 
+// One row of the envelope image (x sample, y frame) of the envelope filter's output.
+std::vector<double> envelopeRow(vtkImageData* image, int frame) {
+  int dimensions[3];
+  image->GetDimensions(dimensions);
+  vtkDataArray* scalars = image->GetPointData()->GetScalars();
+  const int row = frame - image->GetExtent()[2];
+  std::vector<double> values(static_cast<std::size_t>(dimensions[0]));
+  for (int i = 0; i < dimensions[0]; ++i) {
+    values[static_cast<std::size_t>(i)] =
+        scalars->GetComponent(static_cast<vtkIdType>(row) * dimensions[0] + i, 0);
+  }
+  return values;
+}
+
 CommandAction addSignalsFigure(CLI::App* parent) {
   auto o = std::make_shared<SignalsOptions>();
   CLI::App* cmd = parent->add_subcommand(
       "signals",
       "One raw A-line and its envelope under several filter settings, with the threshold, the\n"
-      "peaks found and each setting's verdict (Figs. 5.10-5.29).");
+      "peaks found and each setting's verdict (Figs. 5.10-5.29). Each setting is a --preset with\n"
+      "the --params file and the flags over it, resolved as `echoreg detect` resolves them, and\n"
+      "runs through detect's pipeline (reader -> envelope -> peaks).");
   cmd->add_option("--capture", o->capture, "A-line capture (.igs.mha, .igs.nrrd)")->required();
   cmd->add_option("--frame", o->frame, "Frame index (from 0)")->capture_default_str();
-  cmd->add_option("--preset", o->presets,
-                  "Detection presets to compare (repeat): " +
-                      fmt::format("{}", fmt::join(detectionPresetNames(), ", ")))
-      ->capture_default_str();
+  CLI::Option* preset =
+      cmd->add_option("--preset", o->presets,
+                      "Detection presets to compare (repeat): " +
+                          fmt::format("{}", fmt::join(detectionPresetNames(), ", ")) +
+                          "; without it, the --params file's preset alone when it names one")
+          ->capture_default_str();
+  cmd->add_option("--params", o->paramsFile,
+                  "JSON object of detection parameters named as detect's flags, without dashes,\n"
+                  "applied over each preset");
   cmd->add_option("--out", o->out, "PNG to write")->required();
   cmd->add_option("--title", o->title, "Title over the figure");
   addSizeOptions(cmd, o->width, o->height, 300);
   cmd->add_flag("--json", o->json, "Print each setting's verdict as JSON");
-  return [o](const Streams& streams) {
-    CommandPaths().input("--capture", o->capture).output("--out", o->out).check();
+  addTunableFlags(cmd, o->settings);
+  return [o, preset](const Streams& streams) {
+    CommandPaths()
+        .input("--capture", o->capture)
+        .input("--params", o->paramsFile)
+        .output("--out", o->out)
+        .check();
     requirePngName("--out", o->out);
-    const Sequence sequence = readSequence(o->capture);
+    // reader -> envelope -> peaks (with its peak list), reconfigured per setting: the capture is
+    // read once (DetectionPipeline.h).
+    filters::DetectionPipeline pipeline;
+    const Sequence& sequence = pipeline.open(o->capture, {});
     if (!sequence.hasPixels())
       throw FileError(o->capture, "holds no A-lines (tracker-only capture)");
     if (o->frame < 0 || static_cast<std::size_t>(o->frame) >= sequence.frameCount()) {
       throw FileError(o->capture, fmt::format("has no frame {} (frames 0-{})", o->frame,
                                               sequence.frameCount() - 1));
+    }
+    // The settings compared: each --preset with the file and the flags over it; without
+    // --preset, the file's own preset when it names one.
+    std::vector<std::string> presets = o->presets;
+    if (preset->count() == 0 && !o->paramsFile.empty()) {
+      std::string filePreset;
+      TunableSettings ignored;
+      mergeParamsFile(o->paramsFile, filePreset, ignored);
+      if (!filePreset.empty())
+        presets = {filePreset};
     }
     std::vector<float> samples;
     sequence.frameSamples(static_cast<std::size_t>(o->frame), samples);
@@ -385,51 +455,82 @@ CommandAction addSignalsFigure(CLI::App* parent) {
     panels.push_back(raw);
     const std::array<std::array<double, 3>, 4> colours{
         {{0.0, 0.3, 0.85}, {0.0, 0.55, 0.3}, {0.55, 0.2, 0.7}, {0.75, 0.45, 0.0}}};
-    for (std::size_t s = 0; s < o->presets.size(); ++s) {
-      DetectionParams params = detectionPreset(o->presets[s]);
-      params.depth = depthFromSequence(sequence, params.depth);
-      params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
-      // What the preset measures from the capture (ring-down, transducer band), as detect does.
-      params = adaptToSequence(sequence, params);
-      SignalDetector detector(params);
-      const SignalDetection detection =
-          detector.detect(samples.data(), static_cast<int>(samples.size()));
+    const bool tuned = !o->paramsFile.empty() || !o->settings.empty();
+    pipeline.peaks->PeakListOn();
+    for (std::size_t s = 0; s < presets.size(); ++s) {
+      std::string name = presets[s];
+      TunableSettings settings = o->settings;
+      ParamsSources sources{o->paramsFile, {}};
+      if (!o->paramsFile.empty())
+        sources.fromFile = mergeParamsFile(o->paramsFile, name, settings);
+      const DetectionParams params = [&] {
+        try {
+          return resolveParams(name, settings, sequence, sources);
+        } catch (const std::invalid_argument& e) {
+          throw std::invalid_argument(std::string("bad parameter: ") + e.what());
+        }
+      }();
+      try {
+        pipeline.configure(params, PointFrameOptions{});
+      } catch (const std::invalid_argument& e) {
+        throw FileError(o->capture, e.what());
+      }
+      pipeline.peaks->Update();
+      if (pipeline.peaks->GetLastError().size() > 0 ||
+          pipeline.envelope->GetLastError().size() > 0) {
+        throw FileError(o->capture, pipeline.envelope->GetLastError().empty()
+                                        ? pipeline.peaks->GetLastError()
+                                        : pipeline.envelope->GetLastError());
+      }
+      const DetectionParams& used = pipeline.params();
+      vtkTable* verdict = pipeline.peaks->GetOutput(0);
+      vtkTable* peakList = pipeline.peaks->GetOutput(1);
+      const auto row = static_cast<vtkIdType>(o->frame);
+      const std::string reason = verdict->GetValueByName(row, "reason").ToString();
+      const double threshold = verdict->GetValueByName(row, "threshold").ToDouble();
+      const double depthMm = verdict->GetValueByName(row, "depth_mm").ToDouble();
+      const bool accepted = reason.empty();
       render::PlotPanel panel;
-      panel.title = fmt::format("envelope: preset \"{}\"", o->presets[s]);
+      panel.title = tuned ? fmt::format("envelope: preset \"{}\" with the given settings", name)
+                          : fmt::format("envelope: preset \"{}\"", name);
       panel.xLabel = "depth (mm)";
       panel.yLabel = "envelope";
       render::Series env;
       env.name = "envelope";
       env.rgb = colours[s % colours.size()];
-      for (std::size_t i = 0; i < detector.envelope().size(); ++i) {
-        env.x.push_back(params.depth.depthMm(static_cast<double>(i)));
-        env.y.push_back(detector.envelope()[i]);
+      const std::vector<double> envelope = envelopeRow(pipeline.envelope->GetOutput(), o->frame);
+      for (std::size_t i = 0; i < envelope.size(); ++i) {
+        env.x.push_back(used.depth.depthMm(static_cast<double>(i)));
+        env.y.push_back(envelope[i]);
       }
       panel.series.push_back(env);
       render::Series peaks;
       peaks.name = "peaks";
       peaks.markersOnly = true;
       peaks.rgb = {0.85, 0.1, 0.1};
-      for (const Peak& p : detection.peaks.peaks) {
-        peaks.x.push_back(params.depth.depthMm(p.index));
-        peaks.y.push_back(p.value);
+      auto* listFrames = vtkIntArray::SafeDownCast(peakList->GetColumnByName("frame"));
+      auto* listIndices = vtkIntArray::SafeDownCast(peakList->GetColumnByName("sample_index"));
+      auto* listValues = vtkDoubleArray::SafeDownCast(peakList->GetColumnByName("value"));
+      for (vtkIdType p = 0; p < peakList->GetNumberOfRows(); ++p) {
+        if (listFrames->GetValue(p) != o->frame)
+          continue;
+        peaks.x.push_back(used.depth.depthMm(listIndices->GetValue(p)));
+        peaks.y.push_back(listValues->GetValue(p));
       }
       if (!peaks.x.empty())
         panel.series.push_back(peaks);
-      panel.horizontalLines.push_back({"threshold", detection.peaks.threshold});
-      const bool accepted = detection.accepted();
-      panel.note = accepted ? fmt::format("accepted: {:.2f} mm", detection.depthMm)
-                            : fmt::format("rejected: {}", rejectReasonName(detection.peaks.reason));
+      panel.horizontalLines.push_back({"threshold", threshold});
+      panel.note = accepted ? fmt::format("accepted: {:.2f} mm", depthMm)
+                            : fmt::format("rejected: {}", reason);
       panel.noteRgb =
           accepted ? std::array<double, 3>{0.0, 0.5, 0.15} : std::array<double, 3>{0.75, 0.1, 0.1};
       panels.push_back(panel);
-      verdicts.push_back(
-          {{"preset", o->presets[s]},
-           {"accepted", accepted},
-           {"reason", std::string(rejectReasonName(detection.peaks.reason))},
-           {"peaks", detection.peaks.peaks.size()},
-           {"threshold", detection.peaks.threshold},
-           {"depth_mm", accepted ? nlohmann::json(detection.depthMm) : nlohmann::json()}});
+      verdicts.push_back({{"preset", name},
+                          {"accepted", accepted},
+                          {"reason", reason},
+                          {"peaks", verdict->GetValueByName(row, "peaks").ToInt()},
+                          {"threshold", threshold},
+                          {"depth_mm", accepted ? nlohmann::json(depthMm) : nlohmann::json()}});
     }
     const int columns = panels.size() <= 2 ? 1 : 2;
     const std::string title =
@@ -447,7 +548,7 @@ CommandAction addSignalsFigure(CLI::App* parent) {
                   << "\n";
     } else {
       streams.out << fmt::format("signals figure: frame {}, {} settings; wrote {}\n", o->frame,
-                                 o->presets.size(), o->out);
+                                 presets.size(), o->out);
     }
     return 0;
   };

@@ -44,7 +44,9 @@ vtkSmartPointer<Array> column(const char* name, vtkIdType rows) {
 
 }  // namespace
 
-vtkEchoregPeakFilter::vtkEchoregPeakFilter() : WindowMinMm(kNaN), WindowMaxMm(kNaN) {}
+vtkEchoregPeakFilter::vtkEchoregPeakFilter() : WindowMinMm(kNaN), WindowMaxMm(kNaN) {
+  this->SetNumberOfOutputPorts(2);  // 0: the verdicts, 1: the peak list (PeakList)
+}
 
 vtkEchoregPeakFilter::~vtkEchoregPeakFilter() = default;
 
@@ -133,8 +135,9 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
                                       vtkInformationVector* outputVector) {
   ++this->ExecutionCount;
   vtkImageData* input = vtkImageData::GetData(inputVector[0]);
-  vtkTable* output = vtkTable::GetData(outputVector);
-  if (input == nullptr || output == nullptr) {
+  vtkTable* output = vtkTable::GetData(outputVector, 0);
+  vtkTable* peakList = vtkTable::GetData(outputVector, 1);
+  if (input == nullptr || output == nullptr || peakList == nullptr) {
     this->Fail("the input must be a vtkImageData and the output a vtkTable");
     return 0;
   }
@@ -174,6 +177,10 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
   auto depthColumn = column<vtkDoubleArray>("depth_mm", rows);
   auto reasonColumn = column<vtkStringArray>("reason", rows);
   auto thresholdColumn = column<vtkDoubleArray>("threshold", rows);
+  vtkIdType peakCount = 0;
+  auto listFrame = column<vtkIntArray>("frame", 0);
+  auto listIndex = column<vtkIntArray>("sample_index", 0);
+  auto listValue = column<vtkDoubleArray>("value", 0);
 
   if (rows > 0) {
     vtkSmartPointer<vtkFloatArray> envelopes = vtkFloatArray::SafeDownCast(scalars);
@@ -186,6 +193,8 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
     // Rows are independent; findPeaks keeps no state. Strings are set on one thread afterwards
     // (vtkStringArray::SetValue touches the array's lookup state).
     std::vector<echoreg::RejectReason> verdicts(static_cast<std::size_t>(rows));
+    std::vector<std::vector<echoreg::Peak>> peaksOfFrames(
+        this->PeakList ? static_cast<std::size_t>(rows) : 0);
     std::mutex mutex;
     std::string error;
     const auto peaksOfRows = [&](vtkIdType begin, vtkIdType end) {
@@ -202,6 +211,8 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
                                 result.accepted() ? this->Depth.depthMm(result.sampleIndex) : kNaN);
           thresholdColumn->SetValue(row, result.threshold);
           verdicts[static_cast<std::size_t>(row)] = result.reason;
+          if (this->PeakList)
+            peaksOfFrames[static_cast<std::size_t>(row)] = result.peaks;
         }
       } catch (const std::exception& exception) {
         const std::lock_guard<std::mutex> lock(mutex);
@@ -220,6 +231,20 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
       this->Fail("peak detection failed: " + error);
       return 0;
     }
+    for (const auto& peaks : peaksOfFrames)
+      peakCount += static_cast<vtkIdType>(peaks.size());
+    listFrame->SetNumberOfValues(peakCount);
+    listIndex->SetNumberOfValues(peakCount);
+    listValue->SetNumberOfValues(peakCount);
+    vtkIdType at = 0;
+    for (std::size_t row = 0; row < peaksOfFrames.size(); ++row) {
+      for (const echoreg::Peak& peak : peaksOfFrames[row]) {
+        listFrame->SetValue(at, static_cast<int>(firstFrame + static_cast<int>(row)));
+        listIndex->SetValue(at, peak.index);
+        listValue->SetValue(at, peak.value);
+        ++at;
+      }
+    }
     for (vtkIdType row = 0; row < rows; ++row) {
       reasonColumn->SetValue(
           row, std::string(echoreg::rejectReasonName(verdicts[static_cast<std::size_t>(row)])));
@@ -235,6 +260,10 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
   output->AddColumn(reasonColumn);
   output->AddColumn(thresholdColumn);
   output->GetFieldData()->ShallowCopy(input->GetFieldData());
+  peakList->Initialize();
+  peakList->AddColumn(listFrame);
+  peakList->AddColumn(listIndex);
+  peakList->AddColumn(listValue);
   this->LastError.clear();
   return 1;
 }
@@ -272,6 +301,7 @@ void vtkEchoregPeakFilter::PrintSelf(ostream& os, vtkIndent indent) {
      << (this->TransducerFrequencyHz ? std::to_string(*this->TransducerFrequencyHz)
                                      : std::string("(envelope's)"))
      << "\n";
+  os << indent << "PeakList: " << (this->PeakList ? "On" : "Off") << "\n";
   os << indent << "LastError: " << (this->LastError.empty() ? "(none)" : this->LastError) << "\n";
   os << indent << "ExecutionCount: " << this->ExecutionCount << "\n";
 }

@@ -129,6 +129,57 @@ TEST(CliFigure, SignalsFigureGivesEachSettingsVerdict) {
   EXPECT_NE(bad.err.find("has no frame 20"), std::string::npos) << bad.err;
 }
 
+// figure signals resolves its settings as detect does: a --params file (and the flags) over each
+// preset, through detect's pipeline. A doubled threshold factor doubles the threshold drawn (the
+// envelope is the same); the file's preset is the one setting when no --preset is given.
+TEST(CliFigure, SignalsFigureUsesTheParamsFilesSettings) {
+  TempDir dir;
+  echoreg::test::DemoSweepOptions options;
+  options.frames = 12;
+  echoreg::writeSequence(echoreg::test::makeDemoSweep(options), dir.file("sweep.igs.mha"));
+  const auto signals = [&](std::vector<std::string> extra) {
+    std::vector<std::string> args{"figure",   "signals", "--capture", dir.file("sweep.igs.mha"),
+                                  "--frame",  "4",       "--width",   "500",
+                                  "--height", "400",     "--out",     dir.file("sig.png"),
+                                  "--json"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    return runEchoreg(args);
+  };
+  const auto plain = signals({"--preset", "mozes2008"});
+  ASSERT_EQ(plain.exitCode, 0) << plain.err;
+  const double threshold = nlohmann::json::parse(plain.out)["settings"][0]["threshold"];
+  ASSERT_GT(threshold, 0.0);
+
+  std::ofstream(dir.file("params.json")) << R"({"threshold-factor": 3.0})";
+  const auto tuned = signals({"--preset", "mozes2008", "--params", dir.file("params.json")});
+  ASSERT_EQ(tuned.exitCode, 0) << tuned.err;
+  const auto json = nlohmann::json::parse(tuned.out);
+  ASSERT_EQ(json["settings"].size(), 1u);
+  EXPECT_NEAR(json["settings"][0]["threshold"].get<double>(), 2.0 * threshold, 1e-9 * threshold);
+  // A flag over the file, as detect's precedence says.
+  const auto flag = signals(
+      {"--preset", "mozes2008", "--params", dir.file("params.json"), "--threshold-factor", "0.75"});
+  ASSERT_EQ(flag.exitCode, 0) << flag.err;
+  EXPECT_NEAR(nlohmann::json::parse(flag.out)["settings"][0]["threshold"].get<double>(),
+              0.5 * threshold, 1e-9 * threshold);
+
+  std::ofstream(dir.file("shadow.json")) << R"({"preset": "shadow"})";
+  const auto filePreset = signals({"--params", dir.file("shadow.json")});
+  ASSERT_EQ(filePreset.exitCode, 0) << filePreset.err;
+  const auto presetJson = nlohmann::json::parse(filePreset.out);
+  ASSERT_EQ(presetJson["settings"].size(), 1u);
+  EXPECT_EQ(presetJson["settings"][0]["preset"], "shadow");
+
+  std::ofstream(dir.file("bad.json")) << R"({"threshold-factor": "high"})";
+  const auto bad = signals({"--params", dir.file("bad.json")});
+  EXPECT_EQ(bad.exitCode, 1);
+  EXPECT_NE(bad.err.find("bad.json"), std::string::npos) << bad.err;
+  std::ofstream(dir.file("unknown.json")) << R"({"treshold-factor": 2})";
+  const auto unknown = signals({"--params", dir.file("unknown.json")});
+  EXPECT_EQ(unknown.exitCode, 1);
+  EXPECT_NE(unknown.err.find("treshold-factor"), std::string::npos) << unknown.err;
+}
+
 TEST(CliFigure, BoxplotFigureRunsTheAnova) {
   TempDir dir;
   std::ofstream(dir.file("a.csv"))

@@ -106,6 +106,58 @@ TEST(PeakFilter, RowsEqualTheCoreFindPeaks) {
   }
 }
 
+// Port 1 lists every frame's peaks (what `figure signals` draws) only when asked: detect does not
+// pay for it. Turning it on re-runs the peak filter, not the envelope.
+TEST(PeakFilter, PeakListHoldsEveryFramesPeaksWhenAsked) {
+  SyntheticCapture capture;
+  capture.frames = 6;
+  const Sequence sequence = makeCapture(capture);
+  PeakChain chain(capture, imageOf(sequence));
+  PeakParams params = testDetectionParams(capture).peaks;
+  params.policy = PeakPolicy::First;
+  params.thresholdMode = ThresholdMode::FactorOfMean;
+  params.thresholdFactor = 0.8;
+  params.mmPerSample = capture.depth().mmPerSample();
+  chain.peaks->SetPeakParams(params);
+  chain.peaks->Update(1);
+  ASSERT_EQ(chain.peaks->GetLastError(), "");
+  EXPECT_EQ(chain.peaks->GetOutput(1)->GetNumberOfRows(), 0);
+  const int envelopeRuns = chain.envelope->GetExecutionCount();
+
+  chain.peaks->PeakListOn();
+  chain.peaks->Update(1);
+  EXPECT_EQ(chain.envelope->GetExecutionCount(), envelopeRuns);
+  vtkTable* list = chain.peaks->GetOutput(1);
+  auto* frames = columnOf<vtkIntArray>(list, "frame");
+  auto* indices = columnOf<vtkIntArray>(list, "sample_index");
+  auto* values = columnOf<vtkDoubleArray>(list, "value");
+  ASSERT_NE(frames, nullptr);
+  ASSERT_NE(indices, nullptr);
+  ASSERT_NE(values, nullptr);
+  auto* envelopes =
+      vtkFloatArray::SafeDownCast(chain.envelope->GetOutput()->GetPointData()->GetScalars());
+  ASSERT_NE(envelopes, nullptr);
+  vtkIdType row = 0;
+  std::size_t total = 0;
+  for (int frame = 0; frame < capture.frames; ++frame) {
+    SCOPED_TRACE("frame " + std::to_string(frame));
+    const PeakResult expected =
+        findPeaks(params, envelopes->GetPointer(frame * capture.samples), capture.samples);
+    total += expected.peaks.size();
+    EXPECT_EQ(columnOf<vtkIntArray>(chain.table(), "peaks")->GetValue(frame),
+              static_cast<int>(expected.peaks.size()));
+    for (const Peak& peak : expected.peaks) {
+      ASSERT_LT(row, list->GetNumberOfRows());
+      EXPECT_EQ(frames->GetValue(row), frame);
+      EXPECT_EQ(indices->GetValue(row), peak.index);
+      EXPECT_DOUBLE_EQ(values->GetValue(row), static_cast<double>(peak.value));
+      ++row;
+    }
+  }
+  EXPECT_GT(total, static_cast<std::size_t>(capture.frames));  // several peaks in some frames
+  EXPECT_EQ(list->GetNumberOfRows(), static_cast<vtkIdType>(total));
+}
+
 TEST(PeakFilter, WindowInMillimetresRejectsEchoesOutsideIt) {
   SyntheticCapture capture;
   capture.frames = 3;

@@ -21,6 +21,10 @@
  *   echoreg::rejectReasonName), "threshold" (double, in envelope units).
  * The input's field data (timestamps, poses, acquisition settings) is passed through to the
  * table's field data. An input without samples gives a table without rows, with a warning.
+ * Output (port 1): with PeakList on, every peak of every frame, in frame order then sample
+ * order: "frame" (int), "sample_index" (int, the maximum of the run above the threshold),
+ * "value" (double, the envelope there); the peaks the verdicts of port 0 were chosen from (what
+ * `echoreg figure signals` draws). Off (the default, as `detect` runs): a table without rows.
  *
  * SetDetectionParams() takes the parameters of the whole chain (as adaptToSequence resolved them)
  * and resolves them exactly as echoreg::SignalDetector does, so the table's verdicts are
@@ -118,6 +122,16 @@ class vtkEchoregPeakFilter : public vtkTableAlgorithm {
   double GetWindowMaxMm() const { return this->WindowMaxMm; }
   ///@}
 
+  ///@{
+  /**
+   * Fill output port 1 with every frame's peaks (default off).
+   */
+  void SetPeakList(bool enabled) { this->SetField(this->PeakList, enabled); }
+  bool GetPeakList() const { return this->PeakList; }
+  void PeakListOn() { this->SetPeakList(true); }
+  void PeakListOff() { this->SetPeakList(false); }
+  ///@}
+
   /**
    * Message of the last failure, empty after a success.
    */
@@ -158,6 +172,7 @@ class vtkEchoregPeakFilter : public vtkTableAlgorithm {
   std::optional<double> TransducerFrequencyHz;
   double WindowMinMm;
   double WindowMaxMm;
+  bool PeakList = false;
   std::string LastError;
   int ExecutionCount = 0;
 };

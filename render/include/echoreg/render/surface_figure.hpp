@@ -2,10 +2,13 @@
 // registration (the dissertation's Figs. 5.6-5.9, 5.30-5.35), or the calibration sphere with the
 // calibration points (Figs. 5.1-5.5). Points are spheres coloured by their distance to the
 // surface in bands (green / yellow / red), drawn in views named from the CT's axes, with a legend.
+// A SurfaceFigure is a description in plain types; surfaceScene turns it into the Scene that
+// renderScene draws (scene.hpp).
 #pragma once
 
 #include "echoreg/core/mesh.hpp"
 #include "echoreg/render/offscreen.hpp"
+#include "echoreg/render/scene.hpp"
 
 #include <Eigen/Core>
 
@@ -15,28 +18,6 @@
 
 namespace echoreg::render {
 
-/// Values up to `upToMm` (and above the previous band) take this colour.
-struct ColourBand {
-  double upToMm = 0.0;                 ///< use +infinity for the last band
-  std::array<double, 3> rgb{0, 0, 0};  ///< 0..1
-  std::string label;                   ///< e.g. "< 3 mm"
-};
-
-/// The dissertation's registration bands: green < 3 mm, yellow 3-5 mm, red > 5 mm.
-std::vector<ColourBand> registrationBands(double greenBelowMm = 3.0, double redAboveMm = 5.0);
-/// The dissertation's calibration bands: < 0.5, 0.5-1.0, > 1.0 mm.
-std::vector<ColourBand> calibrationBands(double greenBelowMm = 0.5, double redAboveMm = 1.0);
-/// Index of the band a value falls in (|value| is used).
-int bandOf(const std::vector<ColourBand>& bands, double valueMm);
-
-/// A view along one of the CT's patient axes (LPS).
-enum class View {
-  Coronal,     ///< seen from the front (anterior, -y), superior up
-  Sagittal,    ///< seen from the patient's right (-x), superior up, anterior to the left
-  Transverse,  ///< seen from above (superior, +z), anterior up
-};
-const char* viewName(View view);
-
 struct SurfaceFigure {
   core::TriangleMesh surface;                          ///< CT coordinates (LPS, mm)
   std::array<double, 3> surfaceRgb{0.89, 0.85, 0.79};  ///< bone
@@ -44,7 +25,8 @@ struct SurfaceFigure {
   /// where stray echoes land), cropped like the surface; they do not move the cameras.
   std::vector<core::TriangleMesh> context;
   std::vector<Eigen::Vector3d> points;  ///< CT coordinates
-  std::vector<double> valuesMm;         ///< per point, the value coloured (distance to surface)
+  std::vector<double>
+      valuesMm;  ///< per point, the value (distance to surface); its magnitude is coloured
   std::vector<ColourBand> bands = registrationBands();
   double pointRadiusMm = 1.5;
   std::vector<View> views{View::Coronal, View::Sagittal, View::Transverse};
@@ -58,21 +40,22 @@ struct SurfaceFigure {
   double cropMarginMm = 0.0;
 };
 
-struct FigureSize {
-  int width = 1500;
-  int height = 620;
-};
-
 /// The legend's entries: per band "LABEL: N points" (the points in it), then "colour: VALUE
 /// NAME". A figure without points (a model alone) has its bands' labels only and no colour
 /// entry: there is nothing they count or colour.
 std::vector<std::string> surfaceFigureLegend(const SurfaceFigure& figure);
 
-/// Renders the figure: one panel per view side by side, titled, with a legend of the bands (and
-/// how many points fall in each). Deterministic: fixed cameras (parallel projection fitted to
-/// the surface and points), a headlight, the same pixels for the same input. Throws
-/// std::invalid_argument when points and values differ in number, a value is not finite, the
-/// bands are empty, or there is nothing to draw.
+/// The figure as a scene: the surface (cropped), the context models, the points with their
+/// values in a "DistanceMm" array coloured by the bands, one view per panel side by side, the
+/// legend (surfaceFigureLegend with the bands' swatches) and the title. Checks as
+/// renderSurfaceFigure does.
+Scene surfaceScene(const SurfaceFigure& figure, const FigureSize& size = {});
+
+/// Renders the figure (renderScene(surfaceScene(figure, size), size)): one panel per view side by
+/// side, titled, with a legend of the bands (and how many points fall in each). Deterministic:
+/// fixed cameras (parallel projection fitted to the surface and points), a headlight, the same
+/// pixels for the same input. Throws std::invalid_argument when points and values differ in number,
+/// a value is not finite, the bands are empty, or there is nothing to draw.
 RgbImage renderSurfaceFigure(const SurfaceFigure& figure, const FigureSize& size = {});
 
 }  // namespace echoreg::render
