@@ -1057,6 +1057,14 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     const std::vector<std::string> outsideList(outside.begin(), outside.end());
     numbers["provenance"] = {{"paths", "relative to the study folder"},
                              {"read_outside_study", outsideList}};
+    // The sweeps' detection parameters of this run (--params: its preset and settings, not its
+    // path), so that runs of one study with other parameters (a sweep's points) tell apart.
+    numbers["provenance"]["detection_params"] =
+        paramsFile.empty()
+            ? nlohmann::json(nullptr)
+            : nlohmann::json{{"preset", paramsPreset.empty() ? nlohmann::json(nullptr)
+                                                             : nlohmann::json(paramsPreset)},
+                             {"settings", settingsJson(paramsSettings)}};
     // Which echoreg made these numbers (echoreg study compare lists it per study).
     numbers["echoreg_version"] = ECHOREG_VERSION;
     report.heading("Provenance");

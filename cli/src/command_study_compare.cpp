@@ -263,9 +263,29 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
                         (value.is_string() ? value.get<std::string>() : value.dump());
       }
     }
+    // The detection parameters the study ran with (study run --params: a sweep's point), which
+    // its manifest does not show.
+    const nlohmann::json provenance = s.results.value("provenance", nlohmann::json(nullptr));
+    const nlohmann::json detectionParams =
+        provenance.is_object() ? provenance.value("detection_params", nlohmann::json(nullptr))
+                               : nlohmann::json(nullptr);
+    std::string detection;
+    if (detectionParams.is_object()) {
+      const nlohmann::json preset = detectionParams.value("preset", nlohmann::json(nullptr));
+      if (preset.is_string())
+        detection = "preset " + preset.get<std::string>();
+      const nlohmann::json settings = detectionParams.value("settings", nlohmann::json(nullptr));
+      if (settings.is_object()) {
+        for (const auto& [key, value] : settings.items()) {
+          detection += (detection.empty() ? "" : ", ") + key + " " +
+                       (value.is_string() ? value.get<std::string>() : value.dump());
+        }
+      }
+    }
     studyRows.push_back({s.name, s.group, s.manifestHash,
                          version.is_string() ? version.get<std::string>() : "not recorded",
-                         parameters.empty() ? "-" : parameters});
+                         parameters.empty() ? "-" : parameters,
+                         detection.empty() ? "-" : detection});
     studyList.push_back(
         {{"name", s.name},
          {"group", s.group},
@@ -277,11 +297,12 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
            {"parameters",
             {{"generator", generator},
              {"detection", s.manifest.document.value("detection", nlohmann::json(nullptr))},
-             {"registration",
-              s.manifest.document.value("registration", nlohmann::json(nullptr))}}}}},
+             {"registration", s.manifest.document.value("registration", nlohmann::json(nullptr))},
+             {"detection_params", detectionParams}}}}},
          {"results", s.results}});
   }
-  report.table({"study", "group", "manifest (FNV-1a 64)", "echoreg", "simulation parameters"},
+  report.table({"study", "group", "manifest (FNV-1a 64)", "echoreg", "simulation parameters",
+                "detection parameters (study run --params)"},
                studyRows);
   merged["studies"] = studyList;
 

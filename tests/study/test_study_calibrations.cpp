@@ -143,6 +143,17 @@ TEST(StudyCalibrations, EverySessionCalibratedIntoTable52ThenTheSameBytes) {
   EXPECT_EQ(readJson(copy + "/results/results.json").at("calibration_sessions"), table);
   EXPECT_EQ(table52Section(fileBytes(copy + "/results/report.md")), section);
 
+  // The sweeps' detection parameters of a run are in its provenance (not the --params path, which
+  // lies outside the study): none without --params, the file's preset and settings with it.
+  EXPECT_TRUE(results.at("provenance").at("detection_params").is_null());
+  const std::string params = dir.file("params.json");
+  std::ofstream(params) << R"({"preset": "default", "history": 3, "consistency-mm": 0.5})";
+  r = runEchoreg({"study", "run", copy, "--params", params});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_EQ(readJson(copy + "/results/results.json").at("provenance").at("detection_params"),
+            nlohmann::json::parse(
+                R"({"preset": "default", "settings": {"history": 3, "consistency-mm": 0.5}})"));
+
   // A session whose capture is missing: refused before anything is written, naming the session
   // and the file.
   const std::string broken = dir.file("broken");

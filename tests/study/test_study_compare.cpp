@@ -305,5 +305,43 @@ TEST(StudyCompare, PoolsTheCalibrationSessionsOfEachGroup) {
   EXPECT_FALSE(fs::exists(out));
 }
 
+// Studies that share a manifest but ran with other detection parameters (a sweep's points) are
+// told apart by the parameters in each one's provenance.
+TEST(StudyCompare, ListsEachStudysDetectionParameters) {
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  test::TempDir dir;
+  const std::vector<nlohmann::json> params = {
+      nlohmann::json::parse(R"({"preset": null, "settings": {"cutoff": 0.01}})"),
+      nlohmann::json::parse(R"({"preset": "shadow", "settings": {"cutoff": 0.02}})"),
+      nlohmann::json(nullptr)};
+  std::vector<std::string> args = {"study", "compare"};
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    const std::string study = dir.file("p" + std::to_string(i));
+    fs::create_directories(study + "/results");
+    fs::copy_file(fixture + "/study.json", study + "/study.json");
+    std::ofstream(study + "/results/results.json") << nlohmann::json{
+        {"registrations", {{"femur", nlohmann::json::object()}}},
+        {"provenance", {{"detection_params", params[i]}}}}.dump();
+    args.push_back(study);
+  }
+  const std::string out = dir.file("compare");
+  args.insert(args.end(), {"--out", out});
+  const test::CommandResult r = runEchoreg(args);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json merged = readJson(out + "/results.json");
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    const nlohmann::json& provenance = merged.at("studies").at(i).at("provenance");
+    EXPECT_EQ(provenance.at("parameters").at("detection_params"), params[i]) << i;
+    EXPECT_EQ(provenance.at("manifest_fnv1a64"),
+              merged.at("studies").at(0).at("provenance").at("manifest_fnv1a64"));
+  }
+  const std::string report = bytesOf(out + "/report.md");
+  EXPECT_NE(report.find("| cutoff 0.01 |"), std::string::npos) << report;
+  EXPECT_NE(report.find("| preset shadow, cutoff 0.02 |"), std::string::npos) << report;
+  EXPECT_NE(report.find("detection parameters (study run --params)"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace echoreg::simulation
