@@ -1,5 +1,7 @@
 // `echoreg calibrate`: BeamToProbe from a sphere in a water bath (Mozes 2008, section 4.2), and
 // `echoreg pivot`: the fixed point of a marker's poses (a stylus tip, the hip centre).
+#include "command_calibrate.hpp"
+
 #include "capture_detection.hpp"
 #include "commands.hpp"
 #include "detection_params.hpp"
@@ -66,23 +68,31 @@ nlohmann::json vec(const Eigen::Vector3d& v) {
   return {v.x(), v.y(), v.z()};
 }
 
-struct CalibrateOptions {
-  std::string sphereCapture, tipFile, capture, out;
-  double sphereRadius = 25.4;
-  double tipRadius = 0.0;
-  bool freeRadius = false;
-  std::vector<double> initial;
-  std::optional<double> speedOfSound;  ///< the bath's, when given (else the header's)
-  std::vector<double> windowMm;
-  std::string paramsFile;     ///< --params: detection tunables (detection_params.hpp)
-  TunableSettings detection;  ///< the shared table's flags given
-  std::string mode = "translation";
-  bool fitSpeed = false;
-  bool json = false;
-  core::CalibrationGate gate;
-  std::vector<double> speedRange{gate.minSpeedOfSoundMps, gate.maxSpeedOfSoundMps};
-  double maxCondition = core::BeamCalibrationOptions{}.maxConditionNumber;
-};
+}  // namespace
+
+nlohmann::json requestJson(const CalibrateOptions& o) {
+  return {
+      {"sphere_capture", o.sphereCapture},
+      {"stylus_tip_to_stylus", o.tipFile},
+      {"capture", o.capture},
+      {"out", o.out},
+      {"sphere_radius_mm", o.sphereRadius},
+      {"stylus_tip_radius_mm", o.tipRadius},
+      {"free_radius", o.freeRadius},
+      {"initial_mm", o.initial},
+      {"speed_of_sound_mps", o.speedOfSound ? nlohmann::json(*o.speedOfSound) : nlohmann::json()},
+      {"window_mm", o.windowMm},
+      {"params", o.paramsFile},
+      {"detection", settingsJson(o.detection)},
+      {"mode", o.mode},
+      {"fit_speed_of_sound", o.fitSpeed},
+      {"json", o.json},
+      {"max_rms_mm", o.gate.maxRmsMm},
+      {"max_radius_error_mm", o.gate.maxRadiusErrorMm},
+      {"max_far_side_share", o.gate.maxFarSideShare},
+      {"speed_of_sound_range_mps", o.speedRange},
+      {"max_condition", o.maxCondition}};
+}
 
 int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   CommandPaths()
@@ -100,7 +110,8 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
     throw std::invalid_argument(
         fmt::format("--stylus-tip-radius must be a finite number >= 0 mm, got {}", o.tipRadius));
   }
-  if (!std::all_of(o.initial.begin(), o.initial.end(), [](double v) { return std::isfinite(v); })) {
+  if (o.initial.size() != 3 ||
+      !std::all_of(o.initial.begin(), o.initial.end(), [](double v) { return std::isfinite(v); })) {
     throw std::invalid_argument("--initial X Y Z must be finite numbers, in mm");
   }
   // The quality gate's thresholds (docs/calibration.md, "Quality gate").
@@ -337,6 +348,8 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   poseNotes.print(io.err, "calibrate");
   return 0;
 }
+
+namespace {
 
 struct PivotCommandOptions {
   std::string capture, marker = "StylusToTracker", out, from;

@@ -3,6 +3,7 @@
 // centre, bone models, detection, registrations, evaluation, figures — then the report
 // (results/report.md, report.html, results.json). Steps whose inputs did not change are not run
 // again (study_runner.hpp).
+#include "command_calibrate.hpp"
 #include "command_register.hpp"
 #include "commands.hpp"
 #include "csv_table.hpp"
@@ -26,6 +27,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -33,6 +35,7 @@
 #include <map>
 #include <memory>
 #include <set>
+#include <utility>
 
 namespace echoreg::cli {
 
@@ -104,6 +107,25 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   // Named as the user gave it, for messages; read from inside.
   const std::string studyDir = manifest.dir;
   const StudyFolder inside(studyDir);
+  // The calibration sessions (Table 5.2): the manifest's list, else its one pair. A session's
+  // capture missing is said before anything is written, naming the session.
+  std::vector<ManifestCalibrationSession> sessions = manifest.calibration.sessions;
+  if (sessions.empty()) {
+    sessions.push_back(
+        {manifest.require(manifest.calibration.sphereCapture, "calibration.sphere_capture"),
+         manifest.require(manifest.calibration.capture, "calibration.capture")});
+  }
+  for (std::size_t k = 0; k < sessions.size(); ++k) {
+    for (const auto& [file, key] : {std::pair{sessions[k].sphereCapture, "sphere_capture"},
+                                    std::pair{sessions[k].capture, "capture"}}) {
+      if (!fs::exists(file)) {
+        throw FileError(
+            manifest.path,
+            fmt::format("calibration session {} of {}: its {} {} does not exist", k + 1,
+                        sessions.size(), key, (fs::path(studyDir) / file).generic_string()));
+      }
+    }
+  }
   const std::string results = "results";
   std::error_code ec;
   fs::create_directories(results + "/figures", ec);
@@ -174,47 +196,45 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                    {pivotCapture},
                    {stylusTip},
                    true});
-  const std::string calibration = results + "/calibration.json";
-  const std::string sphereCapture =
-      read(manifest.require(given.sphereCapture, "calibration.sphere_capture"));
-  const std::string shotsCapture = read(manifest.require(given.capture, "calibration.capture"));
+  // Every calibration session of the probe (Table 5.2), each its own typed step; the first is
+  // results/calibration.json, the calibration the sweeps use, session n > 1 calibration_n.json.
   if (!given.sphereRadiusMm)
     throw FileError(manifest.path, "names no calibration.sphere_radius_mm");
-  std::vector<std::string> calibrate = {"calibrate",
-                                        "--sphere-capture",
-                                        sphereCapture,
-                                        "--stylus-tip-to-stylus",
-                                        stylusTip,
-                                        "--capture",
-                                        shotsCapture,
-                                        "--sphere-radius",
-                                        fmt::format("{}", *given.sphereRadiusMm),
-                                        "--fit-speed-of-sound",
-                                        "--out",
-                                        calibration};
-  if (given.stylusTipRadiusMm) {
-    calibrate.insert(calibrate.end(),
-                     {"--stylus-tip-radius", fmt::format("{}", *given.stylusTipRadiusMm)});
+  if (!given.initialBeamToProbeMm)
+    throw FileError(manifest.path, "names no calibration.initial_beam_to_probe_mm");
+  std::vector<std::string> calibrations;
+  for (std::size_t k = 0; k < sessions.size(); ++k) {
+    const std::string suffix = k == 0 ? std::string() : fmt::format("_{}", k + 1);
+    CalibrateOptions cal;
+    cal.sphereCapture = read(sessions[k].sphereCapture);
+    cal.capture = read(sessions[k].capture);
+    cal.tipFile = stylusTip;
+    cal.sphereRadius = *given.sphereRadiusMm;
+    if (given.stylusTipRadiusMm)
+      cal.tipRadius = *given.stylusTipRadiusMm;
+    cal.fitSpeed = true;
+    // The bath's speed of sound as the manifest gives it (else the shots' header gives it).
+    cal.speedOfSound = given.speedOfSoundMps;
+    cal.initial.assign(given.initialBeamToProbeMm->begin(), given.initialBeamToProbeMm->end());
+    if (given.windowMm)
+      cal.windowMm.assign(given.windowMm->begin(), given.windowMm->end());
+    cal.out = results + "/calibration" + suffix + ".json";
+    StudyStep step{k == 0 ? std::string("calibrate") : fmt::format("calibrate-{}", k + 1),
+                   sessions.size() == 1
+                       ? std::string("transducer calibration (BeamToProbe)")
+                       : fmt::format("transducer calibration (BeamToProbe), session {} of {}",
+                                     k + 1, sessions.size()),
+                   {},
+                   {cal.sphereCapture, cal.capture, stylusTip},
+                   {cal.out},
+                   true};
+    step.command = "calibrate";
+    step.request = requestJson(cal).dump();
+    step.action = [cal](const Streams& io) { return runCalibrate(cal, io); };
+    stage.push_back(std::move(step));
+    calibrations.push_back(cal.out);
   }
-  // The bath's speed of sound as the manifest gives it (else the shots' header gives it).
-  if (given.speedOfSoundMps)
-    calibrate.insert(calibrate.end(),
-                     {"--speed-of-sound", fmt::format("{}", *given.speedOfSoundMps)});
-  if (given.initialBeamToProbeMm) {
-    calibrate.push_back("--initial");
-    for (const double v : *given.initialBeamToProbeMm)
-      calibrate.push_back(fmt::format("{}", v));
-  }
-  if (given.windowMm) {
-    calibrate.insert(calibrate.end(), {"--window-mm", fmt::format("{}", (*given.windowMm)[0]),
-                                       fmt::format("{}", (*given.windowMm)[1])});
-  }
-  stage.push_back({"calibrate",
-                   "transducer calibration (BeamToProbe)",
-                   calibrate,
-                   {sphereCapture, shotsCapture, stylusTip},
-                   {calibration},
-                   true});
+  const std::string& calibration = calibrations.front();
   const std::string calibrationFigure = results + "/figures/calibration.png";
   stage.push_back(
       {"figure-calibration",
@@ -712,6 +732,89 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                     "(green < 0.5 mm, yellow 0.5-1.0 mm, red > 1.0 mm), as Figs. 5.1-5.5.");
     }
   }
+  // Table 5.2: the repeatability of the calibration over the manifest's sessions.
+  if (calibrations.size() >= 2) {
+    // x, y, z (mm), RMS (mm), condition number, speed of sound (m/s) of each session calibrated.
+    std::vector<std::array<double, 6>> values;
+    std::vector<std::vector<std::string>> rows;
+    nlohmann::json entries = nlohmann::json::array();
+    for (std::size_t k = 0; k < calibrations.size(); ++k) {
+      const std::string shots = fs::path(sessions[k].capture).filename().string();
+      if (!fs::exists(calibrations[k])) {
+        rows.push_back({fmt::format("{}", k + 1), shots, "—", "—", "—", "—", "—", "—", "—"});
+        continue;
+      }
+      const nlohmann::json cal = readJsonFile(calibrations[k]);
+      const auto& m = cal.at("matrix");
+      const std::array<double, 6> v = {m[0][3].get<double>(),
+                                       m[1][3].get<double>(),
+                                       m[2][3].get<double>(),
+                                       cal.value("rms_mm", 0.0),
+                                       cal.value("condition_number", 0.0),
+                                       cal.value("speed_of_sound_mps", 0.0)};
+      values.push_back(v);
+      rows.push_back({fmt::format("{}", k + 1), shots, number(v[0]), number(v[1]), number(v[2]),
+                      number(v[3], 3), number(v[4]), number(v[5], 1),
+                      fmt::format("{}", cal.value("shots_used", 0))});
+      entries.push_back({{"session", k + 1},
+                         {"sphere_capture", sessions[k].sphereCapture},
+                         {"capture", sessions[k].capture},
+                         {"calibration", calibrations[k]},
+                         {"beam_to_probe_mm", {v[0], v[1], v[2]}},
+                         {"rms_mm", v[3]},
+                         {"condition_number", v[4]},
+                         {"speed_of_sound_mps", v[5]},
+                         {"shots_used", cal.value("shots_used", 0)}});
+    }
+    nlohmann::json table = {{"sessions", entries}};
+    if (!values.empty()) {
+      std::array<double, 6> mean{}, low = values.front(), high = values.front();
+      for (const auto& v : values) {
+        for (std::size_t i = 0; i < v.size(); ++i) {
+          mean[i] += v[i] / static_cast<double>(values.size());
+          low[i] = std::min(low[i], v[i]);
+          high[i] = std::max(high[i], v[i]);
+        }
+      }
+      std::array<double, 6> spread{};
+      for (std::size_t i = 0; i < spread.size(); ++i)
+        spread[i] = high[i] - low[i];
+      const auto summary = [&](const std::string& name, const std::array<double, 6>& v) {
+        rows.push_back({name, "", number(v[0]), number(v[1]), number(v[2]), number(v[3], 3),
+                        number(v[4]), number(v[5], 1), ""});
+        return nlohmann::json{{"beam_to_probe_mm", {v[0], v[1], v[2]}},
+                              {"rms_mm", v[3]},
+                              {"condition_number", v[4]},
+                              {"speed_of_sound_mps", v[5]}};
+      };
+      table["mean"] = summary("mean", mean);
+      table["spread"] = summary("spread (max - min)", spread);
+    }
+    // A simulated study knows the probe's true BeamToProbe.
+    if (const std::string truthFile = read(manifest.truth.transforms);
+        !truthFile.empty() && fs::exists(truthFile)) {
+      const nlohmann::json truth = readJsonFile(truthFile);
+      if (truth.contains("BeamToProbe")) {
+        const auto& t = truth.at("BeamToProbe");
+        const std::array<double, 3> offset = {
+            t.at(0).at(3).get<double>(), t.at(1).at(3).get<double>(), t.at(2).at(3).get<double>()};
+        rows.push_back({"truth (simulation)", "", number(offset[0]), number(offset[1]),
+                        number(offset[2]), "", "", "", ""});
+        table["truth_beam_to_probe_mm"] = offset;
+      }
+    }
+    report.heading("Repeatability of the calibration (Table 5.2)");
+    report.paragraph(fmt::format(
+        "The probe calibrated in each of the manifest's {} sessions (the bath set up anew), the "
+        "speed of sound fitted: BeamToProbe's translation, the RMS of the echoes' distances to the "
+        "sphere, the condition number of the fit (lower: the shots spread better) and the fitted "
+        "speed of sound. The sweeps use session 1's calibration.",
+        calibrations.size()));
+    report.table({"session", "shots", "x (mm)", "y (mm)", "z (mm)", "RMS (mm)", "condition number",
+                  "speed of sound (m/s)", "shots used"},
+                 rows);
+    numbers["calibration_sessions"] = table;
+  }
   // Segmentation accuracy against the simulation's truth (within the model's slab).
   {
     std::vector<std::vector<std::string>> rows;
@@ -954,6 +1057,14 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
     const std::vector<std::string> outsideList(outside.begin(), outside.end());
     numbers["provenance"] = {{"paths", "relative to the study folder"},
                              {"read_outside_study", outsideList}};
+    // The sweeps' detection parameters of this run (--params: its preset and settings, not its
+    // path), so that runs of one study with other parameters (a sweep's points) tell apart.
+    numbers["provenance"]["detection_params"] =
+        paramsFile.empty()
+            ? nlohmann::json(nullptr)
+            : nlohmann::json{{"preset", paramsPreset.empty() ? nlohmann::json(nullptr)
+                                                             : nlohmann::json(paramsPreset)},
+                             {"settings", settingsJson(paramsSettings)}};
     // Which echoreg made these numbers (echoreg study compare lists it per study).
     numbers["echoreg_version"] = ECHOREG_VERSION;
     report.heading("Provenance");
@@ -1032,7 +1143,8 @@ CommandAction addStudyCommand(CLI::App& app) {
   auto o = std::make_shared<StudyOptions>();
   CLI::App* run = cmd->add_subcommand(
       "run",
-      "Runs the study: stylus pivot, calibration, hip centre, the bones segmented from the CT\n"
+      "Runs the study: stylus pivot, calibration (every session of calibration.sessions, with\n"
+      "their repeatability as Table 5.2), hip centre, the bones segmented from the CT\n"
       "(the manifest's seeds), detection, registrations from ultrasound and from the mechanical\n"
       "probe, evaluation, figures; then writes DIR/results/report.html, report.md and\n"
       "results.json (docs/study.md). Steps whose request (or command line) and input files did\n"

@@ -19,6 +19,7 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <map>
@@ -262,9 +263,29 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
                         (value.is_string() ? value.get<std::string>() : value.dump());
       }
     }
+    // The detection parameters the study ran with (study run --params: a sweep's point), which
+    // its manifest does not show.
+    const nlohmann::json provenance = s.results.value("provenance", nlohmann::json(nullptr));
+    const nlohmann::json detectionParams =
+        provenance.is_object() ? provenance.value("detection_params", nlohmann::json(nullptr))
+                               : nlohmann::json(nullptr);
+    std::string detection;
+    if (detectionParams.is_object()) {
+      const nlohmann::json preset = detectionParams.value("preset", nlohmann::json(nullptr));
+      if (preset.is_string())
+        detection = "preset " + preset.get<std::string>();
+      const nlohmann::json settings = detectionParams.value("settings", nlohmann::json(nullptr));
+      if (settings.is_object()) {
+        for (const auto& [key, value] : settings.items()) {
+          detection += (detection.empty() ? "" : ", ") + key + " " +
+                       (value.is_string() ? value.get<std::string>() : value.dump());
+        }
+      }
+    }
     studyRows.push_back({s.name, s.group, s.manifestHash,
                          version.is_string() ? version.get<std::string>() : "not recorded",
-                         parameters.empty() ? "-" : parameters});
+                         parameters.empty() ? "-" : parameters,
+                         detection.empty() ? "-" : detection});
     studyList.push_back(
         {{"name", s.name},
          {"group", s.group},
@@ -276,11 +297,12 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
            {"parameters",
             {{"generator", generator},
              {"detection", s.manifest.document.value("detection", nlohmann::json(nullptr))},
-             {"registration",
-              s.manifest.document.value("registration", nlohmann::json(nullptr))}}}}},
+             {"registration", s.manifest.document.value("registration", nlohmann::json(nullptr))},
+             {"detection_params", detectionParams}}}}},
          {"results", s.results}});
   }
-  report.table({"study", "group", "manifest (FNV-1a 64)", "echoreg", "simulation parameters"},
+  report.table({"study", "group", "manifest (FNV-1a 64)", "echoreg", "simulation parameters",
+                "detection parameters (study run --params)"},
                studyRows);
   merged["studies"] = studyList;
 
@@ -367,6 +389,87 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
     if (!rows.empty()) {
       report.heading("Calibration of each study (Table 5.1)");
       report.table({"study", "group", "RMS (mm)", "speed of sound (m/s)", "shots used"}, rows);
+    }
+  }
+
+  // Table 5.2 pooled: each study's calibration sessions, then every session of a group together
+  // (the spread of one probe over more sessions than one study holds).
+  {
+    using Session = std::array<double, 6>;  // x, y, z (mm), RMS (mm), condition, speed (m/s)
+    std::vector<std::pair<std::string, std::vector<Session>>> perStudy;  // group, sessions
+    for (const StudyResults& s : studies) {
+      std::vector<Session> sessions;
+      const nlohmann::json table = s.results.value("calibration_sessions", nlohmann::json(nullptr));
+      if (table.is_object() && table.contains("sessions") && table["sessions"].is_array()) {
+        for (std::size_t k = 0; k < table["sessions"].size(); ++k) {
+          const nlohmann::json& row = table["sessions"][k];
+          const std::string where = fmt::format("calibration_sessions/sessions/{}", k);
+          const nlohmann::json offset = row.value("beam_to_probe_mm", nlohmann::json(nullptr));
+          if (!offset.is_array() || offset.size() != 3 ||
+              !std::all_of(offset.begin(), offset.end(), [](const nlohmann::json& v) {
+                return v.is_number() && std::isfinite(v.get<double>());
+              })) {
+            throw FileError(s.resultsPath, where + ": \"beam_to_probe_mm\" is not [x, y, z] in mm");
+          }
+          sessions.push_back({offset[0].get<double>(), offset[1].get<double>(),
+                              offset[2].get<double>(), rowValue(s, row, where, "rms_mm"),
+                              rowValue(s, row, where, "condition_number"),
+                              rowValue(s, row, where, "speed_of_sound_mps")});
+        }
+      }
+      perStudy.emplace_back(s.group, std::move(sessions));
+    }
+    std::vector<std::vector<std::string>> rows;
+    nlohmann::json pooledJson = nlohmann::json::array();
+    auto addRow = [&](const std::string& name, const std::string& group,
+                      const std::vector<Session>& sessions) {
+      if (sessions.empty())
+        return;
+      Session mean{}, low = sessions.front(), high = sessions.front();
+      for (const Session& v : sessions) {
+        for (std::size_t i = 0; i < v.size(); ++i) {
+          mean[i] += v[i] / static_cast<double>(sessions.size());
+          low[i] = std::min(low[i], v[i]);
+          high[i] = std::max(high[i], v[i]);
+        }
+      }
+      rows.push_back({name, group, fmt::format("{}", sessions.size()), number(mean[0], 2),
+                      number(mean[1], 2), number(mean[2], 2), number(high[0] - low[0], 2),
+                      number(high[1] - low[1], 2), number(high[2] - low[2], 2), number(mean[3], 3),
+                      number(mean[4], 2), number(mean[5], 1)});
+      pooledJson.push_back(
+          {{"name", name},
+           {"group", group},
+           {"sessions", sessions.size()},
+           {"mean_beam_to_probe_mm", {mean[0], mean[1], mean[2]}},
+           {"spread_beam_to_probe_mm", {high[0] - low[0], high[1] - low[1], high[2] - low[2]}},
+           {"mean_rms_mm", mean[3]},
+           {"mean_condition_number", mean[4]},
+           {"mean_speed_of_sound_mps", mean[5]}});
+    };
+    for (std::size_t i = 0; i < studies.size(); ++i)
+      addRow(studies[i].name, perStudy[i].first, perStudy[i].second);
+    if (!rows.empty() && groups.size() < studies.size()) {
+      for (const std::string& group : groups) {
+        std::vector<Session> pooled;
+        for (const auto& [g, sessions] : perStudy) {
+          if (g == group)
+            pooled.insert(pooled.end(), sessions.begin(), sessions.end());
+        }
+        addRow("all of " + group, group, pooled);
+      }
+    }
+    if (!rows.empty()) {
+      report.heading("Calibration sessions pooled (Table 5.2)");
+      report.paragraph(
+          "Each study's calibration sessions (studies of two or more), then every session of a "
+          "group together: the mean BeamToProbe translation, its spread (max - min) over the "
+          "sessions, and the mean RMS, condition number and fitted speed of sound.");
+      report.table({"study", "group", "sessions", "x (mm)", "y (mm)", "z (mm)", "spread x (mm)",
+                    "spread y (mm)", "spread z (mm)", "RMS (mm)", "condition number",
+                    "speed of sound (m/s)"},
+                   rows);
+      merged["calibration_sessions"] = pooledJson;
     }
   }
 
@@ -522,7 +625,8 @@ CommandAction addStudyCompareCommand(CLI::App& study) {
       "compare",
       "One report over studies that `study run` has finished: the registration errors of each\n"
       "study and bone side by side (Tables 5.3-5.7, mean of absolute values), calibration\n"
-      "(Table 5.1), detection rates pooled by group (Table 6.1), box plots of the points'\n"
+      "(Table 5.1), the calibration sessions pooled by study and group (Table 5.2), detection\n"
+      "rates pooled by group (Table 6.1), box plots of the points'\n"
       "distances between groups with the one-way ANOVA (Figs. 6.1, 6.3, 6.7-6.9), and one\n"
       "results.json with each study's results and provenance. Writes OUTDIR/report.md,\n"
       "report.html, results.json and figures/ (docs/many-studies.md). Reads only; exits 1\n"

@@ -126,6 +126,39 @@ class Reader {
   Json doc_;
 };
 
+// calibration.sessions: a list of {"sphere_capture": FILE, "capture": FILE}, the first the
+// session the sweeps use; calibration.sphere_capture and capture, when given beside it, must be
+// the first session's (else which one calibrates the sweeps would be a guess).
+void readCalibrationSessions(const Reader& reader, ManifestCalibration& calibration) {
+  const std::string key = "/calibration/sessions";
+  const Json sessions = reader.at(key);
+  if (sessions.is_null())
+    return;
+  if (!sessions.is_array() || sessions.empty())
+    reader.wrongType(key, "a list of sessions, each {\"sphere_capture\": FILE, \"capture\": FILE}");
+  reader.atMost(key, kMaxCalibrationSessions, "sessions", "calibrations a study may run");
+  for (std::size_t i = 0; i < sessions.size(); ++i) {
+    const std::string entry = fmt::format("{}/{}", key, i);
+    ManifestCalibrationSession session;
+    if (sessions[i].is_object()) {
+      session.sphereCapture = reader.file(entry + "/sphere_capture");
+      session.capture = reader.file(entry + "/capture");
+    }
+    if (session.sphereCapture.empty() || session.capture.empty())
+      reader.wrongType(entry, "{\"sphere_capture\": FILE, \"capture\": FILE}");
+    calibration.sessions.push_back(std::move(session));
+  }
+  const ManifestCalibrationSession& first = calibration.sessions.front();
+  if ((!calibration.sphereCapture.empty() && calibration.sphereCapture != first.sphereCapture) ||
+      (!calibration.capture.empty() && calibration.capture != first.capture)) {
+    throw FileError(reader.path(),
+                    "calibration.sphere_capture and calibration.capture must be the first of "
+                    "calibration.sessions (the session the sweeps use) when both are given");
+  }
+  calibration.sphereCapture = first.sphereCapture;
+  calibration.capture = first.capture;
+}
+
 // A bone's name names its result files (results/models/NAME.vtp, ...) and is looked up as a JSON
 // pointer: "../x" wrote outside the results, "a~b" threw the JSON library's pointer message.
 bool plainBoneName(const std::string& bone) {
@@ -246,6 +279,7 @@ StudyManifest readStudyManifest(const std::string& dir) {
   calibration.pivotCapture = reader.file("/calibration/pivot_capture");
   calibration.sphereCapture = reader.file("/calibration/sphere_capture");
   calibration.capture = reader.file("/calibration/capture");
+  readCalibrationSessions(reader, calibration);
   calibration.sphereRadiusMm = reader.number("/calibration/sphere_radius_mm");
   manifest.ctDicom = reader.file("/ct/dicom");
   manifest.landmarks.ct = reader.file("/landmarks/ct");

@@ -26,6 +26,7 @@ constexpr std::size_t kMaxBones = 32;
 constexpr std::size_t kMaxCapturesPerBone = 500;
 constexpr std::size_t kMaxSeedsPerBone = 64;
 constexpr std::size_t kMaxLandmarks = 256;
+constexpr std::size_t kMaxCalibrationSessions = 64;
 
 // File names below are as the study reads them: relative to the study folder (the working
 // directory while it runs, so that no result embeds where the study lies), lexically normal, a
@@ -45,10 +46,19 @@ struct ManifestBone {
   bool withFibula = false;  ///< segment.with_fibula: the 2nd seed is the fibula's
 };
 
+/// One calibration session of the probe (the bath set up anew), calibration.sessions[i].
+struct ManifestCalibrationSession {
+  std::string sphereCapture;  ///< sphere_capture: the stylus on the sphere
+  std::string capture;        ///< capture: the A-line shots at the sphere
+};
+
 struct ManifestCalibration {
-  std::string pivotCapture;                 ///< pivot_capture: the stylus pivoting in a divot
-  std::string sphereCapture;                ///< sphere_capture: the stylus on the sphere
-  std::string capture;                      ///< capture: the A-line shots at the sphere
+  std::string pivotCapture;   ///< pivot_capture: the stylus pivoting in a divot
+  std::string sphereCapture;  ///< sphere_capture: the stylus on the sphere (sessions[0]'s)
+  std::string capture;        ///< capture: the A-line shots at the sphere (sessions[0]'s)
+  /// sessions: every calibration session (Table 5.2), the first the one the sweeps use; empty when
+  /// the manifest gives only sphere_capture and capture (one session).
+  std::vector<ManifestCalibrationSession> sessions;
   std::optional<double> sphereRadiusMm;     ///< sphere_radius_mm
   std::optional<double> stylusTipRadiusMm;  ///< stylus_tip_radius_mm
   std::optional<double> speedOfSoundMps;    ///< speed_of_sound_mps (> 0): the bath's, assumed

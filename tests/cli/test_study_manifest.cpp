@@ -132,5 +132,69 @@ TEST(StudyManifest, AValueOfTheWrongTypeIsRefusedNamingTheManifestAndTheKey) {
   }
 }
 
+// calibration.sessions (Table 5.2): every session's captures, the first the one the sweeps use;
+// a session without both captures, or a first session other than sphere_capture and capture, is
+// refused naming the key.
+TEST(StudyManifest, ReadsTheCalibrationSessionsAndRefusesInconsistentOnes) {
+  nlohmann::json manifest = fullManifest();
+  manifest["calibration"].erase("sphere_capture");
+  manifest["calibration"].erase("capture");
+  manifest["calibration"]["sessions"] = nlohmann::json::parse(R"([
+      {"sphere_capture": "captures/sphere.igs.mha", "capture": "./captures/shots.igs.mha"},
+      {"sphere_capture": "captures/sphere_2.igs.mha", "capture": "captures/shots_2.igs.mha"}])");
+  {
+    test::TempDir dir;
+    const StudyManifest m = readManifest(dir, manifest);
+    ASSERT_EQ(m.calibration.sessions.size(), 2U);
+    EXPECT_EQ(m.calibration.sessions[1].sphereCapture, "captures/sphere_2.igs.mha");
+    EXPECT_EQ(m.calibration.sessions[1].capture, "captures/shots_2.igs.mha");
+    // The first session is the calibration's sphere_capture and capture.
+    EXPECT_EQ(m.calibration.sphereCapture, "captures/sphere.igs.mha");
+    EXPECT_EQ(m.calibration.capture, "captures/shots.igs.mha");
+  }
+  {
+    test::TempDir dir;  // without sessions: none listed, the one pair is the study's session
+    const StudyManifest m = readManifest(dir, fullManifest());
+    EXPECT_TRUE(m.calibration.sessions.empty());
+  }
+  const std::vector<std::pair<std::string, std::string>> cases{
+      {"/calibration/sessions/1", R"({"capture": "captures/shots_2.igs.mha"})"},
+      {"/calibration/sessions/0/capture", "7"},
+      {"/calibration/sessions", "[]"},
+      {"/calibration/sessions", R"("captures/shots.igs.mha")"},
+      {"/calibration/capture", R"("captures/shots_2.igs.mha")"}};
+  const std::vector<std::string> expected{
+      "calibration.sessions.1 must be {\"sphere_capture\": FILE, \"capture\": FILE}",
+      "calibration.sessions.0.capture must be a file name, got 7",
+      "calibration.sessions must be a list of sessions",
+      "calibration.sessions must be a list of sessions",
+      "calibration.sphere_capture and calibration.capture must be the first of "
+      "calibration.sessions"};
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    test::TempDir dir;
+    nlohmann::json bad = manifest;
+    bad[nlohmann::json::json_pointer(cases[i].first)] = nlohmann::json::parse(cases[i].second);
+    try {
+      readManifest(dir, bad);
+      ADD_FAILURE() << cases[i].first << " = " << cases[i].second << " accepted";
+    } catch (const FileError& e) {
+      EXPECT_EQ(e.path(), dir.file("study.json"));
+      EXPECT_EQ(e.problem().rfind(expected[i], 0), 0U) << e.problem();
+    }
+  }
+  test::TempDir dir;
+  nlohmann::json many = manifest;
+  many["calibration"]["sessions"] = nlohmann::json::array();
+  for (std::size_t i = 0; i <= kMaxCalibrationSessions; ++i)
+    many["calibration"]["sessions"].push_back(manifest["calibration"]["sessions"][0]);
+  try {
+    readManifest(dir, many);
+    ADD_FAILURE() << "65 sessions accepted";
+  } catch (const FileError& e) {
+    EXPECT_EQ(e.problem().rfind("calibration.sessions lists 65 sessions, more than the 64", 0), 0U)
+        << e.problem();
+  }
+}
+
 }  // namespace
 }  // namespace echoreg::cli

@@ -13,6 +13,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -231,6 +232,115 @@ TEST(StudyCompare, BadInputsNameTheFileAndWriteNothing) {
   r = runEchoreg({"study", "compare", "--out", out});
   EXPECT_EQ(r.exitCode, 2) << r.err;
   EXPECT_FALSE(fs::exists(out));
+}
+
+// Table 5.2 pooled: each study's calibration sessions as its results.json lists them, then every
+// session of a group together; a session without its offset is refused naming the file.
+TEST(StudyCompare, PoolsTheCalibrationSessionsOfEachGroup) {
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  test::TempDir dir;
+  // x, y, z, RMS, condition, speed of each session, by study; a and b are glove, c gel.
+  const std::vector<std::pair<std::string, std::vector<std::array<double, 6>>>> studies = {
+      {"a", {{25.0, 1.0, 200.0, 0.1, 10.0, 1490.0}, {26.0, 1.5, 200.4, 0.2, 12.0, 1494.0}}},
+      {"b",
+       {{25.5, 0.5, 200.2, 0.3, 14.0, 1498.0},
+        {27.0, 1.2, 200.1, 0.1, 11.0, 1492.0},
+        {25.2, 1.1, 200.3, 0.1, 13.0, 1496.0}}},
+      {"c", {{24.0, 2.0, 199.0, 0.5, 9.0, 1480.0}, {24.5, 2.5, 199.5, 0.4, 8.0, 1482.0}}}};
+  std::vector<std::string> args = {"study", "compare"};
+  for (const auto& [name, sessions] : studies) {
+    const std::string study = dir.file(name);
+    fs::create_directories(study + "/results");
+    nlohmann::json manifest = readJson(fixture + "/study.json");
+    manifest["generator"]["standoff"] = name == "c" ? "gel" : "glove";
+    std::ofstream(study + "/study.json") << manifest.dump(2);
+    nlohmann::json rows = nlohmann::json::array();
+    for (const auto& v : sessions) {
+      rows.push_back({{"beam_to_probe_mm", {v[0], v[1], v[2]}},
+                      {"rms_mm", v[3]},
+                      {"condition_number", v[4]},
+                      {"speed_of_sound_mps", v[5]}});
+    }
+    std::ofstream(study + "/results/results.json") << nlohmann::json{
+        {"registrations", {{"femur", nlohmann::json::object()}}},
+        {"calibration_sessions", {{"sessions", rows}}}}.dump();
+    args.push_back(study);
+  }
+  const std::string out = dir.file("compare");
+  args.insert(args.end(), {"--out", out, "--group-by", "generator.standoff"});
+  test::CommandResult r = runEchoreg(args);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json pooled = readJson(out + "/results.json").at("calibration_sessions");
+  ASSERT_EQ(pooled.size(), 5U);  // three studies, two groups
+  EXPECT_EQ(pooled[1].at("name"), dir.file("b"));
+  EXPECT_EQ(pooled[1].at("sessions"), 3);
+  EXPECT_EQ(pooled[3].at("name"), "all of glove");
+  EXPECT_EQ(pooled[3].at("sessions"), 5);
+  // The glove group's five sessions: x from 25.0 to 27.0, mean 25.74; RMS mean 0.16.
+  EXPECT_NEAR(pooled[3].at("mean_beam_to_probe_mm").at(0).get<double>(), 25.74, 1e-9);
+  EXPECT_NEAR(pooled[3].at("spread_beam_to_probe_mm").at(0).get<double>(), 2.0, 1e-9);
+  EXPECT_NEAR(pooled[3].at("spread_beam_to_probe_mm").at(2).get<double>(), 0.4, 1e-9);
+  EXPECT_NEAR(pooled[3].at("mean_rms_mm").get<double>(), 0.16, 1e-9);
+  EXPECT_NEAR(pooled[3].at("mean_condition_number").get<double>(), 12.0, 1e-9);
+  EXPECT_EQ(pooled[4].at("name"), "all of gel");
+  EXPECT_NEAR(pooled[4].at("mean_speed_of_sound_mps").get<double>(), 1481.0, 1e-9);
+  const std::string report = bytesOf(out + "/report.md");
+  EXPECT_NE(report.find("## Calibration sessions pooled (Table 5.2)"), std::string::npos);
+  EXPECT_NE(report.find("| all of glove | glove | 5 | 25.74 |"), std::string::npos) << report;
+
+  // A session without its offset: the file and the session named, nothing written.
+  fs::remove_all(out);
+  std::ofstream(dir.file("c") + "/results/results.json")
+      << R"({"registrations": {"femur": {}}, "calibration_sessions": {"sessions": [
+            {"beam_to_probe_mm": [24, 2, 199], "rms_mm": 0.5, "condition_number": 9,
+             "speed_of_sound_mps": 1480}, {"rms_mm": 0.4}]}})";
+  r = runEchoreg(args);
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find(dir.file("c") + "/results/results.json"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find("calibration_sessions/sessions/1: \"beam_to_probe_mm\" is not [x, y, z]"),
+            std::string::npos)
+      << r.err;
+  EXPECT_FALSE(fs::exists(out));
+}
+
+// Studies that share a manifest but ran with other detection parameters (a sweep's points) are
+// told apart by the parameters in each one's provenance.
+TEST(StudyCompare, ListsEachStudysDetectionParameters) {
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  test::TempDir dir;
+  const std::vector<nlohmann::json> params = {
+      nlohmann::json::parse(R"({"preset": null, "settings": {"cutoff": 0.01}})"),
+      nlohmann::json::parse(R"({"preset": "shadow", "settings": {"cutoff": 0.02}})"),
+      nlohmann::json(nullptr)};
+  std::vector<std::string> args = {"study", "compare"};
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    const std::string study = dir.file("p" + std::to_string(i));
+    fs::create_directories(study + "/results");
+    fs::copy_file(fixture + "/study.json", study + "/study.json");
+    std::ofstream(study + "/results/results.json") << nlohmann::json{
+        {"registrations", {{"femur", nlohmann::json::object()}}},
+        {"provenance", {{"detection_params", params[i]}}}}.dump();
+    args.push_back(study);
+  }
+  const std::string out = dir.file("compare");
+  args.insert(args.end(), {"--out", out});
+  const test::CommandResult r = runEchoreg(args);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json merged = readJson(out + "/results.json");
+  for (std::size_t i = 0; i < params.size(); ++i) {
+    const nlohmann::json& provenance = merged.at("studies").at(i).at("provenance");
+    EXPECT_EQ(provenance.at("parameters").at("detection_params"), params[i]) << i;
+    EXPECT_EQ(provenance.at("manifest_fnv1a64"),
+              merged.at("studies").at(0).at("provenance").at("manifest_fnv1a64"));
+  }
+  const std::string report = bytesOf(out + "/report.md");
+  EXPECT_NE(report.find("| cutoff 0.01 |"), std::string::npos) << report;
+  EXPECT_NE(report.find("| preset shadow, cutoff 0.02 |"), std::string::npos) << report;
+  EXPECT_NE(report.find("detection parameters (study run --params)"), std::string::npos);
 }
 
 }  // namespace
