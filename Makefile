@@ -61,8 +61,8 @@ FUZZ_SECONDS ?= 300
 fuzz:
 	@./scripts/install-deps --fuzz
 	@test -f $(FUZZ_DIR)/build.ninja || cmake --preset fuzz
-	@cmake --build $(FUZZ_DIR) --target fuzz_sequence fuzz_json fuzz_mesh fuzz_dicom fuzz_params \
-	  fuzz_manifest
+	@cmake --build $(FUZZ_DIR) --target fuzz_sequence fuzz_json fuzz_mesh fuzz_dicom fuzz_volume \
+	  fuzz_params fuzz_manifest
 	@./scripts/run-fuzzers $(FUZZ_DIR) $(FUZZ_SECONDS)
 
 clean:

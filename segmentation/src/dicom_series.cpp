@@ -222,8 +222,9 @@ std::string elementBeyondFile(const fs::path& path) {
     if (explicitVr || meta) {
       vr.assign(reinterpret_cast<const char*>(e + 4), 2);
       if (kShortVr.count(vr) == 0) {
-        if (!bytes(pos, 12, e))
-          return "";
+        if (pos + 12 > size || !bytes(pos, 12, e))
+          return fmt::format("element ({:04x},{:04x}) at byte {}: the file ends inside its header",
+                             group, element, start);
         length = number(e + 8, 4, big);
         valueAt = pos + 12;
       } else {
@@ -231,6 +232,12 @@ std::string elementBeyondFile(const fs::path& path) {
       }
     } else {
       length = number(e + 4, 4, big);
+    }
+    // Debian's GDCM asserts (aborts the process) on a sequence or an undefined length in the
+    // file meta group (found by fuzz/fuzz_dicom).
+    if (meta && (vr == "SQ" || length == kUndefined)) {
+      return fmt::format("element ({:04x},{:04x}) at byte {} of the file meta group is a {}", group,
+                         element, start, vr == "SQ" ? "sequence" : "value of undefined length");
     }
     pos = valueAt;
     const bool pixelData = group == 0x7fe0 && element == 0x0010;
@@ -261,6 +268,10 @@ std::string elementBeyondFile(const fs::path& path) {
     if (vr != "SQ")
       pos += length;  // a value; a sequence's items follow as elements
   }
+  // A file that ends inside (or right after) its file meta group: GDCM asserts (aborts the
+  // process) reading the next tag (found by fuzz/fuzz_dicom).
+  if (meta)
+    return fmt::format("the file ends at byte {}, inside its file meta group", size);
   return "";
 }
 

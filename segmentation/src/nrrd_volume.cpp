@@ -7,6 +7,7 @@
 #include <fmt/format.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <cmath>
 #include <cstdlib>
 #include <cstring>
@@ -216,6 +217,31 @@ NrrdVolume readNrrdVolume(const std::string& path) {
   }
   if (sizes[0] < 1 || sizes[1] < 1 || sizes[2] < 1)
     throw FileError(path, "sizes must be positive");
+  // The bytes the sizes ask for, checked against what the file holds before anything is
+  // allocated: raw data must be all there; gzip (deflate) cannot expand more than 1032:1.
+  const double claimedBytes = static_cast<double>(sizes[0]) * static_cast<double>(sizes[1]) *
+                              static_cast<double>(sizes[2]) * static_cast<double>(elementSize);
+  const std::streamoff dataStart = in.tellg();
+  in.seekg(0, std::ios::end);
+  const std::streamoff fileEnd = in.tellg();
+  in.seekg(dataStart);
+  if (dataStart < 0 || fileEnd < dataStart)
+    throw FileError(path, "cannot find the voxel data after the header");
+  const auto dataBytes = static_cast<double>(fileEnd - dataStart);
+  const bool gzipped = encoding == "gzip" || encoding == "gz";
+  if (encoding != "raw" && !gzipped)
+    throw FileError(path, "encoding \"" + encoding + "\" is not supported (raw or gzip)");
+  constexpr double kDeflateMaxRatio = 1032.0;
+  if (encoding == "raw" && claimedBytes > dataBytes) {
+    throw FileError(path, fmt::format("truncated data: sizes {} x {} x {} need {:.0f} bytes, the "
+                                      "file holds {:.0f} after its header",
+                                      sizes[0], sizes[1], sizes[2], claimedBytes, dataBytes));
+  }
+  if (gzipped && claimedBytes > dataBytes * kDeflateMaxRatio + 64.0) {
+    throw FileError(path, fmt::format("sizes {} x {} x {} need {:.0f} bytes, more than the {:.0f} "
+                                      "bytes of gzip data can hold",
+                                      sizes[0], sizes[1], sizes[2], claimedBytes, dataBytes));
+  }
   NrrdVolume volume;
   volume.isMask = isMask;
   CtImage& image = volume.image;
@@ -228,6 +254,8 @@ NrrdVolume readNrrdVolume(const std::string& path) {
     spacing[a] = d.norm();
     if (!(spacing[a] > 0.0))
       throw FileError(path, "a space direction is zero");
+    if (!std::isfinite(spacing[a]))  // (1e308,1e308,0): each value finite, the length not
+      throw FileError(path, "a space direction is too long (its length is not finite)");
     image.direction.col(a) = d / spacing[a];
   }
   if (std::abs(image.direction.col(0).dot(image.direction.col(1))) > 1e-4 ||
@@ -245,18 +273,29 @@ NrrdVolume readNrrdVolume(const std::string& path) {
     in.read(data.data(), static_cast<std::streamsize>(bytes));
     if (static_cast<std::size_t>(in.gcount()) != bytes)
       throw FileError(path, "truncated data");
-  } else if (encoding == "gzip" || encoding == "gz") {
+  } else if (gzipped) {
     const std::string compressed((std::istreambuf_iterator<char>(in)),
                                  std::istreambuf_iterator<char>());
     z_stream z{};
     if (inflateInit2(&z, 15 + 32) != Z_OK)
       throw FileError(path, "zlib cannot start decompressing");
-    z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(compressed.data()));
-    z.avail_in = static_cast<uInt>(compressed.size());
-    z.next_out = reinterpret_cast<Bytef*>(data.data());
-    z.avail_out = static_cast<uInt>(bytes);
-    const int status = inflate(&z, Z_FINISH);
-    const std::size_t produced = bytes - z.avail_out;
+    // zlib counts in uInt: feed and fill in pieces of at most 1 GB.
+    constexpr std::size_t kPiece = std::size_t{1} << 30;
+    std::size_t consumed = 0, produced = 0;
+    int status = Z_OK;
+    while (status == Z_OK) {
+      const std::size_t inPiece = std::min(compressed.size() - consumed, kPiece);
+      const std::size_t outPiece = std::min(bytes - produced, kPiece);
+      z.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(compressed.data() + consumed));
+      z.avail_in = static_cast<uInt>(inPiece);
+      z.next_out = reinterpret_cast<Bytef*>(data.data() + produced);
+      z.avail_out = static_cast<uInt>(outPiece);
+      status = inflate(&z, Z_NO_FLUSH);
+      consumed += inPiece - z.avail_in;
+      produced += outPiece - z.avail_out;
+      if (status == Z_OK && inPiece == z.avail_in && outPiece == z.avail_out)
+        break;  // no progress: the input ended or the output is full before the stream's end
+    }
     inflateEnd(&z);
     if (status != Z_STREAM_END || produced != bytes) {
       throw FileError(

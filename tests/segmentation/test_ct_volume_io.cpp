@@ -187,4 +187,54 @@ TEST_F(CtVolumeIo, NrrdRoundTripWithLpsGeometry) {
   }
 }
 
+// Bad NRRD headers are refused naming the file, before anything is allocated: sizes beyond the
+// data (raw: 2^31 x 2^31 x 2 voxels claimed by a file of a few bytes; gzip: more than deflate can
+// expand), a direction whose length overflows, an unknown encoding with huge sizes.
+TEST_F(CtVolumeIo, NrrdHeadersBeyondTheirDataAreRefusedBeforeAllocating) {
+  const auto write = [&](const std::string& name, const std::string& header,
+                         const std::string& data) {
+    const std::string path = dir_.file(name);
+    std::ofstream(path, std::ios::binary)
+        << "NRRD0004\ntype: short\ndimension: 3\nspace: left-posterior-superior\n"
+        << header << "\n"
+        << data;
+    return path;
+  };
+  const std::string geometry =
+      "space directions: (1,0,0) (0,1,0) (0,0,1)\nspace origin: (0,0,0)\nendian: little\n";
+  const auto refusal = [](const std::string& path) {
+    try {
+      echoreg::segmentation::readNrrdVolume(path);
+    } catch (const echoreg::FileError& e) {
+      EXPECT_EQ(e.path(), path);
+      return std::string(e.what());
+    }
+    ADD_FAILURE() << path << " was read";
+    return std::string();
+  };
+  const std::string raw =
+      write("raw.nrrd", geometry + "sizes: 2147483647 2147483647 2\nencoding: raw\n", "abcd");
+  EXPECT_NE(refusal(raw).find("truncated data: sizes 2147483647 x 2147483647 x 2 need"),
+            std::string::npos)
+      << refusal(raw);
+  const std::string gzip = write("gzip.nrrd", geometry + "sizes: 1000 1000 1000\nencoding: gzip\n",
+                                 std::string(100, 'x'));
+  EXPECT_NE(refusal(gzip).find("more than the 100 bytes of gzip data can hold"), std::string::npos)
+      << refusal(gzip);
+  const std::string other =
+      write("other.nrrd", geometry + "sizes: 2147483647 2147483647 2\nencoding: bzip2\n", "abcd");
+  EXPECT_NE(refusal(other).find("encoding \"bzip2\" is not supported"), std::string::npos);
+  const std::string direction = write(
+      "direction.nrrd",
+      "space directions: (1e308,1e308,0) (0,0,1) (0,1,0)\nspace origin: (0,0,0)\nsizes: 1 1 1\n",
+      "ab");
+  EXPECT_NE(refusal(direction).find("a space direction is too long"), std::string::npos)
+      << refusal(direction);
+  // The same geometry with its two bytes is read.
+  const auto one = echoreg::segmentation::readNrrdVolume(
+      write("one.nrrd", geometry + "sizes: 1 1 1\nencoding: raw\n", std::string("\x2a\x00", 2)));
+  ASSERT_EQ(one.image.hu.size(), 1U);
+  EXPECT_EQ(one.image.hu[0], 42);
+}
+
 }  // namespace

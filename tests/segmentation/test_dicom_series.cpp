@@ -377,6 +377,30 @@ TEST_F(DicomSeriesRefusal, AnElementLongerThanTheFileIsNotAllocated) {
   EXPECT_LT(usage.ru_maxrss, 1000L * 1024L) << "peak kB: the declared length was allocated";
 }
 
+// Debian's GDCM asserts (aborts) when a file ends inside its file meta group (found by
+// fuzz/fuzz_dicom, seed found-abort-meta-truncated-ebd7dc42): such a file is refused as damaged
+// before GDCM reads it, naming the file.
+TEST_F(DicomSeriesRefusal, AFileEndingInsideItsMetaGroupIsDamaged) {
+  std::string bytes;
+  {
+    std::ifstream in(path(2), std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  ASSERT_EQ(bytes.compare(128, 8, std::string("DICM\x02\x00\x00\x00", 8)), 0);
+  const auto groupLength = static_cast<std::size_t>(static_cast<unsigned char>(bytes[140])) |
+                           static_cast<std::size_t>(static_cast<unsigned char>(bytes[141])) << 8;
+  const std::size_t metaEnd = 144 + groupLength;
+  ASSERT_LT(metaEnd + 3, bytes.size());
+  for (const std::size_t keep : {metaEnd + 3, metaEnd, std::size_t{154}}) {
+    std::ofstream(path(2), std::ios::binary | std::ios::trunc) << bytes.substr(0, keep);
+    const std::string message = refusal(path(2));
+    EXPECT_CONTAINS(message, fileName(2) + ": is a damaged DICOM file: ");
+    EXPECT_CONTAINS(message, keep == 154 ? "element (0002,0001) at byte 144: the file ends inside"
+                                         : "inside its file meta group");
+  }
+  EXPECT_CONTAINS(refusal(folder_), "missing");  // in the series: that slice is skipped
+}
+
 TEST_F(DicomSeriesRefusal, MultiFrame) {
   editString(path(2), 0x0028, 0x0008, gdcm::VR::IS, "2");
   const std::string message = refusal(folder_);

@@ -14,7 +14,6 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
-#include <regex>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -24,6 +23,13 @@ namespace {
 
 namespace fs = std::filesystem;
 using test::runEchoreg;
+
+// A sweep point's id: "p-" and twelve lower-case hex digits. (Checked by hand: GCC 12's
+// -Wmaybe-uninitialized misfires inside <regex> under -fsanitize=address at -O2.)
+bool isPointId(const std::string& id) {
+  return id.size() == 14 && id.compare(0, 2, "p-") == 0 &&
+         id.find_first_not_of("0123456789abcdef", 2) == std::string::npos;
+}
 
 std::string bytesOf(const fs::path& path) {
   std::ifstream in(path, std::ios::binary);
@@ -73,7 +79,7 @@ TEST(StudySweep, DetectionSweepRunsInShardsResumesAndGivesTheSameBytes) {
   EXPECT_EQ(plan["points"][1]["parameters"]["detect.cutoff"], 0.02);
   EXPECT_TRUE(plan["studies"].empty());
   const std::string first = plan["points"][0]["id"], second = plan["points"][1]["id"];
-  EXPECT_TRUE(std::regex_match(first, std::regex("p-[0-9a-f]{12}"))) << first;
+  EXPECT_TRUE(isPointId(first)) << first;
   EXPECT_NE(first, second);
   EXPECT_FALSE(fs::exists(out));
 
