@@ -109,11 +109,20 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   const StudyFolder inside(studyDir);
   // The calibration sessions (Table 5.2): the manifest's list, else its one pair. A session's
   // capture missing is said before anything is written, naming the session.
+  // The pivot comes first, as its step does; a manifest without a list of sessions names its
+  // one pair by its keys.
+  const auto requirePresent = [&](const std::string& file, const char* key) {
+    if (!file.empty() && !fs::exists(file))
+      throw FileError(file, fmt::format("is missing ({} in {})", key, manifest.path));
+  };
+  requirePresent(manifest.calibration.pivotCapture, "calibration.pivot_capture");
   std::vector<ManifestCalibrationSession> sessions = manifest.calibration.sessions;
   if (sessions.empty()) {
     sessions.push_back(
         {manifest.require(manifest.calibration.sphereCapture, "calibration.sphere_capture"),
          manifest.require(manifest.calibration.capture, "calibration.capture")});
+    requirePresent(sessions.front().sphereCapture, "calibration.sphere_capture");
+    requirePresent(sessions.front().capture, "calibration.capture");
   }
   for (std::size_t k = 0; k < sessions.size(); ++k) {
     for (const auto& [file, key] : {std::pair{sessions[k].sphereCapture, "sphere_capture"},
