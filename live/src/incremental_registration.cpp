@@ -94,21 +94,14 @@ void IncrementalRegistration::runOnce(const std::vector<core::SurfacePoint>& poi
 void IncrementalRegistration::work() {
   using Clock = std::chrono::steady_clock;
   Clock::time_point lastStart = Clock::now() - std::chrono::hours(1);
-  const auto interval = std::chrono::duration_cast<Clock::duration>(minInterval_);
-  const auto fresh = [&] { return points_.size() >= minPoints_ && points_.size() != usedPoints_; };
   std::unique_lock<std::mutex> lock(mutex_);
   while (true) {
-    // Sleep until there are new points (addPoint wakes us), then until the rate allows the next
-    // run: exactly then, not at the next tick of a poll (polling every 20 ms stretched the
-    // interval of 100 ms to 100-120 ms, 8 updates a second at --update-hz 10).
-    wake_.wait(lock, [&] { return stop_ || fresh(); });
+    wake_.wait_for(lock, std::chrono::milliseconds(20), [&] { return stop_; });
     if (stop_)
       return;
-    const Clock::time_point due = lastStart + interval;
-    if (Clock::now() < due) {
-      wake_.wait_until(lock, due, [&] { return stop_; });
-      if (stop_)
-        return;
+    if (points_.size() < minPoints_ || points_.size() == usedPoints_ ||
+        Clock::now() - lastStart < minInterval_) {
+      continue;
     }
     const std::vector<core::SurfacePoint> points = points_;
     lock.unlock();
