@@ -169,6 +169,7 @@ class LiveSession {
   // `waited`: the frames waited for the chain's adaptation (their latency is not the chain's).
   void onDecided(const std::vector<live::LiveFrame>& frames, bool waited);
   void sendResults();
+  void sendUpdate(std::optional<live::RegistrationUpdate> update);
   // After a disconnect: connects again (--connect) or waits for a client (--listen) with a
   // growing pause (0.1 s doubling up to 2 s) until --reconnect seconds have passed; false when it
   // gave up, was interrupted or --duration passed.
@@ -388,7 +389,10 @@ void LiveSession::onMessage(const live::Message& message, Clock::time_point arri
 }
 
 void LiveSession::sendResults() {
-  std::optional<live::RegistrationUpdate> update = registration_->take();
+  sendUpdate(registration_->take());
+}
+
+void LiveSession::sendUpdate(std::optional<live::RegistrationUpdate> update) {
   if (!update)
     return;
   ++updates_;
@@ -638,12 +642,18 @@ int LiveSession::run() {
   if (detector_)
     onDecided(detector_->flush(), true);
   connection_.reset();  // the server's graceful close waits for it
-  results_.reset();
-  // The live registration on every point received (the stream may have ended between updates).
+  // The live registration on every point received (the stream may have ended between updates),
+  // sent to a results' receiver (--send-to) that is still there: its last FemurToCT is the
+  // session's result, not whichever update last converged while the stream ran.
   if (std::optional<live::RegistrationUpdate> update = registration_->finish()) {
-    ++updates_;
-    last_ = std::move(update);
+    if (results_) {
+      sendUpdate(std::move(update));
+    } else {
+      ++updates_;
+      last_ = std::move(update);
+    }
   }
+  results_.reset();
   progress(true);
   for (const auto& [problem, count] : problems_)
     note(fmt::format("{} message(s) skipped: {}", count, problem));
