@@ -5,6 +5,7 @@
 #include "study_checks.hpp"
 
 #include "cli_test_support.hpp"
+#include "file_bytes.hpp"
 #include "test_support.hpp"
 
 #include "echoreg/simulation/study.hpp"
@@ -24,12 +25,8 @@ namespace echoreg::simulation {
 namespace {
 
 namespace fs = std::filesystem;
+using test::fileBytes;
 using test::runEchoreg;
-
-std::string fileBytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
 
 // The report's Table 5.2 section: from its heading to the next heading.
 std::string table52Section(const std::string& report) {

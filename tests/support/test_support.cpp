@@ -1,9 +1,13 @@
 #include "test_support.hpp"
 
+#include "file_bytes.hpp"
+
 #include <unistd.h>
 #include <atomic>
 #include <cstdlib>
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 
 namespace echoreg::test {
 
@@ -13,6 +17,11 @@ std::string sharedDataDir() {
   std::error_code ec;
   const fs::path dir(ECHOREG_SHARED_DATA_DIR);
   return fs::is_directory(dir, ec) ? fs::canonical(dir, ec).string() : std::string();
+}
+
+std::string fileBytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
 std::string sharedDataFile(const std::string& relativePath) {
