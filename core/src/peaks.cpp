@@ -158,6 +158,12 @@ double noiseFloorOf(const float* envelope, int count, std::vector<float>& scratc
 // the envelope of noise exceeds 5 times its median with a probability of about e^-17.
 constexpr double kQuietEchoFactor = 5.0;
 
+// Two medians of the same noise, over regions before and behind an echo, differ by some per cent
+// (the envelope's samples are correlated over a pulse, so a region holds few independent ones):
+// behind an echo in water up to this factor above the water before it is still "no louder".
+// Strictly no louder (1.0) turned bone in water away on more than half of its records.
+constexpr double kQuietMedianSpread = 1.15;
+
 // An air train's earlier bounce is at least this share of the next one (see isAirTrain): the
 // bounces weaken, but those nearest the face ride on the burst's tail and vary.
 constexpr float kEarlierBounce = 0.7F;
@@ -523,13 +529,13 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     const auto isShadow = [&](int from, int to) {
       const double behind = medianOf(envelope, count, from, to, scratch);
       // Behind the echo half the tissue before it, or as quiet as the record's quietest stretch
-      // (and no louder than before it) with the echo far above that: bone in water, and deep
-      // bone whose tissue is at the digitiser's noise, are as quiet before as behind. The level
-      // is computed only when before >= behind.
-      return behind >= 0.0 &&
-             (before >= e.shadowRatio * std::max(behind, tiny) ||
-              (before * (1.0 + 1e-9) >= behind && behind <= e.shadowNoiseFactor * quietLevel() &&
-               c.value >= kQuietEchoFactor * quietLevel()));
+      // (and no louder than before it, within kQuietMedianSpread) with the echo far above that:
+      // bone in water, and deep bone whose tissue is at the digitiser's noise, are as quiet
+      // before as behind. The level is computed only when the first test passes.
+      return behind >= 0.0 && (before >= e.shadowRatio * std::max(behind, tiny) ||
+                               (before * kQuietMedianSpread >= behind &&
+                                behind <= e.shadowNoiseFactor * quietLevel() &&
+                                c.value >= kQuietEchoFactor * quietLevel()));
     };
     // A shadow needs room behind the echo to be seen.
     c.contrast = before >= 0.0 ? c.value / std::max(before, tiny) : 1e9;

@@ -323,6 +323,30 @@ TEST(ProminencePolicy, AShadowAtTheDigitisersNoiseIsAShadow) {
   EXPECT_LE(count(params, true), 3);
 }
 
+// Bone in a water tank: one echo in the electronic noise, nothing before or behind it. The
+// medians of that noise before and behind the echo differ by some per cent either way, so a
+// shadow that had to be strictly no louder than the water before it was seen in 78 of these 200
+// records; 124 now. The rest fail the other half of the quiet-level test (behind within 1.2 x
+// the lower quartile of the record's 1 mm medians, which pure noise often exceeds): loosening
+// that too cost false positives on the labelled sets (docs/detection.md, stop 23).
+TEST(ProminencePolicy, BoneInWaterIsBoneWhicheverSideOfItsEchoTheNoiseIsLouder) {
+  test::PulseModel pulse;  // 9 MHz at 50 MHz
+  DetectionParams params = detectionPreset("default");
+  params.peaks.prominence.shadow = ShadowRule::Auto;
+  params.peaks.ringDownEnd = 100;
+  SignalDetector detector(params);
+  int accepted = 0;
+  int elsewhere = 0;
+  for (std::uint64_t seed = 1; seed <= 200; ++seed) {
+    const auto x = test::makeEchoRecord(4096, {{2000.0, 30.0}}, pulse, 0.0, 1.0, seed);
+    const SignalDetection d = detector.detect(x.data(), 4096);
+    if (d.accepted())
+      ++(std::fabs(d.peaks.sampleIndex - 2000.0) < 3.0 ? accepted : elsewhere);
+  }
+  EXPECT_GE(accepted, 110) << "of 200";
+  EXPECT_EQ(elsewhere, 0);
+}
+
 TEST(ProminencePolicy, TheInnerCortexBehindBoneIsNotTheBone) {
   // Bone at 1000 whose cortex rings for 1.5 mm and whose inner surface echoes a third as strong
   // behind that (at 1110), the shadow after it: the ringing hides bone's shadow, the inner echo
