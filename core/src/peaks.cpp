@@ -164,6 +164,11 @@ constexpr double kQuietEchoFactor = 5.0;
 // Strictly no louder (1.0) turned bone in water away on more than half of its records.
 constexpr double kQuietMedianSpread = 1.15;
 
+// A wall has water before it, as quiet as the record's quietest stretch (at most this many times
+// its level); bone under skin in vivo has the tissue's speckle before it, and the cortex's
+// reverberation behind it steps up just as a wall's tissue does.
+constexpr double kWaterBeforeWall = 2.0;
+
 // An air train's earlier bounce is at least this share of the next one (see isAirTrain): the
 // bounces weaken, but those nearest the face ride on the burst's tail and vary.
 constexpr float kEarlierBounce = 0.7F;
@@ -514,7 +519,8 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     // Bone whose cortex rings keeps the envelope above half its echo behind it; the speckle
     // behind a wall stays well below the wall's echo.
     const bool wall = before >= 0.0 && left - gap - ringDown >= region / 2 &&
-                      after >= e.wallStep * std::max(before, tiny) && after < 0.4 * c.value;
+                      after >= e.wallStep * std::max(before, tiny) && after < 0.4 * c.value &&
+                      before <= kWaterBeforeWall * quietLevel();
     if (wall) {
       continue;
     }
