@@ -737,7 +737,7 @@ int LiveSession::run() {
       gathered.poseNotes.lines.push_back(*line);
   }
   checkRegistrationPoints(final, gathered.points);
-  const int code = solveAndWrite(final, model_, start_, gathered, io_);
+  const int code = solveAndWrite(final, model_, start_, gathered, io_, "live");
   return failure.empty() ? code : 1;
 }
 
