@@ -110,9 +110,11 @@ std::uint64_t deflateParallel(std::uint64_t totalBytes, const DeflateReader& rea
         "deflateParallel: a block must be more than 32 KiB and at most 1 GiB");
   const std::size_t blocks = std::max<std::size_t>(
       1, static_cast<std::size_t>((totalBytes + options.blockBytes - 1) / options.blockBytes));
+  // At most 8 threads by default: beyond that the disk, not deflate, sets the pace of a
+  // recording's end, and every thread holds about 12 MiB.
   const int threads = options.threads > 0
                           ? options.threads
-                          : std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+                          : std::clamp(static_cast<int>(std::thread::hardware_concurrency()), 1, 8);
 
   // zlib's header for a 32 KiB window at this level (FLEVEL as deflate sets it), then the blocks,
   // then the Adler-32 of all the input, big-endian.
