@@ -5,7 +5,8 @@
 // read) to its point's POINT message sent (median, 99th percentile; frames that waited for the
 // chain's adaptation excluded), the time from arrival to every frame's verdict, and the frames per
 // second the session took in while the stream lasted (the final write and registration after it
-// are not counted).
+// are not counted), and the registration's rate: the worker's runs, timed from the first run's
+// start to the last's (registration_hz; --update-hz caps it).
 //
 //   bench_live [--benchmark_filter=Recorded]
 //   bench_live --soak-seconds=600 [--soak-rate=3000] [--soak-report-every=10]
@@ -110,6 +111,10 @@ void session(benchmark::State& state, const std::string& rate) {
     state.counters["decision_median_ms"] = s.at("decision_latency_ms").at("median").get<double>();
     state.counters["decision_p99_ms"] = s.at("decision_latency_ms").at("p99").get<double>();
     state.counters["registration_updates"] = s.at("registration_updates").get<double>();
+    // The worker's runs while points came and their rate, from the first run's start to the
+    // last's (not diluted by the time before --min-points points had come).
+    state.counters["registration_runs"] = s.at("registration_runs").get<double>();
+    state.counters["registration_hz"] = s.at("registration_rate_hz").get<double>();
   }
 }
 

@@ -57,7 +57,7 @@ struct LiveOptions {
   std::string pose = "ProbeToTracker";
   double poseToleranceS = 0.1;
   int minPoints = 30;
-  double updateHz = 10.0;
+  double updateHz = 20.0;
   int adaptFrames = 64;
   double durationS = 0.0;
   double idleTimeoutS = 30.0;
@@ -436,6 +436,9 @@ nlohmann::json LiveSession::summary() const {
   for (const auto& [reason, count] : reasons_)
     reasons[reason] = count;
   const double seconds = std::chrono::duration<double>(Clock::now() - started_).count();
+  // The worker's runs while points came (not the last one on every point after the stream) and
+  // their rate from the first run's start to the last's.
+  const live::WorkerRate rate = registration_->workerRate();
   nlohmann::json json = {{"record", o_.record},
                          {"frames", frames_},
                          {"accepted", accepted_},
@@ -455,6 +458,9 @@ nlohmann::json LiveSession::summary() const {
                            {"p99", decisionLatencies_.at(0.99)},
                            {"max", decisionLatencies_.at(1.0)}}},
                          {"registration_updates", updates_},
+                         {"registration_runs", rate.runs},
+                         {"registration_rate_hz", rate.hz},
+                         {"registration_longest_fit_s", rate.longestFitS},
                          {"reconnections", reconnections_},
                          {"disconnected_seconds", disconnectedSeconds_},
                          {"seconds", seconds},
@@ -731,7 +737,7 @@ int LiveSession::run() {
       gathered.poseNotes.lines.push_back(*line);
   }
   checkRegistrationPoints(final, gathered.points);
-  const int code = solveAndWrite(final, model_, start_, gathered, io_);
+  const int code = solveAndWrite(final, model_, start_, gathered, io_, "live");
   return failure.empty() ? code : 1;
 }
 
@@ -824,7 +830,10 @@ CommandAction addLiveCommand(CLI::App& app) {
       ->capture_default_str()
       ->check(wholeNumber(3, 100000000))
       ->group("Live");
-  cmd->add_option("--update-hz", o->updateHz, "Most registration updates per second")
+  cmd->add_option("--update-hz", o->updateHz,
+                  "Most registration updates per second while points come (each update starts "
+                  "1/this after the previous one's start; a fit that takes longer is followed "
+                  "at once by the next)")
       ->capture_default_str()
       ->check(finiteNumber(0.0, false))
       ->group("Live");

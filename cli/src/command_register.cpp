@@ -588,7 +588,7 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
 
 int solveAndWrite(const RegisterOptions& o, const RegistrationModel& loaded,
                   const RegistrationStart& start, const RegistrationPoints& gathered,
-                  const Streams& io) {
+                  const Streams& io, const std::string& command) {
   const std::vector<core::SurfacePoint>& points = gathered.points;
   const core::SurfaceRegistrationOptions& options = loaded.options;
   const PoseNotes& poseNotes = gathered.poseNotes;
@@ -678,12 +678,11 @@ int solveAndWrite(const RegisterOptions& o, const RegistrationModel& loaded,
         r.speedOfSoundScale, r.iterations, r.starts, r.converged ? "" : ", NOT CONVERGED");
   }
   for (const std::string& warning : warnings)
-    io.err << "echoreg register: warning: " << warning << "\n";
-  poseNotes.print(io.err, "register");
+    io.err << "echoreg " << command << ": warning: " << warning << "\n";
+  poseNotes.print(io.err, command);
   if (!r.converged) {
-    io.err << fmt::format(
-        "echoreg register: {}: not converged: {} (written with \"converged\": false)\n", o.out,
-        r.message);
+    io.err << fmt::format("echoreg {}: {}: not converged: {} (written with \"converged\": false)\n",
+                          command, o.out, r.message);
     return 1;
   }
   return 0;

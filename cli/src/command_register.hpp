@@ -113,10 +113,11 @@ void checkRegistrationPoints(const RegisterOptions& options,
 /// start's report) and its .tfm written, the summary on io.out and the warnings on io.err;
 /// returns 1 when it did not converge. `live`
 /// calls it with the points it detected while the A-lines came, so the end of a session writes
-/// register's files without reading its recording again.
+/// register's files without reading its recording again. `command` names the command in the
+/// messages on io.err ("echoreg live: warning: ...").
 int solveAndWrite(const RegisterOptions& options, const RegistrationModel& model,
                   const RegistrationStart& start, const RegistrationPoints& points,
-                  const Streams& io);
+                  const Streams& io, const std::string& command = "register");
 /// Runs the registration and writes its <Bone>ToCT JSON and .tfm; returns the exit code (1 when
 /// it did not converge). With `shared`, each capture's detection is taken from (or run into) it.
 /// Throws for bad input as the command does.

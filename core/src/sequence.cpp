@@ -4,6 +4,7 @@
 
 #include "echoreg/core/depth.hpp"
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/parallel_deflate.hpp"
 #include "sequence_io_detail.hpp"
 
 #define ZLIB_CONST
@@ -968,6 +969,24 @@ void checkExtraHeader(const Sequence& sequence) {
 
 std::vector<std::uint8_t> compressBytes(const std::vector<std::uint8_t>& bytes,
                                         Compression compression) {
+  if (compression == Compression::Zlib) {
+    // One zlib stream compressed on every core (parallel_deflate.hpp): the same bytes as one
+    // thread's deflate for pixels up to one block (4 MiB), and the same bytes on any machine.
+    std::vector<std::uint8_t> out;
+    out.reserve(bytes.size() / 2 + 64);
+    core::ParallelDeflateOptions options;
+    options.level = kCompressionLevel;
+    core::deflateParallel(
+        bytes.size(),
+        [&bytes](std::uint64_t offset, std::uint8_t* to, std::size_t count) {
+          std::memcpy(to, bytes.data() + offset, count);
+        },
+        [&out](const std::uint8_t* data, std::size_t count) {
+          out.insert(out.end(), data, data + count);
+        },
+        options);
+    return out;
+  }
   z_stream zs{};
   // windowBits 15 + 16 asks for a gzip wrapper; its header has no name and mtime 0, so the same
   // bytes always compress to the same file.

@@ -2,6 +2,7 @@
 
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/parallel_deflate.hpp"
 
 #include <fmt/format.h>
 #include <zlib.h>
@@ -88,37 +89,28 @@ void copyRange(int fd, const std::string& path, std::uint64_t begin, std::uint64
 }
 
 // zlib-compresses the whole of `fd` into `outFd` as writeSequence compresses a capture's pixels
-// (one stream, level 1, window bits 15, memory level 8, default strategy: the same bytes as
-// core's one-shot compression). Returns the compressed size.
+// (core::deflateParallel: one zlib stream at level 1 deflated in blocks on every core, the same
+// bytes as writeSequence's). Returns the compressed size.
 std::uint64_t deflateFile(int fd, const std::string& path, int outFd, const std::string& outPath) {
-  z_stream zs{};
-  if (deflateInit2(&zs, Z_BEST_SPEED, Z_DEFLATED, 15, 8, Z_DEFAULT_STRATEGY) != Z_OK)
-    throw std::runtime_error("the recording: zlib cannot start compressing");
-  struct DeflateEnd {
-    z_stream& zs;
-    ~DeflateEnd() { deflateEnd(&zs); }
-  } guard{zs};
-  std::vector<std::uint8_t> in(kChunkBytes), out(kChunkBytes);
-  std::uint64_t offset = 0, produced = 0;
-  bool last = false;
-  for (int status = Z_OK; status != Z_STREAM_END;) {
-    if (zs.avail_in == 0 && !last) {
-      const std::size_t got = readAt(fd, path, in.data(), in.size(), offset);
-      offset += got;
-      last = got == 0;
-      zs.next_in = in.data();
-      zs.avail_in = static_cast<uInt>(got);
-    }
-    zs.next_out = out.data();
-    zs.avail_out = static_cast<uInt>(out.size());
-    status = deflate(&zs, last ? Z_FINISH : Z_NO_FLUSH);
-    if (status != Z_OK && status != Z_STREAM_END && status != Z_BUF_ERROR)
-      throw std::runtime_error("the recording: zlib compression failed");
-    const std::size_t bytes = out.size() - zs.avail_out;
-    writeAll(outFd, outPath, out.data(), bytes);
-    produced += bytes;
-  }
-  return produced;
+  const off_t size = ::lseek(fd, 0, SEEK_END);
+  if (size < 0)
+    throw FileError(path, "cannot be read back: " + systemError());
+  core::ParallelDeflateOptions options;
+  options.level = Z_BEST_SPEED;
+  return core::deflateParallel(
+      static_cast<std::uint64_t>(size),
+      [&](std::uint64_t offset, std::uint8_t* out, std::size_t bytes) {
+        while (bytes > 0) {
+          const std::size_t got = readAt(fd, path, out, bytes, offset);
+          if (got == 0)
+            throw FileError(path, "ended early while it was compressed into the recording");
+          out += got;
+          offset += got;
+          bytes -= got;
+        }
+      },
+      [&](const std::uint8_t* data, std::size_t bytes) { writeAll(outFd, outPath, data, bytes); },
+      options);
 }
 
 bool isMha(const std::string& path) {

@@ -1,5 +1,6 @@
 #include "echoreg/live/incremental_registration.hpp"
 
+#include <algorithm>
 #include <stdexcept>
 #include <utility>
 
@@ -72,6 +73,7 @@ void IncrementalRegistration::runOnce(const std::vector<core::SurfacePoint>& poi
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
   RegistrationUpdate update;
+  update.started = start;
   std::string problem;
   try {
     update.result = model_.registerPoints(points, landmarks_, options_);
@@ -81,8 +83,10 @@ void IncrementalRegistration::runOnce(const std::vector<core::SurfacePoint>& poi
   } catch (const std::exception& e) {
     problem = e.what();
   }
+  const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   std::lock_guard<std::mutex> lock(mutex_);
   usedPoints_ = points.size();
+  longestFitS_ = std::max(longestFitS_, seconds);
   if (!problem.empty()) {
     problem_ = problem;
     return;
@@ -94,21 +98,44 @@ void IncrementalRegistration::runOnce(const std::vector<core::SurfacePoint>& poi
 void IncrementalRegistration::work() {
   using Clock = std::chrono::steady_clock;
   Clock::time_point lastStart = Clock::now() - std::chrono::hours(1);
+  const auto interval = std::chrono::duration_cast<Clock::duration>(minInterval_);
+  const auto fresh = [&] { return points_.size() >= minPoints_ && points_.size() != usedPoints_; };
   std::unique_lock<std::mutex> lock(mutex_);
   while (true) {
-    wake_.wait_for(lock, std::chrono::milliseconds(20), [&] { return stop_; });
+    // Sleep until there are new points (addPoint wakes us), then until the rate allows the next
+    // run: exactly then, not at the next tick of a poll (polling every 20 ms stretched an interval
+    // of 25 ms to 40 ms). A fit that takes longer than the interval is followed at once by the
+    // next one (back to back) while points keep coming.
+    wake_.wait(lock, [&] { return stop_ || fresh(); });
     if (stop_)
       return;
-    if (points_.size() < minPoints_ || points_.size() == usedPoints_ ||
-        Clock::now() - lastStart < minInterval_) {
-      continue;
+    const Clock::time_point due = lastStart + interval;
+    if (Clock::now() < due) {
+      wake_.wait_until(lock, due, [&] { return stop_; });
+      if (stop_)
+        return;
     }
     const std::vector<core::SurfacePoint> points = points_;
-    lock.unlock();
     lastStart = Clock::now();
+    if (workerRuns_ == 0)
+      firstWorkerStart_ = lastStart;
+    lastWorkerStart_ = lastStart;
+    ++workerRuns_;
+    lock.unlock();
     runOnce(points);
     lock.lock();
   }
+}
+
+WorkerRate IncrementalRegistration::workerRate() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  WorkerRate rate;
+  rate.runs = workerRuns_;
+  rate.firstToLastS = std::chrono::duration<double>(lastWorkerStart_ - firstWorkerStart_).count();
+  rate.longestFitS = longestFitS_;
+  if (workerRuns_ >= 2 && rate.firstToLastS > 0.0)
+    rate.hz = static_cast<double>(workerRuns_ - 1) / rate.firstToLastS;
+  return rate;
 }
 
 }  // namespace echoreg::live

@@ -95,7 +95,9 @@ TEST(Live, ServedFemurSweepRegistersAsRegisterDoes) {
             << session.at("accepted") << " echoes accepted live, latency median "
             << session.at("latency_ms").at("median") << " ms, p99 "
             << session.at("latency_ms").at("p99") << " ms, " << session.at("registration_updates")
-            << " updates\n";
+            << " updates (" << session.at("registration_runs") << " while the points came, "
+            << session.at("registration_rate_hz") << " Hz), the longest fit "
+            << session.at("registration_longest_fit_s") << " s\n";
   EXPECT_LT(kneeMm, 0.01);
   EXPECT_LT(angleDeg, 0.01);
   EXPECT_EQ(a.extra.at("points_used"), b.extra.at("points_used"));

@@ -1,12 +1,14 @@
 // The surface registration refined while points arrive: a worker thread runs the core's
 // SurfaceRegistration::registerPoints (the solver of `echoreg register`) on a copy of the points
 // once `minPoints` have come, then again whenever new points have come, at most `maxRateHz` times
-// a second. Every run starts from the session's start (an initial pose, or the landmarks, with the
-// options as `register` builds them), not from the previous result: a first fit on a small patch
-// of bone can slide to a wrong pose, and starting from it would keep the error (measured on the
-// simulated femur sweep: a first fit on the sweep's first points ended 24 mm off at the knee and
-// the refinements from it did not recover; every run from the landmarks, the last on all 100
-// points, matches register). The last run on all points is register's fit on the same points.
+// a second: a run starts when new points are there and 1/maxRateHz has passed since the previous
+// run's start (back to back when a fit takes longer than that). Every run starts from the session's
+// start (an initial pose, or the landmarks, with the options as `register` builds them), not from
+// the previous result: a first fit on a small patch of bone can slide to a wrong pose, and starting
+// from it would keep the error (measured on the simulated femur sweep: a first fit on the sweep's
+// first points ended 24 mm off at the knee and the refinements from it did not recover; every run
+// from the landmarks, the last on all 100 points, matches register). The last run on all points is
+// register's fit on the same points.
 #pragma once
 
 #include "echoreg/core/surface_registration.hpp"
@@ -24,9 +26,19 @@ namespace echoreg::live {
 
 struct RegistrationUpdate {
   core::SurfaceRegistrationResult result;
-  std::size_t points = 0;  ///< points the run used
-  int run = 0;             ///< 1 for the first run
-  double seconds = 0.0;    ///< the run's duration
+  std::size_t points = 0;                         ///< points the run used
+  int run = 0;                                    ///< 1 for the first run
+  double seconds = 0.0;                           ///< the run's duration
+  std::chrono::steady_clock::time_point started;  ///< when the run started
+};
+
+/// How often the worker ran: its runs (finish()'s last one not counted) and their rate, timed from
+/// the first run's start to the last's: (runs - 1) / firstToLastS, 0 with fewer than 2 runs.
+struct WorkerRate {
+  int runs = 0;
+  double firstToLastS = 0.0;
+  double hz = 0.0;
+  double longestFitS = 0.0;  ///< the longest run (the worker's or finish()'s), seconds
 };
 
 class IncrementalRegistration {
@@ -50,6 +62,8 @@ class IncrementalRegistration {
   std::optional<RegistrationUpdate> take();
   /// Runs done so far.
   int runs() const { return runs_.load(); }
+  /// The worker's runs so far and their rate (each run started, whether or not its fit threw).
+  WorkerRate workerRate() const;
   /// The problem of the last run that threw ("" when none), e.g. too few points.
   std::string problem() const;
 
@@ -71,6 +85,9 @@ class IncrementalRegistration {
   std::string problem_;
   std::size_t usedPoints_ = 0;
   bool stop_ = false;
+  int workerRuns_ = 0;
+  double longestFitS_ = 0.0;
+  std::chrono::steady_clock::time_point firstWorkerStart_, lastWorkerStart_;
   std::atomic<int> runs_{0};
   std::thread worker_;
 };
