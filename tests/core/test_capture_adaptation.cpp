@@ -201,6 +201,15 @@ TEST(ProminencePolicy, UncoupledProbeIsNotBone) {
 
 // Scatterers of tissue: an echo every `step` samples in [from, to), each of a random amplitude in
 // [low, high).
+// The default with each record judged by its own signature (the shadow rule a capture without
+// shadows gets) and a ring-down over the first 100 samples.
+DetectionParams perRecordRule() {
+  DetectionParams params = detectionPreset("default");
+  params.peaks.prominence.shadow = ShadowRule::Auto;
+  params.peaks.ringDownEnd = 100;
+  return params;
+}
+
 void addSpeckle(std::vector<test::EchoSpec>& echoes, double from, double to, double step,
                 double low, double high, std::mt19937_64& random) {
   std::uniform_real_distribution<double> amplitude(low, high);
@@ -229,9 +238,7 @@ std::vector<float> fasciaOverRingingBone(std::uint64_t seed) {
 }
 
 TEST(ProminencePolicy, EvenlySpacedEchoesUnderTissueAreNoAirTrain) {
-  DetectionParams params = detectionPreset("default");
-  params.peaks.prominence.shadow = ShadowRule::Auto;
-  params.peaks.ringDownEnd = 100;
+  DetectionParams params = perRecordRule();
   SignalDetector detector(params);
   for (std::uint64_t seed = 1; seed <= 5; ++seed) {
     const auto x = fasciaOverRingingBone(seed);
@@ -276,9 +283,7 @@ TEST(ProminencePolicy, NothingBehindBoneIsStrongerThanBone) {
   addSpeckle(echoes, 745.0, 3500.0, 9.0, 3.0, 6.0, random);   // muscle
   echoes.push_back({2000.0, 100.0});
   const auto x = test::makeEchoRecord(4096, echoes, pulse, 0.0, 0.3, 11);
-  DetectionParams params = detectionPreset("default");
-  params.peaks.prominence.shadow = ShadowRule::Auto;
-  params.peaks.ringDownEnd = 100;
+  DetectionParams params = perRecordRule();
   SignalDetector detector(params);
   const SignalDetection d = detector.detect(x.data(), 4096);
   EXPECT_FALSE(d.accepted()) << "accepted at sample " << d.peaks.sampleIndex;
@@ -304,9 +309,7 @@ std::vector<float> eightBitRecord(bool shadowBehind, std::uint64_t seed) {
 }
 
 TEST(ProminencePolicy, AShadowAtTheDigitisersNoiseIsAShadow) {
-  DetectionParams params = detectionPreset("default");
-  params.peaks.prominence.shadow = ShadowRule::Auto;  // each record by its own signature
-  params.peaks.ringDownEnd = 100;
+  DetectionParams params = perRecordRule();
   const auto count = [](const DetectionParams& p, bool shadowBehind) {
     SignalDetector detector(p);
     int accepted = 0;
@@ -331,9 +334,7 @@ TEST(ProminencePolicy, AShadowAtTheDigitisersNoiseIsAShadow) {
 // that too cost false positives on the labelled sets (docs/detection.md, stop 23).
 TEST(ProminencePolicy, BoneInWaterIsBoneWhicheverSideOfItsEchoTheNoiseIsLouder) {
   test::PulseModel pulse;  // 9 MHz at 50 MHz
-  DetectionParams params = detectionPreset("default");
-  params.peaks.prominence.shadow = ShadowRule::Auto;
-  params.peaks.ringDownEnd = 100;
+  DetectionParams params = perRecordRule();
   SignalDetector detector(params);
   int accepted = 0;
   int elsewhere = 0;
@@ -369,9 +370,7 @@ std::vector<float> shallowRingingBone(bool waterBefore, std::uint64_t seed) {
 }
 
 TEST(ProminencePolicy, ShallowBoneWithTissueBeforeItIsNoWall) {
-  DetectionParams params = detectionPreset("default");
-  params.peaks.prominence.shadow = ShadowRule::Auto;
-  params.peaks.ringDownEnd = 100;
+  DetectionParams params = perRecordRule();
   SignalDetector detector(params);
   for (std::uint64_t seed = 1; seed <= 10; ++seed) {
     const SignalDetection bone = detector.detect(shallowRingingBone(false, seed).data(), 4096);
