@@ -124,12 +124,14 @@ std::map<std::string, DetectionPipeline::Executions> DetectionPipeline::executio
 void DetectionPipeline::update() {
   const int envelopes = envelope->GetExecutionCount();
   const int detections = peaks->GetExecutionCount();
+  const vtkIdType frames = envelope->GetFramesComputed();
   const int updated = interSignal->GetExecutive()->Update();
   {
     const std::lock_guard<std::mutex> lock(executionsMutex);
     Executions& executions = executionsTally()[capturePath_];
     executions.envelope += envelope->GetExecutionCount() - envelopes;
     executions.peaks += peaks->GetExecutionCount() - detections;
+    executions.envelopeFrames += envelope->GetFramesComputed() - frames;
   }
   if (updated != 1)
     throwFirstError(capturePath_ + ": the detection pipeline failed");

@@ -1,6 +1,8 @@
 // Execution counts per command (issue 14): each command that detects runs its captures through the
-// VTK pipeline (filters::DetectionPipeline), and runs each capture's envelope and peak filters
-// once. The counts are the filters' own (RequestData), tallied by capture by the pipeline.
+// VTK pipeline (filters::DetectionPipeline), and runs each capture's peak filter once and computes
+// each frame's envelope once (`detect` streams the capture in blocks, one envelope execution per
+// block; the others envelope the whole capture in one execution). The counts are the filters' own
+// (RequestData, frames enveloped), tallied by capture by the pipeline.
 #include "cli_test_support.hpp"
 #include "study_checks.hpp"
 #include "test_support.hpp"
@@ -12,6 +14,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <string>
 
@@ -32,6 +35,7 @@ std::map<std::string, DetectionPipeline::Executions> executionsSince(
     if (was != before.end()) {
       delta.envelope -= was->second.envelope;
       delta.peaks -= was->second.peaks;
+      delta.envelopeFrames -= was->second.envelopeFrames;
     }
     if (delta.envelope != 0 || delta.peaks != 0)
       since[capture] = delta;
@@ -39,16 +43,34 @@ std::map<std::string, DetectionPipeline::Executions> executionsSince(
   return since;
 }
 
-// Expects exactly `captures` detected, each with one envelope and one peak execution.
+// Expects exactly `captures` detected, each with one peak execution, each frame enveloped once,
+// and `envelopes(frames)` envelope executions. Captures named relative to a study are read from
+// `folder`.
 void expectEachDetectedOnce(const std::map<std::string, DetectionPipeline::Executions>& since,
-                            const std::vector<std::string>& captures) {
+                            const std::vector<std::string>& captures,
+                            const std::function<int(long long)>& envelopes,
+                            const std::string& folder = "") {
   EXPECT_EQ(since.size(), captures.size());
   for (const std::string& capture : captures) {
     const auto found = since.find(capture);
     ASSERT_NE(found, since.end()) << capture << " was not detected through the pipeline";
-    EXPECT_EQ(found->second.envelope, 1) << capture << ": envelope filter executions";
+    const auto frames = static_cast<long long>(
+        readSequence(folder.empty() ? capture : folder + "/" + capture).frameCount());
+    EXPECT_EQ(found->second.envelopeFrames, frames) << capture << ": frames enveloped";
+    EXPECT_EQ(found->second.envelope, envelopes(frames)) << capture << ": envelope executions";
     EXPECT_EQ(found->second.peaks, 1) << capture << ": peak filter executions";
   }
+}
+
+// The whole capture in one envelope execution (register, calibrate, the study).
+int oneExecution(long long /*frames*/) {
+  return 1;
+}
+
+// One envelope execution per block of frames (detect).
+int oneExecutionPerBlock(long long frames) {
+  const long long block = DetectionPipeline::kStreamFramesPerBlock;
+  return static_cast<int>((frames + block - 1) / block);
 }
 
 class ExecutionCounts : public ::testing::Test {
@@ -71,7 +93,10 @@ TEST_F(ExecutionCounts, DetectRunsThePipelineOnce) {
   const auto before = DetectionPipeline::executionsByCapture();
   const test::CommandResult r = runEchoreg({"detect", sweep, "--out", dir_.file("d.csv")});
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  expectEachDetectedOnce(executionsSince(before), {sweep});
+  expectEachDetectedOnce(executionsSince(before), {sweep}, oneExecutionPerBlock);
+  ASSERT_GT(readSequence(sweep).frameCount(),
+            static_cast<std::size_t>(DetectionPipeline::kStreamFramesPerBlock))
+      << "the sweep should take more than one block";
 }
 
 TEST_F(ExecutionCounts, RegisterRunsThePipelineOncePerSweep) {
@@ -84,7 +109,7 @@ TEST_F(ExecutionCounts, RegisterRunsThePipelineOncePerSweep) {
   // (The sweep alone may leave the pose undetermined on some seeds: the detection ran all the
   // same.)
   ASSERT_TRUE(r.exitCode == 0 || r.err.find("not converged") != std::string::npos) << r.err;
-  expectEachDetectedOnce(executionsSince(before), {sweep});
+  expectEachDetectedOnce(executionsSince(before), {sweep}, oneExecution);
 }
 
 TEST_F(ExecutionCounts, CalibrateRunsThePipelineOnceOnItsShots) {
@@ -114,7 +139,7 @@ TEST_F(ExecutionCounts, CalibrateRunsThePipelineOnceOnItsShots) {
                                             "--out",
                                             dir_.file("c.json")});
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  expectEachDetectedOnce(executionsSince(before), {shots});
+  expectEachDetectedOnce(executionsSince(before), {shots}, oneExecution);
 }
 
 // The study: the calibration shots once, and each sweep once for both its points and its
@@ -140,7 +165,7 @@ TEST_F(ExecutionCounts, StudyRunDetectsEachSweepOnce) {
   }
   ASSERT_GE(captures.size(), 3U) << "the fixture's study has a sweep per bone";
   // The study runs inside its folder: the captures as the manifest names them.
-  expectEachDetectedOnce(executionsSince(before), captures);
+  expectEachDetectedOnce(executionsSince(before), captures, oneExecution, study);
 }
 
 }  // namespace
