@@ -4,9 +4,12 @@
 // block; the others envelope the whole capture in one execution). The counts are the filters' own
 // (RequestData, frames enveloped), tallied by capture by the pipeline.
 #include "cli_test_support.hpp"
+#include "file_bytes.hpp"
 #include "study_checks.hpp"
 #include "test_support.hpp"
 
+#include "command_figure.hpp"
+#include "csv_table.hpp"
 #include "echoreg/filters/DetectionPipeline.h"
 
 #include <gtest/gtest.h>
@@ -16,6 +19,7 @@
 #include <fstream>
 #include <functional>
 #include <map>
+#include <sstream>
 #include <string>
 
 namespace echoreg::simulation {
@@ -44,22 +48,35 @@ std::map<std::string, DetectionPipeline::Executions> executionsSince(
 }
 
 // Expects exactly `captures` detected, each with one peak execution, each frame enveloped once,
-// and `envelopes(frames)` envelope executions. Captures named relative to a study are read from
-// `folder`.
+// and `envelopes(frames)` envelope executions; `updates` names captures updated more often than
+// once (each update a peak execution and one envelope execution of every frame). Captures named
+// relative to a study are read from `folder`.
 void expectEachDetectedOnce(const std::map<std::string, DetectionPipeline::Executions>& since,
                             const std::vector<std::string>& captures,
                             const std::function<int(long long)>& envelopes,
-                            const std::string& folder = "") {
+                            const std::string& folder = "",
+                            const std::map<std::string, int>& updates = {}) {
   EXPECT_EQ(since.size(), captures.size());
   for (const std::string& capture : captures) {
     const auto found = since.find(capture);
     ASSERT_NE(found, since.end()) << capture << " was not detected through the pipeline";
     const auto frames = static_cast<long long>(
         readSequence(folder.empty() ? capture : folder + "/" + capture).frameCount());
-    EXPECT_EQ(found->second.envelopeFrames, frames) << capture << ": frames enveloped";
-    EXPECT_EQ(found->second.envelope, envelopes(frames)) << capture << ": envelope executions";
-    EXPECT_EQ(found->second.peaks, 1) << capture << ": peak filter executions";
+    const auto more = updates.find(capture);
+    const int times = more == updates.end() ? 1 : more->second;
+    EXPECT_EQ(found->second.envelopeFrames, times * frames) << capture << ": frames enveloped";
+    EXPECT_EQ(found->second.envelope, times * envelopes(frames))
+        << capture << ": envelope executions";
+    EXPECT_EQ(found->second.peaks, times) << capture << ": peak filter executions";
   }
+}
+
+// The signals figures `study run` drew of `bone`'s first sweep in `study`.
+int signalsFigures(const std::string& study, const std::string& bone) {
+  int figures = 0;
+  for (const char* which : {"accepted", "rejected"})
+    figures += fs::exists(study + "/results/figures/signals_" + bone + "_" + which + ".png");
+  return figures;
 }
 
 // The whole capture in one envelope execution (register, calibrate, the study).
@@ -164,8 +181,81 @@ TEST_F(ExecutionCounts, StudyRunDetectsEachSweepOnce) {
       captures.push_back(sweep.get<std::string>());
   }
   ASSERT_GE(captures.size(), 3U) << "the fixture's study has a sweep per bone";
+  // The signals figures of the first bone's first sweep update its envelope and peaks once per
+  // setting compared (mozes2008 and the study's), each figure in a pipeline of its own.
+  const std::string bone = manifest.at("bones").begin().key();
+  const int figures = signalsFigures(study, bone);
+  ASSERT_GT(figures, 0) << "the study drew no signals figure";
+  const std::string figured = manifest.at("bones").at(bone).at("ultrasound").at(0);
   // The study runs inside its folder: the captures as the manifest names them.
-  expectEachDetectedOnce(executionsSince(before), captures, oneExecution, study);
+  expectEachDetectedOnce(executionsSince(before), captures, oneExecution, study,
+                         {{figured, 1 + 2 * figures}});
+}
+
+// The study's signals figures draw the study's setting as its sweeps were detected: its preset with
+// its --params (before, the figure ran the preset alone), and are tallied with the rest.
+TEST_F(ExecutionCounts, StudySignalsFiguresUseTheStudysParams) {
+  const std::string study = dir_.file("study");
+  fs::create_directories(study);
+  for (const char* folder : {"captures", "ct", "truth"})
+    fs::copy(path(folder), study + "/" + folder, fs::copy_options::recursive);
+  nlohmann::json manifest = manifest_;
+  manifest["truth"].erase("shots");
+  std::ofstream(study + "/study.json") << manifest.dump(2);
+  const std::string params = dir_.file("params.json");
+  std::ofstream(params) << R"({"threshold-factor": 2.0})";
+
+  const auto before = DetectionPipeline::executionsByCapture();
+  const test::CommandResult r =
+      runEchoreg({"study", "run", study, "--given-models", "--params", params});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto since = executionsSince(before);
+
+  // The figures are of the first bone's first sweep.
+  const std::string bone = manifest.at("bones").begin().key();
+  const std::string sweep = manifest.at("bones").at(bone).at("ultrasound").at(0);
+  const int figures = signalsFigures(study, bone);
+  ASSERT_GT(figures, 0) << "the study drew no signals figure";
+  const auto found = since.find(sweep);
+  ASSERT_NE(found, since.end());
+  const auto frames = static_cast<long long>(readSequence(study + "/" + sweep).frameCount());
+  const int updates = 1 + 2 * figures;  // the detection, then 2 settings per figure
+  EXPECT_EQ(found->second.peaks, updates) << "the figures' peak filter updates are tallied";
+  EXPECT_EQ(found->second.envelope, updates);
+  EXPECT_EQ(found->second.envelopeFrames, updates * frames);
+
+  // The accepted frame's figure is the one drawn with the study's preset and --params, not the
+  // one without them.
+  const cli::CsvTable points =
+      cli::readCsvTable(study + "/results/points/" + bone + "_ultrasound_1.csv");
+  const int status = points.column("status");
+  const int frame = points.column("frame");
+  ASSERT_GE(status, 0);
+  ASSERT_GE(frame, 0);
+  std::string accepted;
+  for (const auto& row : points.rows) {
+    if (row[static_cast<std::size_t>(status)] == "accepted") {
+      accepted = row[static_cast<std::size_t>(frame)];
+      break;
+    }
+  }
+  ASSERT_FALSE(accepted.empty());
+  const std::string preset = manifest.at("detection").at("preset");
+  const auto draw = [&](const std::string& paramsFile, const std::string& out) {
+    cli::SignalsFigureRequest request;
+    request.capture = study + "/" + sweep;
+    request.frame = std::stoi(accepted);
+    request.settings = {{"mozes2008", "", {}}, {preset, paramsFile, {}}};
+    request.title = bone + " sweep, frame " + accepted + " (accepted by the study's detection)";
+    request.out = out;
+    std::ostringstream printed, err;
+    EXPECT_EQ(cli::runSignalsFigure(request, cli::Streams{printed, err}), 0) << err.str();
+    return test::fileBytes(out);
+  };
+  const std::string drawn =
+      test::fileBytes(study + "/results/figures/signals_" + bone + "_accepted.png");
+  EXPECT_TRUE(draw(params, dir_.file("with.png")) == drawn) << "drawn with the study's --params";
+  EXPECT_FALSE(draw("", dir_.file("without.png")) == drawn) << "the --params change the figure";
 }
 
 }  // namespace

@@ -30,6 +30,7 @@
 class vtkStringOutputWindow;
 class vtkOutputWindow;
 class vtkTable;
+class vtkAlgorithm;
 
 namespace echoreg::filters {
 
@@ -70,6 +71,11 @@ class DetectionPipeline {
   /// and analysis of configure(). Throws std::runtime_error with the first failing step's message.
   SequenceDetection run();
 
+  /// Updates the chain up to the peak filter only (what `figure signals` draws: the envelopes and
+  /// the verdicts, with the peak list when on), counting the executions as run() does. Throws
+  /// std::runtime_error with the first failing step's message.
+  void updatePeaks();
+
   /// Updates the chain and writes the CSV to `path` (atomically). Throws std::runtime_error with
   /// the failing step's message.
   void write(const std::string& path);
@@ -106,9 +112,9 @@ class DetectionPipeline {
   vtkNew<vtkEchoregDetectionWriter> writer;
 
  private:
-  /// Updates the chain up to the inter-signal filter, counting the executions; throws the failing
-  /// step's message.
-  void update();
+  /// Updates the chain up to `last` (the inter-signal filter unless given), counting the
+  /// executions; throws the failing step's message.
+  void update(vtkAlgorithm* last = nullptr);
   /// Throws the first upstream step's error, if any.
   void throwFirstError(const std::string& fallback) const;
 
