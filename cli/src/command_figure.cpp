@@ -11,13 +11,13 @@
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/json_file.hpp"
 #include "echoreg/core/mesh.hpp"
-#include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/core/statistics.hpp"
 #include "echoreg/core/transform_file.hpp"
 #include "echoreg/filters/DetectionPipeline.h"
 #include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/vtkEchoregPointToSurfaceDistance.h"
 #include "echoreg/render/plot_figure.hpp"
 #include "echoreg/render/surface_figure.hpp"
 
@@ -243,23 +243,27 @@ CommandAction addRegistrationFigure(CLI::App* parent) {
       figure.context.push_back(readModelFile(path));
     const TransformFile transform = readTransformFile(o->transform, "", "CT");
     const Eigen::Isometry3d toCt(transform.matrix);
-    // The points in CT with their signed distance to the model as "DistanceMm", the array
-    // vtkEchoregPointToSurfaceDistance writes (MeshLocator::signedDistance, as that filter
-    // computes it). Not the filter itself yet: running it in the process before rendering changed
-    // about one pixel in 10,000 by one level (of 255) in the demo study's PNGs, cause not found.
-    const core::MeshLocator locator(figure.surface);
-    auto distances = vtkSmartPointer<vtkPolyData>::New();
+    // The points in CT (double, as read) and their signed distance to the model ("DistanceMm")
+    // from vtkEchoregPointToSurfaceDistance.
     vtkNew<vtkPoints> inCt;
     inCt->SetDataTypeToDouble();
-    vtkNew<vtkDoubleArray> signedDistance;
-    signedDistance->SetName("DistanceMm");
     for (const Eigen::Vector3d& p : readPointsCsv(o->points)) {
       const Eigen::Vector3d q = toCt * p;
       inCt->InsertNextPoint(q.data());
-      signedDistance->InsertNextValue(locator.signedDistance(q));
     }
-    distances->SetPoints(inCt);
-    distances->GetPointData()->AddArray(signedDistance);
+    vtkNew<vtkPolyData> pointsInCt;
+    pointsInCt->SetPoints(inCt);
+    vtkNew<vtkEchoregPointToSurfaceDistance> measure;
+    measure->SetInputData(0, pointsInCt);
+    measure->SetSurfaceData(filters::toPolyData(figure.surface));
+    measure->SetSignedDistance(true);
+    {
+      const filters::VtkMessageCapture quiet;  // the command's own words, not VTK's lines
+      measure->Update();
+    }
+    if (!measure->GetLastError().empty())
+      throw FileError(o->model, measure->GetLastError());
+    const vtkSmartPointer<vtkPolyData> distances = measure->GetOutput();
     render::Scene scene = surfaceSceneOf(figure, *o);
     render::ScenePoints& points = scene.pointSets.front();
     points.points = distances;
