@@ -155,30 +155,25 @@ CommandAction addDetectCommand(CLI::App& app) {
     } catch (const std::invalid_argument& e) {
       throw FileError(o->capture, e.what());
     }
-    // Long captures on a terminal: the heavy steps' progress on one line.
+    // Streamed in blocks of frames: only one block's envelopes are held at any time.
+    pipeline.setFramesPerBlock(filters::DetectionPipeline::kStreamFramesPerBlock);
+    // Long captures on a terminal: the progress of the streamed envelopes and echoes on one line.
     const bool showProgress = io.errIsTerminal && sequence.frameCount() > 2000;
     struct ProgressLine {
       std::ostream* err;
       std::size_t frames;
-      const char* step;
     };
-    ProgressLine envelopeLine{&io.err, sequence.frameCount(), "envelopes"};
-    ProgressLine echoLine{&io.err, sequence.frameCount(), "echoes   "};
-    vtkNew<vtkCallbackCommand> envelopeProgress, echoProgress;
+    ProgressLine progressLine{&io.err, sequence.frameCount()};
+    vtkNew<vtkCallbackCommand> progress;
     if (showProgress) {
-      const auto print = [](vtkObject* caller, unsigned long, void* data, void*) {
+      progress->SetCallback([](vtkObject* caller, unsigned long, void* data, void*) {
         const auto* line = static_cast<const ProgressLine*>(data);
         const double done = vtkAlgorithm::SafeDownCast(caller)->GetProgress();
-        *line->err << fmt::format("\rdetect: {} frames, {} {:3.0f} %", line->frames, line->step,
-                                  100.0 * done)
+        *line->err << fmt::format("\rdetect: {} frames, {:3.0f} %", line->frames, 100.0 * done)
                    << std::flush;
-      };
-      envelopeProgress->SetCallback(print);
-      envelopeProgress->SetClientData(&envelopeLine);
-      echoProgress->SetCallback(print);
-      echoProgress->SetClientData(&echoLine);
-      pipeline.envelope->AddObserver(vtkCommand::ProgressEvent, envelopeProgress);
-      pipeline.peaks->AddObserver(vtkCommand::ProgressEvent, echoProgress);
+      });
+      progress->SetClientData(&progressLine);
+      pipeline.peaks->AddObserver(vtkCommand::ProgressEvent, progress);
     }
     pipeline.write(o->out);
     if (showProgress)

@@ -1,5 +1,6 @@
 // `echoreg figure registration|calibration|signals|boxplot ... --out FIG.png`: the publication
 // figures, rendered off-screen (render/, OSMesa: no X server needed).
+#include "command_figure.hpp"
 #include "commands.hpp"
 #include "csv_table.hpp"
 #include "detection_params.hpp"
@@ -10,13 +11,13 @@
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/json_file.hpp"
 #include "echoreg/core/mesh.hpp"
-#include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/core/statistics.hpp"
 #include "echoreg/core/transform_file.hpp"
 #include "echoreg/filters/DetectionPipeline.h"
 #include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/vtkEchoregPointToSurfaceDistance.h"
 #include "echoreg/render/plot_figure.hpp"
 #include "echoreg/render/surface_figure.hpp"
 
@@ -242,23 +243,27 @@ CommandAction addRegistrationFigure(CLI::App* parent) {
       figure.context.push_back(readModelFile(path));
     const TransformFile transform = readTransformFile(o->transform, "", "CT");
     const Eigen::Isometry3d toCt(transform.matrix);
-    // The points in CT with their signed distance to the model as "DistanceMm", the array
-    // vtkEchoregPointToSurfaceDistance writes (MeshLocator::signedDistance, as that filter
-    // computes it). Not the filter itself yet: running it in the process before rendering changed
-    // about one pixel in 10,000 by one level (of 255) in the demo study's PNGs, cause not found.
-    const core::MeshLocator locator(figure.surface);
-    auto distances = vtkSmartPointer<vtkPolyData>::New();
+    // The points in CT (double, as read) and their signed distance to the model ("DistanceMm")
+    // from vtkEchoregPointToSurfaceDistance.
     vtkNew<vtkPoints> inCt;
     inCt->SetDataTypeToDouble();
-    vtkNew<vtkDoubleArray> signedDistance;
-    signedDistance->SetName("DistanceMm");
     for (const Eigen::Vector3d& p : readPointsCsv(o->points)) {
       const Eigen::Vector3d q = toCt * p;
       inCt->InsertNextPoint(q.data());
-      signedDistance->InsertNextValue(locator.signedDistance(q));
     }
-    distances->SetPoints(inCt);
-    distances->GetPointData()->AddArray(signedDistance);
+    vtkNew<vtkPolyData> pointsInCt;
+    pointsInCt->SetPoints(inCt);
+    vtkNew<vtkEchoregPointToSurfaceDistance> measure;
+    measure->SetInputData(0, pointsInCt);
+    measure->SetSurfaceData(filters::toPolyData(figure.surface));
+    measure->SetSignedDistance(true);
+    {
+      const filters::VtkMessageCapture quiet;  // the command's own words, not VTK's lines
+      measure->Update();
+    }
+    if (!measure->GetLastError().empty())
+      throw FileError(o->model, measure->GetLastError());
+    const vtkSmartPointer<vtkPolyData> distances = measure->GetOutput();
     render::Scene scene = surfaceSceneOf(figure, *o);
     render::ScenePoints& points = scene.pointSets.front();
     points.points = distances;
@@ -384,6 +389,158 @@ std::vector<double> envelopeRow(vtkImageData* image, int frame) {
   return values;
 }
 
+}  // namespace
+
+int runSignalsFigure(const SignalsFigureRequest& request, const Streams& streams) {
+  const SignalsFigureRequest* o = &request;
+  {
+    CommandPaths paths;
+    paths.input("--capture", o->capture);
+    for (const SignalsSetting& setting : o->settings)
+      paths.input("--params", setting.paramsFile);
+    paths.output("--out", o->out).check();
+  }
+  requirePngName("--out", o->out);
+  // reader -> envelope -> peaks (with its peak list), reconfigured per setting: the capture is
+  // read once (DetectionPipeline.h).
+  filters::DetectionPipeline pipeline;
+  const Sequence& sequence = pipeline.open(o->capture, {});
+  if (!sequence.hasPixels())
+    throw FileError(o->capture, "holds no A-lines (tracker-only capture)");
+  if (o->frame < 0 || static_cast<std::size_t>(o->frame) >= sequence.frameCount()) {
+    throw FileError(o->capture, fmt::format("has no frame {} (frames 0-{})", o->frame,
+                                            sequence.frameCount() - 1));
+  }
+  std::vector<float> samples;
+  sequence.frameSamples(static_cast<std::size_t>(o->frame), samples);
+  std::vector<render::PlotPanel> panels;
+  nlohmann::json verdicts = nlohmann::json::array();
+  const DepthConversion depth = depthFromSequence(sequence, detectionPreset("default").depth);
+  render::PlotPanel raw;
+  raw.title = fmt::format("raw A-line, frame {}", o->frame);
+  raw.xLabel = "depth (mm)";
+  raw.yLabel = "amplitude";
+  render::Series rawSeries;
+  rawSeries.rgb = {0.35, 0.35, 0.35};
+  rawSeries.lineWidth = 1.0;
+  for (std::size_t i = 0; i < samples.size(); ++i) {
+    rawSeries.x.push_back(depth.depthMm(static_cast<double>(i)));
+    rawSeries.y.push_back(samples[i]);
+  }
+  raw.series.push_back(rawSeries);
+  panels.push_back(raw);
+  const std::array<std::array<double, 3>, 4> colours{
+      {{0.0, 0.3, 0.85}, {0.0, 0.55, 0.3}, {0.55, 0.2, 0.7}, {0.75, 0.45, 0.0}}};
+  pipeline.peaks->PeakListOn();
+  for (std::size_t s = 0; s < o->settings.size(); ++s) {
+    const SignalsSetting& setting = o->settings[s];
+    const bool tuned = !setting.paramsFile.empty() || !setting.settings.empty();
+    std::string name = setting.preset;
+    TunableSettings settings = setting.settings;
+    ParamsSources sources{setting.paramsFile, {}};
+    if (!setting.paramsFile.empty())
+      sources.fromFile = mergeParamsFile(setting.paramsFile, name, settings);
+    const DetectionParams params = [&] {
+      try {
+        return resolveParams(name, settings, sequence, sources);
+      } catch (const std::invalid_argument& e) {
+        throw std::invalid_argument(std::string("bad parameter: ") + e.what());
+      }
+    }();
+    try {
+      pipeline.configure(params, PointFrameOptions{});
+    } catch (const std::invalid_argument& e) {
+      throw FileError(o->capture, e.what());
+    }
+    try {
+      pipeline.updatePeaks();
+    } catch (const std::runtime_error& e) {
+      throw FileError(o->capture, e.what());
+    }
+    const DetectionParams& used = pipeline.params();
+    vtkTable* verdict = pipeline.peaks->GetOutput(0);
+    vtkTable* peakList = pipeline.peaks->GetOutput(1);
+    const auto row = static_cast<vtkIdType>(o->frame);
+    const std::string reason = verdict->GetValueByName(row, "reason").ToString();
+    const double threshold = verdict->GetValueByName(row, "threshold").ToDouble();
+    const double depthMm = verdict->GetValueByName(row, "depth_mm").ToDouble();
+    const bool accepted = reason.empty();
+    render::PlotPanel panel;
+    panel.title = tuned ? fmt::format("envelope: preset \"{}\" with the given settings", name)
+                        : fmt::format("envelope: preset \"{}\"", name);
+    panel.xLabel = "depth (mm)";
+    panel.yLabel = "envelope";
+    render::Series env;
+    env.name = "envelope";
+    env.rgb = colours[s % colours.size()];
+    const std::vector<double> envelope = envelopeRow(pipeline.envelope->GetOutput(), o->frame);
+    for (std::size_t i = 0; i < envelope.size(); ++i) {
+      env.x.push_back(used.depth.depthMm(static_cast<double>(i)));
+      env.y.push_back(envelope[i]);
+    }
+    panel.series.push_back(env);
+    render::Series peaks;
+    peaks.name = "peaks";
+    peaks.markersOnly = true;
+    peaks.rgb = {0.85, 0.1, 0.1};
+    auto* listFrames = vtkIntArray::SafeDownCast(peakList->GetColumnByName("frame"));
+    auto* listIndices = vtkIntArray::SafeDownCast(peakList->GetColumnByName("sample_index"));
+    auto* listValues = vtkDoubleArray::SafeDownCast(peakList->GetColumnByName("value"));
+    for (vtkIdType p = 0; p < peakList->GetNumberOfRows(); ++p) {
+      if (listFrames->GetValue(p) != o->frame)
+        continue;
+      peaks.x.push_back(used.depth.depthMm(listIndices->GetValue(p)));
+      peaks.y.push_back(listValues->GetValue(p));
+    }
+    if (!peaks.x.empty())
+      panel.series.push_back(peaks);
+    panel.horizontalLines.push_back({"threshold", threshold});
+    panel.note = accepted ? fmt::format("accepted: {:.2f} mm", depthMm)
+                          : fmt::format("rejected: {}", reason);
+    panel.noteRgb =
+        accepted ? std::array<double, 3>{0.0, 0.5, 0.15} : std::array<double, 3>{0.75, 0.1, 0.1};
+    panels.push_back(panel);
+    verdicts.push_back({{"preset", name},
+                        {"accepted", accepted},
+                        {"reason", reason},
+                        {"peaks", verdict->GetValueByName(row, "peaks").ToInt()},
+                        {"threshold", threshold},
+                        {"depth_mm", accepted ? nlohmann::json(depthMm) : nlohmann::json()}});
+  }
+  const int columns = panels.size() <= 2 ? 1 : 2;
+  const std::string title =
+      o->title.empty()
+          ? fmt::format("{}, frame {}", std::filesystem::path(o->capture).filename().string(),
+                        o->frame)
+          : o->title;
+  render::writePng(o->out, render::renderPlots(panels, columns, title, {o->width, o->height}));
+  if (o->json) {
+    streams.out << nlohmann::json{{"figure", "signals"},
+                                  {"out", o->out},
+                                  {"frame", o->frame},
+                                  {"settings", verdicts}}
+                       .dump(2)
+                << "\n";
+  } else {
+    streams.out << fmt::format("signals figure: frame {}, {} settings; wrote {}\n", o->frame,
+                               o->settings.size(), o->out);
+  }
+  return 0;
+}
+
+nlohmann::json requestJson(const SignalsFigureRequest& r) {
+  nlohmann::json settings = nlohmann::json::array();
+  for (const SignalsSetting& setting : r.settings) {
+    settings.push_back({{"preset", setting.preset},
+                        {"params", setting.paramsFile},
+                        {"settings", settingsJson(setting.settings)}});
+  }
+  return {{"capture", r.capture}, {"frame", r.frame}, {"settings", settings}, {"out", r.out},
+          {"title", r.title},     {"width", r.width}, {"height", r.height},   {"json", r.json}};
+}
+
+namespace {
+
 CommandAction addSignalsFigure(CLI::App* parent) {
   auto o = std::make_shared<SignalsOptions>();
   CLI::App* cmd = parent->add_subcommand(
@@ -415,16 +572,6 @@ CommandAction addSignalsFigure(CLI::App* parent) {
         .output("--out", o->out)
         .check();
     requirePngName("--out", o->out);
-    // reader -> envelope -> peaks (with its peak list), reconfigured per setting: the capture is
-    // read once (DetectionPipeline.h).
-    filters::DetectionPipeline pipeline;
-    const Sequence& sequence = pipeline.open(o->capture, {});
-    if (!sequence.hasPixels())
-      throw FileError(o->capture, "holds no A-lines (tracker-only capture)");
-    if (o->frame < 0 || static_cast<std::size_t>(o->frame) >= sequence.frameCount()) {
-      throw FileError(o->capture, fmt::format("has no frame {} (frames 0-{})", o->frame,
-                                              sequence.frameCount() - 1));
-    }
     // The settings compared: each --preset with the file and the flags over it; without
     // --preset, the file's own preset when it names one.
     std::vector<std::string> presets = o->presets;
@@ -435,122 +582,17 @@ CommandAction addSignalsFigure(CLI::App* parent) {
       if (!filePreset.empty())
         presets = {filePreset};
     }
-    std::vector<float> samples;
-    sequence.frameSamples(static_cast<std::size_t>(o->frame), samples);
-    std::vector<render::PlotPanel> panels;
-    nlohmann::json verdicts = nlohmann::json::array();
-    const DepthConversion depth = depthFromSequence(sequence, detectionPreset("default").depth);
-    render::PlotPanel raw;
-    raw.title = fmt::format("raw A-line, frame {}", o->frame);
-    raw.xLabel = "depth (mm)";
-    raw.yLabel = "amplitude";
-    render::Series rawSeries;
-    rawSeries.rgb = {0.35, 0.35, 0.35};
-    rawSeries.lineWidth = 1.0;
-    for (std::size_t i = 0; i < samples.size(); ++i) {
-      rawSeries.x.push_back(depth.depthMm(static_cast<double>(i)));
-      rawSeries.y.push_back(samples[i]);
-    }
-    raw.series.push_back(rawSeries);
-    panels.push_back(raw);
-    const std::array<std::array<double, 3>, 4> colours{
-        {{0.0, 0.3, 0.85}, {0.0, 0.55, 0.3}, {0.55, 0.2, 0.7}, {0.75, 0.45, 0.0}}};
-    const bool tuned = !o->paramsFile.empty() || !o->settings.empty();
-    pipeline.peaks->PeakListOn();
-    for (std::size_t s = 0; s < presets.size(); ++s) {
-      std::string name = presets[s];
-      TunableSettings settings = o->settings;
-      ParamsSources sources{o->paramsFile, {}};
-      if (!o->paramsFile.empty())
-        sources.fromFile = mergeParamsFile(o->paramsFile, name, settings);
-      const DetectionParams params = [&] {
-        try {
-          return resolveParams(name, settings, sequence, sources);
-        } catch (const std::invalid_argument& e) {
-          throw std::invalid_argument(std::string("bad parameter: ") + e.what());
-        }
-      }();
-      try {
-        pipeline.configure(params, PointFrameOptions{});
-      } catch (const std::invalid_argument& e) {
-        throw FileError(o->capture, e.what());
-      }
-      pipeline.peaks->Update();
-      if (pipeline.peaks->GetLastError().size() > 0 ||
-          pipeline.envelope->GetLastError().size() > 0) {
-        throw FileError(o->capture, pipeline.envelope->GetLastError().empty()
-                                        ? pipeline.peaks->GetLastError()
-                                        : pipeline.envelope->GetLastError());
-      }
-      const DetectionParams& used = pipeline.params();
-      vtkTable* verdict = pipeline.peaks->GetOutput(0);
-      vtkTable* peakList = pipeline.peaks->GetOutput(1);
-      const auto row = static_cast<vtkIdType>(o->frame);
-      const std::string reason = verdict->GetValueByName(row, "reason").ToString();
-      const double threshold = verdict->GetValueByName(row, "threshold").ToDouble();
-      const double depthMm = verdict->GetValueByName(row, "depth_mm").ToDouble();
-      const bool accepted = reason.empty();
-      render::PlotPanel panel;
-      panel.title = tuned ? fmt::format("envelope: preset \"{}\" with the given settings", name)
-                          : fmt::format("envelope: preset \"{}\"", name);
-      panel.xLabel = "depth (mm)";
-      panel.yLabel = "envelope";
-      render::Series env;
-      env.name = "envelope";
-      env.rgb = colours[s % colours.size()];
-      const std::vector<double> envelope = envelopeRow(pipeline.envelope->GetOutput(), o->frame);
-      for (std::size_t i = 0; i < envelope.size(); ++i) {
-        env.x.push_back(used.depth.depthMm(static_cast<double>(i)));
-        env.y.push_back(envelope[i]);
-      }
-      panel.series.push_back(env);
-      render::Series peaks;
-      peaks.name = "peaks";
-      peaks.markersOnly = true;
-      peaks.rgb = {0.85, 0.1, 0.1};
-      auto* listFrames = vtkIntArray::SafeDownCast(peakList->GetColumnByName("frame"));
-      auto* listIndices = vtkIntArray::SafeDownCast(peakList->GetColumnByName("sample_index"));
-      auto* listValues = vtkDoubleArray::SafeDownCast(peakList->GetColumnByName("value"));
-      for (vtkIdType p = 0; p < peakList->GetNumberOfRows(); ++p) {
-        if (listFrames->GetValue(p) != o->frame)
-          continue;
-        peaks.x.push_back(used.depth.depthMm(listIndices->GetValue(p)));
-        peaks.y.push_back(listValues->GetValue(p));
-      }
-      if (!peaks.x.empty())
-        panel.series.push_back(peaks);
-      panel.horizontalLines.push_back({"threshold", threshold});
-      panel.note = accepted ? fmt::format("accepted: {:.2f} mm", depthMm)
-                            : fmt::format("rejected: {}", reason);
-      panel.noteRgb =
-          accepted ? std::array<double, 3>{0.0, 0.5, 0.15} : std::array<double, 3>{0.75, 0.1, 0.1};
-      panels.push_back(panel);
-      verdicts.push_back({{"preset", name},
-                          {"accepted", accepted},
-                          {"reason", reason},
-                          {"peaks", verdict->GetValueByName(row, "peaks").ToInt()},
-                          {"threshold", threshold},
-                          {"depth_mm", accepted ? nlohmann::json(depthMm) : nlohmann::json()}});
-    }
-    const int columns = panels.size() <= 2 ? 1 : 2;
-    const std::string title =
-        o->title.empty()
-            ? fmt::format("{}, frame {}", std::filesystem::path(o->capture).filename().string(),
-                          o->frame)
-            : o->title;
-    render::writePng(o->out, render::renderPlots(panels, columns, title, {o->width, o->height}));
-    if (o->json) {
-      streams.out << nlohmann::json{{"figure", "signals"},
-                                    {"out", o->out},
-                                    {"frame", o->frame},
-                                    {"settings", verdicts}}
-                         .dump(2)
-                  << "\n";
-    } else {
-      streams.out << fmt::format("signals figure: frame {}, {} settings; wrote {}\n", o->frame,
-                                 presets.size(), o->out);
-    }
-    return 0;
+    SignalsFigureRequest request;
+    request.capture = o->capture;
+    request.frame = o->frame;
+    for (const std::string& name : presets)
+      request.settings.push_back({name, o->paramsFile, o->settings});
+    request.out = o->out;
+    request.title = o->title;
+    request.width = o->width;
+    request.height = o->height;
+    request.json = o->json;
+    return runSignalsFigure(request, streams);
   };
 }
 

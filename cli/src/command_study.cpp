@@ -4,6 +4,7 @@
 // (results/report.md, report.html, results.json). Steps whose inputs did not change are not run
 // again (study_runner.hpp).
 #include "command_calibrate.hpp"
+#include "command_figure.hpp"
 #include "command_register.hpp"
 #include "commands.hpp"
 #include "csv_table.hpp"
@@ -612,22 +613,31 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
           continue;
         const std::string out =
             fmt::format("{}/figures/signals_{}_{}.png", results, first.name, which);
-        stage.push_back(
-            {fmt::format("figure-signals-{}", which),
-             fmt::format("signals figure ({} frame)", which),
-             {"figure", "signals", "--capture", capture, "--frame", f, "--preset", "mozes2008",
-              "--preset", preset, "--title",
-              fmt::format("{} sweep, frame {} ({} by the study's detection)", first.name, f, which),
-              "--out", out},
-             {capture},
-             {out},
-             false});
+        // The dissertation's chain as it was, and the study's as its sweeps were detected: its
+        // preset with the study's --params.
+        SignalsFigureRequest figure;
+        figure.capture = capture;
+        figure.frame = std::stoi(f);
+        figure.settings = {{"mozes2008", "", {}}, {preset, paramsFile, {}}};
+        figure.title =
+            fmt::format("{} sweep, frame {} ({} by the study's detection)", first.name, f, which);
+        figure.out = out;
+        StudyStep step(fmt::format("figure-signals-{}", which),
+                       fmt::format("signals figure ({} frame)", which), {}, {capture}, {out},
+                       false);
+        if (!paramsFile.empty())
+          step.inputs.push_back(paramsFile);
+        step.command = "figure signals";
+        step.request = requestJson(figure).dump();
+        step.action = [figure](const Streams& io) { return runSignalsFigure(figure, io); };
+        stage.push_back(step);
         signalFigures.push_back(
             {out, fmt::format("Frame {} of the {} sweep, {} by the study's detection: the raw "
                               "A-line, then the envelope, threshold, peaks and verdict of the "
-                              "dissertation's chain (mozes2008) and of the study's preset ({}), as "
-                              "Figs. 5.10-5.29.",
-                              f, first.name, which, preset)});
+                              "dissertation's chain (mozes2008) and of the study's preset ({}{}), "
+                              "as Figs. 5.10-5.29.",
+                              f, first.name, which, preset,
+                              paramsFile.empty() ? "" : " with its --params settings")});
       }
     }
     // Table 6.1: the single-signal chain's detection rates under several filter settings, on

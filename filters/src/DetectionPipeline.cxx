@@ -121,15 +121,17 @@ std::map<std::string, DetectionPipeline::Executions> DetectionPipeline::executio
   return executionsTally();
 }
 
-void DetectionPipeline::update() {
+void DetectionPipeline::update(vtkAlgorithm* last) {
   const int envelopes = envelope->GetExecutionCount();
   const int detections = peaks->GetExecutionCount();
-  const int updated = interSignal->GetExecutive()->Update();
+  const vtkIdType frames = envelope->GetFramesComputed();
+  const int updated = (last != nullptr ? last : interSignal.GetPointer())->GetExecutive()->Update();
   {
     const std::lock_guard<std::mutex> lock(executionsMutex);
     Executions& executions = executionsTally()[capturePath_];
     executions.envelope += envelope->GetExecutionCount() - envelopes;
     executions.peaks += peaks->GetExecutionCount() - detections;
+    executions.envelopeFrames += envelope->GetFramesComputed() - frames;
   }
   if (updated != 1)
     throwFirstError(capturePath_ + ": the detection pipeline failed");
@@ -142,6 +144,11 @@ SequenceDetection DetectionPipeline::run() {
   detection.params = params_;
   detection.analysis = analysis_;
   return detection;
+}
+
+void DetectionPipeline::updatePeaks() {
+  const VtkMessageCapture quiet;
+  update(peaks);
 }
 
 void DetectionPipeline::write(const std::string& path) {

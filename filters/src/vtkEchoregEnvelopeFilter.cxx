@@ -99,14 +99,16 @@ class EnvelopeRows {
   std::string error_;
 };
 
-// Runs EnvelopeRows over every row of `scalars`, in twenty slices of rows so that `filter`
-// reports its progress between them (from this thread: VTK's events are not thread-safe); the
-// error message of a failure, else "".
+// Runs EnvelopeRows over `rows` rows of `scalars` from `firstRow` on, in twenty slices of rows so
+// that `filter` reports its progress between them (from this thread: VTK's events are not
+// thread-safe); the error message of a failure, else "".
 template <typename T>
 std::string envelopesOf(const echoreg::EnvelopeParams& params, vtkDataArray* scalars,
-                        float* envelopes, int samplesPerRow, vtkIdType rows, vtkAlgorithm* filter) {
-  EnvelopeRows<T> work(params, static_cast<const T*>(scalars->GetVoidPointer(0)), envelopes,
-                       samplesPerRow);
+                        vtkIdType firstRow, float* envelopes, int samplesPerRow, vtkIdType rows,
+                        vtkAlgorithm* filter) {
+  EnvelopeRows<T> work(params,
+                       static_cast<const T*>(scalars->GetVoidPointer(firstRow * samplesPerRow)),
+                       envelopes, samplesPerRow);
   const vtkIdType slice = std::max<vtkIdType>(256, (rows + 19) / 20);
   for (vtkIdType begin = 0; begin < rows && work.error().empty(); begin += slice) {
     const vtkIdType end = std::min(rows, begin + slice);
@@ -166,8 +168,10 @@ int vtkEchoregEnvelopeFilter::RequestInformation(vtkInformation* /*request*/,
 
 int vtkEchoregEnvelopeFilter::RequestUpdateExtent(vtkInformation* /*request*/,
                                                   vtkInformationVector** inputVector,
-                                                  vtkInformationVector* /*outputVector*/) {
-  echoreg::filters::requestWholeInput(inputVector);
+                                                  vtkInformationVector* outputVector) {
+  // Whole records, and the frames asked of the output (all of them unless a downstream filter
+  // streams the capture in blocks of frames).
+  echoreg::filters::requestWholeRecords(inputVector, outputVector);
   return 1;
 }
 
@@ -184,7 +188,16 @@ int vtkEchoregEnvelopeFilter::RequestData(vtkInformation* /*request*/,
 
   int dimensions[3];
   input->GetDimensions(dimensions);
-  output->CopyStructure(input);
+  // The output holds the frames asked of it; the input may hold more (a source that ignores the
+  // update extent).
+  int extent[6];
+  input->GetExtent(extent);
+  const int inputFirstFrame = extent[2];
+  echoreg::filters::clampToRequestedFrames(outputVector, extent);
+  output->SetExtent(extent);
+  output->SetOrigin(input->GetOrigin());
+  output->SetSpacing(input->GetSpacing());
+  output->SetDirectionMatrix(input->GetDirectionMatrix());
   output->GetFieldData()->ShallowCopy(input->GetFieldData());
   if (dimensions[0] <= 0 || dimensions[1] <= 0) {
     vtkWarningMacro(<< "the input has no samples; passing its field data through");
@@ -208,14 +221,17 @@ int vtkEchoregEnvelopeFilter::RequestData(vtkInformation* /*request*/,
     return 0;
   }
 
+  const vtkIdType rows = extent[3] - extent[2] + 1;
+  const vtkIdType firstRow = extent[2] - inputFirstFrame;
   vtkNew<vtkFloatArray> envelopes;
   envelopes->SetName("Envelope");
-  envelopes->SetNumberOfValues(scalars->GetNumberOfValues());
+  envelopes->SetNumberOfValues(rows * dimensions[0]);
 
   std::string error;
   switch (scalars->GetDataType()) {
-    vtkTemplateMacro(error = envelopesOf<VTK_TT>(this->Params, scalars, envelopes->GetPointer(0),
-                                                 dimensions[0], dimensions[1], this));
+    vtkTemplateMacro(error =
+                         envelopesOf<VTK_TT>(this->Params, scalars, firstRow,
+                                             envelopes->GetPointer(0), dimensions[0], rows, this));
     default:
       error = std::string("unsupported scalar type ") + scalars->GetDataTypeAsString();
   }
@@ -225,6 +241,7 @@ int vtkEchoregEnvelopeFilter::RequestData(vtkInformation* /*request*/,
     return 0;
   }
   output->GetPointData()->SetScalars(envelopes);
+  this->FramesComputed += rows;
   this->LastError.clear();
   return 1;
 }
@@ -243,4 +260,5 @@ void vtkEchoregEnvelopeFilter::PrintSelf(ostream& os, vtkIndent indent) {
   os << indent << "SmoothingSamples: " << this->Params.smoothingSamples << "\n";
   os << indent << "LastError: " << (this->LastError.empty() ? "(none)" : this->LastError) << "\n";
   os << indent << "ExecutionCount: " << this->ExecutionCount << "\n";
+  os << indent << "FramesComputed: " << this->FramesComputed << "\n";
 }

@@ -1,10 +1,9 @@
 #include "echoreg/filters/vtkEchoregPeakFilter.h"
 
-#include "PipelineRequests.h"
-
 #include "echoreg/core/detection.hpp"
 #include "echoreg/filters/SequenceFieldData.h"
 
+#include <vtkAlgorithmOutput.h>
 #include <vtkDataArray.h>
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
@@ -22,6 +21,7 @@
 #include <vtkStringArray.h>
 #include <vtkTable.h>
 
+#include <algorithm>
 #include <cmath>
 #include <exception>
 #include <limits>
@@ -123,10 +123,48 @@ int vtkEchoregPeakFilter::FillInputPortInformation(int /*port*/, vtkInformation*
   return 1;
 }
 
+namespace {
+
+// Frames [first, last] of the input, as its whole extent gives them.
+struct FrameRange {
+  int first = 0;
+  int last = -1;
+  vtkIdType count() const { return last - first + 1; }
+};
+
+FrameRange wholeFrames(vtkInformation* inInfo) {
+  int extent[6];
+  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent);
+  return {extent[2], extent[3]};
+}
+
+// The blocks of at most `framesPerBlock` frames the capture is streamed in; the whole capture as
+// one block when framesPerBlock is 0 or the capture is not longer.
+std::vector<FrameRange> blocksOf(const FrameRange& whole, int framesPerBlock) {
+  if (framesPerBlock <= 0 || whole.count() <= framesPerBlock)
+    return {whole};
+  std::vector<FrameRange> blocks;
+  for (int first = whole.first; first <= whole.last; first += framesPerBlock)
+    blocks.push_back({first, std::min(whole.last, first + framesPerBlock - 1)});
+  return blocks;
+}
+
+}  // namespace
+
 int vtkEchoregPeakFilter::RequestUpdateExtent(vtkInformation* /*request*/,
                                               vtkInformationVector** inputVector,
                                               vtkInformationVector* /*outputVector*/) {
-  echoreg::filters::requestWholeInput(inputVector);
+  // Whole records of the first block of frames (every frame unless the capture is streamed);
+  // RequestData asks for the other blocks itself.
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
+  int extent[6];
+  inInfo->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent);
+  const FrameRange first = blocksOf(wholeFrames(inInfo), this->FramesPerBlock).front();
+  if (first.first <= first.last) {
+    extent[2] = first.first;
+    extent[3] = first.last;
+  }
+  inInfo->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(), extent, 6);
   return 1;
 }
 
@@ -134,6 +172,7 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
                                       vtkInformationVector** inputVector,
                                       vtkInformationVector* outputVector) {
   ++this->ExecutionCount;
+  vtkInformation* inInfo = inputVector[0]->GetInformationObject(0);
   vtkImageData* input = vtkImageData::GetData(inputVector[0]);
   vtkTable* output = vtkTable::GetData(outputVector, 0);
   vtkTable* peakList = vtkTable::GetData(outputVector, 1);
@@ -155,20 +194,18 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
   int dimensions[3];
   input->GetDimensions(dimensions);
   const bool empty = dimensions[0] <= 0 || dimensions[1] <= 0;
-  if (!empty && dimensions[2] != 1) {
-    this->Fail("the input must be one slice of envelopes (x = sample, y = frame), got " +
-               std::to_string(dimensions[2]) + " slices");
-    return 0;
-  }
-  vtkDataArray* scalars = empty ? nullptr : input->GetPointData()->GetScalars();
-  if (!empty && (scalars == nullptr || scalars->GetNumberOfComponents() != 1)) {
-    this->Fail("the input needs one-component point scalars (the envelopes)");
-    return 0;
-  }
   if (empty)
     vtkWarningMacro(<< "the input has no samples; the table has no rows");
 
-  const vtkIdType rows = empty ? 0 : dimensions[1];
+  // The table's frames: the whole capture when it is streamed in blocks, else the input's.
+  std::vector<FrameRange> blocks = blocksOf(wholeFrames(inInfo), this->FramesPerBlock);
+  if (empty) {
+    blocks.clear();
+  } else if (blocks.size() == 1) {
+    blocks = {{input->GetExtent()[2], input->GetExtent()[3]}};
+  }
+  const int tableFirstFrame = blocks.empty() ? 0 : blocks.front().first;
+  const vtkIdType rows = blocks.empty() ? 0 : blocks.back().last - tableFirstFrame + 1;
   const int samplesPerRow = dimensions[0];
   auto frameColumn = column<vtkIntArray>("frame", rows);
   auto timestampColumn = column<vtkDoubleArray>("timestamp_s", rows);
@@ -181,29 +218,58 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
   auto listFrame = column<vtkIntArray>("frame", 0);
   auto listIndex = column<vtkIntArray>("sample_index", 0);
   auto listValue = column<vtkDoubleArray>("value", 0);
+  // Rows are independent; findPeaks keeps no state. Strings are set on one thread afterwards
+  // (vtkStringArray::SetValue touches the array's lookup state).
+  std::vector<echoreg::RejectReason> verdicts(static_cast<std::size_t>(rows));
+  std::vector<std::vector<echoreg::Peak>> peaksOfFrames(
+      this->PeakList ? static_cast<std::size_t>(rows) : 0);
 
-  if (rows > 0) {
+  vtkIdType rowsDone = 0;
+  for (std::size_t b = 0; b < blocks.size(); ++b) {
+    const FrameRange& block = blocks[b];
+    vtkImageData* image = b == 0 ? input : this->UpdateInputFrames(block.first, block.last);
+    if (image == nullptr) {
+      this->Fail("the envelopes of frames " + std::to_string(block.first) + "-" +
+                 std::to_string(block.last) + " could not be computed");
+      return 0;
+    }
+    int extent[6];
+    image->GetExtent(extent);
+    int blockDimensions[3];
+    image->GetDimensions(blockDimensions);
+    if (blockDimensions[2] != 1) {
+      this->Fail("the input must be one slice of envelopes (x = sample, y = frame), got " +
+                 std::to_string(blockDimensions[2]) + " slices");
+      return 0;
+    }
+    vtkDataArray* scalars = image->GetPointData()->GetScalars();
+    if (scalars == nullptr || scalars->GetNumberOfComponents() != 1) {
+      this->Fail("the input needs one-component point scalars (the envelopes)");
+      return 0;
+    }
+    if (blockDimensions[0] != samplesPerRow || extent[2] > block.first || extent[3] < block.last) {
+      this->Fail("the input holds frames " + std::to_string(extent[2]) + "-" +
+                 std::to_string(extent[3]) + " of " + std::to_string(blockDimensions[0]) +
+                 " samples, not frames " + std::to_string(block.first) + "-" +
+                 std::to_string(block.last) + " of " + std::to_string(samplesPerRow));
+      return 0;
+    }
     vtkSmartPointer<vtkFloatArray> envelopes = vtkFloatArray::SafeDownCast(scalars);
     if (envelopes == nullptr) {
       envelopes = vtkSmartPointer<vtkFloatArray>::New();
       envelopes->DeepCopy(scalars);
     }
-    const echoreg::filters::SequenceFieldData sequenceData(input->GetFieldData());
-    const int firstFrame = input->GetExtent()[2];
-    // Rows are independent; findPeaks keeps no state. Strings are set on one thread afterwards
-    // (vtkStringArray::SetValue touches the array's lookup state).
-    std::vector<echoreg::RejectReason> verdicts(static_cast<std::size_t>(rows));
-    std::vector<std::vector<echoreg::Peak>> peaksOfFrames(
-        this->PeakList ? static_cast<std::size_t>(rows) : 0);
+    const echoreg::filters::SequenceFieldData sequenceData(image->GetFieldData());
     std::mutex mutex;
     std::string error;
     const auto peaksOfRows = [&](vtkIdType begin, vtkIdType end) {
       try {
-        for (vtkIdType row = begin; row < end; ++row) {
-          const auto frame = static_cast<int>(firstFrame + row);
+        for (vtkIdType frame = begin; frame < end; ++frame) {
+          const vtkIdType row = frame - tableFirstFrame;
           const echoreg::PeakResult result = echoreg::findPeaks(
-              peakParams, envelopes->GetPointer(row * samplesPerRow), samplesPerRow);
-          frameColumn->SetValue(row, frame);
+              peakParams, envelopes->GetPointer((frame - extent[2]) * samplesPerRow),
+              samplesPerRow);
+          frameColumn->SetValue(row, static_cast<int>(frame));
           timestampColumn->SetValue(row, sequenceData.timestampS(frame));
           peaksColumn->SetValue(row, static_cast<int>(result.peaks.size()));
           sampleColumn->SetValue(row, result.accepted() ? result.sampleIndex : kNaN);
@@ -220,35 +286,37 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
           error = exception.what();
       }
     };
-    // Twenty slices of rows, the progress reported between them from this thread.
+    // Slices of at most a twentieth of the table, the progress reported between them from this
+    // thread.
     const vtkIdType slice = std::max<vtkIdType>(256, (rows + 19) / 20);
-    for (vtkIdType begin = 0; begin < rows && error.empty(); begin += slice) {
-      const vtkIdType end = std::min(rows, begin + slice);
+    for (vtkIdType begin = block.first; begin <= block.last && error.empty(); begin += slice) {
+      const vtkIdType end = std::min<vtkIdType>(block.last + 1, begin + slice);
       vtkSMPTools::For(begin, end, peaksOfRows);
-      this->UpdateProgress(static_cast<double>(end) / static_cast<double>(rows));
+      rowsDone += end - begin;
+      this->UpdateProgress(static_cast<double>(rowsDone) / static_cast<double>(rows));
     }
     if (!error.empty()) {
       this->Fail("peak detection failed: " + error);
       return 0;
     }
-    for (const auto& peaks : peaksOfFrames)
-      peakCount += static_cast<vtkIdType>(peaks.size());
-    listFrame->SetNumberOfValues(peakCount);
-    listIndex->SetNumberOfValues(peakCount);
-    listValue->SetNumberOfValues(peakCount);
-    vtkIdType at = 0;
-    for (std::size_t row = 0; row < peaksOfFrames.size(); ++row) {
-      for (const echoreg::Peak& peak : peaksOfFrames[row]) {
-        listFrame->SetValue(at, static_cast<int>(firstFrame + static_cast<int>(row)));
-        listIndex->SetValue(at, peak.index);
-        listValue->SetValue(at, peak.value);
-        ++at;
-      }
+  }
+  for (const auto& peaks : peaksOfFrames)
+    peakCount += static_cast<vtkIdType>(peaks.size());
+  listFrame->SetNumberOfValues(peakCount);
+  listIndex->SetNumberOfValues(peakCount);
+  listValue->SetNumberOfValues(peakCount);
+  vtkIdType at = 0;
+  for (std::size_t row = 0; row < peaksOfFrames.size(); ++row) {
+    for (const echoreg::Peak& peak : peaksOfFrames[row]) {
+      listFrame->SetValue(at, tableFirstFrame + static_cast<int>(row));
+      listIndex->SetValue(at, peak.index);
+      listValue->SetValue(at, peak.value);
+      ++at;
     }
-    for (vtkIdType row = 0; row < rows; ++row) {
-      reasonColumn->SetValue(
-          row, std::string(echoreg::rejectReasonName(verdicts[static_cast<std::size_t>(row)])));
-    }
+  }
+  for (vtkIdType row = 0; row < rows; ++row) {
+    reasonColumn->SetValue(
+        row, std::string(echoreg::rejectReasonName(verdicts[static_cast<std::size_t>(row)])));
   }
 
   output->Initialize();
@@ -266,6 +334,25 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
   peakList->AddColumn(listValue);
   this->LastError.clear();
   return 1;
+}
+
+vtkImageData* vtkEchoregPeakFilter::UpdateInputFrames(const int firstFrame, const int lastFrame) {
+  vtkAlgorithmOutput* connection = this->GetInputConnection(0, 0);
+  vtkAlgorithm* source = connection != nullptr ? connection->GetProducer() : nullptr;
+  if (source == nullptr)
+    return nullptr;
+  const int port = connection->GetIndex();
+  int extent[6];
+  this->GetInputInformation(0, 0)->Get(vtkStreamingDemandDrivenPipeline::WHOLE_EXTENT(), extent);
+  extent[2] = firstFrame;
+  extent[3] = lastFrame;
+  vtkNew<vtkInformationVector> requests;
+  requests->SetNumberOfInformationObjects(source->GetNumberOfOutputPorts());
+  requests->GetInformationObject(port)->Set(vtkStreamingDemandDrivenPipeline::UPDATE_EXTENT(),
+                                            extent, 6);
+  if (source->Update(port, requests) != 1)
+    return nullptr;
+  return vtkImageData::SafeDownCast(source->GetOutputDataObject(port));
 }
 
 void vtkEchoregPeakFilter::PrintSelf(ostream& os, vtkIndent indent) {
@@ -302,6 +389,8 @@ void vtkEchoregPeakFilter::PrintSelf(ostream& os, vtkIndent indent) {
                                      : std::string("(envelope's)"))
      << "\n";
   os << indent << "PeakList: " << (this->PeakList ? "On" : "Off") << "\n";
+  os << indent << "FramesPerBlock: " << this->FramesPerBlock
+     << (this->FramesPerBlock > 0 ? "" : " (the whole capture at once)") << "\n";
   os << indent << "LastError: " << (this->LastError.empty() ? "(none)" : this->LastError) << "\n";
   os << indent << "ExecutionCount: " << this->ExecutionCount << "\n";
 }

@@ -94,7 +94,10 @@ int vtkEchoregPointToSurfaceDistance::RequestData(vtkInformation* /*request*/,
     this->LastError.clear();
     return 1;
   }
+  // The input's precision: a vtkPoints is float by default, and DeepCopy of double points into it
+  // rounds them (which moved the registration figure's spheres by a fraction of a pixel).
   vtkNew<vtkPoints> outputPoints;
+  outputPoints->SetDataType(points->GetPoints()->GetDataType());
   outputPoints->DeepCopy(points->GetPoints());
   vtkNew<vtkDoubleArray> distances;
   distances->SetName("DistanceMm");

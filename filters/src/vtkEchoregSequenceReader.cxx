@@ -1,10 +1,13 @@
 #include "echoreg/filters/vtkEchoregSequenceReader.h"
 
+#include "PipelineRequests.h"
+
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/filters/SequenceFieldData.h"
 
 #include <vtkDataArray.h>
+#include <vtkFieldData.h>
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
@@ -173,17 +176,18 @@ int vtkEchoregSequenceReader::RequestData(vtkInformation* /*request*/,
     return 0;
   }
 
+  // The frames asked for (the whole capture unless a downstream filter streams it in blocks);
+  // every sample of each.
   int extent[6];
   sequenceExtent(this->Sequence, extent);
+  echoreg::filters::clampToRequestedFrames(outputVector, extent);
   output->SetExtent(extent);
   output->SetSpacing(1.0, 1.0, 1.0);
   output->SetOrigin(0.0, 0.0, 0.0);
   if (this->Sequence.hasPixels()) {
-    output->AllocateScalars(vtkScalarType(this->Sequence.elementType), 1);
-    vtkDataArray* scalars = output->GetPointData()->GetScalars();
-    scalars->SetName("ALines");
-    const std::size_t bytes = this->Sequence.frameCount() * this->Sequence.samplesPerFrame() *
-                              echoreg::elementSize(this->Sequence.elementType);
+    const std::size_t frameBytes =
+        this->Sequence.samplesPerFrame() * echoreg::elementSize(this->Sequence.elementType);
+    const std::size_t bytes = this->Sequence.frameCount() * frameBytes;
     if (bytes != this->Sequence.pixels.size()) {
       this->Fail(this->FileName + ": pixel data holds " +
                  std::to_string(this->Sequence.pixels.size()) + " bytes, expected " +
@@ -191,10 +195,22 @@ int vtkEchoregSequenceReader::RequestData(vtkInformation* /*request*/,
       output->Initialize();
       return 0;
     }
-    if (bytes > 0)
-      std::memcpy(scalars->GetVoidPointer(0), this->Sequence.pixels.data(), bytes);
+    output->AllocateScalars(vtkScalarType(this->Sequence.elementType), 1);
+    vtkDataArray* scalars = output->GetPointData()->GetScalars();
+    scalars->SetName("ALines");
+    const auto frames = static_cast<std::size_t>(extent[3] - extent[2] + 1);
+    if (frames * frameBytes > 0) {
+      std::memcpy(scalars->GetVoidPointer(0),
+                  this->Sequence.pixels.data() + static_cast<std::size_t>(extent[2]) * frameBytes,
+                  frames * frameBytes);
+    }
   }
-  echoreg::filters::SequenceFieldData::write(this->Sequence, output->GetFieldData());
+  if (this->FieldData == nullptr || this->FieldDataTime < this->CacheTime) {
+    this->FieldData = vtkSmartPointer<vtkFieldData>::New();
+    echoreg::filters::SequenceFieldData::write(this->Sequence, this->FieldData);
+    this->FieldDataTime.Modified();
+  }
+  output->GetFieldData()->ShallowCopy(this->FieldData);
   return 1;
 }
 

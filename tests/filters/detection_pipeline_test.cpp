@@ -162,6 +162,87 @@ TEST(DetectionPipeline, ACalibrationChangeReRunsOnlyThePointsAndTheFilters) {
   }
 }
 
+// `detect` streams the capture in blocks of frames (setFramesPerBlock): the same detection and the
+// same CSV as the whole capture at once, every frame enveloped once, and never more than a block
+// of envelopes held. 40 frames in blocks of 7: five full blocks and one of 5.
+TEST(DetectionPipeline, StreamedInBlocksGivesTheSameDetectionHoldingOneBlock) {
+  TempDir dir;
+  const SyntheticCapture capture = trackedCapture();
+  const Sequence sequence = makeCapture(capture);
+  const std::string path = dir.file("capture.igs.mha");
+  writeSequence(sequence, path);
+  PointFrameOptions points;
+  points.poseTransform = "ProbeToTracker";
+  points.referenceTransform = "FemurToTracker";
+  const DetectionParams params = testDetectionParams(capture);
+
+  filters::DetectionPipeline whole;
+  whole.open(path, {});
+  whole.configure(params, points);
+  whole.peaks->PeakListOn();
+  whole.write(dir.file("whole.csv"));
+  const SequenceDetection expected = whole.run();
+  ASSERT_GT(expected.accepted, 0);
+
+  filters::DetectionPipeline streamed;
+  streamed.open(path, {});
+  streamed.configure(params, points);
+  streamed.peaks->PeakListOn();
+  streamed.setFramesPerBlock(7);
+  streamed.write(dir.file("streamed.csv"));
+  expectSameDetection(streamed.run(), expected);
+  EXPECT_EQ(readText(dir.file("streamed.csv")), readText(dir.file("whole.csv")));
+
+  // Port 1 (every frame's peaks) is filled across the blocks too.
+  vtkTable* wholeList = whole.peaks->GetOutput(1);
+  vtkTable* streamedList = streamed.peaks->GetOutput(1);
+  ASSERT_GT(wholeList->GetNumberOfRows(), capture.frames - 1);
+  ASSERT_EQ(streamedList->GetNumberOfRows(), wholeList->GetNumberOfRows());
+  for (vtkIdType row = 0; row < wholeList->GetNumberOfRows(); ++row) {
+    for (int column = 0; column < 3; ++column) {
+      EXPECT_EQ(streamedList->GetValue(row, column), wholeList->GetValue(row, column))
+          << "peak " << row << ", column " << column;
+    }
+  }
+
+  EXPECT_EQ(streamed.peaks->GetExecutionCount(), 1);
+  EXPECT_EQ(streamed.envelope->GetExecutionCount(), 6) << "one execution per block";
+  EXPECT_EQ(streamed.reader->GetExecutionCount(), 6);
+  EXPECT_EQ(streamed.envelope->GetFramesComputed(), capture.frames) << "each frame once";
+  int extent[6];
+  streamed.envelope->GetOutput()->GetExtent(extent);
+  EXPECT_EQ(extent[2], 35) << "only the last block's envelopes are held";
+  EXPECT_EQ(extent[3], 39);
+  streamed.reader->GetOutput()->GetExtent(extent);
+  EXPECT_EQ(extent[3] - extent[2] + 1, 5) << "and only its A-lines";
+
+  // A new BeamToProbe still re-runs only the points and the inter-signal filter.
+  points.beamToProbe(2, 3) = 4.0;
+  streamed.configure(params, points);
+  streamed.run();
+  EXPECT_EQ(streamed.envelope->GetFramesComputed(), capture.frames);
+  EXPECT_EQ(streamed.peaks->GetExecutionCount(), 1);
+
+  // A new peak threshold: the price of streaming, every block's envelopes are computed again.
+  DetectionParams stricter = params;
+  stricter.peaks.thresholdFactor *= 1.5;
+  streamed.configure(stricter, points);
+  streamed.run();
+  EXPECT_EQ(streamed.peaks->GetExecutionCount(), 2);
+  EXPECT_EQ(streamed.envelope->GetFramesComputed(), 2 * capture.frames);
+
+  // A failing step is still an error through the executive, named by its words.
+  CapturedVtkOutput messages;
+  streamed.peaks->SetWindowMinMm(30.0);
+  streamed.peaks->SetWindowMaxMm(10.0);
+  try {
+    streamed.run();
+    FAIL() << "a window whose minimum is above its maximum must be an error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("invalid peak parameters"), std::string::npos) << e.what();
+  }
+}
+
 TEST(DetectionPipeline, BadInputIsAnErrorInTheCoresWordsAndWritesNothing) {
   CapturedVtkOutput messages;
   TempDir dir;

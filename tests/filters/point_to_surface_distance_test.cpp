@@ -87,6 +87,35 @@ TEST(PointToSurfaceDistance, EqualsTheLocatorAndABruteForceOracle) {
   EXPECT_EQ(rms->GetValue(0), filter->GetLastResult().rmsMm);
 }
 
+// The output's points are the input's, bit for bit: double points stay double (a float copy moved
+// the registration figure's spheres by a fraction of a pixel), float points stay float.
+TEST(PointToSurfaceDistance, OutputPointsKeepTheInputsPrecision) {
+  const core::TriangleMesh sphere = core::uvSphere(Eigen::Vector3d(1, 2, 3), 20.0, 12, 24);
+  for (const int type : {VTK_DOUBLE, VTK_FLOAT}) {
+    SCOPED_TRACE(type == VTK_DOUBLE ? "double" : "float");
+    vtkNew<vtkPoints> points;
+    points->SetDataType(type);
+    for (int i = 0; i < 20; ++i)
+      points->InsertNextPoint(0.1 + 1e-9 * i, 25.0 / 3.0 + i, -std::sqrt(2.0) * i);
+    vtkNew<vtkPolyData> input;
+    input->SetPoints(points);
+    vtkNew<vtkEchoregPointToSurfaceDistance> filter;
+    filter->SetInputData(0, input);
+    filter->SetSurfaceData(filters::toPolyData(sphere));
+    filter->Update();
+    ASSERT_EQ(filter->GetLastError(), "");
+    vtkPoints* out = filter->GetOutput()->GetPoints();
+    ASSERT_EQ(out->GetNumberOfPoints(), 20);
+    EXPECT_EQ(out->GetDataType(), type);
+    for (vtkIdType id = 0; id < 20; ++id) {
+      double a[3], b[3];
+      points->GetPoint(id, a);
+      out->GetPoint(id, b);
+      EXPECT_TRUE(a[0] == b[0] && a[1] == b[1] && a[2] == b[2]) << "point " << id;
+    }
+  }
+}
+
 TEST(PointToSurfaceDistance, SignedDistancesAreNegativeInside) {
   const core::TriangleMesh sphere = core::uvSphere(Eigen::Vector3d::Zero(), 10.0);
   vtkNew<vtkPoints> points;

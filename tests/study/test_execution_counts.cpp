@@ -1,10 +1,15 @@
 // Execution counts per command (issue 14): each command that detects runs its captures through the
-// VTK pipeline (filters::DetectionPipeline), and runs each capture's envelope and peak filters
-// once. The counts are the filters' own (RequestData), tallied by capture by the pipeline.
+// VTK pipeline (filters::DetectionPipeline), and runs each capture's peak filter once and computes
+// each frame's envelope once (`detect` streams the capture in blocks, one envelope execution per
+// block; the others envelope the whole capture in one execution). The counts are the filters' own
+// (RequestData, frames enveloped), tallied by capture by the pipeline.
 #include "cli_test_support.hpp"
+#include "file_bytes.hpp"
 #include "study_checks.hpp"
 #include "test_support.hpp"
 
+#include "command_figure.hpp"
+#include "csv_table.hpp"
 #include "echoreg/filters/DetectionPipeline.h"
 
 #include <gtest/gtest.h>
@@ -12,7 +17,9 @@
 
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
+#include <sstream>
 #include <string>
 
 namespace echoreg::simulation {
@@ -32,6 +39,7 @@ std::map<std::string, DetectionPipeline::Executions> executionsSince(
     if (was != before.end()) {
       delta.envelope -= was->second.envelope;
       delta.peaks -= was->second.peaks;
+      delta.envelopeFrames -= was->second.envelopeFrames;
     }
     if (delta.envelope != 0 || delta.peaks != 0)
       since[capture] = delta;
@@ -39,16 +47,47 @@ std::map<std::string, DetectionPipeline::Executions> executionsSince(
   return since;
 }
 
-// Expects exactly `captures` detected, each with one envelope and one peak execution.
+// Expects exactly `captures` detected, each with one peak execution, each frame enveloped once,
+// and `envelopes(frames)` envelope executions; `updates` names captures updated more often than
+// once (each update a peak execution and one envelope execution of every frame). Captures named
+// relative to a study are read from `folder`.
 void expectEachDetectedOnce(const std::map<std::string, DetectionPipeline::Executions>& since,
-                            const std::vector<std::string>& captures) {
+                            const std::vector<std::string>& captures,
+                            const std::function<int(long long)>& envelopes,
+                            const std::string& folder = "",
+                            const std::map<std::string, int>& updates = {}) {
   EXPECT_EQ(since.size(), captures.size());
   for (const std::string& capture : captures) {
     const auto found = since.find(capture);
     ASSERT_NE(found, since.end()) << capture << " was not detected through the pipeline";
-    EXPECT_EQ(found->second.envelope, 1) << capture << ": envelope filter executions";
-    EXPECT_EQ(found->second.peaks, 1) << capture << ": peak filter executions";
+    const auto frames = static_cast<long long>(
+        readSequence(folder.empty() ? capture : folder + "/" + capture).frameCount());
+    const auto more = updates.find(capture);
+    const int times = more == updates.end() ? 1 : more->second;
+    EXPECT_EQ(found->second.envelopeFrames, times * frames) << capture << ": frames enveloped";
+    EXPECT_EQ(found->second.envelope, times * envelopes(frames))
+        << capture << ": envelope executions";
+    EXPECT_EQ(found->second.peaks, times) << capture << ": peak filter executions";
   }
+}
+
+// The signals figures `study run` drew of `bone`'s first sweep in `study`.
+int signalsFigures(const std::string& study, const std::string& bone) {
+  int figures = 0;
+  for (const char* which : {"accepted", "rejected"})
+    figures += fs::exists(study + "/results/figures/signals_" + bone + "_" + which + ".png");
+  return figures;
+}
+
+// The whole capture in one envelope execution (register, calibrate, the study).
+int oneExecution(long long /*frames*/) {
+  return 1;
+}
+
+// One envelope execution per block of frames (detect).
+int oneExecutionPerBlock(long long frames) {
+  const long long block = DetectionPipeline::kStreamFramesPerBlock;
+  return static_cast<int>((frames + block - 1) / block);
 }
 
 class ExecutionCounts : public ::testing::Test {
@@ -71,7 +110,10 @@ TEST_F(ExecutionCounts, DetectRunsThePipelineOnce) {
   const auto before = DetectionPipeline::executionsByCapture();
   const test::CommandResult r = runEchoreg({"detect", sweep, "--out", dir_.file("d.csv")});
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  expectEachDetectedOnce(executionsSince(before), {sweep});
+  expectEachDetectedOnce(executionsSince(before), {sweep}, oneExecutionPerBlock);
+  ASSERT_GT(readSequence(sweep).frameCount(),
+            static_cast<std::size_t>(DetectionPipeline::kStreamFramesPerBlock))
+      << "the sweep should take more than one block";
 }
 
 TEST_F(ExecutionCounts, RegisterRunsThePipelineOncePerSweep) {
@@ -84,7 +126,7 @@ TEST_F(ExecutionCounts, RegisterRunsThePipelineOncePerSweep) {
   // (The sweep alone may leave the pose undetermined on some seeds: the detection ran all the
   // same.)
   ASSERT_TRUE(r.exitCode == 0 || r.err.find("not converged") != std::string::npos) << r.err;
-  expectEachDetectedOnce(executionsSince(before), {sweep});
+  expectEachDetectedOnce(executionsSince(before), {sweep}, oneExecution);
 }
 
 TEST_F(ExecutionCounts, CalibrateRunsThePipelineOnceOnItsShots) {
@@ -114,7 +156,7 @@ TEST_F(ExecutionCounts, CalibrateRunsThePipelineOnceOnItsShots) {
                                             "--out",
                                             dir_.file("c.json")});
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  expectEachDetectedOnce(executionsSince(before), {shots});
+  expectEachDetectedOnce(executionsSince(before), {shots}, oneExecution);
 }
 
 // The study: the calibration shots once, and each sweep once for both its points and its
@@ -139,8 +181,81 @@ TEST_F(ExecutionCounts, StudyRunDetectsEachSweepOnce) {
       captures.push_back(sweep.get<std::string>());
   }
   ASSERT_GE(captures.size(), 3U) << "the fixture's study has a sweep per bone";
+  // The signals figures of the first bone's first sweep update its envelope and peaks once per
+  // setting compared (mozes2008 and the study's), each figure in a pipeline of its own.
+  const std::string bone = manifest.at("bones").begin().key();
+  const int figures = signalsFigures(study, bone);
+  ASSERT_GT(figures, 0) << "the study drew no signals figure";
+  const std::string figured = manifest.at("bones").at(bone).at("ultrasound").at(0);
   // The study runs inside its folder: the captures as the manifest names them.
-  expectEachDetectedOnce(executionsSince(before), captures);
+  expectEachDetectedOnce(executionsSince(before), captures, oneExecution, study,
+                         {{figured, 1 + 2 * figures}});
+}
+
+// The study's signals figures draw the study's setting as its sweeps were detected: its preset with
+// its --params (before, the figure ran the preset alone), and are tallied with the rest.
+TEST_F(ExecutionCounts, StudySignalsFiguresUseTheStudysParams) {
+  const std::string study = dir_.file("study");
+  fs::create_directories(study);
+  for (const char* folder : {"captures", "ct", "truth"})
+    fs::copy(path(folder), study + "/" + folder, fs::copy_options::recursive);
+  nlohmann::json manifest = manifest_;
+  manifest["truth"].erase("shots");
+  std::ofstream(study + "/study.json") << manifest.dump(2);
+  const std::string params = dir_.file("params.json");
+  std::ofstream(params) << R"({"threshold-factor": 2.0})";
+
+  const auto before = DetectionPipeline::executionsByCapture();
+  const test::CommandResult r =
+      runEchoreg({"study", "run", study, "--given-models", "--params", params});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto since = executionsSince(before);
+
+  // The figures are of the first bone's first sweep.
+  const std::string bone = manifest.at("bones").begin().key();
+  const std::string sweep = manifest.at("bones").at(bone).at("ultrasound").at(0);
+  const int figures = signalsFigures(study, bone);
+  ASSERT_GT(figures, 0) << "the study drew no signals figure";
+  const auto found = since.find(sweep);
+  ASSERT_NE(found, since.end());
+  const auto frames = static_cast<long long>(readSequence(study + "/" + sweep).frameCount());
+  const int updates = 1 + 2 * figures;  // the detection, then 2 settings per figure
+  EXPECT_EQ(found->second.peaks, updates) << "the figures' peak filter updates are tallied";
+  EXPECT_EQ(found->second.envelope, updates);
+  EXPECT_EQ(found->second.envelopeFrames, updates * frames);
+
+  // The accepted frame's figure is the one drawn with the study's preset and --params, not the
+  // one without them.
+  const cli::CsvTable points =
+      cli::readCsvTable(study + "/results/points/" + bone + "_ultrasound_1.csv");
+  const int status = points.column("status");
+  const int frame = points.column("frame");
+  ASSERT_GE(status, 0);
+  ASSERT_GE(frame, 0);
+  std::string accepted;
+  for (const auto& row : points.rows) {
+    if (row[static_cast<std::size_t>(status)] == "accepted") {
+      accepted = row[static_cast<std::size_t>(frame)];
+      break;
+    }
+  }
+  ASSERT_FALSE(accepted.empty());
+  const std::string preset = manifest.at("detection").at("preset");
+  const auto draw = [&](const std::string& paramsFile, const std::string& out) {
+    cli::SignalsFigureRequest request;
+    request.capture = study + "/" + sweep;
+    request.frame = std::stoi(accepted);
+    request.settings = {{"mozes2008", "", {}}, {preset, paramsFile, {}}};
+    request.title = bone + " sweep, frame " + accepted + " (accepted by the study's detection)";
+    request.out = out;
+    std::ostringstream printed, err;
+    EXPECT_EQ(cli::runSignalsFigure(request, cli::Streams{printed, err}), 0) << err.str();
+    return test::fileBytes(out);
+  };
+  const std::string drawn =
+      test::fileBytes(study + "/results/figures/signals_" + bone + "_accepted.png");
+  EXPECT_TRUE(draw(params, dir_.file("with.png")) == drawn) << "drawn with the study's --params";
+  EXPECT_FALSE(draw("", dir_.file("without.png")) == drawn) << "the --params change the figure";
 }
 
 }  // namespace

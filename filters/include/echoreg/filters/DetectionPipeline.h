@@ -5,7 +5,10 @@
 //
 // Demand-driven: set the parameters, update the last algorithm, and only the steps downstream of
 // a change run again (a new BeamToProbe re-runs beam points and inter-signal, not the envelope).
-// The envelope and peak filters split their frames over threads with vtkSMPTools. The result is
+// The envelope and peak filters split their frames over threads with vtkSMPTools. By default the
+// envelopes of the whole capture are kept between updates; setFramesPerBlock() streams the capture
+// through reader, envelope and peaks in blocks of frames instead (memory bounded by a block, what
+// a one-shot command like `detect` wants). The result is
 // detectSequence's (tests/filters/detection_pipeline_test.cpp compares them frame by frame), so
 // the commands that used to call it give the same bytes.
 #pragma once
@@ -27,6 +30,7 @@
 class vtkStringOutputWindow;
 class vtkOutputWindow;
 class vtkTable;
+class vtkAlgorithm;
 
 namespace echoreg::filters {
 
@@ -67,18 +71,33 @@ class DetectionPipeline {
   /// and analysis of configure(). Throws std::runtime_error with the first failing step's message.
   SequenceDetection run();
 
+  /// Updates the chain up to the peak filter only (what `figure signals` draws: the envelopes and
+  /// the verdicts, with the peak list when on), counting the executions as run() does. Throws
+  /// std::runtime_error with the first failing step's message.
+  void updatePeaks();
+
   /// Updates the chain and writes the CSV to `path` (atomically). Throws std::runtime_error with
   /// the failing step's message.
   void write(const std::string& path);
+
+  /// Streams the capture through reader, envelope and peaks in blocks of `frames` frames (0: the
+  /// whole capture at once, the default). The output is the same; the envelopes held at any time
+  /// are one block's, but a later change of a peak parameter recomputes them.
+  void setFramesPerBlock(int frames) { peaks->SetFramesPerBlock(frames); }
+  /// The block size `detect` streams with: 512 frames, 8 MB of float envelopes at 4096 samples,
+  /// enough rows per block to keep every core busy.
+  static constexpr int kStreamFramesPerBlock = 512;
 
   /// The parameters as configure() resolved them.
   const DetectionParams& params() const { return params_; }
 
   /// How often the envelope and the peak filter executed (RequestData) in the updates of run()
-  /// and write().
+  /// and write(), and how many frames the envelope filter computed: a capture streamed in blocks
+  /// runs the envelope once per block and the peak filter once, and envelopes its frames once.
   struct Executions {
     int envelope = 0;
     int peaks = 0;
+    long long envelopeFrames = 0;
   };
   /// The executions of every DetectionPipeline of this process so far, by capture path as given
   /// to open(): how tests show that a command detects each capture once
@@ -93,9 +112,9 @@ class DetectionPipeline {
   vtkNew<vtkEchoregDetectionWriter> writer;
 
  private:
-  /// Updates the chain up to the inter-signal filter, counting the executions; throws the failing
-  /// step's message.
-  void update();
+  /// Updates the chain up to `last` (the inter-signal filter unless given), counting the
+  /// executions; throws the failing step's message.
+  void update(vtkAlgorithm* last = nullptr);
   /// Throws the first upstream step's error, if any.
   void throwFirstError(const std::string& fallback) const;
 

@@ -16,7 +16,10 @@
  * Frames are processed in parallel with vtkSMPTools, one detector per chunk of frames.
  *
  * Input (port 0): vtkImageData of A-lines as vtkEchoregSequenceReader makes it: one slice, x the
- * sample, y the frame, one-component scalars of any numeric type. The whole input is requested.
+ * sample, y the frame, one-component scalars of any numeric type. Whole records are requested,
+ * of the frames asked of the output: all of them, or one block of frames at a time when a
+ * downstream filter streams the capture (vtkEchoregPeakFilter's FramesPerBlock); the output then
+ * holds only that block, with its absolute frame indices as the extent.
  * Output (port 0): vtkImageData of the same structure with float point scalars "Envelope". The
  * input's field data (timestamps, poses, acquisition settings) is passed through unchanged.
  * An input without samples (a tracker-only capture) gives an output of the same extent without
@@ -127,9 +130,15 @@ class vtkEchoregEnvelopeFilter : public vtkImageAlgorithm {
   const std::string& GetLastError() const { return this->LastError; }
 
   /**
-   * Number of times RequestData ran.
+   * Number of times RequestData ran (once per block when the capture is streamed).
    */
   int GetExecutionCount() const { return this->ExecutionCount; }
+
+  /**
+   * Number of frames (rows) whose envelope was computed, over every execution: a capture streamed
+   * in blocks and enveloped once adds its frame count.
+   */
+  vtkIdType GetFramesComputed() const { return this->FramesComputed; }
 
  protected:
   vtkEchoregEnvelopeFilter();
@@ -158,4 +167,5 @@ class vtkEchoregEnvelopeFilter : public vtkImageAlgorithm {
   echoreg::EnvelopeParams Params;
   std::string LastError;
   int ExecutionCount = 0;
+  vtkIdType FramesComputed = 0;
 };

@@ -13,7 +13,14 @@
  * PeakParams' mmPerSample is always taken from the DepthConversion.
  *
  * Input (port 0): vtkImageData of envelopes, as vtkEchoregEnvelopeFilter makes it (one slice,
- * x = sample, y = frame, one-component scalars of any numeric type); the whole input is requested.
+ * x = sample, y = frame, one-component scalars of any numeric type). With FramesPerBlock 0 (the
+ * default) the whole input is requested, and the upstream keeps every envelope (a later peak
+ * parameter does not recompute them). With FramesPerBlock N > 0 a longer capture is streamed:
+ * the input is requested N frames at a time (its update extent along y), first through the
+ * pipeline's own request, then by updating the input's producer for each further block from
+ * RequestData; each block's rows are done in parallel and written into the one table, so the
+ * output is the same, while the envelopes held at any time are one block's (N x samples floats)
+ * instead of the capture's. A block that cannot be computed fails the whole execution.
  * Output (port 0): vtkTable, one row per frame, columns
  *   "frame" (int, the y index), "timestamp_s" (double, from the field data "Timestamp", NaN
  *   when absent), "peaks" (int, number of peaks found), "sample_index" (double, NaN when
@@ -43,6 +50,9 @@
 
 #include <vtkTableAlgorithm.h>
 
+class vtkImageData;
+
+#include <algorithm>
 #include <optional>
 #include <string>
 
@@ -132,13 +142,23 @@ class vtkEchoregPeakFilter : public vtkTableAlgorithm {
   void PeakListOff() { this->SetPeakList(false); }
   ///@}
 
+  ///@{
+  /**
+   * Frames per block when streaming the input (>= 0; default 0: the whole input at once). See
+   * above: a block size bounds the memory of the envelopes, at the price of recomputing them
+   * when a peak parameter changes.
+   */
+  void SetFramesPerBlock(int frames) { this->SetField(this->FramesPerBlock, std::max(0, frames)); }
+  int GetFramesPerBlock() const { return this->FramesPerBlock; }
+  ///@}
+
   /**
    * Message of the last failure, empty after a success.
    */
   const std::string& GetLastError() const { return this->LastError; }
 
   /**
-   * Number of times RequestData ran.
+   * Number of times RequestData ran (one pass over the input, however many blocks it took).
    */
   int GetExecutionCount() const { return this->ExecutionCount; }
 
@@ -165,6 +185,9 @@ class vtkEchoregPeakFilter : public vtkTableAlgorithm {
   }
   void SetWindowLimit(double& limit, double depthMm);
   void Fail(const std::string& message);
+  /// Updates the input's producer for frames [firstFrame, lastFrame] (whole records) and returns
+  /// its output, or null when the update failed.
+  vtkImageData* UpdateInputFrames(int firstFrame, int lastFrame);
 
   echoreg::PeakParams PeakParams;
   echoreg::DepthConversion Depth;
@@ -173,6 +196,7 @@ class vtkEchoregPeakFilter : public vtkTableAlgorithm {
   double WindowMinMm;
   double WindowMaxMm;
   bool PeakList = false;
+  int FramesPerBlock = 0;
   std::string LastError;
   int ExecutionCount = 0;
 };

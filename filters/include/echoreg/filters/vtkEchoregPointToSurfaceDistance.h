@@ -11,7 +11,8 @@
  *
  * Input 0: vtkPointSet, the points (e.g. ultrasound points mapped into CT). Input 1: vtkPolyData,
  * the surface (CT, mm), triangulated as echoreg::filters::toTriangleMesh does.
- * Output: vtkPolyData with the points of input 0, one vertex cell per point, the point data of
+ * Output: vtkPolyData with the points of input 0 (a copy of the same precision), one vertex cell
+ * per point, the point data of
  * input 0 plus "DistanceMm" (double) and "ClosestPointMm" (3 components). Field data:
  * "DistanceRmsMm", "DistanceMeanMm", "DistanceMaxMm", "DistanceCount"; GetLastResult() the same.
  * No points: an empty output with a warning. A surface without triangles or with a non-finite

@@ -8,12 +8,14 @@
  * systems"); A-lines are frames of N x 1 samples.
  *
  * Output (port 0): vtkImageData with dimensions (samples, frames, 1): x is the sample index, y the
- * frame; spacing (1, 1, 1), origin 0. The point scalars "ALines" keep the file's element type
- * (VTK_UNSIGNED_CHAR, VTK_SIGNED_CHAR, VTK_SHORT or VTK_FLOAT).
- * A tracker-only capture (DimSize = 0 0 F) gives an image without points: extent
- * (0, -1, 0, F-1, 0, 0), so GetDimensions() reads (0, F, 1), no scalars, and the field data below
- * still present. Frames of more than one row (2D images, or a holder of several transducers) are
- * refused with echoreg::requireSingleALineFrames's sentence.
+ * frame; spacing (1, 1, 1), origin 0. The reader honours the update extent along y: a downstream
+ * filter that streams the capture in blocks of frames (vtkEchoregPeakFilter's FramesPerBlock)
+ * gets only the frames of its block copied, with their absolute frame indices as the extent. The
+ * point scalars "ALines" keep the file's element type (VTK_UNSIGNED_CHAR, VTK_SIGNED_CHAR,
+ * VTK_SHORT or VTK_FLOAT). A tracker-only capture (DimSize = 0 0 F) gives an image without points:
+ * extent (0, -1, 0, F-1, 0, 0), so GetDimensions() reads (0, F, 1), no scalars, and the field data
+ * below still present. Frames of more than one row (2D images, or a holder of several transducers)
+ * are refused with echoreg::requireSingleALineFrames's sentence.
  *
  * Field data of the output (see echoreg::filters::SequenceFieldData): "Timestamp" (NaN where a
  * frame has none); per transform N: "N" (16 components, row-major), "N_Valid" (1 = status OK) and
@@ -42,6 +44,7 @@
 #include "echoreg/core/sequence.hpp"
 
 #include <vtkImageAlgorithm.h>
+#include <vtkSmartPointer.h>
 #include <vtkTimeStamp.h>
 
 #include <cstdint>
@@ -49,6 +52,8 @@
 #include <string>
 #include <utility>
 #include <vector>
+
+class vtkFieldData;
 
 class vtkEchoregSequenceReader : public vtkImageAlgorithm {
  public:
@@ -97,7 +102,7 @@ class vtkEchoregSequenceReader : public vtkImageAlgorithm {
   const std::string& GetLastError() const { return this->LastError; }
 
   /**
-   * Number of times RequestData ran (pixels copied to the output).
+   * Number of times RequestData ran (pixels copied to the output; once per block when streamed).
    */
   int GetExecutionCount() const { return this->ExecutionCount; }
 
@@ -138,4 +143,8 @@ class vtkEchoregSequenceReader : public vtkImageAlgorithm {
   std::filesystem::file_time_type CachedFileTime{};
   std::uintmax_t CachedFileSize = 0;
   vtkTimeStamp CacheTime;
+  // The field data of Sequence, built once per read and shared by every output (a streamed
+  // capture would otherwise rebuild every frame's poses for each block).
+  vtkSmartPointer<vtkFieldData> FieldData;
+  vtkTimeStamp FieldDataTime;
 };
