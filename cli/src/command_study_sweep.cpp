@@ -645,12 +645,12 @@ CommandAction addStudySweepCommand(CLI::App& study) {
   CLI::App* cmd = study.add_subcommand(
       "sweep",
       "Runs a parameter sweep (docs/many-studies.md): every combination of the sweep file's\n"
-      "parameters (detection settings, the simulator's options, replicates) is a point, run as\n"
-      "its own study in OUT/points/ID; its numbers are a row of OUT/results.jsonl (in the sweep's\n"
-      "order, written once every point has its row). Simulated studies get seeds derived from the\n"
-      "base seed and their parameters: the same sweep file gives the same bytes. A point with a\n"
-      "row is not run again, so a killed sweep resumes. A bad sweep file exits 2, naming the key,\n"
-      "and nothing is written.");
+      "parameters (detection settings, the registration's method and loss, the simulator's\n"
+      "options, replicates) is a point, run as its own study in OUT/points/ID; its numbers are a\n"
+      "row of OUT/results.jsonl (in the sweep's order, written once every point has its row).\n"
+      "Simulated studies get seeds derived from the base seed and their parameters: the same\n"
+      "sweep file gives the same bytes. A point with a row is not run again, so a killed sweep\n"
+      "resumes. A bad sweep file exits 2, naming the key, and nothing is written.");
   auto o = std::make_shared<SweepOptions>();
   cmd->add_option("sweep", o->file, "Sweep file (JSON)")->required();
   cmd->add_option("--out", o->out, "Folder of the sweep's studies and rows (created)")->required();
