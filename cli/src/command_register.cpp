@@ -688,6 +688,34 @@ int solveAndWrite(const RegisterOptions& o, const RegistrationModel& loaded,
   return 0;
 }
 
+void addSolverOptions(CLI::App* cmd, std::string& method, std::string& loss) {
+  // The names are core's (parseSurfaceMethod, parseRobustLoss): one list, one message.
+  const auto accepted = [](auto parse, const char* names) {
+    return CLI::Validator(
+        [parse](std::string& input) -> std::string {
+          try {
+            parse(input);
+          } catch (const std::invalid_argument& e) {
+            return e.what();
+          }
+          return std::string();
+        },
+        names, "NAME");
+  };
+  cmd->add_option("--method", method, "robust, or plain (the dissertation's ICP)")
+      ->check(accepted(core::parseSurfaceMethod, "plain or robust"))
+      ->capture_default_str();
+  cmd->add_option("--loss", loss, "robust: huber, cauchy, tukey or trim (10 %)")
+      ->check(accepted(core::parseRobustLoss, "huber, cauchy, tukey or trim"))
+      ->capture_default_str();
+}
+
+nlohmann::json solverJson(const std::string& method, const std::string& loss) {
+  const bool robust = core::parseSurfaceMethod(method) == core::SurfaceMethod::Robust;
+  core::parseRobustLoss(loss);
+  return {{"method", method}, {"loss", robust ? nlohmann::json(loss) : nlohmann::json(nullptr)}};
+}
+
 CLI::Option* addRegistrationOptions(CLI::App* cmd, const std::shared_ptr<RegisterOptions>& o,
                                     const std::set<std::string>& ownTunables) {
   cmd->add_option("--model", o->model,
@@ -777,12 +805,7 @@ CLI::Option* addRegistrationOptions(CLI::App* cmd, const std::shared_ptr<Registe
   landmarksCapture->needs(landmarksCt);
   cmd->add_option("--out", o->out, "<Bone>ToCT JSON to write (a .tfm is written beside it)")
       ->required();
-  cmd->add_option("--method", o->method, "robust, or plain (the dissertation's ICP)")
-      ->check(CLI::IsMember({"plain", "robust"}))
-      ->capture_default_str();
-  cmd->add_option("--loss", o->loss, "robust: huber, cauchy, tukey or trim (10 %)")
-      ->check(CLI::IsMember({"huber", "cauchy", "tukey", "trim"}))
-      ->capture_default_str();
+  addSolverOptions(cmd, o->method, o->loss);
   cmd->add_flag(
       "--open-ends", o->openEnds,
       "The model was cut by the CT's scan range (echoreg segment closes it with flat caps at "

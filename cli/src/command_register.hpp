@@ -63,6 +63,14 @@ struct RegisterOptions {
 CLI::Option* addRegistrationOptions(CLI::App* cmd, const std::shared_ptr<RegisterOptions>& o,
                                     const std::set<std::string>& ownTunables = {});
 
+/// --method and --loss of the surface solver, checked by core's parseSurfaceMethod and
+/// parseRobustLoss (the names they accept, their message): register, live and study run.
+void addSolverOptions(CLI::App* cmd, std::string& method, std::string& loss);
+
+/// The solver's method and loss as a registration records them: {"method", "loss"}, the loss null
+/// for plain (it uses none). Throws std::invalid_argument for a name core does not know.
+nlohmann::json solverJson(const std::string& method, const std::string& loss);
+
 /// Usage errors of the start (exit 2), for a parse_complete_callback.
 void checkRegistrationStart(const std::string& command, const RegisterOptions& o);
 

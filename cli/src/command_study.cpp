@@ -49,6 +49,10 @@ struct StudyOptions {
   bool force = false;
   bool givenModels = false;
   std::string paramsFile;  ///< --params: detection parameters of the sweeps, over the manifest's
+  /// --method, --loss: the solver of the registrations from ultrasound (register's names and
+  /// defaults); the mechanical reference keeps register's defaults.
+  std::string method = RegisterOptions().method;
+  std::string loss = RegisterOptions().loss;
   bool json = false;
 };
 
@@ -98,12 +102,16 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   // parameters (detection_params.hpp), over the manifest's detection.preset and speed of sound.
   std::string paramsPreset;
   TunableSettings paramsSettings;
-  const std::string paramsFile =
-      o.paramsFile.empty() ? std::string()
-                           : fs::absolute(o.paramsFile).lexically_normal().generic_string();
-  if (!paramsFile.empty()) {
+  // Named relative to the study folder, the working directory of the steps: the steps' requests
+  // (the re-run cache) and messages hold no absolute path, so a moved or copied study (a sweep's
+  // folder) is up to date where it lies.
+  std::string paramsFile;
+  if (!o.paramsFile.empty()) {
     CommandPaths().input("--params", o.paramsFile).check();
-    mergeParamsFile(paramsFile, paramsPreset, paramsSettings);
+    mergeParamsFile(o.paramsFile, paramsPreset, paramsSettings);
+    paramsFile = fs::relative(fs::absolute(o.paramsFile), fs::absolute(manifest.dir))
+                     .lexically_normal()
+                     .generic_string();
   }
   // Named as the user gave it, for messages; read from inside.
   const std::string studyDir = manifest.dir;
@@ -414,6 +422,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
         reg.calibration = calibration;
         reg.preset = preset;
         reg.fitSpeed = true;
+        reg.method = o.method;
+        reg.loss = o.loss;
         if (manifest.detection.speedOfSoundMps)
           reg.detection["speed-of-sound"] = *manifest.detection.speedOfSoundMps;
         for (const auto& [name, value] : paramsSettings)
@@ -1084,9 +1094,17 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
             : nlohmann::json{{"preset", paramsPreset.empty() ? nlohmann::json(nullptr)
                                                              : nlohmann::json(paramsPreset)},
                              {"settings", settingsJson(paramsSettings)}};
+    // The solver of the registrations from ultrasound (--method, --loss: a sweep's point).
+    numbers["provenance"]["solver"] = solverJson(o.method, o.loss);
     // Which echoreg made these numbers (echoreg study compare lists it per study).
     numbers["echoreg_version"] = ECHOREG_VERSION;
     report.heading("Provenance");
+    report.paragraph(fmt::format(
+        "Registrations from ultrasound: method {}{} (study run --method, --loss); the reference "
+        "from the mechanical probe: register's defaults.",
+        o.method,
+        numbers["provenance"]["solver"]["loss"].is_null() ? std::string(" (no loss)")
+                                                          : ", loss " + o.loss));
     if (outside.empty()) {
       report.paragraph(
           "Every input was read inside the study folder; the paths in the results are "
@@ -1179,6 +1197,13 @@ CommandAction addStudyCommand(CLI::App& app) {
                   "JSON object of detection parameters for the sweeps, named as echoreg detect's "
                   "flags without dashes; over the manifest's detection.preset and "
                   "speed_of_sound_mps (a change re-runs the sweeps' points and registrations)");
+  // register's own options: its names, checks and defaults.
+  addSolverOptions(run, o->method, o->loss);
+  for (const char* flag : {"--method", "--loss"}) {
+    CLI::Option* option = run->get_option(flag);
+    option->description("The registrations from ultrasound (a change re-runs them): " +
+                        option->get_description());
+  }
   const CommandAction compare = addStudyCompareCommand(*cmd);
   const CommandAction sweep = addStudySweepCommand(*cmd);
   CLI::App* sweepCmd = cmd->get_subcommand("sweep");

@@ -282,10 +282,21 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
         }
       }
     }
+    // The solver of its registrations from ultrasound (study run --method, --loss); null for
+    // studies run before study run recorded it.
+    const nlohmann::json solver = provenance.is_object()
+                                      ? provenance.value("solver", nlohmann::json(nullptr))
+                                      : nlohmann::json(nullptr);
+    std::string solverText = "not recorded";
+    if (solver.is_object() && solver.value("method", nlohmann::json()).is_string()) {
+      solverText = solver["method"].get<std::string>();
+      if (solver.value("loss", nlohmann::json()).is_string())
+        solverText += ", " + solver["loss"].get<std::string>();
+    }
     studyRows.push_back({s.name, s.group, s.manifestHash,
                          version.is_string() ? version.get<std::string>() : "not recorded",
-                         parameters.empty() ? "-" : parameters,
-                         detection.empty() ? "-" : detection});
+                         parameters.empty() ? "-" : parameters, detection.empty() ? "-" : detection,
+                         solverText});
     studyList.push_back(
         {{"name", s.name},
          {"group", s.group},
@@ -298,12 +309,14 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
             {{"generator", generator},
              {"detection", s.manifest.document.value("detection", nlohmann::json(nullptr))},
              {"registration", s.manifest.document.value("registration", nlohmann::json(nullptr))},
-             {"detection_params", detectionParams}}}}},
+             {"detection_params", detectionParams},
+             {"solver", solver}}}}},
          {"results", s.results}});
   }
-  report.table({"study", "group", "manifest (FNV-1a 64)", "echoreg", "simulation parameters",
-                "detection parameters (study run --params)"},
-               studyRows);
+  report.table(
+      {"study", "group", "manifest (FNV-1a 64)", "echoreg", "simulation parameters",
+       "detection parameters (study run --params)", "registration (study run --method, --loss)"},
+      studyRows);
   merged["studies"] = studyList;
 
   // Tables 5.3-5.7 side by side: one row per study, then one per group pooling its studies.

@@ -7,6 +7,7 @@
 // point with a row is not run again: a killed sweep resumes where it stopped. Shards (--shard I/N,
 // --point ID, --study ID) let a scheduler (Snakemake, Slurm, GNU parallel) run points apart.
 // The format and the layout of DIR are in docs/many-studies.md.
+#include "command_register.hpp"
 #include "commands.hpp"
 #include "detection_params.hpp"
 #include "study_runner.hpp"
@@ -87,6 +88,9 @@ struct SweepPoint {
   nlohmann::json parameters;  ///< the sweep's keys and this point's values
   int study = -1;             ///< index into Sweep::studies; -1: the base study folder
   nlohmann::json detect;      ///< the point's --params object for study run (may be empty)
+  /// The point's solver, study run's --method and --loss: {"method", "loss"}, either or both
+  /// (empty: register's defaults).
+  nlohmann::json solver;
 };
 
 struct Sweep {
@@ -158,6 +162,22 @@ void checkDetect(const std::string& file, const std::string& where, const nlohma
     resolveParams(preset, settings, Sequence{}, ParamsSources{file, filled});
   } catch (const FileError& e) {
     throw SweepFileError(fmt::format("{}: {}: {}", file, where, e.problem()));
+  } catch (const std::invalid_argument& e) {
+    throw SweepFileError(fmt::format("{}: {}: {}", file, where, e.what()));
+  }
+}
+
+/// The registration's solver options a sweep may vary: `register.KEY` is study run's --KEY.
+const std::set<std::string> kSolverOptions = {"method", "loss"};
+
+/// Checks a point's method or loss as study run's --method and --loss do (core's names).
+void checkSolver(const std::string& file, const std::string& where, const std::string& name,
+                 const nlohmann::json& value) {
+  if (!value.is_string())
+    throw SweepFileError(fmt::format("{}: {}: must be a string", file, where));
+  try {
+    solverJson(name == "method" ? value.get<std::string>() : RegisterOptions().method,
+               name == "loss" ? value.get<std::string>() : RegisterOptions().loss);
   } catch (const std::invalid_argument& e) {
     throw SweepFileError(fmt::format("{}: {}: {}", file, where, e.what()));
   }
@@ -279,10 +299,14 @@ Sweep readSweep(const std::string& file) {
       const std::string name = key.substr(7);
       for (const nlohmann::json& v : values)
         checkDetect(file, fmt::format("{} = {}", where, v.dump()), {{name, v}});
+    } else if (key.rfind("register.", 0) == 0 && kSolverOptions.count(key.substr(9)) != 0) {
+      for (const nlohmann::json& v : values)
+        checkSolver(file, fmt::format("{} = {}", where, v.dump()), key.substr(9), v);
     } else {
       throw SweepFileError(fmt::format(
           "{}: {}: a parameter is \"simulate.OPTION\" (echoreg simulate's), \"detect.KEY\" "
-          "(a key of study run's --params, as echoreg detect's flags) or \"replicate\"",
+          "(a key of study run's --params, as echoreg detect's flags), \"register.method\", "
+          "\"register.loss\" (study run's --method, --loss) or \"replicate\"",
           file, where));
     }
     axes.emplace_back(key, values.get<std::vector<nlohmann::json>>());
@@ -299,6 +323,7 @@ Sweep readSweep(const std::string& file) {
     SweepPoint point;
     point.parameters = nlohmann::json::object();
     point.detect = nlohmann::json::object();
+    point.solver = nlohmann::json::object();
     nlohmann::json options = baseOptions;
     nlohmann::json replicate;
     for (std::size_t a = 0; a < axes.size(); ++a) {
@@ -309,13 +334,15 @@ Sweep readSweep(const std::string& file) {
         replicate = value;
       else if (key.rfind("simulate.", 0) == 0)
         options[key.substr(9)] = value;
+      else if (key.rfind("register.", 0) == 0)
+        point.solver[key.substr(9)] = value;
       else
         point.detect[key.substr(7)] = value;
     }
     std::string studyKey = sweep.baseManifest;
     if (hasSimulate) {
       // The study's seed: from the base seed, the simulator's options and the replicate, not
-      // from the detection parameters (every detection setting sees the same data).
+      // from the detection or the solver (every setting of them sees the same data).
       const std::string definition = nlohmann::json{
           {"seed", baseSeed},
           {"simulate", options},
@@ -331,10 +358,11 @@ Sweep readSweep(const std::string& file) {
       }
       studyKey = id;
     }
-    point.id = "p-" + shortHash(nlohmann::json{{"study", studyKey},
-                                               {"detect", point.detect},
-                                               {"given_models", sweep.givenModels}}
-                                    .dump());
+    nlohmann::json definition = {
+        {"study", studyKey}, {"detect", point.detect}, {"given_models", sweep.givenModels}};
+    if (!point.solver.empty())
+      definition["register"] = point.solver;  // absent before sweeps had it: same IDs as then
+    point.id = "p-" + shortHash(definition.dump());
     sweep.points.push_back(std::move(point));
     for (std::size_t a = axes.size(); a-- > 0;) {
       if (++index[a] < axes[a].second.size())
@@ -448,14 +476,16 @@ fs::path pointFolder(const Sweep& sweep, const SweepPoint& point, const fs::path
 }
 
 /// The row of a point: its parameters and the numbers of its study's results.json (not the
-/// times, so that the same sweep gives the same bytes).
-nlohmann::json pointRow(const Sweep& sweep, const SweepPoint& point,
+/// times, so that the same sweep gives the same bytes). Folders are relative to `out`, the
+/// sweep's folder: a copy of a sweep elsewhere gives the same bytes.
+nlohmann::json pointRow(const Sweep& sweep, const SweepPoint& point, const fs::path& out,
                         const nlohmann::json& results) {
   nlohmann::json row = {
       {"point", point.id},
       {"parameters", point.parameters},
       {"study", "points/" + point.id},
-      {"data", point.study < 0 ? sweep.baseStudy : "studies/" + sweep.studies[point.study].id},
+      {"data", point.study < 0 ? fs::relative(sweep.baseStudy, fs::absolute(out)).generic_string()
+                               : "studies/" + sweep.studies[point.study].id},
       {"seed",
        point.study < 0 ? nlohmann::json() : nlohmann::json(sweep.studies[point.study].seed)},
       {"status", results.contains("missing") ? "incomplete" : "done"}};
@@ -464,6 +494,9 @@ nlohmann::json pointRow(const Sweep& sweep, const SweepPoint& point,
     if (results.contains(key))
       row[key] = results[key];
   }
+  // The solver the point's registrations used, as its study recorded it.
+  if (results.contains("provenance") && results["provenance"].contains("solver"))
+    row["solver"] = results["provenance"]["solver"];
   return row;
 }
 
@@ -483,6 +516,8 @@ bool runPoint(const Sweep& sweep, const SweepPoint& point, const fs::path& out,
     args.insert(args.end(), {"--params", (folder / "sweep-params.json").string()});
   if (sweep.givenModels)
     args.push_back("--given-models");
+  for (const auto& [name, value] : point.solver.items())
+    args.insert(args.end(), {"--" + name, value.get<std::string>()});
   const fs::path resultsPath = folder / "results" / "results.json";
   fs::remove(resultsPath, ec);  // so that a study that wrote none is not read from before
   const int code = runEchoreg(args, streams.err);
@@ -497,7 +532,7 @@ bool runPoint(const Sweep& sweep, const SweepPoint& point, const fs::path& out,
     throw FileError(folder.string(), "the point's study run failed");
   fs::create_directories(rowPath.parent_path(), ec);
   AtomicFile row(rowPath.string());
-  row.stream() << pointRow(sweep, point, results).dump() << "\n";
+  row.stream() << pointRow(sweep, point, out, results).dump() << "\n";
   row.commit();
   return true;
 }
@@ -610,12 +645,12 @@ CommandAction addStudySweepCommand(CLI::App& study) {
   CLI::App* cmd = study.add_subcommand(
       "sweep",
       "Runs a parameter sweep (docs/many-studies.md): every combination of the sweep file's\n"
-      "parameters (detection settings, the simulator's options, replicates) is a point, run as\n"
-      "its own study in OUT/points/ID; its numbers are a row of OUT/results.jsonl (in the sweep's\n"
-      "order, written once every point has its row). Simulated studies get seeds derived from the\n"
-      "base seed and their parameters: the same sweep file gives the same bytes. A point with a\n"
-      "row is not run again, so a killed sweep resumes. A bad sweep file exits 2, naming the key,\n"
-      "and nothing is written.");
+      "parameters (detection settings, the registration's method and loss, the simulator's\n"
+      "options, replicates) is a point, run as its own study in OUT/points/ID; its numbers are a\n"
+      "row of OUT/results.jsonl (in the sweep's order, written once every point has its row).\n"
+      "Simulated studies get seeds derived from the base seed and their parameters: the same\n"
+      "sweep file gives the same bytes. A point with a row is not run again, so a killed sweep\n"
+      "resumes. A bad sweep file exits 2, naming the key, and nothing is written.");
   auto o = std::make_shared<SweepOptions>();
   cmd->add_option("sweep", o->file, "Sweep file (JSON)")->required();
   cmd->add_option("--out", o->out, "Folder of the sweep's studies and rows (created)")->required();

@@ -305,8 +305,8 @@ TEST(StudyCompare, PoolsTheCalibrationSessionsOfEachGroup) {
   EXPECT_FALSE(fs::exists(out));
 }
 
-// Studies that share a manifest but ran with other detection parameters (a sweep's points) are
-// told apart by the parameters in each one's provenance.
+// Studies that share a manifest but ran with other detection parameters or another solver (a
+// sweep's points) are told apart by the parameters in each one's provenance.
 TEST(StudyCompare, ListsEachStudysDetectionParameters) {
   const std::string fixture = fixtureStudy();
   if (fixture.empty())
@@ -316,14 +316,21 @@ TEST(StudyCompare, ListsEachStudysDetectionParameters) {
       nlohmann::json::parse(R"({"preset": null, "settings": {"cutoff": 0.01}})"),
       nlohmann::json::parse(R"({"preset": "shadow", "settings": {"cutoff": 0.02}})"),
       nlohmann::json(nullptr)};
+  // The third as a study run before study run recorded its solver.
+  const std::vector<nlohmann::json> solvers = {
+      nlohmann::json::parse(R"({"method": "plain", "loss": null})"),
+      nlohmann::json::parse(R"({"method": "robust", "loss": "tukey"})"), nlohmann::json(nullptr)};
   std::vector<std::string> args = {"study", "compare"};
   for (std::size_t i = 0; i < params.size(); ++i) {
     const std::string study = dir.file("p" + std::to_string(i));
     fs::create_directories(study + "/results");
     fs::copy_file(fixture + "/study.json", study + "/study.json");
+    nlohmann::json provenance = {{"detection_params", params[i]}};
+    if (!solvers[i].is_null())
+      provenance["solver"] = solvers[i];
     std::ofstream(study + "/results/results.json") << nlohmann::json{
         {"registrations", {{"femur", nlohmann::json::object()}}},
-        {"provenance", {{"detection_params", params[i]}}}}.dump();
+        {"provenance", provenance}}.dump();
     args.push_back(study);
   }
   const std::string out = dir.file("compare");
@@ -334,13 +341,17 @@ TEST(StudyCompare, ListsEachStudysDetectionParameters) {
   for (std::size_t i = 0; i < params.size(); ++i) {
     const nlohmann::json& provenance = merged.at("studies").at(i).at("provenance");
     EXPECT_EQ(provenance.at("parameters").at("detection_params"), params[i]) << i;
+    EXPECT_EQ(provenance.at("parameters").at("solver"), solvers[i]) << i;
     EXPECT_EQ(provenance.at("manifest_fnv1a64"),
               merged.at("studies").at(0).at("provenance").at("manifest_fnv1a64"));
   }
   const std::string report = bytesOf(out + "/report.md");
-  EXPECT_NE(report.find("| cutoff 0.01 |"), std::string::npos) << report;
-  EXPECT_NE(report.find("| preset shadow, cutoff 0.02 |"), std::string::npos) << report;
+  EXPECT_NE(report.find("| cutoff 0.01 | plain |"), std::string::npos) << report;
+  EXPECT_NE(report.find("| preset shadow, cutoff 0.02 | robust, tukey |"), std::string::npos)
+      << report;
+  EXPECT_NE(report.find("| - | not recorded |"), std::string::npos) << report;
   EXPECT_NE(report.find("detection parameters (study run --params)"), std::string::npos);
+  EXPECT_NE(report.find("registration (study run --method, --loss)"), std::string::npos);
 }
 
 }  // namespace

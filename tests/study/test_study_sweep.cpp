@@ -1,8 +1,9 @@
 // `echoreg study sweep`: a detection sweep over a copy of the fixture study run in two shards
 // (the rows against each point's own results.json and against the study's Table 6.1 at the same
 // cutoff), a second run that runs nothing, a point whose row was lost run again to the same bytes,
-// a simulated sweep's derived seeds, and bad sweep files that name the file and key, exit 2 and
-// write nothing.
+// a simulated sweep's derived seeds, a sweep of the registration's method run in two folders
+// (different rows per method, the same bytes in both folders, each point's results.json the same
+// apart from its times), and bad sweep files that name the file and key, exit 2 and write nothing.
 #include "study_checks.hpp"
 
 #include "cli_test_support.hpp"
@@ -11,6 +12,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <array>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -161,6 +163,102 @@ TEST(StudySweep, DetectionSweepRunsInShardsResumesAndGivesTheSameBytes) {
   EXPECT_EQ(bytesOf(out + "/results.jsonl"), table);
 }
 
+/// A results.json without its wall-clock times (the run's and each step's "seconds"): what
+/// differs between two runs of the same study.
+nlohmann::json withoutTimes(nlohmann::json results) {
+  results.erase("seconds");
+  for (nlohmann::json& step : results["steps"])
+    step.erase("seconds");
+  return results;
+}
+
+TEST(StudySweep, MethodSweepGivesARowPerMethodAndTheSameBytesInAnotherFolder) {
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  test::TempDir dir;
+  // The same sweep in two folders at different depths: a copy of the study beside each sweep
+  // file, one cutoff (so each point has a --params file), the two methods of register.
+  const std::vector<std::string> roots = {dir.file("a"), dir.file("b/one/deeper")};
+  for (const std::string& root : roots) {
+    fs::create_directories(root);
+    fs::copy(fixture, root + "/study", fs::copy_options::recursive);
+    fs::remove_all(root + "/study/results");
+    std::ofstream(root + "/sweep.json") << R"({"study": "study", "given_models": true,
+        "parameters": {"register.method": ["plain", "robust"], "detect.cutoff": [0.01]}})";
+  }
+  std::vector<std::string> tables;
+  for (const std::string& root : roots) {
+    const test::CommandResult r =
+        runEchoreg({"study", "sweep", root + "/sweep.json", "--out", root + "/out"});
+    ASSERT_EQ(r.exitCode, 0) << r.err;
+    EXPECT_NE(r.out.find("sweep: 2 points ran, 0 were done"), std::string::npos) << r.out;
+    tables.push_back(bytesOf(root + "/out/results.jsonl"));
+  }
+  // Same sweep, same bytes, wherever it lies: no absolute path in the rows.
+  EXPECT_EQ(tables[0], tables[1]);
+  EXPECT_EQ(tables[0].find(dir.path()), std::string::npos) << tables[0];
+
+  const std::vector<nlohmann::json> rows = readJsonLines(roots[0] + "/out/results.jsonl");
+  ASSERT_EQ(rows.size(), 2U);
+  EXPECT_EQ(rows[0]["parameters"]["register.method"], "plain");
+  EXPECT_EQ(rows[1]["parameters"]["register.method"], "robust");
+  // The solver as each point's study recorded it: plain uses no loss, robust register's default.
+  EXPECT_EQ(rows[0]["solver"], (nlohmann::json{{"method", "plain"}, {"loss", nullptr}}));
+  EXPECT_EQ(rows[1]["solver"], (nlohmann::json{{"method", "robust"}, {"loss", "huber"}}));
+  EXPECT_EQ(rows[0]["data"], "../study");  // relative to the sweep's folder
+  EXPECT_NE(rows[0]["point"], rows[1]["point"]);
+  // The data and the detection are the same for both points; the registrations are not.
+  EXPECT_EQ(rows[0]["detection_rates"], rows[1]["detection_rates"]);
+  EXPECT_EQ(rows[0]["calibration"], rows[1]["calibration"]);
+  for (const char* bone : {"femur", "tibia"}) {
+    const nlohmann::json& plain = rows[0]["registrations"][bone]["registrations"];
+    const nlohmann::json& robust = rows[1]["registrations"][bone]["registrations"];
+    ASSERT_TRUE(plain.is_array()) << bone;
+    ASSERT_EQ(plain.size(), robust.size()) << bone;
+    int ultrasound = 0, mechanical = 0;
+    for (std::size_t k = 0; k < plain.size(); ++k) {
+      const std::string name = plain[k]["name"];
+      ASSERT_EQ(robust[k]["name"], name);
+      if (name.find("_ultrasound_") != std::string::npos) {
+        ++ultrasound;
+        EXPECT_NE(plain[k]["matrix"], robust[k]["matrix"]) << name;
+      } else {
+        // The reference from the mechanical probe keeps register's defaults: the same in both.
+        ++mechanical;
+        EXPECT_EQ(plain[k], robust[k]) << name;
+      }
+    }
+    EXPECT_GE(ultrasound, 1) << bone;
+    EXPECT_EQ(mechanical, 1) << bone;
+  }
+  for (const nlohmann::json& row : rows) {
+    const std::string point = row["point"];
+    // The registration files say which method ran.
+    const nlohmann::json femur = readJson(roots[0] + "/out/points/" + point +
+                                          "/results/registrations/femur_ultrasound_1.json");
+    EXPECT_EQ(femur["method"], row["parameters"]["register.method"]);
+    // Each point is a study run in two folders: its results.json is the same but for the times.
+    const nlohmann::json a = readJson(roots[0] + "/out/points/" + point + "/results/results.json");
+    const nlohmann::json b = readJson(roots[1] + "/out/points/" + point + "/results/results.json");
+    EXPECT_EQ(a["provenance"]["solver"], row["solver"]);
+    EXPECT_TRUE(a.contains("seconds"));
+    EXPECT_EQ(withoutTimes(a).dump(2), withoutTimes(b).dump(2)) << point;
+    EXPECT_EQ(a.dump().find(dir.path()), std::string::npos) << point;
+  }
+
+  // study run's own --method and --loss are register's: the same names, the same checks.
+  for (const auto& [flag, value, problem] : std::vector<std::array<std::string, 3>>{
+           {"--method", "icp", "unknown registration method \"icp\" (plain or robust)"},
+           {"--loss", "l2", "unknown loss \"l2\" (huber, cauchy, tukey or trim)"}}) {
+    const test::CommandResult r = runEchoreg({"study", "run", roots[0] + "/study", flag, value});
+    EXPECT_EQ(r.exitCode, 2) << r.err;
+    EXPECT_NE(r.err.find(flag), std::string::npos) << r.err;
+    EXPECT_NE(r.err.find(problem), std::string::npos) << r.err;
+    EXPECT_FALSE(fs::exists(roots[0] + "/study/results"));
+  }
+}
+
 TEST(StudySweep, SimulatedStudiesGetSeedsDerivedFromTheirParameters) {
   test::TempDir dir;
   const std::string sweepFile = dir.file("sweep.json");
@@ -258,6 +356,15 @@ TEST(StudySweep, BadSweepFilesNameTheKeyExitTwoAndWriteNothing) {
                 "replicates need a \"simulate\" base");
   expectRefused(R"({"study": "study", "parameters": {"registration.loss": ["huber"]}})",
                 "a parameter is \"simulate.OPTION\"");
+  expectRefused(R"({"study": "study", "parameters": {"register.seed": [1, 2]}})",
+                "\"register.method\", \"register.loss\"");
+  expectRefused(R"({"study": "study", "parameters": {"register.method": ["robust", "icp"]}})",
+                "\"register.method\" = \"icp\": unknown registration method \"icp\" (plain or "
+                "robust)");
+  expectRefused(R"({"study": "study", "parameters": {"register.loss": ["huber", "l1"]}})",
+                "\"register.loss\" = \"l1\": unknown loss \"l1\" (huber, cauchy, tukey or trim)");
+  expectRefused(R"({"study": "study", "parameters": {"register.loss": [1]}})",
+                "\"register.loss\" = 1: must be a string");
   expectRefused(R"({"simulate": {"standoff": "foam"}, "parameters": {"replicate": [1]}})",
                 "\"simulate\": --standoff: foam not in {glove,gel,none}");
   expectRefused(R"({"simulate": {"seed": -1}, "parameters": {"replicate": [1]}})",
