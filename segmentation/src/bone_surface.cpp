@@ -319,7 +319,7 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
       }
     }
     // Thick slices: the share of bone in the voxels at the ends along z from the sections
-    // around them (their HU does not tell it); on flat ends the HU may say more.
+    // around them (their HU does not tell it).
     if (options.endSharesMinSliceMm > 0.0 && spacing.z() >= options.endSharesMinSliceMm) {
       for (const VoxelShare& end : zEndShares(region, exclude, options.endShares)) {
         const int i = static_cast<int>(end.voxel % sz(d[0]));
@@ -330,8 +330,10 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
           continue;
         float& value =
             field[(sz(k - lo.z()) * sz(dims[1]) + sz(j - lo.y())) * sz(dims[0]) + sz(i - lo.x())];
-        const auto share = static_cast<float>(end.share);
-        value = end.flatEnd ? std::max(value, share) : share;
+        // A flat end's slab is full (its section does not shrink towards it, and the HU of a
+        // full slab of cancellous bone under a thin plate falls short of the level); the
+        // sections still tell what lies beyond it.
+        value = end.flatEnd && region.voxels[end.voxel] ? 1.0f : static_cast<float>(end.share);
       }
     }
     BoneSurfaceResult result = contourField(field, dims, lo, ct, 0.5, options, iso);

@@ -17,12 +17,13 @@ struct EndShareOptions {
   /// Where a slice's section lies along z, in slices from the slice's centre towards the bone's
   /// inside (0-0.5). A region holds a voxel when the slab has bone enough to show, so over a
   /// rounded end its outline is the slab's larger sections, nearer the slab's inner face than its
-  /// centre. 0.4 chosen on the simulated knee at 5 mm slices (seed 3; 0.25 / 0.35 / 0.45 / 0.55
-  /// gave a mean MSD of 0.328 / 0.298 / 0.308 / 0.353 mm over the four bones, 0 gave 0.486).
+  /// centre. 0.4 chosen on the simulated knee at 5 mm slices (seed 3, before the flat rule:
+  /// 0.25 / 0.35 / 0.45 / 0.55 gave a mean MSD of 0.328 / 0.298 / 0.308 / 0.353 mm over the four
+  /// bones, 0 gave 0.486).
   double sectionOffsetSlices = 0.4;
   /// An end is flat (the tibial plateau) where its section shrinks by less than this many
   /// slices' spacing from the slice inside it to the end's slice: there the sections say little
-  /// of where the end lies in its slab and the HU keeps its say (VoxelShare::flatEnd).
+  /// of where the end lies in its slab (VoxelShare::flatEnd; boneSurface takes the slab as full).
   double flatShrinkSlices = 0.1;
 };
 
