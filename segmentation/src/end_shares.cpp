@@ -144,6 +144,10 @@ std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exc
           const int beyond = k + step, inner = k - step;
           if (beyond < 0 || beyond >= d[2] || region.at(i, j, beyond))
             continue;
+          // A gap of one slice in the region is not an end (the bone goes on beyond it).
+          const int further = beyond + step;
+          if (further >= 0 && further < d[2] && region.at(i, j, further))
+            continue;
           // The sections lie towards the bone's inside: against `step`.
           const double offset = -step * options.sectionOffsetSlices;
           bool flat = false;

@@ -5,7 +5,9 @@
 // pixels) scanned at 3 and 5 mm over +-45 mm; four bones from one seed each, each model compared
 // with the truth inside the slab: the mask's own surface (--no-refine), the refinement in mm only
 // (before), with one level for the whole bone (before the local level) and with the defaults,
-// and the table of the candidates the defaults were chosen from; then where the error lies.
+// and the table of the candidates the defaults were chosen from; then where the error lies, and
+// the z ends' share of bone from the sections (zEndShares, on at 4 mm and more) on knees not used
+// to choose it.
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/segmentation/bone_labels.hpp"
 #include "echoreg/segmentation/bone_surface.hpp"
@@ -309,8 +311,8 @@ TEST(ThickSlices, EndSharesOnKneesNotUsedToChooseThem) {
 // sections do not shrink towards them), and with the sections 0.4 slices inside their slices'
 // centres and the --anchors closing the centre column fills its end slab (the section's depth
 // is 4.5 mm, closed within 4.5 mm beyond it) and a column 2 pixels from the edge (depth 1.5 mm)
-// fills 0.4 of it; nothing lies in the slab beyond. Ends on the scan's last slice are not ends,
-// and a voxel beyond marked as another bone's gets no share.
+// fills 0.4 of it; nothing lies in the slab beyond. Ends on the scan's last slice or at a gap of
+// one slice are not ends, and a voxel beyond marked as another bone's gets no share.
 TEST(ThickSlices, EndSharesOfABlock) {
   segmentation::CtImage g;
   g.dimensions = {19, 19, 9};
@@ -352,6 +354,13 @@ TEST(ThickSlices, EndSharesOfABlock) {
     }
   }
   EXPECT_EQ(shares(cut, nullptr).size(), 2u * 49u);
+  // A gap of one slice inside the block is not an end: only the outer ends count.
+  segmentation::VoxelMask gap = block;
+  for (int j = 5; j <= 13; ++j) {
+    for (int i = 5; i <= 13; ++i)
+      gap.voxels[g.index(i, j, 4)] = 0;
+  }
+  EXPECT_EQ(shares(gap, nullptr).size(), 4u * 49u);
   // Another bone's voxels beyond the upper end.
   segmentation::VoxelMask other = segmentation::emptyMask(g);
   for (int j = 0; j < 19; ++j) {

@@ -42,7 +42,8 @@ struct VoxelShare {
 /// to a slice whose neighbour holds no section the solid closes as the --anchors filling does,
 /// d = d_k + max(1, D_k / h) |z - z_k|, D_k the section's deepest inside distance. The share is
 /// the part of the voxel's slab (z_k +- h / 2) where d < 0 (40 samples). Ends on the scan's first
-/// or last slice (the scan cuts the bone there) are not ends. `region` and `exclude` must lie on
+/// or last slice (the scan cuts the bone there) and at a gap of one slice in the region (the
+/// bone goes on beyond it) are not ends. `region` and `exclude` must lie on
 /// one uniform grid; throws std::invalid_argument otherwise.
 std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exclude,
                                    const EndShareOptions& options = {});
