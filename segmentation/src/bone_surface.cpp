@@ -1,5 +1,7 @@
 #include "echoreg/segmentation/bone_surface.hpp"
 
+#include "echoreg/segmentation/end_shares.hpp"
+
 #include "echoreg/filters/MeshIO.h"
 
 #include <vtkDecimatePro.h>
@@ -314,6 +316,24 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
           field[(sz(k - lo.z()) * sz(dims[1]) + sz(j - lo.y())) * sz(dims[0]) + sz(i - lo.x())] =
               value;
         }
+      }
+    }
+    // Thick slices: the share of bone in the voxels at the ends along z from the sections
+    // around them (their HU does not tell it).
+    if (options.endSharesMinSliceMm > 0.0 && spacing.z() >= options.endSharesMinSliceMm) {
+      for (const VoxelShare& end : zEndShares(region, exclude, options.endShares)) {
+        const int i = static_cast<int>(end.voxel % sz(d[0]));
+        const int j = static_cast<int>((end.voxel / sz(d[0])) % sz(d[1]));
+        const int k = static_cast<int>(end.voxel / (sz(d[0]) * sz(d[1])));
+        if ((Eigen::Vector3i(i, j, k).array() < lo.array()).any() ||
+            (Eigen::Vector3i(i, j, k).array() > hi.array()).any())
+          continue;
+        float& value =
+            field[(sz(k - lo.z()) * sz(dims[1]) + sz(j - lo.y())) * sz(dims[0]) + sz(i - lo.x())];
+        // A flat end's slab is full (its section does not shrink towards it, and the HU of a
+        // full slab of cancellous bone under a thin plate falls short of the level); the
+        // sections still tell what lies beyond it.
+        value = end.flatEnd && region.voxels[end.voxel] ? 1.0f : static_cast<float>(end.share);
       }
     }
     BoneSurfaceResult result = contourField(field, dims, lo, ct, 0.5, options, iso);

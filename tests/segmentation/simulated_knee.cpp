@@ -137,7 +137,7 @@ std::unique_ptr<SimulatedKnee> buildSimulatedKnee(const KneeVariant& variant) {
   const auto start = std::chrono::steady_clock::now();
   auto s = std::make_unique<SimulatedKnee>();
   simulation::KneeOptions options;
-  options.seed = 3;
+  options.seed = static_cast<std::uint64_t>(variant.seed);
   options.meshResolutionMm = 1.2;
   options.tibiofemoralGapMm = variant.tibiofemoralGapMm;
   options.patellofemoralGapMm = variant.patellofemoralGapMm;
@@ -156,6 +156,9 @@ std::unique_ptr<SimulatedKnee> buildSimulatedKnee(const KneeVariant& variant) {
     key = (key ^ static_cast<std::uint64_t>(std::llround(variant.sliceMm * 256.0 + 7.0))) *
           1099511628211ULL;
   }
+  if (variant.seed != 3) {
+    key = (key ^ static_cast<std::uint64_t>(variant.seed * 977 + 11)) * 1099511628211ULL;
+  }
   const std::string cache = cachePath(key);
   if (loadCache(cache, *s)) {
     std::cout << "[ fixture  ] simulated knee CT " << s->ct.dimensions[0] << " x "
@@ -164,7 +167,7 @@ std::unique_ptr<SimulatedKnee> buildSimulatedKnee(const KneeVariant& variant) {
     return s;
   }
   simulation::SoftTissueOptions tissue;
-  tissue.seed = 3;
+  tissue.seed = static_cast<std::uint64_t>(variant.seed);
   const simulation::Specimen specimen(s->knee, simulation::SpecimenKind::Cadaver, tissue);
   const double tSpecimen =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -183,7 +186,8 @@ std::unique_ptr<SimulatedKnee> buildSimulatedKnee(const KneeVariant& variant) {
   protocol.centreXYMm = s->knee.kneeCentre.head<2>();
   if (variant.cancellousHu != 300.0)
     protocol.cancellousHu = variant.cancellousHu;
-  const simulation::CtVolume volume = simulation::synthesizeCt(specimen, protocol, 3);
+  const simulation::CtVolume volume =
+      simulation::synthesizeCt(specimen, protocol, static_cast<std::uint64_t>(variant.seed));
   s->ct = toCtImage(volume);
   s->kneeZMinMm = volume.sliceZMm.front();
   s->kneeZMaxMm = volume.sliceZMm.back();
@@ -208,7 +212,8 @@ const SimulatedKnee& simulatedKnee(const KneeVariant& variant) {
     if (v.tibiofemoralGapMm == variant.tibiofemoralGapMm &&
         v.patellofemoralGapMm == variant.patellofemoralGapMm &&
         v.cancellousHu == variant.cancellousHu && v.halfRangeMm == variant.halfRangeMm &&
-        v.sliceMm == variant.sliceMm && v.osteophyteMm == variant.osteophyteMm)
+        v.sliceMm == variant.sliceMm && v.osteophyteMm == variant.osteophyteMm &&
+        v.seed == variant.seed)
       return *knee;
   }
   built.emplace_back(variant, buildSimulatedKnee(variant));

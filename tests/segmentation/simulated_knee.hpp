@@ -33,6 +33,9 @@ struct KneeVariant {
   double halfRangeMm = 32.0;    ///< slices over the knee centre +- this
   double sliceMm = 1.0;         ///< slice spacing (and thickness): 3 mm, or the hip's 5 mm
   double osteophyteMm = 0.0;    ///< simulation::KneeOptions (marginal osteophytes; 0: none)
+  /// The simulator's seed (bones, soft tissue and CT noise): 3 is the shared knee's; others are
+  /// knees not used to choose a method.
+  int seed = 3;
 };
 
 /// The shared knee (built on first use).
