@@ -116,32 +116,35 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   // Named as the user gave it, for messages; read from inside.
   const std::string studyDir = manifest.dir;
   const StudyFolder inside(studyDir);
-  // The calibration sessions (Table 5.2): the manifest's list, else its one pair. A session's
-  // capture missing is said before anything is written, naming the session.
-  // The pivot comes first, as its step does; a manifest without a list of sessions names its
-  // one pair by its keys.
-  const auto requirePresent = [&](const std::string& file, const char* key) {
-    if (!file.empty() && !fs::exists(file))
-      throw FileError(file, fmt::format("is missing ({} in {})", key, manifest.path));
+  // The calibration's inputs, checked before anything is written, the pivot capture first as its
+  // step comes first: one check and one wording for every input the study needs and does not
+  // hold, "S/captures/x.igs.mha: is missing (calibration.capture in S/study.json)". The calibration
+  // sessions (Table 5.2) are the manifest's list, else its one pair, named by its keys.
+  const auto shownPath = [&](const std::string& file) {
+    return fs::path(file).is_absolute() ? file : (fs::path(studyDir) / file).generic_string();
   };
-  requirePresent(manifest.calibration.pivotCapture, "calibration.pivot_capture");
+  const auto missingInputError = [&](const std::string& file, const std::string& why) {
+    return FileError(shownPath(file), fmt::format("is missing ({})", why));
+  };
+  const auto requirePresent = [&](const std::string& file, const std::string& what) {
+    if (!fs::exists(file))
+      throw missingInputError(file, fmt::format("{} in {}", what, manifest.path));
+  };
+  if (!manifest.calibration.pivotCapture.empty())
+    requirePresent(manifest.calibration.pivotCapture, "calibration.pivot_capture");
   std::vector<ManifestCalibrationSession> sessions = manifest.calibration.sessions;
-  if (sessions.empty()) {
+  const bool sessionList = !sessions.empty();
+  if (!sessionList) {
     sessions.push_back(
         {manifest.require(manifest.calibration.sphereCapture, "calibration.sphere_capture"),
          manifest.require(manifest.calibration.capture, "calibration.capture")});
-    requirePresent(sessions.front().sphereCapture, "calibration.sphere_capture");
-    requirePresent(sessions.front().capture, "calibration.capture");
   }
   for (std::size_t k = 0; k < sessions.size(); ++k) {
     for (const auto& [file, key] : {std::pair{sessions[k].sphereCapture, "sphere_capture"},
                                     std::pair{sessions[k].capture, "capture"}}) {
-      if (!fs::exists(file)) {
-        throw FileError(
-            manifest.path,
-            fmt::format("calibration session {} of {}: its {} {} does not exist", k + 1,
-                        sessions.size(), key, (fs::path(studyDir) / file).generic_string()));
-      }
+      requirePresent(file, sessionList ? fmt::format("the {} of calibration session {} of {}", key,
+                                                     k + 1, sessions.size())
+                                       : fmt::format("calibration.{}", key));
     }
   }
   const std::string results = "results";
@@ -171,18 +174,17 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
           missingInput = input;
       }
       StepOutcome outcome;
-      if (!missingInput.empty() && !step.required) {
+      if (!missingInput.empty()) {
+        const auto by = producedBy.find(missingInput);
+        const std::string why =
+            by != producedBy.end() ? by->second : "the study folder does not hold it";
+        if (step.required)
+          throw missingInputError(missingInput,
+                                  fmt::format("{}; step \"{}\" needs it", why, step.title));
         outcome.id = step.id;
         outcome.title = step.title;
         outcome.status = StepOutcome::Status::Skipped;
-        const auto by = producedBy.find(missingInput);
-        const std::string shown = fs::path(missingInput).is_absolute()
-                                      ? missingInput
-                                      : (fs::path(studyDir) / missingInput).generic_string();
-        outcome.message =
-            by != producedBy.end()
-                ? fmt::format("{} is missing: {}", shown, by->second)
-                : fmt::format("{} is missing (the study folder does not hold it)", shown);
+        outcome.message = missingInputError(missingInput, why).what();
       } else {
         outcome = runner.run(step, streams, stepIndex, 0);
         if (outcome.status == StepOutcome::Status::Failed && step.required) {

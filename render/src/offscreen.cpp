@@ -131,6 +131,10 @@ OffscreenWindow::OffscreenWindow(int width, int height) : impl_(std::make_unique
 
 OffscreenWindow::~OffscreenWindow() {
   if (impl_->window) {
+    // VTK releases the window's OpenGL objects in the current context: make it this window's, or
+    // another window's objects of the same names go instead (found with two windows alive).
+    OSMesaMakeCurrent(impl_->context, impl_->buffer.data(), GL_UNSIGNED_BYTE, impl_->width,
+                      impl_->height);
     impl_->window->Finalize();
     impl_->window = nullptr;
   }

@@ -19,8 +19,7 @@
 
 namespace {
 
-echoreg::render::RgbImage renderSphere() {
-  echoreg::render::OffscreenWindow window(160, 120);
+void addSphere(echoreg::render::OffscreenWindow& window, double red, double green) {
   vtkRenderer* renderer = window.addRenderer();
   renderer->SetBackground(1, 1, 1);
   vtkNew<vtkSphereSource> sphere;
@@ -30,9 +29,14 @@ echoreg::render::RgbImage renderSphere() {
   mapper->SetInputConnection(sphere->GetOutputPort());
   vtkNew<vtkActor> actor;
   actor->SetMapper(mapper);
-  actor->GetProperty()->SetColor(0.9, 0.1, 0.1);
+  actor->GetProperty()->SetColor(red, green, 0.1);
   renderer->AddActor(actor);
   renderer->ResetCamera();
+}
+
+echoreg::render::RgbImage renderSphere() {
+  echoreg::render::OffscreenWindow window(160, 120);
+  addSphere(window, 0.9, 0.1);
   return window.capture();
 }
 
@@ -65,6 +69,25 @@ TEST(Offscreen, SameSceneSamePixels) {
   const echoreg::render::RgbImage a = renderSphere();
   const echoreg::render::RgbImage b = renderSphere();
   EXPECT_EQ(a.pixels, b.pixels);
+}
+
+// Two windows alive at once (each its own OSMesa context): closing one releases its OpenGL objects
+// in its own context, not in the other's, which renders the same pixels afterwards.
+TEST(Offscreen, ClosingOneWindowLeavesAnotherIntact) {
+  echoreg::render::OffscreenWindow green(160, 120);
+  addSphere(green, 0.1, 0.9);
+  const echoreg::render::RgbImage before = green.capture();
+  EXPECT_GT(before.at(80, 60, 1), 120);
+  {
+    echoreg::render::OffscreenWindow red(160, 120);
+    addSphere(red, 0.9, 0.1);
+    EXPECT_GT(red.capture().at(80, 60, 0), 120);
+    const echoreg::render::RgbImage between = green.capture();
+    EXPECT_EQ(between.pixels, before.pixels);
+  }  // closed while the green window's context is the current one
+  const echoreg::render::RgbImage after = green.capture();
+  EXPECT_EQ(after.pixels, before.pixels);
+  EXPECT_EQ(renderSphere().pixels, renderSphere().pixels);
 }
 
 TEST(Offscreen, WritesAPngThatReadsBack) {

@@ -401,6 +401,75 @@ TEST_F(DicomSeriesRefusal, AFileEndingInsideItsMetaGroupIsDamaged) {
   EXPECT_CONTAINS(refusal(folder_), "missing");  // in the series: that slice is skipped
 }
 
+/// Little-endian bytes of a 16- or 32-bit number.
+std::string le(std::uint32_t value, int bytes) {
+  std::string out;
+  for (int i = 0; i < bytes; ++i)
+    out += static_cast<char>((value >> (8 * i)) & 0xff);
+  return out;
+}
+/// An explicit VR little endian element with a 2-byte length, and one with a 4-byte length.
+std::string shortElement(std::uint16_t group, std::uint16_t element, const char* vr,
+                         const std::string& value) {
+  return le(group, 2) + le(element, 2) + vr + le(static_cast<std::uint32_t>(value.size()), 2) +
+         value;
+}
+std::string longElementHeader(std::uint16_t group, std::uint16_t element, const char* vr,
+                              std::uint32_t length) {
+  return le(group, 2) + le(element, 2) + vr + std::string(2, '\0') + le(length, 4);
+}
+
+// Found by fuzz/fuzz_dicom: a 665-byte file with no preamble whose first element is of group
+// 0x0020 took GDCM 26 s and 1.09 GB to refuse, as the element walk run before GDCM took only
+// files starting with group 0x0000 or 0x0008. Now any file GDCM reads without the preamble is
+// walked in the encoding GDCM guesses for it, and an element longer than the file is refused,
+// naming the file and the element, before GDCM allocates it (256 MB claimed in 40 bytes here).
+TEST_F(DicomSeriesRefusal, AFileWithoutPreambleIsWalkedWhateverItsFirstGroup) {
+  const std::string file = dir_.file("no-preamble.dcm");
+  const auto write = [&](const std::string& bytes) {
+    std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes;
+  };
+  // Explicit VR little endian from (0020,000d) on.
+  write(shortElement(0x0020, 0x000d, "UI", std::string("1.2.3\0", 6)) +
+        shortElement(0x0020, 0x0013, "IS", "1 ") +
+        longElementHeader(0x0020, 0x4000, "UT", 1U << 28) + "abcd");
+  EXPECT_CONTAINS(refusal(file),
+                  "no-preamble.dcm: is a damaged DICOM file: element (0020,4000) at byte 24 claims "
+                  "268435456 bytes, but 4 are left in the file");
+  // Implicit VR little endian, starting with a private creator (GDCM's other guess).
+  write(le(0x0029, 2) + le(0x0010, 2) + le(4, 4) + "ACME" + le(0x0029, 2) + le(0x1010, 2) +
+        le(1U << 28, 4) + "abcd");
+  EXPECT_CONTAINS(refusal(file),
+                  "no-preamble.dcm: is a damaged DICOM file: element (0029,1010) at byte 12 claims "
+                  "268435456 bytes, but 4 are left in the file");
+  // A file meta group without the preamble, naming implicit VR little endian for the data set.
+  const std::string syntax("1.2.840.10008.1.2\0", 18);
+  const std::string metaRest = shortElement(0x0002, 0x0010, "UI", syntax);
+  write(shortElement(0x0002, 0x0000, "UL", le(static_cast<std::uint32_t>(metaRest.size()), 4)) +
+        metaRest + le(0x0008, 2) + le(0x103e, 2) + le(1U << 28, 4) + "abcd");
+  EXPECT_CONTAINS(refusal(file),
+                  "no-preamble.dcm: is a damaged DICOM file: element (0008,103e) at byte 38 claims "
+                  "268435456 bytes, but 4 are left in the file");
+  // Text that GDCM takes for no DICOM at all is still said to be not DICOM, not damaged.
+  write("frame,timestamp,depth_mm\n0,0.0,12.5\n");
+  EXPECT_CONTAINS(refusal(file), "no-preamble.dcm: is not a DICOM file");
+
+  // And a good series whose files have lost their preamble is walked without a word and read as
+  // before (the walk starts at the file meta group).
+  for (int k = 0; k < 6; ++k) {
+    std::string bytes;
+    {
+      std::ifstream in(path(k), std::ios::binary);
+      bytes.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    ASSERT_EQ(bytes.compare(128, 4, "DICM"), 0);
+    std::ofstream(path(k), std::ios::binary | std::ios::trunc) << bytes.substr(132);
+  }
+  const DicomSeriesRead read = readDicomSeriesWithWarnings(folder_, {});
+  EXPECT_TRUE(read.image.hu == volume_.hu);
+  EXPECT_TRUE(read.warnings.empty()) << read.warnings.front();
+}
+
 TEST_F(DicomSeriesRefusal, MultiFrame) {
   editString(path(2), 0x0028, 0x0008, gdcm::VR::IS, "2");
   const std::string message = refusal(folder_);

@@ -161,6 +161,27 @@ TEST(StudyRun, FailuresNameTheStepAndTheFile) {
   EXPECT_NE(r.err.find("transducer calibration"), std::string::npos) << r.err;
   EXPECT_NE(r.err.find("calibration_shots.igs.mha"), std::string::npos) << r.err;
   EXPECT_TRUE(fs::is_regular_file(study + "/results/report.md"));
+
+  // With the calibration whole, the first required step whose input the study folder does not
+  // hold stops the study; the input is named as every missing input is: "PATH: is missing (why)".
+  fs::copy(fixture + "/captures/calibration_shots.igs.mha",
+           study + "/captures/calibration_shots.igs.mha", fs::copy_options::overwrite_existing);
+  r = runEchoreg({"study", "run", study});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("echoreg study: " + study + "/"), std::string::npos) << r.err;
+  EXPECT_NE(r.err.find(": is missing (the study folder does not hold it; step \""),
+            std::string::npos)
+      << r.err;
+  // And a missing capture of a calibration session, before anything runs, in the same words.
+  fs::remove(study + "/captures/calibration_sphere_stylus.igs.mha");
+  r = runEchoreg({"study", "run", study});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find(study +
+                       "/captures/calibration_sphere_stylus.igs.mha: is missing (the "
+                       "sphere_capture of calibration session 1 of 1 in " +
+                       study + "/study.json)"),
+            std::string::npos)
+      << r.err;
 }
 
 // Issue 15, item 5: a manifest value of the wrong type, no bones or an unknown version is
@@ -250,7 +271,7 @@ TEST(StudyRun, MissingRequestedResultsFailTheStudyAndAreNamed) {
   EXPECT_NE(r.err.find("2 requested results are missing"), std::string::npos) << r.err;
   EXPECT_NE(
       r.err.find("femur registration from the mechanical probe (reference) (skipped: " + study +
-                 "/" + mechanical + " is missing (the study folder does not hold it))"),
+                 "/" + mechanical + ": is missing (the study folder does not hold it))"),
       std::string::npos)
       << r.err;
   EXPECT_NE(r.err.find("tibia registration from the mechanical probe (reference) (failed: "),
