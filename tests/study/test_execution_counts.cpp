@@ -99,6 +99,18 @@ class ExecutionCounts : public ::testing::Test {
     manifest_ = readJson(root_ + "/study.json");
   }
   std::string path(const std::string& relative) const { return root_ + "/" + relative; }
+  // A copy of the fixture's study without the truth's shots, so that Table 6.1's detection-rate
+  // runs (each a `detect` of its own on the first sweep) do not run; returns its folder.
+  std::string copyWithoutShots() const {
+    const std::string study = dir_.file("study");
+    fs::create_directories(study);
+    for (const char* folder : {"captures", "ct", "truth"})
+      fs::copy(path(folder), study + "/" + folder, fs::copy_options::recursive);
+    nlohmann::json manifest = manifest_;
+    manifest["truth"].erase("shots");
+    std::ofstream(study + "/study.json") << manifest.dump(2);
+    return study;
+  }
 
   std::string root_;
   nlohmann::json manifest_;
@@ -164,13 +176,8 @@ TEST_F(ExecutionCounts, CalibrateRunsThePipelineOnceOnItsShots) {
 // by `register`). The truth's shots are left out so that Table 6.1's detection-rate runs, each a
 // `detect` of its own on the first sweep, do not run.
 TEST_F(ExecutionCounts, StudyRunDetectsEachSweepOnce) {
-  const std::string study = dir_.file("study");
-  fs::create_directories(study);
-  for (const char* folder : {"captures", "ct", "truth"})
-    fs::copy(path(folder), study + "/" + folder, fs::copy_options::recursive);
-  nlohmann::json manifest = manifest_;
-  manifest["truth"].erase("shots");
-  std::ofstream(study + "/study.json") << manifest.dump(2);
+  const std::string study = copyWithoutShots();
+  const nlohmann::json manifest = readJson(study + "/study.json");
 
   const auto before = DetectionPipeline::executionsByCapture();
   const test::CommandResult r = runEchoreg({"study", "run", study, "--given-models"});
@@ -195,13 +202,8 @@ TEST_F(ExecutionCounts, StudyRunDetectsEachSweepOnce) {
 // The study's signals figures draw the study's setting as its sweeps were detected: its preset with
 // its --params (before, the figure ran the preset alone), and are tallied with the rest.
 TEST_F(ExecutionCounts, StudySignalsFiguresUseTheStudysParams) {
-  const std::string study = dir_.file("study");
-  fs::create_directories(study);
-  for (const char* folder : {"captures", "ct", "truth"})
-    fs::copy(path(folder), study + "/" + folder, fs::copy_options::recursive);
-  nlohmann::json manifest = manifest_;
-  manifest["truth"].erase("shots");
-  std::ofstream(study + "/study.json") << manifest.dump(2);
+  const std::string study = copyWithoutShots();
+  const nlohmann::json manifest = readJson(study + "/study.json");
   const std::string params = dir_.file("params.json");
   std::ofstream(params) << R"({"threshold-factor": 2.0})";
 
