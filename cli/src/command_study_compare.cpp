@@ -67,7 +67,9 @@ std::string number(double value, int decimals) {
   return fmt::format("{:.{}f}", value, decimals);
 }
 
-/// "generator.standoff" -> the value at /generator/standoff of the manifest, as a label.
+/// "generator.standoff" -> the value at /generator/standoff of the manifest, as a label; a key the
+/// manifest does not have is looked up in the study's results.json ("provenance.solver.method":
+/// what the study was run with, such as a sweep's settings).
 std::string groupLabel(const StudyResults& study, const std::string& key) {
   std::string pointer;
   std::size_t start = 0;
@@ -77,17 +79,19 @@ std::string groupLabel(const StudyResults& study, const std::string& key) {
     start = dot + 1;
   }
   const nlohmann::json::json_pointer at(pointer);
-  if (!study.manifest.document.contains(at)) {
+  const bool inManifest = study.manifest.document.contains(at);
+  if (!inManifest && !study.results.contains(at)) {
     throw FileError(study.manifestPath,
-                    fmt::format("has no \"{}\" to group by (--group-by {}; a dotted path into "
-                                "study.json such as generator.standoff)",
-                                key, key));
+                    fmt::format("has no \"{}\" to group by, nor has {} (--group-by {}; a dotted "
+                                "path into study.json such as generator.standoff, or into "
+                                "results.json such as provenance.solver.method)",
+                                key, study.resultsPath, key));
   }
-  const nlohmann::json& value = study.manifest.document.at(at);
+  const nlohmann::json& value = inManifest ? study.manifest.document.at(at) : study.results.at(at);
   if (value.is_string())
     return value.get<std::string>();
   if (value.is_object() || value.is_array()) {
-    throw FileError(study.manifestPath,
+    throw FileError(inManifest ? study.manifestPath : study.resultsPath,
                     fmt::format("\"{}\" is not a single value to group by (--group-by)", key));
   }
   return value.dump();
@@ -246,7 +250,7 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
       "Studies grouped by {}. Each study's numbers are those its own study run wrote "
       "to results/results.json; nothing is recomputed but the means and the statistics between "
       "groups.",
-      o.groupBy.empty() ? "folder (each study its own group)" : "the manifest's " + o.groupBy));
+      o.groupBy.empty() ? "folder (each study its own group)" : "`" + o.groupBy + "`"));
 
   // Provenance first: which study, which manifest, which parameters.
   report.heading("Studies");
@@ -649,8 +653,9 @@ CommandAction addStudyCompareCommand(CLI::App& study) {
   cmd->add_option("--out", o->out, "Folder to write the report into (created)")->required();
   cmd->add_option("--group-by", o->groupBy,
                   "Group studies by a manifest value, a dotted path into study.json such as\n"
-                  "generator.standoff or detection.speed_of_sound_mps (default: each study\n"
-                  "its own group)");
+                  "generator.standoff or detection.speed_of_sound_mps, or, where study.json\n"
+                  "has no such key, into results/results.json, such as\n"
+                  "provenance.solver.method (default: each study its own group)");
   return [o](const Streams& streams) { return runCompare(*o, streams); };
 }
 

@@ -354,5 +354,47 @@ TEST(StudyCompare, ListsEachStudysDetectionParameters) {
   EXPECT_NE(report.find("registration (study run --method, --loss)"), std::string::npos);
 }
 
+// A sweep's points differ in what they were run with, not in their manifests: --group-by reads a
+// key study.json does not have from results.json (here the solver a sweep over register.method
+// records), and names both files when neither has it.
+TEST(StudyCompare, GroupsByAResultsValueWhereTheManifestHasNone) {
+  const std::string fixture = fixtureStudy();
+  if (fixture.empty())
+    GTEST_SKIP() << "needs the ctest fixture's study (simulate_fixture_study)";
+  test::TempDir dir;
+  std::vector<std::string> args = {"study", "compare"};
+  for (const char* method : {"plain", "robust", "robust"}) {
+    const std::string study = dir.file("s" + std::to_string(args.size()));
+    fs::create_directories(study + "/results");
+    fs::copy_file(fixture + "/study.json", study + "/study.json");
+    std::ofstream(study + "/results/results.json") << nlohmann::json{
+        {"registrations", {{"femur", nlohmann::json::object()}}},
+        {"provenance",
+         {{"solver", {{"method", method}}}}}}.dump();
+    args.push_back(study);
+  }
+  const std::string out = dir.file("compare");
+  std::vector<std::string> grouped = args;
+  grouped.insert(grouped.end(), {"--out", out, "--group-by", "provenance.solver.method"});
+  const test::CommandResult r = runEchoreg(grouped);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  EXPECT_NE(r.out.find("3 studies in 2 groups"), std::string::npos) << r.out;
+  const nlohmann::json merged = readJson(out + "/results.json");
+  EXPECT_EQ(merged.at("group_by"), "provenance.solver.method");
+  EXPECT_EQ(merged.at("studies").at(0).at("group"), "plain") << merged.at("studies").dump();
+  EXPECT_EQ(merged.at("studies").at(2).at("group"), "robust");
+
+  const std::string none = dir.file("none");
+  std::vector<std::string> missing = args;
+  missing.insert(missing.end(), {"--out", none, "--group-by", "provenance.solver.loss"});
+  const test::CommandResult bad = runEchoreg(missing);
+  EXPECT_EQ(bad.exitCode, 1);
+  EXPECT_NE(bad.err.find("has no \"provenance.solver.loss\" to group by, nor has "),
+            std::string::npos)
+      << bad.err;
+  EXPECT_NE(bad.err.find("/results/results.json"), std::string::npos) << bad.err;
+  EXPECT_FALSE(fs::exists(none));
+}
+
 }  // namespace
 }  // namespace echoreg::simulation
