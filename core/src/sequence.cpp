@@ -136,9 +136,7 @@ constexpr std::size_t kMaxHeaderLineBytes = 1024 * 1024;
 // deflate cannot compress better than about 1032:1, so a smaller stream cannot hold the pixels
 // DimSize promises: refuse before allocating them.
 constexpr std::uint64_t kMaxDeflateRatio = 1032;
-// RF A-lines are noisy and compress little; the fastest level loses a few percent of size and
-// writes several times faster than the default.
-constexpr int kCompressionLevel = Z_BEST_SPEED;
+static_assert(kPixelCompressionLevel == Z_BEST_SPEED);
 constexpr std::string_view kFramePrefix = "Seq_Frame";
 constexpr std::string_view kTransformSuffix = "Transform";
 constexpr std::string_view kStatusSuffix = "TransformStatus";
@@ -975,7 +973,7 @@ std::vector<std::uint8_t> compressBytes(const std::vector<std::uint8_t>& bytes,
     std::vector<std::uint8_t> out;
     out.reserve(bytes.size() / 2 + 64);
     core::ParallelDeflateOptions options;
-    options.level = kCompressionLevel;
+    options.level = kPixelCompressionLevel;
     core::deflateParallel(
         bytes.size(),
         [&bytes](std::uint64_t offset, std::uint8_t* to, std::size_t count) {
@@ -991,7 +989,8 @@ std::vector<std::uint8_t> compressBytes(const std::vector<std::uint8_t>& bytes,
   // windowBits 15 + 16 asks for a gzip wrapper; its header has no name and mtime 0, so the same
   // bytes always compress to the same file.
   const int windowBits = compression == Compression::Gzip ? 15 + 16 : 15;
-  if (deflateInit2(&zs, kCompressionLevel, Z_DEFLATED, windowBits, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
+  if (deflateInit2(&zs, kPixelCompressionLevel, Z_DEFLATED, windowBits, 8, Z_DEFAULT_STRATEGY) !=
+      Z_OK) {
     throw std::runtime_error("writeSequence: zlib cannot start compressing");
   }
   struct DeflateEnd {

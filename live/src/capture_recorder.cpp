@@ -3,9 +3,9 @@
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/parallel_deflate.hpp"
+#include "echoreg/core/sequence.hpp"
 
 #include <fmt/format.h>
-#include <zlib.h>
 
 #include <fcntl.h>
 #include <unistd.h>
@@ -89,14 +89,14 @@ void copyRange(int fd, const std::string& path, std::uint64_t begin, std::uint64
 }
 
 // zlib-compresses the whole of `fd` into `outFd` as writeSequence compresses a capture's pixels
-// (core::deflateParallel: one zlib stream at level 1 deflated in blocks on every core, the same
-// bytes as writeSequence's). Returns the compressed size.
+// (core::deflateParallel: one zlib stream at kPixelCompressionLevel, in blocks on every core, the
+// same bytes as writeSequence's). Returns the compressed size.
 std::uint64_t deflateFile(int fd, const std::string& path, int outFd, const std::string& outPath) {
   const off_t size = ::lseek(fd, 0, SEEK_END);
   if (size < 0)
     throw FileError(path, "cannot be read back: " + systemError());
   core::ParallelDeflateOptions options;
-  options.level = Z_BEST_SPEED;
+  options.level = kPixelCompressionLevel;
   return core::deflateParallel(
       static_cast<std::uint64_t>(size),
       [&](std::uint64_t offset, std::uint8_t* out, std::size_t bytes) {

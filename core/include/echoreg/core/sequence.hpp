@@ -91,6 +91,11 @@ struct SequenceWriteOptions {
   bool compress = true;
 };
 
+/// The zlib level of compressed pixels (zlib's Z_BEST_SPEED): RF A-lines compress little, and the
+/// fastest level loses a few percent of size and writes several times faster than the default.
+/// Live's recording deflates with it too, so a recording holds writeSequence's bytes.
+inline constexpr int kPixelCompressionLevel = 1;
+
 /// Reads a PLUS sequence file (.mha, .mhd with .raw/.zraw, .nrrd; raw, zlib or gzip data).
 /// Throws FileError naming the file and the problem for anything malformed.
 Sequence readSequence(const std::string& path);
