@@ -73,16 +73,22 @@ TEST(PeakFilter, FindsEverySyntheticEchoWithinOneSample) {
   }
 }
 
+// The first peak above `factor` times the envelope's mean, in the capture's millimetres.
+PeakParams firstPeakAbove(const SyntheticCapture& capture, double factor) {
+  PeakParams params = testDetectionParams(capture).peaks;
+  params.policy = PeakPolicy::First;
+  params.thresholdMode = ThresholdMode::FactorOfMean;
+  params.thresholdFactor = factor;
+  params.mmPerSample = capture.depth().mmPerSample();
+  return params;
+}
+
 TEST(PeakFilter, RowsEqualTheCoreFindPeaks) {
   SyntheticCapture capture;
   capture.frames = 6;
   const Sequence sequence = makeCapture(capture);
   PeakChain chain(capture, imageOf(sequence));
-  PeakParams params = testDetectionParams(capture).peaks;
-  params.policy = PeakPolicy::First;
-  params.thresholdMode = ThresholdMode::FactorOfMean;
-  params.thresholdFactor = 3.0;
-  params.mmPerSample = capture.depth().mmPerSample();
+  const PeakParams params = firstPeakAbove(capture, 3.0);
   chain.peaks->SetPeakParams(params);
   chain.peaks->Update();
 
@@ -113,11 +119,7 @@ TEST(PeakFilter, PeakListHoldsEveryFramesPeaksWhenAsked) {
   capture.frames = 6;
   const Sequence sequence = makeCapture(capture);
   PeakChain chain(capture, imageOf(sequence));
-  PeakParams params = testDetectionParams(capture).peaks;
-  params.policy = PeakPolicy::First;
-  params.thresholdMode = ThresholdMode::FactorOfMean;
-  params.thresholdFactor = 0.8;
-  params.mmPerSample = capture.depth().mmPerSample();
+  const PeakParams params = firstPeakAbove(capture, 0.8);
   chain.peaks->SetPeakParams(params);
   chain.peaks->Update(1);
   ASSERT_EQ(chain.peaks->GetLastError(), "");
