@@ -484,6 +484,9 @@ DetectionParams adaptToCapture(const DetectionParams& given, int recordCount, in
       out.ringDownSamples < samples) {
     DetectionParams trial = params;
     trial.peaks.prominence.shadow = ShadowRule::Required;
+    // A capture is judged by the shadow where bone casts a clear one; the shadow at the noise
+    // behind a strong echo then finds bone in the records whose tissue is at the noise too.
+    trial.peaks.prominence.noiseShadowEchoFactor = 0.0;
     SignalDetector detector(trial);
     std::vector<float> raw;
     const std::vector<int> indices = spreadIndices(recordCount, kAnalysedRecords);

@@ -169,11 +169,31 @@ constexpr double kQuietMedianSpread = 1.15;
 // reverberation behind it steps up just as a wall's tissue does.
 constexpr double kWaterBeforeWall = 2.0;
 
+// The shadow at the noise behind a strong echo (BoneEchoParams::noiseShadowEchoFactor): the
+// shadow's medians (its near half and all of it) within this factor of the quiet level, and the
+// tissue before the echo at least this factor above them. Two medians of the same noise over a
+// region differ by some per cent; 1.4 is about three of their standard deviations at the 20 or so
+// independent samples a 3 mm region holds at 7-10 MHz.
+constexpr double kNoiseShadowSpread = 1.4;
+// ... the tissue before the echo this many times the quiet level (a lone pulse in a record of
+// noise has noise before it too)...
+constexpr double kNoiseShadowTissue = 1.5;
+// ... the echo a pulse (its width at half maximum at most this many periods; a fascia's layers
+// or a burst are wider)...
+constexpr double kNoiseShadowMaxCycles = 3.0;
+// ... the echo at least this many times the tissue before it (bone stands 15 dB and more above
+// the speckle; the ringing signature asks the same)...
+constexpr double kNoiseShadowContrast = 6.0;
+// ... and at least this share of the record's strongest echo: bone is the strongest interface
+// behind the ring-down, and a weak echo behind a burst of noise or a stronger echo borrows its
+// quiet.
+constexpr float kNoiseShadowShareOfStrongest = 0.5F;
+
 // An air train's earlier bounce is at least this share of the next one (see isAirTrain): the
 // bounces weaken, but those nearest the face ride on the burst's tail and vary.
 constexpr float kEarlierBounce = 0.7F;
 
-// An echo with one this many times stronger behind it is not bone (see prominencePolicy).
+// A leading echo's ringing tail climbs to at most this many times the echo (see ringingTailOf).
 constexpr float kStrongerBehind = 1.5F;
 
 // A leading echo rises from at most this share of its height before it (see ringingTailOf).
@@ -255,9 +275,10 @@ class LazyLevel {
 // Does the peak look like bone: narrow as a pulse, well above the speckle before it, and
 // followed by an acoustic shadow?
 // `shadowLevel`: a median behind the peak within noiseFloorFactor of it is a shadow too.
+// `strongest`: the record's strongest envelope sample (for noiseShadowEchoFactor).
 bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noiseFloor,
-                      LazyLevel& shadowLevel, const float* envelope, int count, const Peak& peak,
-                      std::vector<float>& scratch) {
+                      LazyLevel& shadowLevel, float strongest, const float* envelope, int count,
+                      const Peak& peak, std::vector<float>& scratch) {
   // Cheap screen first: with tissue at least minTissueOverNoise x the noise floor before it and
   // the peak minContrast x above that, the peak must clear their product of the noise floor.
   if (peak.value < bone.minContrast * bone.minTissueOverNoise * noiseFloor)
@@ -297,6 +318,16 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
       return true;
     if (!bone.shadowAtQuietLevel)
       return after <= bone.noiseFloorFactor * shadowLevel();
+    // Bone's shadow at the noise behind a strong echo: the tissue before it may be barely above
+    // the noise (8-bit records), but it is clearly louder than the shadow.
+    if (bone.noiseShadowEchoFactor > 0.0 && before >= kNoiseShadowSpread * after &&
+        widthSamples <= bone.noiseShadowMaxWidthSamples &&
+        before >= kNoiseShadowTissue * shadowLevel() &&
+        peak.value >= kNoiseShadowContrast * before &&
+        peak.value >= kNoiseShadowShareOfStrongest * strongest &&
+        peak.value >= bone.noiseShadowEchoFactor * shadowLevel() &&
+        after <= kNoiseShadowSpread * shadowLevel())
+      return true;
     // Both quiet-level conditions imply before x factor >= ratio x after: where that fails, the
     // level (a median per block) is not needed.
     if (before * bone.noiseFloorFactor * (1.0 + 1e-9) < bone.minShadowRatio * after)
@@ -587,13 +618,14 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     }
   }
   // Little gets through bone, and what does is lost in it: nothing behind bone echoes back
-  // stronger than bone itself. An echo with a much stronger one behind it (the skin or a fascia
-  // above the bone, whose tissue behind it rings like a cortex) is not bone.
+  // stronger than bone itself. An echo with a stronger one behind it (the skin or a fascia
+  // above the bone, whose tissue behind it rings like a cortex; a membrane of the standoff
+  // above a fascia as strong as bone) is not bone.
   float strongestBehind = 0.F;
   for (auto c = candidates.rbegin(); c != candidates.rend(); ++c) {
     if (!c->passed)
       continue;
-    if (strongestBehind > kStrongerBehind * c->value)
+    if (strongestBehind > c->value)
       c->passed = false;
     else
       strongestBehind = std::max(strongestBehind, c->value);
@@ -789,6 +821,9 @@ void validate(const PeakParams& p) {
           "echo ringing contrast must be >= 1");
   require(e.innerEchoRatio == 0.0 || (e.innerEchoRatio >= 1.0 && std::isfinite(e.innerEchoRatio)),
           "echo inner-echo ratio must be 0 (off) or >= 1");
+  require(e.noiseShadowEchoFactor == 0.0 ||
+              (e.noiseShadowEchoFactor >= 1.0 && std::isfinite(e.noiseShadowEchoFactor)),
+          "echo noise-shadow factor must be 0 (off) or >= 1");
   require(e.ringingFraction > 0.0 && e.ringingFraction <= 1.0,
           "echo ringing fraction must be in (0, 1]");
   require(e.shadowNoiseFactor >= 0.0 && std::isfinite(e.shadowNoiseFactor),
@@ -810,6 +845,8 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
     bone.policy = PeakPolicy::Bone;
     bone.bone.minShareOfStrongest = params.prominence.similarRatio;
     bone.bone.shadowAtQuietLevel = true;
+    bone.bone.noiseShadowEchoFactor = params.prominence.noiseShadowEchoFactor;
+    bone.bone.noiseShadowMaxWidthSamples = kNoiseShadowMaxCycles * params.samplesPerCycle;
     bone.ringDownEnd = 0;
     if (bone.windowBegin)
       bone.windowBegin = std::max(0, *bone.windowBegin - ringDown);
@@ -999,11 +1036,14 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
                     static_cast<int>(std::lround(0.5 * params.bone.regionMm / params.mmPerSample)))
               : LazyLevel(noiseFloor);
       result.reason = RejectReason::NotBone;
+      const float recordMax = params.bone.noiseShadowEchoFactor > 0.0
+                                  ? *std::max_element(envelope, envelope + count)
+                                  : 0.F;
       if (params.bone.minShareOfStrongest <= 0.0) {
         for (int candidate = found - 1; candidate >= 0; --candidate) {
           const Peak& peak = result.peaks[static_cast<std::size_t>(candidate)];
-          if (hasBoneSignature(params.bone, params.mmPerSample, noiseFloor, shadowLevel, envelope,
-                               count, peak, scratch)) {
+          if (hasBoneSignature(params.bone, params.mmPerSample, noiseFloor, shadowLevel, recordMax,
+                               envelope, count, peak, scratch)) {
             accept(candidate, peak.index);
             break;
           }
@@ -1016,8 +1056,9 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       // Strongest first: the strongest echo with the signature sets the share, and the
       // signature of echoes weaker than that share is never needed.
       const auto hasSignature = [&](int candidate) {
-        return hasBoneSignature(params.bone, params.mmPerSample, noiseFloor, shadowLevel, envelope,
-                                count, result.peaks[static_cast<std::size_t>(candidate)], scratch);
+        return hasBoneSignature(params.bone, params.mmPerSample, noiseFloor, shadowLevel, recordMax,
+                                envelope, count, result.peaks[static_cast<std::size_t>(candidate)],
+                                scratch);
       };
       std::vector<int> byValue(static_cast<std::size_t>(found));
       std::iota(byValue.begin(), byValue.end(), 0);

@@ -84,6 +84,16 @@ struct BoneEchoParams {
   /// echo 5 x that level. The prominence policy's shadow mode sets it; the bone policy's
   /// default keeps echoreg's earlier rule.
   bool shadowAtQuietLevel = false;
+  /// A shadow at the noise behind a strong echo (with shadowAtQuietLevel; 0 turns it off): an
+  /// echo at least this many times the quiet level, at least half the record's strongest echo
+  /// and 6 x the tissue before it, the tissue at least 1.5 x the quiet level, followed by the
+  /// envelope within 1.4 x the quiet level and 1.4 x below the tissue before it. Where the tissue's
+  /// speckle is barely above the digitiser's noise (8-bit records, a water standoff), bone's shadow
+  /// at the noise is all there is to see.
+  double noiseShadowEchoFactor = 0.0;
+  /// ... with the echo at most this wide at half maximum, samples (a pulse; the shadow mode sets
+  /// three periods of the transducer).
+  double noiseShadowMaxWidthSamples = 0.0;
 };
 
 /// The prominence policy (the default), decided from the statistics of the record itself rather
@@ -153,6 +163,10 @@ struct ProminenceParams {
   /// bone region above it, is the bone and the chosen one its inner cortex or first bounce
   /// (>= 1; 0 turns the test off).
   double innerEchoRatio = 2.5;
+  /// With the shadow required: BoneEchoParams::noiseShadowEchoFactor (>= 1; 0 turns it off). The
+  /// capture's shadow trial (adaptToCapture) runs without it, so that a capture is judged by the
+  /// shadow only where bone casts a clear one.
+  double noiseShadowEchoFactor = 10.0;
 };
 
 struct PeakParams {
@@ -184,20 +198,23 @@ void validate(const PeakParams& params);
 
 /// Field-by-field equality (a new field must be added here, or this stops compiling).
 inline bool operator==(const BoneEchoParams& a, const BoneEchoParams& b) {
-  const auto& [regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA, shareA, quietA] = a;
-  const auto& [regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB, shareB, quietB] = b;
-  return std::tie(regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA, shareA, quietA) ==
-         std::tie(regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB, shareB, quietB);
+  const auto& [regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA, shareA, quietA, strongA,
+               pulseA] = a;
+  const auto& [regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB, shareB, quietB, strongB,
+               pulseB] = b;
+  return std::tie(regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA, shareA, quietA,
+                  strongA, pulseA) == std::tie(regionB, gapB, shadowB, contrastB, widthB, noiseB,
+                                               tissueB, shareB, quietB, strongB, pulseB);
 }
 inline bool operator==(const ProminenceParams& a, const ProminenceParams& b) {
   const auto& [snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
-               ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA] = a;
+               ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA, strongA] = a;
   const auto& [snrB, medianB, promB, riseB, contrastB, regionB, wallB, airB, similarB, shadowB,
-               ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB, innerB] = b;
+               ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB, innerB, strongB] = b;
   return std::tie(snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
-                  ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA) ==
+                  ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA, strongA) ==
          std::tie(snrB, medianB, promB, riseB, contrastB, regionB, wallB, airB, similarB, shadowB,
-                  ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB, innerB);
+                  ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB, innerB, strongB);
 }
 inline bool operator==(const PeakParams& a, const PeakParams& b) {
   const auto& [modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, promA, ringA, cycleA,
