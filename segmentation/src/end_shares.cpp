@@ -39,7 +39,8 @@ std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exc
   const auto& d = g.dimensions;
   const Eigen::Vector3d spacing = g.spacingMm();
   const double h = spacing.z();
-  const double closingMm = h;
+  const double closingMm =
+      sectionClosingMm(h, options.sectionOffsetSlices * h, options.closingReachSlices);
   // The region's box in plane, with one pixel of margin outside it all round.
   int i0 = d[0], i1 = -1, j0 = d[1], j1 = -1;
   for (int k = 0; k < d[2]; ++k) {

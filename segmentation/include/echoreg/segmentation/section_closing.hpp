@@ -9,8 +9,11 @@
 //
 // D the section's deepest inside distance (mm) and c the closing distance (mm): the deepest
 // point reaches the surface c past the section (a thin section closes at 45 degrees, sooner).
-// c is half the spacing between the slices beyond the last slice that holds the solid: the
-// solid ends half way to the slice that does not hold it.
+// c is where the solid ends, `reachSlices` of the spacing beyond the last slice that holds it:
+// half (0.5, the default) when the slices are points that see the solid or not (contours drawn
+// at slice positions: the unknown end lies between that slice and the next, half way on
+// average); zEndShares' region holds a slab when the slab has bone enough to show, so its
+// solid may reach a little into the next slab (EndShareOptions::closingReachSlices).
 #pragma once
 
 #include <algorithm>
@@ -19,10 +22,11 @@ namespace echoreg::segmentation {
 
 /// The closing distance c (mm) of a solid whose last section lies `sectionInsideMm` inside
 /// the last slice that holds it (0: on that slice; zEndShares places its sections inside
-/// their slices), with slices `spacingMm` apart: the solid ends half the spacing beyond that
-/// slice.
-inline double sectionClosingMm(double spacingMm, double sectionInsideMm = 0.0) {
-  return 0.5 * spacingMm + sectionInsideMm;
+/// their slices), with slices `spacingMm` apart: the solid ends `reachSlices` of the spacing
+/// beyond that slice.
+inline double sectionClosingMm(double spacingMm, double sectionInsideMm = 0.0,
+                               double reachSlices = 0.5) {
+  return reachSlices * spacingMm + sectionInsideMm;
 }
 
 /// The signed distance (mm, negative inside) `beyondMm` (>= 0) past the last section, at a
