@@ -168,4 +168,12 @@ std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exc
   return out;
 }
 
+double zEndFieldValue(double share) {
+  share = std::clamp(share, 0.0, 1.0);
+  // Between the inside neighbour (1) and the voxel (f): 0.5 at 1/2 / (1 - f) slabs from the
+  // neighbour, which is to be 1/2 + s; between the voxel (f) and the one beyond (0): 0.5 at
+  // (f - 1/2) / f slabs from the voxel, which is to be s - 1/2.
+  return share < 0.5 ? 1.0 - 1.0 / (1.0 + 2.0 * share) : 1.0 / (3.0 - 2.0 * share);
+}
+
 }  // namespace echoreg::segmentation

@@ -307,6 +307,33 @@ TEST(ThickSlices, EndSharesOnKneesNotUsedToChooseThem) {
   }
 }
 
+// The field of a z end's voxel, interpolated linearly along z between its neighbours (1 on the
+// bone's side, 0 beyond), crosses 0.5 where its share ends the bone (s - 1/2 slabs from the
+// voxel's centre): found by walking the interpolated field in steps of 1e-4 slabs. The share
+// itself as the field misses by up to a twelfth of a slab (0.75: a third of a slab out).
+TEST(ThickSlices, EndFieldPutsTheCrossingWhereTheShareEndsTheBone) {
+  auto crossing = [](double field) {
+    // Centres at -1 (1), 0 (field), +1 (0); the first z where the field falls to 0.5.
+    for (double z = -1.0; z <= 1.0; z += 1e-4) {
+      const double value = z < 0.0 ? (1.0 + z) * field - z : (1.0 - z) * field;
+      if (value < 0.5)
+        return z;
+    }
+    return 1.0;
+  };
+  for (int n = 0; n <= 20; ++n) {
+    const double share = n / 20.0;
+    const double f = segmentation::zEndFieldValue(share);
+    EXPECT_GE(f, 0.0);
+    EXPECT_LE(f, 1.0);
+    EXPECT_NEAR(crossing(f), share - 0.5, 2e-4) << share;
+  }
+  // A share of 0.75 as the field itself: a third of a slab out, not a quarter.
+  EXPECT_NEAR(crossing(0.75), 1.0 / 3.0, 2e-4);
+  EXPECT_DOUBLE_EQ(segmentation::zEndFieldValue(-0.2), 0.0);
+  EXPECT_DOUBLE_EQ(segmentation::zEndFieldValue(1.3), 1.0);
+}
+
 // A flat-ended block of 9 x 9 pixels of 1 mm over slices 2-6 of 5 mm: its ends are flat (the
 // sections do not shrink towards them), and with the sections 0.4 slices inside their slices'
 // centres and the --anchors closing the centre column fills its end slab (the section's depth

@@ -55,4 +55,18 @@ struct VoxelShare {
 std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exclude,
                                    const EndShareOptions& options = {});
 
+/// The field value (0-1, contoured at 0.5) to give a z end's voxel whose slab the bone fills by
+/// `share` (0-1, from the slab's face on the bone's side), so that the field interpolated
+/// linearly between the voxel's centre and its neighbours' along z (1 on the bone's side, 0
+/// beyond) crosses 0.5 where the bone ends: share - 1/2 slabs from the voxel's centre,
+///
+///   f = 1 - 1 / (1 + 2 s)   for s < 1/2,      f = 1 / (3 - 2 s)   for s >= 1/2.
+///
+/// The share itself as the field put a share of 0.75 a third of a slab out from the centre
+/// instead of a quarter, and 0.25 a third in (up to 0.42 mm off at 5 mm slices): with the
+/// truth's shares on the simulated knee at 5 mm (seed 3) the field of the share gave MSD
+/// femur / tibia / fibula / patella 0.249 / 0.200 / 0.219 / 0.159 mm, this one 0.221 / 0.154 /
+/// 0.188 / 0.140. `share` outside 0-1 is clamped.
+double zEndFieldValue(double share);
+
 }  // namespace echoreg::segmentation
