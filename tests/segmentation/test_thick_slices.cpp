@@ -244,9 +244,10 @@ TEST(ThickSlices, RefinementWorksAtThreeMillimetreSlices) {
 // At the hip's 5 mm the defaults beat the mask's surface, the one level of before and the ends'
 // HU (before the ends' shares from the sections) on every bone; the targets (MSD <= 0.3 mm,
 // Dice >= 0.97) hold for every bone's Dice and for the fibula's and patella's MSD, not quite for
-// the femur's and tibia's MSD (0.33 / 0.32 mm; 0.43 / 0.55 from the ends' HU: what remains is
-// the joint's slab, see WhereTheErrorIs and docs/segmentation.md). The (0, 0) candidate has the
-// ends' shares too, so it is no longer the refinement of before.
+// the femur's and tibia's MSD (0.32 / 0.30 mm; 0.43 / 0.55 from the ends' HU: what remains is
+// the shares of the condyles' and the plateau's end slabs, see WhereTheErrorIs and
+// docs/segmentation.md). The (0, 0) candidate has the ends' shares too, so it is no longer the
+// refinement of before.
 TEST(ThickSlices, RefinementWorksAtTheHipsFiveMillimetreSlices) {
   const auto rows = measure(5.0, kCandidates);
   ASSERT_EQ(rows.size(), 4u);
@@ -265,7 +266,9 @@ TEST(ThickSlices, RefinementWorksAtTheHipsFiveMillimetreSlices) {
 // The ends' shares from the sections (EndShareOptions and the flat rule chosen on seed 3) on
 // knees not used to choose them: seeds 5 and 7 at 5 mm. From the ends' HU MSD femur / tibia /
 // fibula / patella were 0.420 / 0.542 / 0.272 / 0.213 and 0.443 / 0.526 / 0.287 / 0.230 mm; from
-// the sections 0.296 / 0.297 / 0.231 / 0.183 and 0.322 / 0.339 / 0.230 / 0.197.
+// the sections 0.296 / 0.297 / 0.231 / 0.183 and 0.322 / 0.339 / 0.230 / 0.197, and with the
+// field that ends the bone where the share says (zEndFieldValue) 0.294 / 0.273 / 0.212 / 0.186
+// and 0.323 / 0.313 / 0.211 / 0.204.
 TEST(ThickSlices, EndSharesOnKneesNotUsedToChooseThem) {
   for (int seed : {5, 7}) {
     test::KneeVariant v;
@@ -298,7 +301,9 @@ TEST(ThickSlices, EndSharesOnKneesNotUsedToChooseThem) {
                 << after.meanMm << " mm, Dice " << after.dice << "\n";
       EXPECT_LT(after.meanMm, before.meanMm - 0.02) << "seed " << seed << " " << bone;
       EXPECT_GE(after.dice, 0.975) << "seed " << seed << " " << bone;
-      EXPECT_LE(after.meanMm, bone == "femur" || bone == "tibia" ? 0.36 : 0.26)
+      EXPECT_LE(after.meanMm, bone == "femur"   ? 0.36
+                              : bone == "tibia" ? 0.33
+                                                : 0.24)
           << "seed " << seed << " " << bone;
       sumHu += before.meanMm;
       sumSections += after.meanMm;
