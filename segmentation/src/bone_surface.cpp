@@ -332,8 +332,10 @@ BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const 
             field[(sz(k - lo.z()) * sz(dims[1]) + sz(j - lo.y())) * sz(dims[0]) + sz(i - lo.x())];
         // A flat end's slab is full (its section does not shrink towards it, and the HU of a
         // full slab of cancellous bone under a thin plate falls short of the level); the
-        // sections still tell what lies beyond it.
-        value = end.flatEnd && region.voxels[end.voxel] ? 1.0f : static_cast<float>(end.share);
+        // sections still tell what lies beyond it. The field puts the 0.5 crossing where the
+        // share ends the bone (zEndFieldValue).
+        value = static_cast<float>(
+            zEndFieldValue(end.flatEnd && region.voxels[end.voxel] ? 1.0 : end.share));
       }
     }
     BoneSurfaceResult result = contourField(field, dims, lo, ct, 0.5, options, iso);

@@ -1,5 +1,7 @@
 #include "echoreg/segmentation/contour_surface.hpp"
 
+#include "echoreg/segmentation/section_closing.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -526,19 +528,19 @@ VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImag
   VoxelMask mask = emptyMask(grid);
   const auto& d = grid.dimensions;
   const double first = slices.front().positionMm, last = slices.back().positionMm;
-  // Beyond an end slice the solid closes within half the spacing to its neighbour: the end
-  // contour's distance grows by its depth (deepest inside point) per that half spacing.
+  // Beyond an end slice the solid closes (section_closing.hpp) within half the spacing to its
+  // neighbour (a lone contour within 1 mm).
   auto deepest = [](const SliceDistance& s) {
     float low = 0.0f;
     for (float x : s.d)
       low = std::min(low, x);
     return -static_cast<double>(low);
   };
-  const double halfFirst = slices.size() > 1 ? 0.5 * (slices[1].positionMm - first) : 1.0;
-  const double halfLast =
-      slices.size() > 1 ? 0.5 * (last - slices[slices.size() - 2].positionMm) : 1.0;
-  const double slopeFirst = std::max(1.0, deepest(slices.front()) / halfFirst);
-  const double slopeLast = std::max(1.0, deepest(slices.back()) / halfLast);
+  const double closingFirst =
+      slices.size() > 1 ? sectionClosingMm(slices[1].positionMm - first) : 1.0;
+  const double closingLast =
+      slices.size() > 1 ? sectionClosingMm(last - slices[slices.size() - 2].positionMm) : 1.0;
+  const double depthFirst = deepest(slices.front()), depthLast = deepest(slices.back());
   // Voxels whose centres lie within the contours' bounds (the taper reaches at most the largest
   // in-plane extent beyond the end slices; it is bounded by the bounds' margin here).
   for (int k = 0; k < d[2]; ++k) {
@@ -552,9 +554,11 @@ VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImag
         const double w = p[axis];
         double dist = 0.0;
         if (w <= first) {
-          dist = slices.front().sample(p[u], p[v]) + slopeFirst * (first - w);
+          dist = closedSectionDistanceMm(slices.front().sample(p[u], p[v]), depthFirst,
+                                         closingFirst, first - w);
         } else if (w >= last) {
-          dist = slices.back().sample(p[u], p[v]) + slopeLast * (w - last);
+          dist = closedSectionDistanceMm(slices.back().sample(p[u], p[v]), depthLast, closingLast,
+                                         w - last);
         } else {
           const auto it =
               std::upper_bound(slices.begin(), slices.end(), w,

@@ -1,5 +1,7 @@
 #include "echoreg/segmentation/end_shares.hpp"
 
+#include "echoreg/segmentation/section_closing.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -37,6 +39,8 @@ std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exc
   const auto& d = g.dimensions;
   const Eigen::Vector3d spacing = g.spacingMm();
   const double h = spacing.z();
+  const double closingMm =
+      sectionClosingMm(h, options.sectionOffsetSlices * h, options.closingReachSlices);
   // The region's box in plane, with one pixel of margin outside it all round.
   int i0 = d[0], i1 = -1, j0 = d[1], j1 = -1;
   for (int k = 0; k < d[2]; ++k) {
@@ -106,15 +110,12 @@ std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exc
     const double t = std::clamp(z - ka, 0.0, 1.0);
     const Section& a = section(ka);
     const Section& b = section(kb);
-    auto closing = [&](const Section& s, double dzMm) {
-      return s.distanceMm[p] + std::max(1.0, s.deepestMm / h) * dzMm;
-    };
     if (a.present && b.present)
       return (1.0 - t) * a.distanceMm[p] + t * b.distanceMm[p];
     if (a.present)
-      return closing(a, t * h);
+      return closedSectionDistanceMm(a.distanceMm[p], a.deepestMm, closingMm, t * h);
     if (b.present)
-      return closing(b, (1.0 - t) * h);
+      return closedSectionDistanceMm(b.distanceMm[p], b.deepestMm, closingMm, (1.0 - t) * h);
     return std::numeric_limits<double>::infinity();
   };
   // The part of slab k's column (i, j) inside the solid whose sections lie `offset` slices
@@ -165,6 +166,14 @@ std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exc
     }
   }
   return out;
+}
+
+double zEndFieldValue(double share) {
+  share = std::clamp(share, 0.0, 1.0);
+  // Between the inside neighbour (1) and the voxel (f): 0.5 at 1/2 / (1 - f) slabs from the
+  // neighbour, which is to be 1/2 + s; between the voxel (f) and the one beyond (0): 0.5 at
+  // (f - 1/2) / f slabs from the voxel, which is to be s - 1/2.
+  return share < 0.5 ? 1.0 - 1.0 / (1.0 + 2.0 * share) : 1.0 / (3.0 - 2.0 * share);
 }
 
 }  // namespace echoreg::segmentation

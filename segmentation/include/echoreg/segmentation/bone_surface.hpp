@@ -50,11 +50,11 @@ struct BoneSurfaceOptions {
   double localMinContrastHu = 100.0;
   /// On slices at least this thick (mm; 0: never), with the local level, the field on the voxels
   /// at the bone's ends along z and beyond them is their share of bone from the bone's sections
-  /// (zEndShares); a flat end's own voxel is full (1). A slab over a rounded end holds the cortex
-  /// of the end's sides too, so its HU says more bone than there is; a slab under a flat plate
-  /// reads less. On the simulated knee at 5 mm it brings the mean surface distance of femur /
-  /// tibia / fibula / patella from 0.43 / 0.55 / 0.29 / 0.22 mm to 0.33 / 0.32 / 0.25 / 0.19 mm
-  /// (seed 3; seeds 5 and 7 alike); at 3 and 1 mm it cost the tibia's plateau
+  /// (zEndShares, as zEndFieldValue); a flat end's own voxel is full (1). A slab over a rounded
+  /// end holds the cortex of the end's sides too, so its HU says more bone than there is; a slab
+  /// under a flat plate reads less. On the simulated knee at 5 mm it brings the mean surface
+  /// distance of femur / tibia / fibula / patella from 0.43 / 0.55 / 0.29 / 0.22 mm to 0.32 /
+  /// 0.30 / 0.23 / 0.19 mm (seed 3; seeds 5 and 7 alike); at 3 and 1 mm it cost the tibia's plateau
   /// (tests/segmentation/test_thick_slices.cpp, docs/segmentation.md): hence 4 mm.
   double endSharesMinSliceMm = 4.0;
   EndShareOptions endShares;
