@@ -34,8 +34,8 @@ detail::DrawSceneFunction openModule(const std::filesystem::path& path) {
   if (const auto it = opened.find(path.string()); it != opened.end())
     return it->second;
   const std::string hint =
-      "; figures are drawn by this renderer module, built with echoreg (CMake target "
-      "echoreg_render_gl) and installed beside it";
+      "; echoreg draws figures through this module, built with it (CMake target "
+      "echoreg_render_gl) into lib/echoreg beside the folder of the executable";
   void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
   if (handle == nullptr)
     throw FileError(path.string(),
