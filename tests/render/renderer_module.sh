@@ -2,8 +2,9 @@
 # The renderer module as a process sees it (render/renderer_module.hpp): commands that draw
 # nothing never load OSMesa or LLVM (LD_DEBUG=libs lists every library a process opens, dlopen'd
 # ones included); a figure opens the module from EXE_DIR/../lib/echoreg, which is also where an
-# installation puts it; without the module a figure fails with exit 1, an error naming the path it
-# looked at and no output file, while the other commands still run.
+# installation puts it, also through a symbolic link to the executable; without the module a
+# figure fails with exit 1, an error naming the path it looked at and no output file, while the
+# other commands still run.
 # Usage: renderer_module.sh ECHOREG MODULE CAPTURE WORKDIR
 set -eu
 echoreg=$1 module=$2 capture=$3 work=$4
@@ -52,4 +53,9 @@ cp "$module" prefix/lib/echoreg/
 "$work/prefix/bin/echoreg" figure boxplot --group A=a.csv --group B=b.csv --out installed.png \
   > installed.out 2> installed.err || fail "the installed layout failed: $(cat installed.err)"
 cmp -s box.png installed.png || fail "the installed layout drew other pixels"
+# A symbolic link to the executable finds the module beside the executable itself.
+mkdir -p elsewhere && ln -s "$work/prefix/bin/echoreg" elsewhere/echoreg
+"$work/elsewhere/echoreg" figure boxplot --group A=a.csv --group B=b.csv --out linked.png \
+  > linked.out 2> linked.err || fail "echoreg through a symbolic link failed: $(cat linked.err)"
+cmp -s box.png linked.png || fail "echoreg through a symbolic link drew other pixels"
 echo "renderer module: loaded only by figures, found in the build tree and installed, missing named"

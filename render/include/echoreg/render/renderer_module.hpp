@@ -13,7 +13,8 @@
 namespace echoreg::render {
 
 /// Where renderScene opens the renderer module: EXE_DIR/../lib/echoreg/libechoreg_render_gl.so,
-/// EXE_DIR being the folder of the running executable (/proc/self/exe). In the build tree
+/// EXE_DIR being the folder of the running executable (/proc/self/exe: a symbolic link to the
+/// executable is followed to the file itself). In the build tree
 /// build/release/cli/echoreg (and the tests and benchmarks beside it) finds
 /// build/release/lib/echoreg/; installed, PREFIX/bin/echoreg finds PREFIX/lib/echoreg/.
 std::filesystem::path rendererModulePath();
