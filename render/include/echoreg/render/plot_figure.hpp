@@ -4,7 +4,7 @@
 // Both are scene descriptions: chart panels of a Scene (scene.hpp), drawn by renderScene.
 #pragma once
 
-#include "echoreg/render/offscreen.hpp"
+#include "echoreg/render/image.hpp"
 #include "echoreg/render/scene.hpp"
 
 #include <array>

@@ -1,12 +1,13 @@
 // A scene and its renderer: what a figure shows, described as data (surfaces, point sets with a
 // scalar array and a colour map, camera views along the CT's axes, chart panels, a legend and a
-// title), and one function that draws any scene off-screen (OffscreenWindow, OSMesa). The
+// title), and one function that draws any scene off-screen (OffscreenWindow, OSMesa, inside the
+// renderer module that renderScene opens on its first call: renderer_module.hpp). The
 // figures (surface_figure.hpp, plot_figure.hpp) are scene descriptions; pipeline outputs go in
 // as they come: a model as vtkPolyData, points as the vtkPolyData of
 // vtkEchoregPointToSurfaceDistance with its "DistanceMm" array.
 #pragma once
 
-#include "echoreg/render/offscreen.hpp"
+#include "echoreg/render/image.hpp"
 
 #include <vtkSmartPointer.h>
 
@@ -137,11 +138,12 @@ struct Scene {
   std::vector<LegendEntry> legend;
 };
 
-/// Draws the scene. Deterministic: fixed cameras (parallel projection fitted to the framing
-/// models and the points), a headlight, the same pixels for the same scene. Throws
-/// std::invalid_argument for a scene without panels, views without anything to draw, a point
-/// set without its scalar array (or one of another length, or a value or point that is not
-/// finite), an empty colour map, or a chart series whose x and y differ in length or hold a
+/// Draws the scene, through the renderer module (renderer_module.hpp: opened on the first call;
+/// throws FileError naming its path when it is missing). Deterministic: fixed cameras (parallel
+/// projection fitted to the framing models and the points), a headlight, the same pixels for the
+/// same scene. Throws std::invalid_argument for a scene without panels, views without anything to
+/// draw, a point set without its scalar array (or one of another length, or a value or point that
+/// is not finite), an empty colour map, or a chart series whose x and y differ in length or hold a
 /// value that is not finite.
 RgbImage renderScene(const Scene& scene, const FigureSize& size);
 

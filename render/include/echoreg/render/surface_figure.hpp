@@ -7,7 +7,7 @@
 #pragma once
 
 #include "echoreg/core/mesh.hpp"
-#include "echoreg/render/offscreen.hpp"
+#include "echoreg/render/image.hpp"
 #include "echoreg/render/scene.hpp"
 
 #include <Eigen/Core>

@@ -1,8 +1,5 @@
 #include "echoreg/render/offscreen.hpp"
 
-#include "echoreg/core/atomic_file.hpp"
-#include "echoreg/core/error.hpp"
-
 #include <GL/osmesa.h>
 
 #include <vtkCallbackCommand.h>
@@ -12,7 +9,6 @@
 #include <vtkLogger.h>
 #include <vtkObjectFactory.h>
 #include <vtkOutputWindow.h>
-#include <vtkPNGWriter.h>
 #include <vtkPointData.h>
 #include <vtkRenderer.h>
 #include <vtkUnsignedCharArray.h>
@@ -23,8 +19,10 @@
 #include <stdexcept>
 
 // GLEW (inside VTK) looks OpenGL functions up with glXGetProcAddressARB. Without X there is no
-// GLX context, so the executable exports its own versions that ask OSMesa (ENABLE_EXPORTS on
-// every executable that renders, libOSMesa linked before VTK's GL libraries).
+// GLX context, so the renderer module exports its own versions that ask OSMesa. Opened with
+// dlopen, the module comes first in its own lookup scope, ahead of libGLX (which must therefore
+// not be in the executable's global scope: nothing outside the module links VTK's GL libraries),
+// and libOSMesa is linked before VTK's GL libraries so that direct gl* calls resolve to Mesa.
 extern "C" {
 __attribute__((visibility("default"))) void (*glXGetProcAddressARB(const unsigned char* name))() {
   return reinterpret_cast<void (*)()>(OSMesaGetProcAddress(reinterpret_cast<const char*>(name)));
@@ -186,34 +184,6 @@ RgbImage OffscreenWindow::capture() {
                 scalars->GetPointer(0) + static_cast<std::size_t>(dims[1] - 1 - y) * row, row);
   }
   return out;
-}
-
-void OffscreenWindow::writePng(const std::string& path) {
-  render::writePng(path, capture());
-}
-
-void writePng(const std::string& path, const RgbImage& image) {
-  vtkNew<vtkImageData> data;
-  data->SetDimensions(image.width, image.height, 1);
-  data->AllocateScalars(VTK_UNSIGNED_CHAR, 3);
-  auto* out = static_cast<std::uint8_t*>(data->GetScalarPointer());
-  const std::size_t row = static_cast<std::size_t>(image.width) * 3;
-  for (int y = 0; y < image.height; ++y) {
-    std::memcpy(out + static_cast<std::size_t>(image.height - 1 - y) * row,
-                image.pixels.data() + static_cast<std::size_t>(y) * row, row);
-  }
-  vtkNew<vtkPNGWriter> writer;
-  writer->WriteToMemoryOn();
-  writer->SetInputData(data);
-  writer->Write();
-  vtkUnsignedCharArray* bytes = writer->GetResult();
-  if (writer->GetErrorCode() != 0 || bytes == nullptr || bytes->GetNumberOfValues() == 0) {
-    throw FileError(path, "could not encode the PNG");
-  }
-  AtomicFile file(path);
-  file.stream().write(reinterpret_cast<const char*>(bytes->GetPointer(0)),
-                      static_cast<std::streamsize>(bytes->GetNumberOfValues()));
-  file.commit();
 }
 
 }  // namespace echoreg::render
