@@ -38,6 +38,10 @@ std::unique_ptr<CaptureDetection> openCapture(const std::string& path,
 
 void runDetection(CaptureDetection& capture, const DetectionParams& params,
                   const PointFrameOptions& points) {
+  // Streamed in blocks of frames as `detect` does: the envelopes (4 bytes a sample) and the
+  // reader's copy of the A-lines are one block's at any time, not the capture's; the detection is
+  // the same (tests/cli/test_capture_detection.cpp).
+  capture.pipeline.setFramesPerBlock(filters::DetectionPipeline::kStreamFramesPerBlock);
   try {
     capture.pipeline.configure(params, points);
   } catch (const std::invalid_argument& e) {

@@ -35,7 +35,9 @@ struct CaptureDetectionRequest {
 };
 
 /// One capture through the pipeline: the pipeline keeps the sequence (its poses made rigid) and
-/// every step's output, so writing the points afterwards runs nothing again.
+/// the per-frame output of the peaks and every step after them, so writing the points afterwards
+/// runs nothing again. The A-lines are streamed through the envelope in blocks of
+/// DetectionPipeline::kStreamFramesPerBlock frames, so only one block's envelopes are held.
 struct CaptureDetection {
   filters::DetectionPipeline pipeline;
   SequenceDetection detection;
@@ -49,8 +51,9 @@ std::unique_ptr<CaptureDetection> openCapture(const std::string& path,
                                               const std::vector<std::string>& rigidPoses);
 
 /// Configures the opened capture's pipeline with `params` (the capture-dependent parameters
-/// resolved by adaptToSequence) and runs it. Bad parameters or a transform the capture lacks are
-/// FileErrors naming the capture.
+/// resolved by adaptToSequence) and runs it, streamed in blocks of frames (a later change of a
+/// peak parameter recomputes the envelopes; one of BeamToProbe does not). Bad parameters or a
+/// transform the capture lacks are FileErrors naming the capture.
 void runDetection(CaptureDetection& capture, const DetectionParams& params,
                   const PointFrameOptions& points);
 

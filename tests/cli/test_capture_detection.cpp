@@ -10,6 +10,7 @@
 #include "echoreg/core/sequence_detection.hpp"
 
 #include <gtest/gtest.h>
+#include <vtkImageData.h>
 
 #include <filesystem>
 #include <fstream>
@@ -66,6 +67,65 @@ TEST(CaptureDetection, RunsThroughTheExecutiveOnceAndEqualsDetectSequence) {
   EXPECT_EQ(pipeline.peaks->GetExecutionCount(), 1);
   EXPECT_EQ(pipeline.interSignal->GetExecutionCount(), 1);
   EXPECT_EQ(pipeline.writer->GetExecutionCount(), 1);
+}
+
+// register's, calibrate's and the study's detection streams the capture through the envelope in
+// blocks of kStreamFramesPerBlock frames, as `detect` does, so its memory does not grow with the
+// capture: a capture of two blocks gives exactly the whole capture's detection (the core's
+// detectSequence, and the pipeline unstreamed, byte for byte) while only the last block's
+// envelopes are held.
+TEST(CaptureDetection, StreamsACaptureLongerThanABlockWithTheWholeCapturesResult) {
+  constexpr int kBlock = filters::DetectionPipeline::kStreamFramesPerBlock;
+  constexpr int kFrames = kBlock + 88;
+  test::TempDir dir;
+  const std::string capture = dir.file("sweep.igs.mha");
+  writeSequence(test::makeDemoSweep({kFrames}), capture);
+  const cli::CaptureDetectionRequest request = sweepRequest(capture);
+  const std::unique_ptr<cli::CaptureDetection> detected = cli::detectCapture(request);
+  filters::DetectionPipeline& pipeline = detected->pipeline;
+  EXPECT_EQ(pipeline.peaks->GetFramesPerBlock(), kBlock);
+  EXPECT_EQ(pipeline.envelope->GetExecutionCount(), 2) << "one envelope execution per block";
+  EXPECT_EQ(pipeline.peaks->GetExecutionCount(), 1);
+  EXPECT_EQ(pipeline.envelope->GetFramesComputed(), kFrames) << "each frame enveloped once";
+  int extent[6];
+  pipeline.envelope->GetOutput()->GetExtent(extent);
+  EXPECT_EQ(extent[2], kBlock) << "only the last block's envelopes are held";
+  EXPECT_EQ(extent[3], kFrames - 1);
+  pipeline.reader->GetOutput()->GetExtent(extent);
+  EXPECT_EQ(extent[3] - extent[2] + 1, kFrames - kBlock) << "and only its A-lines";
+
+  // The whole capture at once, by the core's function: the same verdicts, depths and points.
+  const Sequence read = readSequence(capture);
+  PointFrameOptions points;
+  points.poseTransform = "ProbeToTracker";
+  const SequenceDetection expected =
+      detectSequence(read, cli::requestParams(request, read), points);
+  const SequenceDetection& streamed = detected->detection;
+  ASSERT_EQ(streamed.frames.size(), expected.frames.size());
+  EXPECT_EQ(streamed.accepted, expected.accepted);
+  EXPECT_EQ(streamed.echoes, expected.echoes);
+  EXPECT_EQ(streamed.rejectedByReason, expected.rejectedByReason);
+  int acceptedInSecondBlock = 0;
+  for (std::size_t f = 0; f < expected.frames.size(); ++f) {
+    EXPECT_EQ(streamed.frames[f].reason, expected.frames[f].reason) << "frame " << f;
+    EXPECT_EQ(streamed.frames[f].peakCount, expected.frames[f].peakCount) << "frame " << f;
+    EXPECT_EQ(streamed.frames[f].sampleIndex, expected.frames[f].sampleIndex) << "frame " << f;
+    EXPECT_EQ(streamed.frames[f].depthMm, expected.frames[f].depthMm) << "frame " << f;
+    EXPECT_EQ(streamed.frames[f].pointMm, expected.frames[f].pointMm) << "frame " << f;
+    if (f >= static_cast<std::size_t>(kBlock) && expected.frames[f].accepted())
+      ++acceptedInSecondBlock;
+  }
+  EXPECT_GT(acceptedInSecondBlock, 5) << "not a comparison of an empty second block";
+
+  // The points CSV: the same bytes as the pipeline with the whole capture at once.
+  pipeline.write(dir.file("streamed.csv"));
+  EXPECT_EQ(pipeline.envelope->GetExecutionCount(), 2) << "writing runs nothing again";
+  filters::DetectionPipeline whole;
+  whole.open(capture, {request.poseTransform});
+  whole.configure(cli::requestParams(request, whole.reader->GetSequence()), points);
+  whole.write(dir.file("whole.csv"));
+  EXPECT_EQ(whole.envelope->GetExecutionCount(), 1);
+  EXPECT_EQ(slurp(dir.file("streamed.csv")), slurp(dir.file("whole.csv")));
 }
 
 TEST(CaptureDetection, SharedDetectionRunsOncePerRequestAndIsTheDetectCommandsBytes) {

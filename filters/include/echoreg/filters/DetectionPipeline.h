@@ -8,7 +8,8 @@
 // The envelope and peak filters split their frames over threads with vtkSMPTools. By default the
 // envelopes of the whole capture are kept between updates; setFramesPerBlock() streams the capture
 // through reader, envelope and peaks in blocks of frames instead (memory bounded by a block, what
-// a one-shot command like `detect` wants). The result is
+// the commands that detect a capture once want: `detect`, and `register`, `calibrate` and the
+// study through cli/src/capture_detection.hpp). The result is
 // detectSequence's (tests/filters/detection_pipeline_test.cpp compares them frame by frame), so
 // the commands that used to call it give the same bytes.
 #pragma once
@@ -84,7 +85,7 @@ class DetectionPipeline {
   /// whole capture at once, the default). The output is the same; the envelopes held at any time
   /// are one block's, but a later change of a peak parameter recomputes them.
   void setFramesPerBlock(int frames) { peaks->SetFramesPerBlock(frames); }
-  /// The block size `detect` streams with: 512 frames, 8 MB of float envelopes at 4096 samples,
+  /// The block size the commands stream with: 512 frames, 8 MB of float envelopes at 4096 samples,
   /// enough rows per block to keep every core busy.
   static constexpr int kStreamFramesPerBlock = 512;
 
