@@ -176,8 +176,9 @@ constexpr double kWaterBeforeWall = 2.0;
 // independent samples a 3 mm region holds at 7-10 MHz.
 constexpr double kNoiseShadowSpread = 1.4;
 // ... the tissue before the echo this many times the quiet level (a lone pulse in a record of
-// noise has noise before it too)...
-constexpr double kNoiseShadowTissue = 1.5;
+// noise has noise before it too; where the quiet level is the deep tissue of a short record, a
+// fascia over a darker layer has tissue behind it at that level)...
+constexpr double kNoiseShadowTissue = 1.7;
 // ... the echo a pulse (its width at half maximum at most this many periods; a fascia's layers
 // or a burst are wider)...
 constexpr double kNoiseShadowMaxCycles = 3.0;

@@ -86,7 +86,7 @@ struct BoneEchoParams {
   bool shadowAtQuietLevel = false;
   /// A shadow at the noise behind a strong echo (with shadowAtQuietLevel; 0 turns it off): an
   /// echo at least this many times the quiet level, at least half the record's strongest echo
-  /// and 6 x the tissue before it, the tissue at least 1.5 x the quiet level, followed by the
+  /// and 6 x the tissue before it, the tissue at least 1.7 x the quiet level, followed by the
   /// envelope within 1.4 x the quiet level and 1.4 x below the tissue before it. Where the tissue's
   /// speckle is barely above the digitiser's noise (8-bit records, a water standoff), bone's shadow
   /// at the noise is all there is to see.
