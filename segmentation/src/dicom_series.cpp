@@ -318,6 +318,10 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
   // process) reading the next tag (found by fuzz/fuzz_dicom).
   if (meta)
     return fmt::format("the file ends at byte {}, inside its file meta group", size);
+  // A tag and less than the rest of an element's header: GDCM asserts (aborts the process) reading
+  // its VR or length (gdcm::ExplicitDataElement::ReadPreValue; found by fuzz/fuzz_dicom).
+  if (size - pos >= 4 && !fragments)
+    return fmt::format("the file ends at byte {}, inside the header of an element", size);
   return "";
 }
 

@@ -423,7 +423,7 @@ std::string longElementHeader(std::uint16_t group, std::uint16_t element, const 
 // element whose VR GDCM does not know makes GDCM read it as implicit, its 4-byte length right after
 // the tag: "\0@UT" here claimed 1.4 GB in a 32-byte file, which GDCM allocated, while the walk
 // read a 4-byte length of 0 after 2 reserved bytes. Both ways GDCM may take are walked now.
-TEST_F(DicomSeriesRefusal, AnElementOfAnUnknownVrIsWalkedAsGdcmReadsIt) {
+TEST_F(DicomSeriesRefusal, UnknownVrsAndCutHeadersAreWalkedAsGdcmReadsThem) {
   const std::string file = dir_.file("unknown-vr.dcm");
   const auto write = [&](const std::string& bytes) {
     std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes;
@@ -451,6 +451,13 @@ TEST_F(DicomSeriesRefusal, AnElementOfAnUnknownVrIsWalkedAsGdcmReadsIt) {
       refusal(file),
       "unknown-vr.dcm: is a damaged DICOM file: the pixel data at byte 14 has an unknown "
       "VR (bytes 4f 58)");
+  // A file that ends after a tag, inside the rest of its element's header: GDCM asserts (aborts
+  // the process) reading it (found by fuzz/fuzz_dicom, seed found-abort-header-cut-short-3e87910c).
+  write(shortElement(0x0020, 0x000d, "UI", std::string("1.2.3\0", 6)) + le(0x0020, 2) +
+        le(0x0013, 2) + "I");
+  EXPECT_CONTAINS(refusal(file),
+                  "unknown-vr.dcm: is a damaged DICOM file: the file ends at byte 19, inside the "
+                  "header of an element");
 }
 
 // Found by fuzz/fuzz_dicom: a 665-byte file with no preamble whose first element is of group
