@@ -153,7 +153,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   fs::create_directories(results + "/points", ec);
   if (ec)
     throw FileError(results, "cannot be created: " + ec.message());
-  StudyRunner runner(results + "/.study-state.json", o.force);
+  StudyRunner runner(results + "/.study-state.json", o.force, studyDir);
   // Each sweep's detection, shared by its points and its registration (each sweep detected once).
   CaptureDetections detections;
   std::vector<StepOutcome> outcomes;

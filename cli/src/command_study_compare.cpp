@@ -130,7 +130,8 @@ StudyResults loadStudy(const std::string& dir, const std::string& groupBy) {
     }
   }
   study.manifest = readStudyManifest(dir);
-  study.manifestHash = fmt::format("{:016x}", contentHash(study.manifestPath));
+  study.manifestHash =
+      fmt::format("{:016x}", contentHash(study.manifestPath, "the study's manifest"));
   study.group = groupBy.empty() ? study.name : groupLabel(study, groupBy);
   return study;
 }

@@ -232,7 +232,8 @@ Sweep readSweep(const std::string& file) {
           fmt::format("{}: \"study\": {} holds no study.json", file, folder.generic_string()));
     }
     sweep.baseStudy = folder.generic_string();
-    sweep.baseManifest = fmt::format("{:016x}", contentHash((folder / "study.json").string()));
+    sweep.baseManifest = fmt::format("{:016x}", contentHash((folder / "study.json").string(),
+                                                            "the manifest of the study swept"));
   } else {
     const nlohmann::json& simulate = doc["simulate"];
     if (!simulate.is_object())

@@ -9,7 +9,9 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <new>
@@ -49,12 +51,14 @@ void mix(std::uint64_t& h, const char* data, std::size_t size) {
 void mixFile(std::uint64_t& h, const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in)
-    throw FileError(path, "cannot be read (an input of the study)");
+    throw FileError(path, std::string("cannot be opened: ") + std::strerror(errno));
   std::vector<char> buffer(1 << 20);
   while (in) {
     in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
     mix(h, buffer.data(), static_cast<std::size_t>(in.gcount()));
   }
+  if (in.bad())
+    throw FileError(path, "cannot be read");
 }
 
 }  // namespace
@@ -65,17 +69,22 @@ std::uint64_t bytesHash(std::string_view bytes) {
   return h;
 }
 
-std::uint64_t contentHash(const std::string& path) {
+std::uint64_t contentHash(const std::string& path, const std::string& why) {
   std::uint64_t h = kFnvOffset;
   std::error_code ec;
-  if (fs::is_directory(path, ec)) {
+  const fs::file_status status = fs::status(path, ec);
+  if (status.type() == fs::file_type::not_found)
+    throw FileError(path, fmt::format("is missing ({})", why));
+  if (ec)
+    throw FileError(path, "cannot be accessed: " + ec.message());
+  if (fs::is_directory(status)) {
     std::vector<fs::path> files;
-    for (const auto& entry : fs::recursive_directory_iterator(path, ec)) {
-      if (entry.is_regular_file())
-        files.push_back(entry.path());
+    for (fs::recursive_directory_iterator it(path, ec), end; !ec && it != end; it.increment(ec)) {
+      if (it->is_regular_file())
+        files.push_back(it->path());
     }
     if (ec)
-      throw FileError(path, "cannot list the folder: " + ec.message());
+      throw FileError(path, "cannot be listed: " + ec.message());
     std::sort(files.begin(), files.end());
     for (const fs::path& file : files) {
       const std::string relative = fs::relative(file, path).generic_string();
@@ -84,14 +93,15 @@ std::uint64_t contentHash(const std::string& path) {
     }
     return h;
   }
-  if (!fs::exists(path, ec))
-    throw FileError(path, "is missing (an input of the study)");
+  // A FIFO or a device would block the read or never end.
+  if (!fs::is_regular_file(status))
+    throw FileError(path, "is not a regular file or a folder");
   mixFile(h, path);
   return h;
 }
 
-StudyRunner::StudyRunner(std::string stateFile, bool force)
-    : stateFile_(std::move(stateFile)), force_(force) {
+StudyRunner::StudyRunner(std::string stateFile, bool force, std::string shownFolder)
+    : stateFile_(std::move(stateFile)), shownFolder_(std::move(shownFolder)), force_(force) {
   std::ifstream in(stateFile_);
   if (!in)
     return;
@@ -125,7 +135,7 @@ std::vector<std::string> outputHashes(const StudyStep& step) {
     std::string hash;
     if (fs::is_regular_file(output, ec)) {
       try {
-        hash = fmt::format("{:016x}", contentHash(output));
+        hash = fmt::format("{:016x}", contentHash(output, "an output of the study"));
       } catch (const FileError&) {
         hash.clear();
       }
@@ -162,7 +172,17 @@ StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int 
     mix(h, arg.data(), arg.size() + 1);  // with the '\0'
   mix(h, step.request.data(), step.request.size());
   for (const std::string& input : step.inputs) {
-    const std::uint64_t part = contentHash(input);
+    std::uint64_t part = 0;
+    try {
+      part = contentHash(input, fmt::format("step \"{}\" needs it", step.title));
+    } catch (const FileError& e) {
+      // Read from inside the study folder, named as the user names it.
+      const fs::path file(e.path());
+      throw FileError(file.is_absolute() || shownFolder_.empty()
+                          ? e.path()
+                          : (fs::path(shownFolder_) / file).generic_string(),
+                      e.problem());
+    }
     mix(h, reinterpret_cast<const char*>(&part), sizeof part);
   }
   const std::string hash = fmt::format("{:016x}", h);

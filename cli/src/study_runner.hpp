@@ -54,19 +54,23 @@ struct StepOutcome {
 const char* statusName(StepOutcome::Status status);
 
 /// 64-bit FNV-1a of a file's bytes (folders: of their files' relative names and bytes, sorted).
-/// Throws FileError when the path cannot be read.
-std::uint64_t contentHash(const std::string& path);
+/// Throws FileError naming the path when it cannot be read, in the study's one wording: "PATH: is
+/// missing (WHY)", else "PATH: PROBLEM" (cannot be opened, listed or read; not a file or folder).
+std::uint64_t contentHash(const std::string& path, const std::string& why);
 
 /// 64-bit FNV-1a of `bytes` (the same hash as contentHash's of a file holding them).
 std::uint64_t bytesHash(std::string_view bytes);
 
 class StudyRunner {
  public:
-  /// `stateFile` keeps each step's input hash and time between runs.
-  StudyRunner(std::string stateFile, bool force);
+  /// `stateFile` keeps each step's input hash and time between runs. `shownFolder` is the study
+  /// folder as the user named it (the steps' relative paths are read from inside it): messages
+  /// name an input under it.
+  StudyRunner(std::string stateFile, bool force, std::string shownFolder = "");
 
   /// Runs the step unless it is up to date. Returns the outcome; never throws for the step's
-  /// own failure (that is the outcome), but throws FileError for a missing input.
+  /// own failure (that is the outcome), but throws FileError for an input that is missing or
+  /// cannot be read ("S/captures/x.igs.mha: is missing (step \"T\" needs it)").
   StepOutcome run(const StudyStep& step, const Streams& streams, int index, int total);
 
   /// Writes the state (atomically).
@@ -74,6 +78,7 @@ class StudyRunner {
 
  private:
   std::string stateFile_;
+  std::string shownFolder_;
   bool force_ = false;
   struct Entry {
     std::string hash;

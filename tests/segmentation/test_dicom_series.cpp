@@ -419,6 +419,47 @@ std::string longElementHeader(std::uint16_t group, std::uint16_t element, const 
   return le(group, 2) + le(element, 2) + vr + std::string(2, '\0') + le(length, 4);
 }
 
+// Found by fuzz/fuzz_dicom (seed found-oom-unknown-vr-20b15a58): in an explicit data set, an
+// element whose VR GDCM does not know makes GDCM read it as implicit, its 4-byte length right after
+// the tag: "\0@UT" here claimed 1.4 GB in a 32-byte file, which GDCM allocated, while the walk
+// read a 4-byte length of 0 after 2 reserved bytes. Both ways GDCM may take are walked now.
+TEST_F(DicomSeriesRefusal, UnknownVrsAndCutHeadersAreWalkedAsGdcmReadsThem) {
+  const std::string file = dir_.file("unknown-vr.dcm");
+  const auto write = [&](const std::string& bytes) {
+    std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes;
+  };
+  // The fuzzer's file: read as implicit, (2020,0020) claims 0x54554000 bytes.
+  write(shortElement(0x0020, 0x000d, "UI", std::string("1.2.3\0", 6)) + le(0x2020, 2) +
+        le(0x0020, 2) + std::string("\0@UT", 4) + std::string(5, '\0') + "\x10" + "abcd");
+  EXPECT_CONTAINS(refusal(file),
+                  "unknown-vr.dcm: is a damaged DICOM file: element (2020,0020) at byte 14 claims "
+                  "1414873088 bytes, but 10 are left in the file");
+  // Read with a 2-byte length (GDCM's first way), the unknown VR "\x10\0" has a value of 0
+  // bytes and the element after it claims 256 MB; read as implicit, its value is the 16 bytes
+  // left, and nothing is beyond the file.
+  write(shortElement(0x0020, 0x000d, "UI", std::string("1.2.3\0", 6)) + le(0x0021, 2) +
+        le(0x0010, 2) + std::string("\x10\0\0\0", 4) +
+        longElementHeader(0x0021, 0x1011, "UT", 1U << 28) + "abcd");
+  EXPECT_CONTAINS(refusal(file),
+                  "unknown-vr.dcm: is a damaged DICOM file: element (0021,1011) at byte 22 claims "
+                  "268435456 bytes, but 4 are left in the file");
+  // Pixel data of an unknown VR not followed by two zero bytes: GDCM asserts (aborts the process)
+  // reading it (found by fuzz/fuzz_dicom, seed found-abort-pixel-data-unknown-vr-292103ab).
+  write(shortElement(0x0020, 0x000d, "UI", std::string("1.2.3\0", 6)) + le(0x7fe0, 2) +
+        le(0x0010, 2) + "OX" + std::string("\x01\0", 2) + le(4, 4) + "abcd");
+  EXPECT_CONTAINS(
+      refusal(file),
+      "unknown-vr.dcm: is a damaged DICOM file: the pixel data at byte 14 has an unknown "
+      "VR (bytes 4f 58)");
+  // A file that ends after a tag, inside the rest of its element's header: GDCM asserts (aborts
+  // the process) reading it (found by fuzz/fuzz_dicom, seed found-abort-header-cut-short-3e87910c).
+  write(shortElement(0x0020, 0x000d, "UI", std::string("1.2.3\0", 6)) + le(0x0020, 2) +
+        le(0x0013, 2) + "I");
+  EXPECT_CONTAINS(refusal(file),
+                  "unknown-vr.dcm: is a damaged DICOM file: the file ends at byte 19, inside the "
+                  "header of an element");
+}
+
 // Found by fuzz/fuzz_dicom: a 665-byte file with no preamble whose first element is of group
 // 0x0020 took GDCM 26 s and 1.09 GB to refuse, as the element walk run before GDCM took only
 // files starting with group 0x0000 or 0x0008. Now any file GDCM reads without the preamble is
