@@ -100,6 +100,9 @@ struct Sweep {
   std::vector<SweepStudy> studies;
   std::vector<SweepPoint> points;
   bool givenModels = false;  ///< study run --given-models: the manifest's models, no segmentation
+  /// Combinations that are the same run as an earlier point (register.loss with method plain,
+  /// which has no loss): not points of their own.
+  std::size_t sameRun = 0;
 };
 
 /// A JSON value as a command-line value: strings as they are, numbers as JSON writes them.
@@ -359,12 +362,26 @@ Sweep readSweep(const std::string& file) {
       }
       studyKey = id;
     }
+    // The plain ICP has no loss: a loss beside it changes nothing, so the combination is the
+    // point without it (run once, one row).
+    if (point.solver.contains("method") && point.solver.contains("loss") &&
+        solverJson(point.solver["method"].get<std::string>(),
+                   point.solver["loss"].get<std::string>())["loss"]
+            .is_null()) {
+      point.solver.erase("loss");
+      point.parameters["register.loss"] = nullptr;
+    }
     nlohmann::json definition = {
         {"study", studyKey}, {"detect", point.detect}, {"given_models", sweep.givenModels}};
     if (!point.solver.empty())
       definition["register"] = point.solver;  // absent before sweeps had it: same IDs as then
     point.id = "p-" + shortHash(definition.dump());
-    sweep.points.push_back(std::move(point));
+    if (std::any_of(sweep.points.begin(), sweep.points.end(),
+                    [&](const SweepPoint& p) { return p.id == point.id; })) {
+      ++sweep.sameRun;
+    } else {
+      sweep.points.push_back(std::move(point));
+    }
     for (std::size_t a = axes.size(); a-- > 0;) {
       if (++index[a] < axes[a].second.size())
         break;
@@ -389,11 +406,14 @@ nlohmann::json planJson(const Sweep& sweep) {
          {"folder", "points/" + p.id},
          {"row", "rows/" + p.id + ".json"}});
   }
-  return {{"format", "echoreg-sweep-plan"},
-          {"base",
-           sweep.baseStudy.empty() ? nlohmann::json("simulate") : nlohmann::json(sweep.baseStudy)},
-          {"studies", studies},
-          {"points", points}};
+  nlohmann::json plan = {{"format", "echoreg-sweep-plan"},
+                         {"base", sweep.baseStudy.empty() ? nlohmann::json("simulate")
+                                                          : nlohmann::json(sweep.baseStudy)},
+                         {"studies", studies},
+                         {"points", points}};
+  if (sweep.sameRun > 0)
+    plan["same_run_combinations"] = sweep.sameRun;  // register.loss with method plain
+  return plan;
 }
 
 /// A folder made under a temporary name and renamed into place, so that it exists whole or not
@@ -617,6 +637,12 @@ int runSweep(const SweepOptions& o, const Streams& streams) {
     const bool ran = runPoint(sweep, *only, out, streams);
     streams.out << fmt::format("sweep: point {} {}\n", only->id, ran ? "ran" : "was done already");
     return 0;
+  }
+  if (sweep.sameRun > 0) {
+    streams.err << fmt::format(
+        "echoreg study sweep: {} combination{} of register.loss with register.method plain "
+        "(which has no loss) run once, as the point without the loss\n",
+        sweep.sameRun, sweep.sameRun == 1 ? "" : "s");
   }
   int ran = 0;
   int done = 0;

@@ -16,6 +16,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -313,6 +314,31 @@ TEST(StudySweep, SimulatedStudiesGetSeedsDerivedFromTheirParameters) {
   EXPECT_EQ(rows[0]["registrations"],
             readJson(out + "/points/" + one["points"][0]["id"].get<std::string>() +
                      "/results/results.json")["registrations"]);
+}
+
+// The plain ICP has no loss: crossed with register.loss it is one point, not one per loss.
+TEST(StudySweep, PlainMethodIsOnePointWhateverTheLoss) {
+  test::TempDir dir;
+  const std::string sweepFile = dir.file("sweep.json");
+  std::ofstream(sweepFile) << R"({"simulate": {"size": "small", "seed": 5},
+      "parameters": {"register.method": ["plain", "robust"],
+                     "register.loss": ["huber", "cauchy"]}})";
+  const test::CommandResult r =
+      runEchoreg({"study", "sweep", sweepFile, "--out", dir.file("out"), "--plan"});
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const nlohmann::json plan = nlohmann::json::parse(r.out);
+  ASSERT_EQ(plan["points"].size(), 3U) << plan.dump(2);
+  EXPECT_EQ(plan["same_run_combinations"], 1);
+  std::set<std::string> ids;
+  for (const nlohmann::json& point : plan["points"])
+    ids.insert(point["id"].get<std::string>());
+  EXPECT_EQ(ids.size(), 3U);
+  // Keys sorted, the last (register.method) fastest: plain (no loss), robust huber, robust cauchy.
+  EXPECT_EQ(plan["points"][0]["parameters"]["register.method"], "plain");
+  EXPECT_TRUE(plan["points"][0]["parameters"]["register.loss"].is_null());
+  EXPECT_EQ(plan["points"][1]["parameters"]["register.loss"], "huber");
+  EXPECT_EQ(plan["points"][2]["parameters"]["register.loss"], "cauchy");
+  EXPECT_EQ(plan["points"][2]["parameters"]["register.method"], "robust");
 }
 
 TEST(StudySweep, BadSweepFilesNameTheKeyExitTwoAndWriteNothing) {
