@@ -273,12 +273,29 @@ class LazyLevel {
   double value_ = -1.0;
 };
 
+// The largest envelope sample of a record, computed on first use (the noise shadow's share of
+// the strongest echo; most records never need it).
+class LazyMax {
+ public:
+  LazyMax(const float* envelope, int count) : envelope_(envelope), count_(count) {}
+  float operator()() {
+    if (value_ < 0.F)
+      value_ = count_ > 0 ? *std::max_element(envelope_, envelope_ + count_) : 0.F;
+    return value_;
+  }
+
+ private:
+  const float* envelope_;
+  int count_;
+  float value_ = -1.F;
+};
+
 // Does the peak look like bone: narrow as a pulse, well above the speckle before it, and
 // followed by an acoustic shadow?
 // `shadowLevel`: a median behind the peak within noiseFloorFactor of it is a shadow too.
 // `strongest`: the record's strongest envelope sample (for noiseShadowEchoFactor).
 bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noiseFloor,
-                      LazyLevel& shadowLevel, float strongest, const float* envelope, int count,
+                      LazyLevel& shadowLevel, LazyMax& strongest, const float* envelope, int count,
                       const Peak& peak, std::vector<float>& scratch) {
   // Cheap screen first: with tissue at least minTissueOverNoise x the noise floor before it and
   // the peak minContrast x above that, the peak must clear their product of the noise floor.
@@ -321,13 +338,14 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
       return after <= bone.noiseFloorFactor * shadowLevel();
     // Bone's shadow at the noise behind a strong echo: the tissue before it may be barely above
     // the noise (8-bit records), but it is clearly louder than the shadow.
+    // (The cheap tests first: the level and the record's maximum are computed on first use.)
     if (bone.noiseShadowEchoFactor > 0.0 && before >= kNoiseShadowSpread * after &&
         widthSamples <= bone.noiseShadowMaxWidthSamples &&
-        before >= kNoiseShadowTissue * shadowLevel() &&
         peak.value >= kNoiseShadowContrast * before &&
-        peak.value >= kNoiseShadowShareOfStrongest * strongest &&
+        before >= kNoiseShadowTissue * shadowLevel() &&
         peak.value >= bone.noiseShadowEchoFactor * shadowLevel() &&
-        after <= kNoiseShadowSpread * shadowLevel())
+        after <= kNoiseShadowSpread * shadowLevel() &&
+        peak.value >= kNoiseShadowShareOfStrongest * strongest())
       return true;
     // Both quiet-level conditions imply before x factor >= ratio x after: where that fails, the
     // level (a median per block) is not needed.
@@ -1037,9 +1055,7 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
                     static_cast<int>(std::lround(0.5 * params.bone.regionMm / params.mmPerSample)))
               : LazyLevel(noiseFloor);
       result.reason = RejectReason::NotBone;
-      const float recordMax = params.bone.noiseShadowEchoFactor > 0.0
-                                  ? *std::max_element(envelope, envelope + count)
-                                  : 0.F;
+      LazyMax recordMax(envelope, count);
       if (params.bone.minShareOfStrongest <= 0.0) {
         for (int candidate = found - 1; candidate >= 0; --candidate) {
           const Peak& peak = result.peaks[static_cast<std::size_t>(candidate)];
