@@ -342,10 +342,10 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
     if (bone.noiseShadowEchoFactor > 0.0 && before >= kNoiseShadowSpread * after &&
         widthSamples <= bone.noiseShadowMaxWidthSamples &&
         peak.value >= kNoiseShadowContrast * before &&
+        peak.value >= kNoiseShadowShareOfStrongest * strongest() &&
         before >= kNoiseShadowTissue * shadowLevel() &&
         peak.value >= bone.noiseShadowEchoFactor * shadowLevel() &&
-        after <= kNoiseShadowSpread * shadowLevel() &&
-        peak.value >= kNoiseShadowShareOfStrongest * strongest())
+        after <= kNoiseShadowSpread * shadowLevel())
       return true;
     // Both quiet-level conditions imply before x factor >= ratio x after: where that fails, the
     // level (a median per block) is not needed.
