@@ -120,11 +120,8 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   // step comes first: one check and one wording for every input the study needs and does not
   // hold, "S/captures/x.igs.mha: is missing (calibration.capture in S/study.json)". The calibration
   // sessions (Table 5.2) are the manifest's list, else its one pair, named by its keys.
-  const auto shownPath = [&](const std::string& file) {
-    return fs::path(file).is_absolute() ? file : (fs::path(studyDir) / file).generic_string();
-  };
   const auto missingInputError = [&](const std::string& file, const std::string& why) {
-    return FileError(shownPath(file), fmt::format("is missing ({})", why));
+    return FileError(shownInStudy(studyDir, file), fmt::format("is missing ({})", why));
   };
   const auto requirePresent = [&](const std::string& file, const std::string& what) {
     if (!fs::exists(file))

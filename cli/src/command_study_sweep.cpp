@@ -323,6 +323,7 @@ Sweep readSweep(const std::string& file) {
       throw SweepFileError(file + ": more than 100000 combinations; split the sweep");
   }
   std::vector<std::size_t> index(axes.size(), 0);
+  std::set<std::string> pointIds;  // a combination that is an earlier point's run is not a point
   for (std::size_t n = 0; n < count; ++n) {
     SweepPoint point;
     point.parameters = nlohmann::json::object();
@@ -376,12 +377,10 @@ Sweep readSweep(const std::string& file) {
     if (!point.solver.empty())
       definition["register"] = point.solver;  // absent before sweeps had it: same IDs as then
     point.id = "p-" + shortHash(definition.dump());
-    if (std::any_of(sweep.points.begin(), sweep.points.end(),
-                    [&](const SweepPoint& p) { return p.id == point.id; })) {
+    if (!pointIds.insert(point.id).second)
       ++sweep.sameRun;
-    } else {
+    else
       sweep.points.push_back(std::move(point));
-    }
     for (std::size_t a = axes.size(); a-- > 0;) {
       if (++index[a] < axes[a].second.size())
         break;

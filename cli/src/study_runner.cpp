@@ -69,6 +69,12 @@ std::uint64_t bytesHash(std::string_view bytes) {
   return h;
 }
 
+std::string shownInStudy(const std::string& folder, const std::string& file) {
+  return fs::path(file).is_absolute() || folder.empty()
+             ? file
+             : (fs::path(folder) / file).generic_string();
+}
+
 std::uint64_t contentHash(const std::string& path, const std::string& why) {
   std::uint64_t h = kFnvOffset;
   std::error_code ec;
@@ -177,11 +183,7 @@ StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int 
       part = contentHash(input, fmt::format("step \"{}\" needs it", step.title));
     } catch (const FileError& e) {
       // Read from inside the study folder, named as the user names it.
-      const fs::path file(e.path());
-      throw FileError(file.is_absolute() || shownFolder_.empty()
-                          ? e.path()
-                          : (fs::path(shownFolder_) / file).generic_string(),
-                      e.problem());
+      throw FileError(shownInStudy(shownFolder_, e.path()), e.problem());
     }
     mix(h, reinterpret_cast<const char*>(&part), sizeof part);
   }

@@ -58,6 +58,10 @@ const char* statusName(StepOutcome::Status status);
 /// missing (WHY)", else "PATH: PROBLEM" (cannot be opened, listed or read; not a file or folder).
 std::uint64_t contentHash(const std::string& path, const std::string& why);
 
+/// `file` as the user names it: a relative path (read from inside the study folder) under
+/// `folder`, the study folder as the user gave it; an absolute one, or any with no folder, as is.
+std::string shownInStudy(const std::string& folder, const std::string& file);
+
 /// 64-bit FNV-1a of `bytes` (the same hash as contentHash's of a file holding them).
 std::uint64_t bytesHash(std::string_view bytes);
 
