@@ -132,8 +132,9 @@ const std::vector<Tunable>& tunables() {
        "is the bone, the chosen one its inner cortex (2.5; 0 = off)",
        0.0, [](P& p, const V& v) { p.peaks.prominence.innerEchoRatio = as<double>(v); }},
       {"echo-noise-shadow", "Prominence policy",
-       "prominence, shadow required: an echo this many times the record's quiet level, half its "
-       "strongest echo, with only noise behind it is bone (10; 0 = off)",
+       "prominence: an echo this many times the record's quiet level with only noise behind it "
+       "is bone (shadow required: half the strongest echo, tissue before it; per record: water "
+       "before it) (10; 0 = off)",
        0.0, [](P& p, const V& v) { p.peaks.prominence.noiseShadowEchoFactor = as<double>(v); }},
       {"echo-similar", "Prominence policy",
        "prominence: echoes within this fraction of the strongest compete on depth (0.6)", 0.0,

@@ -392,26 +392,45 @@ TEST(ProminencePolicy, TheShadowModeSeesAShadowAtTheNoiseBehindAStrongEcho) {
   EXPECT_THROW(validate(params.peaks), std::invalid_argument);
 }
 
-// Bone in a water tank: one echo in the electronic noise, nothing before or behind it. The
-// medians of that noise before and behind the echo differ by some per cent either way, so a
-// shadow that had to be strictly no louder than the water before it was seen in 78 of these 200
-// records; 124 now. The rest fail the other half of the quiet-level test (behind within 1.2 x
-// the lower quartile of the record's 1 mm medians, which pure noise often exceeds): loosening
-// that too cost false positives on the labelled sets (docs/detection.md, stop 23).
+// Bone in a water tank: one echo in the electronic noise, the water before it. The medians of
+// that noise before and behind the echo differ by some per cent either way, and behind bare bone
+// the cortex's inner echo and the marrow's faint scatter lift the median behind it a little over
+// the water's. A shadow that had to be strictly no louder than the water was seen in 78 of the
+// lone echoes' 200 records; within 1.15 times the water and 1.2 times the quiet level, 124 (stop
+// 23); a strong echo (10 times the quiet level) now may have up to 1.4 times the noise behind it
+// (stop 25): 178 of the lone echoes, and 162 of 200 with the marrow behind them (94 before). A
+// weak echo with the same behind it is not taken for bone in water.
 TEST(ProminencePolicy, BoneInWaterIsBoneWhicheverSideOfItsEchoTheNoiseIsLouder) {
   test::PulseModel pulse;  // 9 MHz at 50 MHz
   DetectionParams params = perRecordRule();
-  SignalDetector detector(params);
-  int accepted = 0;
-  int elsewhere = 0;
-  for (std::uint64_t seed = 1; seed <= 200; ++seed) {
-    const auto x = test::makeEchoRecord(4096, {{2000.0, 30.0}}, pulse, 0.0, 1.0, seed);
-    const SignalDetection d = detector.detect(x.data(), 4096);
-    if (d.accepted())
-      ++(std::fabs(d.peaks.sampleIndex - 2000.0) < 3.0 ? accepted : elsewhere);
-  }
-  EXPECT_GE(accepted, 110) << "of 200";
-  EXPECT_EQ(elsewhere, 0);
+  const auto count = [&pulse](const DetectionParams& p, double echo, bool marrow) {
+    SignalDetector detector(p);
+    int accepted = 0;
+    int elsewhere = 0;
+    for (std::uint64_t seed = 1; seed <= 200; ++seed) {
+      std::vector<test::EchoSpec> echoes{{2000.0, echo}};
+      if (marrow) {  // the inner cortex 1.2 mm (in water's time) behind, then the marrow
+        std::mt19937_64 random(seed);
+        echoes.push_back({2078.0, 0.12 * echo});
+        addSpeckle(echoes, 2100.0, 4096.0, 6.0, 0.15, 0.45, random);
+      }
+      const auto x = test::makeEchoRecord(4096, echoes, pulse, 0.0, 1.0, seed);
+      const SignalDetection d = detector.detect(x.data(), 4096);
+      if (d.accepted())
+        ++(std::fabs(d.peaks.sampleIndex - 2000.0) < 3.0 ? accepted : elsewhere);
+    }
+    EXPECT_EQ(elsewhere, 0) << "echo " << echo << (marrow ? " with the marrow" : "");
+    return accepted;
+  };
+  const int lone = count(params, 30.0, false);
+  const int withMarrow = count(params, 30.0, true);
+  const int weak = count(params, 4.0, true);
+  params.peaks.prominence.noiseShadowEchoFactor = 0.0;  // before stop 25
+  const int before = count(params, 30.0, true);
+  EXPECT_GE(lone, 165) << "of 200";
+  EXPECT_GE(withMarrow, 145) << "of 200";
+  EXPECT_LE(weak, 10) << "of 200: a weak echo";
+  EXPECT_LE(before, 100) << "of 200";
 }
 
 // Shallow bone in vivo: the skin and muscle's speckle before it, the cortex ringing behind it

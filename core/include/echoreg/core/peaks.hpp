@@ -163,9 +163,12 @@ struct ProminenceParams {
   /// bone region above it, is the bone and the chosen one its inner cortex or first bounce
   /// (>= 1; 0 turns the test off).
   double innerEchoRatio = 2.5;
-  /// With the shadow required: BoneEchoParams::noiseShadowEchoFactor (>= 1; 0 turns it off). The
-  /// capture's shadow trial (adaptToCapture) runs without it, so that a capture is judged by the
-  /// shadow only where bone casts a clear one.
+  /// A strong echo with only noise behind it is bone (>= 1; 0 turns it off). With the shadow
+  /// required: BoneEchoParams::noiseShadowEchoFactor (the capture's shadow trial, adaptToCapture,
+  /// runs without it, so that a capture is judged by the shadow only where bone casts a clear
+  /// one). Record by record: an echo this many times the quiet level with water before it (within
+  /// 1.3 times that level from the ring-down on) and behind it no more than 1.4 times the noise
+  /// (bare bone in water, whose inner cortex and marrow lift the median behind it a little).
   double noiseShadowEchoFactor = 10.0;
 };
 
