@@ -179,6 +179,11 @@ constexpr double kNoiseShadowSpread = 1.4;
 // noise has noise before it too; where the quiet level is the deep tissue of a short record, a
 // fascia over a darker layer has tissue behind it at that level)...
 constexpr double kNoiseShadowTissue = 1.7;
+// ... or, where the record's quiet level is not its noise (a short record of tissue whose shadow
+// holds bone's reverberations), the shadow itself at most this share of the level: the record's
+// quietest stretch lies right behind the echo (strapped holder, seeds 1-3: FN 24.6 -> 18.7 %,
+// no false positive more)...
+constexpr double kShadowBelowQuiet = 0.8;
 // ... the echo a pulse (its width at half maximum at most this many periods; a fascia's layers
 // or a burst are wider)...
 constexpr double kNoiseShadowMaxCycles = 3.0;
@@ -349,7 +354,8 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
         widthSamples <= bone.noiseShadowMaxWidthSamples &&
         peak.value >= kNoiseShadowContrast * before &&
         peak.value >= kNoiseShadowShareOfStrongest * strongest() &&
-        before >= kNoiseShadowTissue * shadowLevel() &&
+        (before >= kNoiseShadowTissue * shadowLevel() ||
+         after <= kShadowBelowQuiet * shadowLevel()) &&
         peak.value >= bone.noiseShadowEchoFactor * shadowLevel() &&
         after <= kNoiseShadowSpread * shadowLevel())
       return true;

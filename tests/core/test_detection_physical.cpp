@@ -324,14 +324,15 @@ void scoreProfile(const std::string& profile, Bound defaultBound) {
 
 // Bounds on the default, seeds 1-3 pooled: about 4 points above what it measures after stop
 // 23's change (handheld FN 35.6 % FP 20.2 %, holder 27.0 % / 10.3 %, phantom-water 49.2 % /
-// 19.6 %, and 23.1 % / 18.7 % since bare bone in water is seen, stop 25; after stop 13: 40.7
+// 19.6 %; stop 25: phantom-water 23.1 % / 18.7 % since bare bone in water is seen, holder
+// 18.7 % / 10.4 % with a shadow quieter than the rest of a short record; after stop 13: 40.7
 // / 17.9, 29.8 / 10.3, 65.1 / 17.7; before it 56.6 / 17.6, 37.7 / 10.3, 79.3 / 14.7), to catch a
 // regression, not to claim the 5 %.
 TEST(DetectionPhysical, HandheldSweeps) {
   scoreProfile("handheld", {0.40, 0.24});
 }
 TEST(DetectionPhysical, StrappedHolder) {
-  scoreProfile("holder", {0.31, 0.14});
+  scoreProfile("holder", {0.23, 0.14});
 }
 TEST(DetectionPhysical, PhantomInWater) {
   scoreProfile("phantom-water", {0.27, 0.23});
