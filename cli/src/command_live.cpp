@@ -168,6 +168,9 @@ class LiveSession {
   void onImage(const live::Message& message, Clock::time_point arrival);
   // `waited`: the frames waited for the chain's adaptation (their latency is not the chain's).
   void onDecided(const std::vector<live::LiveFrame>& frames, bool waited);
+  // The first adaptation on stderr; then, when a measurement changed the shadow rule, the
+  // session's verdicts and points become the new rule's (live::ShadowRuleSwitch).
+  void onAdaptation(bool adaptedNow);
   void sendResults();
   void sendUpdate(std::optional<live::RegistrationUpdate> update);
   // After a disconnect: connects again (--connect) or waits for a client (--listen) with a
@@ -220,6 +223,8 @@ class LiveSession {
   LatencyStats latencies_;          // accepted echoes: arrival -> POINT sent
   LatencyStats decisionLatencies_;  // every frame: arrival -> its verdict
   std::optional<live::RegistrationUpdate> last_;
+  std::string shadowNote_;  // the last switch of the shadow rule, for <Bone>Status
+  int shadowSwitches_ = 0;
   std::string endedBy_;
   Clock::time_point started_ = Clock::now();
   Clock::time_point lastProgress_ = Clock::now();
@@ -261,6 +266,44 @@ void LiveSession::onDecided(const std::vector<live::LiveFrame>& frames, bool wai
           std::chrono::duration<double, std::milli>(Clock::now() - frame.arrival).count());
     }
   }
+}
+
+void LiveSession::onAdaptation(bool adaptedNow) {
+  if (adaptedNow) {
+    const CaptureAnalysis& a = detector_->analysis();
+    note(fmt::format(
+        "measured on the first {} A-line(s): transducer {:.2f} MHz ({}), ring-down {} samples, "
+        "shadow rule {} (bone's shadow in {:.1f} % of them){}",
+        frames_, a.transducerFrequencyHz / 1e6,
+        a.transducerFrequencySource.empty() ? "not needed" : a.transducerFrequencySource,
+        a.ringDownSamples, a.shadowRule, 100.0 * a.shadowShare,
+        detector_->measuresShadowRule()
+            ? "; the shadow rule is measured again as the capture grows, over A-lines spread "
+              "through all received"
+            : ""));
+  }
+  std::optional<live::ShadowRuleSwitch> change = detector_->takeSwitch();
+  if (!change)
+    return;
+  ++shadowSwitches_;
+  const int before = accepted_;
+  // The chain's verdicts of every frame so far become the new rule's.
+  reasons_ = change->verdicts;
+  accepted_ = static_cast<int>(change->accepted.size());
+  points_.clear();
+  for (const live::LiveFrame& frame : change->accepted)
+    points_.push_back(*frame.point);
+  registration_->replacePoints(points_);
+  const ShadowTrial& trial = change->measurement.trial;
+  shadowNote_ = fmt::format("shadow rule {} (measured again at frame {})",
+                            shadowRuleName(change->to), change->measurement.frames);
+  note(fmt::format(
+      "the shadow rule is now {} (was {}): bone cast a shadow in {} of {} A-lines spread over "
+      "the {} received ({:.1f} %; the rule requires the shadow from 20 %); every frame so far is "
+      "judged by it from the first: {} echoes accepted instead of {}, the registration goes on "
+      "with them",
+      shadowRuleName(change->to), shadowRuleName(change->from), trial.shadowed, trial.records,
+      change->measurement.frames, 100.0 * trial.share, accepted_, before));
 }
 
 void LiveSession::onImage(const live::Message& message, Clock::time_point arrival) {
@@ -332,6 +375,7 @@ void LiveSession::onImage(const live::Message& message, Clock::time_point arriva
   onDecided(detector_->add(index, t, std::move(samples), poses_.at(o_.pose, t),
                            poses_.at(reference_, t), arrival),
             waited);
+  onAdaptation(waited && detector_->adapted());
 }
 
 void LiveSession::onMessage(const live::Message& message, Clock::time_point arrival) {
@@ -402,9 +446,10 @@ void LiveSession::sendUpdate(std::optional<live::RegistrationUpdate> update) {
     sendBack(live::encodeTransform(bone_ + "ToCT", r.transform.matrix(), t));
   sendBack(
       live::encodeString(bone_ + "Status",
-                         fmt::format("RMS {:.3f} mm, {}, {} points, update {}{}", r.rmsMm,
+                         fmt::format("RMS {:.3f} mm, {}, {} points, update {}{}{}", r.rmsMm,
                                      r.converged ? "converged" : "not converged", update->points,
-                                     update->run, r.converged ? "" : ": " + r.message),
+                                     update->run, r.converged ? "" : ": " + r.message,
+                                     shadowNote_.empty() ? "" : "; " + shadowNote_),
                          t));
   std::vector<Eigen::Vector3d> cloud;
   cloud.reserve(points_.size());
@@ -466,6 +511,26 @@ nlohmann::json LiveSession::summary() const {
                          {"seconds", seconds},
                          {"stream_seconds", streamSeconds_},
                          {"ended_by", endedBy_}};
+  if (detector_ && detector_->adapted()) {
+    // What the chain measured: the first adaptation, and every measurement of the shadow rule.
+    const CaptureAnalysis& a = detector_->analysis();
+    nlohmann::json measurements = nlohmann::json::array();
+    for (const live::ShadowMeasurement& m : detector_->shadowMeasurements()) {
+      measurements.push_back({{"frames", m.frames},
+                              {"records", m.trial.records},
+                              {"shadowed", m.trial.shadowed},
+                              {"share", m.trial.share},
+                              {"rule", shadowRuleName(m.trial.rule)}});
+    }
+    json["detection"] = {{"adapt_frames", o_.adaptFrames},
+                         {"transducer_frequency_hz", a.transducerFrequencyHz},
+                         {"transducer_frequency_source", a.transducerFrequencySource},
+                         {"ring_down_samples", a.ringDownSamples},
+                         {"shadow_rule", a.shadowRule},
+                         {"shadow_rule_measured", detector_->measuresShadowRule()},
+                         {"shadow_rule_measurements", measurements},
+                         {"shadow_rule_switches", shadowSwitches_}};
+  }
   if (last_) {
     json["live_registration"] = {{"converged", last_->result.converged},
                                  {"rms_mm", last_->result.rmsMm},
@@ -645,8 +710,11 @@ int LiveSession::run() {
     progress(false);
   }
   streamSeconds_ = std::chrono::duration<double>(Clock::now() - started_).count();
-  if (detector_)
+  if (detector_) {
+    const bool waited = !detector_->adapted();
     onDecided(detector_->flush(), true);
+    onAdaptation(waited && detector_->adapted());
+  }
   connection_.reset();  // the server's graceful close waits for it
   // The live registration on every point received (the stream may have ended between updates),
   // sent to a results' receiver (--send-to) that is still there: its last FemurToCT is the
@@ -822,7 +890,11 @@ CommandAction addLiveCommand(CLI::App& app) {
       ->check(finiteNumber(0.0, false))
       ->group("Live");
   cmd->add_option("--adapt-frames", o->adaptFrames,
-                  "A-lines the chain measures its capture-dependent settings on before deciding")
+                  "A-lines the chain measures its capture-dependent settings on (band, ring-down, "
+                  "shadow rule) before deciding the first. A measured shadow rule (--echo-shadow "
+                  "auto) is measured again on A-lines spread over all received each time their "
+                  "count doubles and at the end; when it changes, every frame so far is judged by "
+                  "the new rule (said on stderr and in <Bone>Status)")
       ->capture_default_str()
       ->check(wholeNumber(1, 100000))
       ->group("Live");

@@ -370,6 +370,30 @@ double estimateTransducerFrequencyHz(int recordCount, int samples, const RecordS
   return weighted / total * binHz;
 }
 
+ShadowTrial measureShadowRule(const DetectionParams& adapted, int recordCount, int samples,
+                              const RecordSource& record) {
+  ShadowTrial out;
+  if (recordCount <= 0 || samples <= 0)
+    return out;
+  DetectionParams trial = adapted;
+  trial.peaks.prominence.shadow = ShadowRule::Required;
+  // A capture is judged by the shadow where bone casts a clear one; the shadow at the noise
+  // behind a strong echo then finds bone in the records whose tissue is at the noise too.
+  trial.peaks.prominence.noiseShadowEchoFactor = 0.0;
+  SignalDetector detector(trial);
+  std::vector<float> raw;
+  const std::vector<int> indices = spreadIndices(recordCount, kAnalysedRecords);
+  for (int index : indices) {
+    record(index, raw);
+    if (detector.detect(raw.data(), samples).accepted())
+      ++out.shadowed;
+  }
+  out.records = static_cast<int>(indices.size());
+  out.share = static_cast<double>(out.shadowed) / static_cast<double>(out.records);
+  out.rule = out.share >= kShadowCaptureShare ? ShadowRule::Required : ShadowRule::Auto;
+  return out;
+}
+
 DetectionParams adaptToCapture(const DetectionParams& given, int recordCount, int samples,
                                const RecordSource& record, std::optional<double> headerFrequencyHz,
                                CaptureAnalysis* analysis) {
@@ -482,24 +506,9 @@ DetectionParams adaptToCapture(const DetectionParams& given, int recordCount, in
   if (params.peaks.policy == PeakPolicy::Prominence &&
       params.peaks.prominence.shadow == ShadowRule::Auto && recordCount > 0 &&
       out.ringDownSamples < samples) {
-    DetectionParams trial = params;
-    trial.peaks.prominence.shadow = ShadowRule::Required;
-    // A capture is judged by the shadow where bone casts a clear one; the shadow at the noise
-    // behind a strong echo then finds bone in the records whose tissue is at the noise too.
-    trial.peaks.prominence.noiseShadowEchoFactor = 0.0;
-    SignalDetector detector(trial);
-    std::vector<float> raw;
-    const std::vector<int> indices = spreadIndices(recordCount, kAnalysedRecords);
-    int shadowed = 0;
-    for (int index : indices) {
-      record(index, raw);
-      if (detector.detect(raw.data(), samples).accepted())
-        ++shadowed;
-    }
-    out.shadowShare = static_cast<double>(shadowed) / static_cast<double>(indices.size());
-    if (out.shadowShare >= kShadowCaptureShare) {
-      params.peaks.prominence.shadow = ShadowRule::Required;
-    }
+    const ShadowTrial trial = measureShadowRule(params, recordCount, samples, record);
+    out.shadowShare = trial.share;
+    params.peaks.prominence.shadow = trial.rule;
   }
   out.shadowRule = std::string(shadowRuleName(params.peaks.prominence.shadow));
   if (out.ringDownSamples >= samples && samples > 0) {

@@ -3,8 +3,9 @@
 //
 // Reading goes in two steps. A format parser reads the header text and reduces it to a
 // ParsedHeader: the layout (element type, DimSize/sizes, where and how the pixel data is stored)
-// plus every other header entry, in file order. assembleSequence() then checks the layout, reads
-// the pixel data and interprets the per-frame and echoreg keys, identically for both formats.
+// plus every other header entry, in file order. assembleSequence() then checks the layout and the
+// pixel data's size, interprets the per-frame and echoreg keys, releases the header's text and
+// reads the pixel data, identically for both formats.
 //
 // How Sequence::extraHeader keeps NRRD fields apart from key/values:
 //   - NRRD key/values (`key:=value`) and MetaImage keys (`Key = Value`) are stored under their
@@ -107,6 +108,9 @@ class InputFile {
   HeaderLines scanHeader(const LineClassifier& classify);
   /// Copies `count` bytes starting at `offset` (which must lie within the file) into `out`.
   void readBytes(std::uint64_t offset, std::uint8_t* out, std::size_t count);
+  /// Frees the header's bytes held since scanHeader (every view into them dangles); readBytes
+  /// then reads from the file.
+  void releaseHead();
 
  private:
   bool readMoreIntoBuffer();
@@ -142,12 +146,13 @@ struct ParsedHeader {
   bool bigEndian = false;
 };
 
-/// Checks the layout, reads the pixel data and interprets the entries.
+/// Checks the layout and the pixel data's size, interprets the entries, then releases the header's
+/// text (file.releaseHead) and entries and reads the pixel data.
 ///
 /// Without pixels nothing but the header vouches for the frame count, so a tracker-only
 /// header of N bytes may declare at most N frames (a real capture has at least one per-frame key
 /// line per frame); this refuses absurd counts before allocating them.
-Sequence assembleSequence(InputFile& file, const ParsedHeader& header);
+Sequence assembleSequence(InputFile& file, ParsedHeader& header);
 
 /// Throws FileError when `key` was already seen in the same header.
 class DuplicateKeyCheck {

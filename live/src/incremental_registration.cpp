@@ -39,13 +39,16 @@ void IncrementalRegistration::stopWorker() {
 std::optional<RegistrationUpdate> IncrementalRegistration::finish() {
   stopWorker();
   std::vector<core::SurfacePoint> points;
+  std::size_t revision = 0;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    if (points_.size() >= minPoints_ && points_.size() != usedPoints_)
+    if (points_.size() >= minPoints_ && revision_ != usedRevision_) {
       points = points_;
+      revision = revision_;
+    }
   }
   if (!points.empty())
-    runOnce(points);
+    runOnce(points, revision);
   return take();
 }
 
@@ -53,6 +56,16 @@ void IncrementalRegistration::addPoint(const core::SurfacePoint& point) {
   {
     std::lock_guard<std::mutex> lock(mutex_);
     points_.push_back(point);
+    ++revision_;
+  }
+  wake_.notify_all();
+}
+
+void IncrementalRegistration::replacePoints(std::vector<core::SurfacePoint> points) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    points_ = std::move(points);
+    ++revision_;
   }
   wake_.notify_all();
 }
@@ -69,7 +82,8 @@ std::string IncrementalRegistration::problem() const {
   return problem_;
 }
 
-void IncrementalRegistration::runOnce(const std::vector<core::SurfacePoint>& points) {
+void IncrementalRegistration::runOnce(const std::vector<core::SurfacePoint>& points,
+                                      std::size_t revision) {
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
   RegistrationUpdate update;
@@ -85,7 +99,7 @@ void IncrementalRegistration::runOnce(const std::vector<core::SurfacePoint>& poi
   }
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   std::lock_guard<std::mutex> lock(mutex_);
-  usedPoints_ = points.size();
+  usedRevision_ = revision;
   longestFitS_ = std::max(longestFitS_, seconds);
   if (!problem.empty()) {
     problem_ = problem;
@@ -99,7 +113,7 @@ void IncrementalRegistration::work() {
   using Clock = std::chrono::steady_clock;
   Clock::time_point lastStart = Clock::now() - std::chrono::hours(1);
   const auto interval = std::chrono::duration_cast<Clock::duration>(minInterval_);
-  const auto fresh = [&] { return points_.size() >= minPoints_ && points_.size() != usedPoints_; };
+  const auto fresh = [&] { return points_.size() >= minPoints_ && revision_ != usedRevision_; };
   std::unique_lock<std::mutex> lock(mutex_);
   while (true) {
     // Sleep until there are new points (addPoint wakes us), then until the rate allows the next
@@ -116,13 +130,14 @@ void IncrementalRegistration::work() {
         return;
     }
     const std::vector<core::SurfacePoint> points = points_;
+    const std::size_t revision = revision_;
     lastStart = Clock::now();
     if (workerRuns_ == 0)
       firstWorkerStart_ = lastStart;
     lastWorkerStart_ = lastStart;
     ++workerRuns_;
     lock.unlock();
-    runOnce(points);
+    runOnce(points, revision);
     lock.lock();
   }
 }

@@ -136,5 +136,35 @@ TEST(IncrementalRegistration, WaitsForMinPointsAndRefusesBadSettings) {
   EXPECT_THROW(IncrementalRegistration(ellipsoid(), options, {}, 30, 0.0), std::invalid_argument);
 }
 
+// The detection may judge the frames so far again (a new shadow rule) and replace every point:
+// the next run is on the new points, even when they are as many as the old ones (the worker used
+// to tell new points by their count).
+TEST(IncrementalRegistration, ReplacedPointsAreRunEvenWhenAsMany) {
+  core::SurfaceRegistrationOptions options;
+  IncrementalRegistration registration(ellipsoid(), options, {}, 30, 1000.0);
+  for (int i = 0; i < 40; ++i)
+    registration.addPoint(surfacePoint(i));
+  std::optional<RegistrationUpdate> onSurface;
+  for (int wait = 0; wait < 2000 && !(onSurface && onSurface->points == 40u); ++wait) {
+    if (std::optional<RegistrationUpdate> u = registration.take())
+      onSurface = std::move(u);
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  ASSERT_TRUE(onSurface && onSurface->points == 40u);
+  EXPECT_LT(onSurface->result.rmsMm, 1e-3);
+  // 40 other points, 2 mm outside the model along its x axis: the fit must move.
+  std::vector<core::SurfacePoint> replaced;
+  for (int i = 0; i < 40; ++i) {
+    core::SurfacePoint p = surfacePoint(i + 40);
+    p.point.x() += 2.0;
+    replaced.push_back(p);
+  }
+  registration.replacePoints(replaced);
+  const std::optional<RegistrationUpdate> last = registration.finish();
+  ASSERT_TRUE(last) << "no run on the replaced points";
+  EXPECT_EQ(last->points, 40u);
+  EXPECT_NEAR(last->result.transform.translation().x(), -2.0, 0.1);
+}
+
 }  // namespace
 }  // namespace echoreg::live

@@ -2,6 +2,7 @@
 // capture-dependent settings measured on the same A-lines, LiveDetector accepts the frames
 // detectSequence accepts, at the same points (the oracle is the offline chain `register` runs).
 // And a pose stream that stops makes the frames after it stale, each with its reason.
+#include "aline_generator.hpp"
 #include "demo_capture.hpp"
 
 #include "echoreg/core/sequence_detection.hpp"
@@ -87,6 +88,95 @@ TEST(LiveDetector, AcceptsTheFramesAndPointsOfTheOfflineChain) {
   // The 20 frames whose probe was INVALID are refused by the pose, with its words.
   EXPECT_EQ(decided[305].reason, "invalid-pose");
   EXPECT_EQ(decided[305].detail, "ProbeToTracker is INVALID");
+}
+
+// A sweep whose first second is unrepresentative: the probe is put down tilted 35 degrees, so
+// its first 100 A-lines hold no bone echo (the generator's oblique incidence: tissue, fascia
+// and the membrane's ringing); then the demo sweep over bone that casts its shadow. Measured on
+// the first 64 A-lines alone, the shadow rule is the per-record one (bone's shadow in about 4 %
+// of them), which accepts about a quarter of the tilted A-lines' echoes; the whole capture
+// requires the shadow (offline, as register judges it). The live chain measures the rule again
+// as the A-lines come and judges the frames so far by the new rule when it changes: its final
+// points are the offline chain's. (Deciding every frame by the first 64 A-lines' rule, as live
+// did before, accepted 14 echoes in the tilted second and 81 in all against the offline 57: 82
+// frames differed.)
+TEST(LiveDetector, AnUnrepresentativeStartIsJudgedAgainByTheWholeCapturesShadowRule) {
+  Sequence sweep = sweepWithBone(400);
+  constexpr int kTilted = 100;
+  test::SpecimenSetOptions lineOptions;
+  for (int f = 0; f < kTilted; ++f) {
+    lineOptions.seed = 9000 + static_cast<std::uint64_t>(f);
+    const test::LabelledALine line = test::makeSpecimenALine(8.0, 9.0, 35.0, lineOptions);
+    ASSERT_FALSE(line.hasBone);
+    std::copy(line.samples.begin(), line.samples.end(),
+              sweep.pixels.begin() + static_cast<std::ptrdiff_t>(f) * 4096);
+  }
+  const LiveDetectorOptions options = optionsFor(sweep, 64);
+  const SequenceDetection offline = detectSequence(sweep, options.params, options.points);
+  ASSERT_EQ(offline.params.peaks.prominence.shadow, ShadowRule::Required);
+
+  LiveDetector live(options);
+  std::map<int, LiveFrame> accepted;  // the session's view: frame -> its accepted verdict
+  int acceptedTiltedBeforeSwitch = 0;
+  std::vector<ShadowRuleSwitch> switches;
+  const auto take = [&](const std::vector<LiveFrame>& decided) {
+    for (const LiveFrame& frame : decided) {
+      if (frame.accepted())
+        accepted[frame.frame] = frame;
+    }
+    if (std::optional<ShadowRuleSwitch> change = live.takeSwitch()) {
+      for (const auto& [frame, verdict] : accepted)
+        acceptedTiltedBeforeSwitch += frame < kTilted ? 1 : 0;
+      accepted.clear();
+      for (const LiveFrame& frame : change->accepted)
+        accepted[frame.frame] = frame;
+      switches.push_back(std::move(*change));
+    }
+  };
+  std::vector<float> samples;
+  for (std::size_t f = 0; f < sweep.frames.size(); ++f) {
+    sweep.frameSamples(f, samples);
+    take(live.add(static_cast<int>(f), *sweep.frames[f].timestampS, samples,
+                  exactPose(sweep.frames[f], "ProbeToTracker"),
+                  exactPose(sweep.frames[f], "FemurToTracker"), {}));
+  }
+  take(live.flush());
+
+  // The first 64 chose the per-record rule; a later measurement over A-lines spread through all
+  // received chose the shadow, once.
+  const std::vector<ShadowMeasurement>& measured = live.shadowMeasurements();
+  ASSERT_GE(measured.size(), 3u);
+  EXPECT_EQ(measured.front().frames, 64);
+  EXPECT_EQ(measured.front().trial.rule, ShadowRule::Auto);
+  EXPECT_LT(measured.front().trial.share, 0.2);
+  EXPECT_EQ(measured[1].frames, 128);
+  EXPECT_EQ(measured.back().frames, 400);  // the end of the stream: every A-line
+  EXPECT_EQ(measured.back().trial.records, 64);
+  EXPECT_EQ(measured.back().trial.rule, ShadowRule::Required);
+  ASSERT_EQ(switches.size(), 1u);
+  EXPECT_EQ(switches[0].from, ShadowRule::Auto);
+  EXPECT_EQ(switches[0].to, ShadowRule::Required);
+  EXPECT_EQ(live.params().peaks.prominence.shadow, ShadowRule::Required);
+  // What the first rule had accepted in the tilted second (none of it bone).
+  EXPECT_GE(acceptedTiltedBeforeSwitch, 10);
+  // The session's points are the offline chain's, frame for frame.
+  int expectedAccepted = 0;
+  for (std::size_t f = 0; f < offline.frames.size(); ++f) {
+    const FrameDetection& expected = offline.frames[f];
+    const auto found = accepted.find(static_cast<int>(f));
+    ASSERT_EQ(found != accepted.end(), expected.accepted()) << "frame " << f;
+    if (expected.accepted()) {
+      ++expectedAccepted;
+      EXPECT_LT((found->second.point->point - *expected.pointMm).norm(), 1e-9) << "frame " << f;
+    }
+  }
+  EXPECT_EQ(static_cast<int>(accepted.size()), expectedAccepted);
+  EXPECT_GT(expectedAccepted, 40);
+  // The switch's verdicts count every frame received when it was measured.
+  int counted = 0;
+  for (const auto& [reason, count] : switches[0].verdicts)
+    counted += count;
+  EXPECT_EQ(counted, switches[0].measurement.frames);
 }
 
 TEST(LiveDetector, FramesWaitForTheAdaptationThenFlowOneByOne) {

@@ -3,6 +3,7 @@
 // SIGINT each end or mark the session with a clear message and never hang (every wait in the
 // commands is bounded; the peers here stop by themselves). The registration itself against
 // `register` is tests/study/test_live.cpp (it needs the simulated study).
+#include "aline_generator.hpp"
 #include "cli_test_support.hpp"
 #include "demo_capture.hpp"
 #include "test_support.hpp"
@@ -495,6 +496,61 @@ TEST_F(LiveSession, TheResultComesFromTheLivePointsNotFromReadingTheRecordingBac
   EXPECT_EQ(source.at("frames"), 300);
   EXPECT_EQ(source.at("accepted"), accepted);
   EXPECT_EQ(source.at("rejected_by_reason").at("invalid-pose"), 1);
+}
+
+// A sweep whose first second is unrepresentative (the probe put down tilted 35 degrees: 100
+// A-lines without bone, then 200 over bone that casts its shadow): the first 20 A-lines measure
+// the per-record shadow rule, a later measurement the shadow required, as register measures on
+// the whole recording. live says so, judges the frames so far again, and its result is register's
+// on the recording (the same points; the cube model is not what the sweep is of, so neither fit
+// converges, and both are written).
+TEST_F(LiveSession, AShadowRuleMeasuredAgainIsSaidAndTheResultIsRegisters) {
+  Sequence s = sweep(300);
+  test::SpecimenSetOptions lineOptions;
+  for (std::size_t f = 0; f < 100; ++f) {
+    lineOptions.seed = 9000 + f;
+    const test::LabelledALine line = test::makeSpecimenALine(8.0, 9.0, 35.0, lineOptions);
+    std::copy(line.samples.begin(), line.samples.end(),
+              s.pixels.begin() + static_cast<std::ptrdiff_t>(f * s.samplesPerFrame()));
+  }
+  writeSequence(s, dir_.file("served.igs.mha"));
+  const int port = freePort();
+  auto serve = std::async(std::launch::async, [&] {
+    return runEchoreg({"serve", dir_.file("served.igs.mha"), "--port", std::to_string(port),
+                       "--rate", "max", "--wait", "10"});
+  });
+  const CommandResult live = runEchoreg(liveArgs(port));
+  ASSERT_EQ(serve.get().exitCode, 0);
+  EXPECT_NE(live.err.find("echoreg live: measured on the first 20 A-line(s)"), std::string::npos)
+      << live.err;
+  EXPECT_NE(live.err.find("shadow rule auto"), std::string::npos) << live.err;
+  EXPECT_NE(live.err.find("echoreg live: the shadow rule is now required (was auto)"),
+            std::string::npos)
+      << live.err;
+  const nlohmann::json session = this->session();
+  const nlohmann::json& detection = session.at("detection");
+  EXPECT_EQ(detection.at("shadow_rule"), "required");
+  EXPECT_EQ(detection.at("shadow_rule_switches"), 1);
+  const nlohmann::json& measurements = detection.at("shadow_rule_measurements");
+  ASSERT_GE(measurements.size(), 3u);
+  EXPECT_EQ(measurements.front().at("frames"), 20);
+  EXPECT_EQ(measurements.front().at("rule"), "auto");
+  EXPECT_EQ(measurements.back().at("frames"), 300);
+  EXPECT_EQ(measurements.back().at("rule"), "required");
+
+  const CommandResult offline =
+      runEchoreg({"register", "--capture", dir_.file("rec.igs.mha"), "--calibration",
+                  dir_.file("BeamToProbe.json"), "--model", dir_.file("cube.obj"), "--initial",
+                  dir_.file("initial.json"), "--out", dir_.file("offline.json")});
+  ASSERT_TRUE(fs::exists(dir_.file("offline.json"))) << offline.err;
+  ASSERT_TRUE(fs::exists(dir_.file("FemurToCT.json"))) << live.err;
+  const TransformFile byRegister = readTransformFile(dir_.file("offline.json"), "Femur", "CT");
+  const TransformFile byLive = readTransformFile(dir_.file("FemurToCT.json"), "Femur", "CT");
+  const int accepted = byRegister.extra.at("sources").at(0).at("accepted").get<int>();
+  EXPECT_GT(accepted, 30);
+  EXPECT_EQ(session.at("accepted"), accepted);
+  EXPECT_EQ(byLive.extra.at("ultrasound_points"), accepted);
+  EXPECT_LT((byLive.matrix - byRegister.matrix).cwiseAbs().maxCoeff(), 1e-6);
 }
 
 TEST_F(LiveSession, SigintEndsTheSessionCleanly) {

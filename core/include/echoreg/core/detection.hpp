@@ -129,6 +129,21 @@ DetectionParams adaptToCapture(const DetectionParams& params, int recordCount, i
                                const RecordSource& record, std::optional<double> headerFrequencyHz,
                                CaptureAnalysis* analysis = nullptr);
 
+/// The capture's shadow trial: the shadowed records among up to 64 spread over `record`'s, judged
+/// by the chain of `adapted` (band and ring-down resolved, the prominence policy) with the shadow
+/// required and without the shadow at the noise behind a strong echo, and the rule that share
+/// implies for every record: Required from 20 % on, else Auto (each record by its own signature:
+/// a shadow or the cortex's ringing). adaptToCapture decides a capture's rule with it; a live
+/// session measures it again as its capture grows (live::LiveDetector).
+struct ShadowTrial {
+  int records = 0;   ///< records judged
+  int shadowed = 0;  ///< of them, bone with its shadow
+  double share = 0.0;
+  ShadowRule rule = ShadowRule::Auto;
+};
+ShadowTrial measureShadowRule(const DetectionParams& adapted, int recordCount, int samples,
+                              const RecordSource& record);
+
 /// The transducer frequency of records: the peak of their mean power spectrum (see above); 0 when
 /// the records hold no energy in the band.
 double estimateTransducerFrequencyHz(int recordCount, int samples, const RecordSource& record,

@@ -55,6 +55,9 @@ class IncrementalRegistration {
   IncrementalRegistration& operator=(const IncrementalRegistration&) = delete;
 
   void addPoint(const core::SurfacePoint& point);
+  /// Replaces every point so far (the detection judged the frames again: live::ShadowRuleSwitch);
+  /// the next run uses these. A run in progress finishes on the points it started with.
+  void replacePoints(std::vector<core::SurfacePoint> points);
   /// Stops the worker and, when points came after its last run (and enough are there), runs once
   /// more on all of them, here. Returns the newest result not yet taken, if any.
   std::optional<RegistrationUpdate> finish();
@@ -70,8 +73,8 @@ class IncrementalRegistration {
  private:
   void work();
   void stopWorker();
-  // One run on `points` (the worker's, then finish()'s).
-  void runOnce(const std::vector<core::SurfacePoint>& points);
+  // One run on `points`, revision `revision` of the points (the worker's, then finish()'s).
+  void runOnce(const std::vector<core::SurfacePoint>& points, std::size_t revision);
 
   const core::SurfaceRegistration& model_;
   core::SurfaceRegistrationOptions options_;
@@ -83,7 +86,10 @@ class IncrementalRegistration {
   std::vector<core::SurfacePoint> points_;
   std::optional<RegistrationUpdate> latest_;
   std::string problem_;
-  std::size_t usedPoints_ = 0;
+  // Each addPoint or replacePoints makes a new revision of points_; a run is due when the
+  // newest has not been run.
+  std::size_t revision_ = 0;
+  std::size_t usedRevision_ = 0;
   bool stop_ = false;
   int workerRuns_ = 0;
   double longestFitS_ = 0.0;
