@@ -9,6 +9,7 @@
 #include <stdexcept>
 #include <string>
 #include <system_error>
+#include <utility>
 
 namespace echoreg::core {
 
@@ -39,10 +40,12 @@ std::filesystem::path moduleBesideExecutable(const std::string& fileName) {
 void* moduleSymbol(const std::filesystem::path& path, const ModuleIdentity& identity,
                    const char* symbol) {
   static std::mutex mutex;
-  static std::map<std::string, void*> opened;  // path -> handle whose ABI was checked
+  // (path, ABI) -> the handle whose ABI was checked.
+  static std::map<std::pair<std::string, std::string>, void*> opened;
   const std::lock_guard<std::mutex> lock(mutex);
+  const std::pair<std::string, std::string> key{path.string(), identity.abi};
   void* handle = nullptr;
-  if (const auto it = opened.find(path.string()); it != opened.end()) {
+  if (const auto it = opened.find(key); it != opened.end()) {
     handle = it->second;
   } else {
     handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
@@ -62,7 +65,7 @@ void* moduleSymbol(const std::filesystem::path& path, const ModuleIdentity& iden
                                          ", this echoreg: " + identity.abi + ")" +
                                          hintFor(identity));
     }
-    opened.emplace(path.string(), handle);
+    opened.emplace(key, handle);
   }
   void* address = dlsym(handle, symbol);
   if (address == nullptr) {
