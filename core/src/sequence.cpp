@@ -5,6 +5,7 @@
 #include "echoreg/core/depth.hpp"
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/parallel_deflate.hpp"
+#include "echoreg/core/prefault.hpp"
 #include "sequence_io_detail.hpp"
 
 #define ZLIB_CONST
@@ -186,7 +187,7 @@ std::vector<std::uint8_t> inflateExactly(const std::vector<std::uint8_t>& compre
   } inflateEndGuard{zs};
 
   // One byte more than expected, so that a stream that inflates to too much is caught.
-  std::vector<std::uint8_t> out(expectedBytes + 1);
+  std::vector<std::uint8_t> out = prefaultedZeros(expectedBytes + 1);
   zs.next_in = compressed.data();
   zs.next_out = out.data();
   std::size_t consumed = 0;
@@ -254,7 +255,7 @@ std::vector<std::uint8_t> readPixelData(InputFile& file, std::uint64_t offset,
                                 std::to_string(expectedBytes) + " bytes, found " +
                                 std::to_string(available) + " bytes " + where);
     }
-    std::vector<std::uint8_t> pixels(expectedBytes);
+    std::vector<std::uint8_t> pixels = prefaultedZeros(expectedBytes);
     file.readBytes(offset, pixels.data(), pixels.size());
     return pixels;
   }

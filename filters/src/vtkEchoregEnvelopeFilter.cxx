@@ -1,6 +1,7 @@
 #include "echoreg/filters/vtkEchoregEnvelopeFilter.h"
 
 #include "PipelineRequests.h"
+#include "echoreg/core/prefault.hpp"
 
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>
@@ -231,7 +232,12 @@ int vtkEchoregEnvelopeFilter::RequestData(vtkInformation* /*request*/,
     this->Envelopes->SetName("Envelope");
   }
   vtkFloatArray* envelopes = this->Envelopes;
+  const float* reused = envelopes->GetNumberOfValues() > 0 ? envelopes->GetPointer(0) : nullptr;
   envelopes->SetNumberOfValues(rows * dimensions[0]);
+  if (envelopes->GetPointer(0) != reused) {
+    echoreg::prefaultForWriting(envelopes->GetPointer(0),
+                                static_cast<std::size_t>(rows * dimensions[0]) * sizeof(float));
+  }
   envelopes->Modified();
 
   std::string error;
