@@ -12,15 +12,6 @@
 
 namespace echoreg::render {
 
-namespace {
-
-core::ModuleIdentity rendererIdentity() {
-  return {"renderer module", "echoreg_render_gl", "draws figures", detail::kAbiSymbol,
-          detail::rendererAbi()};
-}
-
-}  // namespace
-
 std::filesystem::path rendererModulePath() {
   return core::moduleBesideExecutable(ECHOREG_RENDER_MODULE_FILE_NAME);
 }
@@ -31,7 +22,7 @@ RgbImage renderSceneWith(const std::filesystem::path& modulePath, const Scene& s
   // exit. RTLD_LOCAL: the module's libraries, libOSMesa first, form its own lookup scope, with the
   // module's glXGetProcAddress ahead of libGLX's.
   const auto draw = reinterpret_cast<detail::DrawSceneFunction>(
-      core::moduleSymbol(modulePath, rendererIdentity(), detail::kDrawSceneSymbol));
+      core::moduleSymbol(modulePath, detail::rendererIdentity(), detail::kDrawSceneSymbol));
   RgbImage image;
   std::string error;
   switch (draw(&scene, &size, &image, &error)) {
