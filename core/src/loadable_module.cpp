@@ -11,6 +11,10 @@
 #include <system_error>
 #include <utility>
 
+#ifndef ECHOREG_MODULE_DIR
+#error "ECHOREG_MODULE_DIR must be defined (core/CMakeLists.txt)"
+#endif
+
 namespace echoreg::core {
 
 namespace {
@@ -34,7 +38,7 @@ std::filesystem::path moduleBesideExecutable(const std::string& fileName) {
     throw std::runtime_error("cannot find " + fileName + ": /proc/self/exe unreadable (" +
                              error.message() + ")");
   }
-  return (executable.parent_path() / ".." / "lib" / "echoreg" / fileName).lexically_normal();
+  return (executable.parent_path() / ".." / ECHOREG_MODULE_DIR / fileName).lexically_normal();
 }
 
 void* moduleSymbol(const std::filesystem::path& path, const ModuleIdentity& identity,
