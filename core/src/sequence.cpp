@@ -5,6 +5,7 @@
 #include "echoreg/core/depth.hpp"
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/parallel_deflate.hpp"
+#include "echoreg/core/prefault.hpp"
 #include "sequence_io_detail.hpp"
 
 #define ZLIB_CONST
@@ -189,7 +190,7 @@ std::vector<std::uint8_t> inflateExactly(InputFile& file, std::uint64_t offset,
   } inflateEndGuard{zs};
 
   // One byte more than expected, so that a stream that inflates to too much is caught.
-  std::vector<std::uint8_t> out(expectedBytes + 1);
+  std::vector<std::uint8_t> out = prefaultedZeros(expectedBytes + 1);
   std::vector<std::uint8_t> slice(
       static_cast<std::size_t>(std::min<std::uint64_t>(compressedBytes, std::uint64_t{1} << 20)));
   zs.next_out = out.data();
@@ -607,7 +608,7 @@ std::vector<std::uint8_t> readPixels(InputFile& file, StoredPixels& stored, bool
     pixels =
         inflateExactly(source, stored.offset, stored.storedBytes, layout.pixelBytes, file.path());
   } else {
-    pixels.resize(layout.pixelBytes);
+    pixels = prefaultedZeros(layout.pixelBytes);
     source.readBytes(stored.offset, pixels.data(), pixels.size());
   }
   if (bigEndian)

@@ -1,40 +1,19 @@
 #include "echoreg/filters/MeshIO.h"
 
-#include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
+#include "mesh_files.hpp"
 
 #include <vtkCellArray.h>
 #include <vtkCleanPolyData.h>
 #include <vtkIdList.h>
 #include <vtkNew.h>
-#include <vtkOBJReader.h>
-#include <vtkPLYReader.h>
 #include <vtkPoints.h>
 #include <vtkPolyDataNormals.h>
-#include <vtkSTLReader.h>
-#include <vtkSTLWriter.h>
 #include <vtkTriangleFilter.h>
-#include <vtkXMLPolyDataReader.h>
-#include <vtkXMLPolyDataWriter.h>
 
-#include <unistd.h>
-#include <algorithm>
-#include <cctype>
-#include <cstdio>
-#include <filesystem>
+#include <string>
 
 namespace echoreg::filters {
-
-namespace {
-
-std::string lowerExtension(const std::string& path) {
-  std::string ext = std::filesystem::path(path).extension().string();
-  std::transform(ext.begin(), ext.end(), ext.begin(),
-                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-  return ext;
-}
-
-}  // namespace
 
 core::TriangleMesh toTriangleMesh(vtkPolyData* polyData) {
   vtkNew<vtkTriangleFilter> triangles;
@@ -102,37 +81,7 @@ vtkSmartPointer<vtkPolyData> toPolyData(const core::TriangleMesh& mesh) {
 }
 
 core::TriangleMesh readMesh(const std::string& path) {
-  std::error_code ec;
-  if (!std::filesystem::is_regular_file(path, ec))
-    throw FileError(path, "no such file");
-  const std::string ext = lowerExtension(path);
-  vtkSmartPointer<vtkPolyData> poly;
-  if (ext == ".stl") {
-    vtkNew<vtkSTLReader> reader;
-    reader->SetFileName(path.c_str());
-    reader->MergingOff();
-    reader->Update();
-    poly = reader->GetOutput();
-  } else if (ext == ".vtp") {
-    vtkNew<vtkXMLPolyDataReader> reader;
-    reader->SetFileName(path.c_str());
-    reader->Update();
-    if (reader->GetErrorCode() != 0)
-      throw FileError(path, "not a readable VTK XML PolyData file");
-    poly = reader->GetOutput();
-  } else if (ext == ".ply") {
-    vtkNew<vtkPLYReader> reader;
-    reader->SetFileName(path.c_str());
-    reader->Update();
-    poly = reader->GetOutput();
-  } else if (ext == ".obj") {
-    vtkNew<vtkOBJReader> reader;
-    reader->SetFileName(path.c_str());
-    reader->Update();
-    poly = reader->GetOutput();
-  } else {
-    throw FileError(path, "unknown mesh kind '" + ext + "' (expected .stl, .vtp, .ply or .obj)");
-  }
+  const vtkSmartPointer<vtkPolyData> poly = detail::readPolyDataFile(path);
   if (!poly || poly->GetNumberOfPolys() == 0)
     throw FileError(path, "holds no triangles");
   core::TriangleMesh mesh = toTriangleMesh(poly);
@@ -142,38 +91,7 @@ core::TriangleMesh readMesh(const std::string& path) {
 }
 
 void writeMesh(const std::string& path, vtkPolyData* polyData) {
-  const std::string ext = lowerExtension(path);
-  if (ext != ".vtp" && ext != ".stl") {
-    throw FileError(path, "cannot write mesh kind '" + ext + "' (expected .vtp or .stl)");
-  }
-  // VTK writers open the file themselves: write to a temporary name beside it, then rename.
-  const std::string temporary = path + ".tmp-" + std::to_string(::getpid()) + ext;
-  int ok = 0;
-  if (ext == ".vtp") {
-    vtkNew<vtkXMLPolyDataWriter> writer;
-    writer->SetFileName(temporary.c_str());
-    writer->SetInputData(polyData);
-    writer->SetDataModeToAppended();
-    writer->EncodeAppendedDataOff();
-    writer->SetCompressorTypeToZLib();
-    ok = writer->Write();
-  } else {
-    vtkNew<vtkSTLWriter> writer;
-    writer->SetFileName(temporary.c_str());
-    writer->SetInputData(polyData);
-    writer->SetFileTypeToBinary();
-    ok = writer->Write();
-  }
-  if (ok != 1) {
-    std::remove(temporary.c_str());
-    throw FileError(path, "could not be written");
-  }
-  std::error_code ec;
-  std::filesystem::rename(temporary, path, ec);
-  if (ec) {
-    std::remove(temporary.c_str());
-    throw FileError(path, "could not be written: " + ec.message());
-  }
+  detail::writePolyDataFile(path, polyData);
 }
 
 void writeMesh(const std::string& path, const core::TriangleMesh& mesh) {

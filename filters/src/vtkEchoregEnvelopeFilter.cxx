@@ -1,6 +1,7 @@
 #include "echoreg/filters/vtkEchoregEnvelopeFilter.h"
 
 #include "PipelineRequests.h"
+#include "echoreg/core/prefault.hpp"
 
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>
@@ -8,7 +9,6 @@
 #include <vtkImageData.h>
 #include <vtkInformation.h>
 #include <vtkInformationVector.h>
-#include <vtkNew.h>
 #include <vtkObjectFactory.h>
 #include <vtkPointData.h>
 #include <vtkSMPTools.h>
@@ -223,9 +223,22 @@ int vtkEchoregEnvelopeFilter::RequestData(vtkInformation* /*request*/,
 
   const vtkIdType rows = extent[3] - extent[2] + 1;
   const vtkIdType firstRow = extent[2] - inputFirstFrame;
-  vtkNew<vtkFloatArray> envelopes;
-  envelopes->SetName("Envelope");
+  // The previous run's array when nothing but this filter holds it once the output lets it go
+  // (every value is written below): streaming a capture first-touches the pages of one block,
+  // not of every block. A consumer that kept the previous block's array keeps it unchanged.
+  output->GetPointData()->Initialize();
+  if (this->Envelopes == nullptr || this->Envelopes->GetReferenceCount() != 1) {
+    this->Envelopes = vtkSmartPointer<vtkFloatArray>::New();
+    this->Envelopes->SetName("Envelope");
+  }
+  vtkFloatArray* envelopes = this->Envelopes;
+  const float* reused = envelopes->GetNumberOfValues() > 0 ? envelopes->GetPointer(0) : nullptr;
   envelopes->SetNumberOfValues(rows * dimensions[0]);
+  if (envelopes->GetPointer(0) != reused) {
+    echoreg::prefaultForWriting(envelopes->GetPointer(0),
+                                static_cast<std::size_t>(rows * dimensions[0]) * sizeof(float));
+  }
+  envelopes->Modified();
 
   std::string error;
   switch (scalars->GetDataType()) {

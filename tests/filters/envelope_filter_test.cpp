@@ -67,6 +67,51 @@ INSTANTIATE_TEST_SUITE_P(AllMethods, EnvelopeFilterMethods,
                          ::testing::Values(EnvelopeMethod::Mozes, EnvelopeMethod::Hann,
                                            EnvelopeMethod::StdDev, EnvelopeMethod::Hilbert));
 
+// Streamed in blocks, the filter writes each block into the previous block's array when nothing
+// else holds it (no fresh pages per block); a consumer that kept a block's envelopes keeps them.
+TEST(EnvelopeFilter, BlocksReuseTheArrayUnlessAConsumerKeptIt) {
+  SyntheticCapture capture;
+  capture.frames = 40;
+  const Sequence sequence = makeCapture(capture);
+  const EnvelopeParams params;
+  const std::vector<float> expected = coreEnvelopes(sequence, params);
+  vtkNew<vtkEchoregEnvelopeFilter> filter;
+  filter->SetParams(params);
+  filter->SetInputData(imageOf(sequence));
+  const auto block = [&](int first, int last) {
+    int extent[6] = {0, capture.samples - 1, first, last, 0, 0};
+    filter->UpdateExtent(extent);
+    EXPECT_EQ(filter->GetLastError(), "");
+    return vtkFloatArray::SafeDownCast(filter->GetOutput()->GetPointData()->GetScalars());
+  };
+  const auto expectFrames = [&](vtkFloatArray* envelopes, int first, int last) {
+    ASSERT_NE(envelopes, nullptr);
+    const auto values = static_cast<vtkIdType>((last - first + 1) * capture.samples);
+    ASSERT_EQ(envelopes->GetNumberOfValues(), values);
+    const auto offset = static_cast<std::size_t>(first * capture.samples);
+    for (vtkIdType i = 0; i < values; ++i) {
+      ASSERT_FLOAT_EQ(envelopes->GetValue(i), expected[offset + static_cast<std::size_t>(i)])
+          << "frames " << first << "-" << last << ", value " << i;
+    }
+  };
+
+  vtkFloatArray* first = block(0, 9);
+  expectFrames(first, 0, 9);
+  const float* firstValues = first->GetPointer(0);
+  vtkFloatArray* second = block(10, 19);
+  expectFrames(second, 10, 19);
+  EXPECT_EQ(second, first);
+  EXPECT_EQ(second->GetPointer(0), firstValues);
+
+  vtkNew<vtkImageData> kept;
+  kept->ShallowCopy(filter->GetOutput());
+  vtkFloatArray* third = block(20, 29);
+  EXPECT_NE(third, second);
+  expectFrames(third, 20, 29);
+  expectFrames(vtkFloatArray::SafeDownCast(kept->GetPointData()->GetScalars()), 10, 19);
+  EXPECT_EQ(filter->GetExecutionCount(), 3);
+}
+
 TEST(EnvelopeFilter, ConvertsAnyScalarTypeToFloat) {
   SyntheticCapture capture;
   capture.frames = 3;

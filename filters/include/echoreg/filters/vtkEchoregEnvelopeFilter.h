@@ -22,6 +22,10 @@
  * holds only that block, with its absolute frame indices as the extent.
  * Output (port 0): vtkImageData of the same structure with float point scalars "Envelope". The
  * input's field data (timestamps, poses, acquisition settings) is passed through unchanged.
+ * Memory: the filter keeps its last "Envelope" array and writes the next run's envelopes into it
+ * when nothing else holds it any more (the executive releases the output before each run), so a
+ * capture streamed in blocks touches fresh memory for its first block only; a consumer that keeps
+ * a reference to an earlier output's array gets a new array instead, never overwritten data.
  * An input without samples (a tracker-only capture) gives an output of the same extent without
  * scalars, with a warning.
  *
@@ -35,8 +39,11 @@
 #include "echoreg/core/envelope.hpp"
 
 #include <vtkImageAlgorithm.h>
+#include <vtkSmartPointer.h>
 
 #include <string>
+
+class vtkFloatArray;
 
 class vtkEchoregEnvelopeFilter : public vtkImageAlgorithm {
  public:
@@ -165,6 +172,8 @@ class vtkEchoregEnvelopeFilter : public vtkImageAlgorithm {
   void Fail(const std::string& message);
 
   echoreg::EnvelopeParams Params;
+  /// The last run's envelopes, reused by the next run when this filter is their only holder.
+  vtkSmartPointer<vtkFloatArray> Envelopes;
   std::string LastError;
   int ExecutionCount = 0;
   vtkIdType FramesComputed = 0;

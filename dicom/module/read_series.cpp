@@ -1,0 +1,1276 @@
+// The DICOM CT series reader, inside the DICOM module (dicom/CMakeLists.txt): headers scanned first
+// (gdcm::Reader up to the pixel data), checked and sorted, then the volume allocated once and every
+// slice decoded (gdcm::ImageReader) by a pool of threads straight into its place, each slice with
+// its own rescale. segmentation's functions of the same names call it through the module; the
+// fuzz harness compiles it directly.
+#include "echoreg/segmentation/dicom_series.hpp"
+
+#include "echoreg/core/error.hpp"
+
+#include <fmt/format.h>
+#include <gdcmDataElement.h>
+#include <gdcmDataSet.h>
+#include <gdcmFile.h>
+#include <gdcmImage.h>
+#include <gdcmImageReader.h>
+#include <gdcmPixelFormat.h>
+#include <gdcmReader.h>
+#include <gdcmStringFilter.h>
+#include <gdcmTag.h>
+#include <gdcmTrace.h>
+#include <gdcmTransferSyntax.h>
+
+#include <Eigen/Geometry>
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <cstring>
+#include <exception>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <mutex>
+#include <optional>
+#include <set>
+#include <system_error>
+#include <thread>
+
+namespace echoreg::segmentation {
+
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Two slices closer than this along the normal are at the same position.
+constexpr double kSamePositionMm = 1e-3;
+/// Slice centres may lie this far off the normal through the first slice (plus kOffNormalRelative
+/// of their distance along it) before the series counts as tilted.
+constexpr double kOffNormalMm = 0.01;
+constexpr double kOffNormalRelative = 1e-4;
+/// Orientation cosines (and pixel spacings, relatively) that differ by less are equal.
+constexpr double kOrientationTolerance = 1e-4;
+constexpr double kSpacingRelativeTolerance = 1e-4;
+/// A step continues a group when within this of its spacing (absolute mm, or relative).
+constexpr double kGroupStepMm = 0.01;
+constexpr double kGroupStepRelative = 0.01;
+/// A non-zero GantryDetectorTilt above this (degrees) is refused.
+constexpr double kGantryTiltDegrees = 1e-3;
+/// At most this many file names in one message.
+constexpr std::size_t kNamesInMessage = 8;
+
+void silenceGdcm() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    gdcm::Trace::SetDebug(false);
+    gdcm::Trace::SetWarning(false);
+    gdcm::Trace::SetError(false);
+  });
+}
+
+std::string trimmed(std::string text) {
+  const auto blank = [](char c) {
+    return c == ' ' || c == '\0' || c == '\t' || c == '\r' || c == '\n';
+  };
+  while (!text.empty() && blank(text.back()))
+    text.pop_back();
+  std::size_t first = 0;
+  while (first < text.size() && blank(text[first]))
+    ++first;
+  return text.substr(first);
+}
+
+/// Backslash-separated decimal numbers; nullopt when any part is not a number.
+std::optional<std::vector<double>> numbers(const std::string& text) {
+  std::vector<double> values;
+  std::size_t start = 0;
+  while (start <= text.size()) {
+    std::size_t end = text.find('\\', start);
+    if (end == std::string::npos)
+      end = text.size();
+    const std::string part = trimmed(text.substr(start, end - start));
+    if (part.empty())
+      return std::nullopt;
+    char* stop = nullptr;
+    const double value = std::strtod(part.c_str(), &stop);
+    if (stop != part.c_str() + part.size() || !std::isfinite(value))
+      return std::nullopt;
+    values.push_back(value);
+    start = end + 1;
+  }
+  return values;
+}
+
+/// "a, b, c and 4 more".
+std::string nameList(const std::vector<std::string>& names) {
+  std::string out;
+  const std::size_t shown = std::min(names.size(), kNamesInMessage);
+  for (std::size_t n = 0; n < shown; ++n) {
+    if (n > 0)
+      out += ", ";
+    out += names[n];
+  }
+  if (names.size() > shown)
+    out += fmt::format(" and {} more", names.size() - shown);
+  return out;
+}
+
+/// What the header of one file says (read up to the pixel data).
+struct SliceHeader {
+  std::string name;  ///< file name (the path's last component)
+  std::string path;
+  bool dicom = false;  ///< GDCM read the header
+  /// Why the file was not given to GDCM ("" when it was): an element longer than the file.
+  std::string damaged;
+  bool image = false;  ///< it has Rows and Columns
+  std::string seriesUid, modality, description, sopClass, transferSyntax, photometric;
+  int rows = 0, columns = 0;
+  int bitsAllocated = 0, bitsStored = 0, highBit = -1, pixelRepresentation = 0;
+  int samplesPerPixel = 1;
+  std::string frames = "1";  ///< NumberOfFrames as written ("1" when absent)
+  std::optional<Eigen::Vector3d> position;
+  std::optional<std::array<double, 6>> orientation;
+  std::optional<Eigen::Vector2d> pixelSpacing;  ///< as written: between rows, between columns
+  double slope = 1.0, intercept = 0.0;
+  double gantryTiltDegrees = 0.0;
+  std::vector<std::string> problems;  ///< unparsable values
+  /// Where the pixel data value starts in the file, and the file's size (0 when unknown): a
+  /// native (uncompressed) element must fit in the file; GDCM pads a truncated one silently.
+  std::uint64_t pixelDataOffset = 0;
+  std::uint64_t fileSize = 0;
+};
+
+/// GDCM allocates (and zero-fills) the length a data element declares before it reads the value:
+/// 1.2 GB for a 1.5 kB file (found by fuzz/fuzz_dicom), up to 4 GB per file and thread. So the
+/// elements of a file are walked first, without reading their values: the file meta group
+/// (explicit VR little endian), then the data set in its transfer syntax (implicit or explicit VR,
+/// little or big endian; a deflated one is left to GDCM), into sequences and items, past the pixel
+/// data. A file without the preamble is walked in the encoding GDCM guesses for it from its first
+/// tag and the two bytes after it (gdcm::FileMetaInformation::ReadCompat), whatever its first
+/// group: a 665-byte file starting with group 0x0020 took GDCM 26 s and 1.09 GB (fuzz/fuzz_dicom).
+/// Returns the first element whose declared length runs past the end of the file, or "" when
+/// none does (or the file is not DICOM enough to tell: GDCM then says so). Pixel data longer than
+/// the file is not reported here: the reader refuses it as truncated, with its size.
+///
+/// An element whose VR GDCM does not know, in an explicit data set, makes GDCM read the data set
+/// again one of two ways (gdcm::Reader): from that element on with a 2-byte length for such VRs
+/// (VR16ExplicitDataElement; the pixel data: 2 reserved bytes and a 4-byte length), and, when
+/// that fails, from the start with such elements read as implicit, their 4-byte length right
+/// after the tag (ExplicitImplicitDataElement): a 32-byte file whose second element had the VR
+/// "\0@" took 1.4 GB (fuzz/fuzz_dicom). The walk follows `unknownVrImplicit`'s way and says in
+/// `sawUnknownVr` whether the other way needs walking too.
+std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& sawUnknownVr) {
+  std::ifstream in(path, std::ios::binary);
+  std::error_code sizeError;
+  const std::uint64_t size = fs::file_size(path, sizeError);
+  if (!in || sizeError)
+    return "";
+  std::uint64_t pos = 0;
+  const auto bytes = [&](std::uint64_t at, std::size_t count, unsigned char* out) {
+    in.clear();
+    in.seekg(static_cast<std::streamoff>(at));
+    return static_cast<bool>(
+        in.read(reinterpret_cast<char*>(out), static_cast<std::streamsize>(count)));
+  };
+  unsigned char head[132] = {};
+  if (size >= 132 && bytes(0, 132, head) && std::memcmp(head + 128, "DICM", 4) == 0)
+    pos = 132;
+  bool explicitVr = true, bigEndian = false, meta = pos == 132, fragments = false;
+  // The VRs GDCM knows (gdcm::VR::GetVRTypeFromFile).
+  static const std::set<std::string> kVr{"AE", "AS", "AT", "CS", "DA", "DS", "DT", "FD", "FL",
+                                         "IS", "LO", "LT", "OB", "OD", "OF", "OL", "OV", "OW",
+                                         "PN", "SH", "SL", "SQ", "SS", "ST", "SV", "TM", "UC",
+                                         "UI", "UL", "UN", "UR", "US", "UT", "UV"};
+  const auto number = [&](const unsigned char* b, int count, bool big) {
+    std::uint32_t value = 0;
+    for (int i = 0; i < count; ++i)
+      value |= static_cast<std::uint32_t>(b[big ? count - 1 - i : i]) << (8 * i);
+    return value;
+  };
+  if (!meta) {
+    // No preamble: the encoding GDCM takes (gdcm::FileMetaInformation::ReadCompat), from the
+    // first tag read little endian and whether the two bytes after it are a VR GDCM knows.
+    unsigned char first[8] = {};
+    if (!bytes(0, 8, first))
+      return "";
+    const std::uint32_t group = number(first, 2, false), element = number(first + 2, 2, false);
+    const bool vrFollows = kVr.count(std::string(reinterpret_cast<const char*>(first + 4), 2)) > 0;
+    if (group == 0x0002) {
+      if (!vrFollows)
+        return "";  // an implicit file meta group (GE's private syntax): left to GDCM
+      meta = true;  // a file meta group without the preamble
+    } else if (group == 0x0800) {
+      if (!vrFollows)
+        return "";  // implicit big endian (ACR-NEMA): GDCM refuses it at once
+      bigEndian = true;
+    } else if (group == 0x0008 || element == 0x0010) {
+      explicitVr = vrFollows;  // group 0x0008, or a private creator: little endian
+    } else if (vrFollows) {
+      bigEndian = group > 0xff || element > 0xff;  // any other group, explicit
+    } else if (group == 0 && element == 0 && number(first + 4, 4, false) == 4) {
+      explicitVr = false;  // a command group length (0000,0000), implicit
+    } else {
+      return "";  // GDCM refuses it at once ("Cannot find DICOM type"): not DICOM
+    }
+  }
+  // The VRs with a 2-byte length; any other VR GDCM knows (OB, SQ, UN...) has 2 reserved bytes
+  // and a 4-byte length.
+  static const std::set<std::string> kShortVr{"AE", "AS", "AT", "CS", "DA", "DS", "DT",
+                                              "FL", "FD", "IS", "LO", "LT", "PN", "SH",
+                                              "SL", "SS", "ST", "TM", "UI", "UL", "US"};
+  constexpr std::uint32_t kUndefined = 0xffffffffu;
+  while (pos + 8 <= size) {
+    const std::uint64_t start = pos;
+    unsigned char e[12] = {};
+    if (!bytes(pos, 8, e))
+      return "";
+    const bool big = bigEndian && !meta;
+    const std::uint32_t group = number(e, 2, big), element = number(e + 2, 2, big);
+    if (meta && group != 0x0002) {
+      meta = false;  // the data set, in the transfer syntax the meta group named
+      continue;
+    }
+    std::uint32_t length = 0;
+    std::uint64_t valueAt = pos + 8;
+    std::string vr;
+    if (group == 0xfffe) {  // an item or a delimiter: no VR, a 4-byte length
+      length = number(e + 4, 4, big);
+      pos = valueAt;
+      if (element == 0xe0dd)
+        fragments = false;
+      if (element != 0xe000 || length == kUndefined)
+        continue;
+      if (length > size - pos)
+        return fmt::format("item at byte {} claims {} bytes, but {} are left in the file", start,
+                           length, size - pos);
+      if (fragments)
+        pos += length;  // a fragment of encapsulated pixel data: bytes, not elements
+      continue;         // an item of a sequence: its elements follow
+    }
+    const bool pixelData = group == 0x7fe0 && element == 0x0010;
+    if (explicitVr || meta) {
+      vr.assign(reinterpret_cast<const char*>(e + 4), 2);
+      const bool unknownVr = !meta && kVr.count(vr) == 0;
+      sawUnknownVr = sawUnknownVr || unknownVr;
+      // GDCM asserts (aborts the process) on pixel data of an unknown VR whose next two bytes are
+      // not zero (VR16ExplicitDataElement; found by fuzz/fuzz_dicom).
+      if (unknownVr && pixelData && (e[6] != 0 || e[7] != 0)) {
+        return fmt::format("the pixel data at byte {} has an unknown VR (bytes {:02x} {:02x})",
+                           start, e[4], e[5]);
+      }
+      if (unknownVr && unknownVrImplicit) {
+        vr.clear();
+        length = number(e + 4, 4, big);
+      } else if (unknownVr && !pixelData) {
+        vr.clear();
+        length = number(e + 6, 2, big);
+      } else if (kShortVr.count(vr) == 0) {
+        if (pos + 12 > size || !bytes(pos, 12, e))
+          return fmt::format("element ({:04x},{:04x}) at byte {}: the file ends inside its header",
+                             group, element, start);
+        length = number(e + 8, 4, big);
+        valueAt = pos + 12;
+      } else {
+        length = number(e + 6, 2, big);
+      }
+    } else {
+      length = number(e + 4, 4, big);
+    }
+    // Debian's GDCM asserts (aborts the process) on a sequence or an undefined length in the
+    // file meta group (found by fuzz/fuzz_dicom).
+    if (meta && (vr == "SQ" || length == kUndefined)) {
+      return fmt::format("element ({:04x},{:04x}) at byte {} of the file meta group is a {}", group,
+                         element, start, vr == "SQ" ? "sequence" : "value of undefined length");
+    }
+    pos = valueAt;
+    if (length == kUndefined) {
+      if (vr == "UN")
+        return "";            // a sequence in implicit VR inside an explicit one: GDCM sorts it out
+      fragments = pixelData;  // encapsulated pixel data, else a sequence: items follow
+      continue;
+    }
+    if (length > size - pos) {
+      if (pixelData)
+        return "";  // truncated pixel data: refused later with its sizes
+      return fmt::format(
+          "element ({:04x},{:04x}) at byte {} claims {} bytes, but {} are left in "
+          "the file",
+          group, element, start, length, size - pos);
+    }
+    if (group == 0x0002 && element == 0x0010 && length <= 64) {  // the transfer syntax
+      std::string uid(length, '\0');
+      if (!bytes(pos, length, reinterpret_cast<unsigned char*>(uid.data())))
+        return "";
+      uid = uid.substr(0, uid.find_last_not_of(std::string(" \0", 2)) + 1);
+      if (uid == "1.2.840.10008.1.2.1.99")
+        return "";  // deflated: GDCM inflates it
+      explicitVr = uid != "1.2.840.10008.1.2";
+      bigEndian = uid == "1.2.840.10008.1.2.2";
+    }
+    if (vr != "SQ")
+      pos += length;  // a value; a sequence's items follow as elements
+  }
+  // A file that ends inside (or right after) its file meta group: GDCM asserts (aborts the
+  // process) reading the next tag (found by fuzz/fuzz_dicom).
+  if (meta)
+    return fmt::format("the file ends at byte {}, inside its file meta group", size);
+  // A tag and less than the rest of an element's header: GDCM asserts (aborts the process) reading
+  // its VR or length (gdcm::ExplicitDataElement::ReadPreValue; found by fuzz/fuzz_dicom).
+  if (size - pos >= 4 && !fragments)
+    return fmt::format("the file ends at byte {}, inside the header of an element", size);
+  return "";
+}
+
+std::string elementBeyondFile(const fs::path& path) {
+  bool sawUnknownVr = false;
+  std::string damaged = walkElements(path, true, sawUnknownVr);
+  if (damaged.empty() && sawUnknownVr)
+    damaged = walkElements(path, false, sawUnknownVr);
+  return damaged;
+}
+
+SliceHeader scanHeader(const fs::path& path) {
+  SliceHeader h;
+  h.name = path.filename().string();
+  h.path = path.string();
+  h.damaged = elementBeyondFile(path);
+  if (!h.damaged.empty())
+    return h;
+  try {
+    gdcm::Reader reader;
+    reader.SetFileName(h.path.c_str());
+    // With the pixel data in `skip`, GDCM stops right after that element's header: the stream is
+    // then at the first pixel byte, and no pixel is read.
+    const std::set<gdcm::Tag> skip{gdcm::Tag(0x7fe0, 0x0010)};
+    if (!reader.ReadUpToTag(gdcm::Tag(0x7fe0, 0x0010), skip))
+      return h;
+    const gdcm::File& file = reader.GetFile();
+    const gdcm::DataSet& ds = file.GetDataSet();
+    if (ds.IsEmpty())
+      return h;
+    h.dicom = true;
+    std::error_code sizeError;
+    h.fileSize = fs::file_size(path, sizeError);
+    if (sizeError)
+      h.fileSize = 0;
+    const std::size_t position = reader.GetStreamCurrentPosition();
+    if (position != static_cast<std::size_t>(-1) && position < h.fileSize)
+      h.pixelDataOffset = position;
+    h.transferSyntax = trimmed(file.GetHeader().GetDataSetTransferSyntax().GetString()
+                                   ? file.GetHeader().GetDataSetTransferSyntax().GetString()
+                                   : "");
+    gdcm::StringFilter filter;
+    filter.SetFile(file);
+    const auto text = [&](std::uint16_t group,
+                          std::uint16_t element) -> std::optional<std::string> {
+      const gdcm::Tag tag(group, element);
+      if (!ds.FindDataElement(tag) || ds.GetDataElement(tag).IsEmpty())
+        return std::nullopt;
+      return trimmed(filter.ToString(tag));
+    };
+    const auto number = [&](std::uint16_t group, std::uint16_t element, const char* name,
+                            std::size_t count) -> std::optional<std::vector<double>> {
+      const auto value = text(group, element);
+      if (!value)
+        return std::nullopt;
+      auto parsed = numbers(*value);
+      if (!parsed || parsed->size() < count) {
+        h.problems.push_back(
+            fmt::format("{} \"{}\" is not {} number{}", name, *value, count, count > 1 ? "s" : ""));
+        return std::nullopt;
+      }
+      return parsed;
+    };
+    const auto integer = [&](std::uint16_t group, std::uint16_t element, const char* name,
+                             int fallback) {
+      const auto value = number(group, element, name, 1);
+      return value ? static_cast<int>(std::lround((*value)[0])) : fallback;
+    };
+    h.seriesUid = text(0x0020, 0x000e).value_or("");
+    h.modality = text(0x0008, 0x0060).value_or("");
+    h.description = text(0x0008, 0x103e).value_or("");
+    h.sopClass = text(0x0008, 0x0016).value_or("");
+    h.photometric = text(0x0028, 0x0004).value_or("");
+    h.rows = integer(0x0028, 0x0010, "Rows", 0);
+    h.columns = integer(0x0028, 0x0011, "Columns", 0);
+    h.image = h.rows > 0 && h.columns > 0;
+    h.bitsAllocated = integer(0x0028, 0x0100, "BitsAllocated", 0);
+    h.bitsStored = integer(0x0028, 0x0101, "BitsStored", h.bitsAllocated);
+    h.highBit = integer(0x0028, 0x0102, "HighBit", h.bitsStored - 1);
+    h.pixelRepresentation = integer(0x0028, 0x0103, "PixelRepresentation", 0);
+    h.samplesPerPixel = integer(0x0028, 0x0002, "SamplesPerPixel", 1);
+    h.frames = text(0x0028, 0x0008).value_or("1");
+    if (const auto p = number(0x0020, 0x0032, "ImagePositionPatient", 3)) {
+      h.position = Eigen::Vector3d((*p)[0], (*p)[1], (*p)[2]);
+    }
+    if (const auto o = number(0x0020, 0x0037, "ImageOrientationPatient", 6)) {
+      h.orientation = std::array<double, 6>{(*o)[0], (*o)[1], (*o)[2], (*o)[3], (*o)[4], (*o)[5]};
+    }
+    if (const auto s = number(0x0028, 0x0030, "PixelSpacing", 2)) {
+      if ((*s)[0] > 0.0 && (*s)[1] > 0.0) {
+        h.pixelSpacing = Eigen::Vector2d((*s)[0], (*s)[1]);
+      } else {
+        h.problems.push_back(fmt::format("PixelSpacing {}\\{} is not positive", (*s)[0], (*s)[1]));
+      }
+    }
+    if (const auto v = number(0x0028, 0x1053, "RescaleSlope", 1))
+      h.slope = (*v)[0];
+    if (const auto v = number(0x0028, 0x1052, "RescaleIntercept", 1))
+      h.intercept = (*v)[0];
+    if (const auto v = number(0x0018, 0x1120, "GantryDetectorTilt", 1))
+      h.gantryTiltDegrees = (*v)[0];
+  } catch (const std::exception&) {
+    h.dicom = false;  // GDCM throws on some malformed files: not a DICOM file we can read
+    h.image = false;
+  }
+  return h;
+}
+
+/// Runs fn(index, worker) for index 0..count-1 on `threads` threads. When some calls throw, the
+/// rest are skipped and the exception of the lowest index is rethrown (the same whatever the
+/// number of threads: indices are handed out in order, so every index below a failing one has
+/// been started and runs to its end).
+template <class Fn>
+void parallelFor(int count, int threads, Fn&& fn) {
+  threads = std::max(1, std::min(threads, count));
+  std::atomic<int> next{0};
+  std::atomic<bool> stop{false};
+  std::mutex errorMutex;
+  int errorIndex = std::numeric_limits<int>::max();
+  std::exception_ptr error;
+  const auto work = [&](int worker) {
+    for (;;) {
+      if (stop.load())
+        return;
+      const int index = next.fetch_add(1);
+      if (index >= count)
+        return;
+      try {
+        fn(index, worker);
+      } catch (...) {
+        const std::lock_guard<std::mutex> lock(errorMutex);
+        if (index < errorIndex) {
+          errorIndex = index;
+          error = std::current_exception();
+        }
+        stop.store(true);
+      }
+    }
+  };
+  if (threads == 1) {
+    work(0);
+  } else {
+    std::vector<std::thread> pool;
+    pool.reserve(static_cast<std::size_t>(threads));
+    for (int t = 0; t < threads; ++t)
+      pool.emplace_back(work, t);
+    for (std::thread& thread : pool)
+      thread.join();
+  }
+  if (error)
+    std::rethrow_exception(error);
+}
+
+int threadCount(const DicomReadOptions& options) {
+  if (options.threads < 0) {
+    throw std::invalid_argument(
+        fmt::format("DicomReadOptions.threads = {} is negative", options.threads));
+  }
+  if (options.threads > 0)
+    return options.threads;
+  return std::max(1, static_cast<int>(std::thread::hardware_concurrency()));
+}
+
+/// The headers of `folder`'s regular files (sorted by name), or of the single file `folder`.
+struct Scan {
+  std::vector<SliceHeader> headers;
+  bool singleFile = false;
+};
+
+Scan scanFolder(const std::string& folder, int threads) {
+  silenceGdcm();
+  std::error_code ec;
+  const fs::file_status status = fs::status(folder, ec);
+  if (ec || !fs::exists(status))
+    throw FileError(folder, "does not exist");
+  Scan scan;
+  std::vector<fs::path> paths;
+  if (fs::is_regular_file(status)) {
+    scan.singleFile = true;
+    paths.emplace_back(folder);
+  } else if (fs::is_directory(status)) {
+    fs::directory_iterator it(folder, ec);
+    if (ec)
+      throw FileError(folder, "cannot be listed: " + ec.message());
+    for (const fs::directory_entry& entry : it) {
+      std::error_code typeError;
+      if (entry.is_regular_file(typeError))
+        paths.push_back(entry.path());
+    }
+    std::sort(paths.begin(), paths.end());
+  } else {
+    throw FileError(folder, "is neither a folder nor a regular file");
+  }
+  scan.headers.resize(paths.size());
+  parallelFor(static_cast<int>(paths.size()), threads, [&](int index, int) {
+    scan.headers[static_cast<std::size_t>(index)] =
+        scanHeader(paths[static_cast<std::size_t>(index)]);
+  });
+  return scan;
+}
+
+std::string seriesLabel(const std::string& uid) {
+  return uid.empty() ? std::string("(no SeriesInstanceUID)") : uid;
+}
+
+struct SeriesGroup {
+  DicomSeriesSummary summary;
+  std::vector<std::size_t> members;  ///< indices into Scan::headers, by file name
+};
+
+/// Image series by UID, largest first (ties by UID); skipped files into `warnings`.
+std::vector<SeriesGroup> groupSeries(const Scan& scan, std::vector<std::string>* warnings) {
+  std::map<std::string, SeriesGroup> byUid;
+  std::vector<std::string> notDicom, noImage, damaged;
+  for (std::size_t n = 0; n < scan.headers.size(); ++n) {
+    const SliceHeader& h = scan.headers[n];
+    if (!h.damaged.empty()) {
+      damaged.push_back(h.name + " (" + h.damaged + ")");
+      continue;
+    }
+    if (!h.dicom) {
+      notDicom.push_back(h.name);
+      continue;
+    }
+    if (!h.image) {
+      noImage.push_back(h.name);
+      continue;
+    }
+    SeriesGroup& group = byUid[h.seriesUid];
+    if (group.members.empty()) {
+      group.summary.seriesInstanceUid = h.seriesUid;
+      group.summary.modality = h.modality;
+      group.summary.description = h.description;
+      group.summary.rows = h.rows;
+      group.summary.columns = h.columns;
+      group.summary.firstFile = h.name;
+    }
+    group.members.push_back(n);
+    group.summary.files = static_cast<int>(group.members.size());
+  }
+  if (warnings != nullptr) {
+    if (!damaged.empty()) {
+      warnings->push_back(fmt::format("skipped {} damaged DICOM file{}: {}", damaged.size(),
+                                      damaged.size() > 1 ? "s" : "", nameList(damaged)));
+    }
+    if (!notDicom.empty()) {
+      warnings->push_back(fmt::format("skipped {} file{} that GDCM cannot read as DICOM: {}",
+                                      notDicom.size(), notDicom.size() > 1 ? "s" : "",
+                                      nameList(notDicom)));
+    }
+    if (!noImage.empty()) {
+      warnings->push_back(fmt::format("skipped {} DICOM file{} without an image: {}",
+                                      noImage.size(), noImage.size() > 1 ? "s" : "",
+                                      nameList(noImage)));
+    }
+  }
+  std::vector<SeriesGroup> series;
+  for (auto& [uid, group] : byUid)
+    series.push_back(std::move(group));
+  std::stable_sort(series.begin(), series.end(), [](const SeriesGroup& a, const SeriesGroup& b) {
+    return a.summary.files > b.summary.files;
+  });
+  return series;
+}
+
+std::string describeSeries(const std::vector<SeriesGroup>& series) {
+  std::string out;
+  for (const SeriesGroup& s : series) {
+    if (!out.empty())
+      out += "; ";
+    out += fmt::format("{} ({}, {} file{}: {}{})", seriesLabel(s.summary.seriesInstanceUid),
+                       s.summary.modality.empty() ? "no modality" : s.summary.modality,
+                       s.summary.files, s.summary.files > 1 ? "s" : "", s.summary.firstFile,
+                       s.summary.files > 1 ? "..." : "");
+  }
+  return out;
+}
+
+/// The headers of the chosen series plus the warnings so far.
+struct Selection {
+  std::vector<SliceHeader> slices;
+  std::vector<std::string> warnings;
+  std::string modality;
+  std::string uid;
+  bool singleFile = false;
+};
+
+Selection selectSeries(const std::string& folder, const DicomReadOptions& options, int threads) {
+  Scan scan = scanFolder(folder, threads);
+  Selection selection;
+  selection.singleFile = scan.singleFile;
+  if (scan.singleFile) {
+    const SliceHeader& h = scan.headers.front();
+    if (!h.damaged.empty())
+      throw FileError(folder, "is a damaged DICOM file: " + h.damaged);
+    if (!h.dicom)
+      throw FileError(folder, "is not a DICOM file (GDCM cannot read it)");
+    if (!h.image) {
+      throw FileError(
+          folder, fmt::format("is a DICOM file without an image (no Rows / Columns; SOP class {})",
+                              h.sopClass.empty() ? "absent" : h.sopClass));
+    }
+  }
+  std::vector<std::string> skipped;
+  std::vector<SeriesGroup> series = groupSeries(scan, &skipped);
+  if (series.empty()) {
+    std::vector<std::string> subfolders;
+    if (!scan.singleFile) {
+      std::error_code ec;
+      for (const fs::directory_entry& entry : fs::directory_iterator(folder, ec)) {
+        std::error_code typeError;
+        if (entry.is_directory(typeError))
+          subfolders.push_back(entry.path().filename().string());
+      }
+      std::sort(subfolders.begin(), subfolders.end());
+    }
+    throw FileError(folder,
+                    fmt::format("is a directory with no DICOM image ({} file{}{}{}{}{})",
+                                scan.headers.size(), scan.headers.size() == 1 ? "" : "s",
+                                skipped.empty() ? "" : "; ", skipped.empty() ? "" : skipped.front(),
+                                subfolders.empty() ? "" : "; subfolders are not searched, it has: ",
+                                nameList(subfolders)));
+  }
+  const SeriesGroup* chosen = nullptr;
+  if (!options.seriesUid.empty()) {
+    for (const SeriesGroup& s : series) {
+      if (s.summary.seriesInstanceUid == options.seriesUid)
+        chosen = &s;
+    }
+    if (chosen == nullptr) {
+      throw FileError(folder, fmt::format("has no series {}; it has: {}", options.seriesUid,
+                                          describeSeries(series)));
+    }
+  } else if (scan.singleFile) {
+    chosen = &series.front();
+  } else {
+    for (const SeriesGroup& s : series) {
+      if (s.summary.modality == "CT") {
+        chosen = &s;
+        break;
+      }
+    }
+    if (chosen == nullptr) {
+      throw FileError(folder, "holds no CT series; it has: " + describeSeries(series));
+    }
+  }
+  selection.warnings = skipped;
+  if (series.size() > 1) {
+    std::vector<SeriesGroup> others;
+    for (const SeriesGroup& s : series) {
+      if (&s != chosen)
+        others.push_back(s);
+    }
+    selection.warnings.push_back(fmt::format("read series {}; left out {} other series: {}",
+                                             seriesLabel(chosen->summary.seriesInstanceUid),
+                                             others.size(), describeSeries(others)));
+  }
+  selection.modality = chosen->summary.modality;
+  selection.uid = chosen->summary.seriesInstanceUid;
+  if (selection.modality != "CT") {
+    selection.warnings.push_back(fmt::format(
+        "modality {} is not CT: the voxels are the rescaled stored values, not Hounsfield units",
+        selection.modality.empty() ? "(absent)" : selection.modality));
+  }
+  for (std::size_t index : chosen->members)
+    selection.slices.push_back(std::move(scan.headers[index]));
+  return selection;
+}
+
+Eigen::Vector3d rowDirection(const std::array<double, 6>& o) {
+  return {o[0], o[1], o[2]};
+}
+Eigen::Vector3d columnDirection(const std::array<double, 6>& o) {
+  return {o[3], o[4], o[5]};
+}
+
+/// Checks the selected headers and computes the geometry; sorts `selection.slices` into slice
+/// order. The image gets everything but its voxels.
+DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
+  std::vector<SliceHeader>& slices = selection.slices;
+  const bool single = slices.size() == 1;
+  const auto fail = [&folder](const std::string& problem) { throw FileError(folder, problem); };
+
+  // Per-file problems first: each names its files.
+  {
+    std::vector<std::string> unparsable, multiFrame, colour, noPosition, noOrientation, noSpacing,
+        badBits;
+    std::string firstProblem;
+    for (const SliceHeader& h : slices) {
+      if (!h.problems.empty()) {
+        unparsable.push_back(h.name);
+        if (firstProblem.empty())
+          firstProblem = h.problems.front();
+      }
+      const auto frames = numbers(h.frames);
+      if (!frames || frames->size() != 1) {
+        unparsable.push_back(h.name);
+        if (firstProblem.empty())
+          firstProblem = "NumberOfFrames \"" + h.frames + "\" is not a number";
+      } else if ((*frames)[0] != 1.0) {
+        multiFrame.push_back(h.name + " (" + h.frames + " frames)");
+      }
+      if (h.samplesPerPixel != 1 || (!h.photometric.empty() && h.photometric != "MONOCHROME2" &&
+                                     h.photometric != "MONOCHROME1")) {
+        colour.push_back(h.name + (h.photometric.empty() ? "" : " (" + h.photometric + ")"));
+      }
+      if (!h.position)
+        noPosition.push_back(h.name);
+      if (!h.orientation)
+        noOrientation.push_back(h.name);
+      if (!h.pixelSpacing)
+        noSpacing.push_back(h.name);
+      if ((h.bitsAllocated != 8 && h.bitsAllocated != 16 && h.bitsAllocated != 32) ||
+          h.bitsStored < 1 || h.bitsStored > h.bitsAllocated || h.highBit + 1 < h.bitsStored ||
+          h.highBit >= h.bitsAllocated) {
+        badBits.push_back(
+            fmt::format("{} ({}/{}/{})", h.name, h.bitsAllocated, h.bitsStored, h.highBit));
+      }
+    }
+    if (!unparsable.empty())
+      fail(fmt::format("unreadable values in {}: {}", nameList(unparsable), firstProblem));
+    if (!multiFrame.empty()) {
+      fail("multi-frame images are not supported (export the series as one file per slice): " +
+           nameList(multiFrame));
+    }
+    if (!colour.empty()) {
+      fail(
+          "colour or palette images (not MONOCHROME1/2 with one sample per pixel) are not CT "
+          "slices: " +
+          nameList(colour));
+    }
+    if (!badBits.empty()) {
+      fail("unsupported pixel layout (BitsAllocated/BitsStored/HighBit): " + nameList(badBits));
+    }
+    if (!single) {
+      if (!noPosition.empty())
+        fail("slices without ImagePositionPatient: " + nameList(noPosition));
+      if (!noOrientation.empty())
+        fail("slices without ImageOrientationPatient: " + nameList(noOrientation));
+      if (!noSpacing.empty())
+        fail("slices without PixelSpacing: " + nameList(noSpacing));
+    }
+  }
+  DicomSeriesRead result;
+  result.warnings = std::move(selection.warnings);
+  result.modality = selection.modality;
+  SliceHeader& first = slices.front();
+  if (!first.position) {
+    first.position = Eigen::Vector3d::Zero();
+    result.warnings.push_back(first.name +
+                              " has no ImagePositionPatient: origin (0, 0, 0) assumed");
+  }
+  if (!first.orientation) {
+    first.orientation = std::array<double, 6>{1, 0, 0, 0, 1, 0};
+    result.warnings.push_back(first.name +
+                              " has no ImageOrientationPatient: axial (1 0 0, 0 1 0) assumed");
+  }
+  if (!first.pixelSpacing) {
+    first.pixelSpacing = Eigen::Vector2d(1.0, 1.0);
+    result.warnings.push_back(first.name + " has no PixelSpacing: 1 mm assumed");
+  }
+
+  // Sizes, spacings and orientations equal to the first file's.
+  const Eigen::Vector3d row0 = rowDirection(*first.orientation);
+  const Eigen::Vector3d column0 = columnDirection(*first.orientation);
+  if (std::abs(row0.norm() - 1.0) > 1e-3 || std::abs(column0.norm() - 1.0) > 1e-3 ||
+      std::abs(row0.dot(column0)) > 1e-3) {
+    fail(fmt::format("{}: ImageOrientationPatient ({}, {}) is not two orthogonal unit vectors",
+                     first.name, fmt::join(row0, " "), fmt::join(column0, " ")));
+  }
+  {
+    std::vector<std::string> size, spacing, orientation, tilt;
+    for (const SliceHeader& h : slices) {
+      if (h.rows != first.rows || h.columns != first.columns) {
+        size.push_back(fmt::format("{} ({} x {})", h.name, h.columns, h.rows));
+      }
+      if (((*h.pixelSpacing - *first.pixelSpacing).array().abs() >
+           kSpacingRelativeTolerance * first.pixelSpacing->array())
+              .any()) {
+        spacing.push_back(
+            fmt::format("{} ({}\\{})", h.name, (*h.pixelSpacing)[0], (*h.pixelSpacing)[1]));
+      }
+      if ((rowDirection(*h.orientation) - row0).cwiseAbs().maxCoeff() > kOrientationTolerance ||
+          (columnDirection(*h.orientation) - column0).cwiseAbs().maxCoeff() >
+              kOrientationTolerance) {
+        orientation.push_back(h.name);
+      }
+      if (std::abs(h.gantryTiltDegrees) > kGantryTiltDegrees) {
+        tilt.push_back(fmt::format("{} ({} degrees)", h.name, h.gantryTiltDegrees));
+      }
+    }
+    if (!size.empty()) {
+      fail(fmt::format("slices differ in size: {} is {} x {} but {}", first.name, first.columns,
+                       first.rows, nameList(size)));
+    }
+    if (!spacing.empty()) {
+      fail(fmt::format("slices differ in PixelSpacing: {} has {}\\{} but {}", first.name,
+                       (*first.pixelSpacing)[0], (*first.pixelSpacing)[1], nameList(spacing)));
+    }
+    if (!orientation.empty()) {
+      fail(fmt::format("mixed orientations: {} has ImageOrientationPatient {}\\{} but {} differ{}",
+                       first.name, fmt::join(row0, "\\"), fmt::join(column0, "\\"),
+                       nameList(orientation), orientation.size() == 1 ? "s" : ""));
+    }
+    if (!tilt.empty())
+      fail("gantry tilt (GantryDetectorTilt) is not supported: " + nameList(tilt));
+  }
+
+  // Sort along the normal (`first` dangles from here on).
+  const Eigen::Vector3d row = row0.normalized();
+  const Eigen::Vector3d column = (column0 - column0.dot(row) * row).normalized();
+  const Eigen::Vector3d normal = row.cross(column);
+  std::vector<double> along(slices.size());
+  for (std::size_t n = 0; n < slices.size(); ++n)
+    along[n] = slices[n].position->dot(normal);
+  std::vector<std::size_t> order(slices.size());
+  for (std::size_t n = 0; n < order.size(); ++n)
+    order[n] = n;
+  std::stable_sort(order.begin(), order.end(),
+                   [&along](std::size_t a, std::size_t b) { return along[a] < along[b]; });
+  {
+    std::vector<SliceHeader> sorted;
+    std::vector<double> sortedAlong;
+    sorted.reserve(slices.size());
+    for (std::size_t n : order) {
+      sorted.push_back(std::move(slices[n]));
+      sortedAlong.push_back(along[n]);
+    }
+    slices = std::move(sorted);
+    along = std::move(sortedAlong);
+  }
+  const std::size_t count = slices.size();
+  for (std::size_t k = 1; k < count; ++k) {
+    if (along[k] - along[k - 1] < kSamePositionMm) {
+      fail(fmt::format("duplicate slice position: {} and {} are both at {:.3f} mm along the normal",
+                       slices[k - 1].name, slices[k].name, along[k]));
+    }
+  }
+  const Eigen::Vector3d origin = *slices.front().position;
+  for (std::size_t k = 1; k < count; ++k) {
+    const Eigen::Vector3d offset = *slices[k].position - origin;
+    const double distance = offset.dot(normal);
+    const double off = (offset - distance * normal).norm();
+    if (off > kOffNormalMm + kOffNormalRelative * std::abs(distance)) {
+      fail(fmt::format(
+          "slices are not stacked along their normal (gantry tilt or a sheared series): {} lies "
+          "{:.3f} mm off the normal through {} ({:.2f} degrees)",
+          slices[k].name, off, slices.front().name,
+          std::atan2(off, distance) * 180.0 / 3.14159265358979323846));
+    }
+  }
+
+  // Steps, missing slices, groups.
+  std::vector<double> steps;
+  for (std::size_t k = 1; k < count; ++k)
+    steps.push_back(along[k] - along[k - 1]);
+  const auto sameStep = [](double a, double b) {
+    return std::abs(a - b) <= std::max(kGroupStepMm, kGroupStepRelative * std::min(a, b));
+  };
+  for (std::size_t k = 1; k + 1 < steps.size(); ++k) {
+    const double before = steps[k - 1], after = steps[k + 1];
+    if (sameStep(before, after) && steps[k] > 1.5 * before && steps[k] > 1.5 * after) {
+      fail(fmt::format(
+          "a slice seems missing between {} and {}: they are {:.3f} mm apart where the slices on "
+          "both sides are {:.3f} mm apart",
+          slices[k].name, slices[k + 1].name, steps[k], before));
+    }
+  }
+  CtImage& image = result.image;
+  image.folder = folder;
+  image.seriesInstanceUid = selection.uid;
+  image.dimensions = {slices.front().columns, slices.front().rows, static_cast<int>(count)};
+  image.originMm = origin;
+  image.direction.col(0) = row;
+  image.direction.col(1) = column;
+  image.direction.col(2) = normal;
+  // PixelSpacing is (between rows, between columns): i runs along a row, so its spacing is the
+  // second value.
+  image.pixelSpacingMm =
+      Eigen::Vector2d((*slices.front().pixelSpacing)[1], (*slices.front().pixelSpacing)[0]);
+  image.slicePositionsMm.resize(count);
+  for (std::size_t k = 0; k < count; ++k)
+    image.slicePositionsMm[k] = along[k] - along[0];
+  {
+    int start = 0;
+    double groupFirstStep = -1.0, sum = 0.0;
+    int groupSteps = 0;
+    const auto close = [&](int last) {
+      image.groups.push_back(
+          CtSliceGroup{start, last - start + 1, groupSteps > 0 ? sum / groupSteps : 0.0});
+    };
+    for (std::size_t k = 0; k < steps.size(); ++k) {
+      const double step = steps[k];
+      if (groupSteps == 0) {
+        groupFirstStep = step;
+        sum = step;
+        groupSteps = 1;
+      } else if (sameStep(step, groupFirstStep)) {
+        sum += step;
+        ++groupSteps;
+      } else {
+        close(static_cast<int>(k));
+        start = static_cast<int>(k) + 1;
+        sum = 0.0;
+        groupSteps = 0;
+      }
+    }
+    close(static_cast<int>(count) - 1);
+  }
+  result.files.reserve(count);
+  for (const SliceHeader& h : slices)
+    result.files.push_back(h.name);
+  return result;
+}
+
+/// Per-thread scratch: the decoded slice when GDCM must decode, and the lookup table from stored
+/// 8- or 16-bit words to HU for the last rescale seen.
+struct Scratch {
+  std::vector<char> buffer;
+  std::vector<std::int16_t> table;
+  struct Key {
+    int bitsAllocated = -1, bitsStored = -1, highBit = -1, pixelRepresentation = -1;
+    double slope = 0, intercept = 0;
+    bool operator==(const Key& o) const {
+      return bitsAllocated == o.bitsAllocated && bitsStored == o.bitsStored &&
+             highBit == o.highBit && pixelRepresentation == o.pixelRepresentation &&
+             slope == o.slope && intercept == o.intercept;
+    }
+  } key;
+};
+
+std::int16_t toHu(double value) {
+  const double rounded = std::round(value);
+  if (!(rounded > std::numeric_limits<std::int16_t>::min()))
+    return std::numeric_limits<std::int16_t>::min();
+  if (rounded >= std::numeric_limits<std::int16_t>::max())
+    return std::numeric_limits<std::int16_t>::max();
+  return static_cast<std::int16_t>(rounded);
+}
+
+/// The stored value of a raw word: BitsStored bits ending at HighBit, sign-extended if signed.
+std::int64_t storedValue(std::uint32_t word, const Scratch::Key& key) {
+  const int shift = key.highBit + 1 - key.bitsStored;
+  const std::uint64_t mask = (std::uint64_t{1} << key.bitsStored) - 1;
+  std::int64_t value = static_cast<std::int64_t>((std::uint64_t{word} >> shift) & mask);
+  if (key.pixelRepresentation == 1 && (value >> (key.bitsStored - 1)) != 0) {
+    value -= static_cast<std::int64_t>(std::uint64_t{1} << key.bitsStored);
+  }
+  return value;
+}
+
+void convert(const char* data, std::size_t pixels, const Scratch::Key& key, Scratch& scratch,
+             std::int16_t* out) {
+  if (key.bitsAllocated == 32) {
+    for (std::size_t p = 0; p < pixels; ++p) {
+      std::uint32_t word = 0;
+      std::memcpy(&word, data + 4 * p, 4);
+      out[p] = toHu(static_cast<double>(storedValue(word, key)) * key.slope + key.intercept);
+    }
+    return;
+  }
+  // Integer rescale of unsigned values that cannot leave the int16 range (the usual CT: 12 or 16
+  // stored bits, slope 1, intercept -1024 or -1000): a plain loop the compiler vectorises.
+  const int intercept = static_cast<int>(key.intercept);
+  const std::int64_t largest = (std::int64_t{1} << key.bitsStored) - 1 + intercept;
+  if (key.bitsAllocated == 16 && key.slope == 1.0 &&
+      key.intercept == static_cast<double>(intercept) && key.pixelRepresentation == 0 &&
+      key.highBit + 1 == key.bitsStored && intercept >= -32768 && largest <= 32767) {
+    const auto mask = static_cast<std::uint16_t>((1u << key.bitsStored) - 1u);
+    for (std::size_t p = 0; p < pixels; ++p) {
+      std::uint16_t word = 0;
+      std::memcpy(&word, data + 2 * p, 2);
+      out[p] = static_cast<std::int16_t>(static_cast<int>(word & mask) + intercept);
+    }
+    return;
+  }
+  if (!(scratch.key == key)) {
+    const std::size_t size = std::size_t{1} << key.bitsAllocated;
+    scratch.table.resize(size);
+    for (std::size_t word = 0; word < size; ++word) {
+      scratch.table[word] =
+          toHu(static_cast<double>(storedValue(static_cast<std::uint32_t>(word), key)) * key.slope +
+               key.intercept);
+    }
+    scratch.key = key;
+  }
+  const std::int16_t* table = scratch.table.data();
+  if (key.bitsAllocated == 8) {
+    const auto* bytes = reinterpret_cast<const unsigned char*>(data);
+    for (std::size_t p = 0; p < pixels; ++p)
+      out[p] = table[bytes[p]];
+  } else {
+    for (std::size_t p = 0; p < pixels; ++p) {
+      std::uint16_t word = 0;
+      std::memcpy(&word, data + 2 * p, 2);
+      out[p] = table[word];
+    }
+  }
+}
+
+bool hostIsLittleEndian() {
+  const std::uint16_t one = 1;
+  unsigned char first = 0;
+  std::memcpy(&first, &one, 1);
+  return first == 1;
+}
+
+/// Native little-endian pixel data (implicit or explicit VR) whose value offset the header scan
+/// found: read straight from the file into the thread's buffer, without GDCM parsing the file
+/// again and allocating the pixel data. The 12 bytes before the value are read too and must be
+/// the pixel data element's header (tag, VR OB/OW in explicit VR, a length covering the pixels);
+/// otherwise (an offset the scan got wrong, e.g. after a nested icon image) GDCM reads the file.
+/// True when done; false when this path does not apply.
+bool readNativeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out,
+                     Scratch& scratch) {
+  constexpr std::size_t kHeader = 12;
+  if (h.pixelDataOffset < kHeader || !hostIsLittleEndian() ||
+      (h.transferSyntax != "1.2.840.10008.1.2" && h.transferSyntax != "1.2.840.10008.1.2.1")) {
+    return false;
+  }
+  const bool explicitVr = h.transferSyntax == "1.2.840.10008.1.2.1";
+  const Scratch::Key key{h.bitsAllocated,       h.bitsStored, h.highBit,
+                         h.pixelRepresentation, h.slope,      h.intercept};
+  const std::size_t pixels = static_cast<std::size_t>(h.rows) * static_cast<std::size_t>(h.columns);
+  const std::size_t bytes = pixels * static_cast<std::size_t>(key.bitsAllocated / 8);
+  const int fd = ::open(h.path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0)
+    throw FileError(folder, h.name + ": cannot be opened: " + std::strerror(errno));
+  scratch.buffer.resize(kHeader + bytes);
+  std::size_t done = 0;
+  while (done < kHeader + bytes) {
+    const ssize_t n = ::pread(fd, scratch.buffer.data() + done, kHeader + bytes - done,
+                              static_cast<off_t>(h.pixelDataOffset - kHeader + done));
+    if (n < 0 && errno == EINTR)
+      continue;
+    if (n <= 0)
+      break;
+    done += static_cast<std::size_t>(n);
+  }
+  ::close(fd);
+  const char* head = scratch.buffer.data();
+  const char tag[4] = {'\xe0', '\x7f', '\x10', '\x00'};
+  std::uint32_t length = 0;
+  std::memcpy(&length, head + 8, 4);
+  const bool headerFound =
+      done >= kHeader &&
+      (explicitVr ? std::memcmp(head, tag, 4) == 0 &&
+                        (std::memcmp(head + 4, "OW", 2) == 0 || std::memcmp(head + 4, "OB", 2) == 0)
+                  : std::memcmp(head + 4, tag, 4) == 0) &&
+      length != 0xffffffffu;
+  if (!headerFound)
+    return false;
+  if (done != kHeader + bytes || length < bytes) {
+    throw FileError(
+        folder,
+        fmt::format("{}: truncated pixel data: {} bytes where {} x {} pixels of {} bits need {}",
+                    h.name, std::min<std::size_t>(done - kHeader, length), h.columns, h.rows,
+                    key.bitsAllocated, bytes));
+  }
+  convert(head + kHeader, pixels, key, scratch, out);
+  return true;
+}
+
+void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out,
+                 Scratch& scratch) {
+  if (readNativeSlice(folder, h, out, scratch))
+    return;
+  gdcm::ImageReader reader;
+  reader.SetFileName(h.path.c_str());
+  bool read = false;
+  try {
+    read = reader.Read();
+  } catch (const std::exception&) {
+    read = false;
+  }
+  if (!read)
+    throw FileError(folder, h.name + ": GDCM cannot read its image");
+  const gdcm::Image& image = reader.GetImage();
+  const gdcm::PixelFormat& format = image.GetPixelFormat();
+  const unsigned int* dims = image.GetDimensions();
+  if (dims == nullptr || dims[0] != static_cast<unsigned int>(h.columns) ||
+      dims[1] != static_cast<unsigned int>(h.rows) ||
+      (image.GetNumberOfDimensions() > 2 && dims[2] != 1)) {
+    throw FileError(
+        folder, h.name + ": GDCM reports image dimensions other than the header's Rows / Columns");
+  }
+  if (format.GetSamplesPerPixel() != 1)
+    throw FileError(folder, h.name + ": not a one-sample (grey) image");
+  const Scratch::Key key{format.GetBitsAllocated(),
+                         format.GetBitsStored(),
+                         format.GetHighBit(),
+                         format.GetPixelRepresentation(),
+                         h.slope,
+                         h.intercept};
+  if ((key.bitsAllocated != 8 && key.bitsAllocated != 16 && key.bitsAllocated != 32) ||
+      key.bitsStored < 1 || key.bitsStored > key.bitsAllocated ||
+      key.highBit + 1 < key.bitsStored || key.highBit >= key.bitsAllocated) {
+    throw FileError(
+        folder,
+        fmt::format("{}: unsupported pixel format ({} bits allocated, {} stored, high bit {})",
+                    h.name, key.bitsAllocated, key.bitsStored, key.highBit));
+  }
+  const std::size_t pixels = static_cast<std::size_t>(h.rows) * static_cast<std::size_t>(h.columns);
+  const std::size_t bytes = pixels * static_cast<std::size_t>(key.bitsAllocated / 8);
+  const gdcm::DataElement& pixelData = image.GetDataElement();
+  const gdcm::ByteValue* raw = pixelData.GetByteValue();
+  if (pixelData.IsEmpty() && pixelData.GetSequenceOfFragments() == nullptr) {
+    throw FileError(folder, h.name + ": no pixel data");
+  }
+  const gdcm::TransferSyntax& syntax = image.GetTransferSyntax();
+  if (raw != nullptr && !syntax.IsEncapsulated()) {
+    if (h.pixelDataOffset > 0 && h.fileSize > 0 && h.pixelDataOffset + bytes > h.fileSize) {
+      throw FileError(
+          folder,
+          fmt::format("{}: truncated pixel data: the file ends {} bytes short of the {} x {} "
+                      "pixels of {} bits",
+                      h.name, h.pixelDataOffset + bytes - h.fileSize, h.columns, h.rows,
+                      key.bitsAllocated));
+    }
+    if (raw->GetLength() < bytes) {
+      throw FileError(
+          folder,
+          fmt::format("{}: truncated pixel data: {} bytes where {} x {} pixels of {} bits "
+                      "need {}",
+                      h.name, raw->GetLength(), h.columns, h.rows, key.bitsAllocated, bytes));
+    }
+    if (hostIsLittleEndian() && syntax.GetSwapCode() == gdcm::SwapCode::LittleEndian) {
+      convert(raw->GetPointer(), pixels, key, scratch, out);  // no copy for the common case
+      return;
+    }
+  }
+  const unsigned long length = image.GetBufferLength();
+  if (length < bytes) {
+    throw FileError(folder, fmt::format("{}: GDCM decodes {} bytes where {} are needed", h.name,
+                                        length, bytes));
+  }
+  scratch.buffer.resize(length);
+  bool decoded = false;
+  try {
+    decoded = image.GetBuffer(scratch.buffer.data());
+  } catch (const std::exception&) {
+    decoded = false;
+  }
+  if (!decoded) {
+    throw FileError(
+        folder, fmt::format("{}: GDCM cannot decode its pixel data ({})", h.name,
+                            syntax.GetString() ? syntax.GetString() : "unknown transfer syntax"));
+  }
+  convert(scratch.buffer.data(), pixels, key, scratch, out);
+}
+
+/// Sizes the headers claim, checked against the files before the volume is allocated (issue 15,
+/// item 12): a slice claiming 4096 x 4096 pixels in a file of 30 kB allocated 5.5 GB for 12 s
+/// before "truncated pixel data", and 65535 x 65535 ended in std::bad_alloc with no file named.
+/// An uncompressed slice must hold its Rows x Columns pixels after the pixel data's start; the
+/// volume (16-bit HU) must fit in this machine's memory whatever the transfer syntax.
+void checkSizesBeforeAllocating(const std::string& folder, const std::vector<SliceHeader>& slices,
+                                const CtImage& image) {
+  for (const SliceHeader& h : slices) {
+    const bool native = h.transferSyntax == "1.2.840.10008.1.2" ||
+                        h.transferSyntax == "1.2.840.10008.1.2.1" ||
+                        h.transferSyntax == "1.2.840.10008.1.2.2";
+    if (!native || h.pixelDataOffset == 0 || h.fileSize == 0 || h.bitsAllocated <= 0)
+      continue;
+    const std::uint64_t needed = static_cast<std::uint64_t>(h.rows) *
+                                 static_cast<std::uint64_t>(h.columns) *
+                                 static_cast<std::uint64_t>(std::max(1, h.samplesPerPixel)) *
+                                 static_cast<std::uint64_t>((h.bitsAllocated + 7) / 8);
+    const std::uint64_t held = h.fileSize - std::min(h.fileSize, h.pixelDataOffset);
+    if (needed > held) {
+      throw FileError(
+          folder,
+          fmt::format("{}: truncated pixel data: its header claims {} x {} pixels of {} bits "
+                      "({} bytes), but the file holds {} bytes after the pixel data's start: "
+                      "Rows / Columns in the header are wrong, or the file was cut short",
+                      h.name, h.columns, h.rows, h.bitsAllocated, needed, held));
+    }
+  }
+  const long pages = ::sysconf(_SC_PHYS_PAGES);
+  const long pageBytes = ::sysconf(_SC_PAGE_SIZE);
+  if (pages <= 0 || pageBytes <= 0)
+    return;
+  const double memoryBytes = static_cast<double>(pages) * static_cast<double>(pageBytes);
+  const double volumeBytes = static_cast<double>(image.dimensions[0]) *
+                             static_cast<double>(image.dimensions[1]) *
+                             static_cast<double>(image.dimensions[2]) * sizeof(std::int16_t);
+  if (volumeBytes > memoryBytes) {
+    throw FileError(
+        folder,
+        fmt::format("the series' {} x {} x {} voxels (the headers' Columns x Rows of {}, times {} "
+                    "slices) need {:.1f} GB as 16-bit HU, more than this machine's {:.1f} GB "
+                    "of memory",
+                    image.dimensions[0], image.dimensions[1], image.dimensions[2],
+                    slices.empty() ? std::string() : slices.front().name, image.dimensions[2],
+                    volumeBytes / 1e9, memoryBytes / 1e9));
+  }
+}
+
+DicomSeriesRead readGeometry(const std::string& folder, const DicomReadOptions& options,
+                             int threads, std::vector<SliceHeader>& slices) {
+  Selection selection = selectSeries(folder, options, threads);
+  DicomSeriesRead result = buildGeometry(folder, selection);
+  slices = std::move(selection.slices);
+  return result;
+}
+
+}  // namespace
+
+std::vector<DicomSeriesSummary> listDicomSeries(const std::string& folder,
+                                                std::vector<std::string>* warnings) {
+  const Scan scan = scanFolder(folder, threadCount({}));
+  std::vector<DicomSeriesSummary> out;
+  for (const SeriesGroup& group : groupSeries(scan, warnings))
+    out.push_back(group.summary);
+  return out;
+}
+
+DicomSeriesRead readDicomSeriesGeometry(const std::string& folder,
+                                        const DicomReadOptions& options) {
+  std::vector<SliceHeader> slices;
+  return readGeometry(folder, options, threadCount(options), slices);
+}
+
+DicomSeriesRead readDicomSeriesWithWarnings(const std::string& folder,
+                                            const DicomReadOptions& options) {
+  const int threads = threadCount(options);
+  std::vector<SliceHeader> slices;
+  DicomSeriesRead result = readGeometry(folder, options, threads, slices);
+  CtImage& image = result.image;
+  checkSizesBeforeAllocating(folder, slices, image);
+  const std::size_t plane =
+      static_cast<std::size_t>(image.dimensions[0]) * static_cast<std::size_t>(image.dimensions[1]);
+  image.hu.resize(image.voxelCount());
+  const int total = static_cast<int>(slices.size());
+  std::vector<Scratch> scratch(static_cast<std::size_t>(std::max(1, std::min(threads, total))));
+  std::mutex progressMutex;
+  int done = 0;
+  parallelFor(total, threads, [&](int k, int worker) {
+    decodeSlice(folder, slices[static_cast<std::size_t>(k)],
+                image.hu.data() + plane * static_cast<std::size_t>(k),
+                scratch[static_cast<std::size_t>(worker)]);
+    if (options.progress) {
+      const std::lock_guard<std::mutex> lock(progressMutex);
+      options.progress(++done, total);
+    }
+  });
+  return result;
+}
+
+}  // namespace echoreg::segmentation

@@ -1,0 +1,63 @@
+#!/bin/sh
+# The DICOM module as a process sees it (dicom/dicom_module_abi.hpp): commands that read no DICOM
+# never load GDCM (LD_DEBUG=libs lists every library a process opens, dlopen'd ones included); a
+# CT read opens the module from EXE_DIR/../lib/echoreg, which is also where an installation puts
+# it; without the module, or with a file that is not it, reading a CT fails with exit 1 and an
+# error naming the path it looked at, while the other commands still run.
+# Usage: dicom_module.sh ECHOREG MODULE CAPTURE SERIES WORKDIR
+set -eu
+echoreg=$1 module=$2 capture=$3 series=$4 work=$5
+fail() { echo "FAIL: $*" >&2; exit 1; }
+
+rm -rf "$work" && mkdir -p "$work" && cd "$work"
+
+loads() {  # loads LIBRARY LOGFILE: whether the process logged in LOGFILE opened LIBRARY
+  grep -q "calling init: .*/$1" "$2"
+}
+
+# Commands that read no DICOM.
+LD_DEBUG=libs "$echoreg" --version > version.out 2> version.libs || fail "echoreg --version failed"
+LD_DEBUG=libs "$echoreg" detect "$capture" --out detect.csv > detect.out 2> detect.libs ||
+  fail "echoreg detect failed: $(grep -v '^ *[0-9]*:' detect.libs)"
+for log in version.libs detect.libs; do
+  for library in libgdcmMSFF libgdcmDSED libgdcmCommon libechoreg_dicom; do
+    if loads "$library" "$log"; then fail "${log%.libs} loaded $library"; fi
+  done
+done
+
+# Reading a CT loads the module, and GDCM with it.
+LD_DEBUG=libs "$echoreg" info "$series" --json > info.json 2> info.libs ||
+  fail "info on the CT failed: $(grep -v '^ *[0-9]*:' info.libs)"
+loads libechoreg_dicom info.libs || fail "info on the CT did not load the module"
+loads libgdcmMSFF info.libs || fail "info on the CT did not load GDCM"
+grep -q '"series_instance_uid"' info.json || fail "info on the CT printed no series: $(cat info.json)"
+
+# The installed layout: PREFIX/bin/echoreg finds PREFIX/lib/echoreg/ and reads the same series.
+mkdir -p prefix/bin prefix/lib/echoreg
+cp "$echoreg" prefix/bin/echoreg
+"$work/prefix/bin/echoreg" detect "$capture" --out detect-installed.csv > /dev/null 2>&1 ||
+  fail "detect needs the DICOM module"
+cmp -s detect.csv detect-installed.csv || fail "detect without the module wrote other bytes"
+if "$work/prefix/bin/echoreg" info "$series" --json > missing.out 2> missing.err; then
+  fail "info on the CT succeeded without the module"
+else
+  status=$?
+fi
+[ "$status" -eq 1 ] || fail "info on the CT without the module exited $status, not 1"
+grep -q "$work/prefix/lib/echoreg/$(basename "$module")" missing.err ||
+  fail "the error does not name the module's path: $(cat missing.err)"
+# A file in its place that is not the module.
+echo "not a shared object" > "prefix/lib/echoreg/$(basename "$module")"
+if "$work/prefix/bin/echoreg" info "$series" --json > foreign.out 2> foreign.err; then
+  fail "info on the CT succeeded with a text file as the module"
+else
+  status=$?
+fi
+[ "$status" -eq 1 ] || fail "info on the CT with a text file as the module exited $status, not 1"
+grep -q "$work/prefix/lib/echoreg/$(basename "$module")" foreign.err ||
+  fail "the error does not name the module's path: $(cat foreign.err)"
+cp "$module" prefix/lib/echoreg/
+"$work/prefix/bin/echoreg" info "$series" --json > installed.json 2> installed.err ||
+  fail "the installed layout failed: $(cat installed.err)"
+cmp -s info.json installed.json || fail "the installed layout read the series otherwise"
+echo "DICOM module: loaded only to read a CT, found in the build tree and installed, missing named"
