@@ -156,8 +156,8 @@ struct SliceHeader {
 /// implicit, as GDCM does, when the two bytes after its first tag are not a VR GDCM knows (GE's
 /// private syntax; "Ul" for "UL" made GDCM abort, fuzz/fuzz_dicom). Returns the first element whose
 /// declared length runs past the end of the file, or "" when none does (or the file is not DICOM
-/// enough to tell: GDCM then says so). Pixel data longer than the file is not reported here: the
-/// reader refuses it as truncated, with its size.
+/// enough to tell: GDCM then says so). Native little endian pixel data longer than the file is not
+/// reported here: the reader refuses it as truncated, with its size.
 ///
 /// An element whose VR GDCM does not know and is not two printable characters (GDCM reads those
 /// as UN), in an explicit data set, makes GDCM read the data set
@@ -198,6 +198,8 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
   // An implicit file meta group (GE's private syntax): group 0x0002's elements with no VR, a
   // 4-byte length right after the tag.
   bool metaImplicit = false, sawSyntax = false;
+  // A compressed (encapsulated) transfer syntax: its pixel data is read by GDCM only.
+  bool encapsulated = false;
   {
     // The encoding GDCM takes (gdcm::Reader, gdcm::FileMetaInformation::Read and ReadCompat),
     // from the first tag after the preamble (or at the start of a file without one) read little
@@ -321,8 +323,11 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       continue;
     }
     if (length > size - pos) {
-      if (pixelData)
-        return "";  // truncated pixel data: refused later with its sizes
+      // Native little endian pixel data cut short is refused later with its sizes, and read from
+      // the file, not by GDCM. Any other is read by GDCM, which allocates the length it declares:
+      // 4 GB for RLE pixel data of a defined length in a 908-byte file (fuzz/fuzz_dicom).
+      if (pixelData && !bigEndian && !encapsulated)
+        return "";
       return fmt::format(
           "element ({:04x},{:04x}) at byte {} claims {} bytes, but {} are left in "
           "the file",
@@ -338,6 +343,7 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
         return "";  // deflated: GDCM inflates it
       explicitVr = uid != "1.2.840.10008.1.2";
       bigEndian = uid == "1.2.840.10008.1.2.2";
+      encapsulated = explicitVr && !bigEndian && uid != "1.2.840.10008.1.2.1";
     }
     if (vr != "SQ")
       pos += length;  // a value; a sequence's items follow as elements

@@ -490,6 +490,37 @@ TEST_F(DicomSeriesRefusal, APrintableUnknownVrIsWalkedAsUn) {
                   "claims 268435456 bytes, but 4 are left in the file");
 }
 
+// Found by fuzz/fuzz_dicom: RLE pixel data of a defined length, 0xffff00ff bytes in a 908-byte
+// file, passed the walk (pixel data longer than the file was left to the reader's size check,
+// which only native pixel data has) and GDCM allocated 4 GB decoding it (33 s, 4.2 GB). Pixel
+// data that GDCM reads itself (compressed, or big endian) and claims more than the file is now
+// damaged; native little endian pixel data cut short is still refused with its sizes.
+TEST_F(DicomSeriesRefusal, CompressedPixelDataLongerThanTheFileIsNotAllocated) {
+  const std::string file = dir_.file("rle.dcm");
+  for (const char* syntax : {"1.2.840.10008.1.2.5", "1.2.840.10008.1.2.2"}) {
+    std::string uid(syntax);
+    uid += std::string(uid.size() % 2, '\0');
+    const std::string metaRest = shortElement(0x0002, 0x0010, "UI", uid);
+    const bool big = std::string(syntax) == "1.2.840.10008.1.2.2";
+    // Big endian: the data set's tags and lengths byte-swapped.
+    const std::string pixelHeader = big ? std::string("\x7f\xe0\x00\x10OB\0\0\xff\xff\x00\xff", 12)
+                                        : longElementHeader(0x7fe0, 0x0010, "OB", 0xffff00ffU);
+    std::ofstream(file, std::ios::binary | std::ios::trunc)
+        << std::string(128, '\0') + "DICM" +
+               shortElement(0x0002, 0x0000, "UL",
+                            le(static_cast<std::uint32_t>(metaRest.size()), 4)) +
+               metaRest + pixelHeader + "abcd";
+    const std::size_t at = 144 + metaRest.size();
+    EXPECT_CONTAINS(refusal(file),
+                    "rle.dcm: is a damaged DICOM file: element (7fe0,0010) at byte " +
+                        std::to_string(at) +
+                        " claims 4294902015 bytes, but 4 are left in the file");
+  }
+  struct rusage usage {};
+  getrusage(RUSAGE_SELF, &usage);
+  EXPECT_LT(usage.ru_maxrss, 1000L * 1024L) << "peak kB: the declared length was allocated";
+}
+
 // Found by fuzz/fuzz_dicom: a file meta group whose first element's VR GDCM does not know ("Ul"
 // for "UL") is read by GDCM as an implicit meta group (GE's private syntax), its 4-byte length
 // right after the tag: "Ul" and the 2-byte length were taken for 289877 bytes, and Debian's GDCM
