@@ -206,9 +206,19 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
     // endian and whether the two bytes after it are a VR GDCM knows. With the preamble, a first
     // element (0002,0000) "UL" is read as an explicit meta group; any other first element is
     // read again by ReadCompat, as a file without the preamble is.
+    // A file that ends inside its first element's header (a tag, less than 4 more bytes) is
+    // damaged once its first tag says it is DICOM: GDCM asserts (aborts the process) reading such
+    // a file meta group (a 7-byte file, found by fuzz/fuzz_dicom) or element header.
     unsigned char first[8] = {};
-    if (!bytes(pos, 8, first))
-      return meta ? fmt::format("the file ends at byte {}, inside its file meta group", size) : "";
+    const std::size_t available = static_cast<std::size_t>(std::min<std::uint64_t>(8, size - pos));
+    const std::string endsInMeta =
+        fmt::format("the file ends at byte {}, inside its file meta group", size);
+    if (available < 4 || !bytes(pos, available, first))
+      return meta ? endsInMeta : "";
+    const std::string endsInHeader =
+        available < 8
+            ? fmt::format("the file ends at byte {}, inside the header of an element", size)
+            : std::string();
     const std::uint32_t group = number(first, 2, false), element = number(first + 2, 2, false);
     const bool vrFollows = kVr.count(std::string(reinterpret_cast<const char*>(first + 4), 2)) > 0;
     meta = false;
@@ -216,6 +226,8 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       // A group whose first two bytes after the tag are not a VR GDCM knows is read as implicit
       // (ReadCompatInternal): "Ul" there made GDCM take the rest of the header for a length and
       // abort the process (found by fuzz/fuzz_dicom).
+      if (available < 8)
+        return endsInMeta;
       meta = true;
       metaImplicit = !vrFollows;
     } else if (group == 0x0800) {
@@ -231,6 +243,8 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
     } else {
       return "";  // GDCM refuses it at once ("Cannot find DICOM type"): not DICOM
     }
+    if (!endsInHeader.empty())
+      return endsInHeader;
   }
   // The VRs with a 2-byte length; any other VR GDCM knows (OB, SQ, UN...) has 2 reserved bytes
   // and a 4-byte length.

@@ -617,6 +617,18 @@ TEST_F(DicomSeriesRefusal, AFileWithoutPreambleIsWalkedWhateverItsFirstGroup) {
   // Text that GDCM takes for no DICOM at all is still said to be not DICOM, not damaged.
   write("frame,timestamp,depth_mm\n0,0.0,12.5\n");
   EXPECT_CONTAINS(refusal(file), "no-preamble.dcm: is not a DICOM file");
+  write("abcdef");
+  EXPECT_CONTAINS(refusal(file), "no-preamble.dcm: is not a DICOM file");
+  // Files shorter than one element's header whose first tag is DICOM's: Debian's GDCM asserts
+  // (aborts the process) reading them (the first found by fuzz/fuzz_dicom, 7 bytes).
+  write(le(0x0002, 2) + le(0x0000, 2) + std::string("\x02\x20\x02", 3));
+  EXPECT_CONTAINS(refusal(file),
+                  "no-preamble.dcm: is a damaged DICOM file: the file ends at byte 7, inside its "
+                  "file meta group");
+  write(le(0x0008, 2) + le(0x0060, 2) + "CS");
+  EXPECT_CONTAINS(refusal(file),
+                  "no-preamble.dcm: is a damaged DICOM file: the file ends at byte 6, inside the "
+                  "header of an element");
 
   // And a good series whose files have lost their preamble is walked without a word and read as
   // before (the walk starts at the file meta group).
