@@ -330,6 +330,16 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
                          element, start, vr == "SQ" ? "sequence" : "value of undefined length");
     }
     pos = valueAt;
+    // An undefined length in an explicit data set only on a sequence, UN, or pixel data of OB, OW
+    // or UN: Debian's GDCM asserts (aborts the process) on any other
+    // (gdcm::ExplicitDataElement::ReadValue; found by fuzz/fuzz_dicom).
+    if (length == kUndefined && !vr.empty() && vr != "UN" &&
+        (pixelData ? vr != "OB" && vr != "OW" : vr != "SQ")) {
+      return fmt::format(
+          "element ({:04x},{:04x}) at byte {} has an undefined length, which its VR "
+          "{} cannot have",
+          group, element, start, vr);
+    }
     if (length == kUndefined) {
       if (vr == "UN")
         return "";            // a sequence in implicit VR inside an explicit one: GDCM sorts it out

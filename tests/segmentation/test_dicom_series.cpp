@@ -6,6 +6,7 @@
 #include "echoreg/simulation/ct.hpp"
 #include "test_support.hpp"
 
+#include <fmt/format.h>
 #include <gdcmAttribute.h>
 #include <gdcmDataElement.h>
 #include <gdcmImage.h>
@@ -27,6 +28,7 @@
 #include <iterator>
 #include <memory>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace {
@@ -451,6 +453,25 @@ TEST_F(DicomSeriesRefusal, UnknownVrsAndCutHeadersAreWalkedAsGdcmReadsThem) {
       refusal(file),
       "unknown-vr.dcm: is a damaged DICOM file: the pixel data at byte 14 has an unknown "
       "VR (bytes 4f 58)");
+  // An undefined length on an element that is not a sequence or UN (here OW, where the fuzzer's
+  // file had turned a sequence's SQ into OW), or on pixel data of a VR other than OB, OW or UN:
+  // GDCM asserts (aborts the process) reading it (found by fuzz/fuzz_dicom, seed
+  // found-abort-undefined-length-ow-ff4628df); the same sequence as SQ is read.
+  const std::string items = le(0xfffe, 2) + le(0xe000, 2) + le(0xffffffffU, 4) + le(0xfffe, 2) +
+                            le(0xe00d, 2) + le(0, 4) + le(0xfffe, 2) + le(0xe0dd, 2) + le(0, 4);
+  for (const auto& [group, element, vr] :
+       std::vector<std::tuple<std::uint16_t, std::uint16_t, const char*>>{{0x0008, 0x9215, "OW"},
+                                                                          {0x7fe0, 0x0010, "UT"}}) {
+    write(shortElement(0x0008, 0x0060, "CS", "CT") +
+          longElementHeader(group, element, vr, 0xffffffffU) + items);
+    EXPECT_CONTAINS(refusal(file), fmt::format("unknown-vr.dcm: is a damaged DICOM file: element "
+                                               "({:04x},{:04x}) at byte 10 has an undefined "
+                                               "length, which its VR {} cannot have",
+                                               group, element, vr));
+  }
+  write(shortElement(0x0008, 0x0060, "CS", "CT") +
+        longElementHeader(0x0008, 0x9215, "SQ", 0xffffffffU) + items);
+  EXPECT_EQ(refusal(file).find("damaged"), std::string::npos) << refusal(file);
   // A file that ends after a tag, inside the rest of its element's header: GDCM asserts (aborts
   // the process) reading it (found by fuzz/fuzz_dicom, seed found-abort-header-cut-short-3e87910c).
   write(shortElement(0x0020, 0x000d, "UI", std::string("1.2.3\0", 6)) + le(0x0020, 2) +
