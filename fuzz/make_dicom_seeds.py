@@ -52,6 +52,19 @@ def slice_bytes(z, rows=8, columns=8, syntax=ExplicitVRLittleEndian, signed=True
     return out.getvalue()
 
 
+def implicit_meta(data):
+    """The same file with its file meta group written implicit (tag, 4-byte length, value), as GE's
+    private syntax has it; GDCM reads such a group when its first element is not followed by a VR."""
+    out, at = bytearray(data[:132]), 132
+    while data[at:at + 2] == b"\x02\x00":
+        long_vr = data[at + 4:at + 6] in (b"OB", b"UN", b"UT", b"UC", b"UR")
+        value = at + (12 if long_vr else 8)
+        length = int.from_bytes(data[at + (8 if long_vr else 6):value], "little")
+        out += data[at:at + 4] + length.to_bytes(4, "little") + data[value:value + length]
+        at = value + length
+    return bytes(out + data[at:])
+
+
 def main(folder):
     seeds = {
         "one-slice": [slice_bytes(0)],
@@ -63,6 +76,7 @@ def main(folder):
         "rle": [slice_bytes(z, syntax=RLELossless, instance=z + 1) for z in range(2)],
         "uneven-orientations": [slice_bytes(0), slice_bytes(1, orientation=(0, 1, 0, 1, 0, 0),
                                                             instance=2)],
+        "implicit-meta": [implicit_meta(slice_bytes(z, instance=z + 1)) for z in range(2)],
     }
     for name, files in seeds.items():
         with open(f"{folder}/{name}.dcm-series", "wb") as out:

@@ -149,16 +149,20 @@ struct SliceHeader {
 /// GDCM allocates (and zero-fills) the length a data element declares before it reads the value:
 /// 1.2 GB for a 1.5 kB file (found by fuzz/fuzz_dicom), up to 4 GB per file and thread. So the
 /// elements of a file are walked first, without reading their values: the file meta group
-/// (explicit VR little endian), then the data set in its transfer syntax (implicit or explicit VR,
-/// little or big endian; a deflated one is left to GDCM), into sequences and items, past the pixel
-/// data. A file without the preamble is walked in the encoding GDCM guesses for it from its first
-/// tag and the two bytes after it (gdcm::FileMetaInformation::ReadCompat), whatever its first
-/// group: a 665-byte file starting with group 0x0020 took GDCM 26 s and 1.09 GB (fuzz/fuzz_dicom).
-/// Returns the first element whose declared length runs past the end of the file, or "" when
-/// none does (or the file is not DICOM enough to tell: GDCM then says so). Pixel data longer than
-/// the file is not reported here: the reader refuses it as truncated, with its size.
+/// (explicit VR little endian, or implicit where GDCM reads it so: below), then the data set in its
+/// transfer syntax (implicit or explicit VR, little or big endian; a deflated one is left to GDCM),
+/// into sequences and items, past the pixel data. A file without the preamble is walked in the
+/// encoding GDCM guesses for it from its first tag and the two bytes after it
+/// (gdcm::FileMetaInformation::ReadCompat), whatever its first group: a 665-byte file starting with
+/// group 0x0020 took GDCM 26 s and 1.09 GB (fuzz/fuzz_dicom). A file meta group is read as
+/// implicit, as GDCM does, when the two bytes after its first tag are not a VR GDCM knows (GE's
+/// private syntax; "Ul" for "UL" made GDCM abort, fuzz/fuzz_dicom). Returns the first element whose
+/// declared length runs past the end of the file, or "" when none does (or the file is not DICOM
+/// enough to tell: GDCM then says so). Native little endian pixel data longer than the file is not
+/// reported here: the reader refuses it as truncated, with its size.
 ///
-/// An element whose VR GDCM does not know, in an explicit data set, makes GDCM read the data set
+/// An element whose VR GDCM does not know and is not two printable characters (GDCM reads those
+/// as UN), in an explicit data set, makes GDCM read the data set
 /// again one of two ways (gdcm::Reader): from that element on with a 2-byte length for such VRs
 /// (VR16ExplicitDataElement; the pixel data: 2 reserved bytes and a 4-byte length), and, when
 /// that fails, from the start with such elements read as implicit, their 4-byte length right
@@ -193,18 +197,41 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       value |= static_cast<std::uint32_t>(b[big ? count - 1 - i : i]) << (8 * i);
     return value;
   };
-  if (!meta) {
-    // No preamble: the encoding GDCM takes (gdcm::FileMetaInformation::ReadCompat), from the
-    // first tag read little endian and whether the two bytes after it are a VR GDCM knows.
+  // An implicit file meta group (GE's private syntax): group 0x0002's elements with no VR, a
+  // 4-byte length right after the tag.
+  bool metaImplicit = false, sawSyntax = false;
+  // A compressed (encapsulated) transfer syntax: its pixel data is read by GDCM only.
+  bool encapsulated = false;
+  {
+    // The encoding GDCM takes (gdcm::Reader, gdcm::FileMetaInformation::Read and ReadCompat),
+    // from the first tag after the preamble (or at the start of a file without one) read little
+    // endian and whether the two bytes after it are a VR GDCM knows. With the preamble, a first
+    // element (0002,0000) "UL" is read as an explicit meta group; any other first element is
+    // read again by ReadCompat, as a file without the preamble is.
+    // A file that ends inside its first element's header (a tag, less than 4 more bytes) is
+    // damaged once its first tag says it is DICOM: GDCM asserts (aborts the process) reading such
+    // a file meta group (a 7-byte file, found by fuzz/fuzz_dicom) or element header.
     unsigned char first[8] = {};
-    if (!bytes(0, 8, first))
-      return "";
+    const std::size_t available = static_cast<std::size_t>(std::min<std::uint64_t>(8, size - pos));
+    const std::string endsInMeta =
+        fmt::format("the file ends at byte {}, inside its file meta group", size);
+    if (available < 4 || !bytes(pos, available, first))
+      return meta ? endsInMeta : "";
+    const std::string endsInHeader =
+        available < 8
+            ? fmt::format("the file ends at byte {}, inside the header of an element", size)
+            : std::string();
     const std::uint32_t group = number(first, 2, false), element = number(first + 2, 2, false);
     const bool vrFollows = kVr.count(std::string(reinterpret_cast<const char*>(first + 4), 2)) > 0;
+    meta = false;
     if (group == 0x0002) {
-      if (!vrFollows)
-        return "";  // an implicit file meta group (GE's private syntax): left to GDCM
-      meta = true;  // a file meta group without the preamble
+      // A group whose first two bytes after the tag are not a VR GDCM knows is read as implicit
+      // (ReadCompatInternal): "Ul" there made GDCM take the rest of the header for a length and
+      // abort the process (found by fuzz/fuzz_dicom).
+      if (available < 8)
+        return endsInMeta;
+      meta = true;
+      metaImplicit = !vrFollows;
     } else if (group == 0x0800) {
       if (!vrFollows)
         return "";  // implicit big endian (ACR-NEMA): GDCM refuses it at once
@@ -218,6 +245,8 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
     } else {
       return "";  // GDCM refuses it at once ("Cannot find DICOM type"): not DICOM
     }
+    if (!endsInHeader.empty())
+      return endsInHeader;
   }
   // The VRs with a 2-byte length; any other VR GDCM knows (OB, SQ, UN...) has 2 reserved bytes
   // and a 4-byte length.
@@ -234,6 +263,10 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
     const std::uint32_t group = number(e, 2, big), element = number(e + 2, 2, big);
     if (meta && group != 0x0002) {
       meta = false;  // the data set, in the transfer syntax the meta group named
+      // An implicit meta group without a transfer syntax: GDCM guesses the data set's from
+      // whether a VR it knows follows the first tag (little endian either way).
+      if (metaImplicit && !sawSyntax)
+        explicitVr = kVr.count(std::string(reinterpret_cast<const char*>(e + 4), 2)) > 0;
       continue;
     }
     std::uint32_t length = 0;
@@ -254,16 +287,26 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       continue;         // an item of a sequence: its elements follow
     }
     const bool pixelData = group == 0x7fe0 && element == 0x0010;
-    if (explicitVr || meta) {
+    if (meta && metaImplicit) {
+      length = number(e + 4, 4, false);
+    } else if (explicitVr || meta) {
       vr.assign(reinterpret_cast<const char*>(e + 4), 2);
-      const bool unknownVr = !meta && kVr.count(vr) == 0;
+      // A VR GDCM does not know but of two printable characters is read as UN, 2 reserved bytes
+      // and a 4-byte length (gdcm::VR::GetVRTypeFromFile: "newly added VR"); only any other
+      // (GDCM's INVALID) makes it read the data set again the two ways above.
+      const bool otherVr = !meta && kVr.count(vr) == 0;
+      const bool printable =
+          std::all_of(vr.begin(), vr.end(), [](char c) { return c >= ' ' && c <= '~'; });
+      const bool unknownVr = otherVr && !printable;
       sawUnknownVr = sawUnknownVr || unknownVr;
       // GDCM asserts (aborts the process) on pixel data of an unknown VR whose next two bytes are
       // not zero (VR16ExplicitDataElement; found by fuzz/fuzz_dicom).
-      if (unknownVr && pixelData && (e[6] != 0 || e[7] != 0)) {
+      if (otherVr && pixelData && (e[6] != 0 || e[7] != 0)) {
         return fmt::format("the pixel data at byte {} has an unknown VR (bytes {:02x} {:02x})",
                            start, e[4], e[5]);
       }
+      if (otherVr && printable)
+        vr = "UN";
       if (unknownVr && unknownVrImplicit) {
         vr.clear();
         length = number(e + 4, 4, big);
@@ -289,6 +332,16 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
                          element, start, vr == "SQ" ? "sequence" : "value of undefined length");
     }
     pos = valueAt;
+    // An undefined length in an explicit data set only on a sequence, UN, or pixel data of OB, OW
+    // or UN: Debian's GDCM asserts (aborts the process) on any other
+    // (gdcm::ExplicitDataElement::ReadValue; found by fuzz/fuzz_dicom).
+    if (length == kUndefined && !vr.empty() && vr != "UN" &&
+        (pixelData ? vr != "OB" && vr != "OW" : vr != "SQ")) {
+      return fmt::format(
+          "element ({:04x},{:04x}) at byte {} has an undefined length, which its VR "
+          "{} cannot have",
+          group, element, start, vr);
+    }
     if (length == kUndefined) {
       if (vr == "UN")
         return "";            // a sequence in implicit VR inside an explicit one: GDCM sorts it out
@@ -296,8 +349,11 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       continue;
     }
     if (length > size - pos) {
-      if (pixelData)
-        return "";  // truncated pixel data: refused later with its sizes
+      // Native little endian pixel data cut short is refused later with its sizes, and read from
+      // the file, not by GDCM. Any other is read by GDCM, which allocates the length it declares:
+      // 4 GB for RLE pixel data of a defined length in a 908-byte file (fuzz/fuzz_dicom).
+      if (pixelData && !bigEndian && !encapsulated)
+        return "";
       return fmt::format(
           "element ({:04x},{:04x}) at byte {} claims {} bytes, but {} are left in "
           "the file",
@@ -308,10 +364,12 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       if (!bytes(pos, length, reinterpret_cast<unsigned char*>(uid.data())))
         return "";
       uid = uid.substr(0, uid.find_last_not_of(std::string(" \0", 2)) + 1);
+      sawSyntax = true;
       if (uid == "1.2.840.10008.1.2.1.99")
         return "";  // deflated: GDCM inflates it
       explicitVr = uid != "1.2.840.10008.1.2";
       bigEndian = uid == "1.2.840.10008.1.2.2";
+      encapsulated = explicitVr && !bigEndian && uid != "1.2.840.10008.1.2.1";
     }
     if (vr != "SQ")
       pos += length;  // a value; a sequence's items follow as elements

@@ -6,6 +6,7 @@
 #include "echoreg/simulation/ct.hpp"
 #include "test_support.hpp"
 
+#include <fmt/format.h>
 #include <gdcmAttribute.h>
 #include <gdcmDataElement.h>
 #include <gdcmImage.h>
@@ -27,6 +28,7 @@
 #include <iterator>
 #include <memory>
 #include <string>
+#include <tuple>
 #include <vector>
 
 namespace {
@@ -451,6 +453,25 @@ TEST_F(DicomSeriesRefusal, UnknownVrsAndCutHeadersAreWalkedAsGdcmReadsThem) {
       refusal(file),
       "unknown-vr.dcm: is a damaged DICOM file: the pixel data at byte 14 has an unknown "
       "VR (bytes 4f 58)");
+  // An undefined length on an element that is not a sequence or UN (here OW, where the fuzzer's
+  // file had turned a sequence's SQ into OW), or on pixel data of a VR other than OB, OW or UN:
+  // GDCM asserts (aborts the process) reading it (found by fuzz/fuzz_dicom, seed
+  // found-abort-undefined-length-ow-ff4628df); the same sequence as SQ is read.
+  const std::string items = le(0xfffe, 2) + le(0xe000, 2) + le(0xffffffffU, 4) + le(0xfffe, 2) +
+                            le(0xe00d, 2) + le(0, 4) + le(0xfffe, 2) + le(0xe0dd, 2) + le(0, 4);
+  for (const auto& [group, element, vr] :
+       std::vector<std::tuple<std::uint16_t, std::uint16_t, const char*>>{{0x0008, 0x9215, "OW"},
+                                                                          {0x7fe0, 0x0010, "UT"}}) {
+    write(shortElement(0x0008, 0x0060, "CS", "CT") +
+          longElementHeader(group, element, vr, 0xffffffffU) + items);
+    EXPECT_CONTAINS(refusal(file), fmt::format("unknown-vr.dcm: is a damaged DICOM file: element "
+                                               "({:04x},{:04x}) at byte 10 has an undefined "
+                                               "length, which its VR {} cannot have",
+                                               group, element, vr));
+  }
+  write(shortElement(0x0008, 0x0060, "CS", "CT") +
+        longElementHeader(0x0008, 0x9215, "SQ", 0xffffffffU) + items);
+  EXPECT_EQ(refusal(file).find("damaged"), std::string::npos) << refusal(file);
   // A file that ends after a tag, inside the rest of its element's header: GDCM asserts (aborts
   // the process) reading it (found by fuzz/fuzz_dicom, seed found-abort-header-cut-short-3e87910c).
   write(shortElement(0x0020, 0x000d, "UI", std::string("1.2.3\0", 6)) + le(0x0020, 2) +
@@ -458,6 +479,129 @@ TEST_F(DicomSeriesRefusal, UnknownVrsAndCutHeadersAreWalkedAsGdcmReadsThem) {
   EXPECT_CONTAINS(refusal(file),
                   "unknown-vr.dcm: is a damaged DICOM file: the file ends at byte 19, inside the "
                   "header of an element");
+}
+
+// GDCM reads a VR it does not know but made of two printable characters ("Xy") as UN: 2 reserved
+// bytes and a 4-byte length (gdcm::VR::GetVRTypeFromFile). The walk took such an element for one
+// of GDCM's INVALID VRs and read its length the implicit way ("Xy\0\0", 31064 bytes), so a file
+// GDCM reads was skipped as damaged; now it is walked as UN, and a UN length beyond the file is
+// refused before GDCM allocates it.
+TEST_F(DicomSeriesRefusal, APrintableUnknownVrIsWalkedAsUn) {
+  for (int k = 0; k < 6; ++k) {
+    std::string bytes;
+    {
+      std::ifstream in(path(k), std::ios::binary);
+      bytes.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    const std::size_t at = bytes.find(std::string("\x08\x00\x3e\x10LO", 6));
+    ASSERT_NE(at, std::string::npos);
+    bytes.insert(at, longElementHeader(0x0008, 0x103d, "Xy", 2) + "AB");
+    std::ofstream(path(k), std::ios::binary | std::ios::trunc) << bytes;
+  }
+  const DicomSeriesRead read = readDicomSeriesWithWarnings(folder_, {});
+  EXPECT_TRUE(read.image.hu == volume_.hu);
+  EXPECT_TRUE(read.warnings.empty()) << read.warnings.front();
+
+  const std::string file = dir_.file("printable-vr.dcm");
+  std::ofstream(file, std::ios::binary | std::ios::trunc)
+      << shortElement(0x0020, 0x000d, "UI", std::string("1.2.3\0", 6)) +
+             longElementHeader(0x0021, 0x1010, "Xy", 1U << 28) + "abcd";
+  EXPECT_CONTAINS(refusal(file),
+                  "printable-vr.dcm: is a damaged DICOM file: element (0021,1010) at byte 14 "
+                  "claims 268435456 bytes, but 4 are left in the file");
+}
+
+// Found by fuzz/fuzz_dicom: RLE pixel data of a defined length, 0xffff00ff bytes in a 908-byte
+// file, passed the walk (pixel data longer than the file was left to the reader's size check,
+// which only native pixel data has) and GDCM allocated 4 GB decoding it (33 s, 4.2 GB). Pixel
+// data that GDCM reads itself (compressed, or big endian) and claims more than the file is now
+// damaged; native little endian pixel data cut short is still refused with its sizes.
+TEST_F(DicomSeriesRefusal, CompressedPixelDataLongerThanTheFileIsNotAllocated) {
+  const std::string file = dir_.file("rle.dcm");
+  for (const char* syntax : {"1.2.840.10008.1.2.5", "1.2.840.10008.1.2.2"}) {
+    std::string uid(syntax);
+    uid += std::string(uid.size() % 2, '\0');
+    const std::string metaRest = shortElement(0x0002, 0x0010, "UI", uid);
+    const bool big = std::string(syntax) == "1.2.840.10008.1.2.2";
+    // Big endian: the data set's tags and lengths byte-swapped.
+    const std::string pixelHeader = big ? std::string("\x7f\xe0\x00\x10OB\0\0\xff\xff\x00\xff", 12)
+                                        : longElementHeader(0x7fe0, 0x0010, "OB", 0xffff00ffU);
+    std::ofstream(file, std::ios::binary | std::ios::trunc)
+        << std::string(128, '\0') + "DICM" +
+               shortElement(0x0002, 0x0000, "UL",
+                            le(static_cast<std::uint32_t>(metaRest.size()), 4)) +
+               metaRest + pixelHeader + "abcd";
+    const std::size_t at = 144 + metaRest.size();
+    EXPECT_CONTAINS(refusal(file),
+                    "rle.dcm: is a damaged DICOM file: element (7fe0,0010) at byte " +
+                        std::to_string(at) +
+                        " claims 4294902015 bytes, but 4 are left in the file");
+  }
+  struct rusage usage {};
+  getrusage(RUSAGE_SELF, &usage);
+  EXPECT_LT(usage.ru_maxrss, 1000L * 1024L) << "peak kB: the declared length was allocated";
+}
+
+// Found by fuzz/fuzz_dicom: a file meta group whose first element's VR GDCM does not know ("Ul"
+// for "UL") is read by GDCM as an implicit meta group (GE's private syntax), its 4-byte length
+// right after the tag: "Ul" and the 2-byte length were taken for 289877 bytes, and Debian's GDCM
+// aborted the process reading them (the walk had taken the group as explicit). The walk reads
+// the group as GDCM does: that file is damaged, a well-formed implicit meta group is read as
+// before, one that claims more than the file or ends the file is damaged.
+TEST_F(DicomSeriesRefusal, AFileMetaGroupIsWalkedImplicitWhereGdcmReadsItSo) {
+  const std::string file = dir_.file("implicit-meta.dcm");
+  const auto write = [&](const std::string& bytes) {
+    std::ofstream(file, std::ios::binary | std::ios::trunc) << bytes;
+  };
+  const std::string preamble = std::string(128, '\0') + "DICM";
+  const std::string syntax("1.2.840.10008.1.2.1\0", 20);
+  const std::string dataSet = shortElement(0x0008, 0x0060, "CS", "CT");
+  // The fuzzer's file: (0002,0000) "Ul", read as implicit.
+  write(preamble + shortElement(0x0002, 0x0000, "Ul", le(28, 4)) +
+        shortElement(0x0002, 0x0010, "UI", syntax) + dataSet);
+  EXPECT_CONTAINS(refusal(file),
+                  "implicit-meta.dcm: is a damaged DICOM file: element (0002,0000) at byte 132 "
+                  "claims 289877 bytes, but 42 are left in the file");
+  // An implicit meta group whose element claims more than the file holds.
+  write(preamble + le(0x0002, 2) + le(0x0000, 2) + le(4, 4) + le(8, 4) + le(0x0002, 2) +
+        le(0x0010, 2) + le(1000, 4) + "1.2");
+  EXPECT_CONTAINS(refusal(file),
+                  "implicit-meta.dcm: is a damaged DICOM file: element (0002,0010) at byte 144 "
+                  "claims 1000 bytes, but 3 are left in the file");
+  // An implicit meta group that ends the file: GDCM aborts reading the next tag.
+  write(preamble + le(0x0002, 2) + le(0x0010, 2) + le(20, 4) + syntax);
+  EXPECT_CONTAINS(refusal(file),
+                  "implicit-meta.dcm: is a damaged DICOM file: the file ends at byte 160, inside "
+                  "its file meta group");
+
+  // A good series whose files' meta groups are rewritten implicit (GE's private syntax) is
+  // walked without a word and read as before.
+  for (int k = 0; k < 6; ++k) {
+    std::string bytes;
+    {
+      std::ifstream in(path(k), std::ios::binary);
+      bytes.assign(std::istreambuf_iterator<char>(in), {});
+    }
+    ASSERT_EQ(bytes.compare(128, 4, "DICM"), 0);
+    std::string implicitMeta;
+    std::size_t at = 132;
+    while (at + 8 <= bytes.size() && bytes[at] == 0x02 && bytes[at + 1] == 0) {
+      const std::string vr = bytes.substr(at + 4, 2);
+      const bool longVr = vr == "OB" || vr == "UN" || vr == "UT" || vr == "UC" || vr == "UR";
+      std::size_t length = 0, value = at + (longVr ? 12 : 8);
+      for (int i = longVr ? 3 : 1; i >= 0; --i)
+        length = length << 8 | static_cast<unsigned char>(bytes[at + (longVr ? 8 : 6) + i]);
+      implicitMeta += bytes.substr(at, 4) + le(static_cast<std::uint32_t>(length), 4) +
+                      bytes.substr(value, length);
+      at = value + length;
+    }
+    ASSERT_GT(implicitMeta.size(), 40U);
+    std::ofstream(path(k), std::ios::binary | std::ios::trunc)
+        << bytes.substr(0, 132) + implicitMeta + bytes.substr(at);
+  }
+  const DicomSeriesRead read = readDicomSeriesWithWarnings(folder_, {});
+  EXPECT_TRUE(read.image.hu == volume_.hu);
+  EXPECT_TRUE(read.warnings.empty()) << read.warnings.front();
 }
 
 // Found by fuzz/fuzz_dicom: a 665-byte file with no preamble whose first element is of group
@@ -494,6 +638,18 @@ TEST_F(DicomSeriesRefusal, AFileWithoutPreambleIsWalkedWhateverItsFirstGroup) {
   // Text that GDCM takes for no DICOM at all is still said to be not DICOM, not damaged.
   write("frame,timestamp,depth_mm\n0,0.0,12.5\n");
   EXPECT_CONTAINS(refusal(file), "no-preamble.dcm: is not a DICOM file");
+  write("abcdef");
+  EXPECT_CONTAINS(refusal(file), "no-preamble.dcm: is not a DICOM file");
+  // Files shorter than one element's header whose first tag is DICOM's: Debian's GDCM asserts
+  // (aborts the process) reading them (the first found by fuzz/fuzz_dicom, 7 bytes).
+  write(le(0x0002, 2) + le(0x0000, 2) + std::string("\x02\x20\x02", 3));
+  EXPECT_CONTAINS(refusal(file),
+                  "no-preamble.dcm: is a damaged DICOM file: the file ends at byte 7, inside its "
+                  "file meta group");
+  write(le(0x0008, 2) + le(0x0060, 2) + "CS");
+  EXPECT_CONTAINS(refusal(file),
+                  "no-preamble.dcm: is a damaged DICOM file: the file ends at byte 6, inside the "
+                  "header of an element");
 
   // And a good series whose files have lost their preamble is walked without a word and read as
   // before (the walk starts at the file meta group).
