@@ -7,24 +7,13 @@
 # Usage: mesh_io_module.sh ECHOREG MODULE CAPTURE STUDY WORKDIR (STUDY: a simulated study)
 set -eu
 echoreg=$1 module=$2 capture=$3 study=$4 work=$5
-fail() { echo "FAIL: $*" >&2; exit 1; }
+. "$(dirname "$0")/../support/module_process.sh"
 
 rm -rf "$work" && mkdir -p "$work" && cd "$work"
 
-loads() {  # loads LIBRARY LOGFILE: whether the process logged in LOGFILE opened LIBRARY
-  grep -q "calling init: .*/$1" "$2"
-}
-
 # Commands that read and write no mesh.
-LD_DEBUG=libs "$echoreg" --version > version.out 2> version.libs || fail "echoreg --version failed"
-LD_DEBUG=libs "$echoreg" detect "$capture" --out detect.csv > detect.out 2> detect.libs ||
-  fail "echoreg detect failed: $(grep -v '^ *[0-9]*:' detect.libs)"
-for log in version.libs detect.libs; do
-  for library in libvtkIOXML- libvtkIOGeometry libvtkIOPLY libvtkIOImage libpng libtiff \
-    libechoreg_mesh_io; do
-    if loads "$library" "$log"; then fail "${log%.libs} loaded $library"; fi
-  done
-done
+never_loaded_by_version_and_detect "$echoreg" "$capture" libvtkIOXML- libvtkIOGeometry libvtkIOPLY \
+  libvtkIOImage libpng libtiff libechoreg_mesh_io
 
 # register reads its model (the module loads), then stops at the points file that is not there.
 register() {  # register ECHOREG: the run's exit status; stderr in register.err

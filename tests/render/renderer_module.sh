@@ -8,25 +8,15 @@
 # Usage: renderer_module.sh ECHOREG MODULE CAPTURE WORKDIR
 set -eu
 echoreg=$1 module=$2 capture=$3 work=$4
-fail() { echo "FAIL: $*" >&2; exit 1; }
+. "$(dirname "$0")/../support/module_process.sh"
 
 rm -rf "$work" && mkdir -p "$work" && cd "$work"
 printf 'estimate,error_mm\na,0.24\nb,0.31\nc,0.18\nd,0.45\n' > a.csv
 printf 'estimate,error_mm\na,0.52\nb,0.61\nc,0.47\nd,0.70\n' > b.csv
 
-loads() {  # loads LIBRARY LOGFILE: whether the process logged in LOGFILE opened LIBRARY
-  grep -q "calling init: .*/$1" "$2"
-}
-
 # Commands that draw nothing.
-LD_DEBUG=libs "$echoreg" --version > version.out 2> version.libs || fail "echoreg --version failed"
-LD_DEBUG=libs "$echoreg" detect "$capture" --out detect.csv > detect.out 2> detect.libs ||
-  fail "echoreg detect failed: $(grep -v '^ *[0-9]*:' detect.libs)"
-for log in version.libs detect.libs; do
-  for library in libOSMesa libLLVM libGLX libvtkRenderingOpenGL2 libechoreg_render_gl; do
-    if loads "$library" "$log"; then fail "${log%.libs} loaded $library"; fi
-  done
-done
+never_loaded_by_version_and_detect "$echoreg" "$capture" libOSMesa libLLVM libGLX \
+  libvtkRenderingOpenGL2 libechoreg_render_gl
 
 # A figure loads the module, and OSMesa with it.
 LD_DEBUG=libs "$echoreg" figure boxplot --group A=a.csv --group B=b.csv --out box.png \

@@ -7,23 +7,13 @@
 # Usage: dicom_module.sh ECHOREG MODULE CAPTURE SERIES WORKDIR
 set -eu
 echoreg=$1 module=$2 capture=$3 series=$4 work=$5
-fail() { echo "FAIL: $*" >&2; exit 1; }
+. "$(dirname "$0")/../support/module_process.sh"
 
 rm -rf "$work" && mkdir -p "$work" && cd "$work"
 
-loads() {  # loads LIBRARY LOGFILE: whether the process logged in LOGFILE opened LIBRARY
-  grep -q "calling init: .*/$1" "$2"
-}
-
 # Commands that read no DICOM.
-LD_DEBUG=libs "$echoreg" --version > version.out 2> version.libs || fail "echoreg --version failed"
-LD_DEBUG=libs "$echoreg" detect "$capture" --out detect.csv > detect.out 2> detect.libs ||
-  fail "echoreg detect failed: $(grep -v '^ *[0-9]*:' detect.libs)"
-for log in version.libs detect.libs; do
-  for library in libgdcmMSFF libgdcmDSED libgdcmCommon libechoreg_dicom; do
-    if loads "$library" "$log"; then fail "${log%.libs} loaded $library"; fi
-  done
-done
+never_loaded_by_version_and_detect "$echoreg" "$capture" libgdcmMSFF libgdcmDSED libgdcmCommon \
+  libechoreg_dicom
 
 # Reading a CT loads the module, and GDCM with it.
 LD_DEBUG=libs "$echoreg" info "$series" --json > info.json 2> info.libs ||
