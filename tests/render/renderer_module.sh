@@ -29,15 +29,9 @@ loads libOSMesa figure.libs || fail "figure boxplot did not load libOSMesa"
 mkdir -p prefix/bin prefix/lib/echoreg
 cp "$echoreg" prefix/bin/echoreg
 "$work/prefix/bin/echoreg" --version > /dev/null || fail "the copied echoreg does not start"
-if "$work/prefix/bin/echoreg" figure boxplot --group A=a.csv --group B=b.csv --out missing.png \
-  > missing.out 2> missing.err; then
-  fail "figure boxplot succeeded without the module"
-else
-  status=$?
-fi
-[ "$status" -eq 1 ] || fail "figure boxplot without the module exited $status, not 1"
-grep -q "$work/prefix/lib/echoreg/$(basename "$module")" missing.err ||
-  fail "the error does not name the module's path: $(cat missing.err)"
+exits_1_naming "$work/prefix/lib/echoreg/$(basename "$module")" \
+  "figure boxplot without the module" missing.err \
+  "$work/prefix/bin/echoreg" figure boxplot --group A=a.csv --group B=b.csv --out missing.png
 [ ! -e missing.png ] || fail "missing.png written without the module"
 cp "$module" prefix/lib/echoreg/
 "$work/prefix/bin/echoreg" figure boxplot --group A=a.csv --group B=b.csv --out installed.png \

@@ -23,29 +23,14 @@ loads libgdcmMSFF info.libs || fail "info on the CT did not load GDCM"
 grep -q '"series_instance_uid"' info.json || fail "info on the CT printed no series: $(cat info.json)"
 
 # The installed layout: PREFIX/bin/echoreg finds PREFIX/lib/echoreg/ and reads the same series.
-mkdir -p prefix/bin prefix/lib/echoreg
-cp "$echoreg" prefix/bin/echoreg
-"$work/prefix/bin/echoreg" detect "$capture" --out detect-installed.csv > /dev/null 2>&1 ||
-  fail "detect needs the DICOM module"
-cmp -s detect.csv detect-installed.csv || fail "detect without the module wrote other bytes"
-if "$work/prefix/bin/echoreg" info "$series" --json > missing.out 2> missing.err; then
-  fail "info on the CT succeeded without the module"
-else
-  status=$?
-fi
-[ "$status" -eq 1 ] || fail "info on the CT without the module exited $status, not 1"
-grep -q "$work/prefix/lib/echoreg/$(basename "$module")" missing.err ||
-  fail "the error does not name the module's path: $(cat missing.err)"
+installed_layout "$echoreg"
+installed="$work/prefix/lib/echoreg/$(basename "$module")"
+exits_1_naming "$installed" "info on the CT without the module" missing.err \
+  "$work/prefix/bin/echoreg" info "$series" --json
 # A file in its place that is not the module.
-echo "not a shared object" > "prefix/lib/echoreg/$(basename "$module")"
-if "$work/prefix/bin/echoreg" info "$series" --json > foreign.out 2> foreign.err; then
-  fail "info on the CT succeeded with a text file as the module"
-else
-  status=$?
-fi
-[ "$status" -eq 1 ] || fail "info on the CT with a text file as the module exited $status, not 1"
-grep -q "$work/prefix/lib/echoreg/$(basename "$module")" foreign.err ||
-  fail "the error does not name the module's path: $(cat foreign.err)"
+echo "not a shared object" > "$installed"
+exits_1_naming "$installed" "info on the CT with a text file as the module" foreign.err \
+  "$work/prefix/bin/echoreg" info "$series" --json
 cp "$module" prefix/lib/echoreg/
 "$work/prefix/bin/echoreg" info "$series" --json > installed.json 2> installed.err ||
   fail "the installed layout failed: $(cat installed.err)"

@@ -23,3 +23,25 @@ never_loaded_by_version_and_detect() {
     done
   done
 }
+
+# installed_layout ECHOREG: ./prefix/bin/echoreg, a copy of ECHOREG, and an empty
+# ./prefix/lib/echoreg; detect runs there without the module and writes detect.csv's bytes.
+installed_layout() {
+  mkdir -p prefix/bin prefix/lib/echoreg
+  cp "$1" prefix/bin/echoreg
+  "$PWD/prefix/bin/echoreg" detect "$capture" --out detect-installed.csv > /dev/null 2>&1 ||
+    fail "detect needs the module"
+  cmp -s detect.csv detect-installed.csv || fail "detect without the module wrote other bytes"
+}
+
+# exits_1_naming PATH WHAT ERRFILE COMMAND...: COMMAND fails with exit 1 and its stderr (kept in
+# ERRFILE) names PATH, the module it looked for.
+exits_1_naming() {
+  _path=$1 _what=$2 _err=$3
+  shift 3
+  _status=0
+  "$@" > /dev/null 2> "$_err" || _status=$?
+  [ "$_status" -ne 0 ] || fail "$_what succeeded"
+  [ "$_status" -eq 1 ] || fail "$_what exited $_status, not 1"
+  grep -q "$_path" "$_err" || fail "the error does not name the module's path: $(cat "$_err")"
+}
