@@ -178,6 +178,9 @@ class LiveSession {
   // gave up, was interrupted or --duration passed.
   bool reconnect(const std::string& why, const std::atomic<bool>* stop);
   void sendBack(const live::Packet& packet);
+  // After the results' receiver (--send-to) closed the connection: connects to it again, at most
+  // once a second unless `now` (the session's final registration); true when connected.
+  bool reconnectResults(bool now);
   void progress(bool last);
   void note(const std::string& text) { io_.err << "echoreg live: " << text << "\n"; }
   nlohmann::json summary() const;
@@ -203,6 +206,9 @@ class LiveSession {
   double disconnectedSeconds_ = 0.0;
   std::optional<live::Connection> results_;
   bool resultsBroken_ = false;
+  bool resultsClosed_ = false;  // the --send-to receiver went away (not: stopped reading)
+  int resultsReconnections_ = 0;
+  Clock::time_point lastResultsAttempt_;  // the first attempt after a close is at once
   live::PoseBuffer poses_;
   Sequence layout_;
   bool haveCaptureHeader_ = false;
@@ -232,18 +238,49 @@ class LiveSession {
 };
 
 void LiveSession::sendBack(const live::Packet& packet) {
-  if (resultsBroken_)
+  if (resultsBroken_ && !reconnectResults(false))
     return;
-  live::Connection& target = results_ ? *results_ : *connection_;
+  live::Connection& target = o_.sendTo.empty() ? *connection_ : *results_;
   try {
     target.send(packet, o_.sendTimeoutS, &interruptRequested());
-  } catch (const live::ConnectionClosed& e) {
+  } catch (const live::SendTimedOut& e) {
     resultsBroken_ = true;
     note(
         fmt::format("warning: sending to the results' receiver failed: {}; nothing more is sent "
                     "back, the session goes on",
                     e.what()));
+  } catch (const live::ConnectionClosed& e) {
+    resultsBroken_ = true;
+    // A --send-to receiver that closed (Slicer's connector switched off and on, a receiver that
+    // takes a fixed number of messages per connection) is connected to again; one that stopped
+    // reading is not (each attempt would wait --send-timeout). Back to the server, the stream's
+    // own reconnection decides.
+    resultsClosed_ = results_.has_value() && !interruptRequested().load();
+    results_.reset();
+    note(fmt::format("warning: sending to the results' receiver failed: {}; {}", e.what(),
+                     resultsClosed_ ? "live connects to it again (at most once a second) and "
+                                      "then sends the next update; the session goes on"
+                                    : "nothing more is sent back, the session goes on"));
   }
+}
+
+bool LiveSession::reconnectResults(bool now) {
+  if (!resultsClosed_ || o_.sendTo.empty() || interruptRequested().load())
+    return false;
+  if (!now && Clock::now() - lastResultsAttempt_ < std::chrono::seconds(1))
+    return false;
+  lastResultsAttempt_ = Clock::now();
+  try {
+    const auto [host, port] = hostAndPort(o_.sendTo, "--send-to");
+    results_ = live::Connection::connect(host, port, 0.0, &interruptRequested());
+  } catch (const std::exception&) {
+    return false;  // not there (yet): the next message tries again after a second
+  }
+  resultsBroken_ = false;
+  resultsClosed_ = false;
+  ++resultsReconnections_;
+  note(fmt::format("connected again to the results' receiver {}", results_->peer()));
+  return true;
 }
 
 void LiveSession::onDecided(const std::vector<live::LiveFrame>& frames, bool waited) {
@@ -507,6 +544,7 @@ nlohmann::json LiveSession::summary() const {
                          {"registration_rate_hz", rate.hz},
                          {"registration_longest_fit_s", rate.longestFitS},
                          {"reconnections", reconnections_},
+                         {"results_reconnections", resultsReconnections_},
                          {"disconnected_seconds", disconnectedSeconds_},
                          {"seconds", seconds},
                          {"stream_seconds", streamSeconds_},
@@ -679,7 +717,7 @@ int LiveSession::run() {
       reader = live::MessageReader(static_cast<std::size_t>(o_.maxMessageMb * 1024.0 * 1024.0));
       frameMetadata_.reset();
       poses_ = live::PoseBuffer(o_.poseToleranceS);
-      if (!results_)
+      if (o_.sendTo.empty())
         resultsBroken_ = false;
       lastMessage = Clock::now();
       continue;
@@ -720,7 +758,9 @@ int LiveSession::run() {
   // sent to a results' receiver (--send-to) that is still there: its last FemurToCT is the
   // session's result, not whichever update last converged while the stream ran.
   if (std::optional<live::RegistrationUpdate> update = registration_->finish()) {
-    if (results_) {
+    if (!o_.sendTo.empty()) {
+      if (resultsBroken_)
+        reconnectResults(true);
       sendUpdate(std::move(update));
     } else {
       ++updates_;

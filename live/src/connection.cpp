@@ -4,6 +4,7 @@
 #include <fmt/format.h>
 
 #include <arpa/inet.h>
+#include <fcntl.h>
 #include <netdb.h>
 #include <netinet/in.h>
 #include <netinet/tcp.h>
@@ -11,6 +12,7 @@
 #include <sys/socket.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cstring>
@@ -51,6 +53,44 @@ sockaddr_in resolve(const std::string& host, int port) {
   return address;
 }
 
+// One connection attempt that waits at most `waitS` (at least one poll slice) for the peer's
+// answer, looking at `stop`: a blocking connect() to a host that does not answer would wait
+// for the kernel's SYN timeout (minutes). Leaves the socket blocking again. Sets `error`.
+bool connectWithin(int socket, const sockaddr_in& address, double waitS,
+                   const std::atomic<bool>* stop, std::string& error) {
+  const int flags = ::fcntl(socket, F_GETFL, 0);
+  ::fcntl(socket, F_SETFL, flags | O_NONBLOCK);
+  bool connected =
+      ::connect(socket, reinterpret_cast<const sockaddr*>(&address), sizeof(address)) == 0;
+  if (!connected && errno != EINPROGRESS) {
+    error = std::strerror(errno);
+    return false;
+  }
+  const Clock::time_point start = Clock::now();
+  while (!connected) {
+    pollfd descriptor{socket, POLLOUT, 0};
+    const int ready = ::poll(&descriptor, 1, kPollSliceMs);
+    if (ready > 0) {
+      int code = 0;
+      socklen_t length = sizeof(code);
+      ::getsockopt(socket, SOL_SOCKET, SO_ERROR, &code, &length);
+      if (code != 0) {
+        error = std::strerror(code);
+        return false;
+      }
+      connected = true;
+    } else if (ready < 0 && errno != EINTR) {
+      error = std::strerror(errno);
+      return false;
+    } else if (stopped(stop) || secondsSince(start) >= waitS) {
+      error = "no answer";
+      return false;
+    }
+  }
+  ::fcntl(socket, F_SETFL, flags);
+  return true;
+}
+
 void lowLatency(int socket) {
   const int on = 1;
   ::setsockopt(socket, IPPROTO_TCP, TCP_NODELAY, &on, sizeof(on));
@@ -84,11 +124,12 @@ Connection Connection::connect(const std::string& host, int port, double timeout
     const int socket = ::socket(AF_INET, SOCK_STREAM, 0);
     if (socket < 0)
       throw std::runtime_error(fmt::format("cannot create a socket: {}", std::strerror(errno)));
-    if (::connect(socket, reinterpret_cast<const sockaddr*>(&address), sizeof(address)) == 0) {
+    // Each attempt waits for an answer at most until the timeout (and at least 0.2 s).
+    if (connectWithin(socket, address, std::max(0.2, timeoutS - secondsSince(start)), stop,
+                      lastError)) {
       lowLatency(socket);
       return Connection(socket);
     }
-    lastError = std::strerror(errno);
     ::close(socket);
     if (secondsSince(start) >= timeoutS) {
       throw std::runtime_error(fmt::format("no OpenIGTLink server at {}:{} within {} s ({})", host,
@@ -118,7 +159,7 @@ void Connection::send(const Packet& packet, double timeoutS, const std::atomic<b
     if (stopped(stop))
       throw ConnectionClosed("stopped while sending");
     if (timeoutS >= 0.0 && secondsSince(lastProgress) >= timeoutS) {
-      throw ConnectionClosed(fmt::format(
+      throw SendTimedOut(fmt::format(
           "the peer read nothing for {} s (its socket is full; {} of {} bytes of a message sent)",
           timeoutS, sent, packet.size()));
     }

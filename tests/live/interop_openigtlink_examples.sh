@@ -83,14 +83,31 @@ sleep 0.5
 live2=$?
 echo "  live exit $live2"
 wait %2 2>/dev/null
-sleep 0.5
+# ReceiveServer takes 100 messages per connection and then drops it; live connects again, so
+# its last messages (the final registration on every point) reach the third or so connection.
+# Wait until the receiver's output stops growing (at most 10 s) before stopping it.
+size=-1
+for _ in $(seq 20); do
+  now=$(stat -c %s receiver.out)
+  [ "$now" = "$size" ] && break
+  size=$now
+  sleep 0.5
+done
 kill $receiver 2>/dev/null
 for type in TRANSFORM POINT STRING; do
   echo "  $type parsed: $(grep -c "Receiving $type data type" receiver.out)"
 done
 echo "  CRC failures reported: $(grep -ci "crc" receiver.out)"
 cat live2.out
+grep "results' receiver" live2.err | sed 's/^/  /'
 check "live ended cleanly" test "$live2" = 0
+check "live connected again when ReceiveServer dropped it after 100 messages" \
+  grep -q "connected again to the results' receiver" live2.err
+accepted=$(sed -n 's/.*; \([0-9]*\) echoes accepted live.*/\1/p' live2.out)
+last_status=$(grep -A1 "Receiving STRING data type" receiver.out | tail -1)
+echo "  last status received: $last_status"
+check "ReceiveServer's last status is live's final fit, converged on all ${accepted:-?} points" \
+  grep -q "mm, converged, ${accepted:-x} points" <<< "$last_status"
 for type in TRANSFORM POINT STRING; do
   check "ReceiveServer parsed $type messages" \
     test "$(grep -c "Receiving $type data type" receiver.out)" -gt 0

@@ -14,12 +14,14 @@
 #include "echoreg/live/igtl_messages.hpp"
 #include "echoreg/live/stream_metadata.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
 #include <chrono>
 #include <csignal>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -551,6 +553,80 @@ TEST_F(LiveSession, AShadowRuleMeasuredAgainIsSaidAndTheResultIsRegisters) {
   EXPECT_EQ(session.at("accepted"), accepted);
   EXPECT_EQ(byLive.extra.at("ultrasound_points"), accepted);
   EXPECT_LT((byLive.matrix - byRegister.matrix).cwiseAbs().maxCoeff(), 1e-6);
+}
+
+// A results' receiver that takes a fixed number of messages per connection and then drops it
+// (OpenIGTLink's ReceiveServer example takes 100), twice: live connects to it again and goes on
+// sending, so the session's final update arrives, on the third connection. (Before, live sent
+// nothing more after the first drop, and whether the receiver ever saw a FemurToCT depended on how
+// many updates happened to come before the drop.)
+TEST_F(LiveSession, AResultsReceiverThatClosesIsConnectedToAgainAndGetsTheFinalUpdate) {
+  const Sequence s = sweep(300);
+  const int port = freePort();
+  const int resultsPort = freePort();
+  auto server = fakeServer(port, [&](Connection& c) {
+    c.send(encodeString(kCaptureHeaderName, captureHeaderJson(s), 10.0));
+    for (std::size_t f = 0; f < 300; ++f)
+      sendFrame(c, s, f);
+  });
+  constexpr int kPerConnection = 10;
+  std::atomic<bool> done{false};
+  auto receiver = std::async(std::launch::async, [&] {
+    Listener listener("127.0.0.1", resultsPort);
+    std::vector<std::vector<Message>> connections;
+    const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+    while (std::chrono::steady_clock::now() < deadline) {
+      std::optional<Connection> c = listener.accept(0.2, &done);
+      if (!c) {
+        if (done.load())
+          break;
+        continue;
+      }
+      connections.emplace_back();
+      MessageReader reader(std::size_t{1} << 24);
+      try {
+        const std::size_t limit = connections.size() <= 2 ? kPerConnection : SIZE_MAX;
+        while (connections.back().size() < limit) {
+          std::optional<MessageReader::Received> got = reader.next(*c, 5.0, nullptr);
+          if (!got)
+            break;
+          if (got->message)
+            connections.back().push_back(*got->message);
+        }
+      } catch (const ConnectionClosed&) {
+      }
+    }
+    return connections;
+  });
+  const CommandResult live = runEchoreg(liveArgs(
+      port, {"--send-to", "127.0.0.1:" + std::to_string(resultsPort), "--min-points", "5"}));
+  server.get();
+  // What live sent last has been read once the receiver's last connection is quiet.
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));
+  done = true;
+  const std::vector<std::vector<Message>> connections = receiver.get();
+  const nlohmann::json session = this->session();
+  ASSERT_GE(session.at("accepted").get<int>(), 3 * kPerConnection) << live.err;
+  ASSERT_EQ(connections.size(), 3U) << live.err;
+  EXPECT_EQ(session.at("results_reconnections"), 2);
+  EXPECT_NE(live.err.find("live connects to it again (at most once a second)"), std::string::npos)
+      << live.err;
+  EXPECT_NE(live.err.find("connected again to the results' receiver"), std::string::npos)
+      << live.err;
+  // The first two connections were filled; the last one ends with the final update: the status
+  // of the fit on every point and the cloud of all of them.
+  EXPECT_EQ(connections[0].size(), static_cast<std::size_t>(kPerConnection));
+  EXPECT_EQ(connections[1].size(), static_cast<std::size_t>(kPerConnection));
+  const std::vector<Message>& last = connections.back();
+  ASSERT_GE(last.size(), 2U);
+  const Message& status = last[last.size() - 2];
+  const Message& cloud = last.back();
+  EXPECT_EQ(status.header.deviceName, "FemurStatus");
+  EXPECT_NE(status.text.find(fmt::format("{} points", session.at("accepted").get<int>())),
+            std::string::npos)
+      << status.text;
+  EXPECT_EQ(cloud.header.deviceName, "FemurPoints");
+  EXPECT_EQ(cloud.points.size(), session.at("accepted").get<std::size_t>());
 }
 
 TEST_F(LiveSession, SigintEndsTheSessionCleanly) {

@@ -19,6 +19,12 @@ class ConnectionClosed : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
+/// The peer is connected but took no byte for the send's timeout (its socket stayed full).
+class SendTimedOut : public ConnectionClosed {
+ public:
+  using ConnectionClosed::ConnectionClosed;
+};
+
 /// One connected stream. Move-only; closes on destruction.
 class Connection {
  public:
@@ -29,15 +35,17 @@ class Connection {
   Connection(const Connection&) = delete;
   Connection& operator=(const Connection&) = delete;
 
-  /// Connects to host:port, retrying until `timeoutS` has passed (a server that is starting).
-  /// Throws std::runtime_error naming host and port when no connection was made, and
-  /// ConnectionClosed when `stop` was set meanwhile.
+  /// Connects to host:port, retrying until `timeoutS` has passed (a server that is starting);
+  /// an attempt waits for a host that does not answer at most until then (at least 0.2 s). Throws
+  /// std::runtime_error naming host and port when no connection was made, and ConnectionClosed when
+  /// `stop` was set meanwhile.
   static Connection connect(const std::string& host, int port, double timeoutS,
                             const std::atomic<bool>* stop = nullptr);
 
-  /// Sends every byte; throws ConnectionClosed when the peer has gone, when `stop` is set while
-  /// the socket is full, or when `timeoutS` (>= 0) passes without the peer taking a byte (a peer
-  /// that does not read). A negative timeout waits as long as the peer is connected.
+  /// Sends every byte; throws ConnectionClosed when the peer has gone or when `stop` is set while
+  /// the socket is full, and SendTimedOut (a ConnectionClosed) when `timeoutS` (>= 0) passes
+  /// without the peer taking a byte (a peer that does not read). A negative timeout waits as long
+  /// as the peer is connected.
   void send(const Packet& packet, double timeoutS = -1.0, const std::atomic<bool>* stop = nullptr);
 
   /// Reads exactly `count` bytes. Returns false when `stop` was set or `idleTimeoutS` passed
