@@ -132,6 +132,36 @@ TEST(CliDetect, AgilentDepthsAgreeWithPlusWithTheAcquisitionFactsOnly) {
   EXPECT_EQ(within, 130);
 }
 
+// The defaults with nothing given but the file (the header's own sampling frequency): the echoes
+// accepted are PLUS's reflector, not the weaker echo 0.3 mm behind it. Before the per-record rule
+// took the stronger echo above its pick (innerEchoRatio), none of the 21 accepted frames was
+// within 28 samples (0.05 mm at PLUS's 420 MHz and 1480 m/s) of PLUS's depth; now 17 are.
+TEST(CliDetect, AgilentDefaultsPickPlusReflectorNotTheEchoBehindIt) {
+  ECHOREG_REQUIRE_SHARED_FILE(capture, "plus/Agilent_Scope_Recording_DP310.igs.nrrd");
+  test::TempDir dir;
+  const std::string csv = dir.file("agilent.csv");
+  const auto result = runEchoreg({"detect", capture, "--out", csv});
+  ASSERT_EQ(result.exitCode, 0) << result.err;
+  const Sequence plus = readSequence(capture);
+  const auto rows = readCsv(csv);
+  ASSERT_EQ(rows.size(), 150U);
+  int accepted = 0, within = 0;
+  for (int f = 0; f < 130; ++f) {
+    const auto& row = rows[static_cast<std::size_t>(f)];
+    if (row["status"] != "accepted")
+      continue;
+    ++accepted;
+    // PLUS's depth as a sample index with its device file's facts: 420 MHz, 2 us, 1480 m/s.
+    const double theirsMm =
+        plus.frames[static_cast<std::size_t>(f)].transforms.at("ZOffsetToTracker").matrix(2, 3);
+    const double theirs = (theirsMm * 2.0 / 1480e3 - 2e-6) * 420e6;
+    if (std::fabs(std::stod(row["sample_index"]) - theirs) <= 28.0)
+      ++within;
+  }
+  EXPECT_GE(accepted, 15);
+  EXPECT_GE(5 * within, 4 * accepted) << within << " of " << accepted;
+}
+
 TEST(CliDetect, DemoSweepGivesSpreadConsistentPointsAndSaysWhyFramesWereRejected) {
   test::TempDir dir;
   const std::string capture = dir.file("sweep.igs.mha");

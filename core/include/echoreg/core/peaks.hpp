@@ -159,9 +159,10 @@ struct ProminenceParams {
   /// Ringing counts only for an echo this many times the median before it (>= 1): bone is 20 dB
   /// and more above the speckle, while speckle maxima and the skin ring no more than tissue does.
   double ringingContrast = 6.0;
-  /// With the shadow required: an echo this many times stronger than the chosen one, within the
-  /// bone region above it, is the bone and the chosen one its inner cortex or first bounce
-  /// (>= 1; 0 turns the test off).
+  /// An echo this many times stronger than the chosen one, within the bone region above it, is
+  /// the bone and the chosen one its inner cortex or first bounce, with the shadow required and
+  /// (where the stronger echo itself passed as an echo) in the per-record rule (>= 1; 0 turns
+  /// the test off).
   double innerEchoRatio = 2.5;
   /// A strong echo with only noise behind it is bone (>= 1; 0 turns it off). With the shadow
   /// required: BoneEchoParams::noiseShadowEchoFactor (the capture's shadow trial, adaptToCapture,
