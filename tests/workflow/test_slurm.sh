@@ -1,26 +1,44 @@
 #!/bin/sh
-# workflow/Snakefile through Snakemake's Slurm executor (`--slurm`) on a running Slurm cluster,
-# e.g. the single-node one of scripts/slurm-single-node: the grid of test_snakemake.sh (two copies
-# of the fixture study, glove and gel, and a sweep of two speeds of sound over the first), run
-# once with --cores 2 and once with --slurm in the same folder; the same results (the sweep's
-# table byte for byte; everything else apart from the steps' wall-clock times); every job a
-# COMPLETED Slurm job; a second --slurm run has nothing to do. The test starts no daemon: it
-# skips (exit 77) unless snakemake is installed and `sinfo` reaches a cluster with an idle node
-# (SLURM_CONF names its slurm.conf), or without the fixture study.
-# Usage: test_slurm.sh ECHOREG SNAKEFILE FIXTURE_STUDY WORKDIR
+# workflow/Snakefile through Snakemake's Slurm executor (`--slurm`) on a Slurm cluster: the grid
+# of test_snakemake.sh (two copies of the fixture study, glove and gel, and a sweep of two speeds
+# of sound over the first), run once with --cores 2 and once with --slurm in the same folder; the
+# same results (the sweep's table byte for byte; everything else apart from the steps' wall-clock
+# times); every job a COMPLETED Slurm job; a second --slurm run has nothing to do.
+# The cluster: the one SLURM_CONF names, when it is set (it must answer with an idle node);
+# otherwise a private single-node cluster in WORKDIR/cluster, started for this test and stopped
+# after it by scripts/slurm-single-node run (Debian's slurm-wlm and munge, as root, loopback only).
+# Skips (exit 77) with the reason without snakemake (scripts/install-deps --workflow), without the
+# fixture study, when SLURM_CONF's cluster does not answer, or when this machine cannot host the
+# private cluster (Slurm not installed: scripts/install-deps --slurm; not root; a host name that
+# does not resolve to loopback).
+# Usage: test_slurm.sh ECHOREG SNAKEFILE FIXTURE_STUDY WORKDIR SLURM_SINGLE_NODE
 set -eu
-echoreg=$1 snakefile=$2 fixture=$3 work=$4
+echoreg=$1 snakefile=$2 fixture=$3 work=$4 single_node=$5
 if ! command -v snakemake >/dev/null 2>&1; then
   echo "snakemake is not installed (scripts/install-deps --workflow): skipping the Slurm test"
   exit 77
 fi
-if ! command -v sinfo >/dev/null 2>&1 || ! sinfo -h -o %t 2>/dev/null | grep -Eq '^(idle|mix)'; then
-  echo "no Slurm cluster answers with an idle node (scripts/slurm-single-node start DIR, then" \
-    "export SLURM_CONF=DIR/slurm.conf): skipping the Slurm test"
-  exit 77
-fi
 if [ ! -f "$fixture/study.json" ]; then
   echo "the fixture study $fixture is absent (ctest -R simulate_fixture_study): skipping"
+  exit 77
+fi
+if [ -z "${SLURM_CONF:-}" ]; then
+  # A cluster of the test's own; a cluster an earlier, killed run left in its folder is stopped.
+  [ ! -d "$work/cluster" ] || bash "$single_node" stop "$work/cluster"
+  rm -rf "$work" && mkdir -p "$work"
+  start=$(date +%s)
+  status=0
+  bash "$single_node" run "$work/cluster" sh "$0" "$@" || status=$?
+  if [ "$status" -eq 3 ]; then
+    echo "this machine cannot host the single-node Slurm cluster (the reason above): skipping"
+    exit 77
+  fi
+  echo "slurm test: with its private cluster (start, test, stop) in $(( $(date +%s) - start )) s"
+  exit "$status"
+fi
+if ! command -v sinfo >/dev/null 2>&1 || ! sinfo -h -o %t 2>/dev/null | grep -Eq '^(idle|mix)'; then
+  echo "the Slurm cluster of SLURM_CONF=$SLURM_CONF does not answer with an idle node: skipping" \
+    "the Slurm test (unset SLURM_CONF to let the test start a private single-node one)"
   exit 77
 fi
 fail() { echo "FAIL: $*" >&2; exit 1; }
@@ -46,7 +64,7 @@ json.dump(m, open("gel/study.json", "w"), indent=2)'
 }
 config="echoreg=$echoreg studies=glove,gel given_models=true sweep=sweep.json group_by=generator.standoff"
 
-rm -rf "$work" && mkdir -p "$work"
+rm -rf "$work/run" "$work/cores" && mkdir -p "$work"
 prepare
 start=$(date +%s)
 # shellcheck disable=SC2086
