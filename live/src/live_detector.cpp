@@ -151,29 +151,27 @@ LiveFrame LiveDetector::decide(const Waiting& waiting) {
     refused = &waiting.pose;
   else if (referenced && !waiting.reference.matrix)
     refused = &waiting.reference;
-  std::vector<LiveFrame> verdicts;
-  if (refused != nullptr) {
-    LiveFrame out;
-    out.frame = waiting.frame;
-    out.timestampS = waiting.timestampS;
-    out.arrival = waiting.arrival;
-    out.reason = refused->refusal.rfind("stale", 0) == 0 ? "stale-pose" : "invalid-pose";
-    out.detail = refused->refusal;
-    for (Judge& judge : judges_) {
-      judge.interSignal->breakRun();
-      ++judge.verdicts[out.reason];
-    }
-    return out;
-  }
-  // One envelope, then each rule's peaks on it.
+  // One envelope, then each rule's peaks on it. A frame whose pose is refused is judged as
+  // register judges it: its reason is the pose's only where its echo would have been accepted
+  // (an A-line without bone is not-bone whatever its pose), so that the two count alike.
   const int count = static_cast<int>(waiting.samples.size());
   envelopeSamples_.resize(waiting.samples.size());
   envelope_->compute(waiting.samples.data(), count, envelopeSamples_.data());
   LiveFrame decided;
   for (std::size_t k = 0; k < judges_.size(); ++k) {
     Judge& judge = judges_[k];
-    LiveFrame frame =
-        this->judge(judge, waiting, findPeaks(judge.peaks, envelopeSamples_.data(), count));
+    const PeakResult peaks = findPeaks(judge.peaks, envelopeSamples_.data(), count);
+    LiveFrame frame;
+    if (refused != nullptr && peaks.accepted()) {
+      frame.frame = waiting.frame;
+      frame.timestampS = waiting.timestampS;
+      frame.arrival = waiting.arrival;
+      frame.reason = refused->refusal.rfind("stale", 0) == 0 ? "stale-pose" : "invalid-pose";
+      frame.detail = refused->refusal;
+      judge.interSignal->breakRun();
+    } else {
+      frame = this->judge(judge, waiting, peaks);
+    }
     ++judge.verdicts[frame.reason];
     if (frame.accepted())
       judge.accepted.push_back(frame);
