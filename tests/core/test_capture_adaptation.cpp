@@ -512,22 +512,22 @@ TEST(ProminencePolicy, ShallowBoneWithTissueBeforeItIsNoWall) {
   }
 }
 
-TEST(ProminencePolicy, TheInnerCortexBehindBoneIsNotTheBone) {
-  // Bone at 1000 whose cortex rings for 1.5 mm and whose inner surface echoes a third as strong
-  // behind that (at 1110), the shadow after it: the ringing hides bone's shadow, the inner echo
-  // has one. The shadow mode's pick is then the inner echo; bone is the echo above it.
+// Bone at 1000 whose cortex reverberates (echoes of `reverberation` every 9 samples) for 1.5 mm,
+// and whose inner surface echoes (`inner`, at 1110) behind that, the shadow after it.
+std::vector<float> boneOverItsInnerCortex(double reverberation, double inner) {
   test::PulseModel pulse;
   std::vector<test::EchoSpec> echoes;
   std::mt19937_64 random(7);
   addSpeckle(echoes, 600.0, 990.0, 9.0, 3.0, 6.0, random);
   echoes.push_back({1000.0, 100.0});
   for (double s = 1010.0; s < 1100.0; s += 9.0)
-    echoes.push_back({s, 12.0});
-  echoes.push_back({1110.0, 30.0});
-  const auto x = test::makeEchoRecord(4096, echoes, pulse, 0.0, 0.3, 7);
-  DetectionParams params = detectionPreset("default");
-  params.peaks.prominence.shadow = ShadowRule::Required;
-  params.peaks.ringDownEnd = 100;
+    echoes.push_back({s, reverberation});
+  echoes.push_back({1110.0, inner});
+  return test::makeEchoRecord(4096, echoes, pulse, 0.0, 0.3, 7);
+}
+
+// `params` takes bone at 1000; with the inner-echo test off, the inner echo at 1110.
+void expectBoneNotItsInnerEcho(DetectionParams params, const std::vector<float>& x) {
   SignalDetector detector(params);
   const SignalDetection d = detector.detect(x.data(), 4096);
   ASSERT_TRUE(d.accepted()) << rejectReasonName(d.peaks.reason);
@@ -537,41 +537,33 @@ TEST(ProminencePolicy, TheInnerCortexBehindBoneIsNotTheBone) {
   const SignalDetection inner = without.detect(x.data(), 4096);
   ASSERT_TRUE(inner.accepted()) << rejectReasonName(inner.peaks.reason);
   EXPECT_NEAR(inner.peaks.sampleIndex, 1110.0, 3.0);
+}
+
+TEST(ProminencePolicy, TheInnerCortexBehindBoneIsNotTheBone) {
+  // The cortex rings (12) and its inner surface echoes a third as strong as bone: the ringing
+  // hides bone's shadow, the inner echo has one. The shadow mode's pick is then the inner echo;
+  // bone is the echo above it.
+  DetectionParams params = detectionPreset("default");
+  params.peaks.prominence.shadow = ShadowRule::Required;
+  params.peaks.ringDownEnd = 100;
+  expectBoneNotItsInnerEcho(params, boneOverItsInnerCortex(12.0, 30.0));
   params.peaks.prominence.innerEchoRatio = 0.5;
   EXPECT_THROW(validate(params.peaks), std::invalid_argument);
 }
 
 TEST(ProminencePolicy, ThePerRecordRuleAlsoTakesTheBoneAboveItsInnerCortex) {
-  // The record of the test above with a weaker reverberation in the cortex (4 rather than 12),
-  // judged by the per-record rule (a shadow, or the cortex ringing, behind the echo; the shadow
-  // mode's bone policy is not used): the inner echo has the shadow and bone above it neither, so
-  // the rule's pick was the inner echo, 1.7 mm too deep (as on the randomised set, where most
-  // echoes accepted at a wrong depth lay 0.5-2 mm behind bone). The echo 2.5 times as strong
-  // (innerEchoRatio) within the bone region above it is taken instead.
-  test::PulseModel pulse;
-  std::vector<test::EchoSpec> echoes;
-  std::mt19937_64 random(7);
-  addSpeckle(echoes, 600.0, 990.0, 9.0, 3.0, 6.0, random);
-  echoes.push_back({1000.0, 100.0});
-  for (double s = 1010.0; s < 1100.0; s += 9.0)
-    echoes.push_back({s, 4.0});
-  echoes.push_back({1110.0, 30.0});
-  const auto x = test::makeEchoRecord(4096, echoes, pulse, 0.0, 0.3, 7);
-  DetectionParams params = perRecordRule();
-  params.peaks.ringDownEnd = 100;
-  SignalDetector detector(params);
-  const SignalDetection d = detector.detect(x.data(), 4096);
-  ASSERT_TRUE(d.accepted()) << rejectReasonName(d.peaks.reason);
-  EXPECT_NEAR(d.peaks.sampleIndex, 1000.0, 3.0);
-  params.peaks.prominence.innerEchoRatio = 0.0;  // the test off: the inner echo
-  SignalDetector without(params);
-  const SignalDetection inner = without.detect(x.data(), 4096);
-  ASSERT_TRUE(inner.accepted()) << rejectReasonName(inner.peaks.reason);
-  EXPECT_NEAR(inner.peaks.sampleIndex, 1110.0, 3.0);
+  // A weaker reverberation in the cortex (4 rather than 12), judged by the per-record rule (a
+  // shadow, or the cortex ringing, behind the echo; the shadow mode's bone policy is not used):
+  // the inner echo has the shadow and bone above it neither, so the rule's pick was the inner
+  // echo, 1.7 mm too deep (as on the randomised set, where most echoes accepted at a wrong depth
+  // lay 0.5-2 mm behind bone). The echo 2.5 times as strong (innerEchoRatio) within the bone
+  // region above it is taken instead.
+  const DetectionParams params = perRecordRule();
+  expectBoneNotItsInnerEcho(params, boneOverItsInnerCortex(4.0, 30.0));
   // An echo only twice as strong above the pick is not enough: the pick stays.
-  echoes.back().amplitude = 45.0;
-  const auto y = test::makeEchoRecord(4096, echoes, pulse, 0.0, 0.3, 7);
-  const SignalDetection weaker = detector.detect(y.data(), 4096);
+  SignalDetector detector(params);
+  const auto x = boneOverItsInnerCortex(4.0, 45.0);
+  const SignalDetection weaker = detector.detect(x.data(), 4096);
   ASSERT_TRUE(weaker.accepted()) << rejectReasonName(weaker.peaks.reason);
   EXPECT_NEAR(weaker.peaks.sampleIndex, 1110.0, 3.0);
 }
