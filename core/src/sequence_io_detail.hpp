@@ -235,4 +235,42 @@ std::vector<std::uint8_t> compressBytes(const std::vector<std::uint8_t>& bytes,
 void writeMetaImage(const Sequence& sequence, const std::string& path, bool compress);
 void writeNrrd(const Sequence& sequence, const std::string& path, bool compress);
 
+// ---- Shared by the pieces of the reader and writer ---------------------------------------------
+// sequence.cpp: the model (element types, Sequence's members), the format dispatch, the layout
+// check and the reader's assembly; sequence_plus_keys.cpp: PLUS's per-frame keys and echoreg's
+// acquisition keys, read and written; sequence_header_text.cpp: header text and the input file;
+// sequence_compressed_data.cpp: the pixel data, raw or zlib/gzip.
+
+// a * b, or nullopt when it does not fit in 64 bits.
+std::optional<std::uint64_t> multiply(std::uint64_t a, std::uint64_t b);
+
+/// Throws std::invalid_argument ("writeSequence: WHAT is not finite") unless `value` is absent or
+/// finite.
+void checkFinite(const std::optional<double>& value, std::string_view what);
+
+/// The header's entries into `sequence`: the per-frame keys, echoreg's acquisition keys, the rest
+/// (and NRRD's fields) as extraHeader.
+void applyEntries(const std::string& path, const ParsedHeader& header, Sequence& sequence);
+
+// What DimSize and the element type promise, checked before anything is allocated.
+struct CheckedLayout {
+  ElementType type = ElementType::None;
+  std::uint64_t pixelBytes = 0;
+  std::string text;  // e.g. "DimSize 11350 1 150 of int16", for messages
+};
+
+// Where the pixels are stored (after the header, or in the detached data file) and how many bytes,
+// checked against the layout (locatePixels), then read (readPixels).
+struct StoredPixels {
+  std::optional<InputFile> dataFile;
+  std::uint64_t offset = 0;
+  std::uint64_t storedBytes = 0;
+};
+
+StoredPixels locatePixels(InputFile& file, const ParsedHeader& header, const CheckedLayout& layout);
+
+// The pixels in host byte order. `compressed` and `bigEndian` as the header says.
+std::vector<std::uint8_t> readPixels(InputFile& file, StoredPixels& stored, bool compressed,
+                                     bool bigEndian, const CheckedLayout& layout);
+
 }  // namespace echoreg::detail
