@@ -48,8 +48,9 @@ export USER
 partition=$(sinfo -h -o %P | sed -n 's/\*$//p' | head -n 1)
 [ -n "$partition" ] || partition=$(sinfo -h -o %P | head -n 1)
 
-# Both runs in the same folder ($work/run; the first one moved to $work/cores after it): the
-# results name their studies' folders by absolute path.
+# Both runs in the same folder ($work/run; the first one moved to $work/cores after it), so that
+# the comparison does not depend on where the studies lie (the studies' own results hold no
+# absolute paths; this keeps the check independent of that).
 prepare() {
   rm -rf "$work/run" && mkdir -p "$work/run" && cd "$work/run"
   for study in glove gel; do
