@@ -30,7 +30,9 @@ namespace echoreg::cli {
 /// VTK 9.1's OBJ reader turns a coordinate that is not a finite number ("nan", "inf", "1e999",
 /// "x") into a finite one without a word, and passes a face's vertex number beyond the vertices on
 /// to VTK's triangle filter, which reads out of bounds (a crash, found by fuzz/fuzz_mesh). So the
-/// vertex and face lines are checked in the text: throws FileError naming the line.
+/// vertex and face lines are checked in the text: throws FileError naming the line. A line is
+/// read as VTK reads it: white space (any of isspace's) before its keyword and after it, so an
+/// indented " f 1 2 3" is a face (it went unchecked: found by fuzz/fuzz_mesh).
 inline void checkObjFile(const std::string& path) {
   std::vector<std::string> lines;
   {
@@ -42,15 +44,23 @@ inline void checkObjFile(const std::string& path) {
       lines.push_back(line);
     }
   }
-  const auto starts = [](const std::string& line, char kind) {
-    return line.size() >= 2 && line[0] == kind && (line[1] == ' ' || line[1] == '\t');
+  const auto space = [](char c) { return std::isspace(static_cast<unsigned char>(c)) != 0; };
+  // The line's keyword is `kind` (after any white space), followed by white space; `rest` is what
+  // follows the keyword.
+  const auto starts = [&space](const std::string& line, char kind, std::string& rest) {
+    const auto keyword = std::find_if_not(line.begin(), line.end(), space);
+    if (line.end() - keyword < 2 || *keyword != kind || !space(keyword[1]))
+      return false;
+    rest.assign(keyword + 1, line.end());
+    return true;
   };
+  std::string rest;
   long long vertices = 0;
   for (std::size_t i = 0; i < lines.size(); ++i) {
-    if (!starts(lines[i], 'v'))
+    if (!starts(lines[i], 'v', rest))
       continue;  // not a vertex position (vn, vt, f, comments, ...)
     ++vertices;
-    std::istringstream words(lines[i].substr(2));
+    std::istringstream words(rest);
     std::string word;
     for (int axis = 0; axis < 3; ++axis) {
       double value = 0.0;
@@ -66,9 +76,9 @@ inline void checkObjFile(const std::string& path) {
     }
   }
   for (std::size_t i = 0; i < lines.size(); ++i) {
-    if (!starts(lines[i], 'f'))
+    if (!starts(lines[i], 'f', rest))
       continue;
-    std::istringstream words(lines[i].substr(2));
+    std::istringstream words(rest);
     std::string word;
     int corners = 0;
     while (words >> word) {

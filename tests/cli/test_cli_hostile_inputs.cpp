@@ -70,6 +70,15 @@ class CliHostileInputs : public ::testing::Test {
     std::string beyond = tetrahedronObj("0 30 0");
     beyond.replace(beyond.find("f 2 3 4"), 7, "f 2 3 9");
     std::ofstream(dir_.file("beyond.obj")) << beyond;
+    // Found by fuzz/fuzz_mesh: VTK reads indented lines too, and the check did not (a face before
+    // any vertex crashed); the same model, every line indented.
+    std::string indented;
+    for (std::size_t start = 0; start < beyond.size();) {
+      const std::size_t end = beyond.find('\n', start) + 1;
+      indented += "  " + beyond.substr(start, end - start);
+      start = end;
+    }
+    std::ofstream(dir_.file("indented.obj")) << indented;
     std::ofstream(dir_.file("empty.stl")) << "";
     // Found by fuzz/fuzz_mesh: VTK 9.1's PLY reader crashed (a null pointer) on this header.
     std::ofstream(dir_.file("misspelt.ply"))
@@ -256,6 +265,8 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
        "@nan.obj: line 3: vertex 3 \"v nan 30 0\" is not three finite numbers: a damaged model"},
       {figureWith({"--model", "@beyond.obj", "--out", "@out.png"}), 1,
        "@beyond.obj: line 7: face \"f 2 3 9\": \"9\" is not a vertex number from 1 to 4"},
+      {figureWith({"--model", "@indented.obj", "--out", "@out.png"}), 1,
+       "@indented.obj: line 7: face \"  f 2 3 9\": \"9\" is not a vertex number from 1 to 4"},
       // Item 8: a negative sphere radius was drawn.
       {figureWith({"--model", "@good.obj", "--point-radius", "-1", "--out", "@out.png"}), 2,
        "--point-radius: must be a finite number > 0, got -1"},
