@@ -150,6 +150,7 @@ inline bool readBinaryValue(std::istream& in, const std::string& type, bool bigE
 inline void checkPlyFile(const std::string& path) {
   struct Element {
     std::string name;
+    std::size_t line = 0;  ///< of its declaration in the header
     std::uint64_t count = 0;
     std::vector<bool> list;  ///< per property: a list (a count, then that many values)
     std::vector<std::string> names;
@@ -213,6 +214,7 @@ inline void checkPlyFile(const std::string& path) {
           (words >> extra))
         refuse("\"" + line + "\" is not \"element NAME COUNT\"");
       element.count = static_cast<std::uint64_t>(n);
+      element.line = lineNumber;
       elements.push_back(element);
     } else if (keyword == "property") {
       static const std::vector<std::string> kTypes{
@@ -265,6 +267,30 @@ inline void checkPlyFile(const std::string& path) {
   }
   if (formats == 0)
     refuse("the header has no format line");
+  // VTK reads the vertex and face elements and skips no other: the rows of another element before
+  // either were read as vertices or faces (a crash in vtkPLYReader, found by fuzz/fuzz_mesh), and
+  // a second vertex or face element is read over the first.
+  {
+    const std::size_t endHeader = lineNumber;
+    std::size_t lastRead = 0;  // the later of the vertex and face elements
+    for (std::size_t e = 0; e < elements.size(); ++e)
+      lastRead = elements[e].name == "vertex" || elements[e].name == "face" ? e : lastRead;
+    int vertexElements = 0, faceElements = 0;
+    for (std::size_t e = 0; e < elements.size(); ++e) {
+      const Element& element = elements[e];
+      const bool read = element.name == "vertex" || element.name == "face";
+      lineNumber = element.line;
+      if (read && ++(element.name == "vertex" ? vertexElements : faceElements) > 1)
+        refuse("a second " + element.name + " element");
+      if (!read && e < lastRead && element.count > 0 && !element.list.empty()) {
+        refuse(
+            fmt::format("element {} ({} rows) comes before the {} element: VTK reads only the "
+                        "vertex and face elements and would read its rows as theirs",
+                        element.name, element.count, elements[lastRead].name));
+      }
+    }
+    lineNumber = endHeader;  // the data's lines are counted on from here
+  }
   std::uint64_t vertexCount = 0;
   for (const Element& element : elements)
     vertexCount = element.name == "vertex" ? element.count : vertexCount;
