@@ -6,6 +6,7 @@ python3-pydicom); the seeds are committed, so the fuzzer and the replay test nee
     /usr/bin/python3 fuzz/make_dicom_seeds.py fuzz/seeds/dicom
 """
 import io
+import struct
 import sys
 
 import numpy as np
@@ -65,6 +66,40 @@ def implicit_meta(data):
     return bytes(out + data[at:])
 
 
+def with_rle_frame(data, frame):
+    """The same RLE slice with its compressed frame (the pixel data's one fragment, after the basic
+    offset table) replaced by `frame`."""
+    at = data.index(b"\xe0\x7f\x10\x00OB\x00\x00\xff\xff\xff\xff") + 12
+    assert data[at:at + 4] == b"\xfe\xff\x00\xe0"
+    at += 8 + struct.unpack("<I", data[at + 4:at + 8])[0]
+    assert data[at:at + 4] == b"\xfe\xff\x00\xe0"
+    length = struct.unpack("<I", data[at + 4:at + 8])[0]
+    frame += b"\x00" * (len(frame) % 2)
+    return data[:at + 4] + struct.pack("<I", len(frame)) + frame + data[at + 8 + length:]
+
+
+def rle_frame(segments, declared=None):
+    """An RLE frame: the 64-byte header (the number of segments and their offsets), then them."""
+    offsets, at = [], 64
+    for segment in segments:
+        offsets.append(at)
+        at += len(segment)
+    count = len(segments) if declared is None else declared
+    return struct.pack("<16I", count, *(offsets + [0] * (15 - len(offsets)))) + b"".join(segments)
+
+
+def literal(values):
+    """A PackBits literal run of these bytes (1 to 128)."""
+    return bytes([len(values) - 1]) + bytes(values)
+
+
+def damaged_rle(frame):
+    """Two RLE slices (8 x 8 pixels of 16 bits: two segments of 64 bytes), the second with this
+    frame: Debian's GDCM 3.0 trusted RLE headers and aborted on some (see main)."""
+    return [slice_bytes(0, syntax=RLELossless, instance=1),
+            with_rle_frame(slice_bytes(1, syntax=RLELossless, instance=2), frame)]
+
+
 def main(folder):
     seeds = {
         "one-slice": [slice_bytes(0)],
@@ -77,6 +112,13 @@ def main(folder):
         "uneven-orientations": [slice_bytes(0), slice_bytes(1, orientation=(0, 1, 0, 1, 0, 0),
                                                             instance=2)],
         "implicit-meta": [implicit_meta(slice_bytes(z, instance=z + 1)) for z in range(2)],
+        # Three segments of 42 bytes where the slice has 128: GDCM's assertion `check == len` in
+        # gdcm::RLECodec::Decode aborted the process; no segment at all divided by zero (SIGFPE);
+        # a first segment of 32 bytes was completed with the second's, a wrong slice read silently.
+        "rle-damaged-segment-count": damaged_rle(rle_frame([literal(range(42))] * 3)),
+        "rle-damaged-no-segment": damaged_rle(rle_frame([literal(range(64))] * 2, declared=0)),
+        "rle-damaged-short-segment": damaged_rle(
+            rle_frame([literal(range(32)), literal(range(100, 132)) * 2])),
     }
     for name, files in seeds.items():
         with open(f"{folder}/{name}.dcm-series", "wb") as out:

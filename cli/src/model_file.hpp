@@ -30,7 +30,9 @@ namespace echoreg::cli {
 /// VTK 9.1's OBJ reader turns a coordinate that is not a finite number ("nan", "inf", "1e999",
 /// "x") into a finite one without a word, and passes a face's vertex number beyond the vertices on
 /// to VTK's triangle filter, which reads out of bounds (a crash, found by fuzz/fuzz_mesh). So the
-/// vertex and face lines are checked in the text: throws FileError naming the line.
+/// vertex and face lines are checked in the text: throws FileError naming the line. A line is
+/// read as VTK reads it: white space (any of isspace's) before its keyword and after it, so an
+/// indented " f 1 2 3" is a face (it went unchecked: found by fuzz/fuzz_mesh).
 inline void checkObjFile(const std::string& path) {
   std::vector<std::string> lines;
   {
@@ -42,15 +44,23 @@ inline void checkObjFile(const std::string& path) {
       lines.push_back(line);
     }
   }
-  const auto starts = [](const std::string& line, char kind) {
-    return line.size() >= 2 && line[0] == kind && (line[1] == ' ' || line[1] == '\t');
+  const auto space = [](char c) { return std::isspace(static_cast<unsigned char>(c)) != 0; };
+  // The line's keyword is `kind` (after any white space), followed by white space; `rest` is what
+  // follows the keyword.
+  const auto starts = [&space](const std::string& line, char kind, std::string& rest) {
+    const auto keyword = std::find_if_not(line.begin(), line.end(), space);
+    if (line.end() - keyword < 2 || *keyword != kind || !space(keyword[1]))
+      return false;
+    rest.assign(keyword + 1, line.end());
+    return true;
   };
+  std::string rest;
   long long vertices = 0;
   for (std::size_t i = 0; i < lines.size(); ++i) {
-    if (!starts(lines[i], 'v'))
+    if (!starts(lines[i], 'v', rest))
       continue;  // not a vertex position (vn, vt, f, comments, ...)
     ++vertices;
-    std::istringstream words(lines[i].substr(2));
+    std::istringstream words(rest);
     std::string word;
     for (int axis = 0; axis < 3; ++axis) {
       double value = 0.0;
@@ -66,9 +76,9 @@ inline void checkObjFile(const std::string& path) {
     }
   }
   for (std::size_t i = 0; i < lines.size(); ++i) {
-    if (!starts(lines[i], 'f'))
+    if (!starts(lines[i], 'f', rest))
       continue;
-    std::istringstream words(lines[i].substr(2));
+    std::istringstream words(rest);
     std::string word;
     int corners = 0;
     while (words >> word) {
@@ -140,6 +150,7 @@ inline bool readBinaryValue(std::istream& in, const std::string& type, bool bigE
 inline void checkPlyFile(const std::string& path) {
   struct Element {
     std::string name;
+    std::size_t line = 0;  ///< of its declaration in the header
     std::uint64_t count = 0;
     std::vector<bool> list;  ///< per property: a list (a count, then that many values)
     std::vector<std::string> names;
@@ -203,6 +214,7 @@ inline void checkPlyFile(const std::string& path) {
           (words >> extra))
         refuse("\"" + line + "\" is not \"element NAME COUNT\"");
       element.count = static_cast<std::uint64_t>(n);
+      element.line = lineNumber;
       elements.push_back(element);
     } else if (keyword == "property") {
       static const std::vector<std::string> kTypes{
@@ -255,6 +267,30 @@ inline void checkPlyFile(const std::string& path) {
   }
   if (formats == 0)
     refuse("the header has no format line");
+  // VTK reads the vertex and face elements and skips no other: the rows of another element before
+  // either were read as vertices or faces (a crash in vtkPLYReader, found by fuzz/fuzz_mesh), and
+  // a second vertex or face element is read over the first.
+  {
+    const std::size_t endHeader = lineNumber;
+    std::size_t lastRead = 0;  // the later of the vertex and face elements
+    for (std::size_t e = 0; e < elements.size(); ++e)
+      lastRead = elements[e].name == "vertex" || elements[e].name == "face" ? e : lastRead;
+    int vertexElements = 0, faceElements = 0;
+    for (std::size_t e = 0; e < elements.size(); ++e) {
+      const Element& element = elements[e];
+      const bool read = element.name == "vertex" || element.name == "face";
+      lineNumber = element.line;
+      if (read && ++(element.name == "vertex" ? vertexElements : faceElements) > 1)
+        refuse("a second " + element.name + " element");
+      if (!read && e < lastRead && element.count > 0 && !element.list.empty()) {
+        refuse(
+            fmt::format("element {} ({} rows) comes before the {} element: VTK reads only the "
+                        "vertex and face elements and would read its rows as theirs",
+                        element.name, element.count, elements[lastRead].name));
+      }
+    }
+    lineNumber = endHeader;  // the data's lines are counted on from here
+  }
   std::uint64_t vertexCount = 0;
   for (const Element& element : elements)
     vertexCount = element.name == "vertex" ? element.count : vertexCount;

@@ -62,6 +62,8 @@ constexpr double kGroupStepMm = 0.01;
 constexpr double kGroupStepRelative = 0.01;
 /// A non-zero GantryDetectorTilt above this (degrees) is refused.
 constexpr double kGantryTiltDegrees = 1e-3;
+/// The transfer syntax RLE Lossless (DICOM PS3.5 annex G).
+constexpr const char* kRleLossless = "1.2.840.10008.1.2.5";
 /// At most this many file names in one message.
 constexpr std::size_t kNamesInMessage = 8;
 
@@ -1145,10 +1147,169 @@ bool readNativeSlice(const std::string& folder, const SliceHeader& h, std::int16
   return true;
 }
 
+/// The bytes of an RLE Lossless slice's compressed frame, read from the file as GDCM will read
+/// them (gdcm::SequenceOfFragments, then gdcm::RLECodec::Decode): the pixel data's items after
+/// its header, the first the basic offset table, the others fragments, up to the sequence
+/// delimiter (or the file's end), their values joined. Throws a FileError when the items are not
+/// where the header scan found the pixel data.
+std::vector<unsigned char> rleFrame(const std::string& folder, const SliceHeader& h) {
+  constexpr std::uint64_t kHeader = 12;
+  std::ifstream in(h.path, std::ios::binary);
+  const auto fail = [&](const std::string& problem) {
+    throw FileError(folder, fmt::format("{}: damaged RLE pixel data: {}", h.name, problem));
+  };
+  if (!in || h.pixelDataOffset < kHeader || h.fileSize == 0)
+    fail("the pixel data could not be found in the file");
+  const auto number = [](const unsigned char* b, int count) {
+    std::uint32_t value = 0;
+    for (int i = 0; i < count; ++i)
+      value |= static_cast<std::uint32_t>(b[i]) << (8 * i);
+    return value;
+  };
+  unsigned char header[kHeader] = {};
+  in.seekg(static_cast<std::streamoff>(h.pixelDataOffset - kHeader));
+  in.read(reinterpret_cast<char*>(header), kHeader);
+  // Encapsulated pixel data (explicit VR little endian): its tag, OB or OW, an undefined length.
+  if (!in || number(header, 2) != 0x7fe0 || number(header + 2, 2) != 0x0010 ||
+      (std::memcmp(header + 4, "OB", 2) != 0 && std::memcmp(header + 4, "OW", 2) != 0) ||
+      number(header + 8, 4) != 0xffffffffu) {
+    fail(fmt::format("the pixel data at byte {} is not a sequence of fragments",
+                     h.pixelDataOffset - kHeader));
+  }
+  std::vector<unsigned char> frame;
+  std::uint64_t pos = h.pixelDataOffset;
+  for (int item = 0; pos + 8 <= h.fileSize; ++item) {
+    unsigned char tag[8] = {};
+    in.seekg(static_cast<std::streamoff>(pos));
+    in.read(reinterpret_cast<char*>(tag), 8);
+    const std::uint32_t group = number(tag, 2), element = number(tag + 2, 2);
+    const std::uint32_t length = number(tag + 4, 4);
+    if (in && group == 0xfffe && element == 0xe0dd)
+      break;
+    if (!in || group != 0xfffe || element != 0xe000 || length > h.fileSize - pos - 8) {
+      fail(fmt::format("byte {} of the file is not a fragment of the pixel data, nor their end",
+                       pos));
+    }
+    pos += 8;
+    if (item > 0) {  // item 0 is the basic offset table
+      const std::size_t at = frame.size();
+      frame.resize(at + length);
+      in.read(reinterpret_cast<char*>(frame.data() + at), static_cast<std::streamsize>(length));
+      if (!in)
+        fail(fmt::format("the fragment at byte {} cannot be read", pos - 8));
+    }
+    pos += length;
+  }
+  return frame;
+}
+
+/// Why GDCM cannot decode `frame`, an RLE Lossless frame (DICOM PS3.5 annex G), into `segments`
+/// byte planes of `planeBytes` bytes each, or "" when it can. The frame is a 64-byte header (the
+/// number of segments, 1 to 15, then 15 offsets from the frame's start, the first 64) and the
+/// segments, each a PackBits stream of one byte plane: a control byte n of 0 to 127 copies the
+/// next n + 1 bytes, -1 to -127 repeats the next byte 1 - n times, -128 does nothing.
+/// GDCM 3.0's decoder (gdcm::RLECodec::DecodeByStreams) trusts the header and reads each segment
+/// from its offset until it has its share of the slice's bytes: 0 segments divide by zero
+/// (SIGFPE), more than 15 read offsets from beyond the header, a count that does not divide the
+/// slice's bytes fails an assertion (the process aborts; found by fuzz/fuzz_dicom), and a segment
+/// that ends early is completed with the next segment's bytes (a silently wrong slice). So the
+/// header is checked, then each segment is decoded by counting, without writing a byte, within
+/// its own bytes (up to the next offset, or the frame's end): it must give exactly planeBytes
+/// before it ends. Bytes left after that are padding, which GDCM skips too.
+std::string rleFrameProblem(const std::vector<unsigned char>& frame, std::uint32_t segments,
+                            std::uint64_t planeBytes) {
+  constexpr std::size_t kRleHeader = 64;
+  if (frame.size() < kRleHeader) {
+    return fmt::format("its frame holds {} bytes, fewer than the {} of an RLE header", frame.size(),
+                       kRleHeader);
+  }
+  const auto word = [&frame](std::size_t index) {
+    std::uint32_t value = 0;
+    for (std::size_t i = 0; i < 4; ++i)
+      value |= static_cast<std::uint32_t>(frame[4 * index + i]) << (8 * i);
+    return value;
+  };
+  const std::uint32_t declared = word(0);
+  if (declared != segments) {
+    return fmt::format(
+        "its RLE header declares {} segments, where the pixels need {} (one per byte of a pixel)",
+        declared, segments);
+  }
+  // Where each segment starts, and the frame's end after the last.
+  std::vector<std::uint64_t> bounds;
+  for (std::uint32_t s = 0; s < segments; ++s)
+    bounds.push_back(word(1 + s));
+  bounds.push_back(frame.size());
+  bool increasing = bounds.front() == kRleHeader;
+  for (std::size_t s = 1; s < bounds.size(); ++s)
+    increasing = increasing && bounds[s] > bounds[s - 1];
+  if (!increasing) {
+    return fmt::format(
+        "its RLE header's segment offsets ({}) are not {}, then increasing, inside "
+        "the {}-byte frame",
+        fmt::join(bounds.begin(), bounds.end() - 1, ", "), kRleHeader, frame.size());
+  }
+  for (std::uint32_t s = 0; s < segments; ++s) {
+    const std::uint64_t begin = bounds[s], end = bounds[s + 1];
+    std::uint64_t decoded = 0, at = begin;
+    while (decoded < planeBytes) {
+      if (at >= end) {
+        return fmt::format(
+            "segment {} of {} (bytes {} to {} of the frame) decodes to {} bytes, "
+            "where the pixels need {}",
+            s + 1, segments, begin, end, decoded, planeBytes);
+      }
+      const std::uint64_t runAt = at;
+      const auto control = static_cast<signed char>(frame[static_cast<std::size_t>(at++)]);
+      std::uint64_t run = 0;
+      if (control >= 0) {
+        run = static_cast<std::uint64_t>(control) + 1;  // a literal run: its bytes follow
+        if (end - at < run) {
+          return fmt::format(
+              "segment {} of {} (bytes {} to {} of the frame) ends inside the "
+              "{}-byte literal run at byte {}",
+              s + 1, segments, begin, end, run, runAt);
+        }
+        at += run;
+      } else if (control != -128) {
+        run = static_cast<std::uint64_t>(1 - control);  // a replicate run: one byte follows
+        if (at >= end) {
+          return fmt::format(
+              "segment {} of {} (bytes {} to {} of the frame) ends inside the "
+              "replicate run at byte {}",
+              s + 1, segments, begin, end, runAt);
+        }
+        at += 1;
+      }
+      decoded += run;
+      if (decoded > planeBytes) {
+        return fmt::format(
+            "segment {} of {} decodes to more than the {} bytes the pixels need "
+            "(its run at byte {} of the frame ends at {})",
+            s + 1, segments, planeBytes, runAt, decoded);
+      }
+    }
+  }
+  return "";
+}
+
 void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* out,
                  Scratch& scratch) {
   if (readNativeSlice(folder, h, out, scratch))
     return;
+  // GDCM decodes an RLE slice already while it reads the file (gdcm::PixmapReader computes the
+  // lossy flag by decoding), so its frame is checked before: see rleFrameProblem.
+  if (h.transferSyntax == kRleLossless) {
+    const std::uint64_t planeBytes =
+        static_cast<std::uint64_t>(h.rows) * static_cast<std::uint64_t>(h.columns);
+    const auto segments = static_cast<std::uint32_t>(h.bitsAllocated / 8 * h.samplesPerPixel);
+    const std::string problem = rleFrameProblem(rleFrame(folder, h), segments, planeBytes);
+    if (!problem.empty()) {
+      throw FileError(folder, fmt::format("{}: damaged RLE pixel data ({} x {} pixels of {} bits): "
+                                          "{}",
+                                          h.name, h.columns, h.rows, h.bitsAllocated, problem));
+    }
+  }
   gdcm::ImageReader reader;
   reader.SetFileName(h.path.c_str());
   bool read = false;

@@ -70,6 +70,29 @@ class CliHostileInputs : public ::testing::Test {
     std::string beyond = tetrahedronObj("0 30 0");
     beyond.replace(beyond.find("f 2 3 4"), 7, "f 2 3 9");
     std::ofstream(dir_.file("beyond.obj")) << beyond;
+    // Found by fuzz/fuzz_mesh: VTK reads indented lines too, and the check did not (a face before
+    // any vertex crashed); the same model, every line indented.
+    std::string indented;
+    for (std::size_t start = 0; start < beyond.size();) {
+      const std::size_t end = beyond.find('\n', start) + 1;
+      indented += "  " + beyond.substr(start, end - start);
+      start = end;
+    }
+    std::ofstream(dir_.file("indented.obj")) << indented;
+    // Found by fuzz/fuzz_mesh: VTK's PLY reader skips no element but vertex and face, so the rows
+    // of another before the faces were read as faces (a crash in vtkPLYReader); a second vertex
+    // element is read over the first.
+    const std::string plyVertices =
+        "element vertex 4\nproperty float x\nproperty float y\nproperty float z\n";
+    const std::string plyFaces = "element face 4\nproperty list uchar int vertex_indices\n";
+    const std::string plyData =
+        "0 0 0\n30 0 0\n0 30 0\n0 0 30\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 2 0 3\n";
+    std::ofstream(dir_.file("extra-element.ply")) << "ply\nformat ascii 1.0\n" + plyVertices +
+                                                         "element extra 2\nproperty float w\n" +
+                                                         plyFaces + "end_header\n" + plyData;
+    std::ofstream(dir_.file("two-vertex-elements.ply")) << "ply\nformat ascii 1.0\n" + plyVertices +
+                                                               plyVertices + plyFaces +
+                                                               "end_header\n" + plyData;
     std::ofstream(dir_.file("empty.stl")) << "";
     // Found by fuzz/fuzz_mesh: VTK 9.1's PLY reader crashed (a null pointer) on this header.
     std::ofstream(dir_.file("misspelt.ply"))
@@ -256,6 +279,13 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
        "@nan.obj: line 3: vertex 3 \"v nan 30 0\" is not three finite numbers: a damaged model"},
       {figureWith({"--model", "@beyond.obj", "--out", "@out.png"}), 1,
        "@beyond.obj: line 7: face \"f 2 3 9\": \"9\" is not a vertex number from 1 to 4"},
+      {figureWith({"--model", "@extra-element.ply", "--out", "@out.png"}), 1,
+       "@extra-element.ply: line 7: element extra (2 rows) comes before the face element: VTK "
+       "reads only the vertex and face elements and would read its rows as theirs"},
+      {figureWith({"--model", "@two-vertex-elements.ply", "--out", "@out.png"}), 1,
+       "@two-vertex-elements.ply: line 7: a second vertex element"},
+      {figureWith({"--model", "@indented.obj", "--out", "@out.png"}), 1,
+       "@indented.obj: line 7: face \"  f 2 3 9\": \"9\" is not a vertex number from 1 to 4"},
       // Item 8: a negative sphere radius was drawn.
       {figureWith({"--model", "@good.obj", "--point-radius", "-1", "--out", "@out.png"}), 2,
        "--point-radius: must be a finite number > 0, got -1"},
