@@ -48,7 +48,7 @@ std::optional<RegistrationUpdate> IncrementalRegistration::finish() {
     }
   }
   if (!points.empty())
-    runOnce(points, revision);
+    runOnce(points, revision, std::chrono::steady_clock::now());
   return take();
 }
 
@@ -83,11 +83,12 @@ std::string IncrementalRegistration::problem() const {
 }
 
 void IncrementalRegistration::runOnce(const std::vector<core::SurfacePoint>& points,
-                                      std::size_t revision) {
+                                      std::size_t revision,
+                                      std::chrono::steady_clock::time_point started) {
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
   RegistrationUpdate update;
-  update.started = start;
+  update.started = started;
   std::string problem;
   try {
     update.result = model_.registerPoints(points, landmarks_, options_);
@@ -137,7 +138,7 @@ void IncrementalRegistration::work() {
     lastWorkerStart_ = lastStart;
     ++workerRuns_;
     lock.unlock();
-    runOnce(points, revision);
+    runOnce(points, revision, lastStart);
     lock.lock();
   }
 }

@@ -73,8 +73,12 @@ class IncrementalRegistration {
  private:
   void work();
   void stopWorker();
-  // One run on `points`, revision `revision` of the points (the worker's, then finish()'s).
-  void runOnce(const std::vector<core::SurfacePoint>& points, std::size_t revision);
+  // One run on `points`, revision `revision` of the points (the worker's, then finish()'s),
+  // started at `started`: the time the worker's schedule counts the interval from, so that the
+  // reported starts are exactly as far apart as the schedule keeps them (taking the time again
+  // after the lock was released put them up to a preemption closer: 9.84 ms for 10 under load).
+  void runOnce(const std::vector<core::SurfacePoint>& points, std::size_t revision,
+               std::chrono::steady_clock::time_point started);
 
   const core::SurfaceRegistration& model_;
   core::SurfaceRegistrationOptions options_;
