@@ -148,6 +148,15 @@ struct SliceHeader {
   std::uint64_t fileSize = 0;
 };
 
+/// The unsigned number in the `count` (at most 4) bytes at `b`, little endian unless `bigEndian`
+/// (the pre-check walk's element headers, the RLE frame's items and header).
+std::uint32_t unsignedAt(const unsigned char* b, int count, bool bigEndian = false) {
+  std::uint32_t value = 0;
+  for (int i = 0; i < count; ++i)
+    value |= static_cast<std::uint32_t>(b[bigEndian ? count - 1 - i : i]) << (8 * i);
+  return value;
+}
+
 /// GDCM allocates (and zero-fills) the length a data element declares before it reads the value:
 /// 1.2 GB for a 1.5 kB file (found by fuzz/fuzz_dicom), up to 4 GB per file and thread. So the
 /// elements of a file are walked first, without reading their values: the file meta group
@@ -193,12 +202,6 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
                                          "IS", "LO", "LT", "OB", "OD", "OF", "OL", "OV", "OW",
                                          "PN", "SH", "SL", "SQ", "SS", "ST", "SV", "TM", "UC",
                                          "UI", "UL", "UN", "UR", "US", "UT", "UV"};
-  const auto number = [&](const unsigned char* b, int count, bool big) {
-    std::uint32_t value = 0;
-    for (int i = 0; i < count; ++i)
-      value |= static_cast<std::uint32_t>(b[big ? count - 1 - i : i]) << (8 * i);
-    return value;
-  };
   // An implicit file meta group (GE's private syntax): group 0x0002's elements with no VR, a
   // 4-byte length right after the tag.
   bool metaImplicit = false, sawSyntax = false;
@@ -223,7 +226,8 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
         available < 8
             ? fmt::format("the file ends at byte {}, inside the header of an element", size)
             : std::string();
-    const std::uint32_t group = number(first, 2, false), element = number(first + 2, 2, false);
+    const std::uint32_t group = unsignedAt(first, 2, false),
+                        element = unsignedAt(first + 2, 2, false);
     const bool vrFollows = kVr.count(std::string(reinterpret_cast<const char*>(first + 4), 2)) > 0;
     meta = false;
     if (group == 0x0002) {
@@ -242,7 +246,7 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       explicitVr = vrFollows;  // group 0x0008, or a private creator: little endian
     } else if (vrFollows) {
       bigEndian = group > 0xff || element > 0xff;  // any other group, explicit
-    } else if (group == 0 && element == 0 && number(first + 4, 4, false) == 4) {
+    } else if (group == 0 && element == 0 && unsignedAt(first + 4, 4, false) == 4) {
       explicitVr = false;  // a command group length (0000,0000), implicit
     } else {
       return "";  // GDCM refuses it at once ("Cannot find DICOM type"): not DICOM
@@ -262,7 +266,7 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
     if (!bytes(pos, 8, e))
       return "";
     const bool big = bigEndian && !meta;
-    const std::uint32_t group = number(e, 2, big), element = number(e + 2, 2, big);
+    const std::uint32_t group = unsignedAt(e, 2, big), element = unsignedAt(e + 2, 2, big);
     if (meta && group != 0x0002) {
       meta = false;  // the data set, in the transfer syntax the meta group named
       // An implicit meta group without a transfer syntax: GDCM guesses the data set's from
@@ -275,7 +279,7 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
     std::uint64_t valueAt = pos + 8;
     std::string vr;
     if (group == 0xfffe) {  // an item or a delimiter: no VR, a 4-byte length
-      length = number(e + 4, 4, big);
+      length = unsignedAt(e + 4, 4, big);
       pos = valueAt;
       if (element == 0xe0dd)
         fragments = false;
@@ -290,7 +294,7 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
     }
     const bool pixelData = group == 0x7fe0 && element == 0x0010;
     if (meta && metaImplicit) {
-      length = number(e + 4, 4, false);
+      length = unsignedAt(e + 4, 4, false);
     } else if (explicitVr || meta) {
       vr.assign(reinterpret_cast<const char*>(e + 4), 2);
       // A VR GDCM does not know but of two printable characters is read as UN, 2 reserved bytes
@@ -311,21 +315,21 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
         vr = "UN";
       if (unknownVr && unknownVrImplicit) {
         vr.clear();
-        length = number(e + 4, 4, big);
+        length = unsignedAt(e + 4, 4, big);
       } else if (unknownVr && !pixelData) {
         vr.clear();
-        length = number(e + 6, 2, big);
+        length = unsignedAt(e + 6, 2, big);
       } else if (kShortVr.count(vr) == 0) {
         if (pos + 12 > size || !bytes(pos, 12, e))
           return fmt::format("element ({:04x},{:04x}) at byte {}: the file ends inside its header",
                              group, element, start);
-        length = number(e + 8, 4, big);
+        length = unsignedAt(e + 8, 4, big);
         valueAt = pos + 12;
       } else {
-        length = number(e + 6, 2, big);
+        length = unsignedAt(e + 6, 2, big);
       }
     } else {
-      length = number(e + 4, 4, big);
+      length = unsignedAt(e + 4, 4, big);
     }
     // Debian's GDCM asserts (aborts the process) on a sequence or an undefined length in the
     // file meta group (found by fuzz/fuzz_dicom).
@@ -1160,19 +1164,13 @@ std::vector<unsigned char> rleFrame(const std::string& folder, const SliceHeader
   };
   if (!in || h.pixelDataOffset < kHeader || h.fileSize == 0)
     fail("the pixel data could not be found in the file");
-  const auto number = [](const unsigned char* b, int count) {
-    std::uint32_t value = 0;
-    for (int i = 0; i < count; ++i)
-      value |= static_cast<std::uint32_t>(b[i]) << (8 * i);
-    return value;
-  };
   unsigned char header[kHeader] = {};
   in.seekg(static_cast<std::streamoff>(h.pixelDataOffset - kHeader));
   in.read(reinterpret_cast<char*>(header), kHeader);
   // Encapsulated pixel data (explicit VR little endian): its tag, OB or OW, an undefined length.
-  if (!in || number(header, 2) != 0x7fe0 || number(header + 2, 2) != 0x0010 ||
+  if (!in || unsignedAt(header, 2) != 0x7fe0 || unsignedAt(header + 2, 2) != 0x0010 ||
       (std::memcmp(header + 4, "OB", 2) != 0 && std::memcmp(header + 4, "OW", 2) != 0) ||
-      number(header + 8, 4) != 0xffffffffu) {
+      unsignedAt(header + 8, 4) != 0xffffffffu) {
     fail(fmt::format("the pixel data at byte {} is not a sequence of fragments",
                      h.pixelDataOffset - kHeader));
   }
@@ -1182,8 +1180,8 @@ std::vector<unsigned char> rleFrame(const std::string& folder, const SliceHeader
     unsigned char tag[8] = {};
     in.seekg(static_cast<std::streamoff>(pos));
     in.read(reinterpret_cast<char*>(tag), 8);
-    const std::uint32_t group = number(tag, 2), element = number(tag + 2, 2);
-    const std::uint32_t length = number(tag + 4, 4);
+    const std::uint32_t group = unsignedAt(tag, 2), element = unsignedAt(tag + 2, 2);
+    const std::uint32_t length = unsignedAt(tag + 4, 4);
     if (in && group == 0xfffe && element == 0xe0dd)
       break;
     if (!in || group != 0xfffe || element != 0xe000 || length > h.fileSize - pos - 8) {
@@ -1223,12 +1221,7 @@ std::string rleFrameProblem(const std::vector<unsigned char>& frame, std::uint32
     return fmt::format("its frame holds {} bytes, fewer than the {} of an RLE header", frame.size(),
                        kRleHeader);
   }
-  const auto word = [&frame](std::size_t index) {
-    std::uint32_t value = 0;
-    for (std::size_t i = 0; i < 4; ++i)
-      value |= static_cast<std::uint32_t>(frame[4 * index + i]) << (8 * i);
-    return value;
-  };
+  const auto word = [&frame](std::size_t index) { return unsignedAt(&frame[4 * index], 4); };
   const std::uint32_t declared = word(0);
   if (declared != segments) {
     return fmt::format(
