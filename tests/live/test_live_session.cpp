@@ -369,6 +369,102 @@ TEST_F(LiveSession, ServeWaitsForAClientThatStallsAndDropsNothing) {
   EXPECT_TRUE(std::is_sorted(timestamps.begin(), timestamps.end()));
 }
 
+// Reads every IMAGE's timestamp and pixels until the server closes.
+std::vector<std::pair<double, std::vector<std::uint8_t>>> readImages(Connection& client) {
+  std::vector<std::pair<double, std::vector<std::uint8_t>>> images;
+  MessageReader reader(std::size_t{1} << 26);
+  try {
+    while (auto received = reader.next(client, 5.0, nullptr)) {
+      if (received->message && received->message->kind == MessageKind::Image)
+        images.emplace_back(received->message->header.timestampS,
+                            std::move(received->message->pixels));
+    }
+  } catch (const ConnectionClosed&) {
+    // serve closes after the last frame
+  }
+  return images;
+}
+
+TEST_F(LiveSession, ServeRepeatsTheCaptureWithTimestampsGoingOnAsPlusLoopsIt) {
+  // 100 frames at 40 Hz (2.475 s from first to last): each pass goes on one mean frame interval
+  // (2.5 s / 100) after the last one, so pass k is the capture shifted by k * 2.5 s.
+  const Sequence served = sweep(100);
+  writeSequence(served, dir_.file("served.igs.mha"));
+  const double first = *served.frames.front().timestampS;
+  const double period = (*served.frames.back().timestampS - first) * 100.0 / 99.0;
+  int port = freePort();
+  auto serve = std::async(std::launch::async, [&] {
+    return runEchoreg({"serve", dir_.file("served.igs.mha"), "--port", std::to_string(port),
+                       "--rate", "max", "--wait", "10", "--repeat", "3"});
+  });
+  std::vector<std::pair<double, std::vector<std::uint8_t>>> images;
+  {
+    Connection client = Connection::connect("127.0.0.1", port, 10.0);
+    images = readImages(client);
+  }
+  CommandResult server = serve.get();
+  ASSERT_EQ(server.exitCode, 0) << server.err;
+  EXPECT_NE(server.out.find("served 300 frames (3 whole passes of the 100-frame capture)"),
+            std::string::npos)
+      << server.out;
+  ASSERT_EQ(images.size(), 300U);
+  const std::size_t bytes = served.samplesPerFrame() * elementSize(served.elementType);
+  for (std::size_t i = 0; i < images.size(); ++i) {
+    const std::size_t f = i % 100, pass = i / 100;
+    // OpenIGTLink's timestamps are 32.32 fixed point: 2^-32 s, well under a microsecond.
+    EXPECT_NEAR(images[i].first, *served.frames[f].timestampS + static_cast<double>(pass) * period,
+                1e-6)
+        << "image " << i;
+    const auto frame = served.pixels.begin() + static_cast<std::ptrdiff_t>(f * bytes);
+    EXPECT_TRUE(std::equal(frame, frame + static_cast<std::ptrdiff_t>(bytes),
+                           images[i].second.begin(), images[i].second.end()))
+        << "image " << i;
+    if (i > 0) {
+      EXPECT_GT(images[i].first, images[i - 1].first) << "image " << i;
+    }
+  }
+
+  // --repeat 0: until the client closes, which is serve's normal end.
+  port = freePort();
+  serve = std::async(std::launch::async, [&] {
+    return runEchoreg({"serve", dir_.file("served.igs.mha"), "--port", std::to_string(port),
+                       "--rate", "max", "--wait", "10", "--repeat", "0"});
+  });
+  {
+    Connection client = Connection::connect("127.0.0.1", port, 10.0);
+    MessageReader reader(std::size_t{1} << 26);
+    int read = 0;
+    while (read < 1000) {
+      auto received = reader.next(client, 5.0, nullptr);
+      ASSERT_TRUE(received.has_value());
+      if (received->message && received->message->kind == MessageKind::Image)
+        ++read;
+    }
+  }
+  server = serve.get();
+  ASSERT_EQ(server.exitCode, 0) << server.err;
+  EXPECT_NE(server.out.find("until the client closed"), std::string::npos) << server.out;
+  EXPECT_NE(server.out.find("-frame capture)"), std::string::npos) << server.out;
+
+  // A capture that cannot go on from itself is refused before anything is served.
+  writeSequence(sweep(1), dir_.file("one.igs.mha"));
+  CommandResult r = runEchoreg(
+      {"serve", dir_.file("one.igs.mha"), "--port", "0", "--wait", "0.2", "--repeat", "2"});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("one.igs.mha: --repeat 2 needs frames spread over time"), std::string::npos)
+      << r.err;
+  Sequence backwards = sweep(5);
+  backwards.frames[3].timestampS = *backwards.frames[1].timestampS;
+  writeSequence(backwards, dir_.file("backwards.igs.mha"));
+  r = runEchoreg(
+      {"serve", dir_.file("backwards.igs.mha"), "--port", "0", "--wait", "0.2", "--repeat", "0"});
+  EXPECT_EQ(r.exitCode, 1);
+  EXPECT_NE(r.err.find("backwards.igs.mha: --repeat 0: frame 3's timestamp"), std::string::npos)
+      << r.err;
+  r = runEchoreg({"serve", dir_.file("one.igs.mha"), "--port", "0", "--repeat", "-1"});
+  EXPECT_EQ(r.exitCode, 2) << r.err;
+}
+
 TEST_F(LiveSession, AnOversizedMessageEndsTheSessionWithAClearMessageAndKeepsTheRecording) {
   const Sequence s = sweep(30);
   const int port = freePort();
