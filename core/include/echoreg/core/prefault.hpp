@@ -11,8 +11,9 @@ namespace echoreg {
 /// (MADV_POPULATE_WRITE, Linux 5.14), instead of one page fault per 4 KB page when they are first
 /// written: a capture's samples and a block of envelopes are megabytes, and on the virtual
 /// machines echoreg runs on a page fault costs microseconds (docs/benchmarks.md). The contents
-/// are unchanged (pages not yet mapped read as zeros). Where the kernel refuses, nothing changes
-/// but the speed.
+/// are unchanged (pages not yet mapped read as zeros). The whole 2 MiB pages inside the range are
+/// first advised as transparent huge pages (MADV_HUGEPAGE), so that they are mapped 2 MiB at a
+/// time. Where the kernel refuses either, nothing changes but the speed.
 void prefaultForWriting(void* data, std::size_t bytes);
 
 /// `bytes` zero bytes, their pages mapped by prefaultForWriting before the zero-fill touches them.
