@@ -32,25 +32,28 @@ struct ServeOptions {
 };
 
 // Frames must carry what OpenIGTLink can: timestamps from 0 to 2^32 s, names of 1 to 20 characters.
-void checkServable(const Sequence& sequence, const std::string& path,
+void checkServable(const core::Sequence& sequence, const std::string& path,
                    const std::string& imageName) {
   if (sequence.frames.empty())
-    throw FileError(path, "holds no frames to serve");
+    throw core::FileError(path, "holds no frames to serve");
   if (sequence.hasPixels() && sequence.frameSize[1] != 1) {
-    throw FileError(path, fmt::format("frames of {} rows: echoreg serves A-lines (frames of N x 1)",
+    throw core::FileError(path,
+                          fmt::format("frames of {} rows: echoreg serves A-lines (frames of N x 1)",
                                       sequence.frameSize[1]));
   }
   for (std::size_t f = 0; f < sequence.frames.size(); ++f) {
     const std::optional<double>& t = sequence.frames[f].timestampS;
     if (!t || !(*t >= 0.0) || *t >= 4294967295.0) {
-      throw FileError(path, fmt::format("frame {} has {}: OpenIGTLink carries timestamps from 0 to "
+      throw core::FileError(path,
+                            fmt::format("frame {} has {}: OpenIGTLink carries timestamps from 0 to "
                                         "2^32 s",
                                         f, t ? fmt::format("timestamp {}", *t) : "no timestamp"));
     }
   }
   for (const std::string& name : sequence.transformNames()) {
     if (name.size() > 20) {
-      throw FileError(path, fmt::format("transform {} has a name of {} characters: OpenIGTLink "
+      throw core::FileError(path,
+                            fmt::format("transform {} has a name of {} characters: OpenIGTLink "
                                         "device names have at most 20",
                                         name, name.size()));
     }
@@ -60,7 +63,7 @@ void checkServable(const Sequence& sequence, const std::string& path,
 }
 
 int runServe(const ServeOptions& o, const Streams& io) {
-  const Sequence sequence = readSequence(o.capture);
+  const core::Sequence sequence = core::readSequence(o.capture);
   checkServable(sequence, o.capture, o.imageName);
   InterruptScope interrupt;
   const std::atomic<bool>* stop = &interruptRequested();
@@ -90,7 +93,8 @@ int runServe(const ServeOptions& o, const Streams& io) {
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
   const double firstTimestamp = *sequence.frames.front().timestampS;
-  const std::size_t frameBytes = sequence.samplesPerFrame() * elementSize(sequence.elementType);
+  const std::size_t frameBytes =
+      sequence.samplesPerFrame() * core::elementSize(sequence.elementType);
   std::size_t messages = 0, bytes = 0, sent = 0;
   double behindS = 0.0;  // --rate recorded: how late the slowest frame went out
   bool warnedBehind = false;
@@ -105,7 +109,7 @@ int runServe(const ServeOptions& o, const Streams& io) {
     for (std::size_t f = 0; f < sequence.frames.size(); ++f) {
       if (stop->load())
         break;
-      const SequenceFrame& frame = sequence.frames[f];
+      const core::SequenceFrame& frame = sequence.frames[f];
       const double t = *frame.timestampS;
       if (o.rate == "recorded") {
         const auto due = start + std::chrono::duration_cast<Clock::duration>(

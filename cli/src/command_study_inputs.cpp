@@ -40,9 +40,9 @@ StudyParams readStudyParams(const StudyOptions& o, const StudyManifest& manifest
   return params;
 }
 
-FileError missingInputError(const std::string& studyDir, const std::string& file,
-                            const std::string& why) {
-  return FileError(shownInStudy(studyDir, file), fmt::format("is missing ({})", why));
+core::FileError missingInputError(const std::string& studyDir, const std::string& file,
+                                  const std::string& why) {
+  return core::FileError(shownInStudy(studyDir, file), fmt::format("is missing ({})", why));
 }
 
 std::vector<ManifestCalibrationSession> checkCalibrationInputs(const StudyManifest& manifest,

@@ -27,7 +27,7 @@ namespace {
 // Table 5.1: the calibration the sweeps use.
 void reportCalibration(Report& report, nlohmann::json& numbers, const std::string& calibration,
                        const std::string& calibrationFigure) {
-  const nlohmann::json cal = readJsonFile(calibration);
+  const nlohmann::json cal = core::readJsonFile(calibration);
   report.heading("Calibration of the transducer (Table 5.1)");
   const auto& m = cal.at("matrix");
   report.table(
@@ -62,7 +62,7 @@ void reportCalibrationSessions(Report& report, nlohmann::json& numbers,
       rows.push_back({fmt::format("{}", k + 1), shots, "—", "—", "—", "—", "—", "—", "—"});
       continue;
     }
-    const nlohmann::json cal = readJsonFile(calibrations[k]);
+    const nlohmann::json cal = core::readJsonFile(calibrations[k]);
     const auto& m = cal.at("matrix");
     const std::array<double, 6> v = {m[0][3].get<double>(),
                                      m[1][3].get<double>(),
@@ -111,7 +111,7 @@ void reportCalibrationSessions(Report& report, nlohmann::json& numbers,
   // A simulated study knows the probe's true BeamToProbe.
   if (const std::string truthFile = read(manifest.truth.transforms);
       !truthFile.empty() && fs::exists(truthFile)) {
-    const nlohmann::json truth = readJsonFile(truthFile);
+    const nlohmann::json truth = core::readJsonFile(truthFile);
     if (truth.contains("BeamToProbe")) {
       const auto& t = truth.at("BeamToProbe");
       const std::array<double, 3> offset = {
@@ -225,7 +225,7 @@ void reportRegistrations(Report& report, nlohmann::json& numbers,
         list.push_back({{"name", name}, {"failed", true}});
         continue;
       }
-      const nlohmann::json r = readJsonFile(file);
+      const nlohmann::json r = core::readJsonFile(file);
       rows.push_back({name, r.value("converged", false) ? "yes" : "NO",
                       number(r.value("rms_mm", 0.0), 3),
                       fmt::format("{}", r.value("points_used", 0)),
@@ -496,13 +496,13 @@ StudyReport writeStudyReport(const StudyContext& ctx, const std::string& studyDi
   reportProvenance(report, numbers, read.outside(), ctx.params, ctx.options);
   std::string incomplete = reportMissing(report, numbers, progress.outcomes, failure);
   {
-    AtomicFile md(results + "/report.md");
+    core::AtomicFile md(results + "/report.md");
     md.stream() << report.markdown();
     md.commit();
-    AtomicFile html(results + "/report.html");
+    core::AtomicFile html(results + "/report.html");
     html.stream() << report.html("Study report: " + studyName);
     html.commit();
-    AtomicFile json(results + "/results.json");
+    core::AtomicFile json(results + "/results.json");
     json.stream() << numbers.dump(2) << "\n";
     json.commit();
   }
