@@ -8,7 +8,7 @@
 #include "pose_check.hpp"
 
 #include "echoreg/core/sequence_detection.hpp"
-#include "echoreg/filters/DetectionPipeline.h"
+#include "echoreg/filters/detection_pipeline.h"
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>

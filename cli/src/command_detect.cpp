@@ -8,7 +8,7 @@
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/core/transform_file.hpp"
-#include "echoreg/filters/DetectionPipeline.h"
+#include "echoreg/filters/detection_pipeline.h"
 
 #include <fmt/format.h>
 #include <vtkAlgorithm.h>
@@ -128,7 +128,7 @@ CommandAction addDetectCommand(CLI::App& app) {
     ParamsSources sources{o->paramsFile, {}};
     if (!o->paramsFile.empty())
       sources.fromFile = mergeParamsFile(o->paramsFile, preset, settings);
-    // reader -> envelope -> peaks -> beam points -> inter-signal -> writer (DetectionPipeline.h)
+    // reader -> envelope -> peaks -> beam points -> inter-signal -> writer (detection_pipeline.h)
     filters::DetectionPipeline pipeline;
     const core::Sequence& sequence = pipeline.open(o->capture, {o->pose, o->reference});
     PoseNotes poseNotes;

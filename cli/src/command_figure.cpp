@@ -15,8 +15,8 @@
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/core/statistics.hpp"
 #include "echoreg/core/transform_file.hpp"
-#include "echoreg/filters/DetectionPipeline.h"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/detection_pipeline.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/filters/vtkEchoregPointToSurfaceDistance.h"
 #include "echoreg/render/plot_figure.hpp"
 #include "echoreg/render/surface_figure.hpp"
@@ -404,7 +404,7 @@ int runSignalsFigure(const SignalsFigureRequest& request, const Streams& streams
   }
   requirePngName("--out", o->out);
   // reader -> envelope -> peaks (with its peak list), reconfigured per setting: the capture is
-  // read once (DetectionPipeline.h).
+  // read once (detection_pipeline.h).
   filters::DetectionPipeline pipeline;
   const core::Sequence& sequence = pipeline.open(o->capture, {});
   if (!sequence.hasPixels())

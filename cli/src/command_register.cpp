@@ -18,7 +18,7 @@
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/core/surface_registration.hpp"
 #include "echoreg/core/transform_file.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>

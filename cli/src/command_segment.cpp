@@ -9,7 +9,7 @@
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/mesh.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/segmentation/accessible_surface.hpp"
 #include "echoreg/segmentation/bone_labels.hpp"
 #include "echoreg/segmentation/bone_mask.hpp"

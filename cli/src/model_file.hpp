@@ -5,7 +5,7 @@
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/mesh.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <vtkObject.h>
 

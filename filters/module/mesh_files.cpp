@@ -1,5 +1,5 @@
 // VTK's mesh readers and writers (STL, VTK XML PolyData, PLY, OBJ), inside the mesh I/O module
-// (filters/CMakeLists.txt): readMesh and writeMesh (MeshIO.cxx) call them through the module; the
+// (filters/CMakeLists.txt): readMesh and writeMesh (mesh_io.cxx) call them through the module; the
 // fuzz harness compiles this file directly.
 #include "mesh_files.hpp"
 #include "echoreg/core/error.hpp"

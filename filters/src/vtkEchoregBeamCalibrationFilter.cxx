@@ -1,6 +1,6 @@
 #include "echoreg/filters/vtkEchoregBeamCalibrationFilter.h"
 
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include "echoreg/core/depth.hpp"
 

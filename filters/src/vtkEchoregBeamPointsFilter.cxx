@@ -2,7 +2,7 @@
 
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/sequence_detection.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkAbstractArray.h>
 #include <vtkDataArray.h>

@@ -1,7 +1,7 @@
 #include "echoreg/filters/vtkEchoregDetectionWriter.h"
 
 #include "echoreg/core/atomic_file.hpp"
-#include "echoreg/filters/DetectionTable.h"
+#include "echoreg/filters/detection_table.h"
 
 #include <vtkErrorCode.h>
 #include <vtkInformation.h>

@@ -1,7 +1,7 @@
 #include "echoreg/filters/vtkEchoregEnvelopeFilter.h"
 
-#include "PipelineRequests.h"
 #include "echoreg/core/prefault.hpp"
+#include "pipeline_requests.h"
 
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>

@@ -1,7 +1,7 @@
 #include "echoreg/filters/vtkEchoregPeakFilter.h"
 
 #include "echoreg/core/detection.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkAlgorithmOutput.h>
 #include <vtkDataArray.h>

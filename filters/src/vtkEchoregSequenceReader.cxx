@@ -1,10 +1,10 @@
 #include "echoreg/filters/vtkEchoregSequenceReader.h"
 
-#include "PipelineRequests.h"
+#include "pipeline_requests.h"
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/sequence_detection.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>

@@ -1,7 +1,7 @@
 #include "echoreg/filters/vtkEchoregSequenceWriter.h"
 
 #include "echoreg/core/sequence.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkDataArray.h>
 #include <vtkErrorCode.h>

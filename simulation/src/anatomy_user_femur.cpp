@@ -4,7 +4,7 @@
 #include "anatomy_detail.hpp"
 
 #include "echoreg/core/error.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>

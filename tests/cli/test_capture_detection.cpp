@@ -1,5 +1,5 @@
 // The detection that `register`, `calibrate` and the study's sweeps run: one pass through the
-// VTK pipeline (filters/DetectionPipeline.h), kept and re-used inside one process.
+// VTK pipeline (filters/detection_pipeline.h), kept and re-used inside one process.
 #include "capture_detection.hpp"
 #include "cli_test_support.hpp"
 #include "command_register.hpp"

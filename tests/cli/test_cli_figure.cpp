@@ -5,7 +5,7 @@
 
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/transform_file.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <vtkImageData.h>
 #include <vtkPNGReader.h>

@@ -5,7 +5,7 @@
 #include "echoreg/core/beam_calibration.hpp"
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/fits.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 #include "echoreg/filters/vtkEchoregBeamCalibrationFilter.h"
 #include "echoreg/filters/vtkEchoregSphereFitFilter.h"
 #include "filter_test_helpers.hpp"

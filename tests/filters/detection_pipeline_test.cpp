@@ -1,8 +1,8 @@
 // echoreg::filters::DetectionPipeline, the path `echoreg detect` takes: its detection must be
 // detectSequence's, number for number, its CSV written whole or not at all, and a change re-runs
 // only the steps downstream of it.
+#include "echoreg/filters/detection_pipeline.h"
 #include "echoreg/core/sequence_detection.hpp"
-#include "echoreg/filters/DetectionPipeline.h"
 #include "filter_test_helpers.hpp"
 #include "test_support.hpp"
 

@@ -5,7 +5,7 @@
 
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/sequence.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkImageData.h>
 #include <vtkLogger.h>

@@ -3,7 +3,7 @@
 #pragma once
 
 #include "echoreg/core/sequence.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkDoubleArray.h>
 #include <vtkIntArray.h>

@@ -1,4 +1,4 @@
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <gtest/gtest.h>
 

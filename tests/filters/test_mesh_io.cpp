@@ -1,5 +1,5 @@
 #include "echoreg/core/error.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>

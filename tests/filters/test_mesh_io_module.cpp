@@ -3,7 +3,7 @@
 // and a module of another build refused with a FileError naming its path.
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/loadable_module.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "mesh_files.hpp"
 #include "test_support.hpp"
 

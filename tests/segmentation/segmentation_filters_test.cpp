@@ -2,8 +2,8 @@
 // vtkEchoregBoneSurfaceFilter, and CT -> vtkEchoregLiveWireFilter. Each equals the segmentation
 // function it adapts on the same CT; a change re-runs only what is downstream of it; errors go
 // through the executive.
-#include "echoreg/filters/MeshIO.h"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/mesh_io.h"
+#include "echoreg/filters/sequence_field_data.h"
 #include "echoreg/filters/vtkEchoregBeamPointsFilter.h"
 #include "echoreg/filters/vtkEchoregInterSignalFilter.h"
 #include "echoreg/filters/vtkEchoregSurfaceRegistrationFilter.h"

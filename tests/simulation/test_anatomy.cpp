@@ -2,7 +2,7 @@
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/mesh_locator.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>

@@ -3,7 +3,7 @@
 
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/sequence.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

@@ -10,7 +10,7 @@
 
 #include "command_figure.hpp"
 #include "csv_table.hpp"
-#include "echoreg/filters/DetectionPipeline.h"
+#include "echoreg/filters/detection_pipeline.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

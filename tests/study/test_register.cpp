@@ -7,7 +7,7 @@
 #include "echoreg/core/mesh.hpp"
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/transform_file.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "study_checks.hpp"
 #include "test_support.hpp"
 

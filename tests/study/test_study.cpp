@@ -4,7 +4,7 @@
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/sequence_detection.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/simulation/study.hpp"
 #include "study_checks.hpp"
 #include "test_support.hpp"

@@ -2,7 +2,7 @@
 // the fixture read back by an independent DICOM implementation (pydicom).
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/sequence_detection.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/simulation/study.hpp"
 #include "study_checks.hpp"
 #include "test_support.hpp"

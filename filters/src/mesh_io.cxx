@@ -1,4 +1,4 @@
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include "echoreg/core/error.hpp"
 #include "mesh_files.hpp"

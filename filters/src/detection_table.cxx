@@ -1,4 +1,4 @@
-#include "echoreg/filters/DetectionTable.h"
+#include "echoreg/filters/detection_table.h"
 
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>

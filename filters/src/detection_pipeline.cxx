@@ -1,6 +1,6 @@
-#include "echoreg/filters/DetectionPipeline.h"
+#include "echoreg/filters/detection_pipeline.h"
 
-#include "echoreg/filters/DetectionTable.h"
+#include "echoreg/filters/detection_table.h"
 
 #include <vtkExecutive.h>
 #include <vtkLogger.h>
