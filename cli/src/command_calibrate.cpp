@@ -5,6 +5,7 @@
 #include "capture_detection.hpp"
 #include "commands.hpp"
 #include "detection_params.hpp"
+#include "json_values.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
 #include "validators.hpp"
@@ -62,10 +63,6 @@ std::vector<std::pair<int, Eigen::Isometry3d>> validPoses(const core::Sequence& 
                                     std::to_string(sequence.frames.size()) + " frames is INVALID");
   }
   return poses;
-}
-
-nlohmann::json vec(const Eigen::Vector3d& v) {
-  return {v.x(), v.y(), v.z()};
 }
 
 }  // namespace

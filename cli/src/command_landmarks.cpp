@@ -2,6 +2,7 @@
 // initial registration of a bone, or PLUS's phantom registration): dwells found in the tracked
 // tip, matched in order to the landmark file, registered by weighted Horn/Umeyama.
 #include "commands.hpp"
+#include "json_values.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
 #include "validators.hpp"
@@ -26,10 +27,6 @@
 namespace echoreg::cli {
 
 namespace {
-
-nlohmann::json vec(const Eigen::Vector3d& v) {
-  return {v.x(), v.y(), v.z()};
-}
 
 // "ReferenceToTracker" -> "Reference". Throws std::invalid_argument for a name without "To".
 std::string fromFrame(const std::string& transform, const char* option) {

@@ -4,6 +4,7 @@
 // the stylus. docs/registration.md.
 #include "command_register.hpp"
 #include "csv_table.hpp"
+#include "json_values.hpp"
 #include "model_file.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
@@ -40,10 +41,6 @@
 namespace echoreg::cli {
 
 namespace {
-
-nlohmann::json vec(const Eigen::Vector3d& v) {
-  return {v.x(), v.y(), v.z()};
-}
 
 // Points from a CSV: x,y,z (or echoreg detect's x_mm,y_mm,z_mm, accepted rows only), optionally
 // ox,oy,oz,dx,dy,dz,depth_mm (the beam, same frame).

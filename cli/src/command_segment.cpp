@@ -4,6 +4,7 @@
 // segmented region (sub-voxel), a closed model in CT patient coordinates (LPS), the mask as NRRD,
 // anchors proposed for the user to check, and optionally the surface accessible to a probe.
 #include "commands.hpp"
+#include "json_values.hpp"
 #include "path_check.hpp"
 #include "validators.hpp"
 
@@ -66,10 +67,6 @@ struct SegmentOptions {
   std::vector<double> viewDirections;
   double maxAngleDeg = 60.0;
 };
-
-nlohmann::json vec(const Eigen::Vector3d& v) {
-  return {v.x(), v.y(), v.z()};
-}
 
 // The folder an output goes into must exist before the work starts.
 void requireOutputFolder(const std::string& path) {

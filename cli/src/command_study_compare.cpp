@@ -12,6 +12,7 @@
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/json_file.hpp"
+#include "echoreg/core/number_text.hpp"
 #include "echoreg/core/statistics.hpp"
 #include "echoreg/render/plot_figure.hpp"
 
@@ -62,10 +63,6 @@ const std::vector<std::string> kComponents = {"tx_mm",  "ty_mm",  "tz_mm",
 const std::vector<std::pair<std::string, std::string>> kReferences = {
     {"against_mechanical", "the mechanical-probe registration (Tables 5.3-5.7)"},
     {"against_truth", "the simulation's true registration"}};
-
-std::string number(double value, int decimals) {
-  return fmt::format("{:.{}f}", value, decimals);
-}
 
 /// "generator.standoff" -> the value at /generator/standoff of the manifest, as a label; a key the
 /// manifest does not have is looked up in the study's results.json ("provenance.solver.method":
@@ -357,7 +354,7 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
             continue;
           }
           const double mean = it->second / m.registrations;
-          cells.push_back(number(mean, 2));
+          cells.push_back(core::number(mean, 2));
           row["mean_abs_" + key] = mean;
         }
         rows.push_back(cells);
@@ -402,8 +399,8 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
       if (!c.is_object())
         continue;
       const std::string where = "calibration";
-      rows.push_back({s.name, s.group, number(rowValue(s, c, where, "rms_mm"), 3),
-                      number(rowValue(s, c, where, "speed_of_sound_mps"), 1),
+      rows.push_back({s.name, s.group, core::number(rowValue(s, c, where, "rms_mm"), 3),
+                      core::number(rowValue(s, c, where, "speed_of_sound_mps"), 1),
                       fmt::format("{}", rowValue(s, c, where, "shots_used"))});
     }
     if (!rows.empty()) {
@@ -454,10 +451,11 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
           high[i] = std::max(high[i], v[i]);
         }
       }
-      rows.push_back({name, group, fmt::format("{}", sessions.size()), number(mean[0], 2),
-                      number(mean[1], 2), number(mean[2], 2), number(high[0] - low[0], 2),
-                      number(high[1] - low[1], 2), number(high[2] - low[2], 2), number(mean[3], 3),
-                      number(mean[4], 2), number(mean[5], 1)});
+      rows.push_back({name, group, fmt::format("{}", sessions.size()), core::number(mean[0], 2),
+                      core::number(mean[1], 2), core::number(mean[2], 2),
+                      core::number(high[0] - low[0], 2), core::number(high[1] - low[1], 2),
+                      core::number(high[2] - low[2], 2), core::number(mean[3], 3),
+                      core::number(mean[4], 2), core::number(mean[5], 1)});
       pooledJson.push_back(
           {{"name", name},
            {"group", group},
@@ -526,8 +524,8 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
         const auto& [groupIndex, bone, setting] = key;
         const double fn = c.bone > 0 ? 100.0 * c.falseNegative / c.bone : 0.0;
         const double fp = c.other > 0 ? 100.0 * c.falsePositive / c.other : 0.0;
-        rows.push_back({groups[groupIndex], bone, setting, number(c.bone, 0), number(c.other, 0),
-                        number(fn, 1), number(fp, 1)});
+        rows.push_back({groups[groupIndex], bone, setting, core::number(c.bone, 0),
+                        core::number(c.other, 0), core::number(fn, 1), core::number(fp, 1)});
         json.push_back({{"group", groups[groupIndex]},
                         {"bone", bone},
                         {"setting", setting},

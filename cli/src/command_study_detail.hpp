@@ -41,8 +41,6 @@ struct StudyOptions {
   bool json = false;
 };
 
-std::string number(double value, int decimals = 2);
-
 std::string capitalised(std::string name);
 
 // --- The manifest's inputs (command_study_inputs.cpp) ----------------------------------------

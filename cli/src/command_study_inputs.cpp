@@ -12,10 +12,6 @@ namespace echoreg::cli::detail {
 
 namespace fs = std::filesystem;
 
-std::string number(double value, int decimals) {
-  return fmt::format("{:.{}f}", value, decimals);
-}
-
 std::string capitalised(std::string name) {
   if (!name.empty())
     name[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(name[0])));
