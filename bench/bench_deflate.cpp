@@ -29,7 +29,7 @@ const std::vector<std::uint8_t>& input() {
   static const std::vector<std::uint8_t> bytes = [] {
     test::DemoSweepOptions options;
     options.frames = 600;
-    const Sequence sweep = test::makeDemoSweep(options);
+    const core::Sequence sweep = test::makeDemoSweep(options);
     std::vector<std::uint8_t> out;
     const std::size_t total = std::size_t{256} << 20;
     out.reserve(total);

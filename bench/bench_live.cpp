@@ -58,19 +58,19 @@ void writeInputs(const test::TempDir& dir, int frames, double rateHz) {
   test::DemoSweepOptions options;
   options.frames = frames;
   options.frameRateHz = rateHz;
-  Sequence sweep = test::makeDemoSweep(options);
-  for (SequenceFrame& frame : sweep.frames)
-    frame.transforms["FemurToTracker"] = TrackedTransform{};
-  writeSequence(sweep, dir.file("sweep.igs.mha"));
+  core::Sequence sweep = test::makeDemoSweep(options);
+  for (core::SequenceFrame& frame : sweep.frames)
+    frame.transforms["FemurToTracker"] = core::TrackedTransform{};
+  core::writeSequence(sweep, dir.file("sweep.igs.mha"));
   std::ofstream cube(dir.file("cube.obj"));
   for (int i = 0; i < 8; ++i)
     cube << "v " << ((i & 1) ? 50 : -50) << " " << ((i & 2) ? 50 : -50) << " "
          << ((i & 4) ? 50 : -50) << "\n";
   cube << "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
-  writeTransformFile(dir.file("BeamToProbe.json"),
-                     {"Beam", "Probe", Eigen::Matrix4d::Identity(), {}}, false);
-  writeTransformFile(dir.file("initial.json"), {"Femur", "CT", Eigen::Matrix4d::Identity(), {}},
-                     false);
+  core::writeTransformFile(dir.file("BeamToProbe.json"),
+                           {"Beam", "Probe", Eigen::Matrix4d::Identity(), {}}, false);
+  core::writeTransformFile(dir.file("initial.json"),
+                           {"Femur", "CT", Eigen::Matrix4d::Identity(), {}}, false);
 }
 
 int run(const std::vector<std::string>& args) {
@@ -152,8 +152,8 @@ int soak(double seconds, double rateHz, double reportEveryS) {
   using Clock = std::chrono::steady_clock;
   test::TempDir dir;
   writeInputs(dir, 600, 100.0);
-  const Sequence sweep = readSequence(dir.file("sweep.igs.mha"));
-  const std::size_t frameBytes = sweep.samplesPerFrame() * elementSize(sweep.elementType);
+  const core::Sequence sweep = core::readSequence(dir.file("sweep.igs.mha"));
+  const std::size_t frameBytes = sweep.samplesPerFrame() * core::elementSize(sweep.elementType);
   live::Listener listener("127.0.0.1", 0);
   const int port = listener.port();
   const auto total = static_cast<long>(seconds * rateHz);

@@ -17,7 +17,7 @@
 
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/random.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <benchmark/benchmark.h>
 #include <vtkGenericCell.h>

@@ -17,7 +17,7 @@
 #include "test_support.hpp"
 
 #include "echoreg/core/surface_registration.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <benchmark/benchmark.h>
 #include <vtkCellLocator.h>

@@ -70,8 +70,8 @@ void reportRates(benchmark::State& state) {
       benchmark::Counter(done, benchmark::Counter::kAvgThreadsRate);
 }
 
-void envelopeBenchmark(benchmark::State& state, echoreg::EnvelopeParams params) {
-  echoreg::EnvelopeDetector detector(params);
+void envelopeBenchmark(benchmark::State& state, echoreg::core::EnvelopeParams params) {
+  echoreg::core::EnvelopeDetector detector(params);
   std::vector<float> samples(kSamples), envelope(kSamples);
   std::size_t index = firstRecord(state);
   for (auto _ : state) {
@@ -85,23 +85,23 @@ void envelopeBenchmark(benchmark::State& state, echoreg::EnvelopeParams params) 
 
 // The preset as detect runs it: adapted once to the benchmark's records (transducer band,
 // ring-down, shadow rule), outside the timed loop as adaptToCapture runs once per capture.
-echoreg::DetectionParams adaptedPreset(const std::string& preset) {
-  const echoreg::RecordSource source = [](int index, std::vector<float>& out) {
+echoreg::core::DetectionParams adaptedPreset(const std::string& preset) {
+  const echoreg::core::RecordSource source = [](int index, std::vector<float>& out) {
     out.resize(kSamples);
     convert(static_cast<std::size_t>(index), out.data());
   };
-  return echoreg::adaptToCapture(echoreg::detectionPreset(preset), kRecords, kSamples, source,
-                                 std::nullopt);
+  return echoreg::core::adaptToCapture(echoreg::core::detectionPreset(preset), kRecords, kSamples,
+                                       source, std::nullopt);
 }
 
 void chainBenchmark(benchmark::State& state, const std::string& preset) {
-  echoreg::SignalDetector detector(adaptedPreset(preset));
+  echoreg::core::SignalDetector detector(adaptedPreset(preset));
   std::vector<float> samples(kSamples);
   std::size_t index = firstRecord(state);
   std::int64_t accepted = 0;
   for (auto _ : state) {
     convert(index++, samples.data());
-    const echoreg::SignalDetection detection = detector.detect(samples.data(), kSamples);
+    const echoreg::core::SignalDetection detection = detector.detect(samples.data(), kSamples);
     accepted += detection.accepted() ? 1 : 0;
     benchmark::DoNotOptimize(detection);
   }
@@ -124,9 +124,9 @@ void conversionBenchmark(benchmark::State& state) {
 }
 
 void peaksBenchmark(benchmark::State& state, const std::string& preset) {
-  const echoreg::DetectionParams params = adaptedPreset(preset);
-  echoreg::EnvelopeDetector envelopeDetector(params.envelope);
-  const echoreg::PeakParams peakParams = echoreg::resolvePeakParams(params);
+  const echoreg::core::DetectionParams params = adaptedPreset(preset);
+  echoreg::core::EnvelopeDetector envelopeDetector(params.envelope);
+  const echoreg::core::PeakParams peakParams = echoreg::core::resolvePeakParams(params);
   std::vector<float> samples(kSamples);
   std::vector<float> envelopes(static_cast<std::size_t>(kRecords) * kSamples);
   for (std::size_t r = 0; r < kRecords; ++r) {
@@ -136,29 +136,30 @@ void peaksBenchmark(benchmark::State& state, const std::string& preset) {
   std::size_t index = firstRecord(state);
   for (auto _ : state) {
     const float* envelope = envelopes.data() + (index++ % kRecords) * kSamples;
-    const echoreg::PeakResult result = echoreg::findPeaks(peakParams, envelope, kSamples);
+    const echoreg::core::PeakResult result =
+        echoreg::core::findPeaks(peakParams, envelope, kSamples);
     benchmark::DoNotOptimize(result);
   }
   reportRates(state);
 }
 
-echoreg::EnvelopeParams envelope(echoreg::EnvelopeMethod method) {
-  echoreg::EnvelopeParams params;
+echoreg::core::EnvelopeParams envelope(echoreg::core::EnvelopeMethod method) {
+  echoreg::core::EnvelopeParams params;
   params.method = method;
   params.ringDownSamples = kRingDown;
   return params;
 }
 
-echoreg::EnvelopeParams mozes(bool zeroPhase) {
-  echoreg::EnvelopeParams params = envelope(echoreg::EnvelopeMethod::Mozes);
+echoreg::core::EnvelopeParams mozes(bool zeroPhase) {
+  echoreg::core::EnvelopeParams params = envelope(echoreg::core::EnvelopeMethod::Mozes);
   params.butterworthOrder = 2;
   params.cutoffNormalized = 0.01;
   params.zeroPhase = zeroPhase;
   return params;
 }
 
-echoreg::EnvelopeParams windowed(echoreg::EnvelopeMethod method, int windowSamples) {
-  echoreg::EnvelopeParams params = envelope(method);
+echoreg::core::EnvelopeParams windowed(echoreg::core::EnvelopeMethod method, int windowSamples) {
+  echoreg::core::EnvelopeParams params = envelope(method);
   params.windowSamples = windowSamples;
   return params;
 }
@@ -178,10 +179,10 @@ int main(int argc, char** argv) {
     return 1;
   records();  // generate the set before any timing
 
-  using echoreg::EnvelopeMethod;
+  using echoreg::core::EnvelopeMethod;
   struct Envelope {
     const char* name;
-    echoreg::EnvelopeParams params;
+    echoreg::core::EnvelopeParams params;
   };
   const Envelope envelopes[] = {
       {"envelope/mozes_zero_phase", mozes(true)},

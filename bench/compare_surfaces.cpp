@@ -2,7 +2,7 @@
 // surface (segmentation/surface_metrics.hpp): mean symmetric surface distance, its 95th
 // percentile and maximum, and Dice, optionally inside a slab of CT z (the scanned group). Prints
 // one JSON line. Used for the numbers in docs/segmentation.md.
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/segmentation/surface_metrics.hpp"
 
 #include <nlohmann/json.hpp>

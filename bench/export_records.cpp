@@ -155,9 +155,9 @@ int run(const Options& options) {
   }
 
   // The chain, timed: best of several passes over every record (at least three, at least 0.5 s).
-  const echoreg::DetectionParams params = echoreg::detectionPreset(options.preset);
-  echoreg::SignalDetector detector(params);
-  std::vector<echoreg::SignalDetection> detections(n);
+  const echoreg::core::DetectionParams params = echoreg::core::detectionPreset(options.preset);
+  echoreg::core::SignalDetector detector(params);
+  std::vector<echoreg::core::SignalDetection> detections(n);
   std::vector<float> samples(kSamples);
   double best = std::numeric_limits<double>::infinity();
   double total = 0.0;
@@ -182,10 +182,10 @@ int run(const Options& options) {
     std::ofstream out = openForWriting(options.outDir / ("decisions_" + options.preset + ".csv"));
     out << "index,accepted,reason,sample_index,depth_mm,peaks,threshold\n";
     for (std::size_t i = 0; i < n; ++i) {
-      const echoreg::SignalDetection& d = detections[i];
+      const echoreg::core::SignalDetection& d = detections[i];
       out << i << "," << (d.accepted() ? 1 : 0) << ","
           << (d.accepted() ? std::string("accepted")
-                           : std::string(echoreg::rejectReasonName(d.peaks.reason)))
+                           : std::string(echoreg::core::rejectReasonName(d.peaks.reason)))
           << ",";
       if (d.accepted()) {
         out << formatDouble(d.peaks.sampleIndex, 17) << "," << formatDouble(d.depthMm, 17);
@@ -198,8 +198,8 @@ int run(const Options& options) {
   {
     // The timing and every parameter of the chain as it ran, so compare_scipy.py follows the
     // preset's current values instead of a copy of them.
-    const echoreg::PeakParams peaks = echoreg::resolvePeakParams(params);
-    const echoreg::EnvelopeParams& envelope = params.envelope;
+    const echoreg::core::PeakParams peaks = echoreg::core::resolvePeakParams(params);
+    const echoreg::core::EnvelopeParams& envelope = params.envelope;
     std::ofstream out = openForWriting(options.outDir / ("chain_" + options.preset + ".txt"));
     out << "preset=" << options.preset << "\n"
         << "records=" << n << "\n"
@@ -207,21 +207,21 @@ int run(const Options& options) {
         << "seed=" << options.seed << "\n"
         << "passes=" << passes << "\n"
         << "seconds_per_record=" << formatDouble(perRecord) << "\n"
-        << "envelope_method=" << echoreg::envelopeMethodName(envelope.method) << "\n"
+        << "envelope_method=" << echoreg::core::envelopeMethodName(envelope.method) << "\n"
         << "ring_down_samples=" << envelope.ringDownSamples << "\n"
         << "window_samples=" << envelope.windowSamples << "\n"
         << "butterworth_order=" << envelope.butterworthOrder << "\n"
         << "butterworth_cutoff=" << formatDouble(envelope.cutoffNormalized, 17) << "\n"
         << "butterworth_zero_phase=" << (envelope.zeroPhase ? 1 : 0) << "\n"
         << "threshold_mode="
-        << (peaks.thresholdMode == echoreg::ThresholdMode::FactorOfMean ? "factor-of-mean"
-                                                                        : "fraction-of-max")
+        << (peaks.thresholdMode == echoreg::core::ThresholdMode::FactorOfMean ? "factor-of-mean"
+                                                                              : "fraction-of-max")
         << "\n"
         << "threshold_factor=" << formatDouble(peaks.thresholdFactor, 17) << "\n"
         << "threshold_of_max=" << formatDouble(peaks.thresholdOfMax, 17) << "\n"
         << "window_begin=" << (peaks.windowBegin ? std::to_string(*peaks.windowBegin) : "") << "\n"
         << "window_end=" << (peaks.windowEnd ? std::to_string(*peaks.windowEnd) : "") << "\n"
-        << "policy=" << echoreg::peakPolicyName(peaks.policy) << "\n"
+        << "policy=" << echoreg::core::peakPolicyName(peaks.policy) << "\n"
         << "subsample=" << (peaks.subsample ? 1 : 0) << "\n"
         << "mm_per_sample=" << formatDouble(peaks.mmPerSample, 17) << "\n"
         << "bone_region_mm=" << formatDouble(peaks.bone.regionMm, 17) << "\n"
@@ -234,9 +234,9 @@ int run(const Options& options) {
         << "sampling_frequency_hz=" << formatDouble(params.depth.samplingFrequencyHz, 17) << "\n"
         << "delay_s=" << formatDouble(params.depth.delayS, 17) << "\n"
         << "speed_of_sound_mps=" << formatDouble(params.depth.speedOfSoundMps, 17) << "\n";
-    if (envelope.method == echoreg::EnvelopeMethod::Mozes) {
-      const echoreg::IirCoefficients filter =
-          echoreg::designButterworthLowPass(envelope.butterworthOrder, envelope.cutoffNormalized);
+    if (envelope.method == echoreg::core::EnvelopeMethod::Mozes) {
+      const echoreg::core::IirCoefficients filter = echoreg::core::designButterworthLowPass(
+          envelope.butterworthOrder, envelope.cutoffNormalized);
       out << "butterworth_b=" << join(filter.b) << "\n"
           << "butterworth_a=" << join(filter.a) << "\n";
     }

@@ -5,7 +5,7 @@
 //   segmentation_figure OUT.png TITLE MODEL.vtp [CONTEXT.vtp ...]
 //   segmentation_figure OUT.png TITLE --merge MODEL.vtp MODEL.vtp ...   (all in bone colour)
 #include "echoreg/core/error.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/render/surface_figure.hpp"
 
 #include <exception>

@@ -18,11 +18,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   options.threads = 1;  // the fuzzer's process stays one thread; the result is the same bytes
   try {
     echoreg::segmentation::listDicomSeries(folder);
-  } catch (const echoreg::FileError&) {
+  } catch (const echoreg::core::FileError&) {
   }
   try {
     echoreg::segmentation::readDicomSeriesWithWarnings(folder, options);
-  } catch (const echoreg::FileError&) {
+  } catch (const echoreg::core::FileError&) {
   }
   return 0;
 }

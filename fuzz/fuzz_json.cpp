@@ -14,7 +14,7 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string path = echoreg::fuzz::writeInput(data, size, ".json");
   try {
-    echoreg::readTransformFile(path, "", "");
+    echoreg::core::readTransformFile(path, "", "");
   } catch (const std::bad_alloc&) {
     throw;
   } catch (const std::exception&) {

@@ -35,7 +35,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       if (manifest.bone(bone.name) != &bone)
         __builtin_trap();  // the bones are looked up by name: each name once
     }
-  } catch (const echoreg::FileError&) {
+  } catch (const echoreg::core::FileError&) {
   }
   return 0;
 }

@@ -21,18 +21,18 @@ namespace {
 
 // 16 A-lines of 1000 samples at 50 MHz: an echo of 9 MHz at sample 600 (23 mm at 1540 m/s) over
 // deterministic noise, and a shadow behind it, so that every policy has something to find.
-const echoreg::Sequence& capture() {
-  static const echoreg::Sequence sequence = [] {
-    echoreg::Sequence s;
+const echoreg::core::Sequence& capture() {
+  static const echoreg::core::Sequence sequence = [] {
+    echoreg::core::Sequence s;
     constexpr int kSamples = 1000;
     constexpr int kFrames = 16;
-    s.elementType = echoreg::ElementType::Int16;
+    s.elementType = echoreg::core::ElementType::Int16;
     s.frameSize = {kSamples, 1};
     s.acquisition.samplingFrequencyHz = 50e6;
     s.acquisition.speedOfSoundMps = 1540.0;
     std::uint32_t state = 12345;
     for (int f = 0; f < kFrames; ++f) {
-      echoreg::SequenceFrame frame;
+      echoreg::core::SequenceFrame frame;
       frame.timestampS = 0.01 * f;
       s.frames.push_back(frame);
       for (int i = 0; i < kSamples; ++i) {
@@ -62,13 +62,13 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   echoreg::cli::TunableSettings settings;
   try {
     echoreg::cli::mergeParamsFile(path, preset, settings);
-  } catch (const echoreg::FileError&) {
+  } catch (const echoreg::core::FileError&) {
     return 0;
   }
-  echoreg::DetectionParams params;
+  echoreg::core::DetectionParams params;
   try {
     params = echoreg::cli::resolveParams(preset, settings, capture());
-    echoreg::detectSequence(capture(), params);
+    echoreg::core::detectSequence(capture(), params);
   } catch (const std::invalid_argument&) {
   }
   return 0;

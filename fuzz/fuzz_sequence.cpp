@@ -15,7 +15,7 @@
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const std::string path = echoreg::fuzz::writeInput(data, size, ".igs.mha");
   try {
-    const echoreg::Sequence sequence = echoreg::readSequence(path);
+    const echoreg::core::Sequence sequence = echoreg::core::readSequence(path);
     std::vector<float> samples;
     for (std::size_t f = 0; f < sequence.frameCount() && sequence.hasPixels(); ++f)
       sequence.frameSamples(f, samples);

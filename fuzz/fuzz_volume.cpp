@@ -18,7 +18,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::size_t voxels = volume.image.voxelCount();
     if ((volume.isMask ? volume.mask.size() : volume.image.hu.size()) != voxels)
       __builtin_trap();  // the voxels read are the voxels the sizes claim
-  } catch (const echoreg::FileError&) {
+  } catch (const echoreg::core::FileError&) {
   }
   return 0;
 }

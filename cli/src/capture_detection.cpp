@@ -30,14 +30,14 @@ std::unique_ptr<CaptureDetection> openCapture(const std::string& path,
   capture->pipeline.open(path, rigidPoses);
   for (const auto& [transform, report] : capture->pipeline.reader->GetRigidPoseReports()) {
     capture->poseNotes.reorthonormalised += report.reorthonormalised;
-    if (auto line = rigidPoseNote(report, path, transform))
+    if (auto line = core::rigidPoseNote(report, path, transform))
       capture->poseNotes.lines.push_back(*line);
   }
   return capture;
 }
 
-void runDetection(CaptureDetection& capture, const DetectionParams& params,
-                  const PointFrameOptions& points) {
+void runDetection(CaptureDetection& capture, const core::DetectionParams& params,
+                  const core::PointFrameOptions& points) {
   // Streamed in blocks of frames as `detect` does: the envelopes (4 bytes a sample) and the
   // reader's copy of the A-lines are one block's at any time, not the capture's; the detection is
   // the same (tests/cli/test_capture_detection.cpp).
@@ -45,14 +45,15 @@ void runDetection(CaptureDetection& capture, const DetectionParams& params,
   try {
     capture.pipeline.configure(params, points);
   } catch (const std::invalid_argument& e) {
-    throw FileError(capture.pipeline.reader->GetFileName(), e.what());
+    throw core::FileError(capture.pipeline.reader->GetFileName(), e.what());
   }
   capture.detection = capture.pipeline.run();
 }
 
-DetectionParams requestParams(const CaptureDetectionRequest& request, const Sequence& sequence) {
+core::DetectionParams requestParams(const CaptureDetectionRequest& request,
+                                    const core::Sequence& sequence) {
   try {
-    detectionPreset(request.preset);
+    core::detectionPreset(request.preset);
   } catch (const std::invalid_argument& e) {
     throw std::invalid_argument(std::string("--preset: ") + e.what());
   }
@@ -66,8 +67,8 @@ DetectionParams requestParams(const CaptureDetectionRequest& request, const Sequ
 std::unique_ptr<CaptureDetection> detectCapture(const CaptureDetectionRequest& request) {
   std::unique_ptr<CaptureDetection> capture =
       openCapture(request.capture, {request.poseTransform, request.referenceTransform});
-  const DetectionParams params = requestParams(request, capture->sequence());
-  PointFrameOptions points;
+  const core::DetectionParams params = requestParams(request, capture->sequence());
+  core::PointFrameOptions points;
   points.poseTransform = request.poseTransform;
   points.referenceTransform = request.referenceTransform;
   points.beamToProbe = request.beamToProbe;

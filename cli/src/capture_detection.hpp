@@ -8,7 +8,7 @@
 #include "pose_check.hpp"
 
 #include "echoreg/core/sequence_detection.hpp"
-#include "echoreg/filters/DetectionPipeline.h"
+#include "echoreg/filters/detection_pipeline.h"
 
 #include <Eigen/Core>
 #include <nlohmann/json.hpp>
@@ -40,9 +40,9 @@ struct CaptureDetectionRequest {
 /// DetectionPipeline::kStreamFramesPerBlock frames, so only one block's envelopes are held.
 struct CaptureDetection {
   filters::DetectionPipeline pipeline;
-  SequenceDetection detection;
+  core::SequenceDetection detection;
   PoseNotes poseNotes;
-  const Sequence& sequence() const { return pipeline.reader->GetSequence(); }
+  const core::Sequence& sequence() const { return pipeline.reader->GetSequence(); }
 };
 
 /// Reads the capture (FileError naming it when it cannot be read or a pose is refused) and
@@ -54,13 +54,14 @@ std::unique_ptr<CaptureDetection> openCapture(const std::string& path,
 /// resolved by adaptToSequence) and runs it, streamed in blocks of frames (a later change of a
 /// peak parameter recomputes the envelopes; one of BeamToProbe does not). Bad parameters or a
 /// transform the capture lacks are FileErrors naming the capture.
-void runDetection(CaptureDetection& capture, const DetectionParams& params,
-                  const PointFrameOptions& points);
+void runDetection(CaptureDetection& capture, const core::DetectionParams& params,
+                  const core::PointFrameOptions& points);
 
 /// The request's parameters through the one resolver (resolveParams): its preset, the capture
 /// header's acquisition settings, then its settings. std::invalid_argument for an unknown preset
 /// ("--preset: ...") or a bad value ("bad parameter: ...").
-DetectionParams requestParams(const CaptureDetectionRequest& request, const Sequence& sequence);
+core::DetectionParams requestParams(const CaptureDetectionRequest& request,
+                                    const core::Sequence& sequence);
 
 /// openCapture, requestParams and runDetection for a request.
 std::unique_ptr<CaptureDetection> detectCapture(const CaptureDetectionRequest& request);

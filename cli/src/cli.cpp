@@ -72,7 +72,7 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
     } catch (const nlohmann::json::exception& e) {
       // A reader that did not check a value's type: at least no "[json.exception...]" code.
       err << "echoreg " << sub->get_name()
-          << ": a JSON file holds a value of another type than expected: " << jsonProblem(e)
+          << ": a JSON file holds a value of another type than expected: " << core::jsonProblem(e)
           << "\n";
       return 1;
     } catch (const std::exception& e) {  // FileError names the file; the rest name the value

@@ -5,6 +5,7 @@
 #include "capture_detection.hpp"
 #include "commands.hpp"
 #include "detection_params.hpp"
+#include "json_values.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
 #include "validators.hpp"
@@ -36,7 +37,7 @@ namespace {
 
 // The poses of `transform` ("StylusToTracker") in a capture, OK frames only, with their frame
 // numbers. Throws FileError when the capture has no such transform or none of it is valid.
-std::vector<std::pair<int, Eigen::Isometry3d>> validPoses(const Sequence& sequence,
+std::vector<std::pair<int, Eigen::Isometry3d>> validPoses(const core::Sequence& sequence,
                                                           const std::string& path,
                                                           const std::string& transform) {
   const std::vector<std::string> names = sequence.transformNames();
@@ -44,9 +45,9 @@ std::vector<std::pair<int, Eigen::Isometry3d>> validPoses(const Sequence& sequen
     std::string have;
     for (const std::string& n : names)
       have += (have.empty() ? "" : ", ") + n + "Transform";
-    throw FileError(path, "has no " + transform + "Transform" +
-                              (have.empty() ? std::string(" (it has no transforms)")
-                                            : " (it has " + have + ")"));
+    throw core::FileError(path, "has no " + transform + "Transform" +
+                                    (have.empty() ? std::string(" (it has no transforms)")
+                                                  : " (it has " + have + ")"));
   }
   std::vector<std::pair<int, Eigen::Isometry3d>> poses;
   for (std::size_t f = 0; f < sequence.frames.size(); ++f) {
@@ -58,14 +59,10 @@ std::vector<std::pair<int, Eigen::Isometry3d>> validPoses(const Sequence& sequen
     poses.emplace_back(static_cast<int>(f), pose);
   }
   if (poses.empty()) {
-    throw FileError(path, "every " + transform + "Transform of its " +
-                              std::to_string(sequence.frames.size()) + " frames is INVALID");
+    throw core::FileError(path, "every " + transform + "Transform of its " +
+                                    std::to_string(sequence.frames.size()) + " frames is INVALID");
   }
   return poses;
-}
-
-nlohmann::json vec(const Eigen::Vector3d& v) {
-  return {v.x(), v.y(), v.z()};
 }
 
 }  // namespace
@@ -149,9 +146,9 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
                     o.windowMm[1]));
   }
   // 1. The sphere's centre from the stylus tips.
-  const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
+  const core::TransformFile tip = core::readTransformFile(o.tipFile, "StylusTip", "Stylus");
   PoseNotes poseNotes;
-  const Sequence sphereSequence =
+  const core::Sequence sphereSequence =
       readTrackedSequence(o.sphereCapture, {"StylusToTracker"}, poseNotes);
   const auto stylusPoses = validPoses(sphereSequence, o.sphereCapture, "StylusToTracker");
   std::vector<Eigen::Vector3d> tips;
@@ -165,7 +162,8 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   try {
     sphere = core::fitSphere(tips, sphereOptions);
   } catch (const std::invalid_argument& e) {
-    throw FileError(o.sphereCapture, std::string("the stylus points give no sphere: ") + e.what());
+    throw core::FileError(o.sphereCapture,
+                          std::string("the stylus points give no sphere: ") + e.what());
   }
   const double sphereRadius = o.freeRadius ? sphere.radiusMm - o.tipRadius : o.sphereRadius;
   // The radius the stylus points themselves give, to check the known one against (a wrong
@@ -185,7 +183,7 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   poseNotes.reorthonormalised += shotsCapture->poseNotes.reorthonormalised;
   poseNotes.lines.insert(poseNotes.lines.end(), shotsCapture->poseNotes.lines.begin(),
                          shotsCapture->poseNotes.lines.end());
-  const Sequence& shotsSequence = shotsCapture->sequence();
+  const core::Sequence& shotsSequence = shotsCapture->sequence();
   // The parameters through the resolver every command that detects uses: the calibration
   // preset (or the --params file's), the header, --params, the flags.
   std::string preset;
@@ -201,7 +199,7 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   // The shots are independent: no temporal or spatial filter, whatever --params says.
   settings["history"] = 1;
   settings["min-spread-mm"] = 0.0;
-  DetectionParams params;
+  core::DetectionParams params;
   try {
     params = resolveParams(preset, settings, shotsSequence);
   } catch (const std::invalid_argument& e) {
@@ -210,23 +208,23 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   const double speed = params.depth.speedOfSoundMps;
   if (!(speed >= gate.minSpeedOfSoundMps && speed <= gate.maxSpeedOfSoundMps)) {
     if (settings.count("speed-of-sound") != 0) {
-      throw FileError(o.paramsFile,
-                      fmt::format("speed-of-sound must be the bath's speed of sound within {} "
-                                  "(--speed-of-sound-range), got {}",
-                                  speedRange, speed));
+      throw core::FileError(
+          o.paramsFile, fmt::format("speed-of-sound must be the bath's speed of sound within {} "
+                                    "(--speed-of-sound-range), got {}",
+                                    speedRange, speed));
     }
-    throw FileError(o.capture,
-                    fmt::format("the speed of sound of its header, {} m/s, is outside {} "
-                                "(--speed-of-sound-range): give the bath's with --speed-of-sound",
-                                speed, speedRange));
+    throw core::FileError(
+        o.capture, fmt::format("the speed of sound of its header, {} m/s, is outside {} "
+                               "(--speed-of-sound-range): give the bath's with --speed-of-sound",
+                               speed, speedRange));
   }
-  PointFrameOptions points;
+  core::PointFrameOptions points;
   points.poseTransform = "ProbeToTracker";
   runDetection(*shotsCapture, params, points);
-  const SequenceDetection& detection = shotsCapture->detection;
+  const core::SequenceDetection& detection = shotsCapture->detection;
   std::vector<core::BeamShot> shots;
   std::vector<int> shotFrames;
-  for (const FrameDetection& f : detection.frames) {
+  for (const core::FrameDetection& f : detection.frames) {
     if (!f.accepted())
       continue;
     core::BeamShot shot;
@@ -253,8 +251,8 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
   try {
     result = core::calibrateBeam(shots, options);
   } catch (const std::invalid_argument& e) {
-    throw FileError(o.capture, fmt::format("{} sphere echoes found in {} frames; {}", shots.size(),
-                                           detection.frames.size(), e.what()));
+    throw core::FileError(o.capture, fmt::format("{} sphere echoes found in {} frames; {}",
+                                                 shots.size(), detection.frames.size(), e.what()));
   }
   // 4. The quality gate: a converged solution can still be wrong; refused, it is not written.
   std::vector<std::string> problems =
@@ -308,7 +306,7 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
         {"value", result.parameters[static_cast<Eigen::Index>(p)]},
         {"std", result.parameterStdDev[static_cast<Eigen::Index>(p)]}};
   }
-  TransformFile out;
+  core::TransformFile out;
   out.from = "Beam";
   out.to = "Probe";
   out.matrix = result.beamToProbe.matrix();
@@ -329,13 +327,13 @@ int runCalibrate(const CalibrateOptions& o, const Streams& io) {
                {"converged", result.converged},
                {"poses_reorthonormalised", poseNotes.reorthonormalised},
                {"shots", perShot}};
-  const std::string tfm = writeTransformFile(o.out, out);
+  const std::string tfm = core::writeTransformFile(o.out, out);
   if (o.json) {
     nlohmann::json summary = out.extra;
     summary.erase("shots");
     summary["out"] = o.out;
     summary["tfm"] = tfm;
-    summary["matrix"] = matrixRows(out.matrix);
+    summary["matrix"] = core::matrixRows(out.matrix);
     io.out << summary.dump(2) << "\n";
   } else {
     const Eigen::Vector3d t = result.beamToProbe.translation();
@@ -373,7 +371,7 @@ int runPivot(const PivotCommandOptions& o, const Streams& io) {
                                     : markerFrame + "Pivot";
   }
   PoseNotes poseNotes;
-  const Sequence sequence = readTrackedSequence(o.capture, {o.marker}, poseNotes);
+  const core::Sequence sequence = readTrackedSequence(o.capture, {o.marker}, poseNotes);
   const auto poses = validPoses(sequence, o.capture, o.marker);
   std::vector<Eigen::Isometry3d> transforms;
   for (const auto& [frame, pose] : poses)
@@ -384,19 +382,19 @@ int runPivot(const PivotCommandOptions& o, const Streams& io) {
   try {
     result = core::pivotCalibration(transforms, options);
   } catch (const std::invalid_argument& e) {
-    throw FileError(o.capture, e.what());
+    throw core::FileError(o.capture, e.what());
   }
   // The quality gate: poses that do not turn about one point (a stylus carried from landmark to
   // landmark, a divot that slipped) still give a least-squares point, 48 mm RMS off on PLUS's
   // landmark recording.
   if (!(result.rmsMm <= o.maxRmsMm)) {
-    throw FileError(o.capture,
-                    fmt::format("the {} poses do not pivot about one point: the pivot point moves "
-                                "{:.2f} mm RMS over {} poses, above --max-rms {:g} mm (a stylus in "
-                                "a divot: 0.2-0.5 mm); nothing written",
-                                o.marker, result.rmsMm, result.inliers, o.maxRmsMm));
+    throw core::FileError(
+        o.capture, fmt::format("the {} poses do not pivot about one point: the pivot point moves "
+                               "{:.2f} mm RMS over {} poses, above --max-rms {:g} mm (a stylus in "
+                               "a divot: 0.2-0.5 mm); nothing written",
+                               o.marker, result.rmsMm, result.inliers, o.maxRmsMm));
   }
-  TransformFile out;
+  core::TransformFile out;
   out.from = from;
   out.to = markerFrame;
   out.matrix.topRightCorner<3, 1>() = result.pointInMarker;
@@ -406,7 +404,7 @@ int runPivot(const PivotCommandOptions& o, const Streams& io) {
                {"poses_rejected", static_cast<int>(sequence.frames.size()) - result.inliers},
                {"rotation_spread_deg", vec(result.rotationSpreadDeg)},
                {"poses_reorthonormalised", poseNotes.reorthonormalised}};
-  const std::string tfm = writeTransformFile(o.out, out);
+  const std::string tfm = core::writeTransformFile(o.out, out);
   if (o.json) {
     nlohmann::json summary = out.extra;
     summary["out"] = o.out;

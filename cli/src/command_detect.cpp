@@ -8,7 +8,7 @@
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/core/transform_file.hpp"
-#include "echoreg/filters/DetectionPipeline.h"
+#include "echoreg/filters/detection_pipeline.h"
 
 #include <fmt/format.h>
 #include <vtkAlgorithm.h>
@@ -46,9 +46,9 @@ struct DetectOptions {
   TunableSettings settings;
 };
 
-nlohmann::json summary(const SequenceDetection& detection, const DetectionParams& params,
-                       const DetectOptions& options, const std::string& preset,
-                       int posesReorthonormalised) {
+nlohmann::json summary(const core::SequenceDetection& detection,
+                       const core::DetectionParams& params, const DetectOptions& options,
+                       const std::string& preset, int posesReorthonormalised) {
   nlohmann::json rejected = nlohmann::json::object();
   for (const auto& [reason, count] : detection.rejectedByReason)
     rejected[reason] = count;
@@ -59,8 +59,8 @@ nlohmann::json summary(const SequenceDetection& detection, const DetectionParams
           {"accepted", detection.accepted},
           {"rejected", detection.frames.size() - static_cast<std::size_t>(detection.accepted)},
           {"rejected_by_reason", rejected},
-          {"envelope", std::string(envelopeMethodName(params.envelope.method))},
-          {"peaks", std::string(peakPolicyName(params.peaks.policy))},
+          {"envelope", std::string(core::envelopeMethodName(params.envelope.method))},
+          {"peaks", std::string(core::peakPolicyName(params.peaks.policy))},
           {"sampling_frequency_hz", params.depth.samplingFrequencyHz},
           {"delay_s", params.depth.delayS},
           {"speed_of_sound_mps", params.depth.speedOfSoundMps},
@@ -73,7 +73,7 @@ nlohmann::json summary(const SequenceDetection& detection, const DetectionParams
           {"shadow_rule", detection.analysis.shadowRule},
           {"shadow_share", detection.analysis.shadowShare},
           {"envelope_window_samples", detection.analysis.envelopeWindowSamples},
-          {"warnings", detectionWarnings(detection)},
+          {"warnings", core::detectionWarnings(detection)},
           {"poses_reorthonormalised", posesReorthonormalised}};
 }
 
@@ -128,32 +128,32 @@ CommandAction addDetectCommand(CLI::App& app) {
     ParamsSources sources{o->paramsFile, {}};
     if (!o->paramsFile.empty())
       sources.fromFile = mergeParamsFile(o->paramsFile, preset, settings);
-    // reader -> envelope -> peaks -> beam points -> inter-signal -> writer (DetectionPipeline.h)
+    // reader -> envelope -> peaks -> beam points -> inter-signal -> writer (detection_pipeline.h)
     filters::DetectionPipeline pipeline;
-    const Sequence& sequence = pipeline.open(o->capture, {o->pose, o->reference});
+    const core::Sequence& sequence = pipeline.open(o->capture, {o->pose, o->reference});
     PoseNotes poseNotes;
     for (const auto& [transform, report] : pipeline.reader->GetRigidPoseReports()) {
       poseNotes.reorthonormalised += report.reorthonormalised;
-      if (auto line = rigidPoseNote(report, o->capture, transform))
+      if (auto line = core::rigidPoseNote(report, o->capture, transform))
         poseNotes.lines.push_back(*line);
     }
     poseNotes.print(io.err, "detect");
-    const DetectionParams params = [&] {
+    const core::DetectionParams params = [&] {
       try {
         return resolveParams(preset, settings, sequence, sources);
       } catch (const std::invalid_argument& e) {
         throw std::invalid_argument(std::string("bad parameter: ") + e.what());
       }
     }();
-    PointFrameOptions points;
+    core::PointFrameOptions points;
     points.poseTransform = o->pose;
     points.referenceTransform = o->reference;
     if (!o->beamToProbeFile.empty())
-      points.beamToProbe = readTransformFile(o->beamToProbeFile, "Beam", "Probe").matrix;
+      points.beamToProbe = core::readTransformFile(o->beamToProbeFile, "Beam", "Probe").matrix;
     try {
       pipeline.configure(params, points);
     } catch (const std::invalid_argument& e) {
-      throw FileError(o->capture, e.what());
+      throw core::FileError(o->capture, e.what());
     }
     // Streamed in blocks of frames: only one block's envelopes are held at any time.
     pipeline.setFramesPerBlock(filters::DetectionPipeline::kStreamFramesPerBlock);
@@ -178,8 +178,8 @@ CommandAction addDetectCommand(CLI::App& app) {
     pipeline.write(o->out);
     if (showProgress)
       io.err << "\n";
-    const SequenceDetection detection = pipeline.run();
-    for (const std::string& warning : detectionWarnings(detection)) {
+    const core::SequenceDetection detection = pipeline.run();
+    for (const std::string& warning : core::detectionWarnings(detection)) {
       io.err << "echoreg detect: warning: " << warning << "\n";
     }
     if (o->json) {

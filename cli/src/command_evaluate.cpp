@@ -32,7 +32,7 @@ struct EvaluateOptions {
   bool json = false;
 };
 
-Eigen::Isometry3d isometry(const TransformFile& t) {
+Eigen::Isometry3d isometry(const core::TransformFile& t) {
   Eigen::Isometry3d m;
   m.matrix() = t.matrix;
   return m;
@@ -64,7 +64,7 @@ int runEvaluate(const EvaluateOptions& o, const Streams& io) {
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
   if (o.centre.size() == 3)
     centre = Eigen::Vector3d(o.centre[0], o.centre[1], o.centre[2]);
-  const TransformFile reference = readTransformFile(o.reference);
+  const core::TransformFile reference = core::readTransformFile(o.reference);
   std::vector<core::MarkupPoint> targets;
   if (!o.targets.empty())
     targets = core::readMarkupPoints(o.targets);
@@ -76,25 +76,25 @@ int runEvaluate(const EvaluateOptions& o, const Streams& io) {
   std::vector<std::string> names;
   for (const std::string& path : o.estimates) {
     // The estimate must map the same frames as the reference.
-    const TransformFile estimate = readTransformFile(path);
+    const core::TransformFile estimate = core::readTransformFile(path);
     if (estimate.from != reference.from || estimate.to != reference.to) {
-      throw FileError(path, fmt::format("maps {} to {} but the reference {} maps {} to {}",
-                                        estimate.from.empty() ? "?" : estimate.from,
-                                        estimate.to.empty() ? "?" : estimate.to, o.reference,
-                                        reference.from.empty() ? "?" : reference.from,
-                                        reference.to.empty() ? "?" : reference.to));
+      throw core::FileError(path, fmt::format("maps {} to {} but the reference {} maps {} to {}",
+                                              estimate.from.empty() ? "?" : estimate.from,
+                                              estimate.to.empty() ? "?" : estimate.to, o.reference,
+                                              reference.from.empty() ? "?" : reference.from,
+                                              reference.to.empty() ? "?" : reference.to));
     }
     try {
       rows.push_back(
           core::rigidError(isometry(reference), isometry(estimate), targetPositions, centre));
     } catch (const std::invalid_argument& e) {
-      throw FileError(path, e.what());
+      throw core::FileError(path, e.what());
     }
     names.push_back(std::filesystem::path(path).filename().string());
   }
   const core::RigidError mean = core::meanAbsoluteError(rows);
 
-  AtomicFile file(o.out);
+  core::AtomicFile file(o.out);
   std::ostream& csv = file.stream();
   csv << "estimate,tx_mm,ty_mm,tz_mm,rx_deg,ry_deg,rz_deg";
   for (const core::MarkupPoint& t : targets)

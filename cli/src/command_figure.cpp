@@ -15,8 +15,8 @@
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/core/statistics.hpp"
 #include "echoreg/core/transform_file.hpp"
-#include "echoreg/filters/DetectionPipeline.h"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/detection_pipeline.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/filters/vtkEchoregPointToSurfaceDistance.h"
 #include "echoreg/render/plot_figure.hpp"
 #include "echoreg/render/surface_figure.hpp"
@@ -52,7 +52,7 @@ std::vector<Eigen::Vector3d> readPointsCsv(const std::string& path) {
   if (columns[0] < 0)
     columns = {table.column("x_mm"), table.column("y_mm"), table.column("z_mm")};
   if (columns[0] < 0 || columns[1] < 0 || columns[2] < 0) {
-    throw FileError(path, "has no point columns (x,y,z or x_mm,y_mm,z_mm)");
+    throw core::FileError(path, "has no point columns (x,y,z or x_mm,y_mm,z_mm)");
   }
   std::vector<Eigen::Vector3d> points;
   for (std::size_t r = 0; r < table.rows.size(); ++r) {
@@ -68,7 +68,7 @@ std::vector<Eigen::Vector3d> readPointsCsv(const std::string& path) {
     points.push_back(p);
   }
   if (points.empty())
-    throw FileError(path, "holds no point");
+    throw core::FileError(path, "holds no point");
   return points;
 }
 
@@ -241,7 +241,7 @@ CommandAction addRegistrationFigure(CLI::App* parent) {
     figure.surface = readModelFile(o->model);
     for (const std::string& path : o->context)
       figure.context.push_back(readModelFile(path));
-    const TransformFile transform = readTransformFile(o->transform, "", "CT");
+    const core::TransformFile transform = core::readTransformFile(o->transform, "", "CT");
     const Eigen::Isometry3d toCt(transform.matrix);
     // The points in CT (double, as read) and their signed distance to the model ("DistanceMm")
     // from vtkEchoregPointToSurfaceDistance.
@@ -262,7 +262,7 @@ CommandAction addRegistrationFigure(CLI::App* parent) {
       measure->Update();
     }
     if (!measure->GetLastError().empty())
-      throw FileError(o->model, measure->GetLastError());
+      throw core::FileError(o->model, measure->GetLastError());
     const vtkSmartPointer<vtkPolyData> distances = measure->GetOutput();
     render::Scene scene = surfaceSceneOf(figure, *o);
     render::ScenePoints& points = scene.pointSets.front();
@@ -292,12 +292,12 @@ CommandAction addCalibrationFigure(CLI::App* parent) {
     checkBands(*o);
     CommandPaths().input("--calibration", o->calibration).output("--out", o->out).check();
     requirePngName("--out", o->out);
-    const nlohmann::json doc = readJsonFile(o->calibration);
+    const nlohmann::json doc = core::readJsonFile(o->calibration);
     if (!doc.is_object() || !doc.contains("sphere_center_mm") ||
         !doc.contains("sphere_radius_mm") || !doc.contains("shots")) {
-      throw FileError(o->calibration,
-                      "not an `echoreg calibrate` result (no sphere_center_mm, "
-                      "sphere_radius_mm or shots)");
+      throw core::FileError(o->calibration,
+                            "not an `echoreg calibrate` result (no sphere_center_mm, "
+                            "sphere_radius_mm or shots)");
     }
     render::SurfaceFigure figure;
     figure.surfaceRgb = {0.80, 0.84, 0.90};
@@ -307,18 +307,19 @@ CommandAction addCalibrationFigure(CLI::App* parent) {
       if (!value.is_array() || value.size() != 3 ||
           !std::all_of(value.begin(), value.end(),
                        [](const nlohmann::json& x) { return x.is_number(); })) {
-        throw FileError(o->calibration, name + " is not 3 numbers, got " + value.dump());
+        throw core::FileError(o->calibration, name + " is not 3 numbers, got " + value.dump());
       }
       const Eigen::Vector3d p(value[0].get<double>(), value[1].get<double>(),
                               value[2].get<double>());
       if (!p.allFinite())
-        throw FileError(o->calibration, name + " is not finite");
+        throw core::FileError(o->calibration, name + " is not finite");
       return p;
     };
     const auto positive = [&](const nlohmann::json& value, const std::string& name) {
       if (!value.is_number() || !(value.get<double>() >= 0.0) ||
           !std::isfinite(value.get<double>())) {
-        throw FileError(o->calibration, name + " is not a finite number >= 0, got " + value.dump());
+        throw core::FileError(o->calibration,
+                              name + " is not a finite number >= 0, got " + value.dump());
       }
       return value.get<double>();
     };
@@ -326,29 +327,30 @@ CommandAction addCalibrationFigure(CLI::App* parent) {
     const double radius = positive(doc["sphere_radius_mm"], "sphere_radius_mm");
     figure.surface = core::uvSphere(c, radius);
     if (!doc["shots"].is_array())
-      throw FileError(o->calibration, "shots is not a list");
+      throw core::FileError(o->calibration, "shots is not a list");
     for (std::size_t i = 0; i < doc["shots"].size(); ++i) {
       const nlohmann::json& shot = doc["shots"][i];
       const std::string where = fmt::format("shots[{}]", i);
       if (!shot.is_object() || !shot.contains("point_mm")) {
-        throw FileError(o->calibration, where + " has no point_mm (re-run `echoreg calibrate`)");
+        throw core::FileError(o->calibration,
+                              where + " has no point_mm (re-run `echoreg calibrate`)");
       }
       const nlohmann::json used = shot.value("used", nlohmann::json(true));
       if (!used.is_boolean())
-        throw FileError(o->calibration, where + ".used is not true or false");
+        throw core::FileError(o->calibration, where + ".used is not true or false");
       if (!used.get<bool>())
         continue;
       figure.points.push_back(point(shot["point_mm"], where + ".point_mm"));
       const nlohmann::json residualValue = shot.value("residual_mm", nlohmann::json());
       if (!residualValue.is_number() || !std::isfinite(residualValue.get<double>())) {
-        throw FileError(o->calibration,
-                        where + ".residual_mm is not a finite number, got " + residualValue.dump());
+        throw core::FileError(o->calibration, where + ".residual_mm is not a finite number, got " +
+                                                  residualValue.dump());
       }
       const double residual = residualValue.get<double>();
       figure.valuesMm.push_back(residual);  // signed; coloured by its magnitude
     }
     if (figure.points.empty())
-      throw FileError(o->calibration, "has no used shot to draw");
+      throw core::FileError(o->calibration, "has no used shot to draw");
     figure.valueName = "distance to the sphere";
     // The sphere and points are in the tracker's frame, not the CT's: name the views so.
     for (const std::string& view : o->views) {
@@ -402,20 +404,21 @@ int runSignalsFigure(const SignalsFigureRequest& request, const Streams& streams
   }
   requirePngName("--out", o->out);
   // reader -> envelope -> peaks (with its peak list), reconfigured per setting: the capture is
-  // read once (DetectionPipeline.h).
+  // read once (detection_pipeline.h).
   filters::DetectionPipeline pipeline;
-  const Sequence& sequence = pipeline.open(o->capture, {});
+  const core::Sequence& sequence = pipeline.open(o->capture, {});
   if (!sequence.hasPixels())
-    throw FileError(o->capture, "holds no A-lines (tracker-only capture)");
+    throw core::FileError(o->capture, "holds no A-lines (tracker-only capture)");
   if (o->frame < 0 || static_cast<std::size_t>(o->frame) >= sequence.frameCount()) {
-    throw FileError(o->capture, fmt::format("has no frame {} (frames 0-{})", o->frame,
-                                            sequence.frameCount() - 1));
+    throw core::FileError(o->capture, fmt::format("has no frame {} (frames 0-{})", o->frame,
+                                                  sequence.frameCount() - 1));
   }
   std::vector<float> samples;
   sequence.frameSamples(static_cast<std::size_t>(o->frame), samples);
   std::vector<render::PlotPanel> panels;
   nlohmann::json verdicts = nlohmann::json::array();
-  const DepthConversion depth = depthFromSequence(sequence, detectionPreset("default").depth);
+  const core::DepthConversion depth =
+      core::depthFromSequence(sequence, core::detectionPreset("default").depth);
   render::PlotPanel raw;
   raw.title = fmt::format("raw A-line, frame {}", o->frame);
   raw.xLabel = "depth (mm)";
@@ -440,7 +443,7 @@ int runSignalsFigure(const SignalsFigureRequest& request, const Streams& streams
     ParamsSources sources{setting.paramsFile, {}};
     if (!setting.paramsFile.empty())
       sources.fromFile = mergeParamsFile(setting.paramsFile, name, settings);
-    const DetectionParams params = [&] {
+    const core::DetectionParams params = [&] {
       try {
         return resolveParams(name, settings, sequence, sources);
       } catch (const std::invalid_argument& e) {
@@ -448,16 +451,16 @@ int runSignalsFigure(const SignalsFigureRequest& request, const Streams& streams
       }
     }();
     try {
-      pipeline.configure(params, PointFrameOptions{});
+      pipeline.configure(params, core::PointFrameOptions{});
     } catch (const std::invalid_argument& e) {
-      throw FileError(o->capture, e.what());
+      throw core::FileError(o->capture, e.what());
     }
     try {
       pipeline.updatePeaks();
     } catch (const std::runtime_error& e) {
-      throw FileError(o->capture, e.what());
+      throw core::FileError(o->capture, e.what());
     }
-    const DetectionParams& used = pipeline.params();
+    const core::DetectionParams& used = pipeline.params();
     vtkTable* verdict = pipeline.peaks->GetOutput(0);
     vtkTable* peakList = pipeline.peaks->GetOutput(1);
     const auto row = static_cast<vtkIdType>(o->frame);
@@ -554,7 +557,7 @@ CommandAction addSignalsFigure(CLI::App* parent) {
   CLI::Option* preset =
       cmd->add_option("--preset", o->presets,
                       "Detection presets to compare (repeat): " +
-                          fmt::format("{}", fmt::join(detectionPresetNames(), ", ")) +
+                          fmt::format("{}", fmt::join(core::detectionPresetNames(), ", ")) +
                           "; without it, the --params file's preset alone when it names one")
           ->capture_default_str();
   cmd->add_option("--params", o->paramsFile,
@@ -644,7 +647,7 @@ CommandAction addBoxplotFigure(CLI::App* parent) {
       const CsvTable table = readCsvTable(file);
       const int c = table.column(column);
       if (c < 0)
-        throw FileError(file, "has no column \"" + column + "\"");
+        throw core::FileError(file, "has no column \"" + column + "\"");
       render::BoxGroup group;
       group.label = spec.substr(0, eq);
       for (std::size_t r = 0; r < table.rows.size(); ++r) {
@@ -654,7 +657,7 @@ CommandAction addBoxplotFigure(CLI::App* parent) {
         group.values.push_back(parseCsvNumber(cell, file, r + 2, column));
       }
       if (group.values.empty())
-        throw FileError(file, "has no value in column \"" + column + "\"");
+        throw core::FileError(file, "has no value in column \"" + column + "\"");
       groups.push_back(std::move(group));
     }
     requirePngName("--out", o->out);

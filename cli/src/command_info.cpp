@@ -123,19 +123,19 @@ void printCtText(const nlohmann::ordered_json& info, std::ostream& out) {
     out << "  warning: " << w.get<std::string>() << "\n";
 }
 
-nlohmann::json describe(const Sequence& sequence, const std::string& path) {
+nlohmann::json describe(const core::Sequence& sequence, const std::string& path) {
   nlohmann::json info;
   info["kind"] = "capture";
   info["file"] = path;
   info["frames"] = sequence.frameCount();
   info["samples_per_frame"] = sequence.frameSize[0];
   info["rows_per_frame"] = sequence.frameSize[1];
-  info["element_type"] = std::string(elementTypeName(sequence.elementType));
+  info["element_type"] = std::string(core::elementTypeName(sequence.elementType));
 
   nlohmann::json transforms = nlohmann::json::array();
   for (const std::string& name : sequence.transformNames()) {
     int valid = 0, present = 0;
-    for (const SequenceFrame& frame : sequence.frames) {
+    for (const core::SequenceFrame& frame : sequence.frames) {
       const auto it = frame.transforms.find(name);
       if (it == frame.transforms.end())
         continue;
@@ -152,7 +152,7 @@ nlohmann::json describe(const Sequence& sequence, const std::string& path) {
   double first = std::numeric_limits<double>::infinity();
   double last = -std::numeric_limits<double>::infinity();
   int stamped = 0;
-  for (const SequenceFrame& frame : sequence.frames) {
+  for (const core::SequenceFrame& frame : sequence.frames) {
     if (!frame.timestampS)
       continue;
     ++stamped;
@@ -169,7 +169,7 @@ nlohmann::json describe(const Sequence& sequence, const std::string& path) {
   }
 
   nlohmann::json acquisition = nlohmann::json::object();
-  const AcquisitionSettings& a = sequence.acquisition;
+  const core::AcquisitionSettings& a = sequence.acquisition;
   if (a.samplingFrequencyHz)
     acquisition["sampling_frequency_hz"] = *a.samplingFrequencyHz;
   if (a.delayS)
@@ -258,7 +258,7 @@ CommandAction addInfoCommand(CLI::App& app) {
     if (!options->series.empty()) {
       throw std::invalid_argument("--series applies to DICOM folders and files only");
     }
-    const Sequence sequence = readSequence(options->path);
+    const core::Sequence sequence = core::readSequence(options->path);
     const nlohmann::json description = describe(sequence, options->path);
     if (options->json) {
       io.out << description.dump(2) << "\n";

@@ -2,6 +2,7 @@
 // initial registration of a bone, or PLUS's phantom registration): dwells found in the tracked
 // tip, matched in order to the landmark file, registered by weighted Horn/Umeyama.
 #include "commands.hpp"
+#include "json_values.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
 #include "validators.hpp"
@@ -26,10 +27,6 @@
 namespace echoreg::cli {
 
 namespace {
-
-nlohmann::json vec(const Eigen::Vector3d& v) {
-  return {v.x(), v.y(), v.z()};
-}
 
 // "ReferenceToTracker" -> "Reference". Throws std::invalid_argument for a name without "To".
 std::string fromFrame(const std::string& transform, const char* option) {
@@ -95,22 +92,22 @@ int runLandmarks(const LandmarksOptions& o, const Streams& io) {
         std::string have;
         for (const core::MarkupPoint& p : all)
           have += (have.empty() ? "" : ", ") + p.label;
-        throw FileError(o.landmarks, "has no landmark '" + label + "' (it has " + have + ")");
+        throw core::FileError(o.landmarks, "has no landmark '" + label + "' (it has " + have + ")");
       }
       landmarks.push_back(*found);
     }
   }
   if (landmarks.size() < 3) {
-    throw FileError(o.landmarks,
-                    fmt::format("{} landmarks{}: at least 3 are needed for a registration",
-                                landmarks.size(), o.labels.empty() ? "" : " named by --labels"));
+    throw core::FileError(
+        o.landmarks, fmt::format("{} landmarks{}: at least 3 are needed for a registration",
+                                 landmarks.size(), o.labels.empty() ? "" : " named by --labels"));
   }
 
-  const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
+  const core::TransformFile tip = core::readTransformFile(o.tipFile, "StylusTip", "Stylus");
   Eigen::Isometry3d tipToStylus;
   tipToStylus.matrix() = tip.matrix;
   PoseNotes poseNotes;
-  const Sequence capture = readTrackedSequence(
+  const core::Sequence capture = readTrackedSequence(
       o.capture, {o.stylus, o.reference == "Tracker" ? std::string() : o.reference}, poseNotes);
   core::StylusTrack track;
   std::vector<core::Dwell> dwells;
@@ -119,7 +116,7 @@ int runLandmarks(const LandmarksOptions& o, const Streams& io) {
                                  o.reference == "Tracker" ? std::string() : o.reference);
     dwells = core::detectDwells(track.tipInReference, track.timestampsS, track.valid, o.dwell);
   } catch (const std::invalid_argument& e) {
-    throw FileError(o.capture, e.what());
+    throw core::FileError(o.capture, e.what());
   }
   std::vector<Eigen::Vector3d> positions;
   for (const core::MarkupPoint& p : landmarks)
@@ -134,7 +131,7 @@ int runLandmarks(const LandmarksOptions& o, const Streams& io) {
           " (a dwell: {} frames over {} s within {} mm; see --max-motion-mm, --min-duration-s)",
           o.dwell.minFrames, o.dwell.minDurationS, o.dwell.maxMotionMm);
     }
-    throw FileError(dwells.size() < landmarks.size() ? o.capture : o.landmarks, detail);
+    throw core::FileError(dwells.size() < landmarks.size() ? o.capture : o.landmarks, detail);
   }
 
   const core::PairedPointResult& r = match.registration;
@@ -161,7 +158,7 @@ int runLandmarks(const LandmarksOptions& o, const Streams& io) {
                          {"measured_mm", vec(dwells[k].meanMm)}});
     }
   }
-  TransformFile out;
+  core::TransformFile out;
   out.from = o.invert ? referenceFrame : o.landmarksFrame;
   out.to = o.invert ? o.landmarksFrame : referenceFrame;
   out.matrix = o.invert ? Eigen::Matrix4d(r.transform.inverse().matrix())
@@ -180,14 +177,14 @@ int runLandmarks(const LandmarksOptions& o, const Streams& io) {
         {"min_frames", o.dwell.minFrames},
         {"merge_distance_mm", o.dwell.mergeDistanceMm}}},
       {"landmarks", perLandmark}};
-  const std::string tfm = writeTransformFile(o.out, out);
+  const std::string tfm = core::writeTransformFile(o.out, out);
   if (o.json) {
     nlohmann::json summary = out.extra;
     summary["out"] = o.out;
     summary["tfm"] = tfm;
     summary["from"] = out.from;
     summary["to"] = out.to;
-    summary["matrix"] = matrixRows(out.matrix);
+    summary["matrix"] = core::matrixRows(out.matrix);
     io.out << summary.dump(2) << "\n";
   } else {
     const Eigen::Vector3d t = out.matrix.topRightCorner<3, 1>();

@@ -153,7 +153,7 @@ class LatencyStats {
 struct PendingTransform {
   std::string name;
   double timestampS = 0.0;
-  TrackedTransform transform;
+  core::TrackedTransform transform;
 };
 
 class LiveSession {
@@ -195,8 +195,8 @@ class LiveSession {
   PoseNotes startNotes_;  // what the rigid-pose rule did to the landmarks capture's poses
   // What the rule did to the received poses register uses (--pose and <Bone>ToTracker), counted
   // as register counts them in a capture.
-  std::map<std::string, RigidPoseReport> rigidPoses_;
-  DetectionParams params_;
+  std::map<std::string, core::RigidPoseReport> rigidPoses_;
+  core::DetectionParams params_;
   std::string preset_;
   TunableSettings settings_;
 
@@ -210,7 +210,7 @@ class LiveSession {
   int resultsReconnections_ = 0;
   Clock::time_point lastResultsAttempt_;  // the first attempt after a close is at once
   live::PoseBuffer poses_;
-  Sequence layout_;
+  core::Sequence layout_;
   bool haveCaptureHeader_ = false;
   std::unique_ptr<live::CaptureRecorder> recorder_;
   std::unique_ptr<live::LiveDetector> detector_;
@@ -218,7 +218,7 @@ class LiveSession {
   std::vector<PendingTransform> pending_;
   // echoreg serve's EchoregFrame of the next A-line, with the (1 ns) timestamp it came with.
   std::optional<std::pair<double, live::FrameMetadata>> frameMetadata_;
-  Sequence unpaired_;  // transforms received at no A-line's time (a tracker-only capture)
+  core::Sequence unpaired_;  // transforms received at no A-line's time (a tracker-only capture)
 
   int frames_ = 0, accepted_ = 0, updates_ = 0, skipped_ = 0;
   std::map<std::string, int> reasons_;
@@ -307,7 +307,7 @@ void LiveSession::onDecided(const std::vector<live::LiveFrame>& frames, bool wai
 
 void LiveSession::onAdaptation(bool adaptedNow) {
   if (adaptedNow) {
-    const CaptureAnalysis& a = detector_->analysis();
+    const core::CaptureAnalysis& a = detector_->analysis();
     note(fmt::format(
         "measured on the first {} A-line(s): transducer {:.2f} MHz ({}), ring-down {} samples, "
         "shadow rule {} (bone's shadow in {:.1f} % of them){}",
@@ -331,16 +331,16 @@ void LiveSession::onAdaptation(bool adaptedNow) {
   for (const live::LiveFrame& frame : change->accepted)
     points_.push_back(*frame.point);
   registration_->replacePoints(points_);
-  const ShadowTrial& trial = change->measurement.trial;
+  const core::ShadowTrial& trial = change->measurement.trial;
   shadowNote_ = fmt::format("shadow rule {} (measured again at frame {})",
-                            shadowRuleName(change->to), change->measurement.frames);
+                            core::shadowRuleName(change->to), change->measurement.frames);
   note(fmt::format(
       "the shadow rule is now {} (was {}): bone cast a shadow in {} of {} A-lines spread over "
       "the {} received ({:.1f} %; the rule requires the shadow from 20 %); every frame so far is "
       "judged by it from the first: {} echoes accepted instead of {}, the registration goes on "
       "with them",
-      shadowRuleName(change->to), shadowRuleName(change->from), trial.shadowed, trial.records,
-      change->measurement.frames, 100.0 * trial.share, accepted_, before));
+      core::shadowRuleName(change->to), core::shadowRuleName(change->from), trial.shadowed,
+      trial.records, change->measurement.frames, 100.0 * trial.share, accepted_, before));
 }
 
 void LiveSession::onImage(const live::Message& message, Clock::time_point arrival) {
@@ -372,12 +372,12 @@ void LiveSession::onImage(const live::Message& message, Clock::time_point arriva
     ++problems_[fmt::format(
         "IMAGE '{}' of {} {} samples differs from the first A-line ({} {}): "
         "not recorded",
-        message.header.deviceName, message.samples, elementTypeName(message.elementType),
-        layout_.frameSize[0], elementTypeName(layout_.elementType))];
+        message.header.deviceName, message.samples, core::elementTypeName(message.elementType),
+        layout_.frameSize[0], core::elementTypeName(layout_.elementType))];
     return;
   }
   // The frame: the transforms and fields received with this A-line's timestamp.
-  SequenceFrame frame;
+  core::SequenceFrame frame;
   frame.timestampS = t;
   std::vector<PendingTransform> keep;
   for (PendingTransform& p : pending_) {
@@ -386,7 +386,7 @@ void LiveSession::onImage(const live::Message& message, Clock::time_point arriva
     } else if (p.timestampS > t) {
       keep.push_back(std::move(p));
     } else {
-      SequenceFrame tracked;
+      core::SequenceFrame tracked;
       tracked.timestampS = p.timestampS;
       tracked.transforms[p.name] = p.transform;
       unpaired_.frames.push_back(std::move(tracked));
@@ -400,7 +400,7 @@ void LiveSession::onImage(const live::Message& message, Clock::time_point arriva
   frameMetadata_.reset();
   recorder_->add(frame, message.pixels.data(), message.pixels.size());
 
-  Sequence single;
+  core::Sequence single;
   single.elementType = message.elementType;
   single.frameSize = {message.samples, 1};
   single.frames.resize(1);
@@ -423,7 +423,7 @@ void LiveSession::onMessage(const live::Message& message, Clock::time_point arri
     case live::MessageKind::Transform: {
       PendingTransform p{name, t, {}};
       p.transform.matrix = message.matrix;
-      const std::string problem = poseProblem(message.matrix);
+      const std::string problem = core::poseProblem(message.matrix);
       if (!problem.empty()) {
         // Recorded as received; refused for pairing, with the reason.
         ++problems_[fmt::format("TRANSFORM '{}' is not a rigid pose ({}): used as INVALID", name,
@@ -431,13 +431,13 @@ void LiveSession::onMessage(const live::Message& message, Clock::time_point arri
         poses_.add(name, {t, message.matrix, "INVALID"});
       } else {
         if (name == o_.pose || name == reference_) {
-          RigidPoseReport& report = rigidPoses_[name];
-          const double deviation = poseOrthonormalDeviation(message.matrix);
+          core::RigidPoseReport& report = rigidPoses_[name];
+          const double deviation = core::poseOrthonormalDeviation(message.matrix);
           ++report.checked;
           report.largestDeviation = std::max(report.largestDeviation, deviation);
-          report.reorthonormalised += deviation > kPoseExactTolerance ? 1 : 0;
+          report.reorthonormalised += deviation > core::kPoseExactTolerance ? 1 : 0;
         }
-        poses_.add(name, {t, reorthonormalised(message.matrix), "OK"});
+        poses_.add(name, {t, core::reorthonormalised(message.matrix), "OK"});
       }
       pending_.push_back(std::move(p));
       break;
@@ -551,14 +551,14 @@ nlohmann::json LiveSession::summary() const {
                          {"ended_by", endedBy_}};
   if (detector_ && detector_->adapted()) {
     // What the chain measured: the first adaptation, and every measurement of the shadow rule.
-    const CaptureAnalysis& a = detector_->analysis();
+    const core::CaptureAnalysis& a = detector_->analysis();
     nlohmann::json measurements = nlohmann::json::array();
     for (const live::ShadowMeasurement& m : detector_->shadowMeasurements()) {
       measurements.push_back({{"frames", m.frames},
                               {"records", m.trial.records},
                               {"shadowed", m.trial.shadowed},
                               {"share", m.trial.share},
-                              {"rule", shadowRuleName(m.trial.rule)}});
+                              {"rule", core::shadowRuleName(m.trial.rule)}});
     }
     json["detection"] = {{"adapt_frames", o_.adaptFrames},
                          {"transducer_frequency_hz", a.transducerFrequencyHz},
@@ -573,7 +573,7 @@ nlohmann::json LiveSession::summary() const {
     json["live_registration"] = {{"converged", last_->result.converged},
                                  {"rms_mm", last_->result.rmsMm},
                                  {"points", last_->points},
-                                 {"matrix", matrixRows(last_->result.transform.matrix())}};
+                                 {"matrix", core::matrixRows(last_->result.transform.matrix())}};
   }
   return json;
 }
@@ -638,7 +638,7 @@ int LiveSession::run() {
   bone_ = r_.bone;
   reference_ = bone_ + "ToTracker";
   model_ = loadRegistrationModel(r_);
-  beamToProbe_ = readTransformFile(r_.calibration, "Beam", "Probe").matrix;
+  beamToProbe_ = core::readTransformFile(r_.calibration, "Beam", "Probe").matrix;
   start_ = registrationStart(r_, model_.options, startNotes_);
   // The detection's settings as register takes them (flags over --params over register's own
   // defaults: each echo judged alone, points at least 1 mm apart), resolved against the stream's
@@ -651,7 +651,7 @@ int LiveSession::run() {
   settings_.emplace("min-spread-mm", 1.0);
   if (preset_.empty())
     preset_ = "default";
-  params_ = resolveParams(preset_, settings_, Sequence{});
+  params_ = resolveParams(preset_, settings_, core::Sequence{});
   registration_ = std::make_unique<live::IncrementalRegistration>(
       *model_.model, model_.options, start_.landmarks, static_cast<std::size_t>(o_.minPoints),
       o_.updateHz);
@@ -779,7 +779,7 @@ int LiveSession::run() {
   }
 
   for (const PendingTransform& p : pending_) {
-    SequenceFrame tracked;
+    core::SequenceFrame tracked;
     tracked.timestampS = p.timestampS;
     tracked.transforms[p.name] = p.transform;
     unpaired_.frames.push_back(std::move(tracked));
@@ -790,7 +790,7 @@ int LiveSession::run() {
     trackingPath =
         (path.parent_path() / (path.stem().string() + ".tracking" + path.extension().string()))
             .string();
-    writeSequence(unpaired_, trackingPath);
+    core::writeSequence(unpaired_, trackingPath);
   }
   if (!recorder_) {
     throw std::runtime_error(
@@ -814,7 +814,7 @@ int LiveSession::run() {
                            unpaired_.frames.size());
   }
   if (!o_.sessionJson.empty()) {
-    AtomicFile file(o_.sessionJson);
+    core::AtomicFile file(o_.sessionJson);
     file.stream() << session.dump(2) << "\n";
     file.commit();
   }
@@ -841,7 +841,7 @@ int LiveSession::run() {
   gathered.poseNotes = startNotes_;
   for (const auto& [name, report] : rigidPoses_) {
     gathered.poseNotes.reorthonormalised += report.reorthonormalised;
-    if (auto line = rigidPoseNote(report, o_.record, name))
+    if (auto line = core::rigidPoseNote(report, o_.record, name))
       gathered.poseNotes.lines.push_back(*line);
   }
   checkRegistrationPoints(final, gathered.points);

@@ -4,6 +4,7 @@
 // the stylus. docs/registration.md.
 #include "command_register.hpp"
 #include "csv_table.hpp"
+#include "json_values.hpp"
 #include "model_file.hpp"
 #include "path_check.hpp"
 #include "pose_check.hpp"
@@ -18,7 +19,7 @@
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/core/surface_registration.hpp"
 #include "echoreg/core/transform_file.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
@@ -41,21 +42,17 @@ namespace echoreg::cli {
 
 namespace {
 
-nlohmann::json vec(const Eigen::Vector3d& v) {
-  return {v.x(), v.y(), v.z()};
-}
-
 // Points from a CSV: x,y,z (or echoreg detect's x_mm,y_mm,z_mm, accepted rows only), optionally
 // ox,oy,oz,dx,dy,dz,depth_mm (the beam, same frame).
 std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double sigma) {
   if (std::filesystem::is_directory(path))
-    throw FileError(path, "is a directory, expected a CSV file");
+    throw core::FileError(path, "is a directory, expected a CSV file");
   std::ifstream in(path);
   if (!in)
-    throw FileError(path, "cannot be opened");
+    throw core::FileError(path, "cannot be opened");
   std::string line;
   if (!std::getline(in, line))
-    throw FileError(path, "is empty (expected a header x,y,z,...)");
+    throw core::FileError(path, "is empty (expected a header x,y,z,...)");
   const std::vector<std::string> header = splitCsvLine(line);
   std::map<std::string, std::size_t> column;
   for (std::size_t i = 0; i < header.size(); ++i)
@@ -67,8 +64,8 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
   } else if (has("x_mm") && has("y_mm") && has("z_mm")) {
     xyz = {"x_mm", "y_mm", "z_mm"};
   } else {
-    throw FileError(path,
-                    "has no columns x,y,z (or x_mm,y_mm,z_mm as echoreg detect --pose writes)");
+    throw core::FileError(
+        path, "has no columns x,y,z (or x_mm,y_mm,z_mm as echoreg detect --pose writes)");
   }
   // The beam: ox..dz with depth_mm (echoreg detect's CSV has depth_mm alone: no beam).
   const std::vector<std::string> beam{"ox", "oy", "oz", "dx", "dy", "dz", "depth_mm"};
@@ -76,7 +73,7 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
   for (std::size_t k = 0; k < 6; ++k)
     beamColumns += has(beam[k].c_str()) ? 1 : 0;
   if (beamColumns != 0 && (beamColumns != 6 || !has("depth_mm"))) {
-    throw FileError(path, "has some beam columns but not all of ox,oy,oz,dx,dy,dz,depth_mm");
+    throw core::FileError(path, "has some beam columns but not all of ox,oy,oz,dx,dy,dz,depth_mm");
   }
   const bool withBeam = beamColumns == 6;
   std::vector<core::SurfacePoint> points;
@@ -89,7 +86,7 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
     const auto cell = [&](const std::string& name) -> const std::string& {
       const std::size_t at = column.at(name);
       if (at >= cells.size())
-        throw FileError(path, fmt::format("line {}: no column {}", lineNumber, name));
+        throw core::FileError(path, fmt::format("line {}: no column {}", lineNumber, name));
       return cells[at];
     };
     if (has("status") && cell("status") != "accepted")
@@ -97,7 +94,7 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
     if (cell(xyz[0]).empty() && cell(xyz[1]).empty() && cell(xyz[2]).empty()) {
       if (has("status"))
         continue;  // echoreg detect leaves rejected frames' points empty
-      throw FileError(path, fmt::format("line {}: no point", lineNumber));
+      throw core::FileError(path, fmt::format("line {}: no point", lineNumber));
     }
     const Eigen::Vector3d p(parseCsvNumber(cell(xyz[0]), path, lineNumber, xyz[0]),
                             parseCsvNumber(cell(xyz[1]), path, lineNumber, xyz[1]),
@@ -109,15 +106,15 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
         v[k] = parseCsvNumber(cell(beam[k]), path, lineNumber, beam[k]);
       const Eigen::Vector3d origin(v[0], v[1], v[2]), direction(v[3], v[4], v[5]);
       if (std::abs(direction.norm() - 1.0) > 1e-3) {
-        throw FileError(path,
-                        fmt::format("line {}: beam direction dx,dy,dz is not unit (length {:.4g})",
-                                    lineNumber, direction.norm()));
+        throw core::FileError(
+            path, fmt::format("line {}: beam direction dx,dy,dz is not unit (length {:.4g})",
+                              lineNumber, direction.norm()));
       }
       point = core::beamSurfacePoint(origin, direction, v[6], sigma);
       if ((point.point - p).norm() > 0.01) {
-        throw FileError(path,
-                        fmt::format("line {}: x,y,z is {:.3f} mm from origin + depth * direction",
-                                    lineNumber, (point.point - p).norm()));
+        throw core::FileError(
+            path, fmt::format("line {}: x,y,z is {:.3f} mm from origin + depth * direction",
+                              lineNumber, (point.point - p).norm()));
       }
     } else {
       point.point = p;
@@ -126,7 +123,7 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
     points.push_back(point);
   }
   if (points.empty())
-    throw FileError(path, "holds no points");
+    throw core::FileError(path, "holds no points");
   return points;
 }
 
@@ -135,10 +132,10 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
 std::vector<core::SurfacePoint> capturePoints(const CaptureDetection& capture,
                                               const CaptureDetectionRequest& request,
                                               double ultrasoundSigma, nlohmann::json& report) {
-  const SequenceDetection& detection = capture.detection;
-  const Sequence& sequence = capture.sequence();
+  const core::SequenceDetection& detection = capture.detection;
+  const core::Sequence& sequence = capture.sequence();
   std::vector<core::SurfacePoint> points;
-  for (const FrameDetection& f : detection.frames) {
+  for (const core::FrameDetection& f : detection.frames) {
     if (!f.accepted() || !f.depthMm || !f.pointMm)
       continue;
     const auto& transforms = sequence.frames[static_cast<std::size_t>(f.frame)].transforms;
@@ -166,7 +163,7 @@ std::vector<core::SurfacePoint> stylusPoints(const std::string& path,
                                              const Eigen::Isometry3d& tipToStylus,
                                              const std::string& referenceTransform,
                                              const RegisterOptions& o, PoseNotes& poseNotes) {
-  const Sequence capture =
+  const core::Sequence capture =
       readTrackedSequence(path, {"StylusToTracker", referenceTransform}, poseNotes);
   std::vector<core::Dwell> dwells;
   try {
@@ -181,7 +178,7 @@ std::vector<core::SurfacePoint> stylusPoints(const std::string& path,
     dwellOptions.mergeDistanceMm = o.stylusSpacing;
     dwells = core::detectDwells(track.tipInReference, track.timestampsS, track.valid, dwellOptions);
   } catch (const std::invalid_argument& e) {
-    throw FileError(path, e.what());
+    throw core::FileError(path, e.what());
   }
   std::vector<core::SurfacePoint> points;
   for (const core::Dwell& d : dwells) {
@@ -193,7 +190,7 @@ std::vector<core::SurfacePoint> stylusPoints(const std::string& path,
     points.push_back(p);
   }
   if (points.empty())
-    throw FileError(path, "has no dwell of the stylus (no touched point)");
+    throw core::FileError(path, "has no dwell of the stylus (no touched point)");
   return points;
 }
 
@@ -221,19 +218,20 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
         std::string have;
         for (const core::MarkupPoint& p : all)
           have += (have.empty() ? "" : ", ") + p.label;
-        throw FileError(o.landmarksCt, "has no landmark '" + label + "' (it has " + have + ")");
+        throw core::FileError(o.landmarksCt,
+                              "has no landmark '" + label + "' (it has " + have + ")");
       }
       chosen.push_back(*found);
     }
   }
   if (chosen.size() < 2) {
-    throw FileError(o.landmarksCt,
-                    fmt::format("{} landmark(s) chosen: at least 2 are needed", chosen.size()));
+    throw core::FileError(
+        o.landmarksCt, fmt::format("{} landmark(s) chosen: at least 2 are needed", chosen.size()));
   }
-  const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
+  const core::TransformFile tip = core::readTransformFile(o.tipFile, "StylusTip", "Stylus");
   Eigen::Isometry3d tipToStylus;
   tipToStylus.matrix() = tip.matrix;
-  const Sequence capture =
+  const core::Sequence capture =
       readTrackedSequence(o.landmarksCapture, {"StylusToTracker", referenceTransform}, poseNotes);
   std::vector<core::Dwell> dwells;
   try {
@@ -242,7 +240,7 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
     dwells = core::detectDwells(track.tipInReference, track.timestampsS, track.valid,
                                 core::DwellOptions{});
   } catch (const std::invalid_argument& e) {
-    throw FileError(o.landmarksCapture, e.what());
+    throw core::FileError(o.landmarksCapture, e.what());
   }
   std::vector<Eigen::Vector3d> ct;
   for (const core::MarkupPoint& p : chosen)
@@ -256,7 +254,7 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
     }
     for (int d : o.landmarkDwells) {
       if (d < 0 || static_cast<std::size_t>(d) >= dwells.size()) {
-        throw FileError(
+        throw core::FileError(
             o.landmarksCapture,
             fmt::format("has {} dwells; --landmark-dwells names dwell {}", dwells.size(), d));
       }
@@ -268,13 +266,14 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
       index = match.dwellIndex;
       runnerUp = match.runnerUpFreMm;
     } catch (const std::invalid_argument& e) {
-      throw FileError(o.landmarksCapture, e.what());
+      throw core::FileError(o.landmarksCapture, e.what());
     }
   } else {
     // Two landmarks: the in-order pair of dwells whose distance best matches the CT's.
     if (dwells.size() < 2) {
-      throw FileError(o.landmarksCapture,
-                      fmt::format("{} dwell(s) of the stylus found: 2 needed", dwells.size()));
+      throw core::FileError(
+          o.landmarksCapture,
+          fmt::format("{} dwell(s) of the stylus found: 2 needed", dwells.size()));
     }
     const double length = (ct[1] - ct[0]).norm();
     double best = std::numeric_limits<double>::infinity();
@@ -291,7 +290,7 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
       }
     }
     if (best > 15.0) {
-      throw FileError(
+      throw core::FileError(
           o.landmarksCapture,
           fmt::format(
               "no two dwells lie {:.1f} mm apart as {} and {} do (best {:.1f} mm off); name them "
@@ -299,7 +298,7 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
               length, chosen[0].label, chosen[1].label, best));
     }
     if (runnerUp - best < 2.0) {
-      throw FileError(
+      throw core::FileError(
           o.landmarksCapture,
           fmt::format(
               "{} dwells and two pairs match the landmarks' distance within 2 mm of each other; "
@@ -321,11 +320,11 @@ LandmarkInit landmarksFromCapture(const RegisterOptions& o, const std::string& r
   if (!o.hipCentre.empty()) {
     // The hip centre: the pivot of the femur's marker (echoreg pivot --marker FemurToTracker)
     // paired with the CT landmark --hip-label; far from the knee, it fixes the rotations.
-    const TransformFile hip = readTransformFile(o.hipCentre, "", o.bone);
+    const core::TransformFile hip = core::readTransformFile(o.hipCentre, "", o.bone);
     const auto found = std::find_if(
         all.begin(), all.end(), [&](const core::MarkupPoint& p) { return p.label == o.hipLabel; });
     if (found == all.end())
-      throw FileError(o.landmarksCt, "has no landmark '" + o.hipLabel + "' (--hip-label)");
+      throw core::FileError(o.landmarksCt, "has no landmark '" + o.hipLabel + "' (--hip-label)");
     init.pairs.push_back(
         {o.hipLabel, hip.matrix.topRightCorner<3, 1>(), found->positionLps, o.hipSigma});
     list.push_back({{"label", o.hipLabel},
@@ -370,14 +369,14 @@ RegistrationModel loadRegistrationModel(const RegisterOptions& o) {
       capTriangles = static_cast<int>(
           std::count(options.excludedTriangles.begin(), options.excludedTriangles.end(), true));
       if (capTriangles == 0) {
-        throw FileError(o.model,
-                        "--open-ends: the model has no flat cap at its lowest or highest z "
-                        "(was it cut by the scan range?)");
+        throw core::FileError(o.model,
+                              "--open-ends: the model has no flat cap at its lowest or highest z "
+                              "(was it cut by the scan range?)");
       }
     }
     loaded.model = std::make_unique<core::SurfaceRegistration>(std::move(mesh));
   } catch (const std::invalid_argument& e) {
-    throw FileError(o.model, e.what());
+    throw core::FileError(o.model, e.what());
   }
 
   return loaded;
@@ -391,7 +390,7 @@ RegistrationStart registrationStart(const RegisterOptions& o,
   std::vector<core::LandmarkPair>& landmarks = start.landmarks;
   nlohmann::json& initReport = start.report;
   if (!o.initial.empty()) {
-    const TransformFile initial = readTransformFile(o.initial, o.bone, "CT");
+    const core::TransformFile initial = core::readTransformFile(o.initial, o.bone, "CT");
     options.initial.matrix() = initial.matrix;
     initReport = {{"initial", o.initial}};
   } else {
@@ -419,7 +418,7 @@ RegistrationStart registrationStart(const RegisterOptions& o,
       try {
         options.initial = core::poseFromTwoLandmarks(a, b);
       } catch (const std::invalid_argument& e) {
-        throw FileError(o.landmarksCapture, e.what());
+        throw core::FileError(o.landmarksCapture, e.what());
       }
       options.searchAboutAxis = true;
       options.axisPoint = a.bone;
@@ -509,8 +508,9 @@ void checkRegistrationPoints(const RegisterOptions& o,
                              : !o.captures.empty()       ? o.captures.front()
                              : !o.stylusCaptures.empty() ? o.stylusCaptures.front()
                                                          : o.model;
-    throw FileError(from, fmt::format("{} point(s) found: at least 3 are needed for a registration",
-                                      points.size()));
+    throw core::FileError(
+        from,
+        fmt::format("{} point(s) found: at least 3 are needed for a registration", points.size()));
   }
   if (o.fitSpeed && std::none_of(points.begin(), points.end(),
                                  [](const core::SurfacePoint& p) { return p.hasBeam; })) {
@@ -548,7 +548,7 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
     points = readPointsCsv(o.pointsCsv, o.ultrasoundSigma);
     sources.push_back({{"points", o.pointsCsv}, {"count", points.size()}});
   } else if (!o.captures.empty()) {
-    const TransformFile calibration = readTransformFile(o.calibration, "Beam", "Probe");
+    const core::TransformFile calibration = core::readTransformFile(o.calibration, "Beam", "Probe");
     for (const std::string& capture : o.captures) {
       const CaptureDetectionRequest request = sweepDetectionRequest(o, capture, calibration.matrix);
       std::unique_ptr<CaptureDetection> own;
@@ -564,7 +564,7 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
     }
   }
   if (!o.stylusCaptures.empty()) {
-    const TransformFile tip = readTransformFile(o.tipFile, "StylusTip", "Stylus");
+    const core::TransformFile tip = core::readTransformFile(o.tipFile, "StylusTip", "Stylus");
     Eigen::Isometry3d tipToStylus;
     tipToStylus.matrix() = tip.matrix;
     for (const std::string& capture : o.stylusCaptures) {
@@ -603,7 +603,7 @@ int solveAndWrite(const RegisterOptions& o, const RegistrationModel& loaded,
   const core::SurfaceRegistrationResult r =
       loaded.model->registerPoints(points, landmarks, options);
 
-  TransformFile out;
+  core::TransformFile out;
   out.from = o.bone;
   out.to = "CT";
   out.matrix = r.transform.matrix();
@@ -662,13 +662,13 @@ int solveAndWrite(const RegisterOptions& o, const RegistrationModel& loaded,
   }
   out.extra["warnings"] = warnings;
   out.extra["poses_reorthonormalised"] = poseNotes.reorthonormalised;
-  const std::string tfm = writeTransformFile(o.out, out);
+  const std::string tfm = core::writeTransformFile(o.out, out);
   if (o.json) {
     nlohmann::json summary = out.extra;
     summary.erase("points");
     summary["out"] = o.out;
     summary["tfm"] = tfm;
-    summary["matrix"] = matrixRows(out.matrix);
+    summary["matrix"] = core::matrixRows(out.matrix);
     io.out << summary.dump(2) << "\n";
   } else {
     io.out << fmt::format(
@@ -740,7 +740,7 @@ CLI::Option* addRegistrationOptions(CLI::App* cmd, const std::shared_ptr<Registe
   cmd->add_option_function<double>(
          "--speed-of-sound", [&detection](double v) { detection["speed-of-sound"] = v; },
          "Assumed speed, m/s (default: the capture's header)")
-      ->check(finiteRange(kMinSpeedOfSoundMps, kMaxSpeedOfSoundMps))
+      ->check(finiteRange(core::kMinSpeedOfSoundMps, core::kMaxSpeedOfSoundMps))
       ->group("Points");
   cmd->add_option_function<int>(
          "--history", [&detection](int v) { detection["history"] = v; },

@@ -4,12 +4,13 @@
 // segmented region (sub-voxel), a closed model in CT patient coordinates (LPS), the mask as NRRD,
 // anchors proposed for the user to check, and optionally the surface accessible to a probe.
 #include "commands.hpp"
+#include "json_values.hpp"
 #include "path_check.hpp"
 #include "validators.hpp"
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/mesh.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/segmentation/accessible_surface.hpp"
 #include "echoreg/segmentation/bone_labels.hpp"
 #include "echoreg/segmentation/bone_mask.hpp"
@@ -67,20 +68,16 @@ struct SegmentOptions {
   double maxAngleDeg = 60.0;
 };
 
-nlohmann::json vec(const Eigen::Vector3d& v) {
-  return {v.x(), v.y(), v.z()};
-}
-
 // The folder an output goes into must exist before the work starts.
 void requireOutputFolder(const std::string& path) {
   if (path.empty())
     return;
   const std::filesystem::path parent = std::filesystem::absolute(path).parent_path();
   if (!std::filesystem::is_directory(parent)) {
-    throw FileError(path, "the output folder " + parent.string() + " does not exist");
+    throw core::FileError(path, "the output folder " + parent.string() + " does not exist");
   }
   if (std::filesystem::is_directory(path))
-    throw FileError(path, "is a folder, not a file");
+    throw core::FileError(path, "is a folder, not a file");
 }
 
 class Progress {
@@ -284,16 +281,16 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   if (o.automatic) {
     for (const auto& s : allSeeds) {
       if (seg::groupContaining(ct, s.pointLps) < 0) {
-        throw FileError(o.dicom,
-                        fmt::format("the {} seed ({:.1f}, {:.1f}, {:.1f}) mm lies outside the CT's "
-                                    "slices (or in a gap between its slice groups)",
-                                    s.bone, s.pointLps.x(), s.pointLps.y(), s.pointLps.z()));
+        throw core::FileError(
+            o.dicom, fmt::format("the {} seed ({:.1f}, {:.1f}, {:.1f}) mm lies outside the CT's "
+                                 "slices (or in a gap between its slice groups)",
+                                 s.bone, s.pointLps.x(), s.pointLps.y(), s.pointLps.z()));
       }
     }
     group = seg::groupContaining(ct, targetSeeds.front().pointLps);
     for (const auto& s : allSeeds) {
       if (seg::groupContaining(ct, s.pointLps) != group) {
-        throw FileError(
+        throw core::FileError(
             o.dicom, fmt::format("the seeds lie in different slice groups of the CT (the {} seed "
                                  "({:.1f}, {:.1f}, {:.1f}) mm); give seeds in one group",
                                  s.bone, s.pointLps.x(), s.pointLps.y(), s.pointLps.z()));
@@ -305,7 +302,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
       points.insert(points.end(), set.anchorsLps.begin(), set.anchorsLps.end());
     group = majorityGroup(ct, points);
     if (group < 0)
-      throw FileError(o.anchors, "no anchor lies within the CT's slices");
+      throw core::FileError(o.anchors, "no anchor lies within the CT's slices");
   }
   const seg::CtImage volume =
       ct.uniform() ? ct : seg::extractGroup(ct, static_cast<std::size_t>(group));
@@ -345,7 +342,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
       try {
         grown = seg::growBone(volume, targetSeeds[s].pointLps, grow);
       } catch (const std::invalid_argument& e) {
-        throw FileError(o.dicom, e.what());
+        throw core::FileError(o.dicom, e.what());
       }
       seedsJson.push_back({{"bone", targetSeeds[s].bone},
                            {"seed_mm", vec(targetSeeds[s].pointLps)},
@@ -368,7 +365,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     try {
       bones = seg::segmentCompetingBones(volume, allSeeds, competing);
     } catch (const std::invalid_argument& e) {
-      throw FileError(o.dicom, e.what());
+      throw core::FileError(o.dicom, e.what());
     }
     if (bones.thresholdFromHistogram)
       cortexMinHu = bones.estimate.surfaceCortexMinHu;
@@ -444,7 +441,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
       try {
         contours.push_back(seg::liveWireContour(volume, anchorSets[c]));
       } catch (const std::invalid_argument& e) {
-        throw FileError(o.anchors, e.what());
+        throw core::FileError(o.anchors, e.what());
       }
       if (anchorSets[c].plane != seg::SlicePlane::Axial) {
         straightened +=
@@ -461,10 +458,10 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     try {
       region = seg::contoursToMask(contours, volume);
     } catch (const std::invalid_argument& e) {
-      throw FileError(o.anchors, e.what());
+      throw core::FileError(o.anchors, e.what());
     }
     if (region.count() == 0)
-      throw FileError(o.anchors, "the contours enclose no voxel of the CT");
+      throw core::FileError(o.anchors, "the contours enclose no voxel of the CT");
     exclude = seg::otherBones(seg::thresholdBone(volume, grow.threshold), region, o.bandMm);
     modeJson = {{"mode", "anchors"},
                 {"contours", contoursJson},
@@ -488,14 +485,14 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
       try {
         contours.push_back(seg::liveWireContour(volume, set));
       } catch (const std::invalid_argument& e) {
-        throw FileError(o.corrections, e.what());
+        throw core::FileError(o.corrections, e.what());
       }
     }
     seg::SliceCorrectionResult corrected;
     try {
       corrected = seg::correctOnSlices(region, contours, 3.0, absent);
     } catch (const std::invalid_argument& e) {
-      throw FileError(o.corrections, e.what());
+      throw core::FileError(o.corrections, e.what());
     }
     // What the corrections took away is not this bone: the surface must not follow its HU back
     // onto it (a bright neighbour, or the bone where the user says it is absent).
@@ -537,11 +534,11 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     surface = o.noRefine ? seg::maskSurface(region, 0.6, surfaceOptions)
                          : seg::boneSurface(volume, region, &exclude, surfaceOptions);
   } catch (const std::invalid_argument& e) {
-    throw FileError(o.dicom, std::string("no surface: ") + e.what());
+    throw core::FileError(o.dicom, std::string("no surface: ") + e.what());
   }
   const core::MeshCheck check = core::checkMesh(surface.mesh);
   if (!check.closed())
-    throw FileError(o.dicom, "the model is " + check.describe());
+    throw core::FileError(o.dicom, "the model is " + check.describe());
   timings["surface_s"] = secondsSince(t0);
 
   // 5. Anchors proposed on the model, and the accessible surface.
@@ -626,7 +623,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
       accessible =
           std::make_unique<seg::AccessibleSurface>(seg::accessibleSurface(surface.mesh, ao));
     } catch (const std::invalid_argument& e) {
-      throw FileError(o.accessibleOut, e.what());
+      throw core::FileError(o.accessibleOut, e.what());
     }
   }
 

@@ -35,7 +35,7 @@ struct ServeOptions {
 // --repeat: each pass after the first goes on from where the last ended, one frame interval (the
 // capture's mean) after its last frame, as PLUS's saved-data source does when it loops, so the
 // client sees one stream whose timestamps keep increasing.
-double passPeriodS(const Sequence& sequence) {
+double passPeriodS(const core::Sequence& sequence) {
   const double first = *sequence.frames.front().timestampS;
   const double last = *sequence.frames.back().timestampS;
   const std::size_t n = sequence.frames.size();
@@ -43,25 +43,28 @@ double passPeriodS(const Sequence& sequence) {
 }
 
 // Frames must carry what OpenIGTLink can: timestamps from 0 to 2^32 s, names of 1 to 20 characters.
-void checkServable(const Sequence& sequence, const std::string& path,
+void checkServable(const core::Sequence& sequence, const std::string& path,
                    const std::string& imageName) {
   if (sequence.frames.empty())
-    throw FileError(path, "holds no frames to serve");
+    throw core::FileError(path, "holds no frames to serve");
   if (sequence.hasPixels() && sequence.frameSize[1] != 1) {
-    throw FileError(path, fmt::format("frames of {} rows: echoreg serves A-lines (frames of N x 1)",
+    throw core::FileError(path,
+                          fmt::format("frames of {} rows: echoreg serves A-lines (frames of N x 1)",
                                       sequence.frameSize[1]));
   }
   for (std::size_t f = 0; f < sequence.frames.size(); ++f) {
     const std::optional<double>& t = sequence.frames[f].timestampS;
     if (!t || !(*t >= 0.0) || *t >= 4294967295.0) {
-      throw FileError(path, fmt::format("frame {} has {}: OpenIGTLink carries timestamps from 0 to "
+      throw core::FileError(path,
+                            fmt::format("frame {} has {}: OpenIGTLink carries timestamps from 0 to "
                                         "2^32 s",
                                         f, t ? fmt::format("timestamp {}", *t) : "no timestamp"));
     }
   }
   for (const std::string& name : sequence.transformNames()) {
     if (name.size() > 20) {
-      throw FileError(path, fmt::format("transform {} has a name of {} characters: OpenIGTLink "
+      throw core::FileError(path,
+                            fmt::format("transform {} has a name of {} characters: OpenIGTLink "
                                         "device names have at most 20",
                                         name, name.size()));
     }
@@ -70,18 +73,20 @@ void checkServable(const Sequence& sequence, const std::string& path,
     throw std::invalid_argument("--image-name must have 1 to 20 characters");
 }
 
-void checkRepeatable(const Sequence& sequence, const std::string& path, int repeat) {
+void checkRepeatable(const core::Sequence& sequence, const std::string& path, int repeat) {
   if (repeat == 1)
     return;
   const std::size_t n = sequence.frames.size();
   if (n < 2 || !(*sequence.frames.back().timestampS > *sequence.frames.front().timestampS)) {
-    throw FileError(path, fmt::format("--repeat {} needs frames spread over time to go on from, "
+    throw core::FileError(path,
+                          fmt::format("--repeat {} needs frames spread over time to go on from, "
                                       "and this capture has {} frame(s) over 0 s",
                                       repeat, n));
   }
   for (std::size_t f = 1; f < n; ++f) {
     if (!(*sequence.frames[f].timestampS > *sequence.frames[f - 1].timestampS)) {
-      throw FileError(path, fmt::format("--repeat {}: frame {}'s timestamp {} does not follow "
+      throw core::FileError(path,
+                            fmt::format("--repeat {}: frame {}'s timestamp {} does not follow "
                                         "frame {}'s {}, so the passes cannot follow each other",
                                         repeat, f, *sequence.frames[f].timestampS, f - 1,
                                         *sequence.frames[f - 1].timestampS));
@@ -92,7 +97,8 @@ void checkRepeatable(const Sequence& sequence, const std::string& path, int repe
     const double lastT = *sequence.frames.back().timestampS +
                          static_cast<double>(repeat - 1) * passPeriodS(sequence);
     if (lastT >= 4294967295.0)
-      throw FileError(path, fmt::format("--repeat {} would reach timestamp {:.0f} s: OpenIGTLink "
+      throw core::FileError(path,
+                            fmt::format("--repeat {} would reach timestamp {:.0f} s: OpenIGTLink "
                                         "carries timestamps up to 2^32 s",
                                         repeat, lastT));
   }
@@ -107,7 +113,7 @@ std::string servedFrames(std::size_t sent, std::size_t captureFrames, int repeat
 }
 
 int runServe(const ServeOptions& o, const Streams& io) {
-  const Sequence sequence = readSequence(o.capture);
+  const core::Sequence sequence = core::readSequence(o.capture);
   checkServable(sequence, o.capture, o.imageName);
   checkRepeatable(sequence, o.capture, o.repeat);
   InterruptScope interrupt;
@@ -142,7 +148,8 @@ int runServe(const ServeOptions& o, const Streams& io) {
   using Clock = std::chrono::steady_clock;
   const Clock::time_point start = Clock::now();
   const double firstTimestamp = *sequence.frames.front().timestampS;
-  const std::size_t frameBytes = sequence.samplesPerFrame() * elementSize(sequence.elementType);
+  const std::size_t frameBytes =
+      sequence.samplesPerFrame() * core::elementSize(sequence.elementType);
   const double period = o.repeat == 1 ? 0.0 : passPeriodS(sequence);
   std::size_t messages = 0, bytes = 0, sent = 0;
   int passes = 0;
@@ -162,7 +169,7 @@ int runServe(const ServeOptions& o, const Streams& io) {
       for (std::size_t f = 0; f < sequence.frames.size(); ++f) {
         if (stop->load())
           break;
-        const SequenceFrame& frame = sequence.frames[f];
+        const core::SequenceFrame& frame = sequence.frames[f];
         const double t = *frame.timestampS + shift;
         if (o.rate == "recorded") {
           const auto due = start + std::chrono::duration_cast<Clock::duration>(
@@ -184,7 +191,7 @@ int runServe(const ServeOptions& o, const Streams& io) {
         if (pass == 0) {
           send(live::encodeString(live::kFrameName, live::frameJson(frame), t));
         } else {
-          SequenceFrame shifted = frame;
+          core::SequenceFrame shifted = frame;
           shifted.timestampS = t;
           send(live::encodeString(live::kFrameName, live::frameJson(shifted), t));
         }

@@ -79,7 +79,7 @@ class StudyFolder {
     std::error_code ec;
     fs::current_path(dir, ec);
     if (ec)
-      throw FileError(dir, "cannot be entered: " + ec.message());
+      throw core::FileError(dir, "cannot be entered: " + ec.message());
   }
   ~StudyFolder() {
     std::error_code ec;
@@ -107,7 +107,7 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
   fs::create_directories(results + "/figures", ec);
   fs::create_directories(results + "/points", ec);
   if (ec)
-    throw FileError(results, "cannot be created: " + ec.message());
+    throw core::FileError(results, "cannot be created: " + ec.message());
   StudyRunner runner(results + "/.study-state.json", o.force, studyDir);
   // Each sweep's detection, shared by its points and its registration (each sweep detected once).
   CaptureDetections detections;

@@ -12,6 +12,7 @@
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/json_file.hpp"
+#include "echoreg/core/number_text.hpp"
 #include "echoreg/core/statistics.hpp"
 #include "echoreg/render/plot_figure.hpp"
 
@@ -63,10 +64,6 @@ const std::vector<std::pair<std::string, std::string>> kReferences = {
     {"against_mechanical", "the mechanical-probe registration (Tables 5.3-5.7)"},
     {"against_truth", "the simulation's true registration"}};
 
-std::string number(double value, int decimals) {
-  return fmt::format("{:.{}f}", value, decimals);
-}
-
 /// "generator.standoff" -> the value at /generator/standoff of the manifest, as a label; a key the
 /// manifest does not have is looked up in the study's results.json ("provenance.solver.method":
 /// what the study was run with, such as a sweep's settings).
@@ -81,18 +78,20 @@ std::string groupLabel(const StudyResults& study, const std::string& key) {
   const nlohmann::json::json_pointer at(pointer);
   const bool inManifest = study.manifest.document.contains(at);
   if (!inManifest && !study.results.contains(at)) {
-    throw FileError(study.manifestPath,
-                    fmt::format("has no \"{}\" to group by, nor has {} (--group-by {}; a dotted "
-                                "path into study.json such as generator.standoff, or into "
-                                "results.json such as provenance.solver.method)",
-                                key, study.resultsPath, key));
+    throw core::FileError(
+        study.manifestPath,
+        fmt::format("has no \"{}\" to group by, nor has {} (--group-by {}; a dotted "
+                    "path into study.json such as generator.standoff, or into "
+                    "results.json such as provenance.solver.method)",
+                    key, study.resultsPath, key));
   }
   const nlohmann::json& value = inManifest ? study.manifest.document.at(at) : study.results.at(at);
   if (value.is_string())
     return value.get<std::string>();
   if (value.is_object() || value.is_array()) {
-    throw FileError(inManifest ? study.manifestPath : study.resultsPath,
-                    fmt::format("\"{}\" is not a single value to group by (--group-by)", key));
+    throw core::FileError(
+        inManifest ? study.manifestPath : study.resultsPath,
+        fmt::format("\"{}\" is not a single value to group by (--group-by)", key));
   }
   return value.dump();
 }
@@ -105,17 +104,17 @@ StudyResults loadStudy(const std::string& dir, const std::string& groupBy) {
   study.resultsPath = (fs::path(dir) / "results" / "results.json").generic_string();
   study.manifestPath = (fs::path(dir) / "study.json").generic_string();
   if (!fs::is_directory(dir))
-    throw FileError(dir, "is not a study folder (no such folder)");
+    throw core::FileError(dir, "is not a study folder (no such folder)");
   if (!fs::exists(study.resultsPath)) {
-    throw FileError(study.resultsPath,
-                    "is missing: the study has not been run (echoreg study run " + dir + ")");
+    throw core::FileError(study.resultsPath,
+                          "is missing: the study has not been run (echoreg study run " + dir + ")");
   }
-  study.results = readJsonFile(study.resultsPath);
+  study.results = core::readJsonFile(study.resultsPath);
   if (!study.results.is_object() || !study.results.contains("registrations") ||
       !study.results["registrations"].is_object()) {
-    throw FileError(study.resultsPath,
-                    "has no \"registrations\" object: not the results.json of a study run "
-                    "that registered a bone");
+    throw core::FileError(study.resultsPath,
+                          "has no \"registrations\" object: not the results.json of a study run "
+                          "that registered a bone");
   }
   for (const auto& [bone, entry] : study.results["registrations"].items()) {
     // Bone names become figure file names.
@@ -123,10 +122,10 @@ StudyResults loadStudy(const std::string& dir, const std::string& groupBy) {
       return (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_' || c == '-';
     });
     if (!simple || !entry.is_object()) {
-      throw FileError(study.resultsPath,
-                      fmt::format("registrations/\"{}\" is not a bone's results (a name of "
-                                  "a-z, 0-9, _ and - holding an object)",
-                                  bone));
+      throw core::FileError(study.resultsPath,
+                            fmt::format("registrations/\"{}\" is not a bone's results (a name of "
+                                        "a-z, 0-9, _ and - holding an object)",
+                                        bone));
     }
   }
   study.manifest = readStudyManifest(dir);
@@ -141,8 +140,8 @@ double rowValue(const StudyResults& study, const nlohmann::json& row, const std:
                 const std::string& key) {
   const auto it = row.find(key);
   if (it == row.end() || !it->is_number() || !std::isfinite(it->get<double>())) {
-    throw FileError(study.resultsPath,
-                    fmt::format("{}: \"{}\" is missing or not a finite number", where, key));
+    throw core::FileError(study.resultsPath,
+                          fmt::format("{}: \"{}\" is missing or not a finite number", where, key));
   }
   return it->get<double>();
 }
@@ -162,10 +161,10 @@ void addErrors(const StudyResults& study, const std::string& bone, const std::st
     return;
   const std::string where = "registrations/" + bone + "/" + reference;
   if (!list->is_array())
-    throw FileError(study.resultsPath, where + " is not a list");
+    throw core::FileError(study.resultsPath, where + " is not a list");
   for (const nlohmann::json& row : *list) {
     if (!row.is_object() || !row.contains("estimate") || !row["estimate"].is_string())
-      throw FileError(study.resultsPath, where + ": a row without its \"estimate\" name");
+      throw core::FileError(study.resultsPath, where + ": a row without its \"estimate\" name");
     const std::string estimate = row["estimate"].get<std::string>();
     // evaluate's summary row, and the mechanical registration itself evaluated against truth
     if (estimate == "mean_abs" || estimate.find("_mechanical") != std::string::npos)
@@ -206,7 +205,7 @@ std::vector<double> residuals(const StudyResults& study, const std::string& bone
   const int value = table.column("abs_residual_mm");
   const int inlier = table.column("inlier");
   if (value < 0 || inlier < 0)
-    throw FileError(path, "has no \"abs_residual_mm\" and \"inlier\" columns");
+    throw core::FileError(path, "has no \"abs_residual_mm\" and \"inlier\" columns");
   std::vector<double> values;
   for (std::size_t r = 0; r < table.rows.size(); ++r) {
     if (table.rows[r][static_cast<std::size_t>(inlier)] != "1")
@@ -224,7 +223,7 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
       throw std::invalid_argument("study folder " + dir + " is given twice");
   }
   if (fs::exists(o.out) && !fs::is_directory(o.out))
-    throw FileError(o.out, "is not a folder (--out)");
+    throw core::FileError(o.out, "is not a folder (--out)");
 
   std::vector<StudyResults> studies;
   for (const std::string& dir : o.dirs)
@@ -355,7 +354,7 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
             continue;
           }
           const double mean = it->second / m.registrations;
-          cells.push_back(number(mean, 2));
+          cells.push_back(core::number(mean, 2));
           row["mean_abs_" + key] = mean;
         }
         rows.push_back(cells);
@@ -400,8 +399,8 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
       if (!c.is_object())
         continue;
       const std::string where = "calibration";
-      rows.push_back({s.name, s.group, number(rowValue(s, c, where, "rms_mm"), 3),
-                      number(rowValue(s, c, where, "speed_of_sound_mps"), 1),
+      rows.push_back({s.name, s.group, core::number(rowValue(s, c, where, "rms_mm"), 3),
+                      core::number(rowValue(s, c, where, "speed_of_sound_mps"), 1),
                       fmt::format("{}", rowValue(s, c, where, "shots_used"))});
     }
     if (!rows.empty()) {
@@ -427,7 +426,8 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
               !std::all_of(offset.begin(), offset.end(), [](const nlohmann::json& v) {
                 return v.is_number() && std::isfinite(v.get<double>());
               })) {
-            throw FileError(s.resultsPath, where + ": \"beam_to_probe_mm\" is not [x, y, z] in mm");
+            throw core::FileError(s.resultsPath,
+                                  where + ": \"beam_to_probe_mm\" is not [x, y, z] in mm");
           }
           sessions.push_back({offset[0].get<double>(), offset[1].get<double>(),
                               offset[2].get<double>(), rowValue(s, row, where, "rms_mm"),
@@ -451,10 +451,11 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
           high[i] = std::max(high[i], v[i]);
         }
       }
-      rows.push_back({name, group, fmt::format("{}", sessions.size()), number(mean[0], 2),
-                      number(mean[1], 2), number(mean[2], 2), number(high[0] - low[0], 2),
-                      number(high[1] - low[1], 2), number(high[2] - low[2], 2), number(mean[3], 3),
-                      number(mean[4], 2), number(mean[5], 1)});
+      rows.push_back({name, group, fmt::format("{}", sessions.size()), core::number(mean[0], 2),
+                      core::number(mean[1], 2), core::number(mean[2], 2),
+                      core::number(high[0] - low[0], 2), core::number(high[1] - low[1], 2),
+                      core::number(high[2] - low[2], 2), core::number(mean[3], 3),
+                      core::number(mean[4], 2), core::number(mean[5], 1)});
       pooledJson.push_back(
           {{"name", name},
            {"group", group},
@@ -505,7 +506,7 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
         const std::string where = "detection_rates";
         if (!r.is_object() || !r.value("bone", nlohmann::json()).is_string() ||
             !r.value("setting", nlohmann::json()).is_string())
-          throw FileError(s.resultsPath, where + ": a row without its bone and setting");
+          throw core::FileError(s.resultsPath, where + ": a row without its bone and setting");
         Counts& c =
             pooled[{groupIndex, r["bone"].get<std::string>(), r["setting"].get<std::string>()}];
         const double bone = rowValue(s, r, where, "bone_frames");
@@ -523,8 +524,8 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
         const auto& [groupIndex, bone, setting] = key;
         const double fn = c.bone > 0 ? 100.0 * c.falseNegative / c.bone : 0.0;
         const double fp = c.other > 0 ? 100.0 * c.falsePositive / c.other : 0.0;
-        rows.push_back({groups[groupIndex], bone, setting, number(c.bone, 0), number(c.other, 0),
-                        number(fn, 1), number(fp, 1)});
+        rows.push_back({groups[groupIndex], bone, setting, core::number(c.bone, 0),
+                        core::number(c.other, 0), core::number(fn, 1), core::number(fp, 1)});
         json.push_back({{"group", groups[groupIndex]},
                         {"bone", bone},
                         {"setting", setting},
@@ -618,11 +619,11 @@ int runCompare(const CompareOptions& o, const Streams& streams) {
 
   // Everything is read and rendered: now write, each file atomically.
   fs::create_directories(fs::path(o.out) / "figures");
-  AtomicFile md((fs::path(o.out) / "report.md").string());
+  core::AtomicFile md((fs::path(o.out) / "report.md").string());
   md.stream() << report.markdown();
-  AtomicFile html((fs::path(o.out) / "report.html").string());
+  core::AtomicFile html((fs::path(o.out) / "report.html").string());
   html.stream() << report.html(title);
-  AtomicFile json((fs::path(o.out) / "results.json").string());
+  core::AtomicFile json((fs::path(o.out) / "results.json").string());
   json.stream() << merged.dump(2) << "\n";
   for (const auto& [image, pixels] : figures)
     render::writePng((fs::path(o.out) / image).string(), pixels);

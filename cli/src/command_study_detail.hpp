@@ -41,8 +41,6 @@ struct StudyOptions {
   bool json = false;
 };
 
-std::string number(double value, int decimals = 2);
-
 std::string capitalised(std::string name);
 
 // --- The manifest's inputs (command_study_inputs.cpp) ----------------------------------------
@@ -72,8 +70,8 @@ struct StudyParams {
 StudyParams readStudyParams(const StudyOptions& o, const StudyManifest& manifest);
 
 /// "S/captures/x.igs.mha: is missing (WHY)", `file` shown under the study folder `studyDir`.
-FileError missingInputError(const std::string& studyDir, const std::string& file,
-                            const std::string& why);
+core::FileError missingInputError(const std::string& studyDir, const std::string& file,
+                                  const std::string& why);
 
 /// The calibration's inputs, checked before anything is written, the pivot capture first as its
 /// step comes first: one check and one wording for every input the study needs and does not

@@ -12,10 +12,6 @@ namespace echoreg::cli::detail {
 
 namespace fs = std::filesystem;
 
-std::string number(double value, int decimals) {
-  return fmt::format("{:.{}f}", value, decimals);
-}
-
 std::string capitalised(std::string name) {
   if (!name.empty())
     name[0] = static_cast<char>(std::toupper(static_cast<unsigned char>(name[0])));
@@ -40,9 +36,9 @@ StudyParams readStudyParams(const StudyOptions& o, const StudyManifest& manifest
   return params;
 }
 
-FileError missingInputError(const std::string& studyDir, const std::string& file,
-                            const std::string& why) {
-  return FileError(shownInStudy(studyDir, file), fmt::format("is missing ({})", why));
+core::FileError missingInputError(const std::string& studyDir, const std::string& file,
+                                  const std::string& why) {
+  return core::FileError(shownInStudy(studyDir, file), fmt::format("is missing ({})", why));
 }
 
 std::vector<ManifestCalibrationSession> checkCalibrationInputs(const StudyManifest& manifest,

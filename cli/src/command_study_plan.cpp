@@ -76,9 +76,9 @@ CalibrationPlan planCalibration(const StudyContext& ctx,
   // Every calibration session of the probe (Table 5.2), each its own typed step; the first is
   // results/calibration.json, the calibration the sweeps use, session n > 1 calibration_n.json.
   if (!given.sphereRadiusMm)
-    throw FileError(manifest.path, "names no calibration.sphere_radius_mm");
+    throw core::FileError(manifest.path, "names no calibration.sphere_radius_mm");
   if (!given.initialBeamToProbeMm)
-    throw FileError(manifest.path, "names no calibration.initial_beam_to_probe_mm");
+    throw core::FileError(manifest.path, "names no calibration.initial_beam_to_probe_mm");
   std::vector<std::string> calibrations;
   for (std::size_t k = 0; k < sessions.size(); ++k) {
     const std::string suffix = k == 0 ? std::string() : fmt::format("_{}", k + 1);
@@ -231,10 +231,10 @@ BonesPlan planBones(const StudyContext& ctx, const CalibrationPlan& calibrationP
       start.initial = initial;
       startInputs = {initial};
     } else {
-      throw FileError(manifest.path,
-                      "bones." + bone +
-                          ": no landmarks (landmarks.ct, landmarks.capture, "
-                          "landmarks.order) and no initial transform to start the registration");
+      throw core::FileError(
+          manifest.path, "bones." + bone +
+                             ": no landmarks (landmarks.ct, landmarks.capture, "
+                             "landmarks.order) and no initial transform to start the registration");
     }
     int n = 0;
     for (const std::string& capture : entry.ultrasound) {
@@ -257,7 +257,7 @@ BonesPlan planBones(const StudyContext& ctx, const CalibrationPlan& calibrationP
       const std::string points = fmt::format("{}/points/{}_ultrasound_{}.csv", results, bone, n);
       const auto sweepRequest = [reg, path, calibration] {
         return sweepDetectionRequest(reg, path,
-                                     readTransformFile(calibration, "Beam", "Probe").matrix);
+                                     core::readTransformFile(calibration, "Beam", "Probe").matrix);
       };
       nlohmann::json pointsRequest = sweepRequest().json();
       pointsRequest.erase("beam_to_probe");  // the calibration's bytes are an input
@@ -526,9 +526,9 @@ SignalsPlan planSignals(const StudyContext& ctx, const std::vector<BoneRun>& bon
   for (const BoneRun& run : boneRuns) {
     if (run.ultrasound.empty() || !fs::exists(run.ultrasound.front()))
       continue;
-    const nlohmann::json reg = readJsonFile(run.ultrasound.front());
+    const nlohmann::json reg = core::readJsonFile(run.ultrasound.front());
     const std::string csv = fmt::format("{}/evaluation/{}_residuals.csv", results, run.name);
-    AtomicFile file(csv);
+    core::AtomicFile file(csv);
     file.stream() << "point,residual_mm,abs_residual_mm,inlier\n";
     int i = 0;
     for (const auto& point : reg.value("points", nlohmann::json::array())) {

@@ -10,6 +10,7 @@
 #include "echoreg/core/atomic_file.hpp"
 #include "echoreg/core/json_file.hpp"
 #include "echoreg/core/mesh.hpp"
+#include "echoreg/core/number_text.hpp"
 #include "echoreg/segmentation/surface_metrics.hpp"
 
 #include <fmt/format.h>
@@ -27,15 +28,15 @@ namespace {
 // Table 5.1: the calibration the sweeps use.
 void reportCalibration(Report& report, nlohmann::json& numbers, const std::string& calibration,
                        const std::string& calibrationFigure) {
-  const nlohmann::json cal = readJsonFile(calibration);
+  const nlohmann::json cal = core::readJsonFile(calibration);
   report.heading("Calibration of the transducer (Table 5.1)");
   const auto& m = cal.at("matrix");
-  report.table(
-      {"", "x (mm)", "y (mm)", "z (mm)", "RMS (mm)", "speed of sound (m/s)", "shots used"},
-      {{"BeamToProbe translation", number(m[0][3].get<double>()), number(m[1][3].get<double>()),
-        number(m[2][3].get<double>()), number(cal.value("rms_mm", 0.0), 3),
-        number(cal.value("speed_of_sound_mps", 0.0), 1),
-        fmt::format("{}", cal.value("shots_used", 0))}});
+  report.table({"", "x (mm)", "y (mm)", "z (mm)", "RMS (mm)", "speed of sound (m/s)", "shots used"},
+               {{"BeamToProbe translation", core::number(m[0][3].get<double>(), 2),
+                 core::number(m[1][3].get<double>(), 2), core::number(m[2][3].get<double>(), 2),
+                 core::number(cal.value("rms_mm", 0.0), 3),
+                 core::number(cal.value("speed_of_sound_mps", 0.0), 1),
+                 fmt::format("{}", cal.value("shots_used", 0))}});
   numbers["calibration"] = {{"beam_to_probe_mm", {m[0][3], m[1][3], m[2][3]}},
                             {"rms_mm", cal.value("rms_mm", 0.0)},
                             {"speed_of_sound_mps", cal.value("speed_of_sound_mps", 0.0)},
@@ -62,7 +63,7 @@ void reportCalibrationSessions(Report& report, nlohmann::json& numbers,
       rows.push_back({fmt::format("{}", k + 1), shots, "—", "—", "—", "—", "—", "—", "—"});
       continue;
     }
-    const nlohmann::json cal = readJsonFile(calibrations[k]);
+    const nlohmann::json cal = core::readJsonFile(calibrations[k]);
     const auto& m = cal.at("matrix");
     const std::array<double, 6> v = {m[0][3].get<double>(),
                                      m[1][3].get<double>(),
@@ -71,9 +72,9 @@ void reportCalibrationSessions(Report& report, nlohmann::json& numbers,
                                      cal.value("condition_number", 0.0),
                                      cal.value("speed_of_sound_mps", 0.0)};
     values.push_back(v);
-    rows.push_back({fmt::format("{}", k + 1), shots, number(v[0]), number(v[1]), number(v[2]),
-                    number(v[3], 3), number(v[4]), number(v[5], 1),
-                    fmt::format("{}", cal.value("shots_used", 0))});
+    rows.push_back({fmt::format("{}", k + 1), shots, core::number(v[0], 2), core::number(v[1], 2),
+                    core::number(v[2], 2), core::number(v[3], 3), core::number(v[4], 2),
+                    core::number(v[5], 1), fmt::format("{}", cal.value("shots_used", 0))});
     entries.push_back({{"session", k + 1},
                        {"sphere_capture", sessions[k].sphereCapture},
                        {"capture", sessions[k].capture},
@@ -98,8 +99,8 @@ void reportCalibrationSessions(Report& report, nlohmann::json& numbers,
     for (std::size_t i = 0; i < spread.size(); ++i)
       spread[i] = high[i] - low[i];
     const auto summary = [&](const std::string& name, const std::array<double, 6>& v) {
-      rows.push_back({name, "", number(v[0]), number(v[1]), number(v[2]), number(v[3], 3),
-                      number(v[4]), number(v[5], 1), ""});
+      rows.push_back({name, "", core::number(v[0], 2), core::number(v[1], 2), core::number(v[2], 2),
+                      core::number(v[3], 3), core::number(v[4], 2), core::number(v[5], 1), ""});
       return nlohmann::json{{"beam_to_probe_mm", {v[0], v[1], v[2]}},
                             {"rms_mm", v[3]},
                             {"condition_number", v[4]},
@@ -111,13 +112,13 @@ void reportCalibrationSessions(Report& report, nlohmann::json& numbers,
   // A simulated study knows the probe's true BeamToProbe.
   if (const std::string truthFile = read(manifest.truth.transforms);
       !truthFile.empty() && fs::exists(truthFile)) {
-    const nlohmann::json truth = readJsonFile(truthFile);
+    const nlohmann::json truth = core::readJsonFile(truthFile);
     if (truth.contains("BeamToProbe")) {
       const auto& t = truth.at("BeamToProbe");
       const std::array<double, 3> offset = {
           t.at(0).at(3).get<double>(), t.at(1).at(3).get<double>(), t.at(2).at(3).get<double>()};
-      rows.push_back({"truth (simulation)", "", number(offset[0]), number(offset[1]),
-                      number(offset[2]), "", "", "", ""});
+      rows.push_back({"truth (simulation)", "", core::number(offset[0], 2),
+                      core::number(offset[1], 2), core::number(offset[2], 2), "", "", "", ""});
       table["truth_beam_to_probe_mm"] = offset;
     }
   }
@@ -154,8 +155,8 @@ void reportSegmentation(Report& report, nlohmann::json& numbers, const StudyMani
     options.zMinMm = box[0].z() + 2.0;  // the model is closed at its scan's ends
     options.zMaxMm = box[1].z() - 2.0;
     const segmentation::SurfaceComparison c = segmentation::compareSurfaces(model, truth, options);
-    rows.push_back(
-        {run.name, number(c.meanMm, 3), number(c.p95Mm, 3), number(c.maxMm, 2), number(c.dice, 4)});
+    rows.push_back({run.name, core::number(c.meanMm, 3), core::number(c.p95Mm, 3),
+                    core::number(c.maxMm, 2), core::number(c.dice, 4)});
     seg[run.name] = {{"mean_surface_distance_mm", c.meanMm},
                      {"p95_mm", c.p95Mm},
                      {"max_mm", c.maxMm},
@@ -197,7 +198,7 @@ nlohmann::json evaluationTable(Report& report, const std::string& csv) {
     nlohmann::json entry = {{"estimate", row[0]}};
     for (std::size_t c = 1; c < row.size(); ++c) {
       const double v = parseCsvNumber(row[c], csv, 0, table.header[c]);
-      cells.push_back(number(v, 2));
+      cells.push_back(core::number(v, 2));
       entry[table.header[c]] = v;
     }
     rows.push_back(cells);
@@ -225,12 +226,12 @@ void reportRegistrations(Report& report, nlohmann::json& numbers,
         list.push_back({{"name", name}, {"failed", true}});
         continue;
       }
-      const nlohmann::json r = readJsonFile(file);
+      const nlohmann::json r = core::readJsonFile(file);
       rows.push_back({name, r.value("converged", false) ? "yes" : "NO",
-                      number(r.value("rms_mm", 0.0), 3),
+                      core::number(r.value("rms_mm", 0.0), 3),
                       fmt::format("{}", r.value("points_used", 0)),
                       fmt::format("{}", r.value("points_rejected", 0)),
-                      number(r.value("speed_of_sound_scale", 1.0), 4),
+                      core::number(r.value("speed_of_sound_scale", 1.0), 4),
                       fmt::format("{}", r.value("iterations", 0))});
       list.push_back({{"name", name},
                       {"file", fs::relative(file, results).generic_string()},
@@ -313,7 +314,7 @@ void reportDetectionRates(Report& report, nlohmann::json& numbers, const StudyMa
     const double fn = bone > 0 ? 100.0 * falseNegative / bone : 0.0;
     const double fp = notBone > 0 ? 100.0 * falsePositive / notBone : 0.0;
     rows.push_back({d.bone, d.setting, fmt::format("{}", bone), fmt::format("{}", notBone),
-                    number(fn, 1), number(fp, 1)});
+                    core::number(fn, 1), core::number(fp, 1)});
     rates.push_back({{"bone", d.bone},
                      {"setting", d.setting},
                      {"bone_frames", bone},
@@ -364,7 +365,7 @@ void reportSteps(Report& report, nlohmann::json& numbers,
     std::string note = s.message;
     for (char& c : note)
       c = c == '\n' ? ' ' : c;
-    rows.push_back({s.title, statusName(s.status), number(s.seconds, 2), note});
+    rows.push_back({s.title, statusName(s.status), core::number(s.seconds, 2), note});
     stepsJson.push_back({{"id", s.id},
                          {"title", s.title},
                          {"status", statusName(s.status)},
@@ -496,13 +497,13 @@ StudyReport writeStudyReport(const StudyContext& ctx, const std::string& studyDi
   reportProvenance(report, numbers, read.outside(), ctx.params, ctx.options);
   std::string incomplete = reportMissing(report, numbers, progress.outcomes, failure);
   {
-    AtomicFile md(results + "/report.md");
+    core::AtomicFile md(results + "/report.md");
     md.stream() << report.markdown();
     md.commit();
-    AtomicFile html(results + "/report.html");
+    core::AtomicFile html(results + "/report.html");
     html.stream() << report.html("Study report: " + studyName);
     html.commit();
-    AtomicFile json(results + "/results.json");
+    core::AtomicFile json(results + "/results.json");
     json.stream() << numbers.dump(2) << "\n";
     json.commit();
   }

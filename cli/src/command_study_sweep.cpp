@@ -162,8 +162,8 @@ void checkDetect(const std::string& file, const std::string& where, const nlohma
   TunableSettings settings;
   try {
     const std::set<std::string> filled = mergeParams(detect, file, preset, settings);
-    resolveParams(preset, settings, Sequence{}, ParamsSources{file, filled});
-  } catch (const FileError& e) {
+    resolveParams(preset, settings, core::Sequence{}, ParamsSources{file, filled});
+  } catch (const core::FileError& e) {
     throw SweepFileError(fmt::format("{}: {}: {}", file, where, e.problem()));
   } catch (const std::invalid_argument& e) {
     throw SweepFileError(fmt::format("{}: {}: {}", file, where, e.what()));
@@ -191,8 +191,8 @@ void checkSolver(const std::string& file, const std::string& where, const std::s
 Sweep readSweep(const std::string& file) {
   nlohmann::json doc;
   try {
-    doc = readJsonFile(file, "sweep file");
-  } catch (const FileError& e) {
+    doc = core::readJsonFile(file, "sweep file");
+  } catch (const core::FileError& e) {
     throw SweepFileError(e.what());
   }
   if (!doc.is_object())
@@ -438,13 +438,13 @@ void makeFolderAtomically(const fs::path& target, Fill fill) {
   fs::remove_all(temporary, ec);
   fs::create_directories(temporary.parent_path(), ec);
   if (ec)
-    throw FileError(temporary.parent_path().string(), "cannot be created: " + ec.message());
+    throw core::FileError(temporary.parent_path().string(), "cannot be created: " + ec.message());
   fill(temporary);
   fs::rename(temporary, target, ec);
   if (ec) {
     fs::remove_all(temporary);
     if (!fs::is_directory(target))
-      throw FileError(target.string(), "cannot be created: " + ec.message());
+      throw core::FileError(target.string(), "cannot be created: " + ec.message());
   }
 }
 
@@ -461,7 +461,7 @@ void simulateStudy(const Sweep& sweep, const SweepStudy& study, const fs::path& 
     // simulate wants a folder that does not exist or is empty.
     fs::remove(temporary);
     if (runEchoreg(simulateArgs(study.options, temporary.string(), study.seed), streams.err) != 0)
-      throw FileError(sweep.file, fmt::format("the simulation of study {} failed", study.id));
+      throw core::FileError(sweep.file, fmt::format("the simulation of study {} failed", study.id));
   });
 }
 
@@ -489,7 +489,7 @@ fs::path pointFolder(const Sweep& sweep, const SweepPoint& point, const fs::path
       std::ofstream params(temporary / "sweep-params.json", std::ios::binary);
       params << point.detect.dump(2) << "\n";
       if (!params)
-        throw FileError((temporary / "sweep-params.json").string(), "cannot be written");
+        throw core::FileError((temporary / "sweep-params.json").string(), "cannot be written");
     }
   });
   return folder;
@@ -542,16 +542,16 @@ bool runPoint(const Sweep& sweep, const SweepPoint& point, const fs::path& out,
   fs::remove(resultsPath, ec);  // so that a study that wrote none is not read from before
   const int code = runEchoreg(args, streams.err);
   if (!fs::is_regular_file(resultsPath, ec))
-    throw FileError(folder.string(), "the point's study run wrote no results/results.json");
-  const nlohmann::json results = readJsonFile(resultsPath.string());
+    throw core::FileError(folder.string(), "the point's study run wrote no results/results.json");
+  const nlohmann::json results = core::readJsonFile(resultsPath.string());
   if (results.contains("failure")) {
-    throw FileError(folder.string(),
-                    "the point's study stopped: " + results["failure"].get<std::string>());
+    throw core::FileError(folder.string(),
+                          "the point's study stopped: " + results["failure"].get<std::string>());
   }
   if (code != 0 && !results.contains("missing"))
-    throw FileError(folder.string(), "the point's study run failed");
+    throw core::FileError(folder.string(), "the point's study run failed");
   fs::create_directories(rowPath.parent_path(), ec);
-  AtomicFile row(rowPath.string());
+  core::AtomicFile row(rowPath.string());
   row.stream() << pointRow(sweep, point, out, results).dump() << "\n";
   row.commit();
   return true;
@@ -574,7 +574,7 @@ std::size_t gather(const Sweep& sweep, const fs::path& out) {
     lines += line + "\n";
   }
   if (missing == 0) {
-    AtomicFile table((out / "results.jsonl").string());
+    core::AtomicFile table((out / "results.jsonl").string());
     table.stream() << lines;
     table.commit();
   }

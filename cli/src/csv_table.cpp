@@ -37,14 +37,14 @@ int CsvTable::column(const std::string& name) const {
 
 CsvTable readCsvTable(const std::string& path) {
   if (std::filesystem::is_directory(path))
-    throw FileError(path, "is a directory, expected a CSV file");
+    throw core::FileError(path, "is a directory, expected a CSV file");
   std::ifstream in(path);
   if (!in)
-    throw FileError(path, "cannot open the CSV file");
+    throw core::FileError(path, "cannot open the CSV file");
   CsvTable table;
   std::string line;
   if (!std::getline(in, line))
-    throw FileError(path, "is empty (no header row)");
+    throw core::FileError(path, "is empty (no header row)");
   table.header = splitCsvLine(line);
   std::size_t lineNumber = 1;
   while (std::getline(in, line)) {
@@ -53,8 +53,8 @@ CsvTable readCsvTable(const std::string& path) {
       continue;
     auto cells = splitCsvLine(line);
     if (cells.size() != table.header.size()) {
-      throw FileError(path, fmt::format("line {} has {} cells, the header {}", lineNumber,
-                                        cells.size(), table.header.size()));
+      throw core::FileError(path, fmt::format("line {} has {} cells, the header {}", lineNumber,
+                                              cells.size(), table.header.size()));
     }
     table.rows.push_back(std::move(cells));
   }
@@ -71,8 +71,8 @@ double parseCsvNumber(const std::string& cell, const std::string& path, std::siz
     used = 0;
   }
   if (used == 0 || used != cell.size() || !std::isfinite(value)) {
-    throw FileError(path,
-                    fmt::format("line {}: column {} is not a number: '{}'", line, column, cell));
+    throw core::FileError(
+        path, fmt::format("line {}: column {} is not a number: '{}'", line, column, cell));
   }
   return value;
 }

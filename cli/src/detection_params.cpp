@@ -28,12 +28,12 @@ const T& as(const TunableValue& value) {
 }  // namespace
 
 const std::vector<Tunable>& tunables() {
-  using P = DetectionParams;
+  using P = core::DetectionParams;
   using V = TunableValue;
   static const std::vector<Tunable> list{
       {"envelope", "Envelope", "Envelope: mozes | hann | stddev | hilbert (default hann)",
        std::string(),
-       [](P& p, const V& v) { p.envelope.method = parseEnvelopeMethod(as<std::string>(v)); }},
+       [](P& p, const V& v) { p.envelope.method = core::parseEnvelopeMethod(as<std::string>(v)); }},
       {"transducer-frequency", "Envelope",
        "Transducer centre frequency, Hz (default: capture header, else measured from the "
        "capture's spectrum); sets the high-pass, the envelope window and the hilbert band",
@@ -81,12 +81,12 @@ const std::vector<Tunable>& tunables() {
        [](P& p, const V& v) { p.envelope.smoothingSamples = as<int>(v); }},
       {"threshold-factor", "Peaks", "Threshold = factor x mean envelope (default 1.5)", 0.0,
        [](P& p, const V& v) {
-         p.peaks.thresholdMode = ThresholdMode::FactorOfMean;
+         p.peaks.thresholdMode = core::ThresholdMode::FactorOfMean;
          p.peaks.thresholdFactor = as<double>(v);
        }},
       {"threshold-of-max", "Peaks", "Threshold = fraction x max envelope, (0, 1]", 0.0,
        [](P& p, const V& v) {
-         p.peaks.thresholdMode = ThresholdMode::FractionOfMax;
+         p.peaks.thresholdMode = core::ThresholdMode::FractionOfMax;
          p.peaks.thresholdOfMax = as<double>(v);
        }},
       {"window-mm", "Peaks", "Processing window MIN MAX in mm", std::vector<double>(),
@@ -97,7 +97,7 @@ const std::vector<Tunable>& tunables() {
       {"peaks", "Peaks",
        "Policy: prominence (default) | bone | single | double | window-max | first | max",
        std::string(),
-       [](P& p, const V& v) { p.peaks.policy = parsePeakPolicy(as<std::string>(v)); }},
+       [](P& p, const V& v) { p.peaks.policy = core::parsePeakPolicy(as<std::string>(v)); }},
       {"echo-snr", "Prominence policy", "prominence: min peak / noise floor (8)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.minSnr = as<double>(v); }},
       {"echo-over-median", "Prominence policy", "prominence: min peak / median envelope (3)", 0.0,
@@ -120,7 +120,9 @@ const std::vector<Tunable>& tunables() {
        "prominence: auto (default: required where bone casts a shadow in a fifth of the "
        "capture, else each echo by its own shadow or ringing) | required | ignored",
        std::string(),
-       [](P& p, const V& v) { p.peaks.prominence.shadow = parseShadowRule(as<std::string>(v)); }},
+       [](P& p, const V& v) {
+         p.peaks.prominence.shadow = core::parseShadowRule(as<std::string>(v));
+       }},
       {"echo-ringing", "Prominence policy",
        "prominence: ringing = the envelope behind the echo stays above this fraction of it (0.4)",
        0.0, [](P& p, const V& v) { p.peaks.prominence.ringingFraction = as<double>(v); }},
@@ -161,14 +163,16 @@ const std::vector<Tunable>& tunables() {
        [](P& p, const V& v) { p.depth.delayS = as<double>(v); }},
       {"speed-of-sound", "Depth",
        fmt::format("m/s; default: capture header, else {:.0f} (calibration preset: {:.0f})",
-                   kTissueSpeedOfSoundMps, kWaterSpeedOfSoundMps),
+                   core::kTissueSpeedOfSoundMps, core::kWaterSpeedOfSoundMps),
        0.0, [](P& p, const V& v) { p.depth.speedOfSoundMps = as<double>(v); },
-       std::array<double, 2>{kMinSpeedOfSoundMps, kMaxSpeedOfSoundMps}},
+       std::array<double, 2>{core::kMinSpeedOfSoundMps, core::kMaxSpeedOfSoundMps}},
       {"temporal", "Inter-signal",
        "Temporal filter: neighbours (default: each depth against the frames nearest in time) | "
        "run (the dissertation's consecutive 3D run)",
        std::string(),
-       [](P& p, const V& v) { p.interSignal.temporal = parseTemporalMode(as<std::string>(v)); }},
+       [](P& p, const V& v) {
+         p.interSignal.temporal = core::parseTemporalMode(as<std::string>(v));
+       }},
       {"history", "Inter-signal",
        "Temporal filter: frames that must agree, this one included (default 2; run: 3; 1 = off)", 0,
        [](P& p, const V& v) { p.interSignal.history = as<int>(v); }},
@@ -220,18 +224,18 @@ void addTunableFlags(CLI::App* cmd, TunableSettings& settings,
 std::set<std::string> mergeParamsFile(const std::string& file, std::string& preset,
                                       TunableSettings& settings) {
   // The project's JSON reader: the file named, the problem without the library's codes.
-  return mergeParams(readJsonFile(file), file, preset, settings);
+  return mergeParams(core::readJsonFile(file), file, preset, settings);
 }
 
 std::set<std::string> mergeParams(const nlohmann::json& params, const std::string& file,
                                   std::string& preset, TunableSettings& settings) {
   std::set<std::string> filled;
   if (!params.is_object())
-    throw FileError(file, "must hold a JSON object of parameters");
+    throw core::FileError(file, "must hold a JSON object of parameters");
   for (const auto& [key, value] : params.items()) {
     if (key == "preset") {
       if (!value.is_string())
-        throw FileError(file, "parameter \"preset\" must be a string");
+        throw core::FileError(file, "parameter \"preset\" must be a string");
       if (preset.empty()) {
         preset = value.get<std::string>();
         filled.insert(key);
@@ -242,8 +246,8 @@ std::set<std::string> mergeParams(const nlohmann::json& params, const std::strin
     const auto tunable = std::find_if(list.begin(), list.end(),
                                       [&key = key](const Tunable& t) { return key == t.name; });
     if (tunable == list.end()) {
-      throw FileError(file,
-                      fmt::format("unknown parameter \"{}\" (see echoreg detect --help)", key));
+      throw core::FileError(
+          file, fmt::format("unknown parameter \"{}\" (see echoreg detect --help)", key));
     }
     if (settings.count(key) != 0)
       continue;  // the flag wins
@@ -280,11 +284,11 @@ std::set<std::string> mergeParams(const nlohmann::json& params, const std::strin
             return "[min, max]";
           },
           tunable->type);
-      throw FileError(
+      throw core::FileError(
           file, fmt::format("parameter \"{}\" must be {}, found {}", key, expected, value.dump()));
     }
     if (key == "window-mm" && as<std::vector<double>>(settings[key]).size() != 2) {
-      throw FileError(file, "parameter \"window-mm\" must be [min, max] in mm");
+      throw core::FileError(file, "parameter \"window-mm\" must be [min, max] in mm");
     }
     filled.insert(key);
   }
@@ -308,8 +312,8 @@ std::string valueText(const TunableValue& value) {
 
 }  // namespace
 
-DetectionParams resolveParams(const std::string& preset, const TunableSettings& settings,
-                              const Sequence& sequence, const ParamsSources& sources) {
+core::DetectionParams resolveParams(const std::string& preset, const TunableSettings& settings,
+                                    const core::Sequence& sequence, const ParamsSources& sources) {
   // A bad value names where it was given: "--speed-of-sound 0: speed of sound must be ...", or
   // the --params file and its key.
   const auto fromFile = [&](const std::string& name) {
@@ -318,23 +322,23 @@ DetectionParams resolveParams(const std::string& preset, const TunableSettings& 
   const auto refuse = [&](const std::string& name, const std::string& value,
                           const std::string& problem) {
     if (fromFile(name)) {
-      throw FileError(sources.paramsFile,
-                      fmt::format("parameter \"{}\" = {}: {}", name, value, problem));
+      throw core::FileError(sources.paramsFile,
+                            fmt::format("parameter \"{}\" = {}: {}", name, value, problem));
     }
     throw std::invalid_argument(fmt::format("--{} {}: {}", name, value, problem));
   };
   if (settings.count("threshold-factor") != 0 && settings.count("threshold-of-max") != 0) {
     throw std::invalid_argument("give threshold-factor or threshold-of-max, not both");
   }
-  DetectionParams base;
+  core::DetectionParams base;
   try {
-    base = detectionPreset(preset.empty() ? "default" : preset);
+    base = core::detectionPreset(preset.empty() ? "default" : preset);
   } catch (const std::invalid_argument& e) {
     refuse("preset", preset, e.what());
   }
-  base.depth = depthFromSequence(sequence, base.depth);
+  base.depth = core::depthFromSequence(sequence, base.depth);
   base.envelope.samplingFrequencyHz = base.depth.samplingFrequencyHz;
-  DetectionParams params = base;
+  core::DetectionParams params = base;
   for (const Tunable& tunable : tunables()) {
     const auto given = settings.find(tunable.name);
     if (given != settings.end())
@@ -355,7 +359,7 @@ DetectionParams resolveParams(const std::string& preset, const TunableSettings& 
       const auto given = settings.find(tunable.name);
       if (given == settings.end())
         continue;
-      DetectionParams alone = base;
+      core::DetectionParams alone = base;
       tunable.apply(alone, given->second);
       alone.envelope.samplingFrequencyHz = alone.depth.samplingFrequencyHz;
       try {

@@ -33,7 +33,7 @@ struct Tunable {
   const char* group;
   std::string help;
   TunableValue type;
-  std::function<void(DetectionParams&, const TunableValue&)> apply;
+  std::function<void(core::DetectionParams&, const TunableValue&)> apply;
   std::optional<std::array<double, 2>> flagRange = std::nullopt;
 };
 
@@ -71,8 +71,9 @@ struct ParamsSources {
 /// then `settings`, validated. A value that is refused names where it was given: a flag
 /// (std::invalid_argument "--speed-of-sound 0: speed of sound must be ...") or the --params file
 /// (FileError). Values refused only together throw std::invalid_argument without a name.
-DetectionParams resolveParams(const std::string& preset, const TunableSettings& settings,
-                              const Sequence& sequence, const ParamsSources& sources = {});
+core::DetectionParams resolveParams(const std::string& preset, const TunableSettings& settings,
+                                    const core::Sequence& sequence,
+                                    const ParamsSources& sources = {});
 
 /// The settings as a JSON object (the study's cache key).
 nlohmann::json settingsJson(const TunableSettings& settings);

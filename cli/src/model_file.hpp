@@ -5,7 +5,7 @@
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/mesh.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <vtkObject.h>
 
@@ -69,7 +69,8 @@ inline void checkObjFile(const std::string& path) {
       const auto parsed =
           read ? std::from_chars(word.data(), end, value) : std::from_chars_result{};
       if (!read || parsed.ec != std::errc() || parsed.ptr != end || !std::isfinite(value)) {
-        throw FileError(path, fmt::format("line {}: vertex {} \"{}\" is not three finite numbers: "
+        throw core::FileError(path,
+                              fmt::format("line {}: vertex {} \"{}\" is not three finite numbers: "
                                           "a damaged model (a NaN or infinite coordinate)",
                                           i + 1, vertices, lines[i]));
       }
@@ -88,19 +89,20 @@ inline void checkObjFile(const std::string& path) {
       const auto parsed = std::from_chars(number.data(), number.data() + number.size(), index);
       const bool inRange = index != 0 && index <= vertices && index >= -vertices;
       if (parsed.ec != std::errc() || parsed.ptr != number.data() + number.size() || !inRange) {
-        throw FileError(path, fmt::format("line {}: face \"{}\": \"{}\" is not a vertex number "
+        throw core::FileError(path,
+                              fmt::format("line {}: face \"{}\": \"{}\" is not a vertex number "
                                           "from 1 to {}",
                                           i + 1, lines[i], word, vertices));
       }
       ++corners;
     }
     if (corners < 3)
-      throw FileError(
+      throw core::FileError(
           path, fmt::format("line {}: face \"{}\" has fewer than 3 corners", i + 1, lines[i]));
   }
 }
 
-namespace ply_detail {
+namespace detail {
 
 /// One binary PLY value of `type` (a PLY type name) from `in`; false at the end of the file.
 inline bool readBinaryValue(std::istream& in, const std::string& type, bool bigEndian,
@@ -137,7 +139,7 @@ inline bool readBinaryValue(std::istream& in, const std::string& type, bool bigE
   return true;
 }
 
-}  // namespace ply_detail
+}  // namespace detail
 
 /// VTK 9.1's PLY reader crashes (a null pointer; found by fuzz/fuzz_mesh) on a header line it does
 /// not know ("propert} float z") and on an ASCII data line with too few numbers, leaks what it read
@@ -165,7 +167,7 @@ inline void checkPlyFile(const std::string& path) {
   int formats = 0;
   std::vector<Element> elements;
   const auto refuse = [&](const std::string& problem) {
-    throw FileError(
+    throw core::FileError(
         path, fmt::format("line {}: {} (not a PLY file as VTK reads it)", lineNumber, problem));
   };
   const auto number = [](const std::string& word, double& value) {
@@ -303,7 +305,8 @@ inline void checkPlyFile(const std::string& path) {
       for (std::uint64_t row = 0; row < element.count; ++row) {
         for (std::size_t p = 0; p < element.list.size(); ++p) {
           const auto refuseData = [&](const std::string& problem) {
-            throw FileError(path, "binary data: " + problem + " (not a PLY file as VTK reads it)");
+            throw core::FileError(path,
+                                  "binary data: " + problem + " (not a PLY file as VTK reads it)");
           };
           const auto truncated = [&] {
             refuseData(fmt::format("the file ends within element {} (row {} of {})", element.name,
@@ -311,7 +314,7 @@ inline void checkPlyFile(const std::string& path) {
           };
           double items = 1.0;
           if (element.list[p]) {
-            if (!ply_detail::readBinaryValue(in, element.countTypes[p], bigEndian, items))
+            if (!detail::readBinaryValue(in, element.countTypes[p], bigEndian, items))
               truncated();
             if (!(items >= 0 && items == std::floor(items)))
               refuseData(fmt::format("element {} row {} has a list of {} items", element.name,
@@ -320,7 +323,7 @@ inline void checkPlyFile(const std::string& path) {
           const bool corners = element.name == "face" && element.names[p] == "vertex_indices";
           for (double k = 0; k < items; ++k) {
             double item = 0.0;
-            if (!ply_detail::readBinaryValue(in, element.types[p], bigEndian, item))
+            if (!detail::readBinaryValue(in, element.types[p], bigEndian, item))
               truncated();
             if (corners && !(item >= 0 && item < static_cast<double>(vertexCount)))
               refuseData(fmt::format("face {} names vertex {}, not one from 0 to {}", row + 1, item,
@@ -374,10 +377,10 @@ inline void checkAsciiStl(const std::string& path) {
   bool inSolid = false;  // after "solid", before "endsolid"
   const auto refuse = [&](const std::string& expected) {
     const std::string found = in ? "\"" + line + "\"" : "the end of the file";
-    throw FileError(path,
-                    fmt::format("line {}: expected {}, found {} (not an ASCII STL file as VTK "
-                                "reads it)",
-                                lineNumber, expected, found));
+    throw core::FileError(
+        path, fmt::format("line {}: expected {}, found {} (not an ASCII STL file as VTK "
+                          "reads it)",
+                          lineNumber, expected, found));
   };
   // `count` numbers and nothing else; finite ones for vertices (exporters write "nan" normals of
   // degenerate facets, which VTK ignores).
@@ -453,15 +456,16 @@ inline void checkStlSize(const std::string& path) {
     return;
   }
   if (size < 84)
-    throw FileError(path,
-                    fmt::format("a binary STL of {} bytes, shorter than its 84-byte header", size));
+    throw core::FileError(
+        path, fmt::format("a binary STL of {} bytes, shorter than its 84-byte header", size));
   const auto count = static_cast<std::uint32_t>(static_cast<unsigned char>(head[80])) |
                      static_cast<std::uint32_t>(static_cast<unsigned char>(head[81])) << 8 |
                      static_cast<std::uint32_t>(static_cast<unsigned char>(head[82])) << 16 |
                      static_cast<std::uint32_t>(static_cast<unsigned char>(head[83])) << 24;
   const std::uintmax_t needed = 84 + 50 * static_cast<std::uintmax_t>(count);
   if (needed != size) {
-    throw FileError(path, fmt::format("a binary STL whose header counts {} triangles ({} bytes), "
+    throw core::FileError(path,
+                          fmt::format("a binary STL whose header counts {} triangles ({} bytes), "
                                       "but the file holds {} bytes: truncated or not an STL",
                                       count, needed, size));
   }
@@ -492,9 +496,9 @@ inline core::TriangleMesh readModelFile(const std::string& path) {
   for (std::size_t i = 0; i < mesh.vertices.size(); ++i) {
     const Eigen::Vector3d& v = mesh.vertices[i];
     if (!v.allFinite()) {
-      throw FileError(path, fmt::format("vertex {} of {} is not a finite point ({} {} {}): a "
-                                        "damaged model (a NaN or infinite coordinate)",
-                                        i + 1, mesh.vertices.size(), v.x(), v.y(), v.z()));
+      throw core::FileError(path, fmt::format("vertex {} of {} is not a finite point ({} {} {}): a "
+                                              "damaged model (a NaN or infinite coordinate)",
+                                              i + 1, mesh.vertices.size(), v.x(), v.y(), v.z()));
     }
   }
   return mesh;

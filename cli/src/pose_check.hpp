@@ -26,13 +26,14 @@ struct PoseNotes {
 
 /// readSequence(path), then enforceRigidPoses() for each of `transforms` (empty names skipped).
 /// Throws FileError naming the capture, the frame and the transform of a pose refused.
-inline Sequence readTrackedSequence(const std::string& path,
-                                    const std::vector<std::string>& transforms, PoseNotes& notes) {
-  Sequence sequence = readSequence(path);
+inline core::Sequence readTrackedSequence(const std::string& path,
+                                          const std::vector<std::string>& transforms,
+                                          PoseNotes& notes) {
+  core::Sequence sequence = core::readSequence(path);
   for (const std::string& transform : transforms) {
-    const RigidPoseReport report = enforceRigidPoses(sequence, path, transform);
+    const core::RigidPoseReport report = core::enforceRigidPoses(sequence, path, transform);
     notes.reorthonormalised += report.reorthonormalised;
-    if (auto line = rigidPoseNote(report, path, transform))
+    if (auto line = core::rigidPoseNote(report, path, transform))
       notes.lines.push_back(*line);
   }
   return sequence;

@@ -22,12 +22,12 @@ Json readManifestJson(const std::string& path) {
   std::error_code sizeError;
   const std::uintmax_t bytes = std::filesystem::file_size(path, sizeError);
   if (!sizeError && bytes > kMaxManifestBytes) {
-    throw FileError(path,
-                    fmt::format("is {:.1f} MB, more than the {} MB a study manifest may be "
-                                "(a manifest names files; it does not hold data)",
-                                static_cast<double>(bytes) / (1 << 20), kMaxManifestBytes >> 20));
+    throw core::FileError(
+        path, fmt::format("is {:.1f} MB, more than the {} MB a study manifest may be "
+                          "(a manifest names files; it does not hold data)",
+                          static_cast<double>(bytes) / (1 << 20), kMaxManifestBytes >> 20));
   }
-  return echoreg::readJsonFile(path);
+  return echoreg::core::readJsonFile(path);
 }
 
 // A manifest's file name as the study reads it (study_manifest.hpp).
@@ -52,7 +52,7 @@ class Reader {
   const std::string& path() const { return path_; }
 
   [[noreturn]] void wrongType(const std::string& pointer, const std::string& expected) const {
-    throw FileError(
+    throw core::FileError(
         path_, fmt::format("{} must be {}, got {}", dotted(pointer), expected, at(pointer).dump()));
   }
   std::optional<double> number(const std::string& pointer, bool positive = false) const {
@@ -109,8 +109,8 @@ class Reader {
               const std::string& why) const {
     const Json v = at(pointer);
     if (v.is_array() && v.size() > most) {
-      throw FileError(path_, fmt::format("{} lists {} {}, more than the {} {}", dotted(pointer),
-                                         v.size(), what, most, why));
+      throw core::FileError(path_, fmt::format("{} lists {} {}, more than the {} {}",
+                                               dotted(pointer), v.size(), what, most, why));
     }
   }
 
@@ -151,9 +151,9 @@ void readCalibrationSessions(const Reader& reader, ManifestCalibration& calibrat
   const ManifestCalibrationSession& first = calibration.sessions.front();
   if ((!calibration.sphereCapture.empty() && calibration.sphereCapture != first.sphereCapture) ||
       (!calibration.capture.empty() && calibration.capture != first.capture)) {
-    throw FileError(reader.path(),
-                    "calibration.sphere_capture and calibration.capture must be the first of "
-                    "calibration.sessions (the session the sweeps use) when both are given");
+    throw core::FileError(reader.path(),
+                          "calibration.sphere_capture and calibration.capture must be the first of "
+                          "calibration.sessions (the session the sweeps use) when both are given");
   }
   calibration.sphereCapture = first.sphereCapture;
   calibration.capture = first.capture;
@@ -215,7 +215,7 @@ const ManifestBone* StudyManifest::bone(const std::string& name) const {
 
 const std::string& StudyManifest::require(const std::string& file, const std::string& key) const {
   if (file.empty())
-    throw FileError(path, "names no " + key);
+    throw core::FileError(path, "names no " + key);
   return file;
 }
 
@@ -226,7 +226,7 @@ bool outsideStudyFolder(const std::string& file) {
 
 StudyManifest readStudyManifest(const std::string& dir) {
   if (!std::filesystem::is_directory(dir))
-    throw FileError(dir, "is not a study folder");
+    throw core::FileError(dir, "is not a study folder");
   StudyManifest manifest;
   manifest.dir = dir;
   manifest.path = dir + "/study.json";
@@ -235,26 +235,27 @@ StudyManifest readStudyManifest(const std::string& dir) {
   // JSON library's own message; found by fuzz/fuzz_manifest.)
   const Json& doc = reader.doc();
   if (!doc.is_object() || !doc.contains("format") || doc["format"] != "echoreg-study") {
-    throw FileError(manifest.path,
-                    "is not an echoreg study manifest (\"format\": \"echoreg-study\")");
+    throw core::FileError(manifest.path,
+                          "is not an echoreg study manifest (\"format\": \"echoreg-study\")");
   }
   // Every value the study reads, checked before any step runs (docs/formats.md, "study.json"):
   // the version, the bones, and the type of each optional value, so that none is silently ignored.
   const Json version = reader.at("/version");
   if (!version.is_null() && version != Json(1)) {
-    throw FileError(manifest.path, fmt::format("\"version\": {} is not a manifest version this "
-                                               "echoreg reads (1)",
-                                               version.dump()));
+    throw core::FileError(manifest.path,
+                          fmt::format("\"version\": {} is not a manifest version this "
+                                      "echoreg reads (1)",
+                                      version.dump()));
   }
   const Json bones = reader.at("/bones");
   if (!bones.is_object() || bones.empty()) {
-    throw FileError(manifest.path,
-                    "names no bones (\"bones\": {\"femur\": {...}, ...}): nothing to register");
+    throw core::FileError(
+        manifest.path, "names no bones (\"bones\": {\"femur\": {...}, ...}): nothing to register");
   }
   if (bones.size() > kMaxBones) {
-    throw FileError(manifest.path, fmt::format("names {} bones, more than the {} a study may "
-                                               "register (split the study)",
-                                               bones.size(), kMaxBones));
+    throw core::FileError(manifest.path, fmt::format("names {} bones, more than the {} a study may "
+                                                     "register (split the study)",
+                                                     bones.size(), kMaxBones));
   }
   ManifestCalibration& calibration = manifest.calibration;
   calibration.stylusTipRadiusMm = reader.number("/calibration/stylus_tip_radius_mm");
@@ -269,10 +270,11 @@ StudyManifest readStudyManifest(const std::string& dir) {
   for (const auto& [bone, entry] : bones.items()) {
     static_cast<void>(entry);
     if (!plainBoneName(bone)) {
-      throw FileError(manifest.path,
-                      fmt::format("bones: {} is not a bone name (1 to 64 letters, digits, _ or -: "
-                                  "it names the bone's result files)",
-                                  Json(bone).dump()));
+      throw core::FileError(
+          manifest.path,
+          fmt::format("bones: {} is not a bone name (1 to 64 letters, digits, _ or -: "
+                      "it names the bone's result files)",
+                      Json(bone).dump()));
     }
     manifest.bones.push_back(readBone(reader, bone));
   }

@@ -51,14 +51,14 @@ void mix(std::uint64_t& h, const char* data, std::size_t size) {
 void mixFile(std::uint64_t& h, const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in)
-    throw FileError(path, std::string("cannot be opened: ") + std::strerror(errno));
+    throw core::FileError(path, std::string("cannot be opened: ") + std::strerror(errno));
   std::vector<char> buffer(1 << 20);
   while (in) {
     in.read(buffer.data(), static_cast<std::streamsize>(buffer.size()));
     mix(h, buffer.data(), static_cast<std::size_t>(in.gcount()));
   }
   if (in.bad())
-    throw FileError(path, "cannot be read");
+    throw core::FileError(path, "cannot be read");
 }
 
 }  // namespace
@@ -80,9 +80,9 @@ std::uint64_t contentHash(const std::string& path, const std::string& why) {
   std::error_code ec;
   const fs::file_status status = fs::status(path, ec);
   if (status.type() == fs::file_type::not_found)
-    throw FileError(path, fmt::format("is missing ({})", why));
+    throw core::FileError(path, fmt::format("is missing ({})", why));
   if (ec)
-    throw FileError(path, "cannot be accessed: " + ec.message());
+    throw core::FileError(path, "cannot be accessed: " + ec.message());
   if (fs::is_directory(status)) {
     std::vector<fs::path> files;
     for (fs::recursive_directory_iterator it(path, ec), end; !ec && it != end; it.increment(ec)) {
@@ -90,7 +90,7 @@ std::uint64_t contentHash(const std::string& path, const std::string& why) {
         files.push_back(it->path());
     }
     if (ec)
-      throw FileError(path, "cannot be listed: " + ec.message());
+      throw core::FileError(path, "cannot be listed: " + ec.message());
     std::sort(files.begin(), files.end());
     for (const fs::path& file : files) {
       const std::string relative = fs::relative(file, path).generic_string();
@@ -101,7 +101,7 @@ std::uint64_t contentHash(const std::string& path, const std::string& why) {
   }
   // A FIFO or a device would block the read or never end.
   if (!fs::is_regular_file(status))
-    throw FileError(path, "is not a regular file or a folder");
+    throw core::FileError(path, "is not a regular file or a folder");
   mixFile(h, path);
   return h;
 }
@@ -142,7 +142,7 @@ std::vector<std::string> outputHashes(const StudyStep& step) {
     if (fs::is_regular_file(output, ec)) {
       try {
         hash = fmt::format("{:016x}", contentHash(output, "an output of the study"));
-      } catch (const FileError&) {
+      } catch (const core::FileError&) {
         hash.clear();
       }
     }
@@ -160,7 +160,8 @@ int runAction(const StudyStep& step, std::ostream& out, std::ostream& err) {
     err << "echoreg " << step.command << ": out of memory\n";
   } catch (const nlohmann::json::exception& e) {
     err << "echoreg " << step.command
-        << ": a JSON file holds a value of another type than expected: " << jsonProblem(e) << "\n";
+        << ": a JSON file holds a value of another type than expected: " << core::jsonProblem(e)
+        << "\n";
   } catch (const std::exception& e) {
     err << "echoreg " << step.command << ": " << e.what() << "\n";
   }
@@ -181,9 +182,9 @@ StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int 
     std::uint64_t part = 0;
     try {
       part = contentHash(input, fmt::format("step \"{}\" needs it", step.title));
-    } catch (const FileError& e) {
+    } catch (const core::FileError& e) {
       // Read from inside the study folder, named as the user names it.
-      throw FileError(shownInStudy(shownFolder_, e.path()), e.problem());
+      throw core::FileError(shownInStudy(shownFolder_, e.path()), e.problem());
     }
     mix(h, reinterpret_cast<const char*>(&part), sizeof part);
   }
@@ -242,7 +243,7 @@ void StudyRunner::save() const {
       steps[id] = {
           {"hash", entry.hash}, {"seconds", entry.seconds}, {"outputs", entry.outputHashes}};
   }
-  AtomicFile file(stateFile_);
+  core::AtomicFile file(stateFile_);
   file.stream() << nlohmann::json{{"steps", steps}}.dump(2) << "\n";
   file.commit();
 }

@@ -10,7 +10,7 @@
 #include <filesystem>
 #include <system_error>
 
-namespace echoreg {
+namespace echoreg::core {
 
 AtomicFile::AtomicFile(std::string targetPath) : targetPath_(std::move(targetPath)) {
   namespace fs = std::filesystem;
@@ -50,4 +50,4 @@ void AtomicFile::commit() {
   committed_ = true;
 }
 
-}  // namespace echoreg
+}  // namespace echoreg::core

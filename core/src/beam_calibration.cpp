@@ -1,5 +1,6 @@
 #include "echoreg/core/beam_calibration.hpp"
 
+#include "echoreg/core/number_text.hpp"
 #include "robust_solve.hpp"
 
 #include <ceres/ceres.h>
@@ -8,7 +9,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
-#include <cstdio>
 #include <limits>
 #include <memory>
 #include <stdexcept>
@@ -23,12 +23,6 @@ namespace {
 void require(bool condition, const std::string& message) {
   if (!condition)
     throw std::invalid_argument("beam calibration: " + message);
-}
-
-std::string number(double value, const char* format = "%.6g") {
-  char text[64];
-  std::snprintf(text, sizeof text, format, value);
-  return text;
 }
 
 bool finite(const Eigen::Isometry3d& pose) {
@@ -164,21 +158,22 @@ void validate(const BeamCalibrationOptions& options) {
       options.mode == BeamCalibrationMode::Translation || options.mode == BeamCalibrationMode::Beam,
       "unknown mode " + std::to_string(static_cast<int>(options.mode)));
   require(std::isfinite(options.assumedSpeedOfSoundMps) && options.assumedSpeedOfSoundMps > 0.0,
-          "assumedSpeedOfSoundMps must be > 0 m/s, got " + number(options.assumedSpeedOfSoundMps));
+          "assumedSpeedOfSoundMps must be > 0 m/s, got " +
+              number(options.assumedSpeedOfSoundMps, "%.6g"));
   require(options.sphereCentreTracker.allFinite(), "sphereCentreTracker is not finite");
   require(std::isfinite(options.sphereRadiusMm) && options.sphereRadiusMm > 0.0,
-          "sphereRadiusMm must be > 0 mm, got " + number(options.sphereRadiusMm));
+          "sphereRadiusMm must be > 0 mm, got " + number(options.sphereRadiusMm, "%.6g"));
   require(finite(options.initialBeamToProbe), "initialBeamToProbe is not finite");
   require(orthonormal(options.initialBeamToProbe.linear()),
           "initialBeamToProbe's rotation is not a rotation (orthonormal, determinant +1)");
   require(std::isfinite(options.outlierSigmas) && options.outlierSigmas > 0.0,
-          "outlierSigmas must be > 0, got " + number(options.outlierSigmas));
+          "outlierSigmas must be > 0, got " + number(options.outlierSigmas, "%.6g"));
   require(std::isfinite(options.minOutlierMm) && options.minOutlierMm >= 0.0,
-          "minOutlierMm must be >= 0 mm, got " + number(options.minOutlierMm));
+          "minOutlierMm must be >= 0 mm, got " + number(options.minOutlierMm, "%.6g"));
   require(options.maxRounds >= 1,
           "maxRounds must be >= 1, got " + std::to_string(options.maxRounds));
   require(options.maxConditionNumber >= 1.0,
-          "maxConditionNumber must be >= 1, got " + number(options.maxConditionNumber));
+          "maxConditionNumber must be >= 1, got " + number(options.maxConditionNumber, "%.6g"));
 }
 
 void validate(const std::vector<BeamShot>& shots, const BeamCalibrationOptions& options) {
@@ -188,7 +183,7 @@ void validate(const std::vector<BeamShot>& shots, const BeamCalibrationOptions& 
     require(orthonormal(shots[i].probeToTracker.linear()),
             which + ": probeToTracker's rotation is not a rotation (orthonormal, determinant +1)");
     require(std::isfinite(shots[i].depthMm) && shots[i].depthMm > 0.0,
-            which + ": depthMm must be > 0 mm, got " + number(shots[i].depthMm));
+            which + ": depthMm must be > 0 mm, got " + number(shots[i].depthMm, "%.6g"));
   }
   const Layout layout = layoutOf(options);
   const std::size_t needed = static_cast<std::size_t>(layout.count) + 1;

@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace echoreg {
+namespace echoreg::core {
 
 namespace {
 
@@ -189,4 +189,4 @@ void filterZeroPhase(const IirCoefficients& filter, const float* in, int count, 
     out[i] = static_cast<float>(work[static_cast<std::size_t>(pad + i)]);
 }
 
-}  // namespace echoreg
+}  // namespace echoreg::core

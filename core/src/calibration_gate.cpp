@@ -1,19 +1,10 @@
 #include "echoreg/core/calibration_gate.hpp"
 
+#include "echoreg/core/number_text.hpp"
+
 #include <cmath>
-#include <cstdio>
 
 namespace echoreg::core {
-
-namespace {
-
-std::string number(double value, int decimals) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof(buffer), "%.*f", decimals, value);
-  return buffer;
-}
-
-}  // namespace
 
 std::vector<std::string> calibrationGateProblems(const std::vector<BeamShot>& shots,
                                                  const BeamCalibrationOptions& options,

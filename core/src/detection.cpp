@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace echoreg {
+namespace echoreg::core {
 
 namespace {
 
@@ -523,4 +523,4 @@ DetectionParams adaptToCapture(const DetectionParams& given, int recordCount, in
   return params;
 }
 
-}  // namespace echoreg
+}  // namespace echoreg::core

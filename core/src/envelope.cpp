@@ -27,7 +27,7 @@
 #define ECHOREG_VECTOR_CLONES
 #endif
 
-namespace echoreg {
+namespace echoreg::core {
 
 namespace detail {
 
@@ -562,4 +562,4 @@ void EnvelopeDetector::compute(const float* samples, int count, float* envelope)
   }
 }
 
-}  // namespace echoreg
+}  // namespace echoreg::core

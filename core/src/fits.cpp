@@ -2,6 +2,7 @@
 
 #include "robust_solve.hpp"
 
+#include "echoreg/core/number_text.hpp"
 #include "echoreg/core/random.hpp"
 
 #include <ceres/ceres.h>
@@ -13,7 +14,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -28,27 +28,15 @@ constexpr double kRadiansToDegrees = 57.29577951308232087680;
 // Points whose out-of-plane RMS is below this share of their largest RMS extent lie in a plane.
 constexpr double kCoplanarRelative = 1e-6;
 
-std::string number(double value, int decimals) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.*f", decimals, value);
-  return text;
-}
-
-std::string shortNumber(double value) {
-  char text[64];
-  std::snprintf(text, sizeof text, "%.6g", value);
-  return text;
-}
-
 void checkOutlierOptions(double outlierSigmas, double minOutlierMm, int maxRounds,
                          const char* what) {
   const std::string prefix = std::string(what) + ": ";
   if (!std::isfinite(outlierSigmas) || outlierSigmas <= 0.0)
     throw std::invalid_argument(prefix + "outlierSigmas must be > 0 (got " +
-                                shortNumber(outlierSigmas) + ")");
+                                number(outlierSigmas, "%.6g") + ")");
   if (!std::isfinite(minOutlierMm) || minOutlierMm < 0.0)
     throw std::invalid_argument(prefix + "minOutlierMm must be >= 0 (got " +
-                                shortNumber(minOutlierMm) + ")");
+                                number(minOutlierMm, "%.6g") + ")");
   if (maxRounds < 1)
     throw std::invalid_argument(prefix + "maxRounds must be >= 1 (got " +
                                 std::to_string(maxRounds) + ")");
@@ -351,7 +339,7 @@ void checkPose(const Eigen::Isometry3d& pose, std::size_t index) {
   if (orthogonality > 1e-6 || r.determinant() <= 0.0) {
     throw std::invalid_argument(
         which + " is not a rigid transform: its rotation part has max |R^T R - I| = " +
-        shortNumber(orthogonality) + " and determinant " + shortNumber(r.determinant()));
+        number(orthogonality, "%.6g") + " and determinant " + number(r.determinant(), "%.6g"));
   }
 }
 
@@ -361,12 +349,12 @@ SphereFit fitSphere(const std::vector<Eigen::Vector3d>& points, const SphereFitO
   const bool knownRadius = options.radiusMm.has_value();
   if (knownRadius && !(std::isfinite(*options.radiusMm) && *options.radiusMm > 0.0)) {
     throw std::invalid_argument("fitSphere: the known radius must be a finite number > 0 mm (got " +
-                                shortNumber(*options.radiusMm) + ")");
+                                number(*options.radiusMm, "%.6g") + ")");
   }
   checkOutlierOptions(options.outlierSigmas, options.minOutlierMm, options.maxRounds, "fitSphere");
   if (!(options.maxConditionNumber >= 1.0))
     throw std::invalid_argument("fitSphere: maxConditionNumber must be >= 1 (got " +
-                                shortNumber(options.maxConditionNumber) + ")");
+                                number(options.maxConditionNumber, "%.6g") + ")");
   const std::size_t minimum = knownRadius ? 3 : 4;
   if (points.size() < minimum) {
     throw std::invalid_argument("fitSphere: " + std::to_string(points.size()) +
@@ -419,7 +407,7 @@ SphereFit fitSphere(const std::vector<Eigen::Vector3d>& points, const SphereFitO
     refineSphere(used, knownRadius, fit.centre, fit.radiusMm);
     if (!(fit.radiusMm > 0.0)) {
       throw std::invalid_argument("fitSphere: the points fit no sphere (the radius came out " +
-                                  shortNumber(fit.radiusMm) + " mm)");
+                                  number(fit.radiusMm, "%.6g") + " mm)");
     }
     for (std::size_t i = 0; i < points.size(); ++i)
       fit.residualsMm[i] = (points[i] - fit.centre).norm() - fit.radiusMm;
@@ -447,8 +435,8 @@ SphereFit fitSphere(const std::vector<Eigen::Vector3d>& points, const SphereFitO
     const Spread spread = pointSpread(used);
     throw std::invalid_argument(
         "fitSphere: the points cover too small a part of the sphere (condition number " +
-        shortNumber(fit.conditionNumber) + " > " + shortNumber(options.maxConditionNumber) + "; " +
-        std::to_string(used.size()) + " points spread " + number(spread.wideMm, 2) +
+        number(fit.conditionNumber, "%.6g") + " > " + number(options.maxConditionNumber, "%.6g") +
+        "; " + std::to_string(used.size()) + " points spread " + number(spread.wideMm, 2) +
         " mm RMS across and " + number(spread.thinMm, 2) + " mm RMS deep): " +
         (knownRadius ? "collect points over more of the sphere"
                      : "collect points over more of the sphere, or give the radius"));
@@ -462,7 +450,7 @@ PivotResult pivotCalibration(const std::vector<Eigen::Isometry3d>& markerToTrack
                       "pivotCalibration");
   if (!std::isfinite(options.minRotationSpreadDeg) || options.minRotationSpreadDeg < 0.0) {
     throw std::invalid_argument("pivotCalibration: minRotationSpreadDeg must be >= 0 (got " +
-                                shortNumber(options.minRotationSpreadDeg) + ")");
+                                number(options.minRotationSpreadDeg, "%.6g") + ")");
   }
   constexpr std::size_t kMinimumPoses = 4;
   const std::size_t n = markerToTracker.size();

@@ -8,7 +8,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace echoreg {
+namespace echoreg::core {
 
 std::string jsonProblem(const nlohmann::json::exception& error) {
   std::string text = error.what();
@@ -61,4 +61,4 @@ nlohmann::json readJsonFile(const std::string& path, const std::string& kind) {
   }
 }
 
-}  // namespace echoreg
+}  // namespace echoreg::core

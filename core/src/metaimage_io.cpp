@@ -14,7 +14,7 @@
 #include <string_view>
 #include <utility>
 
-namespace echoreg::detail {
+namespace echoreg::core::detail {
 
 namespace {
 
@@ -363,4 +363,4 @@ void writeMetaImage(const Sequence& sequence, const std::string& path, bool comp
   }
 }
 
-}  // namespace echoreg::detail
+}  // namespace echoreg::core::detail

@@ -11,7 +11,7 @@
 #include <string>
 #include <string_view>
 
-namespace echoreg::detail {
+namespace echoreg::core::detail {
 
 namespace {
 
@@ -333,4 +333,4 @@ void writeNrrd(const Sequence& sequence, const std::string& path, bool compress)
   file.commit();
 }
 
-}  // namespace echoreg::detail
+}  // namespace echoreg::core::detail

@@ -12,7 +12,7 @@
 #include <emmintrin.h>
 #endif
 
-namespace echoreg {
+namespace echoreg::core {
 
 namespace {
 
@@ -1152,4 +1152,4 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
   return result;
 }
 
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -3,7 +3,7 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
-namespace echoreg {
+namespace echoreg::core {
 
 void prefaultForWriting(void* data, std::size_t bytes) {
 #ifdef MADV_POPULATE_WRITE
@@ -43,4 +43,4 @@ std::vector<std::uint8_t> prefaultedZeros(std::size_t bytes) {
   return buffer;
 }
 
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -9,7 +9,7 @@
 #include <cmath>
 #include <cstdio>
 
-namespace echoreg {
+namespace echoreg::core {
 
 namespace {
 
@@ -109,4 +109,4 @@ std::optional<std::string> rigidPoseNote(const RigidPoseReport& report, const st
          ", within " + shortNumber(kPoseOrthonormalTolerance) + ")";
 }
 
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -4,7 +4,7 @@
 // exactly while a lane stays below 2^24.
 #pragma once
 
-namespace echoreg::detail {
+namespace echoreg::core::detail {
 
 inline double sumOfSamples(const float* values, int count) {
   float partial[8] = {0, 0, 0, 0, 0, 0, 0, 0};
@@ -21,4 +21,4 @@ inline double sumOfSamples(const float* values, int count) {
   return sum;
 }
 
-}  // namespace echoreg::detail
+}  // namespace echoreg::core::detail

@@ -14,7 +14,7 @@
 #include <set>
 #include <stdexcept>
 
-namespace echoreg {
+namespace echoreg::core {
 
 // Sequence::pixels is defined as little-endian; the readers swap big-endian files and the writers
 // write the bytes as they are, which is only right on a little-endian host.
@@ -294,4 +294,4 @@ std::string metaImageDimSizeLine(const Sequence& layout, std::size_t frames) {
   return "DimSize = " + detail::metaImageDimSize(layout, frames) + "\n";
 }
 
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -16,7 +16,7 @@
 #include <limits>
 #include <stdexcept>
 
-namespace echoreg::detail {
+namespace echoreg::core::detail {
 
 namespace {
 
@@ -302,4 +302,4 @@ std::vector<std::uint8_t> compressBytes(const std::vector<std::uint8_t>& bytes,
   return out;
 }
 
-}  // namespace echoreg::detail
+}  // namespace echoreg::core::detail

@@ -7,7 +7,7 @@
 #include <cstdio>
 #include <stdexcept>
 
-namespace echoreg {
+namespace echoreg::core {
 
 namespace {
 
@@ -238,4 +238,4 @@ std::vector<std::string> detectionWarnings(const SequenceDetection& detection) {
   return warnings;
 }
 
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -15,7 +15,7 @@
 #include <stdexcept>
 #include <system_error>
 
-namespace echoreg::detail {
+namespace echoreg::core::detail {
 
 namespace {
 
@@ -291,4 +291,4 @@ void checkExtraHeader(const Sequence& sequence) {
   }
 }
 
-}  // namespace echoreg::detail
+}  // namespace echoreg::core::detail

@@ -36,7 +36,7 @@
 #include <unordered_set>
 #include <vector>
 
-namespace echoreg::detail {
+namespace echoreg::core::detail {
 
 inline constexpr std::string_view kNrrdFieldPrefix = "nrrd-field:";
 
@@ -168,7 +168,7 @@ class DuplicateKeyCheck {
 Sequence readMetaImage(InputFile& file);
 
 /// The MetaImage header writeSequence writes, up to the per-frame keys (see
-/// echoreg::metaImageHeaderStart); `frames` nullopt leaves out DimSize.
+/// echoreg::core::metaImageHeaderStart); `frames` nullopt leaves out DimSize.
 std::string metaImageHeaderPrefix(const Sequence& layout, std::optional<std::size_t> frames,
                                   std::optional<std::uint64_t> compressedBytes);
 /// DimSize's value for `frames` frames of `layout`.
@@ -273,4 +273,4 @@ StoredPixels locatePixels(InputFile& file, const ParsedHeader& header, const Che
 std::vector<std::uint8_t> readPixels(InputFile& file, StoredPixels& stored, bool compressed,
                                      bool bigEndian, const CheckedLayout& layout);
 
-}  // namespace echoreg::detail
+}  // namespace echoreg::core::detail

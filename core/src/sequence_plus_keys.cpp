@@ -9,7 +9,7 @@
 #include <cmath>
 #include <stdexcept>
 
-namespace echoreg::detail {
+namespace echoreg::core::detail {
 
 namespace {
 
@@ -267,4 +267,4 @@ std::vector<TextEntry> metadataEntries(const Sequence& sequence) {
   return entries;
 }
 
-}  // namespace echoreg::detail
+}  // namespace echoreg::core::detail

@@ -10,7 +10,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
-#include <cstdio>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -18,12 +17,6 @@
 #include <vector>
 
 namespace echoreg::core::detail {
-
-std::string number(double value, const char* format) {
-  char buffer[64];
-  std::snprintf(buffer, sizeof buffer, format, value);
-  return buffer;
-}
 
 void require(bool condition, const std::string& message) {
   if (!condition)
@@ -78,7 +71,7 @@ void validate(const std::vector<SurfacePoint>& points, const std::vector<Landmar
       require(p.beamOrigin.allFinite() && p.beamDirection.allFinite() && std::isfinite(p.depthMm),
               name + ": beam is not finite");
       require(std::abs(p.beamDirection.norm() - 1.0) < 1e-6, name + ": beam direction is not unit");
-      require(p.depthMm >= 0.0, name + ": negative depth " + number(p.depthMm));
+      require(p.depthMm >= 0.0, name + ": negative depth " + number(p.depthMm, "%.4g"));
     }
   }
   for (std::size_t i = 0; i < landmarks.size(); ++i) {

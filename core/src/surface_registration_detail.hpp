@@ -8,6 +8,7 @@
 #pragma once
 
 #include "echoreg/core/mesh_locator.hpp"
+#include "echoreg/core/number_text.hpp"
 #include "echoreg/core/surface_registration.hpp"
 
 #include <Eigen/Geometry>
@@ -19,8 +20,6 @@
 namespace echoreg::core::detail {
 
 constexpr double kPi = 3.14159265358979323846;
-
-std::string number(double value, const char* format = "%.4g");
 
 void require(bool condition, const std::string& message);
 

@@ -67,7 +67,6 @@ double startDistanceMm(const MeshLocator& locator, const std::vector<SurfacePoin
 
 namespace echoreg::core {
 
-using detail::number;
 using detail::require;
 using detail::rotationAbout;
 

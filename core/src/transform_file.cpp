@@ -12,7 +12,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace echoreg {
+namespace echoreg::core {
 
 namespace {
 
@@ -134,4 +134,4 @@ std::string writeTransformFile(const std::string& path, const TransformFile& tra
   return tfmPath;
 }
 
-}  // namespace echoreg
+}  // namespace echoreg::core

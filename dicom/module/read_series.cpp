@@ -562,7 +562,7 @@ Scan scanFolder(const std::string& folder, int threads) {
   std::error_code ec;
   const fs::file_status status = fs::status(folder, ec);
   if (ec || !fs::exists(status))
-    throw FileError(folder, "does not exist");
+    throw core::FileError(folder, "does not exist");
   Scan scan;
   std::vector<fs::path> paths;
   if (fs::is_regular_file(status)) {
@@ -571,7 +571,7 @@ Scan scanFolder(const std::string& folder, int threads) {
   } else if (fs::is_directory(status)) {
     fs::directory_iterator it(folder, ec);
     if (ec)
-      throw FileError(folder, "cannot be listed: " + ec.message());
+      throw core::FileError(folder, "cannot be listed: " + ec.message());
     for (const fs::directory_entry& entry : it) {
       std::error_code typeError;
       if (entry.is_regular_file(typeError))
@@ -579,7 +579,7 @@ Scan scanFolder(const std::string& folder, int threads) {
     }
     std::sort(paths.begin(), paths.end());
   } else {
-    throw FileError(folder, "is neither a folder nor a regular file");
+    throw core::FileError(folder, "is neither a folder nor a regular file");
   }
   scan.headers.resize(paths.size());
   parallelFor(static_cast<int>(paths.size()), threads, [&](int index, int) {
@@ -682,11 +682,11 @@ Selection selectSeries(const std::string& folder, const DicomReadOptions& option
   if (scan.singleFile) {
     const SliceHeader& h = scan.headers.front();
     if (!h.damaged.empty())
-      throw FileError(folder, "is a damaged DICOM file: " + h.damaged);
+      throw core::FileError(folder, "is a damaged DICOM file: " + h.damaged);
     if (!h.dicom)
-      throw FileError(folder, "is not a DICOM file (GDCM cannot read it)");
+      throw core::FileError(folder, "is not a DICOM file (GDCM cannot read it)");
     if (!h.image) {
-      throw FileError(
+      throw core::FileError(
           folder, fmt::format("is a DICOM file without an image (no Rows / Columns; SOP class {})",
                               h.sopClass.empty() ? "absent" : h.sopClass));
     }
@@ -704,12 +704,12 @@ Selection selectSeries(const std::string& folder, const DicomReadOptions& option
       }
       std::sort(subfolders.begin(), subfolders.end());
     }
-    throw FileError(folder,
-                    fmt::format("is a directory with no DICOM image ({} file{}{}{}{}{})",
-                                scan.headers.size(), scan.headers.size() == 1 ? "" : "s",
-                                skipped.empty() ? "" : "; ", skipped.empty() ? "" : skipped.front(),
-                                subfolders.empty() ? "" : "; subfolders are not searched, it has: ",
-                                nameList(subfolders)));
+    throw core::FileError(
+        folder, fmt::format("is a directory with no DICOM image ({} file{}{}{}{}{})",
+                            scan.headers.size(), scan.headers.size() == 1 ? "" : "s",
+                            skipped.empty() ? "" : "; ", skipped.empty() ? "" : skipped.front(),
+                            subfolders.empty() ? "" : "; subfolders are not searched, it has: ",
+                            nameList(subfolders)));
   }
   const SeriesGroup* chosen = nullptr;
   if (!options.seriesUid.empty()) {
@@ -718,8 +718,8 @@ Selection selectSeries(const std::string& folder, const DicomReadOptions& option
         chosen = &s;
     }
     if (chosen == nullptr) {
-      throw FileError(folder, fmt::format("has no series {}; it has: {}", options.seriesUid,
-                                          describeSeries(series)));
+      throw core::FileError(folder, fmt::format("has no series {}; it has: {}", options.seriesUid,
+                                                describeSeries(series)));
     }
   } else if (scan.singleFile) {
     chosen = &series.front();
@@ -731,7 +731,7 @@ Selection selectSeries(const std::string& folder, const DicomReadOptions& option
       }
     }
     if (chosen == nullptr) {
-      throw FileError(folder, "holds no CT series; it has: " + describeSeries(series));
+      throw core::FileError(folder, "holds no CT series; it has: " + describeSeries(series));
     }
   }
   selection.warnings = skipped;
@@ -769,7 +769,9 @@ Eigen::Vector3d columnDirection(const std::array<double, 6>& o) {
 DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
   std::vector<SliceHeader>& slices = selection.slices;
   const bool single = slices.size() == 1;
-  const auto fail = [&folder](const std::string& problem) { throw FileError(folder, problem); };
+  const auto fail = [&folder](const std::string& problem) {
+    throw core::FileError(folder, problem);
+  };
 
   // Per-file problems first: each names its files.
   {
@@ -1115,7 +1117,7 @@ bool readNativeSlice(const std::string& folder, const SliceHeader& h, std::int16
   const std::size_t bytes = pixels * static_cast<std::size_t>(key.bitsAllocated / 8);
   const int fd = ::open(h.path.c_str(), O_RDONLY | O_CLOEXEC);
   if (fd < 0)
-    throw FileError(folder, h.name + ": cannot be opened: " + std::strerror(errno));
+    throw core::FileError(folder, h.name + ": cannot be opened: " + std::strerror(errno));
   scratch.buffer.resize(kHeader + bytes);
   std::size_t done = 0;
   while (done < kHeader + bytes) {
@@ -1141,7 +1143,7 @@ bool readNativeSlice(const std::string& folder, const SliceHeader& h, std::int16
   if (!headerFound)
     return false;
   if (done != kHeader + bytes || length < bytes) {
-    throw FileError(
+    throw core::FileError(
         folder,
         fmt::format("{}: truncated pixel data: {} bytes where {} x {} pixels of {} bits need {}",
                     h.name, std::min<std::size_t>(done - kHeader, length), h.columns, h.rows,
@@ -1160,7 +1162,7 @@ std::vector<unsigned char> rleFrame(const std::string& folder, const SliceHeader
   constexpr std::uint64_t kHeader = 12;
   std::ifstream in(h.path, std::ios::binary);
   const auto fail = [&](const std::string& problem) {
-    throw FileError(folder, fmt::format("{}: damaged RLE pixel data: {}", h.name, problem));
+    throw core::FileError(folder, fmt::format("{}: damaged RLE pixel data: {}", h.name, problem));
   };
   if (!in || h.pixelDataOffset < kHeader || h.fileSize == 0)
     fail("the pixel data could not be found in the file");
@@ -1298,9 +1300,10 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
     const auto segments = static_cast<std::uint32_t>(h.bitsAllocated / 8 * h.samplesPerPixel);
     const std::string problem = rleFrameProblem(rleFrame(folder, h), segments, planeBytes);
     if (!problem.empty()) {
-      throw FileError(folder, fmt::format("{}: damaged RLE pixel data ({} x {} pixels of {} bits): "
-                                          "{}",
-                                          h.name, h.columns, h.rows, h.bitsAllocated, problem));
+      throw core::FileError(folder,
+                            fmt::format("{}: damaged RLE pixel data ({} x {} pixels of {} bits): "
+                                        "{}",
+                                        h.name, h.columns, h.rows, h.bitsAllocated, problem));
     }
   }
   gdcm::ImageReader reader;
@@ -1312,18 +1315,18 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
     read = false;
   }
   if (!read)
-    throw FileError(folder, h.name + ": GDCM cannot read its image");
+    throw core::FileError(folder, h.name + ": GDCM cannot read its image");
   const gdcm::Image& image = reader.GetImage();
   const gdcm::PixelFormat& format = image.GetPixelFormat();
   const unsigned int* dims = image.GetDimensions();
   if (dims == nullptr || dims[0] != static_cast<unsigned int>(h.columns) ||
       dims[1] != static_cast<unsigned int>(h.rows) ||
       (image.GetNumberOfDimensions() > 2 && dims[2] != 1)) {
-    throw FileError(
+    throw core::FileError(
         folder, h.name + ": GDCM reports image dimensions other than the header's Rows / Columns");
   }
   if (format.GetSamplesPerPixel() != 1)
-    throw FileError(folder, h.name + ": not a one-sample (grey) image");
+    throw core::FileError(folder, h.name + ": not a one-sample (grey) image");
   const Scratch::Key key{format.GetBitsAllocated(),
                          format.GetBitsStored(),
                          format.GetHighBit(),
@@ -1333,7 +1336,7 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
   if ((key.bitsAllocated != 8 && key.bitsAllocated != 16 && key.bitsAllocated != 32) ||
       key.bitsStored < 1 || key.bitsStored > key.bitsAllocated ||
       key.highBit + 1 < key.bitsStored || key.highBit >= key.bitsAllocated) {
-    throw FileError(
+    throw core::FileError(
         folder,
         fmt::format("{}: unsupported pixel format ({} bits allocated, {} stored, high bit {})",
                     h.name, key.bitsAllocated, key.bitsStored, key.highBit));
@@ -1343,12 +1346,12 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
   const gdcm::DataElement& pixelData = image.GetDataElement();
   const gdcm::ByteValue* raw = pixelData.GetByteValue();
   if (pixelData.IsEmpty() && pixelData.GetSequenceOfFragments() == nullptr) {
-    throw FileError(folder, h.name + ": no pixel data");
+    throw core::FileError(folder, h.name + ": no pixel data");
   }
   const gdcm::TransferSyntax& syntax = image.GetTransferSyntax();
   if (raw != nullptr && !syntax.IsEncapsulated()) {
     if (h.pixelDataOffset > 0 && h.fileSize > 0 && h.pixelDataOffset + bytes > h.fileSize) {
-      throw FileError(
+      throw core::FileError(
           folder,
           fmt::format("{}: truncated pixel data: the file ends {} bytes short of the {} x {} "
                       "pixels of {} bits",
@@ -1356,7 +1359,7 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
                       key.bitsAllocated));
     }
     if (raw->GetLength() < bytes) {
-      throw FileError(
+      throw core::FileError(
           folder,
           fmt::format("{}: truncated pixel data: {} bytes where {} x {} pixels of {} bits "
                       "need {}",
@@ -1369,8 +1372,8 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
   }
   const unsigned long length = image.GetBufferLength();
   if (length < bytes) {
-    throw FileError(folder, fmt::format("{}: GDCM decodes {} bytes where {} are needed", h.name,
-                                        length, bytes));
+    throw core::FileError(folder, fmt::format("{}: GDCM decodes {} bytes where {} are needed",
+                                              h.name, length, bytes));
   }
   scratch.buffer.resize(length);
   bool decoded = false;
@@ -1380,7 +1383,7 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
     decoded = false;
   }
   if (!decoded) {
-    throw FileError(
+    throw core::FileError(
         folder, fmt::format("{}: GDCM cannot decode its pixel data ({})", h.name,
                             syntax.GetString() ? syntax.GetString() : "unknown transfer syntax"));
   }
@@ -1406,7 +1409,7 @@ void checkSizesBeforeAllocating(const std::string& folder, const std::vector<Sli
                                  static_cast<std::uint64_t>((h.bitsAllocated + 7) / 8);
     const std::uint64_t held = h.fileSize - std::min(h.fileSize, h.pixelDataOffset);
     if (needed > held) {
-      throw FileError(
+      throw core::FileError(
           folder,
           fmt::format("{}: truncated pixel data: its header claims {} x {} pixels of {} bits "
                       "({} bytes), but the file holds {} bytes after the pixel data's start: "
@@ -1423,7 +1426,7 @@ void checkSizesBeforeAllocating(const std::string& folder, const std::vector<Sli
                              static_cast<double>(image.dimensions[1]) *
                              static_cast<double>(image.dimensions[2]) * sizeof(std::int16_t);
   if (volumeBytes > memoryBytes) {
-    throw FileError(
+    throw core::FileError(
         folder,
         fmt::format("the series' {} x {} x {} voxels (the headers' Columns x Rows of {}, times {} "
                     "slices) need {:.1f} GB as 16-bit HU, more than this machine's {:.1f} GB "

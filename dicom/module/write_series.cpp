@@ -249,7 +249,7 @@ void writeSlice(const fs::path& file, const CtVolume& volume, const DicomSeriesI
 
   writer.SetFileName(file.string().c_str());
   if (!writer.Write())
-    throw FileError(file.string(), "GDCM could not write this DICOM file");
+    throw core::FileError(file.string(), "GDCM could not write this DICOM file");
 }
 
 }  // namespace
@@ -261,28 +261,29 @@ void writeDicomSeries(const std::string& folder, const CtVolume& volume,
   while (trimmed.size() > 1 && trimmed.back() == '/')
     trimmed.pop_back();
   if (trimmed.empty())
-    throw FileError(folder, "is an empty folder name");
+    throw core::FileError(folder, "is an empty folder name");
   const fs::path target(trimmed);
 
   std::error_code ec;
   const fs::file_status status = fs::status(target, ec);
   if (fs::exists(status)) {
     if (!fs::is_directory(status))
-      throw FileError(folder, "exists and is not a folder");
+      throw core::FileError(folder, "exists and is not a folder");
     if (!fs::is_empty(target, ec) || ec) {
-      throw FileError(folder, "exists and is not empty: refusing to mix series");
+      throw core::FileError(folder, "exists and is not empty: refusing to mix series");
     }
   }
   const fs::path parent = target.has_parent_path() ? target.parent_path() : fs::path(".");
   if (!fs::is_directory(parent, ec)) {
-    throw FileError(folder, "its parent folder " + parent.string() + " does not exist");
+    throw core::FileError(folder, "its parent folder " + parent.string() + " does not exist");
   }
 
   TemporaryFolder temporary(fs::path(trimmed + ".tmp-" + std::to_string(::getpid())));
   fs::remove_all(temporary.path(), ec);  // a leftover of an earlier crash of this process id
   if (!fs::create_directory(temporary.path(), ec) || ec) {
-    throw FileError(folder, "cannot create the temporary folder " + temporary.path().string() +
-                                ": " + (ec ? ec.message() : std::string("it already exists")));
+    throw core::FileError(folder, "cannot create the temporary folder " +
+                                      temporary.path().string() + ": " +
+                                      (ec ? ec.message() : std::string("it already exists")));
   }
 
   const SeriesUids uids{derivedDicomUid(info.uidSeed, "study"),
@@ -297,15 +298,15 @@ void writeDicomSeries(const std::string& folder, const CtVolume& volume,
             : std::to_string(group);
     try {
       writeSlice(file, volume, info, uids, k, groupName);
-    } catch (const FileError& e) {
-      throw FileError(folder,
-                      fmt::format("writing {} failed: {}", file.filename().string(), e.problem()));
+    } catch (const core::FileError& e) {
+      throw core::FileError(
+          folder, fmt::format("writing {} failed: {}", file.filename().string(), e.problem()));
     }
   }
 
   fs::rename(temporary.path(), target, ec);
   if (ec) {
-    throw FileError(folder, "cannot rename the finished series into place: " + ec.message());
+    throw core::FileError(folder, "cannot rename the finished series into place: " + ec.message());
   }
   temporary.release();
 }

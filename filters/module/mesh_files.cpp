@@ -1,5 +1,5 @@
 // VTK's mesh readers and writers (STL, VTK XML PolyData, PLY, OBJ), inside the mesh I/O module
-// (filters/CMakeLists.txt): readMesh and writeMesh (MeshIO.cxx) call them through the module; the
+// (filters/CMakeLists.txt): readMesh and writeMesh (mesh_io.cxx) call them through the module; the
 // fuzz harness compiles this file directly.
 #include "mesh_files.hpp"
 #include "echoreg/core/error.hpp"
@@ -38,7 +38,7 @@ std::string lowerExtension(const std::string& path) {
 vtkSmartPointer<vtkPolyData> readPolyDataFile(const std::string& path) {
   std::error_code ec;
   if (!std::filesystem::is_regular_file(path, ec))
-    throw FileError(path, "no such file");
+    throw core::FileError(path, "no such file");
   const std::string ext = lowerExtension(path);
   vtkSmartPointer<vtkPolyData> poly;
   if (ext == ".stl") {
@@ -52,7 +52,7 @@ vtkSmartPointer<vtkPolyData> readPolyDataFile(const std::string& path) {
     reader->SetFileName(path.c_str());
     reader->Update();
     if (reader->GetErrorCode() != 0)
-      throw FileError(path, "not a readable VTK XML PolyData file");
+      throw core::FileError(path, "not a readable VTK XML PolyData file");
     poly = reader->GetOutput();
   } else if (ext == ".ply") {
     vtkNew<vtkPLYReader> reader;
@@ -65,7 +65,8 @@ vtkSmartPointer<vtkPolyData> readPolyDataFile(const std::string& path) {
     reader->Update();
     poly = reader->GetOutput();
   } else {
-    throw FileError(path, "unknown mesh kind '" + ext + "' (expected .stl, .vtp, .ply or .obj)");
+    throw core::FileError(path,
+                          "unknown mesh kind '" + ext + "' (expected .stl, .vtp, .ply or .obj)");
   }
   return poly;
 }
@@ -73,7 +74,7 @@ vtkSmartPointer<vtkPolyData> readPolyDataFile(const std::string& path) {
 void writePolyDataFile(const std::string& path, vtkPolyData* polyData) {
   const std::string ext = lowerExtension(path);
   if (ext != ".vtp" && ext != ".stl") {
-    throw FileError(path, "cannot write mesh kind '" + ext + "' (expected .vtp or .stl)");
+    throw core::FileError(path, "cannot write mesh kind '" + ext + "' (expected .vtp or .stl)");
   }
   // VTK writers open the file themselves: write to a temporary name beside it, then rename.
   const std::string temporary = path + ".tmp-" + std::to_string(::getpid()) + ext;
@@ -95,13 +96,13 @@ void writePolyDataFile(const std::string& path, vtkPolyData* polyData) {
   }
   if (ok != 1) {
     std::remove(temporary.c_str());
-    throw FileError(path, "could not be written");
+    throw core::FileError(path, "could not be written");
   }
   std::error_code ec;
   std::filesystem::rename(temporary, path, ec);
   if (ec) {
     std::remove(temporary.c_str());
-    throw FileError(path, "could not be written: " + ec.message());
+    throw core::FileError(path, "could not be written: " + ec.message());
   }
 }
 

@@ -1,6 +1,6 @@
 #include "echoreg/filters/vtkEchoregBeamCalibrationFilter.h"
 
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include "echoreg/core/depth.hpp"
 
@@ -137,10 +137,10 @@ int vtkEchoregBeamCalibrationFilter::RequestData(vtkInformation* /*request*/,
     return 0;
   }
   const double headerSpeed = fieldValue(shotsTable->GetFieldData(), "SpeedOfSoundMps");
-  options.assumedSpeedOfSoundMps = !std::isnan(this->AssumedSpeedOfSoundMps)
-                                       ? this->AssumedSpeedOfSoundMps
-                                   : std::isfinite(headerSpeed) ? headerSpeed
-                                                                : echoreg::kWaterSpeedOfSoundMps;
+  options.assumedSpeedOfSoundMps =
+      !std::isnan(this->AssumedSpeedOfSoundMps) ? this->AssumedSpeedOfSoundMps
+      : std::isfinite(headerSpeed)              ? headerSpeed
+                                                : echoreg::core::kWaterSpeedOfSoundMps;
 
   auto* frames = vtkDataArray::SafeDownCast(shotsTable->GetColumnByName("frame"));
   auto* depths = vtkDataArray::SafeDownCast(shotsTable->GetColumnByName("depth_mm"));

@@ -2,7 +2,7 @@
 
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/sequence_detection.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkAbstractArray.h>
 #include <vtkDataArray.h>
@@ -133,7 +133,7 @@ int vtkEchoregBeamPointsFilter::RequestData(vtkInformation* /*request*/,
     return 0;
   }
 
-  echoreg::PointFrameOptions pointFrame;
+  echoreg::core::PointFrameOptions pointFrame;
   pointFrame.poseTransform = this->PoseTransformName;
   pointFrame.referenceTransform = this->ReferenceTransformName;
   pointFrame.beamToProbe =
@@ -163,7 +163,8 @@ int vtkEchoregBeamPointsFilter::RequestData(vtkInformation* /*request*/,
   auto xColumn = coordinateColumn("x_mm", rows);
   auto yColumn = coordinateColumn("y_mm", rows);
   auto zColumn = coordinateColumn("z_mm", rows);
-  const std::string invalidPose(echoreg::rejectReasonName(echoreg::RejectReason::InvalidPose));
+  const std::string invalidPose(
+      echoreg::core::rejectReasonName(echoreg::core::RejectReason::InvalidPose));
   // 0: not detected, 1: placed, 2: invalid pose; counted after the parallel loop.
   std::vector<unsigned char> outcome(static_cast<std::size_t>(rows), 0);
 
@@ -178,8 +179,8 @@ int vtkEchoregBeamPointsFilter::RequestData(vtkInformation* /*request*/,
       if (!pointFrame.referenceTransform.empty())
         reference = sequenceData.validMatrix(pointFrame.referenceTransform, frame);
       const std::optional<Eigen::Vector3d> point =
-          echoreg::beamPoint(depths->GetComponent(row, 0), pointFrame, pose ? &*pose : nullptr,
-                             reference ? &*reference : nullptr);
+          echoreg::core::beamPoint(depths->GetComponent(row, 0), pointFrame,
+                                   pose ? &*pose : nullptr, reference ? &*reference : nullptr);
       if (!point) {
         outcome[static_cast<std::size_t>(row)] = 2;
         continue;

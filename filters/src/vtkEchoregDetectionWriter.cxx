@@ -1,7 +1,7 @@
 #include "echoreg/filters/vtkEchoregDetectionWriter.h"
 
 #include "echoreg/core/atomic_file.hpp"
-#include "echoreg/filters/DetectionTable.h"
+#include "echoreg/filters/detection_table.h"
 
 #include <vtkErrorCode.h>
 #include <vtkInformation.h>
@@ -22,15 +22,16 @@ std::string optionalNumber(const std::optional<double>& value, int decimals) {
   return value ? fmt::format("{:.{}f}", *value, decimals) : std::string();
 }
 
-void writeRows(const echoreg::SequenceDetection& detection, bool withPoints, std::ostream& csv) {
+void writeRows(const echoreg::core::SequenceDetection& detection, bool withPoints,
+               std::ostream& csv) {
   csv << "frame,timestamp_s,status,reason,peaks,sample_index,depth_mm";
   if (withPoints)
     csv << ",x_mm,y_mm,z_mm";
   csv << "\n";
-  for (const echoreg::FrameDetection& f : detection.frames) {
+  for (const echoreg::core::FrameDetection& f : detection.frames) {
     csv << f.frame << ',' << (f.timestampS ? fmt::format("{}", *f.timestampS) : std::string())
         << ',' << (f.accepted() ? "accepted" : "rejected") << ','
-        << echoreg::rejectReasonName(f.reason) << ',' << f.peakCount << ','
+        << echoreg::core::rejectReasonName(f.reason) << ',' << f.peakCount << ','
         << optionalNumber(f.sampleIndex, 3) << ',' << optionalNumber(f.depthMm, 4);
     if (withPoints) {
       if (f.pointMm) {
@@ -76,8 +77,8 @@ void vtkEchoregDetectionWriter::WriteData() {
   }
   vtkTable* table = vtkTable::SafeDownCast(this->GetInput());
   try {
-    const echoreg::SequenceDetection detection = echoreg::filters::sequenceDetectionOf(table);
-    echoreg::AtomicFile file(this->FileName);
+    const echoreg::core::SequenceDetection detection = echoreg::filters::sequenceDetectionOf(table);
+    echoreg::core::AtomicFile file(this->FileName);
     writeRows(detection, echoreg::filters::hasTrackedPoints(table), file.stream());
     file.commit();
   } catch (const std::exception& exception) {

@@ -1,7 +1,7 @@
 #include "echoreg/filters/vtkEchoregEnvelopeFilter.h"
 
-#include "PipelineRequests.h"
 #include "echoreg/core/prefault.hpp"
+#include "pipeline_requests.h"
 
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>
@@ -26,28 +26,28 @@ vtkStandardNewMacro(vtkEchoregEnvelopeFilter);
 
 namespace {
 
-echoreg::EnvelopeMethod methodOf(int method) {
+echoreg::core::EnvelopeMethod methodOf(int method) {
   switch (method) {
     case vtkEchoregEnvelopeFilter::METHOD_MOZES:
-      return echoreg::EnvelopeMethod::Mozes;
+      return echoreg::core::EnvelopeMethod::Mozes;
     case vtkEchoregEnvelopeFilter::METHOD_STDDEV:
-      return echoreg::EnvelopeMethod::StdDev;
+      return echoreg::core::EnvelopeMethod::StdDev;
     case vtkEchoregEnvelopeFilter::METHOD_HILBERT:
-      return echoreg::EnvelopeMethod::Hilbert;
+      return echoreg::core::EnvelopeMethod::Hilbert;
     default:
-      return echoreg::EnvelopeMethod::Hann;
+      return echoreg::core::EnvelopeMethod::Hann;
   }
 }
 
-int methodId(echoreg::EnvelopeMethod method) {
+int methodId(echoreg::core::EnvelopeMethod method) {
   switch (method) {
-    case echoreg::EnvelopeMethod::Mozes:
+    case echoreg::core::EnvelopeMethod::Mozes:
       return vtkEchoregEnvelopeFilter::METHOD_MOZES;
-    case echoreg::EnvelopeMethod::Hann:
+    case echoreg::core::EnvelopeMethod::Hann:
       return vtkEchoregEnvelopeFilter::METHOD_HANN;
-    case echoreg::EnvelopeMethod::StdDev:
+    case echoreg::core::EnvelopeMethod::StdDev:
       return vtkEchoregEnvelopeFilter::METHOD_STDDEV;
-    case echoreg::EnvelopeMethod::Hilbert:
+    case echoreg::core::EnvelopeMethod::Hilbert:
       return vtkEchoregEnvelopeFilter::METHOD_HILBERT;
   }
   return vtkEchoregEnvelopeFilter::METHOD_HANN;
@@ -60,13 +60,13 @@ int methodId(echoreg::EnvelopeMethod method) {
 template <typename T>
 class EnvelopeRows {
  public:
-  EnvelopeRows(const echoreg::EnvelopeParams& params, const T* samples, float* envelopes,
+  EnvelopeRows(const echoreg::core::EnvelopeParams& params, const T* samples, float* envelopes,
                int samplesPerRow)
       : params_(params), samples_(samples), envelopes_(envelopes), samplesPerRow_(samplesPerRow) {}
 
   void operator()(vtkIdType beginRow, vtkIdType endRow) {
     try {
-      echoreg::EnvelopeDetector detector(params_);
+      echoreg::core::EnvelopeDetector detector(params_);
       std::vector<float> row;
       for (vtkIdType index = beginRow; index < endRow; ++index) {
         const vtkIdType offset = index * samplesPerRow_;
@@ -91,7 +91,7 @@ class EnvelopeRows {
   const std::string& error() const { return error_; }
 
  private:
-  const echoreg::EnvelopeParams& params_;
+  const echoreg::core::EnvelopeParams& params_;
   const T* samples_;
   float* envelopes_;
   int samplesPerRow_;
@@ -103,7 +103,7 @@ class EnvelopeRows {
 // that `filter` reports its progress between them (from this thread: VTK's events are not
 // thread-safe); the error message of a failure, else "".
 template <typename T>
-std::string envelopesOf(const echoreg::EnvelopeParams& params, vtkDataArray* scalars,
+std::string envelopesOf(const echoreg::core::EnvelopeParams& params, vtkDataArray* scalars,
                         vtkIdType firstRow, float* envelopes, int samplesPerRow, vtkIdType rows,
                         vtkAlgorithm* filter) {
   EnvelopeRows<T> work(params,
@@ -124,7 +124,7 @@ vtkEchoregEnvelopeFilter::vtkEchoregEnvelopeFilter() = default;
 
 vtkEchoregEnvelopeFilter::~vtkEchoregEnvelopeFilter() = default;
 
-void vtkEchoregEnvelopeFilter::SetParams(const echoreg::EnvelopeParams& params) {
+void vtkEchoregEnvelopeFilter::SetParams(const echoreg::core::EnvelopeParams& params) {
   if (this->Params == params)
     return;
   this->Params = params;
@@ -142,13 +142,13 @@ int vtkEchoregEnvelopeFilter::GetMethod() const {
 
 const char* vtkEchoregEnvelopeFilter::GetMethodAsString() const {
   switch (this->Params.method) {
-    case echoreg::EnvelopeMethod::Mozes:
+    case echoreg::core::EnvelopeMethod::Mozes:
       return "mozes";
-    case echoreg::EnvelopeMethod::Hann:
+    case echoreg::core::EnvelopeMethod::Hann:
       return "hann";
-    case echoreg::EnvelopeMethod::StdDev:
+    case echoreg::core::EnvelopeMethod::StdDev:
       return "stddev";
-    case echoreg::EnvelopeMethod::Hilbert:
+    case echoreg::core::EnvelopeMethod::Hilbert:
       return "hilbert";
   }
   return "hann";
@@ -215,7 +215,7 @@ int vtkEchoregEnvelopeFilter::RequestData(vtkInformation* /*request*/,
     return 0;
   }
   try {
-    echoreg::validate(this->Params);
+    echoreg::core::validate(this->Params);
   } catch (const std::exception& exception) {
     this->Fail(std::string("invalid envelope parameters: ") + exception.what());
     return 0;
@@ -235,8 +235,8 @@ int vtkEchoregEnvelopeFilter::RequestData(vtkInformation* /*request*/,
   const float* reused = envelopes->GetNumberOfValues() > 0 ? envelopes->GetPointer(0) : nullptr;
   envelopes->SetNumberOfValues(rows * dimensions[0]);
   if (envelopes->GetPointer(0) != reused) {
-    echoreg::prefaultForWriting(envelopes->GetPointer(0),
-                                static_cast<std::size_t>(rows * dimensions[0]) * sizeof(float));
+    echoreg::core::prefaultForWriting(
+        envelopes->GetPointer(0), static_cast<std::size_t>(rows * dimensions[0]) * sizeof(float));
   }
   envelopes->Modified();
 

@@ -23,12 +23,12 @@ constexpr const char* kAccepted = "accepted";
 constexpr const char* kRejected = "rejected";
 
 // Every reason a frame can end with, for counts that always list all of them.
-constexpr echoreg::RejectReason kReasons[] = {
-    echoreg::RejectReason::NoPeak,      echoreg::RejectReason::TooManyPeaks,
-    echoreg::RejectReason::TooFewPeaks, echoreg::RejectReason::OutsideWindow,
-    echoreg::RejectReason::NotBone,     echoreg::RejectReason::Inconsistent,
-    echoreg::RejectReason::TooClose,    echoreg::RejectReason::InvalidPose,
-    echoreg::RejectReason::InRingDown,
+constexpr echoreg::core::RejectReason kReasons[] = {
+    echoreg::core::RejectReason::NoPeak,      echoreg::core::RejectReason::TooManyPeaks,
+    echoreg::core::RejectReason::TooFewPeaks, echoreg::core::RejectReason::OutsideWindow,
+    echoreg::core::RejectReason::NotBone,     echoreg::core::RejectReason::Inconsistent,
+    echoreg::core::RejectReason::TooClose,    echoreg::core::RejectReason::InvalidPose,
+    echoreg::core::RejectReason::InRingDown,
 };
 
 void addCount(vtkFieldData* fieldData, const std::string& name, int count) {
@@ -44,7 +44,8 @@ vtkEchoregInterSignalFilter::vtkEchoregInterSignalFilter() = default;
 
 vtkEchoregInterSignalFilter::~vtkEchoregInterSignalFilter() = default;
 
-void vtkEchoregInterSignalFilter::SetInterSignalParams(const echoreg::InterSignalParams& params) {
+void vtkEchoregInterSignalFilter::SetInterSignalParams(
+    const echoreg::core::InterSignalParams& params) {
   if (this->Params == params)
     return;
   this->Params = params;
@@ -78,9 +79,9 @@ int vtkEchoregInterSignalFilter::RequestData(vtkInformation* /*request*/,
   }
   try {
     // The inter-signal checks of the whole chain's validation, so the messages are the core's.
-    echoreg::DetectionParams params;
+    echoreg::core::DetectionParams params;
     params.interSignal = this->Params;
-    echoreg::validate(params);
+    echoreg::core::validate(params);
   } catch (const std::exception& exception) {
     this->Fail(std::string("invalid inter-signal parameters: ") + exception.what());
     return 0;
@@ -94,9 +95,9 @@ int vtkEchoregInterSignalFilter::RequestData(vtkInformation* /*request*/,
                    pointFrame->GetValue(0) != "Beam";
 
   const vtkIdType rows = input->GetNumberOfRows();
-  std::vector<echoreg::InterSignalInput> frames(static_cast<std::size_t>(rows));
+  std::vector<echoreg::core::InterSignalInput> frames(static_cast<std::size_t>(rows));
   for (vtkIdType row = 0; row < rows; ++row) {
-    echoreg::InterSignalInput& frame = frames[static_cast<std::size_t>(row)];
+    echoreg::core::InterSignalInput& frame = frames[static_cast<std::size_t>(row)];
     const Eigen::Vector3d point(xs->GetComponent(row, 0), ys->GetComponent(row, 0),
                                 zs->GetComponent(row, 0));
     frame.detected = reasons->GetValue(row).empty() && point.allFinite();
@@ -108,17 +109,17 @@ int vtkEchoregInterSignalFilter::RequestData(vtkInformation* /*request*/,
     if (timestamps != nullptr && std::isfinite(timestamps->GetComponent(row, 0)))
       frame.timestampS = timestamps->GetComponent(row, 0);
   }
-  std::vector<echoreg::RejectReason> verdicts;
+  std::vector<echoreg::core::RejectReason> verdicts;
   try {
-    verdicts = echoreg::applyInterSignal(this->Params, frames, result.tracked);
+    verdicts = echoreg::core::applyInterSignal(this->Params, frames, result.tracked);
   } catch (const std::exception& exception) {
     this->Fail(std::string("inter-signal filter failed: ") + exception.what());
     return 0;
   }
 
   result.reasonCounts[kAccepted] = 0;
-  for (echoreg::RejectReason reason : kReasons)
-    result.reasonCounts[std::string(echoreg::rejectReasonName(reason))] = 0;
+  for (echoreg::core::RejectReason reason : kReasons)
+    result.reasonCounts[std::string(echoreg::core::rejectReasonName(reason))] = 0;
   vtkNew<vtkStringArray> finalReasons;
   finalReasons->SetName("reason");
   finalReasons->SetNumberOfValues(rows);
@@ -128,7 +129,7 @@ int vtkEchoregInterSignalFilter::RequestData(vtkInformation* /*request*/,
   for (vtkIdType row = 0; row < rows; ++row) {
     const auto index = static_cast<std::size_t>(row);
     const std::string reason = frames[index].detected
-                                   ? std::string(echoreg::rejectReasonName(verdicts[index]))
+                                   ? std::string(echoreg::core::rejectReasonName(verdicts[index]))
                                    : reasons->GetValue(row);
     finalReasons->SetValue(row, reason);
     statuses->SetValue(row, reason.empty() ? kAccepted : kRejected);
@@ -158,7 +159,8 @@ int vtkEchoregInterSignalFilter::RequestData(vtkInformation* /*request*/,
 
 void vtkEchoregInterSignalFilter::PrintSelf(ostream& os, vtkIndent indent) {
   this->Superclass::PrintSelf(os, indent);
-  os << indent << "TemporalMode: " << echoreg::temporalModeName(this->Params.temporal) << "\n";
+  os << indent << "TemporalMode: " << echoreg::core::temporalModeName(this->Params.temporal)
+     << "\n";
   os << indent << "History: " << this->Params.history << "\n";
   os << indent << "ConsistencyMm: " << this->Params.consistencyMm << "\n";
   os << indent << "MaxDepthRateMmPerS: " << this->Params.maxDepthRateMmPerS << "\n";

@@ -1,7 +1,7 @@
 #include "echoreg/filters/vtkEchoregPeakFilter.h"
 
 #include "echoreg/core/detection.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkAlgorithmOutput.h>
 #include <vtkDataArray.h>
@@ -50,14 +50,14 @@ vtkEchoregPeakFilter::vtkEchoregPeakFilter() : WindowMinMm(kNaN), WindowMaxMm(kN
 
 vtkEchoregPeakFilter::~vtkEchoregPeakFilter() = default;
 
-void vtkEchoregPeakFilter::SetPeakParams(const echoreg::PeakParams& params) {
+void vtkEchoregPeakFilter::SetPeakParams(const echoreg::core::PeakParams& params) {
   if (this->PeakParams == params)
     return;
   this->PeakParams = params;
   this->Modified();
 }
 
-void vtkEchoregPeakFilter::SetDetectionParams(const echoreg::DetectionParams& params) {
+void vtkEchoregPeakFilter::SetDetectionParams(const echoreg::core::DetectionParams& params) {
   const double windowMin = params.windowMinMm.value_or(kNaN);
   const double windowMax = params.windowMaxMm.value_or(kNaN);
   const auto sameLimit = [](double a, double b) { return std::isnan(a) ? std::isnan(b) : a == b; };
@@ -76,8 +76,8 @@ void vtkEchoregPeakFilter::SetDetectionParams(const echoreg::DetectionParams& pa
   this->Modified();
 }
 
-echoreg::DetectionParams vtkEchoregPeakFilter::GetDetectionParams() const {
-  echoreg::DetectionParams detection;
+echoreg::core::DetectionParams vtkEchoregPeakFilter::GetDetectionParams() const {
+  echoreg::core::DetectionParams detection;
   detection.peaks = this->PeakParams;
   detection.depth = this->Depth;
   detection.envelope = this->Envelope;
@@ -89,7 +89,7 @@ echoreg::DetectionParams vtkEchoregPeakFilter::GetDetectionParams() const {
   return detection;
 }
 
-void vtkEchoregPeakFilter::SetDepthConversion(const echoreg::DepthConversion& conversion) {
+void vtkEchoregPeakFilter::SetDepthConversion(const echoreg::core::DepthConversion& conversion) {
   if (this->Depth == conversion)
     return;
   this->Depth = conversion;
@@ -181,11 +181,11 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
     return 0;
   }
 
-  const echoreg::DetectionParams detection = this->GetDetectionParams();
-  echoreg::PeakParams peakParams;
+  const echoreg::core::DetectionParams detection = this->GetDetectionParams();
+  echoreg::core::PeakParams peakParams;
   try {
-    echoreg::validate(detection);
-    peakParams = echoreg::resolvePeakParams(detection);
+    echoreg::core::validate(detection);
+    peakParams = echoreg::core::resolvePeakParams(detection);
   } catch (const std::exception& exception) {
     this->Fail(std::string("invalid peak parameters: ") + exception.what());
     return 0;
@@ -220,8 +220,8 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
   auto listValue = column<vtkDoubleArray>("value", 0);
   // Rows are independent; findPeaks keeps no state. Strings are set on one thread afterwards
   // (vtkStringArray::SetValue touches the array's lookup state).
-  std::vector<echoreg::RejectReason> verdicts(static_cast<std::size_t>(rows));
-  std::vector<std::vector<echoreg::Peak>> peaksOfFrames(
+  std::vector<echoreg::core::RejectReason> verdicts(static_cast<std::size_t>(rows));
+  std::vector<std::vector<echoreg::core::Peak>> peaksOfFrames(
       this->PeakList ? static_cast<std::size_t>(rows) : 0);
 
   vtkIdType rowsDone = 0;
@@ -266,7 +266,7 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
       try {
         for (vtkIdType frame = begin; frame < end; ++frame) {
           const vtkIdType row = frame - tableFirstFrame;
-          const echoreg::PeakResult result = echoreg::findPeaks(
+          const echoreg::core::PeakResult result = echoreg::core::findPeaks(
               peakParams, envelopes->GetPointer((frame - extent[2]) * samplesPerRow),
               samplesPerRow);
           frameColumn->SetValue(row, static_cast<int>(frame));
@@ -307,7 +307,7 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
   listValue->SetNumberOfValues(peakCount);
   vtkIdType at = 0;
   for (std::size_t row = 0; row < peaksOfFrames.size(); ++row) {
-    for (const echoreg::Peak& peak : peaksOfFrames[row]) {
+    for (const echoreg::core::Peak& peak : peaksOfFrames[row]) {
       listFrame->SetValue(at, tableFirstFrame + static_cast<int>(row));
       listIndex->SetValue(at, peak.index);
       listValue->SetValue(at, peak.value);
@@ -316,7 +316,7 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
   }
   for (vtkIdType row = 0; row < rows; ++row) {
     reasonColumn->SetValue(
-        row, std::string(echoreg::rejectReasonName(verdicts[static_cast<std::size_t>(row)])));
+        row, std::string(echoreg::core::rejectReasonName(verdicts[static_cast<std::size_t>(row)])));
   }
 
   output->Initialize();
@@ -357,10 +357,10 @@ vtkImageData* vtkEchoregPeakFilter::UpdateInputFrames(const int firstFrame, cons
 
 void vtkEchoregPeakFilter::PrintSelf(ostream& os, vtkIndent indent) {
   this->Superclass::PrintSelf(os, indent);
-  const echoreg::PeakParams& peaks = this->PeakParams;
+  const echoreg::core::PeakParams& peaks = this->PeakParams;
   os << indent << "ThresholdMode: "
-     << (peaks.thresholdMode == echoreg::ThresholdMode::FactorOfMean ? "factor-of-mean"
-                                                                     : "fraction-of-max")
+     << (peaks.thresholdMode == echoreg::core::ThresholdMode::FactorOfMean ? "factor-of-mean"
+                                                                           : "fraction-of-max")
      << "\n";
   os << indent << "ThresholdFactor: " << peaks.thresholdFactor << "\n";
   os << indent << "ThresholdOfMax: " << peaks.thresholdOfMax << "\n";
@@ -369,7 +369,7 @@ void vtkEchoregPeakFilter::PrintSelf(ostream& os, vtkIndent indent) {
   os << indent
      << "WindowEnd (samples): " << (peaks.windowEnd ? std::to_string(*peaks.windowEnd) : "(none)")
      << "\n";
-  os << indent << "Policy: " << echoreg::peakPolicyName(peaks.policy) << "\n";
+  os << indent << "Policy: " << echoreg::core::peakPolicyName(peaks.policy) << "\n";
   os << indent << "BoneRegionMm: " << peaks.bone.regionMm << "\n";
   os << indent << "BoneGapMm: " << peaks.bone.gapMm << "\n";
   os << indent << "BoneMinShadowRatio: " << peaks.bone.minShadowRatio << "\n";

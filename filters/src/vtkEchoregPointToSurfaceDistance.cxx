@@ -1,7 +1,7 @@
 #include "echoreg/filters/vtkEchoregPointToSurfaceDistance.h"
 
 #include "echoreg/core/mesh_locator.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <vtkCellArray.h>
 #include <vtkDoubleArray.h>

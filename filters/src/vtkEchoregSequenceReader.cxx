@@ -1,10 +1,10 @@
 #include "echoreg/filters/vtkEchoregSequenceReader.h"
 
-#include "PipelineRequests.h"
+#include "pipeline_requests.h"
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/sequence_detection.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>
@@ -25,26 +25,26 @@ vtkStandardNewMacro(vtkEchoregSequenceReader);
 
 namespace {
 
-int vtkScalarType(echoreg::ElementType type) {
+int vtkScalarType(echoreg::core::ElementType type) {
   switch (type) {
-    case echoreg::ElementType::UInt8:
+    case echoreg::core::ElementType::UInt8:
       return VTK_UNSIGNED_CHAR;
-    case echoreg::ElementType::Int8:
+    case echoreg::core::ElementType::Int8:
       return VTK_SIGNED_CHAR;
-    case echoreg::ElementType::Int16:
+    case echoreg::core::ElementType::Int16:
       return VTK_SHORT;
-    case echoreg::ElementType::UInt16:
+    case echoreg::core::ElementType::UInt16:
       return VTK_UNSIGNED_SHORT;
-    case echoreg::ElementType::Float32:
+    case echoreg::core::ElementType::Float32:
       return VTK_FLOAT;
-    case echoreg::ElementType::None:
+    case echoreg::core::ElementType::None:
       break;
   }
   return VTK_VOID;
 }
 
 // Extent of the output image: samples along x, frames along y; no samples gives an empty x range.
-void sequenceExtent(const echoreg::Sequence& sequence, int extent[6]) {
+void sequenceExtent(const echoreg::core::Sequence& sequence, int extent[6]) {
   const int samples = sequence.hasPixels() ? sequence.frameSize[0] : 0;
   const int frames = static_cast<int>(sequence.frameCount());
   extent[0] = 0;
@@ -101,26 +101,26 @@ bool vtkEchoregSequenceReader::ReadIfNeeded() {
   }
 
   this->CacheValid = false;
-  this->Sequence = echoreg::Sequence();
+  this->Sequence = echoreg::core::Sequence();
   this->RigidPoseReports.clear();
   try {
     ++this->ReadCount;
-    echoreg::Sequence sequence = echoreg::readSequence(this->FileName);
+    echoreg::core::Sequence sequence = echoreg::core::readSequence(this->FileName);
     try {
       // The core's words, so that every command refuses such a capture in the same sentence.
-      echoreg::requireSingleALineFrames(sequence);
+      echoreg::core::requireSingleALineFrames(sequence);
     } catch (const std::invalid_argument& e) {
-      throw echoreg::FileError(this->FileName, e.what());
+      throw echoreg::core::FileError(this->FileName, e.what());
     }
     if (sequence.hasPixels() && vtkScalarType(sequence.elementType) == VTK_VOID) {
-      throw echoreg::FileError(this->FileName, "unsupported element type");
+      throw echoreg::core::FileError(this->FileName, "unsupported element type");
     }
     const std::vector<std::string> held = sequence.transformNames();
     for (const std::string& name : this->RigidPoseTransforms) {
       if (name.empty() || std::find(held.begin(), held.end(), name) == held.end())
         continue;
       this->RigidPoseReports.emplace_back(
-          name, echoreg::enforceRigidPoses(sequence, this->FileName, name));
+          name, echoreg::core::enforceRigidPoses(sequence, this->FileName, name));
     }
     this->Sequence = std::move(sequence);
   } catch (const std::exception& exception) {
@@ -186,7 +186,7 @@ int vtkEchoregSequenceReader::RequestData(vtkInformation* /*request*/,
   output->SetOrigin(0.0, 0.0, 0.0);
   if (this->Sequence.hasPixels()) {
     const std::size_t frameBytes =
-        this->Sequence.samplesPerFrame() * echoreg::elementSize(this->Sequence.elementType);
+        this->Sequence.samplesPerFrame() * echoreg::core::elementSize(this->Sequence.elementType);
     const std::size_t bytes = this->Sequence.frameCount() * frameBytes;
     if (bytes != this->Sequence.pixels.size()) {
       this->Fail(this->FileName + ": pixel data holds " +
@@ -218,7 +218,8 @@ void vtkEchoregSequenceReader::PrintSelf(ostream& os, vtkIndent indent) {
   this->Superclass::PrintSelf(os, indent);
   os << indent << "FileName: " << (this->FileName.empty() ? "(none)" : this->FileName) << "\n";
   os << indent << "Frames: " << this->Sequence.frameCount() << "\n";
-  os << indent << "ElementType: " << echoreg::elementTypeName(this->Sequence.elementType) << "\n";
+  os << indent << "ElementType: " << echoreg::core::elementTypeName(this->Sequence.elementType)
+     << "\n";
   os << indent << "SamplesPerFrame: " << this->Sequence.samplesPerFrame() << "\n";
   os << indent << "RigidPoseTransforms:";
   for (const std::string& name : this->RigidPoseTransforms)

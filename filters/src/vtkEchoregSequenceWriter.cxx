@@ -1,7 +1,7 @@
 #include "echoreg/filters/vtkEchoregSequenceWriter.h"
 
 #include "echoreg/core/sequence.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkDataArray.h>
 #include <vtkErrorCode.h>
@@ -19,28 +19,28 @@ vtkStandardNewMacro(vtkEchoregSequenceWriter);
 
 namespace {
 
-echoreg::ElementType elementTypeOf(int vtkType) {
+echoreg::core::ElementType elementTypeOf(int vtkType) {
   switch (vtkType) {
     case VTK_UNSIGNED_CHAR:
-      return echoreg::ElementType::UInt8;
+      return echoreg::core::ElementType::UInt8;
     case VTK_SIGNED_CHAR:
     case VTK_CHAR:
-      return echoreg::ElementType::Int8;
+      return echoreg::core::ElementType::Int8;
     case VTK_SHORT:
-      return echoreg::ElementType::Int16;
+      return echoreg::core::ElementType::Int16;
     case VTK_UNSIGNED_SHORT:
-      return echoreg::ElementType::UInt16;
+      return echoreg::core::ElementType::UInt16;
     case VTK_FLOAT:
-      return echoreg::ElementType::Float32;
+      return echoreg::core::ElementType::Float32;
     default:
-      return echoreg::ElementType::None;
+      return echoreg::core::ElementType::None;
   }
 }
 
 // The Sequence the image and its field data describe; throws std::invalid_argument when they
 // cannot be one.
-echoreg::Sequence sequenceOf(vtkImageData* image) {
-  echoreg::Sequence sequence;
+echoreg::core::Sequence sequenceOf(vtkImageData* image) {
+  echoreg::core::Sequence sequence;
   const echoreg::filters::SequenceFieldData fieldData(image->GetFieldData());
   int dimensions[3];
   image->GetDimensions(dimensions);
@@ -58,7 +58,7 @@ echoreg::Sequence sequenceOf(vtkImageData* image) {
   if (scalars == nullptr || scalars->GetNumberOfComponents() != 1)
     throw std::invalid_argument("the image needs one-component point scalars (the A-lines)");
   sequence.elementType = elementTypeOf(scalars->GetDataType());
-  if (sequence.elementType == echoreg::ElementType::None)
+  if (sequence.elementType == echoreg::core::ElementType::None)
     throw std::invalid_argument(std::string("PLUS sequences hold uint8, int8, int16, uint16 or "
                                             "float samples, not ") +
                                 scalars->GetDataTypeAsString());
@@ -122,15 +122,15 @@ void vtkEchoregSequenceWriter::WriteData() {
     return;
   }
   try {
-    echoreg::SequenceWriteOptions options;
+    echoreg::core::SequenceWriteOptions options;
     options.compress = this->Compress;
-    echoreg::Sequence sequence;
+    echoreg::core::Sequence sequence;
     try {
       sequence = sequenceOf(image);
     } catch (const std::invalid_argument& e) {
       throw std::invalid_argument(this->FileName + ": " + e.what());
     }
-    echoreg::writeSequence(sequence, this->FileName, options);
+    echoreg::core::writeSequence(sequence, this->FileName, options);
   } catch (const std::exception& exception) {
     this->Fail(exception.what());
     return;

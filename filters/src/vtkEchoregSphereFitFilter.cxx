@@ -1,6 +1,6 @@
 #include "echoreg/filters/vtkEchoregSphereFitFilter.h"
 
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkDataObject.h>
 #include <vtkDoubleArray.h>

@@ -1,6 +1,6 @@
 #include "echoreg/filters/vtkEchoregSurfaceRegistrationFilter.h"
 
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <vtkCellArray.h>
 #include <vtkDataArray.h>

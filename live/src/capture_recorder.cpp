@@ -32,7 +32,7 @@ std::string systemError() {
 int openForWriting(const std::string& path) {
   const int fd = ::open(path.c_str(), O_RDWR | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
   if (fd < 0)
-    throw FileError(path, "cannot be created: " + systemError());
+    throw core::FileError(path, "cannot be created: " + systemError());
   return fd;
 }
 
@@ -52,7 +52,7 @@ void writeAll(int fd, const std::string& path, const void* data, std::size_t byt
     if (n < 0) {
       if (errno == EINTR)
         continue;
-      throw FileError(path, "cannot be written: " + systemError());
+      throw core::FileError(path, "cannot be written: " + systemError());
     }
     p += n;
     bytes -= static_cast<std::size_t>(n);
@@ -69,7 +69,7 @@ std::size_t readAt(int fd, const std::string& path, std::uint8_t* out, std::size
     if (n >= 0)
       return static_cast<std::size_t>(n);
     if (errno != EINTR)
-      throw FileError(path, "cannot be read back: " + systemError());
+      throw core::FileError(path, "cannot be read back: " + systemError());
   }
 }
 
@@ -82,7 +82,7 @@ void copyRange(int fd, const std::string& path, std::uint64_t begin, std::uint64
         static_cast<std::size_t>(std::min<std::uint64_t>(kChunkBytes, end - begin));
     const std::size_t got = readAt(fd, path, buffer.data(), want, begin);
     if (got == 0)
-      throw FileError(path, "ended early while it was copied into the recording");
+      throw core::FileError(path, "ended early while it was copied into the recording");
     out.write(reinterpret_cast<const char*>(buffer.data()), static_cast<std::streamsize>(got));
     begin += got;
   }
@@ -94,16 +94,16 @@ void copyRange(int fd, const std::string& path, std::uint64_t begin, std::uint64
 std::uint64_t deflateFile(int fd, const std::string& path, int outFd, const std::string& outPath) {
   const off_t size = ::lseek(fd, 0, SEEK_END);
   if (size < 0)
-    throw FileError(path, "cannot be read back: " + systemError());
+    throw core::FileError(path, "cannot be read back: " + systemError());
   core::ParallelDeflateOptions options;
-  options.level = kPixelCompressionLevel;
+  options.level = core::kPixelCompressionLevel;
   return core::deflateParallel(
       static_cast<std::uint64_t>(size),
       [&](std::uint64_t offset, std::uint8_t* out, std::size_t bytes) {
         while (bytes > 0) {
           const std::size_t got = readAt(fd, path, out, bytes, offset);
           if (got == 0)
-            throw FileError(path, "ended early while it was compressed into the recording");
+            throw core::FileError(path, "ended early while it was compressed into the recording");
           out += got;
           offset += got;
           bytes -= got;
@@ -127,7 +127,7 @@ std::string partialCapturePath(const std::string& path) {
   return (p.parent_path() / (p.stem().string() + ".partial.mhd")).string();
 }
 
-CaptureRecorder::CaptureRecorder(std::string path, Sequence layout, double flushIntervalS)
+CaptureRecorder::CaptureRecorder(std::string path, core::Sequence layout, double flushIntervalS)
     : path_(std::move(path)),
       partialPath_(partialCapturePath(path_)),
       partialDataPath_(std::filesystem::path(partialPath_).replace_extension(".raw").string()),
@@ -135,8 +135,8 @@ CaptureRecorder::CaptureRecorder(std::string path, Sequence layout, double flush
       layout_(std::move(layout)) {
   layout_.frames.clear();
   layout_.pixels.clear();
-  frameBytes_ = layout_.samplesPerFrame() * elementSize(layout_.elementType);
-  metaImageHeaderStart(layout_, std::nullopt, std::nullopt);  // refuses a bad header now
+  frameBytes_ = layout_.samplesPerFrame() * core::elementSize(layout_.elementType);
+  core::metaImageHeaderStart(layout_, std::nullopt, std::nullopt);  // refuses a bad header now
   writer_ = std::thread([this] { writerLoop(); });
 }
 
@@ -151,7 +151,7 @@ CaptureRecorder::~CaptureRecorder() {
   closeFd(dataFd_);
 }
 
-void CaptureRecorder::add(const SequenceFrame& frame, const std::uint8_t* pixels,
+void CaptureRecorder::add(const core::SequenceFrame& frame, const std::uint8_t* pixels,
                           std::size_t bytes) {
   if (bytes != frameBytes_) {
     throw std::invalid_argument(fmt::format(
@@ -163,7 +163,7 @@ void CaptureRecorder::add(const SequenceFrame& frame, const std::uint8_t* pixels
     std::lock_guard<std::mutex> lock(mutex_);
     index = added_;
   }
-  const std::string lines = metaImageFrameLines(frame, index);
+  const std::string lines = core::metaImageFrameLines(frame, index);
   std::lock_guard<std::mutex> lock(mutex_);
   pendingLines_ += lines;
   pendingPixels_.insert(pendingPixels_.end(), pixels, pixels + bytes);
@@ -193,7 +193,7 @@ void CaptureRecorder::flush() {
     if (headerFd_ < 0) {
       dataFd_ = openForWriting(partialDataPath_);
       headerFd_ = openForWriting(partialPath_);
-      const std::string start = metaImageHeaderStart(layout_, std::nullopt, std::nullopt);
+      const std::string start = core::metaImageHeaderStart(layout_, std::nullopt, std::nullopt);
       writeAll(headerFd_, partialPath_, start.data(), start.size(), 0);
       frameLinesBegin_ = frameLinesEnd_ = start.size();
     }
@@ -201,7 +201,7 @@ void CaptureRecorder::flush() {
     // lines (DimSize grows, so the new lines are never shorter than the old).
     writeAll(dataFd_, partialDataPath_, flushPixels_.data(), flushPixels_.size());
     const std::size_t frameLineBytes = flushLines_.size();
-    flushLines_ += metaImageDimSizeLine(layout_, flushed_ + frames);
+    flushLines_ += core::metaImageDimSizeLine(layout_, flushed_ + frames);
     flushLines_ +=
         "ElementDataFile = " + std::filesystem::path(partialDataPath_).filename().string() + "\n";
     writeAll(headerFd_, partialPath_, flushLines_.data(), flushLines_.size(),
@@ -246,7 +246,7 @@ std::string CaptureRecorder::writerProblem() const {
 void CaptureRecorder::writeFinal() {
   if (!isMha(path_)) {
     // Other formats (.mhd, .nrrd) are converted from the partial capture in memory.
-    writeSequence(readSequence(partialPath_), path_);
+    core::writeSequence(core::readSequence(partialPath_), path_);
     return;
   }
   const std::string compressedPath =
@@ -263,8 +263,8 @@ void CaptureRecorder::writeFinal() {
   } cleanup{compressedFd, compressedPath};
   const std::uint64_t compressedBytes =
       deflateFile(dataFd_, partialDataPath_, compressedFd, compressedPath);
-  AtomicFile file(path_);
-  file.stream() << metaImageHeaderStart(layout_, flushed_, compressedBytes);
+  core::AtomicFile file(path_);
+  file.stream() << core::metaImageHeaderStart(layout_, flushed_, compressedBytes);
   std::vector<std::uint8_t> buffer;
   copyRange(headerFd_, partialPath_, frameLinesBegin_, frameLinesEnd_, file.stream(), buffer);
   file.stream() << "ElementDataFile = LOCAL\n";
@@ -276,9 +276,9 @@ std::size_t CaptureRecorder::finish() {
   stopWriter();
   flush();
   if (failed_)
-    throw FileError(partialPath_, "the recording could not be written: " + writerProblem());
+    throw core::FileError(partialPath_, "the recording could not be written: " + writerProblem());
   if (flushed_ == 0)
-    throw FileError(path_, "the sequence has no frames");
+    throw core::FileError(path_, "the sequence has no frames");
   writeFinal();
   closeFd(headerFd_);
   closeFd(dataFd_);

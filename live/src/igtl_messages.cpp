@@ -62,38 +62,38 @@ Packet pack(MessagePointer& message, const std::string& name, double timestampS)
   return Packet(bytes, bytes + message->GetPackSize());
 }
 
-int igtlScalarType(ElementType type) {
+int igtlScalarType(core::ElementType type) {
   switch (type) {
-    case ElementType::Int8:
+    case core::ElementType::Int8:
       return igtl::ImageMessage::TYPE_INT8;
-    case ElementType::UInt8:
+    case core::ElementType::UInt8:
       return igtl::ImageMessage::TYPE_UINT8;
-    case ElementType::Int16:
+    case core::ElementType::Int16:
       return igtl::ImageMessage::TYPE_INT16;
-    case ElementType::UInt16:
+    case core::ElementType::UInt16:
       return igtl::ImageMessage::TYPE_UINT16;
-    case ElementType::Float32:
+    case core::ElementType::Float32:
       return igtl::ImageMessage::TYPE_FLOAT32;
-    case ElementType::None:
+    case core::ElementType::None:
       break;
   }
   throw std::invalid_argument("an IMAGE needs pixels (the capture is tracker-only)");
 }
 
-ElementType elementTypeOf(int scalarType) {
+core::ElementType elementTypeOf(int scalarType) {
   switch (scalarType) {
     case igtl::ImageMessage::TYPE_INT8:
-      return ElementType::Int8;
+      return core::ElementType::Int8;
     case igtl::ImageMessage::TYPE_UINT8:
-      return ElementType::UInt8;
+      return core::ElementType::UInt8;
     case igtl::ImageMessage::TYPE_INT16:
-      return ElementType::Int16;
+      return core::ElementType::Int16;
     case igtl::ImageMessage::TYPE_UINT16:
-      return ElementType::UInt16;
+      return core::ElementType::UInt16;
     case igtl::ImageMessage::TYPE_FLOAT32:
-      return ElementType::Float32;
+      return core::ElementType::Float32;
     default:
-      return ElementType::None;
+      return core::ElementType::None;
   }
 }
 
@@ -170,7 +170,7 @@ Message decodeBody(const MessageHeader& header, const std::uint8_t* headerBytes,
     image->GetDimensions(size);
     image->GetSubVolume(subSize, offset);
     message.elementType = elementTypeOf(image->GetScalarType());
-    if (message.elementType == ElementType::None || image->GetNumComponents() != 1) {
+    if (message.elementType == core::ElementType::None || image->GetNumComponents() != 1) {
       throw ProtocolError(fmt::format(
           "IMAGE '{}': scalar type {} with {} component(s) is not read (echoreg reads one "
           "component of int8, uint8, int16, uint16 or float32); message skipped",
@@ -185,11 +185,12 @@ Message decodeBody(const MessageHeader& header, const std::uint8_t* headerBytes,
     message.samples = size[0];
     message.rows = size[1];
     const std::size_t bytes = static_cast<std::size_t>(size[0]) *
-                              static_cast<std::size_t>(size[1]) * elementSize(message.elementType);
+                              static_cast<std::size_t>(size[1]) *
+                              core::elementSize(message.elementType);
     const auto* pixels = static_cast<const std::uint8_t*>(image->GetScalarPointer());
     message.pixels.assign(pixels, pixels + bytes);
     const bool bigEndian = image->GetEndian() == igtl::ImageMessage::ENDIAN_BIG;
-    const std::size_t width = elementSize(message.elementType);
+    const std::size_t width = core::elementSize(message.elementType);
     if (bigEndian != hostIsBigEndian() && width > 1) {
       for (std::size_t i = 0; i + width <= message.pixels.size(); i += width)
         std::reverse(message.pixels.begin() + static_cast<std::ptrdiff_t>(i),
@@ -234,7 +235,7 @@ Packet encodeTransform(const std::string& name, const Eigen::Matrix4d& matrix, d
   return pack(message, name, timestampS);
 }
 
-Packet encodeImage(const std::string& name, ElementType type, const std::uint8_t* pixels,
+Packet encodeImage(const std::string& name, core::ElementType type, const std::uint8_t* pixels,
                    int samples, int rows, double timestampS) {
   igtl::ImageMessage::Pointer message = igtl::ImageMessage::New();
   message->SetDimensions(samples, rows, 1);
@@ -245,7 +246,7 @@ Packet encodeImage(const std::string& name, ElementType type, const std::uint8_t
   message->AllocateScalars();
   std::memcpy(
       message->GetScalarPointer(), pixels,
-      static_cast<std::size_t>(samples) * static_cast<std::size_t>(rows) * elementSize(type));
+      static_cast<std::size_t>(samples) * static_cast<std::size_t>(rows) * core::elementSize(type));
   return pack(message, name, timestampS);
 }
 

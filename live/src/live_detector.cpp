@@ -16,7 +16,7 @@ constexpr std::size_t kMeasuredRecords = 64;
 
 LiveDetector::LiveDetector(LiveDetectorOptions options) : options_(std::move(options)) {
   validate(options_.params);
-  if (options_.params.interSignal.temporal == TemporalMode::Neighbours &&
+  if (options_.params.interSignal.temporal == core::TemporalMode::Neighbours &&
       options_.params.interSignal.history > 1) {
     throw std::invalid_argument(
         "the neighbours temporal filter (history above 1) judges a frame by the frames after it "
@@ -48,20 +48,20 @@ void LiveDetector::adapt() {
   if (waiting_.empty())
     return;
   const int samples = static_cast<int>(waiting_.front().samples.size());
-  const RecordSource source = [this](int i, std::vector<float>& out) {
+  const core::RecordSource source = [this](int i, std::vector<float>& out) {
     out = waiting_[static_cast<std::size_t>(i)].samples;
   };
-  adaptedParams_ = adaptToCapture(options_.params, static_cast<int>(waiting_.size()), samples,
-                                  source, options_.headerFrequencyHz, &analysis_);
+  adaptedParams_ = core::adaptToCapture(options_.params, static_cast<int>(waiting_.size()), samples,
+                                        source, options_.headerFrequencyHz, &analysis_);
   validate(adaptedParams_);
-  envelope_ = std::make_unique<EnvelopeDetector>(adaptedParams_.envelope);
-  const bool measured = options_.params.peaks.policy == PeakPolicy::Prominence &&
-                        options_.params.peaks.prominence.shadow == ShadowRule::Auto &&
+  envelope_ = std::make_unique<core::EnvelopeDetector>(adaptedParams_.envelope);
+  const bool measured = options_.params.peaks.policy == core::PeakPolicy::Prominence &&
+                        options_.params.peaks.prominence.shadow == core::ShadowRule::Auto &&
                         analysis_.ringDownSamples < samples;
-  std::vector<ShadowRule> rules = {adaptedParams_.peaks.prominence.shadow};
+  std::vector<core::ShadowRule> rules = {adaptedParams_.peaks.prominence.shadow};
   if (measured) {
-    rules = {ShadowRule::Auto, ShadowRule::Required};
-    active_ = adaptedParams_.peaks.prominence.shadow == ShadowRule::Required ? 1 : 0;
+    rules = {core::ShadowRule::Auto, core::ShadowRule::Required};
+    active_ = adaptedParams_.peaks.prominence.shadow == core::ShadowRule::Required ? 1 : 0;
     ShadowMeasurement first;
     first.frames = static_cast<long long>(waiting_.size());
     first.trial.records = static_cast<int>(std::min(waiting_.size(), kMeasuredRecords));
@@ -71,13 +71,13 @@ void LiveDetector::adapt() {
     first.trial.rule = adaptedParams_.peaks.prominence.shadow;
     measurements_.push_back(first);
   }
-  for (ShadowRule rule : rules) {
-    DetectionParams params = adaptedParams_;
+  for (core::ShadowRule rule : rules) {
+    core::DetectionParams params = adaptedParams_;
     params.peaks.prominence.shadow = rule;
     Judge judge;
     judge.rule = rule;
-    judge.peaks = resolvePeakParams(params);
-    judge.interSignal = std::make_unique<InterSignalFilter>(params.interSignal);
+    judge.peaks = core::resolvePeakParams(params);
+    judge.interSignal = std::make_unique<core::InterSignalFilter>(params.interSignal);
     judges_.push_back(std::move(judge));
   }
 }
@@ -86,16 +86,16 @@ void LiveDetector::remeasure() {
   if (!measuresShadowRule() || kept_.empty())
     return;
   const int samples = static_cast<int>(kept_.front().size());
-  const RecordSource source = [this](int i, std::vector<float>& out) {
+  const core::RecordSource source = [this](int i, std::vector<float>& out) {
     out = kept_[static_cast<std::size_t>(i)];
   };
   ShadowMeasurement measurement;
   measurement.frames = received_;
   measurement.trial =
-      measureShadowRule(adaptedParams_, static_cast<int>(kept_.size()), samples, source);
+      core::measureShadowRule(adaptedParams_, static_cast<int>(kept_.size()), samples, source);
   measurements_.push_back(measurement);
   analysis_.shadowShare = measurement.trial.share;
-  const std::size_t wanted = measurement.trial.rule == ShadowRule::Required ? 1 : 0;
+  const std::size_t wanted = measurement.trial.rule == core::ShadowRule::Required ? 1 : 0;
   if (wanted == active_)
     return;
   ShadowRuleSwitch change;
@@ -106,17 +106,17 @@ void LiveDetector::remeasure() {
   change.accepted = judges_[active_].accepted;
   change.verdicts = judges_[active_].verdicts;
   adaptedParams_.peaks.prominence.shadow = change.to;
-  analysis_.shadowRule = std::string(shadowRuleName(change.to));
+  analysis_.shadowRule = std::string(core::shadowRuleName(change.to));
   switch_ = std::move(change);
 }
 
-LiveFrame LiveDetector::judge(Judge& judge, const Waiting& waiting, const PeakResult& peaks) {
+LiveFrame LiveDetector::judge(Judge& judge, const Waiting& waiting, const core::PeakResult& peaks) {
   LiveFrame out;
   out.frame = waiting.frame;
   out.timestampS = waiting.timestampS;
   out.arrival = waiting.arrival;
   if (!peaks.accepted()) {
-    out.reason = std::string(rejectReasonName(peaks.reason));
+    out.reason = std::string(core::rejectReasonName(peaks.reason));
     judge.interSignal->breakRun();
     return out;
   }
@@ -125,10 +125,11 @@ LiveFrame LiveDetector::judge(Judge& judge, const Waiting& waiting, const PeakRe
   const bool referenced = !options_.points.referenceTransform.empty();
   const Eigen::Matrix4d* pose = tracked ? &*waiting.pose.matrix : nullptr;
   const Eigen::Matrix4d* reference = referenced ? &*waiting.reference.matrix : nullptr;
-  const std::optional<Eigen::Vector3d> point = beamPoint(depthMm, options_.points, pose, reference);
-  const RejectReason verdict = judge.interSignal->judge(*point);
-  if (verdict != RejectReason::None) {
-    out.reason = std::string(rejectReasonName(verdict));
+  const std::optional<Eigen::Vector3d> point =
+      core::beamPoint(depthMm, options_.points, pose, reference);
+  const core::RejectReason verdict = judge.interSignal->judge(*point);
+  if (verdict != core::RejectReason::None) {
+    out.reason = std::string(core::rejectReasonName(verdict));
     return out;
   }
   Eigen::Matrix4d beamToFrame = options_.points.beamToProbe;
@@ -160,7 +161,7 @@ LiveFrame LiveDetector::decide(const Waiting& waiting) {
   LiveFrame decided;
   for (std::size_t k = 0; k < judges_.size(); ++k) {
     Judge& judge = judges_[k];
-    const PeakResult peaks = findPeaks(judge.peaks, envelopeSamples_.data(), count);
+    const core::PeakResult peaks = core::findPeaks(judge.peaks, envelopeSamples_.data(), count);
     LiveFrame frame;
     if (refused != nullptr && peaks.accepted()) {
       frame.frame = waiting.frame;

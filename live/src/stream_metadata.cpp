@@ -20,8 +20,8 @@ std::optional<double> numberOrNone(const nlohmann::json& object, const char* key
 
 }  // namespace
 
-std::string captureHeaderJson(const Sequence& sequence) {
-  const AcquisitionSettings& a = sequence.acquisition;
+std::string captureHeaderJson(const core::Sequence& sequence) {
+  const core::AcquisitionSettings& a = sequence.acquisition;
   nlohmann::json json = {{"sampling_frequency_hz", optionalNumber(a.samplingFrequencyHz)},
                          {"transducer_frequency_hz", optionalNumber(a.transducerFrequencyHz)},
                          {"delay_s", optionalNumber(a.delayS)},
@@ -31,10 +31,10 @@ std::string captureHeaderJson(const Sequence& sequence) {
   return json.dump();
 }
 
-void applyCaptureHeader(const std::string& text, Sequence& layout) {
+void applyCaptureHeader(const std::string& text, core::Sequence& layout) {
   try {
     const nlohmann::json json = nlohmann::json::parse(text);
-    AcquisitionSettings& a = layout.acquisition;
+    core::AcquisitionSettings& a = layout.acquisition;
     a.samplingFrequencyHz = numberOrNone(json, "sampling_frequency_hz");
     a.transducerFrequencyHz = numberOrNone(json, "transducer_frequency_hz");
     a.delayS = numberOrNone(json, "delay_s");
@@ -47,7 +47,7 @@ void applyCaptureHeader(const std::string& text, Sequence& layout) {
   }
 }
 
-std::string frameJson(const SequenceFrame& frame) {
+std::string frameJson(const core::SequenceFrame& frame) {
   return nlohmann::json{{"timestamp", frame.timestampS.value_or(0.0)}, {"fields", frame.fields}}
       .dump();
 }

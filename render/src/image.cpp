@@ -20,8 +20,8 @@ void writePng(const std::string& path, const RgbImage& image) {
   std::vector<std::uint8_t> bytes;
   std::string error;
   if (encode(&image, &bytes, &error) != detail::kDrawn)
-    throw FileError(path, error);
-  AtomicFile file(path);
+    throw core::FileError(path, error);
+  core::AtomicFile file(path);
   file.stream().write(reinterpret_cast<const char*>(bytes.data()),
                       static_cast<std::streamsize>(bytes.size()));
   file.commit();

@@ -2,7 +2,7 @@
 
 #include "echoreg/segmentation/end_shares.hpp"
 
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <vtkDecimatePro.h>
 #include <vtkFloatArray.h>

@@ -70,59 +70,59 @@ std::string inferPlane(const std::vector<Eigen::Vector3d>& anchors, SlicePlane& 
 void finishSet(const std::string& path, AnchorSet& set, const std::string& planeInFile) {
   const std::string where = "contour \"" + set.label + "\"";
   if (set.anchorsLps.size() < 3)
-    throw FileError(path, where + ": " + std::to_string(set.anchorsLps.size()) +
-                              " anchors (at least 3 needed)");
+    throw core::FileError(path, where + ": " + std::to_string(set.anchorsLps.size()) +
+                                    " anchors (at least 3 needed)");
   const std::string problem = inferPlane(set.anchorsLps, set.plane, set.positionMm);
   if (!problem.empty())
-    throw FileError(path, where + ": " + problem);
+    throw core::FileError(path, where + ": " + problem);
   if (!planeInFile.empty() && planeInFile != slicePlaneName(set.plane))
-    throw FileError(path, where + ": anchors lie in a " + slicePlaneName(set.plane) +
-                              " plane, the file says \"" + planeInFile + "\"");
+    throw core::FileError(path, where + ": anchors lie in a " + slicePlaneName(set.plane) +
+                                    " plane, the file says \"" + planeInFile + "\"");
 }
 
 std::vector<AnchorSet> readEchoregAnchors(const std::string& path, const nlohmann::json& doc) {
   std::string plane;
   if (doc.contains("plane")) {
     if (!doc["plane"].is_string())
-      throw FileError(path, "\"plane\" is not a string");
+      throw core::FileError(path, "\"plane\" is not a string");
     plane = doc["plane"].get<std::string>();
     try {
       parseSlicePlane(plane);
     } catch (const std::invalid_argument&) {
-      throw FileError(path, "plane \"" + plane + "\" (expected sagittal, coronal or axial)");
+      throw core::FileError(path, "plane \"" + plane + "\" (expected sagittal, coronal or axial)");
     }
   }
   const auto& contours = doc["contours"];
   if (!contours.is_array())
-    throw FileError(path, "\"contours\" is not an array");
+    throw core::FileError(path, "\"contours\" is not an array");
   std::vector<AnchorSet> sets;
   for (std::size_t c = 0; c < contours.size(); ++c) {
     const auto& contour = contours[c];
     AnchorSet set;
     set.label = "contour " + std::to_string(c + 1);
     if (!contour.is_object())
-      throw FileError(path, set.label + " is not an object");
+      throw core::FileError(path, set.label + " is not an object");
     if (contour.contains("label")) {
       if (!contour["label"].is_string())
-        throw FileError(path, set.label + ": label is not a string");
+        throw core::FileError(path, set.label + ": label is not a string");
       set.label = contour["label"].get<std::string>();
     }
     const std::string where = "contour \"" + set.label + "\"";
     if (!contour.contains("anchors") || !contour["anchors"].is_array())
-      throw FileError(path, where + ": no \"anchors\" array");
+      throw core::FileError(path, where + ": no \"anchors\" array");
     for (std::size_t a = 0; a < contour["anchors"].size(); ++a) {
       const auto& anchor = contour["anchors"][a];
       const std::string which = where + ", anchor " + std::to_string(a + 1);
       if (!anchor.is_array() || anchor.size() != 3)
-        throw FileError(path, which + ": not 3 numbers [x, y, z]");
+        throw core::FileError(path, which + ": not 3 numbers [x, y, z]");
       Eigen::Vector3d p;
       for (std::size_t i = 0; i < 3; ++i) {
         if (!anchor[i].is_number())
-          throw FileError(path, which + ": not 3 numbers [x, y, z]");
+          throw core::FileError(path, which + ": not 3 numbers [x, y, z]");
         p[static_cast<Eigen::Index>(i)] = anchor[i].get<double>();
       }
       if (!p.allFinite())
-        throw FileError(path, which + ": not finite");
+        throw core::FileError(path, which + ": not finite");
       set.anchorsLps.push_back(p);
     }
     finishSet(path, set, plane);
@@ -274,26 +274,26 @@ CtSlice resliceCt(const CtImage& ct, SlicePlane plane, double positionMm,
 std::vector<AnchorSet> readAnchors(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in)
-    throw FileError(path, "cannot open the anchors file");
+    throw core::FileError(path, "cannot open the anchors file");
   nlohmann::json doc;
   try {
     doc = nlohmann::json::parse(in);
   } catch (const nlohmann::json::exception& e) {
-    throw FileError(path, std::string("not a JSON anchors file: ") + e.what());
+    throw core::FileError(path, std::string("not a JSON anchors file: ") + e.what());
   }
   std::vector<AnchorSet> sets;
   if (doc.is_object() && doc.contains("markups")) {
     sets = readSlicerAnchors(path);
     if (sets.empty())
-      throw FileError(path, "no contour (no ClosedCurve markup)");
+      throw core::FileError(path, "no contour (no ClosedCurve markup)");
   } else if (doc.is_object() && doc.contains("contours")) {
     sets = readEchoregAnchors(path, doc);
     if (sets.empty())
-      throw FileError(path, "no contour (\"contours\" is empty)");
+      throw core::FileError(path, "no contour (\"contours\" is empty)");
   } else {
-    throw FileError(path,
-                    "neither echoreg anchors (\"contours\") nor a 3D Slicer .mrk.json "
-                    "(\"markups\")");
+    throw core::FileError(path,
+                          "neither echoreg anchors (\"contours\") nor a 3D Slicer .mrk.json "
+                          "(\"markups\")");
   }
   return sets;
 }
@@ -304,8 +304,9 @@ void writeAnchors(const std::string& path, const std::vector<AnchorSet>& anchors
     const AnchorSet& set = anchors[s];
     const std::string name = set.label.empty() ? "contour " + std::to_string(s + 1) : set.label;
     if (set.anchorsLps.size() < 3)
-      throw FileError(path, "contour \"" + name + "\": " + std::to_string(set.anchorsLps.size()) +
-                                " anchors (at least 3 needed); nothing written");
+      throw core::FileError(path, "contour \"" + name +
+                                      "\": " + std::to_string(set.anchorsLps.size()) +
+                                      " anchors (at least 3 needed); nothing written");
     core::Markup markup;
     markup.type = "ClosedCurve";
     markup.name = name;
@@ -314,7 +315,7 @@ void writeAnchors(const std::string& path, const std::vector<AnchorSet>& anchors
     markups.push_back(std::move(markup));
   }
   if (markups.empty())
-    throw FileError(path, "no contour to write; nothing written");
+    throw core::FileError(path, "no contour to write; nothing written");
   core::writeMarkups(path, markups);
 }
 

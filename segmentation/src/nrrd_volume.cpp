@@ -59,7 +59,7 @@ void writeBytes(const std::string& path, const CtImage& geometry, const char* ty
   if (elementSize > 1 && !hostIsLittleEndian()) {
     throw std::runtime_error("writeNrrdVolume: big-endian hosts are not supported");
   }
-  AtomicFile file(path);
+  core::AtomicFile file(path);
   std::ofstream& out = file.stream();
   out << header(geometry, type, options.gzip);
   const std::size_t bytes = count * elementSize;
@@ -68,7 +68,7 @@ void writeBytes(const std::string& path, const CtImage& geometry, const char* ty
   } else {
     z_stream z{};
     if (deflateInit2(&z, 6, Z_DEFLATED, 15 + 16, 8, Z_DEFAULT_STRATEGY) != Z_OK) {
-      throw FileError(path, "zlib cannot start compressing");
+      throw core::FileError(path, "zlib cannot start compressing");
     }
     std::vector<unsigned char> buffer(1 << 20);
     std::size_t done = 0;
@@ -89,7 +89,7 @@ void writeBytes(const std::string& path, const CtImage& geometry, const char* ty
     } while (done < bytes);
     deflateEnd(&z);
     if (status != Z_STREAM_END)
-      throw FileError(path, "zlib failed to compress the voxels");
+      throw core::FileError(path, "zlib failed to compress the voxels");
   }
   file.commit();
 }
@@ -136,10 +136,10 @@ void writeNrrdVolume(const std::string& path, const CtImage& geometry,
 NrrdVolume readNrrdVolume(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   if (!in)
-    throw FileError(path, "cannot be opened");
+    throw core::FileError(path, "cannot be opened");
   std::string line;
   if (!std::getline(in, line) || line.rfind("NRRD000", 0) != 0)
-    throw FileError(path, "is not a NRRD file");
+    throw core::FileError(path, "is not a NRRD file");
   std::string type, space, encoding = "raw", endian = "little";
   int dimension = 0;
   std::array<int, 3> sizes{0, 0, 0};
@@ -155,11 +155,11 @@ NrrdVolume readNrrdVolume(const std::string& path) {
       continue;
     const std::size_t colon = line.find(':');
     if (colon == std::string::npos)
-      throw FileError(path, "malformed header line \"" + line + "\"");
+      throw core::FileError(path, "malformed header line \"" + line + "\"");
     const std::string key = trimmed(line.substr(0, colon));
     std::string value = line.substr(colon + 1);
     if (!value.empty() && value[0] == '=')
-      throw FileError(path, "key/value pairs (\":=\") are not supported");
+      throw core::FileError(path, "key/value pairs (\":=\") are not supported");
     value = trimmed(value);
     if (key == "type") {
       type = value;
@@ -169,7 +169,7 @@ NrrdVolume readNrrdVolume(const std::string& path) {
       std::istringstream s(value);
       s >> sizes[0] >> sizes[1] >> sizes[2];
       if (s.fail())
-        throw FileError(path, "bad sizes \"" + value + "\"");
+        throw core::FileError(path, "bad sizes \"" + value + "\"");
     } else if (key == "space") {
       space = value;
     } else if (key == "space directions") {
@@ -178,23 +178,23 @@ NrrdVolume readNrrdVolume(const std::string& path) {
         std::string word;
         s >> word;
         if (!parseTriple(word, d))
-          throw FileError(path, "bad space directions \"" + value + "\"");
+          throw core::FileError(path, "bad space directions \"" + value + "\"");
       }
       haveDirections = true;
     } else if (key == "space origin") {
       if (!parseTriple(value, origin))
-        throw FileError(path, "bad space origin \"" + value + "\"");
+        throw core::FileError(path, "bad space origin \"" + value + "\"");
       haveOrigin = true;
     } else if (key == "encoding") {
       encoding = value;
     } else if (key == "endian") {
       endian = value;
     } else if (key == "data file" || key == "datafile") {
-      throw FileError(path, "detached data files are not supported");
+      throw core::FileError(path, "detached data files are not supported");
     }
   }
   if (dimension != 3)
-    throw FileError(path, fmt::format("dimension {} (expected 3)", dimension));
+    throw core::FileError(path, fmt::format("dimension {} (expected 3)", dimension));
   std::size_t elementSize = 0;
   bool isMask = false;
   if (type == "short" || type == "int16" || type == "int16_t" || type == "signed short") {
@@ -203,20 +203,20 @@ NrrdVolume readNrrdVolume(const std::string& path) {
     elementSize = 1;
     isMask = true;
   } else {
-    throw FileError(path, "type \"" + type + "\" is not supported (short or uchar)");
+    throw core::FileError(path, "type \"" + type + "\" is not supported (short or uchar)");
   }
   if (elementSize > 1 && endian != "little")
-    throw FileError(path, "big-endian data is not supported");
+    throw core::FileError(path, "big-endian data is not supported");
   if (!haveDirections || !haveOrigin)
-    throw FileError(path, "has no space directions / space origin");
+    throw core::FileError(path, "has no space directions / space origin");
   double sign = 1.0;
   if (space == "right-anterior-superior" || space == "RAS") {
     sign = -1.0;
   } else if (space != "left-posterior-superior" && space != "LPS") {
-    throw FileError(path, "space \"" + space + "\" is not supported (LPS or RAS)");
+    throw core::FileError(path, "space \"" + space + "\" is not supported (LPS or RAS)");
   }
   if (sizes[0] < 1 || sizes[1] < 1 || sizes[2] < 1)
-    throw FileError(path, "sizes must be positive");
+    throw core::FileError(path, "sizes must be positive");
   // The bytes the sizes ask for, checked against what the file holds before anything is
   // allocated: raw data must be all there; gzip (deflate) cannot expand more than 1032:1.
   const double claimedBytes = static_cast<double>(sizes[0]) * static_cast<double>(sizes[1]) *
@@ -226,19 +226,21 @@ NrrdVolume readNrrdVolume(const std::string& path) {
   const std::streamoff fileEnd = in.tellg();
   in.seekg(dataStart);
   if (dataStart < 0 || fileEnd < dataStart)
-    throw FileError(path, "cannot find the voxel data after the header");
+    throw core::FileError(path, "cannot find the voxel data after the header");
   const auto dataBytes = static_cast<double>(fileEnd - dataStart);
   const bool gzipped = encoding == "gzip" || encoding == "gz";
   if (encoding != "raw" && !gzipped)
-    throw FileError(path, "encoding \"" + encoding + "\" is not supported (raw or gzip)");
+    throw core::FileError(path, "encoding \"" + encoding + "\" is not supported (raw or gzip)");
   constexpr double kDeflateMaxRatio = 1032.0;
   if (encoding == "raw" && claimedBytes > dataBytes) {
-    throw FileError(path, fmt::format("truncated data: sizes {} x {} x {} need {:.0f} bytes, the "
+    throw core::FileError(path,
+                          fmt::format("truncated data: sizes {} x {} x {} need {:.0f} bytes, the "
                                       "file holds {:.0f} after its header",
                                       sizes[0], sizes[1], sizes[2], claimedBytes, dataBytes));
   }
   if (gzipped && claimedBytes > dataBytes * kDeflateMaxRatio + 64.0) {
-    throw FileError(path, fmt::format("sizes {} x {} x {} need {:.0f} bytes, more than the {:.0f} "
+    throw core::FileError(path,
+                          fmt::format("sizes {} x {} x {} need {:.0f} bytes, more than the {:.0f} "
                                       "bytes of gzip data can hold",
                                       sizes[0], sizes[1], sizes[2], claimedBytes, dataBytes));
   }
@@ -253,15 +255,15 @@ NrrdVolume readNrrdVolume(const std::string& path) {
     const Eigen::Vector3d d = directions[static_cast<std::size_t>(a)].cwiseProduct(flip);
     spacing[a] = d.norm();
     if (!(spacing[a] > 0.0))
-      throw FileError(path, "a space direction is zero");
+      throw core::FileError(path, "a space direction is zero");
     if (!std::isfinite(spacing[a]))  // (1e308,1e308,0): each value finite, the length not
-      throw FileError(path, "a space direction is too long (its length is not finite)");
+      throw core::FileError(path, "a space direction is too long (its length is not finite)");
     image.direction.col(a) = d / spacing[a];
   }
   if (std::abs(image.direction.col(0).dot(image.direction.col(1))) > 1e-4 ||
       std::abs(image.direction.col(0).dot(image.direction.col(2))) > 1e-4 ||
       std::abs(image.direction.col(1).dot(image.direction.col(2))) > 1e-4) {
-    throw FileError(path, "space directions are not orthogonal");
+    throw core::FileError(path, "space directions are not orthogonal");
   }
   image.pixelSpacingMm = Eigen::Vector2d(spacing.x(), spacing.y());
   for (int k = 0; k < sizes[2]; ++k)
@@ -272,13 +274,13 @@ NrrdVolume readNrrdVolume(const std::string& path) {
   if (encoding == "raw") {
     in.read(data.data(), static_cast<std::streamsize>(bytes));
     if (static_cast<std::size_t>(in.gcount()) != bytes)
-      throw FileError(path, "truncated data");
+      throw core::FileError(path, "truncated data");
   } else if (gzipped) {
     const std::string compressed((std::istreambuf_iterator<char>(in)),
                                  std::istreambuf_iterator<char>());
     z_stream z{};
     if (inflateInit2(&z, 15 + 32) != Z_OK)
-      throw FileError(path, "zlib cannot start decompressing");
+      throw core::FileError(path, "zlib cannot start decompressing");
     // zlib counts in uInt: feed and fill in pieces of at most 1 GB.
     constexpr std::size_t kPiece = std::size_t{1} << 30;
     std::size_t consumed = 0, produced = 0;
@@ -298,11 +300,11 @@ NrrdVolume readNrrdVolume(const std::string& path) {
     }
     inflateEnd(&z);
     if (status != Z_STREAM_END || produced != bytes) {
-      throw FileError(
+      throw core::FileError(
           path, fmt::format("gzip data is truncated or corrupt ({} of {} bytes)", produced, bytes));
     }
   } else {
-    throw FileError(path, "encoding \"" + encoding + "\" is not supported (raw or gzip)");
+    throw core::FileError(path, "encoding \"" + encoding + "\" is not supported (raw or gzip)");
   }
   if (isMask) {
     volume.mask.assign(data.begin(), data.end());

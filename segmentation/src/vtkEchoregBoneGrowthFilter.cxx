@@ -1,6 +1,6 @@
 #include "echoreg/segmentation/vtkEchoregBoneGrowthFilter.h"
 
-#include "PipelineImages.h"
+#include "pipeline_images.hpp"
 
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>

@@ -1,8 +1,8 @@
 #include "echoreg/segmentation/vtkEchoregBoneSurfaceFilter.h"
 
-#include "PipelineImages.h"
+#include "pipeline_images.hpp"
 
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>

@@ -216,9 +216,9 @@ echoreg::segmentation::CtImage vtkEchoregDicomSeriesReader::OutputGeometry(
     return resampledGeometry(series, this->ResampleSpacing);
   if (this->Group >= 0) {
     if (static_cast<std::size_t>(this->Group) >= series.groups.size()) {
-      throw echoreg::FileError(series.folder, "has " + std::to_string(series.groups.size()) +
-                                                  " slice group(s); group " +
-                                                  std::to_string(this->Group) + " does not exist");
+      throw echoreg::core::FileError(
+          series.folder, "has " + std::to_string(series.groups.size()) + " slice group(s); group " +
+                             std::to_string(this->Group) + " does not exist");
     }
     return extractSliceGroup(geometryOnly(series), this->Group);
   }
@@ -228,8 +228,9 @@ echoreg::segmentation::CtImage vtkEchoregDicomSeriesReader::OutputGeometry(
       groups += (groups.empty() ? "" : ", ") + std::to_string(g.count) + " at " +
                 std::to_string(g.spacingMm) + " mm";
     }
-    throw echoreg::FileError(series.folder, "has slices of several spacings (" + groups +
-                                                "): turn ResampleToUniform on or choose one Group");
+    throw echoreg::core::FileError(series.folder,
+                                   "has slices of several spacings (" + groups +
+                                       "): turn ResampleToUniform on or choose one Group");
   }
   return geometryOnly(series);
 }

@@ -1,6 +1,6 @@
 #include "echoreg/segmentation/vtkEchoregLiveWireFilter.h"
 
-#include "PipelineImages.h"
+#include "pipeline_images.hpp"
 
 #include <vtkCellArray.h>
 #include <vtkCellData.h>

@@ -4,7 +4,7 @@
 #include "anatomy_detail.hpp"
 
 #include "echoreg/core/error.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <Eigen/Eigenvalues>
 #include <Eigen/Geometry>
@@ -80,7 +80,7 @@ FemurFrame analyse(const core::TriangleMesh& mesh, const std::string& path) {
   Vector3d axis = eigen.eigenvectors().col(2);
   const Eigen::Vector3d values = eigen.eigenvalues();
   if (!(values(2) > 4.0 * values(1))) {
-    throw FileError(path, "does not look like a long bone (no dominant long axis)");
+    throw core::FileError(path, "does not look like a long bone (no dominant long axis)");
   }
   auto along = [&](const Vector3d& p, const Vector3d& point, const Vector3d& dir) {
     return (p - point).dot(dir);
@@ -108,7 +108,7 @@ FemurFrame analyse(const core::TriangleMesh& mesh, const std::string& path) {
       centres.push_back(sum / static_cast<double>(count));
   }
   if (centres.size() < 4)
-    throw FileError(path, "does not look like a long bone (no shaft)");
+    throw core::FileError(path, "does not look like a long bone (no shaft)");
   Vector3d mean = Vector3d::Zero();
   for (const Vector3d& c : centres)
     mean += c;
@@ -175,7 +175,7 @@ FemurFrame analyse(const core::TriangleMesh& mesh, const std::string& path) {
       break;
   }
   if (!(radius > 15.0 && radius < 35.0)) {
-    throw FileError(
+    throw core::FileError(
         path, "no femoral head found (the sphere fit gave a radius of " + mm(radius) + " mm)");
   }
   frame.hip = centre;
@@ -262,7 +262,7 @@ PlacedFemur placeUserFemur(const std::string& path, const Vector3d& kneeCentreCt
   core::TriangleMesh mesh = filters::readMesh(path);
   core::MeshCheck check = core::checkMesh(mesh);
   if (!check.closed()) {
-    throw FileError(
+    throw core::FileError(
         path, "the femur mesh is " + check.describe() + "; a bone mesh must be a closed surface");
   }
   if (check.volumeMm3 < 0.0)
@@ -277,7 +277,7 @@ PlacedFemur placeUserFemur(const std::string& path, const Vector3d& kneeCentreCt
     core::flipWinding(mesh);
     frame = analyse(mesh, path);
     if (frame.posteriorOffsetMm < 0.0) {
-      throw FileError(path, "could not tell the femur's posterior side after mirroring");
+      throw core::FileError(path, "could not tell the femur's posterior side after mirroring");
     }
   }
   const std::vector<Vector3d>& v = mesh.vertices;

@@ -1,9 +1,10 @@
 #include "echoreg/simulation/pulse_echo.hpp"
 
+#include "echoreg/core/number_text.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <limits>
-#include <sstream>
 #include <stdexcept>
 #include <string>
 
@@ -23,12 +24,6 @@ constexpr double kNegligibleLossNp = 25.0;
 void require(bool condition, const std::string& message) {
   if (!condition)
     throw std::invalid_argument(message);
-}
-
-std::string number(double value) {
-  std::ostringstream text;
-  text << value;
-  return text.str();
 }
 
 bool isTarget(Tissue tissue) {
@@ -248,72 +243,84 @@ void validate(const BeamPath& path, const Transducer& transducer, const Receiver
                 (std::isfinite(layer.lengthMm) ||
                  (last && layer.lengthMm == std::numeric_limits<double>::infinity())),
             name + " length must be > 0 mm and finite (only the last may be infinite), got " +
-                number(layer.lengthMm));
-    require(
-        layer.exitIncidenceDeg >= 0.0 && layer.exitIncidenceDeg <= 90.0,
-        name + " exit incidence must be in [0, 90] degrees, got " + number(layer.exitIncidenceDeg));
-    require(
-        std::isfinite(layer.speedMps) && layer.speedMps >= 0.0,
-        name + " speed of sound must be >= 0 m/s (0 = the table's), got " + number(layer.speedMps));
+                core::number(layer.lengthMm, "%.6g"));
+    require(layer.exitIncidenceDeg >= 0.0 && layer.exitIncidenceDeg <= 90.0,
+            name + " exit incidence must be in [0, 90] degrees, got " +
+                core::number(layer.exitIncidenceDeg, "%.6g"));
+    require(std::isfinite(layer.speedMps) && layer.speedMps >= 0.0,
+            name + " speed of sound must be >= 0 m/s (0 = the table's), got " +
+                core::number(layer.speedMps, "%.6g"));
   }
   for (std::size_t i = 0; i < path.fasciaDepthsMm.size(); ++i) {
     require(std::isfinite(path.fasciaDepthsMm[i]) && path.fasciaDepthsMm[i] >= 0.0,
             "fascia depth " + std::to_string(i) + " must be finite and >= 0 mm, got " +
-                number(path.fasciaDepthsMm[i]));
+                core::number(path.fasciaDepthsMm[i], "%.6g"));
   }
   const auto positive = [](double v) { return std::isfinite(v) && v > 0.0; };
-  require(positive(transducer.centreFrequencyHz),
-          "centre frequency must be > 0 Hz, got " + number(transducer.centreFrequencyHz));
+  require(
+      positive(transducer.centreFrequencyHz),
+      "centre frequency must be > 0 Hz, got " + core::number(transducer.centreFrequencyHz, "%.6g"));
   require(positive(transducer.fractionalBandwidth) && transducer.fractionalBandwidth <= 2.0,
-          "fractional bandwidth must be in (0, 2], got " + number(transducer.fractionalBandwidth));
-  require(positive(transducer.elementDiameterMm),
-          "element diameter must be > 0 mm, got " + number(transducer.elementDiameterMm));
+          "fractional bandwidth must be in (0, 2], got " +
+              core::number(transducer.fractionalBandwidth, "%.6g"));
+  require(
+      positive(transducer.elementDiameterMm),
+      "element diameter must be > 0 mm, got " + core::number(transducer.elementDiameterMm, "%.6g"));
   require(positive(transducer.focalLengthMm),
-          "focal length must be > 0 mm, got " + number(transducer.focalLengthMm));
+          "focal length must be > 0 mm, got " + core::number(transducer.focalLengthMm, "%.6g"));
   require(std::isfinite(transducer.ringDownAmplitude) && transducer.ringDownAmplitude >= 0.0,
-          "ring-down amplitude must be >= 0, got " + number(transducer.ringDownAmplitude));
+          "ring-down amplitude must be >= 0, got " +
+              core::number(transducer.ringDownAmplitude, "%.6g"));
   require(positive(transducer.ringDownDurationUs),
-          "ring-down duration must be > 0 us, got " + number(transducer.ringDownDurationUs));
-  require(transducer.faceReflection >= 0.0 && transducer.faceReflection <= 1.0,
-          "face reflection must be in [0, 1], got " + number(transducer.faceReflection));
+          "ring-down duration must be > 0 us, got " +
+              core::number(transducer.ringDownDurationUs, "%.6g"));
+  require(
+      transducer.faceReflection >= 0.0 && transducer.faceReflection <= 1.0,
+      "face reflection must be in [0, 1], got " + core::number(transducer.faceReflection, "%.6g"));
   require(std::isfinite(transducer.muscleSpeckle) && transducer.muscleSpeckle >= 0.0,
-          "muscle speckle must be >= 0, got " + number(transducer.muscleSpeckle));
+          "muscle speckle must be >= 0, got " + core::number(transducer.muscleSpeckle, "%.6g"));
   require(positive(receiver.samplingFrequencyHz),
-          "sampling frequency must be > 0 Hz, got " + number(receiver.samplingFrequencyHz));
+          "sampling frequency must be > 0 Hz, got " +
+              core::number(receiver.samplingFrequencyHz, "%.6g"));
   require(transducer.centreFrequencyHz < 0.5 * receiver.samplingFrequencyHz,
-          "centre frequency " + number(transducer.centreFrequencyHz) +
+          "centre frequency " + core::number(transducer.centreFrequencyHz, "%.6g") +
               " Hz must be below half the sampling frequency");
   require(receiver.samples >= 1 && receiver.samples <= (1 << 24),
           "samples must be in [1, 16777216], got " + std::to_string(receiver.samples));
   require(std::isfinite(receiver.delayS) && receiver.delayS >= 0.0,
-          "delay must be >= 0 s, got " + number(receiver.delayS));
+          "delay must be >= 0 s, got " + core::number(receiver.delayS, "%.6g"));
   require(std::isfinite(receiver.gainDb) && std::fabs(receiver.gainDb) <= 200.0,
-          "gain must be in [-200, 200] dB, got " + number(receiver.gainDb));
+          "gain must be in [-200, 200] dB, got " + core::number(receiver.gainDb, "%.6g"));
   require(std::isfinite(receiver.electronicNoiseCounts) && receiver.electronicNoiseCounts >= 0.0,
-          "electronic noise must be >= 0 counts, got " + number(receiver.electronicNoiseCounts));
-  require(positive(receiver.unitEchoCountsAt0Db),
-          "unit echo counts must be > 0, got " + number(receiver.unitEchoCountsAt0Db));
+          "electronic noise must be >= 0 counts, got " +
+              core::number(receiver.electronicNoiseCounts, "%.6g"));
+  require(
+      positive(receiver.unitEchoCountsAt0Db),
+      "unit echo counts must be > 0, got " + core::number(receiver.unitEchoCountsAt0Db, "%.6g"));
   require(
       std::isfinite(transducer.ringDownTailAmplitude) && transducer.ringDownTailAmplitude >= 0.0,
-      "ring-down tail amplitude must be >= 0, got " + number(transducer.ringDownTailAmplitude));
-  require(
-      positive(transducer.ringDownTailDurationUs),
-      "ring-down tail duration must be > 0 us, got " + number(transducer.ringDownTailDurationUs));
+      "ring-down tail amplitude must be >= 0, got " +
+          core::number(transducer.ringDownTailAmplitude, "%.6g"));
+  require(positive(transducer.ringDownTailDurationUs),
+          "ring-down tail duration must be > 0 us, got " +
+              core::number(transducer.ringDownTailDurationUs, "%.6g"));
   require(receiver.adc == AdcFormat::UInt8 || receiver.adc == AdcFormat::Int16Left12,
           "unknown ADC format");
-  require(std::isfinite(receiver.dcOffset) && std::fabs(receiver.dcOffset) <= 32768.0,
-          "DC offset must be within the int16 range, got " + number(receiver.dcOffset));
+  require(
+      std::isfinite(receiver.dcOffset) && std::fabs(receiver.dcOffset) <= 32768.0,
+      "DC offset must be within the int16 range, got " + core::number(receiver.dcOffset, "%.6g"));
   require(std::isfinite(receiver.baselineWanderMin) && receiver.baselineWanderMin >= 0.0 &&
               std::isfinite(receiver.baselineWanderMax) &&
               receiver.baselineWanderMax >= receiver.baselineWanderMin,
-          "baseline wander must be 0 <= min <= max, got " + number(receiver.baselineWanderMin) +
-              " and " + number(receiver.baselineWanderMax));
+          "baseline wander must be 0 <= min <= max, got " +
+              core::number(receiver.baselineWanderMin, "%.6g") + " and " +
+              core::number(receiver.baselineWanderMax, "%.6g"));
   require(positive(receiver.baselineWanderMinHz) &&
               receiver.baselineWanderMaxHz >= receiver.baselineWanderMinHz &&
               receiver.baselineWanderMaxHz < 0.5 * receiver.samplingFrequencyHz,
           "baseline wander frequencies must be 0 < min <= max < half the sampling frequency, got " +
-              number(receiver.baselineWanderMinHz) + " and " +
-              number(receiver.baselineWanderMaxHz));
+              core::number(receiver.baselineWanderMinHz, "%.6g") + " and " +
+              core::number(receiver.baselineWanderMaxHz, "%.6g"));
 }
 
 void useInt16FrontEnd(Transducer& transducer, Receiver& receiver, double dcOffset) {

@@ -1,6 +1,6 @@
 #include "echoreg/simulation/sdf.hpp"
 
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <vtkFloatArray.h>
 #include <vtkFlyingEdges3D.h>

@@ -54,14 +54,14 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   std::error_code ec;
   if (fs::exists(folder, ec)) {
     if (!fs::is_directory(folder, ec))
-      throw FileError(folder, "exists and is not a folder");
+      throw core::FileError(folder, "exists and is not a folder");
     if (!fs::is_empty(folder, ec))
-      throw FileError(folder, "exists and is not empty");
+      throw core::FileError(folder, "exists and is not empty");
   }
   const fs::path target = fs::absolute(folder);
   const fs::path parent = target.parent_path();
   if (!fs::is_directory(parent, ec)) {
-    throw FileError(folder, "its parent folder " + parent.string() + " does not exist");
+    throw core::FileError(folder, "its parent folder " + parent.string() + " does not exist");
   }
   if (!(options.underSkinScale > 0.0 && options.underSkinScale <= 1.0)) {
     throw std::invalid_argument("soft tissue scale must be in (0, 1], got " +
@@ -85,13 +85,13 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
   for (const auto& [bone, file] : options.meshFiles) {
     (void)bone;
     if (!fs::is_regular_file(file, ec))
-      throw FileError(file, "no such mesh file");
+      throw core::FileError(file, "no such mesh file");
   }
   const fs::path temporary = cleanup.path();
   for (const char* sub : {"", "/ct", "/captures", "/truth", "/truth/captures"}) {
     fs::create_directories(temporary.string() + sub, ec);
     if (ec)
-      throw FileError(temporary.string() + sub, "cannot create folder: " + ec.message());
+      throw core::FileError(temporary.string() + sub, "cannot create folder: " + ec.message());
   }
   const std::string root = temporary.string();
   const Sizes sizes = sizesFor(options);
@@ -166,7 +166,7 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
     fs::remove(target, ec);  // empty (checked above)
   fs::rename(temporary, target, ec);
   if (ec)
-    throw FileError(folder, "could not be written: " + ec.message());
+    throw core::FileError(folder, "could not be written: " + ec.message());
   cleanup.published();
   return summary;
 }

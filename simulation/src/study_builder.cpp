@@ -33,7 +33,7 @@ nlohmann::json vectorJson(const Eigen::Vector3d& v) {
 }
 
 void writeText(const std::string& path, const std::string& text) {
-  AtomicFile file(path);
+  core::AtomicFile file(path);
   file.stream() << text;
   file.commit();
 }
@@ -213,8 +213,8 @@ void StudyBuilder::addStylusFrame(CaptureWriter& writer, double t, double start,
 
 // `assumedSpeedMps` > 0: an A-line capture recorded with that speed of sound in its header.
 void StudyBuilder::saveCapture(CaptureWriter& writer, double assumedSpeedMps) {
-  Sequence& measured = writer.measured();
-  Sequence& truth = writer.truth();
+  core::Sequence& measured = writer.measured();
+  core::Sequence& truth = writer.truth();
   if (assumedSpeedMps > 0.0) {
     measured.acquisition.samplingFrequencyHz = scene_.receiver.samplingFrequencyHz;
     measured.acquisition.delayS = scene_.receiver.delayS;
@@ -229,8 +229,8 @@ void StudyBuilder::saveCapture(CaptureWriter& writer, double assumedSpeedMps) {
   measured.extraHeader.push_back({"EchoregSimulated", "True"});
   truth.extraHeader.push_back({"EchoregSimulated", "True"});
   truth.extraHeader.push_back({"EchoregNoiseFree", "True"});
-  writeSequence(measured, capturePath(writer.name()));
-  writeSequence(truth, root_ + "/truth/captures/" + writer.name());
+  core::writeSequence(measured, capturePath(writer.name()));
+  core::writeSequence(truth, root_ + "/truth/captures/" + writer.name());
   captureFiles_.push_back(writer.name());
 }
 

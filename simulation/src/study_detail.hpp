@@ -73,17 +73,17 @@ class CaptureWriter {
   const std::string& name() const { return name_; }
 
   void addFrame(double timeS, const std::vector<TrackedPose>& poses) {
-    SequenceFrame noisy, exact;
+    core::SequenceFrame noisy, exact;
     noisy.timestampS = timeS;
     exact.timestampS = timeS;
     core::Rng rng = core::Rng::derive(seed_, "tracking:" + name_, measured_.frames.size());
     for (const TrackedPose& pose : poses) {
       const Measurement m = tracker_.measure(pose.truth, *pose.marker, rng, true);
-      TrackedTransform t;
+      core::TrackedTransform t;
       t.matrix = m.markerToTracker.matrix();
       t.status = m.valid ? "OK" : "INVALID";
       noisy.transforms[pose.name] = t;
-      TrackedTransform e;
+      core::TrackedTransform e;
       e.matrix = pose.truth.matrix();
       e.status = tracker_.visible(pose.truth, *pose.marker) ? "OK" : "INVALID";
       exact.transforms[pose.name] = e;
@@ -92,16 +92,16 @@ class CaptureWriter {
     truth_.frames.push_back(std::move(exact));
   }
 
-  Sequence& measured() { return measured_; }
-  Sequence& truth() { return truth_; }
+  core::Sequence& measured() { return measured_; }
+  core::Sequence& truth() { return truth_; }
   std::size_t frames() const { return measured_.frames.size(); }
 
  private:
   std::string name_;
   const OpticalTracker& tracker_;
   std::uint64_t seed_;
-  Sequence measured_;
-  Sequence truth_;
+  core::Sequence measured_;
+  core::Sequence truth_;
 };
 
 // A probe (or stylus) frame whose long axis (z) is `axis`, rolled about it so that its marker
@@ -180,13 +180,13 @@ struct PendingShot {
 // Acoustic shots of a capture, traced and simulated in parallel (each frame its own random
 // stream), appended to the capture's pixels in frame order.
 template <class TraceFn>
-void simulateShots(Sequence& capture, const std::string& name,
+void simulateShots(core::Sequence& capture, const std::string& name,
                    const std::vector<PendingShot>& shots, const Scene& scene, TraceFn trace,
                    std::vector<ShotTruth>& truths, const StudyProgress& progress,
                    const std::string& step) {
   const int samples = scene.receiver.samples;
   const bool wide = scene.receiver.adc == AdcFormat::Int16Left12;
-  capture.elementType = wide ? ElementType::Int16 : ElementType::UInt8;
+  capture.elementType = wide ? core::ElementType::Int16 : core::ElementType::UInt8;
   capture.frameSize = {samples, 1};
   const std::size_t frameBytes = static_cast<std::size_t>(samples) * (wide ? 2 : 1);
   capture.pixels.assign(shots.size() * frameBytes, 0);

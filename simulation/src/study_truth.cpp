@@ -2,7 +2,7 @@
 // and the shots' truth) (study_detail.hpp).
 #include "study_detail.hpp"
 
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <fmt/format.h>
 

@@ -1,5 +1,5 @@
 // The detection that `register`, `calibrate` and the study's sweeps run: one pass through the
-// VTK pipeline (filters/DetectionPipeline.h), kept and re-used inside one process.
+// VTK pipeline (filters/detection_pipeline.h), kept and re-used inside one process.
 #include "capture_detection.hpp"
 #include "cli_test_support.hpp"
 #include "command_register.hpp"
@@ -36,8 +36,8 @@ cli::CaptureDetectionRequest sweepRequest(const std::string& capture) {
 TEST(CaptureDetection, RunsThroughTheExecutiveOnceAndEqualsDetectSequence) {
   test::TempDir dir;
   const std::string capture = dir.file("sweep.igs.mha");
-  const Sequence sequence = test::makeDemoSweep({200});
-  writeSequence(sequence, capture);
+  const core::Sequence sequence = test::makeDemoSweep({200});
+  core::writeSequence(sequence, capture);
   const cli::CaptureDetectionRequest request = sweepRequest(capture);
   const std::unique_ptr<cli::CaptureDetection> detected = cli::detectCapture(request);
   filters::DetectionPipeline& pipeline = detected->pipeline;
@@ -47,11 +47,11 @@ TEST(CaptureDetection, RunsThroughTheExecutiveOnceAndEqualsDetectSequence) {
   EXPECT_EQ(pipeline.interSignal->GetExecutionCount(), 1);
 
   // The core's function on the same capture gives the same verdicts and points.
-  const Sequence read = readSequence(capture);
-  PointFrameOptions points;
+  const core::Sequence read = core::readSequence(capture);
+  core::PointFrameOptions points;
   points.poseTransform = "ProbeToTracker";
-  const SequenceDetection expected =
-      detectSequence(read, cli::requestParams(request, read), points);
+  const core::SequenceDetection expected =
+      core::detectSequence(read, cli::requestParams(request, read), points);
   ASSERT_EQ(detected->detection.frames.size(), expected.frames.size());
   EXPECT_EQ(detected->detection.accepted, expected.accepted);
   EXPECT_GT(expected.accepted, 20);  // not a comparison of empty detections
@@ -79,7 +79,7 @@ TEST(CaptureDetection, StreamsACaptureLongerThanABlockWithTheWholeCapturesResult
   constexpr int kFrames = kBlock + 88;
   test::TempDir dir;
   const std::string capture = dir.file("sweep.igs.mha");
-  writeSequence(test::makeDemoSweep({kFrames}), capture);
+  core::writeSequence(test::makeDemoSweep({kFrames}), capture);
   const cli::CaptureDetectionRequest request = sweepRequest(capture);
   const std::unique_ptr<cli::CaptureDetection> detected = cli::detectCapture(request);
   filters::DetectionPipeline& pipeline = detected->pipeline;
@@ -95,12 +95,12 @@ TEST(CaptureDetection, StreamsACaptureLongerThanABlockWithTheWholeCapturesResult
   EXPECT_EQ(extent[3] - extent[2] + 1, kFrames - kBlock) << "and only its A-lines";
 
   // The whole capture at once, by the core's function: the same verdicts, depths and points.
-  const Sequence read = readSequence(capture);
-  PointFrameOptions points;
+  const core::Sequence read = core::readSequence(capture);
+  core::PointFrameOptions points;
   points.poseTransform = "ProbeToTracker";
-  const SequenceDetection expected =
-      detectSequence(read, cli::requestParams(request, read), points);
-  const SequenceDetection& streamed = detected->detection;
+  const core::SequenceDetection expected =
+      core::detectSequence(read, cli::requestParams(request, read), points);
+  const core::SequenceDetection& streamed = detected->detection;
   ASSERT_EQ(streamed.frames.size(), expected.frames.size());
   EXPECT_EQ(streamed.accepted, expected.accepted);
   EXPECT_EQ(streamed.echoes, expected.echoes);
@@ -131,7 +131,7 @@ TEST(CaptureDetection, StreamsACaptureLongerThanABlockWithTheWholeCapturesResult
 TEST(CaptureDetection, SharedDetectionRunsOncePerRequestAndIsTheDetectCommandsBytes) {
   test::TempDir dir;
   const std::string capture = dir.file("sweep.igs.mha");
-  writeSequence(test::makeDemoSweep({200}), capture);
+  core::writeSequence(test::makeDemoSweep({200}), capture);
   cli::CaptureDetections detections;
   const cli::CaptureDetectionRequest request = sweepRequest(capture);
   cli::CaptureDetection& first = detections.get(request);
@@ -158,15 +158,15 @@ TEST(CaptureDetection, SharedDetectionRunsOncePerRequestAndIsTheDetectCommandsBy
 TEST(CaptureDetection, ChangedParameterRerunsOnlyWhatFollowsIt) {
   test::TempDir dir;
   const std::string capture = dir.file("sweep.igs.mha");
-  writeSequence(test::makeDemoSweep({200}), capture);
+  core::writeSequence(test::makeDemoSweep({200}), capture);
   const cli::CaptureDetectionRequest request = sweepRequest(capture);
   const std::unique_ptr<cli::CaptureDetection> detected = cli::detectCapture(request);
   filters::DetectionPipeline& pipeline = detected->pipeline;
-  const SequenceDetection before = detected->detection;
+  const core::SequenceDetection before = detected->detection;
 
   // A new calibration (BeamToProbe): the points and the inter-signal filter run again, not the
   // envelope or the peaks.
-  PointFrameOptions points;
+  core::PointFrameOptions points;
   points.poseTransform = "ProbeToTracker";
   points.beamToProbe(2, 3) = 5.0;
   cli::runDetection(*detected, before.params, points);
@@ -184,7 +184,7 @@ TEST(CaptureDetection, ChangedParameterRerunsOnlyWhatFollowsIt) {
   EXPECT_TRUE(moved);
 
   // A new peak threshold: the peaks and what follows, not the envelope.
-  DetectionParams params = before.params;
+  core::DetectionParams params = before.params;
   params.peaks.prominence.minSnr *= 2.0;
   cli::runDetection(*detected, params, points);
   EXPECT_EQ(pipeline.envelope->GetExecutionCount(), 1);
@@ -203,7 +203,7 @@ TEST(CaptureDetection, BadCaptureNamesTheFile) {
     EXPECT_NE(std::string(e.what()).find(missing), std::string::npos) << e.what();
   }
   const std::string capture = dir.file("sweep.igs.mha");
-  writeSequence(test::makeDemoSweep({20}), capture);
+  core::writeSequence(test::makeDemoSweep({20}), capture);
   cli::CaptureDetectionRequest unknown = sweepRequest(capture);
   unknown.referenceTransform = "FemurToTracker";
   try {

@@ -30,11 +30,11 @@ class CliBadInput : public ::testing::Test {
  protected:
   void SetUp() override {
     good_ = dir_.file("good.igs.mha");
-    SequenceWriteOptions raw;
+    core::SequenceWriteOptions raw;
     raw.compress = false;
-    writeSequence(test::makeDemoSweep({8}), good_, raw);
-    SequenceWriteOptions zipped;
-    writeSequence(test::makeDemoSweep({8}), dir_.file("zipped.igs.mha"), zipped);
+    core::writeSequence(test::makeDemoSweep({8}), good_, raw);
+    core::SequenceWriteOptions zipped;
+    core::writeSequence(test::makeDemoSweep({8}), dir_.file("zipped.igs.mha"), zipped);
     text_ = slurp(good_);
   }
 

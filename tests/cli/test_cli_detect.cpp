@@ -80,7 +80,7 @@ TEST(CliDetect, AgilentDepthsAgreeWithPlus) {
                                   "--out",
                                   csv});
   ASSERT_EQ(result.exitCode, 0) << result.err;
-  const Sequence plus = readSequence(capture);
+  const core::Sequence plus = core::readSequence(capture);
   const auto rows = readCsv(csv);
   ASSERT_EQ(rows.size(), 150U);
   const double mmPerSample = 1480.0 * 1000.0 / (2.0 * 420e6);
@@ -116,7 +116,7 @@ TEST(CliDetect, AgilentDepthsAgreeWithPlusWithTheAcquisitionFactsOnly) {
   ASSERT_EQ(result.exitCode, 0) << result.err;
   const auto summary = nlohmann::json::parse(result.out);
   EXPECT_EQ(summary["ring_down_source"], "measured");
-  const Sequence plus = readSequence(capture);
+  const core::Sequence plus = core::readSequence(capture);
   const auto rows = readCsv(csv);
   ASSERT_EQ(rows.size(), 150U);
   int within = 0;
@@ -142,7 +142,7 @@ TEST(CliDetect, AgilentDefaultsPickPlusReflectorNotTheEchoBehindIt) {
   const std::string csv = dir.file("agilent.csv");
   const auto result = runEchoreg({"detect", capture, "--out", csv});
   ASSERT_EQ(result.exitCode, 0) << result.err;
-  const Sequence plus = readSequence(capture);
+  const core::Sequence plus = core::readSequence(capture);
   const auto rows = readCsv(csv);
   ASSERT_EQ(rows.size(), 150U);
   int accepted = 0, within = 0;
@@ -166,7 +166,7 @@ TEST(CliDetect, DemoSweepGivesSpreadConsistentPointsAndSaysWhyFramesWereRejected
   test::TempDir dir;
   const std::string capture = dir.file("sweep.igs.mha");
   std::vector<double> truthMm;
-  writeSequence(test::makeDemoSweep({}, &truthMm), capture);
+  core::writeSequence(test::makeDemoSweep({}, &truthMm), capture);
   const std::string csv = dir.file("depths.csv");
   const auto result =
       runEchoreg({"detect", capture, "--pose", "ProbeToTracker", "--out", csv, "--json"});
@@ -215,7 +215,7 @@ TEST(CliDetect, DemoSweepGivesSpreadConsistentPointsAndSaysWhyFramesWereRejected
 TEST(CliDetect, SameInputSameBytes) {
   test::TempDir dir;
   const std::string capture = dir.file("sweep.igs.mha");
-  writeSequence(test::makeDemoSweep({120}), capture);
+  core::writeSequence(test::makeDemoSweep({120}), capture);
   ASSERT_EQ(runEchoreg({"detect", capture, "--out", dir.file("a.csv")}).exitCode, 0);
   ASSERT_EQ(runEchoreg({"detect", capture, "--out", dir.file("b.csv")}).exitCode, 0);
   EXPECT_EQ(slurp(dir.file("a.csv")), slurp(dir.file("b.csv")));
@@ -224,7 +224,7 @@ TEST(CliDetect, SameInputSameBytes) {
 TEST(CliDetect, ParamsFileIsOverriddenByFlags) {
   test::TempDir dir;
   const std::string capture = dir.file("sweep.igs.mha");
-  writeSequence(test::makeDemoSweep({60}), capture);
+  core::writeSequence(test::makeDemoSweep({60}), capture);
   std::ofstream(dir.file("params.json"))
       << R"({"preset": "mozes2008", "speed-of-sound": 1600, "history": 1})";
   auto result = runEchoreg({"detect", capture, "--params", dir.file("params.json"), "--out",
@@ -245,7 +245,7 @@ TEST(CliDetect, ParamsFileIsOverriddenByFlags) {
 TEST(CliDetect, BadParametersFailWithoutOutput) {
   test::TempDir dir;
   const std::string capture = dir.file("sweep.igs.mha");
-  writeSequence(test::makeDemoSweep({30}), capture);
+  core::writeSequence(test::makeDemoSweep({30}), capture);
   const std::string csv = dir.file("d.csv");
   std::ofstream(dir.file("typo.json")) << R"({"envelope-widnow": 9})";
   std::ofstream(dir.file("broken.json")) << R"({"envelope": )";
@@ -276,12 +276,12 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
 }
 
 // --speed-of-sound is checked where the flag is parsed, with register's and calibrate's range
-// (echoreg::kMinSpeedOfSoundMps..kMaxSpeedOfSoundMps): a usage error naming the flag, before the
-// capture is read, and nothing written. 999 and 2001 lie just outside; 1000 and 2000 are taken.
+// (echoreg::core::kMinSpeedOfSoundMps..kMaxSpeedOfSoundMps): a usage error naming the flag, before
+// the capture is read, and nothing written. 999 and 2001 lie just outside; 1000 and 2000 are taken.
 TEST(CliDetect, SpeedOfSoundOutsideItsRangeIsAUsageErrorNamingTheFlag) {
   test::TempDir dir;
   const std::string capture = dir.file("sweep.igs.mha");
-  writeSequence(test::makeDemoSweep({30}), capture);
+  core::writeSequence(test::makeDemoSweep({30}), capture);
   const std::string csv = dir.file("d.csv");
   for (const std::string bad : {"-1", "0", "999", "2001", "1e308", "nan", "fast"}) {
     const auto result = runEchoreg({"detect", capture, "--out", csv, "--speed-of-sound", bad});

@@ -24,16 +24,16 @@ using test::runEchoreg;
 
 // A static transducer over bone at a steady depth: a ring-down burst, speckle, the bone echo at
 // `boneSample`, its shadow; int16 samples, `rows` rows per frame.
-Sequence staticCapture(int frames, int samples, double boneSample, int rows = 1,
-                       double boneAmplitude = 900.0) {
-  Sequence sequence;
-  sequence.elementType = ElementType::Int16;
+core::Sequence staticCapture(int frames, int samples, double boneSample, int rows = 1,
+                             double boneAmplitude = 900.0) {
+  core::Sequence sequence;
+  sequence.elementType = core::ElementType::Int16;
   sequence.frameSize = {samples, rows};
   sequence.acquisition.samplingFrequencyHz = 50e6;
   sequence.acquisition.speedOfSoundMps = 1540.0;
   test::PulseModel pulse;
   for (int f = 0; f < frames; ++f) {
-    SequenceFrame frame;
+    core::SequenceFrame frame;
     frame.timestampS = 0.01 * f;
     sequence.frames.push_back(frame);
     for (int r = 0; r < rows; ++r) {
@@ -59,7 +59,7 @@ Sequence staticCapture(int frames, int samples, double boneSample, int rows = 1,
 TEST(CliDetectInputs, FramesOfSeveralRowsAreRefused) {
   test::TempDir dir;
   const std::string capture = dir.file("holder.igs.mha");
-  writeSequence(staticCapture(4, 1500, 400.0, 15), capture);
+  core::writeSequence(staticCapture(4, 1500, 400.0, 15), capture);
   const std::string csv = dir.file("d.csv");
   const auto result = runEchoreg({"detect", capture, "--out", csv});
   EXPECT_EQ(result.exitCode, 1);
@@ -72,7 +72,7 @@ TEST(CliDetectInputs, FramesOfSeveralRowsAreRefused) {
 TEST(CliDetectInputs, BeamToProbeWithoutAPoseIsRefused) {
   test::TempDir dir;
   const std::string capture = dir.file("static.igs.mha");
-  writeSequence(staticCapture(4, 1500, 400.0, 1), capture);
+  core::writeSequence(staticCapture(4, 1500, 400.0, 1), capture);
   const std::string calibration = dir.file("calibration.json");
   std::ofstream(calibration) << R"({"from": "Beam", "to": "Probe", "matrix": [[1, 0, 0, 0], )"
                              << R"([0, 1, 0, 0], [0, 0, 1, 2.5], [0, 0, 0, 1]]})";
@@ -87,7 +87,7 @@ TEST(CliDetectInputs, BeamToProbeWithoutAPoseIsRefused) {
 TEST(CliDetectInputs, ARingDownLongerThanTheRecordIsRefused) {
   test::TempDir dir;
   const std::string capture = dir.file("c.igs.mha");
-  writeSequence(staticCapture(4, 1500, 400.0), capture);
+  core::writeSequence(staticCapture(4, 1500, 400.0), capture);
   const std::string csv = dir.file("d.csv");
   const auto result = runEchoreg({"detect", capture, "--ring-down", "1500", "--out", csv});
   EXPECT_EQ(result.exitCode, 1);
@@ -99,7 +99,7 @@ TEST(CliDetectInputs, ARingDownLongerThanTheRecordIsRefused) {
 TEST(CliDetectInputs, CausalFalseIsZeroPhase) {
   test::TempDir dir;
   const std::string capture = dir.file("c.igs.mha");
-  writeSequence(staticCapture(6, 1500, 400.0), capture);
+  core::writeSequence(staticCapture(6, 1500, 400.0), capture);
   const auto run = [&](const std::vector<std::string>& extra, const std::string& name) {
     std::vector<std::string> args{"detect", capture,     "--preset", "mozes2008", "--peaks",
                                   "max",    "--history", "1",        "--out",     dir.file(name)};
@@ -119,7 +119,7 @@ TEST(CliDetectInputs, CausalFalseIsZeroPhase) {
 TEST(CliDetectInputs, WholeNumbersMayBeWrittenWithAPointInParamsFiles) {
   test::TempDir dir;
   const std::string capture = dir.file("c.igs.mha");
-  writeSequence(staticCapture(4, 1500, 400.0), capture);
+  core::writeSequence(staticCapture(4, 1500, 400.0), capture);
   std::ofstream(dir.file("ok.json")) << R"({"envelope-window": 30.0})";
   std::ofstream(dir.file("bad.json")) << R"({"envelope-window": 30.5})";
   auto result = runEchoreg(
@@ -139,7 +139,7 @@ TEST(CliDetectInputs, AStaticTransducerWithoutPosesKeepsItsEchoes) {
   // bone.
   test::TempDir dir;
   const std::string capture = dir.file("c.igs.mha");
-  writeSequence(staticCapture(60, 1500, 400.0), capture);
+  core::writeSequence(staticCapture(60, 1500, 400.0), capture);
   const auto result = runEchoreg({"detect", capture, "--out", dir.file("d.csv"), "--json"});
   ASSERT_EQ(result.exitCode, 0) << result.err;
   const auto summary = nlohmann::json::parse(result.out);
@@ -152,7 +152,7 @@ TEST(CliDetectInputs, AStaticTransducerWithoutPosesKeepsItsEchoes) {
 TEST(CliDetectInputs, AWindowInsideTheRingDownAndFewAcceptedFramesAreExplained) {
   test::TempDir dir;
   const std::string capture = dir.file("c.igs.mha");
-  writeSequence(staticCapture(20, 1500, 400.0), capture);
+  core::writeSequence(staticCapture(20, 1500, 400.0), capture);
   // The burst lasts to about sample 30 (0.46 mm); a window of 0.1-0.4 mm lies inside it.
   const auto result = runEchoreg(
       {"detect", capture, "--window-mm", "0.1", "0.4", "--out", dir.file("d.csv"), "--json"});
@@ -170,9 +170,9 @@ TEST(CliDetectInputs, AWindowInsideTheRingDownAndFewAcceptedFramesAreExplained) 
 
 TEST(CliDetectInputs, UnsignedSixteenBitCapturesAreRead) {
   test::TempDir dir;
-  Sequence sequence = staticCapture(8, 1500, 400.0);
+  core::Sequence sequence = staticCapture(8, 1500, 400.0);
   // The same records stored as uint16 around mid-scale.
-  sequence.elementType = ElementType::UInt16;
+  sequence.elementType = core::ElementType::UInt16;
   for (std::size_t i = 0; i + 1 < sequence.pixels.size(); i += 2) {
     std::int16_t code;
     std::memcpy(&code, &sequence.pixels[i], 2);
@@ -180,8 +180,8 @@ TEST(CliDetectInputs, UnsignedSixteenBitCapturesAreRead) {
     std::memcpy(&sequence.pixels[i], &shifted, 2);
   }
   const std::string capture = dir.file("u16.igs.mha");
-  writeSequence(sequence, capture);
-  EXPECT_EQ(readSequence(capture).elementType, ElementType::UInt16);
+  core::writeSequence(sequence, capture);
+  EXPECT_EQ(core::readSequence(capture).elementType, core::ElementType::UInt16);
   const auto result = runEchoreg({"detect", capture, "--out", dir.file("d.csv"), "--json"});
   ASSERT_EQ(result.exitCode, 0) << result.err;
   EXPECT_GE(nlohmann::json::parse(result.out)["accepted"].get<int>(), 6);

@@ -5,7 +5,7 @@
 
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/transform_file.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <vtkImageData.h>
 #include <vtkPNGReader.h>
@@ -51,12 +51,12 @@ TEST(CliFigure, RegistrationFigureCountsPointsPerBand) {
                                            "-10,5,23.5\n"  // 3.5 mm above the top face
                                            "-10,-30,0\n"   // 10 mm in front
                                            "-10,0,0\n";    // 20 mm inside
-  echoreg::TransformFile t;
+  echoreg::core::TransformFile t;
   t.from = "Femur";
   t.to = "CT";
   t.matrix = Eigen::Matrix4d::Identity();
   t.matrix(0, 3) = 10.0;
-  echoreg::writeTransformFile(dir.file("FemurToCT.json"), t, false);
+  echoreg::core::writeTransformFile(dir.file("FemurToCT.json"), t, false);
   const auto r =
       runEchoreg({"figure", "registration", "--model", dir.file("box.vtp"), "--points",
                   dir.file("points.csv"), "--transform", dir.file("FemurToCT.json"), "--out",
@@ -113,7 +113,8 @@ TEST(CliFigure, SignalsFigureGivesEachSettingsVerdict) {
   echoreg::test::DemoSweepOptions options;
   options.frames = 20;
   std::vector<double> depths;
-  echoreg::writeSequence(echoreg::test::makeDemoSweep(options, &depths), dir.file("sweep.igs.mha"));
+  echoreg::core::writeSequence(echoreg::test::makeDemoSweep(options, &depths),
+                               dir.file("sweep.igs.mha"));
   const auto r = runEchoreg({"figure", "signals", "--capture", dir.file("sweep.igs.mha"), "--frame",
                              "5", "--preset", "mozes2008", "--preset", "default", "--out",
                              dir.file("sig.png"), "--width", "800", "--height", "600", "--json"});
@@ -136,7 +137,7 @@ TEST(CliFigure, SignalsFigureUsesTheParamsFilesSettings) {
   TempDir dir;
   echoreg::test::DemoSweepOptions options;
   options.frames = 12;
-  echoreg::writeSequence(echoreg::test::makeDemoSweep(options), dir.file("sweep.igs.mha"));
+  echoreg::core::writeSequence(echoreg::test::makeDemoSweep(options), dir.file("sweep.igs.mha"));
   const auto signals = [&](std::vector<std::string> extra) {
     std::vector<std::string> args{"figure",   "signals", "--capture", dir.file("sweep.igs.mha"),
                                   "--frame",  "4",       "--width",   "500",

@@ -7,7 +7,7 @@
 
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/transform_file.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <vtkNew.h>
 #include <vtkPNGReader.h>
@@ -70,10 +70,10 @@ TEST(FigureBaselines, Registration) {
     points << r * std::cos(a) << ',' << 0.0 << ',' << r * std::sin(a) << '\n';
   }
   points.close();
-  echoreg::TransformFile t;
+  echoreg::core::TransformFile t;
   t.from = "Femur";
   t.to = "CT";
-  echoreg::writeTransformFile(dir.file("FemurToCT.json"), t, false);
+  echoreg::core::writeTransformFile(dir.file("FemurToCT.json"), t, false);
   const auto r = runEchoreg({"figure", "registration", "--model", dir.file("bone.vtp"), "--points",
                              dir.file("points.csv"), "--transform", dir.file("FemurToCT.json"),
                              "--title", "registration", "--width", "480", "--height", "220",
@@ -108,7 +108,7 @@ TEST(FigureBaselines, Signals) {
   TempDir dir;
   echoreg::test::DemoSweepOptions options;
   options.frames = 8;
-  echoreg::writeSequence(echoreg::test::makeDemoSweep(options), dir.file("sweep.igs.mha"));
+  echoreg::core::writeSequence(echoreg::test::makeDemoSweep(options), dir.file("sweep.igs.mha"));
   const auto r = runEchoreg({"figure", "signals", "--capture", dir.file("sweep.igs.mha"), "--frame",
                              "3", "--preset", "mozes2008", "--preset", "default", "--width", "500",
                              "--height", "420", "--out", dir.file("signals.png")});

@@ -177,11 +177,11 @@ class CliHostileInputs : public ::testing::Test {
         << facet("vertex 0 0 0\nvertex nan 0 0\nvertex 0 30 0\n") << "endsolid t\n";
     std::ofstream(dir_.file("no-end.stl")) << "solid t\n" << facet(triangle);
     std::ofstream(dir_.file("points.csv")) << "x,y,z\n5,5,0\n5,0,5\n0,5,5\n10,10,10\n";
-    TransformFile toCt;
+    core::TransformFile toCt;
     toCt.from = "Femur";
     toCt.to = "CT";
     toCt.matrix = Eigen::Matrix4d::Identity();
-    writeTransformFile(dir_.file("FemurToCT.json"), toCt, false);
+    core::writeTransformFile(dir_.file("FemurToCT.json"), toCt, false);
     std::ofstream(dir_.file("truncated.json")) << "{\"from\": \"Femur\", \"matrix\": [[1, 0";
     std::ofstream(dir_.file("overflow.json"))
         << "{\"matrix\": [[1e999, 0, 0, 0], [0, 1, 0, 0], [0, 0, 1, 0], [0, 0, 0, 1]]}";
@@ -190,9 +190,9 @@ class CliHostileInputs : public ::testing::Test {
     fs::create_directory(dir_.file("a-folder.json"));
     std::ofstream(dir_.file("calibration.json"))
         << R"({"sphere_center_mm": [0, 0, 0], "sphere_radius_mm": null, "shots": []})";
-    SequenceWriteOptions raw;
+    core::SequenceWriteOptions raw;
     raw.compress = false;
-    writeSequence(test::makeDemoSweep({8}), dir_.file("capture.igs.mha"), raw);
+    core::writeSequence(test::makeDemoSweep({8}), dir_.file("capture.igs.mha"), raw);
   }
 
   struct Case {

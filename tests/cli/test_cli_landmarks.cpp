@@ -46,12 +46,12 @@ class CliLandmarks : public ::testing::Test {
       points.push_back({name, position});
     landmarks_ = dir_.file("phantom.mrk.json");
     core::writeMarkupPoints(landmarks_, points);
-    TransformFile tip;
+    core::TransformFile tip;
     tip.from = "StylusTip";
     tip.to = "Stylus";
     tip.matrix = test::plusTransform(config_, "StylusTip", "Stylus");
     tip_ = dir_.file("tip.json");
-    writeTransformFile(tip_, tip, false);
+    core::writeTransformFile(tip_, tip, false);
     return true;
   }
 
@@ -80,7 +80,7 @@ TEST_F(CliLandmarks, MatchesPlusPhantomRegistration) {
   ASSERT_EQ(summary["landmarks"].size(), 8u);
   EXPECT_EQ(summary["landmarks"][0]["label"], "#1");
 
-  const TransformFile written = readTransformFile(out, "Phantom", "Reference");
+  const core::TransformFile written = core::readTransformFile(out, "Phantom", "Reference");
   EXPECT_TRUE(std::filesystem::exists(dir_.file("PhantomToReference.tfm")));
   const Eigen::Matrix4d plus = test::plusTransform(result_, "Phantom", "Reference");
   for (int k = 0; k < 3; ++k) {
@@ -95,7 +95,7 @@ TEST_F(CliLandmarks, MatchesPlusPhantomRegistration) {
   std::vector<std::string> invArgs = plusArgs(inv);
   invArgs.push_back("--invert");
   ASSERT_EQ(runEchoreg(invArgs).exitCode, 0);
-  const TransformFile inverse = readTransformFile(inv, "Reference", "Phantom");
+  const core::TransformFile inverse = core::readTransformFile(inv, "Reference", "Phantom");
   EXPECT_LT((inverse.matrix * written.matrix - Eigen::Matrix4d::Identity()).cwiseAbs().maxCoeff(),
             1e-9);
 }
@@ -182,11 +182,11 @@ TEST_F(CliLandmarks, RefusesWhatCannotBeRegistered) {
                 "has no FemurToTrackerTransform (it has ReferenceToTrackerTransform, "
                 "StylusToTrackerTransform)");
   // A tip file of the wrong frames.
-  TransformFile wrong;
+  core::TransformFile wrong;
   wrong.from = "Beam";
   wrong.to = "Probe";
   const std::string wrongTip = dir_.file("beam.json");
-  writeTransformFile(wrongTip, wrong, false);
+  core::writeTransformFile(wrongTip, wrong, false);
   args = plusArgs(out);
   args[4] = wrongTip;
   expectRefused(args, wrongTip, "");
@@ -201,12 +201,12 @@ class CliEvaluate : public ::testing::Test {
  protected:
   std::string transform(const std::string& name, const Eigen::Isometry3d& m,
                         const std::string& from = "Femur", const std::string& to = "CT") {
-    TransformFile t;
+    core::TransformFile t;
     t.from = from;
     t.to = to;
     t.matrix = m.matrix();
     const std::string path = dir_.file(name);
-    writeTransformFile(path, t, false);
+    core::writeTransformFile(path, t, false);
     return path;
   }
   test::TempDir dir_;

@@ -46,7 +46,7 @@ class CliOutputPaths : public ::testing::Test {
  protected:
   void SetUp() override {
     capture_ = dir_.file("sweep.igs.mha");
-    writeSequence(test::makeDemoSweep({8}), capture_);
+    core::writeSequence(test::makeDemoSweep({8}), capture_);
     bytes_ = slurp(capture_);
   }
 

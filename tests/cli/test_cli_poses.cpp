@@ -26,8 +26,8 @@ const Eigen::Vector3d kTip(2.0, -1.0, 150.0);    // StylusTip in Stylus
 const Eigen::Vector3d kPivot(10.0, 20.0, 30.0);  // the divot in Tracker
 
 // A stylus pivoting about its tip in a divot, swept about two axes.
-Sequence pivotCapture() {
-  Sequence s;
+core::Sequence pivotCapture() {
+  core::Sequence s;
   for (int f = 0; f < 40; ++f) {
     const double a = 0.5 * std::sin(0.3 * f), b = 0.5 * std::cos(0.21 * f);
     Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
@@ -35,7 +35,7 @@ Sequence pivotCapture() {
                      Eigen::AngleAxisd(b, Eigen::Vector3d::UnitY()))
                         .toRotationMatrix();
     pose.translation() = kPivot - pose.linear() * kTip;
-    SequenceFrame frame;
+    core::SequenceFrame frame;
     frame.timestampS = 0.05 * f;
     frame.transforms["StylusToTracker"] = {pose.matrix(), "OK"};
     s.frames.push_back(frame);
@@ -45,9 +45,9 @@ Sequence pivotCapture() {
 
 class CliPoses : public ::testing::Test {
  protected:
-  std::string write(const Sequence& s, const std::string& name) {
+  std::string write(const core::Sequence& s, const std::string& name) {
     const std::string path = dir_.file(name);
-    writeSequence(s, path);
+    core::writeSequence(s, path);
     return path;
   }
   test::CommandResult pivot(const std::string& capture) {
@@ -67,7 +67,7 @@ TEST_F(CliPoses, PivotRefusesPosesThatAreNotRigidNamingFrameAndTransform) {
       {"its translation is 1e+308 mm from the tracker's origin",
        [](Eigen::Matrix4d& m) { m(1, 3) = 1e308; }}};
   for (const auto& [phrase, spoil] : cases) {
-    Sequence s = pivotCapture();
+    core::Sequence s = pivotCapture();
     spoil(s.frames[7].transforms["StylusToTracker"].matrix);
     const std::string capture = write(s, "spoiled.igs.mha");
     const auto r = pivot(capture);
@@ -86,11 +86,11 @@ TEST_F(CliPoses, PivotReorthonormalisesTrackerRoundingAndSaysHowMany) {
   ASSERT_EQ(exact.exitCode, 0) << exact.err;
   EXPECT_EQ(nlohmann::json::parse(exact.out)["poses_reorthonormalised"], 0);
   EXPECT_EQ(exact.err.find("re-orthonormalised"), std::string::npos) << exact.err;
-  const Eigen::Vector3d exactTip = readTransformFile(out_).matrix.topRightCorner<3, 1>();
+  const Eigen::Vector3d exactTip = core::readTransformFile(out_).matrix.topRightCorner<3, 1>();
   EXPECT_LT((exactTip - kTip).norm(), 1e-6);
 
   // Every third pose rounded as a real tracker writes it (off orthonormal by ~5e-4).
-  Sequence s = pivotCapture();
+  core::Sequence s = pivotCapture();
   for (std::size_t f = 0; f < s.frames.size(); f += 3) {
     s.frames[f].transforms["StylusToTracker"].matrix.topLeftCorner<3, 3>() *= 1.00025;
   }
@@ -102,7 +102,7 @@ TEST_F(CliPoses, PivotReorthonormalisesTrackerRoundingAndSaysHowMany) {
                        ": 14 of 40 StylusToTracker poses re-orthonormalised"),
             std::string::npos)
       << r.err;
-  const Eigen::Vector3d tip = readTransformFile(out_).matrix.topRightCorner<3, 1>();
+  const Eigen::Vector3d tip = core::readTransformFile(out_).matrix.topRightCorner<3, 1>();
   EXPECT_LT((tip - kTip).norm(), 0.2);
 }
 

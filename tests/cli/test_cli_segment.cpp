@@ -7,7 +7,7 @@
 
 #include "echoreg/core/markups.hpp"
 #include "echoreg/core/mesh.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/simulation/ct.hpp"
 
 #include <gtest/gtest.h>

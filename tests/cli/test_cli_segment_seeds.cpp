@@ -5,7 +5,7 @@
 #include "test_support.hpp"
 
 #include "echoreg/core/markups.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/simulation/ct.hpp"
 
 #include <gtest/gtest.h>

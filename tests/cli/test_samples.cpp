@@ -37,7 +37,7 @@ TEST(Samples, EveryParamsFileLoadsInDetect) {
   const std::string capture = dir.file("sweep.igs.mha");
   test::DemoSweepOptions sweep;
   sweep.frames = 80;
-  writeSequence(test::makeDemoSweep(sweep), capture);
+  core::writeSequence(test::makeDemoSweep(sweep), capture);
   std::set<std::string> presets;
   int files = 0;
   for (const auto& entry : fs::directory_iterator(kSamples / "params")) {
@@ -66,10 +66,10 @@ TEST(Samples, EveryParamsFileLoadsInDetect) {
       EXPECT_EQ(summary["peaks"], params["peaks"]);
     }
   }
-  for (const std::string& preset : detectionPresetNames())
+  for (const std::string& preset : core::detectionPresetNames())
     EXPECT_EQ(presets.count(preset), 1U) << "no sample params file for the preset " << preset;
   EXPECT_TRUE(fs::exists(kSamples / "params" / "phantom-water.json"));
-  EXPECT_GE(files, static_cast<int>(detectionPresetNames().size()) + 1);
+  EXPECT_GE(files, static_cast<int>(core::detectionPresetNames().size()) + 1);
 }
 
 TEST(Samples, RealStudyManifestParsesAsFarAsItsMissingFiles) {

@@ -93,7 +93,7 @@ TEST(StudyManifest, ReadsEveryValueTypedWithItsFilesAsTheStudyReadsThem) {
   try {
     m.require(femur->model, "bones.femur.model");
     ADD_FAILURE() << "no model accepted";
-  } catch (const FileError& e) {
+  } catch (const core::FileError& e) {
     EXPECT_EQ(std::string(e.what()), dir.file("study.json") + ": names no bones.femur.model");
   }
   EXPECT_TRUE(outsideStudyFolder(femur->initial));
@@ -125,7 +125,7 @@ TEST(StudyManifest, AValueOfTheWrongTypeIsRefusedNamingTheManifestAndTheKey) {
     try {
       readManifest(dir, manifest);
       ADD_FAILURE() << cases[i].first << " = " << cases[i].second << " accepted";
-    } catch (const FileError& e) {
+    } catch (const core::FileError& e) {
       EXPECT_EQ(e.path(), dir.file("study.json"));
       EXPECT_EQ(e.problem().rfind(expected[i], 0), 0U) << e.problem();
     }
@@ -177,7 +177,7 @@ TEST(StudyManifest, ReadsTheCalibrationSessionsAndRefusesInconsistentOnes) {
     try {
       readManifest(dir, bad);
       ADD_FAILURE() << cases[i].first << " = " << cases[i].second << " accepted";
-    } catch (const FileError& e) {
+    } catch (const core::FileError& e) {
       EXPECT_EQ(e.path(), dir.file("study.json"));
       EXPECT_EQ(e.problem().rfind(expected[i], 0), 0U) << e.problem();
     }
@@ -190,7 +190,7 @@ TEST(StudyManifest, ReadsTheCalibrationSessionsAndRefusesInconsistentOnes) {
   try {
     readManifest(dir, many);
     ADD_FAILURE() << "65 sessions accepted";
-  } catch (const FileError& e) {
+  } catch (const core::FileError& e) {
     EXPECT_EQ(e.problem().rfind("calibration.sessions lists 65 sessions, more than the 64", 0), 0U)
         << e.problem();
   }

@@ -24,14 +24,14 @@ void writeText(const std::string& path, const std::string& text) {
 
 // The FileError `work` throws, or a failure when it throws none.
 template <typename Work>
-FileError thrownFileError(Work work) {
+core::FileError thrownFileError(Work work) {
   try {
     work();
-  } catch (const FileError& e) {
+  } catch (const core::FileError& e) {
     return e;
   }
   ADD_FAILURE() << "no FileError thrown";
-  return FileError("", "");
+  return core::FileError("", "");
 }
 
 TEST(StudyRunnerHash, HashesAFilesBytesAndAFoldersNamesAndBytes) {
@@ -50,7 +50,7 @@ TEST(StudyRunnerHash, HashesAFilesBytesAndAFoldersNamesAndBytes) {
 
 TEST(StudyRunnerHash, AMissingInputIsSaidWithWhyItIsNeeded) {
   const test::TempDir dir;
-  const FileError e =
+  const core::FileError e =
       thrownFileError([&] { contentHash(dir.file("none.igs.mha"), "step \"pivot\" needs it"); });
   EXPECT_EQ(e.path(), dir.file("none.igs.mha"));
   EXPECT_STREQ(e.what(),
@@ -60,7 +60,7 @@ TEST(StudyRunnerHash, AMissingInputIsSaidWithWhyItIsNeeded) {
 TEST(StudyRunnerHash, AFifoIsRefusedInsteadOfBlockingTheRead) {
   const test::TempDir dir;
   ASSERT_EQ(::mkfifo(dir.file("pipe").c_str(), 0600), 0);
-  const FileError e = thrownFileError([&] { contentHash(dir.file("pipe"), "why"); });
+  const core::FileError e = thrownFileError([&] { contentHash(dir.file("pipe"), "why"); });
   EXPECT_STREQ(e.what(), (dir.file("pipe") + ": is not a regular file or a folder").c_str());
 }
 
@@ -75,7 +75,9 @@ TEST(StudyRunnerHash, AStepsMissingInputIsNamedUnderTheStudyFolderAsTheUserNamed
   step.action = [](const Streams&) { return 0; };
   std::ostringstream out;
   std::ostringstream err;
-  const FileError e = thrownFileError([&] { runner.run(step, Streams{out, err, false}, 1, 1); });
+  const core::FileError e = thrownFileError([&] {
+    runner.run(step, Streams{out, err, false}, 1, 1);
+  });
   EXPECT_STREQ(e.what(),
                "my-study/captures/no-such-capture-for-this-test.igs.mha: is missing (step \"stylus "
                "tip (pivot)\" needs it)");

@@ -9,7 +9,7 @@
 #include <stdexcept>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 namespace {
 
 void expectCoefficients(const IirCoefficients& actual, const std::vector<double>& b,
@@ -164,4 +164,4 @@ TEST(Butterworth, ZeroPhaseKeepsAPeakInPlaceWhileTheCausalPassDelaysIt) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -14,7 +14,7 @@
 #include <stdexcept>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -648,4 +648,4 @@ TEST(Detection, BoundsOnTheAcquisitionFacts) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -243,19 +243,19 @@ TEST(PhysicalAlines, CodesFollowEachCapturesDigitiser) {
 
 // Per qualifier of the frames' kinds: what the default misses and wrongly accepts (printed for
 // the docs; the detector judges each record alone, as scoreCapture does).
-void printKindsOfFailures(const std::string& profile, const DetectionParams& preset) {
+void printKindsOfFailures(const std::string& profile, const core::DetectionParams& preset) {
   std::map<std::string, std::array<int, 4>> tally;  // positives, FN, negatives, FP
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     for (const PhysicalCapture& capture : physicalSet(profile, seed).captures) {
       const std::vector<LabelledRecord> records = capture.labelled();
-      DetectionParams params = withFacts(preset, capture.facts);
-      const RecordSource source = [&records](int index, std::vector<float>& out) {
+      core::DetectionParams params = withFacts(preset, capture.facts);
+      const core::RecordSource source = [&records](int index, std::vector<float>& out) {
         out = *records[static_cast<std::size_t>(index)].samples;
       };
-      params =
-          adaptToCapture(params, static_cast<int>(records.size()),
-                         static_cast<int>(records.front().samples->size()), source, std::nullopt);
-      SignalDetector detector(params);
+      params = core::adaptToCapture(params, static_cast<int>(records.size()),
+                                    static_cast<int>(records.front().samples->size()), source,
+                                    std::nullopt);
+      core::SignalDetector detector(params);
       std::array<int, 4> perCapture{};
       for (const PhysicalFrame& frame : capture.frames) {
         if (frame.ambiguous)
@@ -301,7 +301,7 @@ void scoreProfile(const std::string& profile, Bound defaultBound) {
   DetectionScore pooledDefault;
   for (std::uint64_t seed = 1; seed <= 3; ++seed) {
     for (const std::string presetName : {"default", "shadow", "mozes2008"}) {
-      const DetectionParams preset = detectionPreset(presetName);
+      const core::DetectionParams preset = core::detectionPreset(presetName);
       DetectionScore total;
       for (const PhysicalCapture& capture : physicalSet(profile, seed).captures)
         total.add(scoreCapture(preset, capture.facts, capture.labelled()));
@@ -319,7 +319,7 @@ void scoreProfile(const std::string& profile, Bound defaultBound) {
               describe(pooledDefault).c_str());
   EXPECT_LE(pooledDefault.falseNegativeRate(), defaultBound.falseNegative) << profile;
   EXPECT_LE(pooledDefault.falsePositiveRate(), defaultBound.falsePositive) << profile;
-  printKindsOfFailures(profile, detectionPreset("default"));
+  printKindsOfFailures(profile, core::detectionPreset("default"));
 }
 
 // Bounds on the default, seeds 1-3 pooled: about 4 points above what it measures after stop

@@ -18,7 +18,7 @@
 #include <string>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 namespace {
 
 // What a user knows of the capture's acquisition.
@@ -145,4 +145,4 @@ TEST(DetectionRandomised, TheTemporalFilterKeepsMovingBone) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 namespace {
 
 test::DetectionScore scoreGeneratorSet(const DetectionParams& preset, std::uint64_t seed) {
@@ -62,4 +62,4 @@ TEST(DetectionSets, GeneratorSet) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::core

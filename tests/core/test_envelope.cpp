@@ -12,7 +12,7 @@
 #include <stdexcept>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -248,4 +248,4 @@ TEST(Envelope, NamesRoundTripAndBadParametersAreRefused) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::core

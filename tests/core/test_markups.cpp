@@ -66,12 +66,12 @@ TEST(Markups, BadFilesNameTheFileAndTheProblem) {
     try {
       echoreg::core::readMarkupPoints(path);
       ADD_FAILURE() << "accepted: " << text;
-    } catch (const echoreg::FileError& e) {
+    } catch (const echoreg::core::FileError& e) {
       EXPECT_EQ(e.path(), path);
       EXPECT_NE(std::string(e.what()).find(problem), std::string::npos) << e.what();
     }
   }
-  EXPECT_THROW(echoreg::core::readMarkups(dir.file("missing.mrk.json")), echoreg::FileError);
+  EXPECT_THROW(echoreg::core::readMarkups(dir.file("missing.mrk.json")), echoreg::core::FileError);
 }
 
 }  // namespace

@@ -8,7 +8,7 @@
 #include <stdexcept>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 namespace {
 
 std::vector<float> echoes(const std::vector<test::EchoSpec>& specs, std::uint64_t seed = 1) {
@@ -210,4 +210,4 @@ TEST(Detection, PresetsAndValidation) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::core

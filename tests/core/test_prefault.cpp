@@ -15,17 +15,17 @@ TEST(Prefault, KeepsWhatTheMemoryHolds) {
   for (std::size_t i = 0; i < buffer.size(); ++i)
     buffer[i] = static_cast<std::uint8_t>(i * 131u + 7u);
   const std::vector<std::uint8_t> before = buffer;
-  echoreg::prefaultForWriting(buffer.data() + 3, buffer.size() - 5);
+  echoreg::core::prefaultForWriting(buffer.data() + 3, buffer.size() - 5);
   EXPECT_EQ(buffer, before);
-  echoreg::prefaultForWriting(nullptr, 4096);
-  echoreg::prefaultForWriting(buffer.data(), 0);
+  echoreg::core::prefaultForWriting(nullptr, 4096);
+  echoreg::core::prefaultForWriting(buffer.data(), 0);
   EXPECT_EQ(buffer, before);
 }
 
 TEST(Prefault, ZerosAreZerosOfTheSizeAsked) {
   for (const std::size_t bytes :
        {std::size_t{0}, std::size_t{1}, std::size_t{4095}, std::size_t{(8u << 20) + 17u}}) {
-    const std::vector<std::uint8_t> zeros = echoreg::prefaultedZeros(bytes);
+    const std::vector<std::uint8_t> zeros = echoreg::core::prefaultedZeros(bytes);
     ASSERT_EQ(zeros.size(), bytes);
     EXPECT_TRUE(std::all_of(zeros.begin(), zeros.end(), [](std::uint8_t b) { return b == 0; }))
         << bytes << " bytes";

@@ -10,7 +10,7 @@
 #include <cmath>
 #include <limits>
 
-namespace echoreg {
+namespace echoreg::core {
 namespace {
 
 Eigen::Matrix4d pose() {
@@ -106,4 +106,4 @@ TEST(RigidPose, ScaleShearReflectionAndProjectiveRowsAreRefusedNamingFrameAndTra
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::core

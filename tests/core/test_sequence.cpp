@@ -16,7 +16,7 @@
 #include <string>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 namespace {
 
 namespace fs = std::filesystem;
@@ -497,4 +497,4 @@ TEST(SequenceRealFiles, RealFilesRewriteToIdenticalSequences) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -15,7 +15,7 @@
 #include <string>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 namespace {
 
 namespace fs = std::filesystem;
@@ -417,4 +417,4 @@ TEST_F(SequenceBadInput, AFailedWriteKeepsThePreviousFile) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::core

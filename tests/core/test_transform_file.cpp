@@ -10,7 +10,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace echoreg {
+namespace echoreg::core {
 namespace {
 
 Eigen::Matrix4d someRigid() {
@@ -101,4 +101,4 @@ TEST(TransformFile, BadFilesNameTheFileAndTheProblem) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::core

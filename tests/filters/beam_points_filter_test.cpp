@@ -45,7 +45,7 @@ TEST(BeamPointsFilter, WithoutPosesPointsLieOnTheBeam) {
 }
 
 TEST(BeamPointsFilter, PosesAndBeamToProbePlaceThePointInTracker) {
-  const Sequence poses = probePoses(2);
+  const core::Sequence poses = probePoses(2);
   // Beam +z along Probe +x, beam origin 5 mm along Probe y.
   const double beamToProbe[16] = {0,  0, 1, 0,  //
                                   0,  1, 0, 5,  //
@@ -78,7 +78,7 @@ TEST(BeamPointsFilter, PosesAndBeamToProbePlaceThePointInTracker) {
 }
 
 TEST(BeamPointsFilter, ReferenceTransformExpressesPointsInTheBoneAsTheCoreDoes) {
-  const Sequence poses = probePoses(2);
+  const core::Sequence poses = probePoses(2);
   vtkNew<vtkEchoregBeamPointsFilter> filter;
   filter->SetPoseTransformName("ProbeToTracker");
   filter->SetReferenceTransformName("FemurToTracker");
@@ -86,7 +86,7 @@ TEST(BeamPointsFilter, ReferenceTransformExpressesPointsInTheBoneAsTheCoreDoes) 
   filter->SetBeamToProbe(beamToProbe);
   filter->SetInputData(peakTable({20.0, 30.0}, {"", ""}, poses));
   filter->Update();
-  PointFrameOptions options;
+  core::PointFrameOptions options;
   options.poseTransform = "ProbeToTracker";
   options.referenceTransform = "FemurToTracker";
   options.beamToProbe(0, 3) = 1.5;
@@ -98,8 +98,8 @@ TEST(BeamPointsFilter, ReferenceTransformExpressesPointsInTheBoneAsTheCoreDoes) 
     EXPECT_TRUE(pointAt(filter->GetOutput(), frame).isApprox(expected.head<3>()));
     // The adapter's numbers are the core's, bit for bit.
     const auto core =
-        beamPoint(frame == 0 ? 20.0 : 30.0, options, &transforms.at("ProbeToTracker").matrix,
-                  &transforms.at("FemurToTracker").matrix);
+        core::beamPoint(frame == 0 ? 20.0 : 30.0, options, &transforms.at("ProbeToTracker").matrix,
+                        &transforms.at("FemurToTracker").matrix);
     ASSERT_TRUE(core.has_value());
     EXPECT_EQ(pointAt(filter->GetOutput(), frame), *core);
   }
@@ -107,7 +107,7 @@ TEST(BeamPointsFilter, ReferenceTransformExpressesPointsInTheBoneAsTheCoreDoes) 
 }
 
 TEST(BeamPointsFilter, ACalibrationInputWinsOverTheParameterAndReRunsIt) {
-  const Sequence poses = probePoses(2);
+  const core::Sequence poses = probePoses(2);
   const double beamToProbe[16] = {0, 0, 1, 0, 0, 1, 0, 5, -1, 0, 0, 0, 0, 0, 0, 1};
   vtkNew<vtkEchoregBeamPointsFilter> byParameter;
   byParameter->SetPoseTransformName("ProbeToTracker");
@@ -181,12 +181,12 @@ TEST(BeamPointsFilter, ManyRowsInParallelGiveTheSerialAnswer) {
       depths[static_cast<std::size_t>(frame)] = kNaN;
     }
   }
-  const Sequence poses = probePoses(frames, {3, 4000});
+  const core::Sequence poses = probePoses(frames, {3, 4000});
   vtkNew<vtkEchoregBeamPointsFilter> filter;
   filter->SetPoseTransformName("ProbeToTracker");
   filter->SetInputData(peakTable(depths, reasons, poses));
   filter->Update();
-  PointFrameOptions options;
+  core::PointFrameOptions options;
   options.poseTransform = "ProbeToTracker";
   int invalid = 0;
   for (int frame = 0; frame < frames; ++frame) {
@@ -194,8 +194,8 @@ TEST(BeamPointsFilter, ManyRowsInParallelGiveTheSerialAnswer) {
         poses.frames[static_cast<std::size_t>(frame)].transforms.at("ProbeToTracker");
     if (!reasons[static_cast<std::size_t>(frame)].empty())
       continue;
-    const auto core = beamPoint(depths[static_cast<std::size_t>(frame)], options,
-                                probe.valid() ? &probe.matrix : nullptr, nullptr);
+    const auto core = core::beamPoint(depths[static_cast<std::size_t>(frame)], options,
+                                      probe.valid() ? &probe.matrix : nullptr, nullptr);
     if (!core) {
       ++invalid;
       EXPECT_EQ(reasonAt(filter->GetOutput(), frame), "invalid-pose") << frame;

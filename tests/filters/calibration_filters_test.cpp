@@ -5,7 +5,7 @@
 #include "echoreg/core/beam_calibration.hpp"
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/fits.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 #include "echoreg/filters/vtkEchoregBeamCalibrationFilter.h"
 #include "echoreg/filters/vtkEchoregSphereFitFilter.h"
 #include "filter_test_helpers.hpp"
@@ -60,14 +60,14 @@ Eigen::Vector3d facing(std::mt19937& random, const Eigen::Vector3d& towards) {
 vtkSmartPointer<vtkImageData> stylusCapture(int poses, double noiseMm) {
   std::mt19937 random(5);
   std::normal_distribution<double> noise(0.0, noiseMm);
-  Sequence sequence;
+  core::Sequence sequence;
   sequence.frames.resize(static_cast<std::size_t>(poses));
   for (int f = 0; f < poses; ++f) {
     const Eigen::Vector3d n = facing(random, Eigen::Vector3d(0, 0, -1));
     const Eigen::Vector3d tip = kCentre + (kBallRadius + kTipRadius) * n +
                                 Eigen::Vector3d(noise(random), noise(random), noise(random));
     const Eigen::Matrix3d rotation = randomRotation(random, 0.6);
-    TrackedTransform pose;
+    core::TrackedTransform pose;
     pose.matrix.block<3, 3>(0, 0) = rotation;
     pose.matrix.block<3, 1>(0, 3) = tip - rotation * kTipInStylus;
     if (f == 3)
@@ -86,7 +86,7 @@ vtkSmartPointer<vtkImageData> stylusCapture(int poses, double noiseMm) {
 vtkSmartPointer<vtkTable> shotsTable(int shots) {
   std::mt19937 random(9);
   std::uniform_real_distribution<double> depth(15.0, 30.0);
-  Sequence sequence;
+  core::Sequence sequence;
   sequence.frames.resize(static_cast<std::size_t>(shots));
   sequence.acquisition.speedOfSoundMps = 1450.0;
   vtkNew<vtkIntArray> frames;
@@ -101,7 +101,7 @@ vtkSmartPointer<vtkTable> shotsTable(int shots) {
     const Eigen::Vector3d hit = kCentre + kBallRadius * facing(random, beam);
     const double d = depth(random);
     const Eigen::Vector3d origin = hit - d * beam;
-    TrackedTransform pose;
+    core::TrackedTransform pose;
     pose.matrix.block<3, 3>(0, 0) = rotation;
     pose.matrix.block<3, 1>(0, 3) = origin - rotation * kBeamOrigin;
     sequence.frames[static_cast<std::size_t>(f)].transforms["ProbeToTracker"] = pose;
@@ -219,9 +219,9 @@ TEST(BeamCalibrationFilter, AssumedSpeedIsTheSetOneElseTheHeadersElseTheCalibrat
   pipeline.beam->Update();
   ASSERT_EQ(pipeline.beam->GetLastError(), "");
   EXPECT_EQ(pipeline.beam->GetLastResult().speedOfSoundMps,
-            detectionPreset("calibration").depth.speedOfSoundMps)
+            core::detectionPreset("calibration").depth.speedOfSoundMps)
       << "without a header: the calibration preset's";
-  EXPECT_EQ(pipeline.beam->GetLastResult().speedOfSoundMps, kWaterSpeedOfSoundMps);
+  EXPECT_EQ(pipeline.beam->GetLastResult().speedOfSoundMps, core::kWaterSpeedOfSoundMps);
 }
 
 TEST(CalibrationPipeline, AChangeReRunsOnlyWhatIsDownstream) {

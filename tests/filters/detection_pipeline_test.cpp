@@ -1,8 +1,8 @@
 // echoreg::filters::DetectionPipeline, the path `echoreg detect` takes: its detection must be
 // detectSequence's, number for number, its CSV written whole or not at all, and a change re-runs
 // only the steps downstream of it.
+#include "echoreg/filters/detection_pipeline.h"
 #include "echoreg/core/sequence_detection.hpp"
-#include "echoreg/filters/DetectionPipeline.h"
 #include "filter_test_helpers.hpp"
 #include "test_support.hpp"
 
@@ -20,15 +20,16 @@
 namespace echoreg::test {
 namespace {
 
-void expectSameDetection(const SequenceDetection& actual, const SequenceDetection& expected) {
+void expectSameDetection(const core::SequenceDetection& actual,
+                         const core::SequenceDetection& expected) {
   ASSERT_EQ(actual.frames.size(), expected.frames.size());
   for (std::size_t f = 0; f < expected.frames.size(); ++f) {
     SCOPED_TRACE("frame " + std::to_string(f));
-    const FrameDetection& a = actual.frames[f];
-    const FrameDetection& e = expected.frames[f];
+    const core::FrameDetection& a = actual.frames[f];
+    const core::FrameDetection& e = expected.frames[f];
     EXPECT_EQ(a.frame, e.frame);
     EXPECT_EQ(a.timestampS, e.timestampS);
-    EXPECT_EQ(rejectReasonName(a.reason), rejectReasonName(e.reason));
+    EXPECT_EQ(core::rejectReasonName(a.reason), core::rejectReasonName(e.reason));
     EXPECT_EQ(a.peakCount, e.peakCount);
     EXPECT_EQ(a.sampleIndex, e.sampleIndex);
     EXPECT_EQ(a.depthMm, e.depthMm);
@@ -43,7 +44,7 @@ void expectSameDetection(const SequenceDetection& actual, const SequenceDetectio
   EXPECT_EQ(actual.analysis.ringDownSamples, expected.analysis.ringDownSamples);
   EXPECT_EQ(actual.analysis.transducerFrequencyHz, expected.analysis.transducerFrequencyHz);
   EXPECT_EQ(actual.analysis.shadowRule, expected.analysis.shadowRule);
-  EXPECT_EQ(detectionWarnings(actual), detectionWarnings(expected));
+  EXPECT_EQ(core::detectionWarnings(actual), core::detectionWarnings(expected));
 }
 
 std::string readText(const std::string& path) {
@@ -68,20 +69,20 @@ class DetectionPipelineAgainstCore : public ::testing::TestWithParam<std::string
 TEST_P(DetectionPipelineAgainstCore, SameDetectionAsDetectSequence) {
   TempDir dir;
   const SyntheticCapture capture = trackedCapture();
-  const Sequence sequence = makeCapture(capture);
+  const core::Sequence sequence = makeCapture(capture);
   const std::string path = dir.file("capture.igs.mha");
-  writeSequence(sequence, path);
+  core::writeSequence(sequence, path);
 
-  DetectionParams params =
-      GetParam() == "test" ? testDetectionParams(capture) : detectionPreset(GetParam());
-  params.depth = depthFromSequence(sequence, params.depth);
+  core::DetectionParams params =
+      GetParam() == "test" ? testDetectionParams(capture) : core::detectionPreset(GetParam());
+  params.depth = core::depthFromSequence(sequence, params.depth);
   params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
   params.interSignal.minSpreadMm = 0.4;
-  PointFrameOptions points;
+  core::PointFrameOptions points;
   points.poseTransform = "ProbeToTracker";
   points.referenceTransform = "FemurToTracker";
   points.beamToProbe(0, 3) = 1.5;
-  const SequenceDetection expected = detectSequence(sequence, params, points);
+  const core::SequenceDetection expected = core::detectSequence(sequence, params, points);
   if (GetParam() == "test") {
     ASSERT_GT(expected.accepted, 0);
     ASSERT_GT(expected.rejectedByReason.count("invalid-pose"), 0U);
@@ -103,7 +104,7 @@ TEST(DetectionPipeline, UntrackedCaptureWritesTheCsvWithoutPoints) {
   SyntheticCapture capture;
   capture.frames = 12;
   const std::string path = dir.file("capture.igs.nrrd");
-  writeSequence(makeCapture(capture), path);
+  core::writeSequence(makeCapture(capture), path);
   filters::DetectionPipeline pipeline;
   pipeline.open(path, {});
   pipeline.configure(testDetectionParams(capture), {});
@@ -112,11 +113,11 @@ TEST(DetectionPipeline, UntrackedCaptureWritesTheCsvWithoutPoints) {
   const std::string csv = readText(out);
   EXPECT_EQ(csv.substr(0, csv.find('\n')),
             "frame,timestamp_s,status,reason,peaks,sample_index,depth_mm");
-  const SequenceDetection detection = pipeline.run();
+  const core::SequenceDetection detection = pipeline.run();
   EXPECT_EQ(static_cast<std::size_t>(std::count(csv.begin(), csv.end(), '\n')),
             detection.frames.size() + 1);
   ASSERT_GT(detection.accepted, 0);
-  for (const FrameDetection& frame : detection.frames) {
+  for (const core::FrameDetection& frame : detection.frames) {
     if (!frame.depthMm)
       continue;
     char depth[32];
@@ -129,15 +130,15 @@ TEST(DetectionPipeline, ACalibrationChangeReRunsOnlyThePointsAndTheFilters) {
   TempDir dir;
   const SyntheticCapture capture = trackedCapture();
   const std::string path = dir.file("capture.igs.mha");
-  writeSequence(makeCapture(capture), path);
+  core::writeSequence(makeCapture(capture), path);
   filters::DetectionPipeline pipeline;
   pipeline.open(path, {"ProbeToTracker"});
-  PointFrameOptions points;
+  core::PointFrameOptions points;
   points.poseTransform = "ProbeToTracker";
   pipeline.configure(testDetectionParams(capture), points);
   const std::string out = dir.file("depths.csv");
   pipeline.write(out);
-  const SequenceDetection before = pipeline.run();
+  const core::SequenceDetection before = pipeline.run();
   const auto counts = [&] {
     return std::array<int, 6>{
         pipeline.reader->GetExecutionCount(),      pipeline.envelope->GetExecutionCount(),
@@ -152,7 +153,7 @@ TEST(DetectionPipeline, ACalibrationChangeReRunsOnlyThePointsAndTheFilters) {
 
   points.beamToProbe(2, 3) = 4.0;
   pipeline.configure(testDetectionParams(capture), points);
-  const SequenceDetection after = pipeline.run();
+  const core::SequenceDetection after = pipeline.run();
   EXPECT_EQ(counts(), (std::array<int, 6>{1, 1, 1, 2, 2, 1})) << "a new BeamToProbe";
   ASSERT_EQ(after.accepted, before.accepted);
   for (std::size_t f = 0; f < after.frames.size(); ++f) {
@@ -168,20 +169,20 @@ TEST(DetectionPipeline, ACalibrationChangeReRunsOnlyThePointsAndTheFilters) {
 TEST(DetectionPipeline, StreamedInBlocksGivesTheSameDetectionHoldingOneBlock) {
   TempDir dir;
   const SyntheticCapture capture = trackedCapture();
-  const Sequence sequence = makeCapture(capture);
+  const core::Sequence sequence = makeCapture(capture);
   const std::string path = dir.file("capture.igs.mha");
-  writeSequence(sequence, path);
-  PointFrameOptions points;
+  core::writeSequence(sequence, path);
+  core::PointFrameOptions points;
   points.poseTransform = "ProbeToTracker";
   points.referenceTransform = "FemurToTracker";
-  const DetectionParams params = testDetectionParams(capture);
+  const core::DetectionParams params = testDetectionParams(capture);
 
   filters::DetectionPipeline whole;
   whole.open(path, {});
   whole.configure(params, points);
   whole.peaks->PeakListOn();
   whole.write(dir.file("whole.csv"));
-  const SequenceDetection expected = whole.run();
+  const core::SequenceDetection expected = whole.run();
   ASSERT_GT(expected.accepted, 0);
 
   filters::DetectionPipeline streamed;
@@ -224,7 +225,7 @@ TEST(DetectionPipeline, StreamedInBlocksGivesTheSameDetectionHoldingOneBlock) {
   EXPECT_EQ(streamed.peaks->GetExecutionCount(), 1);
 
   // A new peak threshold: the price of streaming, every block's envelopes are computed again.
-  DetectionParams stricter = params;
+  core::DetectionParams stricter = params;
   stricter.peaks.thresholdFactor *= 1.5;
   streamed.configure(stricter, points);
   streamed.run();
@@ -257,11 +258,11 @@ TEST(DetectionPipeline, BadInputIsAnErrorInTheCoresWordsAndWritesNothing) {
   }
   const SyntheticCapture capture = trackedCapture();
   const std::string path = dir.file("capture.igs.mha");
-  writeSequence(makeCapture(capture), path);
+  core::writeSequence(makeCapture(capture), path);
   {
     filters::DetectionPipeline pipeline;
     pipeline.open(path, {});
-    PointFrameOptions points;
+    core::PointFrameOptions points;
     points.poseTransform = "ProbeToTracker";
     points.referenceTransform = "TibiaToTracker";
     try {
@@ -278,12 +279,12 @@ TEST(DetectionPipeline, BadInputIsAnErrorInTheCoresWordsAndWritesNothing) {
     EXPECT_FALSE(std::filesystem::exists(out));
   }
   {
-    Sequence stylus;
+    core::Sequence stylus;
     stylus.frames.resize(3);
     for (auto& frame : stylus.frames)
-      frame.transforms["StylusToTracker"] = TrackedTransform();
+      frame.transforms["StylusToTracker"] = core::TrackedTransform();
     const std::string stylusPath = dir.file("stylus.igs.mha");
-    writeSequence(stylus, stylusPath);
+    core::writeSequence(stylus, stylusPath);
     filters::DetectionPipeline pipeline;
     pipeline.open(stylusPath, {});
     EXPECT_THROW(pipeline.configure(testDetectionParams(capture), {}), std::invalid_argument);
@@ -292,16 +293,16 @@ TEST(DetectionPipeline, BadInputIsAnErrorInTheCoresWordsAndWritesNothing) {
 
 TEST(DetectionPipeline, MatchesDetectSequenceOnThePublicAgilentRecording) {
   ECHOREG_REQUIRE_SHARED_FILE(path, "plus/Agilent_Scope_Recording_DP310.igs.nrrd");
-  const Sequence sequence = readSequence(path);
+  const core::Sequence sequence = core::readSequence(path);
   for (const std::string preset : {"default", "calibration"}) {
     SCOPED_TRACE(preset);
-    DetectionParams params = detectionPreset(preset);
-    params.depth = depthFromSequence(sequence, params.depth);
+    core::DetectionParams params = core::detectionPreset(preset);
+    params.depth = core::depthFromSequence(sequence, params.depth);
     params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
     filters::DetectionPipeline pipeline;
     pipeline.open(path, {});
     pipeline.configure(params, {});
-    expectSameDetection(pipeline.run(), detectSequence(sequence, params));
+    expectSameDetection(pipeline.run(), core::detectSequence(sequence, params));
   }
 }
 

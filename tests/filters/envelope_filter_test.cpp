@@ -15,8 +15,9 @@ namespace echoreg::test {
 namespace {
 
 // The oracle: the core detector run on each frame of the plain sequence.
-std::vector<float> coreEnvelopes(const Sequence& sequence, const EnvelopeParams& params) {
-  EnvelopeDetector detector(params);
+std::vector<float> coreEnvelopes(const core::Sequence& sequence,
+                                 const core::EnvelopeParams& params) {
+  core::EnvelopeDetector detector(params);
   std::vector<float> all;
   std::vector<float> samples;
   std::vector<float> envelope;
@@ -29,17 +30,17 @@ std::vector<float> coreEnvelopes(const Sequence& sequence, const EnvelopeParams&
   return all;
 }
 
-class EnvelopeFilterMethods : public ::testing::TestWithParam<EnvelopeMethod> {};
+class EnvelopeFilterMethods : public ::testing::TestWithParam<core::EnvelopeMethod> {};
 
 TEST_P(EnvelopeFilterMethods, EveryRowEqualsTheCoreDetector) {
   SyntheticCapture capture;
   capture.frames = 40;  // enough rows for several parallel chunks
-  const Sequence sequence = makeCapture(capture);
-  EnvelopeParams params;
+  const core::Sequence sequence = makeCapture(capture);
+  core::EnvelopeParams params;
   params.method = GetParam();
   params.windowSamples = 31;
   params.ringDownSamples = 10;
-  params.zeroPhase = GetParam() == EnvelopeMethod::Mozes ? false : true;
+  params.zeroPhase = GetParam() == core::EnvelopeMethod::Mozes ? false : true;
 
   vtkNew<vtkEchoregEnvelopeFilter> filter;
   filter->SetParams(params);
@@ -64,16 +65,17 @@ TEST_P(EnvelopeFilterMethods, EveryRowEqualsTheCoreDetector) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllMethods, EnvelopeFilterMethods,
-                         ::testing::Values(EnvelopeMethod::Mozes, EnvelopeMethod::Hann,
-                                           EnvelopeMethod::StdDev, EnvelopeMethod::Hilbert));
+                         ::testing::Values(core::EnvelopeMethod::Mozes, core::EnvelopeMethod::Hann,
+                                           core::EnvelopeMethod::StdDev,
+                                           core::EnvelopeMethod::Hilbert));
 
 // Streamed in blocks, the filter writes each block into the previous block's array when nothing
 // else holds it (no fresh pages per block); a consumer that kept a block's envelopes keeps them.
 TEST(EnvelopeFilter, BlocksReuseTheArrayUnlessAConsumerKeptIt) {
   SyntheticCapture capture;
   capture.frames = 40;
-  const Sequence sequence = makeCapture(capture);
-  const EnvelopeParams params;
+  const core::Sequence sequence = makeCapture(capture);
+  const core::EnvelopeParams params;
   const std::vector<float> expected = coreEnvelopes(sequence, params);
   vtkNew<vtkEchoregEnvelopeFilter> filter;
   filter->SetParams(params);
@@ -115,7 +117,7 @@ TEST(EnvelopeFilter, BlocksReuseTheArrayUnlessAConsumerKeptIt) {
 TEST(EnvelopeFilter, ConvertsAnyScalarTypeToFloat) {
   SyntheticCapture capture;
   capture.frames = 3;
-  const Sequence sequence = makeCapture(capture);
+  const core::Sequence sequence = makeCapture(capture);
   vtkSmartPointer<vtkImageData> image = imageOf(sequence);
   // The same A-lines as 16-bit samples: the envelope must not change.
   vtkNew<vtkShortArray> shorts;
@@ -164,10 +166,10 @@ TEST(EnvelopeFilter, ParameterSettersModifyOnlyOnChange) {
   EXPECT_GT(filter->GetMTime(), start);
   EXPECT_EQ(filter->GetMethod(), vtkEchoregEnvelopeFilter::METHOD_MOZES);
   EXPECT_STREQ(filter->GetMethodAsString(), "mozes");
-  EXPECT_EQ(filter->GetParams().method, EnvelopeMethod::Mozes);
+  EXPECT_EQ(filter->GetParams().method, core::EnvelopeMethod::Mozes);
 
   const vtkMTimeType afterMethod = filter->GetMTime();
-  EnvelopeParams params = filter->GetParams();
+  core::EnvelopeParams params = filter->GetParams();
   params.cutoffNormalized = 0.02;
   filter->SetParams(params);
   EXPECT_GT(filter->GetMTime(), afterMethod);
@@ -195,10 +197,10 @@ TEST(EnvelopeFilter, InvalidParametersFailThroughTheExecutive) {
 
 TEST(EnvelopeFilter, InputWithoutSamplesWarnsAndPassesTheFieldDataThrough) {
   CapturedVtkOutput messages;
-  Sequence trackerOnly;
+  core::Sequence trackerOnly;
   trackerOnly.frames.resize(5);
   for (auto& frame : trackerOnly.frames)
-    frame.transforms["StylusToTracker"] = TrackedTransform();
+    frame.transforms["StylusToTracker"] = core::TrackedTransform();
   vtkSmartPointer<vtkImageData> image = imageOf(trackerOnly);
 
   vtkNew<vtkEchoregEnvelopeFilter> filter;

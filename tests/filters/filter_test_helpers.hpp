@@ -5,7 +5,7 @@
 
 #include "echoreg/core/detection.hpp"
 #include "echoreg/core/sequence.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkImageData.h>
 #include <vtkLogger.h>
@@ -54,17 +54,17 @@ struct SyntheticCapture {
     pose(1, 3) = 5.0;
     return pose;
   }
-  DepthConversion depth() const {
-    DepthConversion conversion;
+  core::DepthConversion depth() const {
+    core::DepthConversion conversion;
     conversion.samplingFrequencyHz = samplingFrequencyHz;
     conversion.speedOfSoundMps = speedOfSoundMps;
     return conversion;
   }
 };
 
-inline Sequence makeCapture(const SyntheticCapture& capture) {
-  Sequence sequence;
-  sequence.elementType = ElementType::UInt8;
+inline core::Sequence makeCapture(const SyntheticCapture& capture) {
+  core::Sequence sequence;
+  sequence.elementType = core::ElementType::UInt8;
   sequence.frameSize = {capture.samples, 1};
   sequence.acquisition.samplingFrequencyHz = capture.samplingFrequencyHz;
   sequence.acquisition.speedOfSoundMps = capture.speedOfSoundMps;
@@ -73,16 +73,16 @@ inline Sequence makeCapture(const SyntheticCapture& capture) {
   std::uniform_real_distribution<double> noise(-capture.noiseCounts, capture.noiseCounts);
   const double pi = 3.14159265358979323846;
   for (int frame = 0; frame < capture.frames; ++frame) {
-    SequenceFrame metadata;
+    core::SequenceFrame metadata;
     metadata.timestampS = capture.timestampS(frame);
-    TrackedTransform probe;
+    core::TrackedTransform probe;
     probe.matrix = capture.probeToTracker(frame);
     const auto& invalid = capture.invalidProbeFrames;
     probe.status =
         std::find(invalid.begin(), invalid.end(), frame) != invalid.end() ? "INVALID" : "OK";
     metadata.transforms["ProbeToTracker"] = probe;
     if (capture.withFemur) {
-      TrackedTransform femur;
+      core::TrackedTransform femur;
       femur.matrix = Eigen::Matrix4d::Identity();
       femur.matrix.block<3, 1>(0, 3) = capture.femurOffsetMm;
       metadata.transforms["FemurToTracker"] = femur;
@@ -101,7 +101,7 @@ inline Sequence makeCapture(const SyntheticCapture& capture) {
 }
 
 /// The image vtkEchoregSequenceReader makes of an A-line sequence, built in memory.
-inline vtkSmartPointer<vtkImageData> imageOf(const Sequence& sequence) {
+inline vtkSmartPointer<vtkImageData> imageOf(const core::Sequence& sequence) {
   auto image = vtkSmartPointer<vtkImageData>::New();
   image->SetExtent(0, sequence.frameSize[0] - 1, 0, static_cast<int>(sequence.frameCount()) - 1, 0,
                    0);
@@ -116,12 +116,12 @@ inline vtkSmartPointer<vtkImageData> imageOf(const Sequence& sequence) {
 
 /// Parameters that find the synthetic echo: short Hann envelope, strongest peak above half the
 /// maximum, the capture's depth conversion; inter-signal filters off.
-inline DetectionParams testDetectionParams(const SyntheticCapture& capture) {
-  DetectionParams params;
-  params.envelope.method = EnvelopeMethod::Hann;
+inline core::DetectionParams testDetectionParams(const SyntheticCapture& capture) {
+  core::DetectionParams params;
+  params.envelope.method = core::EnvelopeMethod::Hann;
   params.envelope.windowSamples = 21;
-  params.peaks.policy = PeakPolicy::Max;
-  params.peaks.thresholdMode = ThresholdMode::FractionOfMax;
+  params.peaks.policy = core::PeakPolicy::Max;
+  params.peaks.thresholdMode = core::ThresholdMode::FractionOfMax;
   params.peaks.thresholdOfMax = 0.5;
   params.depth = capture.depth();
   params.interSignal.history = 1;

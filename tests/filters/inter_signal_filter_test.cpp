@@ -48,7 +48,7 @@ TEST(InterSignalFilter, StatusFollowsTheVerdictsAndColumnsAreKept) {
 
 TEST(InterSignalFilter, InvalidPoseRejectsTheFrameAndBreaksTheRun) {
   // All points agree (same depth, probe steps 0.1 mm) so only the invalid pose breaks the run.
-  Sequence poses = probePoses(6, {2});
+  core::Sequence poses = probePoses(6, {2});
   for (auto& frame : poses.frames)
     frame.transforms["ProbeToTracker"].matrix(0, 3) *= 0.01;
   Chain chain(peakTable({20, 20, 20, 20, 20, 20}, {"", "", "", "", "", ""}, poses),
@@ -86,7 +86,7 @@ TEST(InterSignalFilter, InvalidPoseRejectsTheFrameAndBreaksTheRun) {
 
 // The adapter's verdicts against applyInterSignal on the same frames, in every mode.
 struct Case {
-  TemporalMode temporal;
+  core::TemporalMode temporal;
   bool tracked;
 };
 
@@ -98,7 +98,7 @@ TEST_P(InterSignalAgainstCore, GivesApplyInterSignalsVerdicts) {
                                       20.3, 20.3, 20.4, 21.6,  21.7, 21.8, 30.0};
   std::vector<std::string> reasons(depths.size());
   reasons[9] = "no-peak";
-  InterSignalParams params;
+  core::InterSignalParams params;
   params.temporal = GetParam().temporal;
   params.history = 3;
   params.consistencyMm = 0.3;
@@ -107,17 +107,17 @@ TEST_P(InterSignalAgainstCore, GivesApplyInterSignalsVerdicts) {
 
   // Tracked: an identity probe pose, so the points are (0, 0, depth) in Tracker and the spatial
   // filter runs; untracked it must not.
-  Sequence poses;
+  core::Sequence poses;
   poses.frames.resize(depths.size());
   for (std::size_t frame = 0; frame < depths.size(); ++frame) {
     // 30 ms apart, not the 20 ms the filter assumes without timestamps: the column is read.
     poses.frames[frame].timestampS = 0.03 * static_cast<double>(frame);
-    poses.frames[frame].transforms["ProbeToTracker"] = TrackedTransform();
+    poses.frames[frame].transforms["ProbeToTracker"] = core::TrackedTransform();
   }
   vtkSmartPointer<vtkTable> peaks = peakTable(depths, reasons, poses);
   vtkNew<vtkDoubleArray> timestamps;
   timestamps->SetName("timestamp_s");
-  for (const SequenceFrame& frame : poses.frames)
+  for (const core::SequenceFrame& frame : poses.frames)
     timestamps->InsertNextValue(*frame.timestampS);
   peaks->AddColumn(timestamps);
   Chain chain(peaks, GetParam().tracked ? "ProbeToTracker" : "");
@@ -125,20 +125,21 @@ TEST_P(InterSignalAgainstCore, GivesApplyInterSignalsVerdicts) {
   chain.interSignal->Update();
   ASSERT_EQ(chain.interSignal->GetLastError(), "");
 
-  std::vector<InterSignalInput> inputs(depths.size());
+  std::vector<core::InterSignalInput> inputs(depths.size());
   for (std::size_t row = 0; row < depths.size(); ++row) {
     inputs[row].detected = reasons[row].empty();
     inputs[row].depthMm = depths[row];
     inputs[row].pointMm = Eigen::Vector3d(0.0, 0.0, depths[row]);
     inputs[row].timestampS = poses.frames[row].timestampS;
   }
-  const std::vector<RejectReason> verdicts = applyInterSignal(params, inputs, GetParam().tracked);
+  const std::vector<core::RejectReason> verdicts =
+      core::applyInterSignal(params, inputs, GetParam().tracked);
   int rejectedHere = 0;
   for (std::size_t row = 0; row < depths.size(); ++row) {
     const std::string expected =
-        inputs[row].detected ? std::string(rejectReasonName(verdicts[row])) : reasons[row];
+        inputs[row].detected ? std::string(core::rejectReasonName(verdicts[row])) : reasons[row];
     EXPECT_EQ(reasonAt(chain.output(), static_cast<vtkIdType>(row)), expected) << row;
-    if (inputs[row].detected && verdicts[row] != RejectReason::None)
+    if (inputs[row].detected && verdicts[row] != core::RejectReason::None)
       ++rejectedHere;
   }
   EXPECT_GT(rejectedHere, 0) << "the track must give the filter something to reject";
@@ -146,20 +147,20 @@ TEST_P(InterSignalAgainstCore, GivesApplyInterSignalsVerdicts) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Modes, InterSignalAgainstCore,
-                         ::testing::Values(Case{TemporalMode::Run, false},
-                                           Case{TemporalMode::Run, true},
-                                           Case{TemporalMode::Neighbours, false},
-                                           Case{TemporalMode::Neighbours, true}));
+                         ::testing::Values(Case{core::TemporalMode::Run, false},
+                                           Case{core::TemporalMode::Run, true},
+                                           Case{core::TemporalMode::Neighbours, false},
+                                           Case{core::TemporalMode::Neighbours, true}));
 
 TEST(InterSignalFilter, TheSpatialFilterRunsOnlyOnTrackedPoints) {
   // The same depth again and again: tracked, only the first survives the 1 mm spread; on the
   // beam of a transducer that does not move, the spread says nothing and all are kept.
   const std::vector<double> depths(5, 20.0);
   const std::vector<std::string> reasons(5);
-  Sequence poses;
+  core::Sequence poses;
   poses.frames.resize(5);
   for (auto& frame : poses.frames)
-    frame.transforms["ProbeToTracker"] = TrackedTransform();
+    frame.transforms["ProbeToTracker"] = core::TrackedTransform();
   for (const bool tracked : {false, true}) {
     Chain chain(peakTable(depths, reasons, poses), tracked ? "ProbeToTracker" : "");
     chain.interSignal->SetHistory(1);

@@ -23,7 +23,7 @@ struct PeakChain {
   vtkNew<vtkEchoregPeakFilter> peaks;
 
   PeakChain(const SyntheticCapture& capture, vtkImageData* image) {
-    const DetectionParams params = testDetectionParams(capture);
+    const core::DetectionParams params = testDetectionParams(capture);
     envelope->SetParams(params.envelope);
     envelope->SetInputData(image);
     peaks->SetPeakParams(params.peaks);
@@ -40,7 +40,7 @@ Array* columnOf(vtkTable* table, const char* name) {
 
 TEST(PeakFilter, FindsEverySyntheticEchoWithinOneSample) {
   SyntheticCapture capture;
-  const Sequence sequence = makeCapture(capture);
+  const core::Sequence sequence = makeCapture(capture);
   PeakChain chain(capture, imageOf(sequence));
   chain.peaks->Update();
   ASSERT_EQ(chain.peaks->GetLastError(), "");
@@ -59,7 +59,7 @@ TEST(PeakFilter, FindsEverySyntheticEchoWithinOneSample) {
     ASSERT_NE(column, nullptr);
   }
 
-  const DepthConversion depth = capture.depth();
+  const core::DepthConversion depth = capture.depth();
   for (int frame = 0; frame < capture.frames; ++frame) {
     SCOPED_TRACE("frame " + std::to_string(frame));
     EXPECT_EQ(frames->GetValue(frame), frame);
@@ -74,10 +74,10 @@ TEST(PeakFilter, FindsEverySyntheticEchoWithinOneSample) {
 }
 
 // The first peak above `factor` times the envelope's mean, in the capture's millimetres.
-PeakParams firstPeakAbove(const SyntheticCapture& capture, double factor) {
-  PeakParams params = testDetectionParams(capture).peaks;
-  params.policy = PeakPolicy::First;
-  params.thresholdMode = ThresholdMode::FactorOfMean;
+core::PeakParams firstPeakAbove(const SyntheticCapture& capture, double factor) {
+  core::PeakParams params = testDetectionParams(capture).peaks;
+  params.policy = core::PeakPolicy::First;
+  params.thresholdMode = core::ThresholdMode::FactorOfMean;
   params.thresholdFactor = factor;
   params.mmPerSample = capture.depth().mmPerSample();
   return params;
@@ -86,9 +86,9 @@ PeakParams firstPeakAbove(const SyntheticCapture& capture, double factor) {
 TEST(PeakFilter, RowsEqualTheCoreFindPeaks) {
   SyntheticCapture capture;
   capture.frames = 6;
-  const Sequence sequence = makeCapture(capture);
+  const core::Sequence sequence = makeCapture(capture);
   PeakChain chain(capture, imageOf(sequence));
-  const PeakParams params = firstPeakAbove(capture, 3.0);
+  const core::PeakParams params = firstPeakAbove(capture, 3.0);
   chain.peaks->SetPeakParams(params);
   chain.peaks->Update();
 
@@ -97,12 +97,12 @@ TEST(PeakFilter, RowsEqualTheCoreFindPeaks) {
   ASSERT_NE(envelopes, nullptr);
   vtkTable* table = chain.table();
   for (int frame = 0; frame < capture.frames; ++frame) {
-    const PeakResult expected =
-        findPeaks(params, envelopes->GetPointer(frame * capture.samples), capture.samples);
+    const core::PeakResult expected =
+        core::findPeaks(params, envelopes->GetPointer(frame * capture.samples), capture.samples);
     EXPECT_EQ(columnOf<vtkIntArray>(table, "peaks")->GetValue(frame),
               static_cast<int>(expected.peaks.size()));
     EXPECT_EQ(columnOf<vtkStringArray>(table, "reason")->GetValue(frame),
-              std::string(rejectReasonName(expected.reason)));
+              std::string(core::rejectReasonName(expected.reason)));
     EXPECT_DOUBLE_EQ(columnOf<vtkDoubleArray>(table, "threshold")->GetValue(frame),
                      expected.threshold);
     if (expected.accepted()) {
@@ -117,9 +117,9 @@ TEST(PeakFilter, RowsEqualTheCoreFindPeaks) {
 TEST(PeakFilter, PeakListHoldsEveryFramesPeaksWhenAsked) {
   SyntheticCapture capture;
   capture.frames = 6;
-  const Sequence sequence = makeCapture(capture);
+  const core::Sequence sequence = makeCapture(capture);
   PeakChain chain(capture, imageOf(sequence));
-  const PeakParams params = firstPeakAbove(capture, 0.8);
+  const core::PeakParams params = firstPeakAbove(capture, 0.8);
   chain.peaks->SetPeakParams(params);
   chain.peaks->Update(1);
   ASSERT_EQ(chain.peaks->GetLastError(), "");
@@ -143,12 +143,12 @@ TEST(PeakFilter, PeakListHoldsEveryFramesPeaksWhenAsked) {
   std::size_t total = 0;
   for (int frame = 0; frame < capture.frames; ++frame) {
     SCOPED_TRACE("frame " + std::to_string(frame));
-    const PeakResult expected =
-        findPeaks(params, envelopes->GetPointer(frame * capture.samples), capture.samples);
+    const core::PeakResult expected =
+        core::findPeaks(params, envelopes->GetPointer(frame * capture.samples), capture.samples);
     total += expected.peaks.size();
     EXPECT_EQ(columnOf<vtkIntArray>(chain.table(), "peaks")->GetValue(frame),
               static_cast<int>(expected.peaks.size()));
-    for (const Peak& peak : expected.peaks) {
+    for (const core::Peak& peak : expected.peaks) {
       ASSERT_LT(row, list->GetNumberOfRows());
       EXPECT_EQ(frames->GetValue(row), frame);
       EXPECT_EQ(indices->GetValue(row), peak.index);
@@ -225,7 +225,7 @@ TEST(PeakFilter, InvalidWindowFailsThroughTheExecutive) {
 
 TEST(PeakFilter, InputWithoutSamplesGivesAnEmptyTableWithAWarning) {
   CapturedVtkOutput messages;
-  Sequence trackerOnly;
+  core::Sequence trackerOnly;
   trackerOnly.frames.resize(4);
   vtkNew<vtkEchoregPeakFilter> filter;
   filter->SetInputData(imageOf(trackerOnly));

@@ -3,7 +3,7 @@
 #pragma once
 
 #include "echoreg/core/sequence.hpp"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkDoubleArray.h>
 #include <vtkIntArray.h>
@@ -27,7 +27,7 @@ inline constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
 // single-signal detection rejected the frame (its depth is then NaN).
 inline vtkSmartPointer<vtkTable> peakTable(const std::vector<double>& depthsMm,
                                            const std::vector<std::string>& reasons,
-                                           const Sequence& poses = Sequence()) {
+                                           const core::Sequence& poses = core::Sequence()) {
   auto table = vtkSmartPointer<vtkTable>::New();
   vtkNew<vtkIntArray> frames;
   frames->SetName("frame");
@@ -51,11 +51,11 @@ inline vtkSmartPointer<vtkTable> peakTable(const std::vector<double>& depthsMm,
   return table;
 }
 
-inline Sequence probePoses(int frames, const std::vector<int>& invalidFrames = {}) {
-  Sequence sequence;
+inline core::Sequence probePoses(int frames, const std::vector<int>& invalidFrames = {}) {
+  core::Sequence sequence;
   sequence.frames.resize(static_cast<std::size_t>(frames));
   for (int frame = 0; frame < frames; ++frame) {
-    TrackedTransform probe;
+    core::TrackedTransform probe;
     probe.matrix = Eigen::Matrix4d::Identity();
     probe.matrix(0, 3) = 10.0 * frame;
     probe.matrix(2, 3) = 100.0;
@@ -63,7 +63,7 @@ inline Sequence probePoses(int frames, const std::vector<int>& invalidFrames = {
       probe.status = "INVALID";
     }
     sequence.frames[static_cast<std::size_t>(frame)].transforms["ProbeToTracker"] = probe;
-    TrackedTransform femur;
+    core::TrackedTransform femur;
     femur.matrix = Eigen::Matrix4d::Identity();
     femur.matrix.block<3, 3>(0, 0) =
         Eigen::AngleAxisd(0.3, Eigen::Vector3d::UnitZ()).toRotationMatrix();

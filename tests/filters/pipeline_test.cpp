@@ -38,7 +38,7 @@ struct Pipeline {
   vtkNew<vtkEchoregBeamPointsFilter> beamPoints;
   vtkNew<vtkEchoregInterSignalFilter> interSignal;
 
-  Pipeline(const std::string& path, const DetectionParams& params) {
+  Pipeline(const std::string& path, const core::DetectionParams& params) {
     reader->SetFileName(path);
     envelope->SetInputConnection(reader->GetOutputPort());
     envelope->SetParams(params.envelope);
@@ -74,9 +74,9 @@ TEST(Pipeline, FindsEveryEchoAndPlacesItInTheBone) {
   capture.probeStepMm = 2.0;
   capture.invalidProbeFrames = {5};
   capture.withFemur = true;
-  const Sequence sequence = makeCapture(capture);
+  const core::Sequence sequence = makeCapture(capture);
   const std::string path = dir.file("capture.igs.mha");
-  writeSequence(sequence, path);
+  core::writeSequence(sequence, path);
 
   Pipeline pipeline(path, testDetectionParams(capture));
   pipeline.beamPoints->SetPoseTransformName("ProbeToTracker");
@@ -86,7 +86,7 @@ TEST(Pipeline, FindsEveryEchoAndPlacesItInTheBone) {
 
   vtkTable* table = pipeline.table();
   ASSERT_EQ(table->GetNumberOfRows(), capture.frames);
-  const DepthConversion depth = capture.depth();
+  const core::DepthConversion depth = capture.depth();
   for (int frame = 0; frame < capture.frames; ++frame) {
     SCOPED_TRACE("frame " + std::to_string(frame));
     const double truthMm = depth.depthMm(capture.echoSample(frame));
@@ -123,7 +123,7 @@ TEST(Pipeline, ReRunsOnlyWhatIsDownstreamOfAChange) {
   SyntheticCapture capture;
   capture.frames = 6;
   const std::string path = dir.file("capture.igs.nrrd");
-  writeSequence(makeCapture(capture), path);
+  core::writeSequence(makeCapture(capture), path);
   Pipeline pipeline(path, testDetectionParams(capture));
 
   pipeline.interSignal->Update();
@@ -173,7 +173,7 @@ TEST(Pipeline, TheHeavyStepsReportTheirProgress) {
   capture.firstEchoSample = 200.25;
   capture.echoStepSamples = 0.0;
   const std::string path = dir.file("capture.igs.nrrd");
-  writeSequence(makeCapture(capture), path);
+  core::writeSequence(makeCapture(capture), path);
   Pipeline pipeline(path, testDetectionParams(capture));
   struct Seen {
     std::vector<double> progress;
@@ -220,12 +220,12 @@ TEST(Pipeline, ReaderFailureStopsTheChainWithoutAnException) {
 TEST(Pipeline, TrackerOnlyCaptureFlowsThroughAsAnEmptyTableWithPoses) {
   CapturedVtkOutput messages;
   TempDir dir;
-  Sequence sequence;
+  core::Sequence sequence;
   sequence.frames.resize(4);
   for (auto& frame : sequence.frames)
-    frame.transforms["StylusToTracker"] = TrackedTransform();
+    frame.transforms["StylusToTracker"] = core::TrackedTransform();
   const std::string path = dir.file("stylus.igs.mha");
-  writeSequence(sequence, path);
+  core::writeSequence(sequence, path);
 
   SyntheticCapture capture;
   Pipeline pipeline(path, testDetectionParams(capture));
@@ -247,21 +247,21 @@ TEST_P(PipelineAgainstCore, SameVerdictsAndPointsAsDetectSequence) {
   capture.echoStepSamples = 3.0;
   capture.invalidProbeFrames = {4, 11};
   capture.withFemur = true;
-  const Sequence sequence = makeCapture(capture);
+  const core::Sequence sequence = makeCapture(capture);
   const std::string path = dir.file("capture.igs.mha");
-  writeSequence(sequence, path);
+  core::writeSequence(sequence, path);
 
-  DetectionParams params =
-      GetParam() == "test" ? testDetectionParams(capture) : detectionPreset(GetParam());
-  params.depth = depthFromSequence(sequence, params.depth);
+  core::DetectionParams params =
+      GetParam() == "test" ? testDetectionParams(capture) : core::detectionPreset(GetParam());
+  params.depth = core::depthFromSequence(sequence, params.depth);
   params.interSignal.history = 2;
   params.interSignal.consistencyMm = 0.5;
   params.interSignal.minSpreadMm = 0.4;
-  PointFrameOptions points;
+  core::PointFrameOptions points;
   points.poseTransform = "ProbeToTracker";
   points.referenceTransform = "FemurToTracker";
   points.beamToProbe(0, 3) = 1.5;
-  const SequenceDetection expected = detectSequence(sequence, params, points);
+  const core::SequenceDetection expected = core::detectSequence(sequence, params, points);
   if (GetParam() == "test") {
     // The capture is built so that every stage has something to say.
     ASSERT_GT(expected.accepted, 0);
@@ -283,9 +283,10 @@ TEST_P(PipelineAgainstCore, SameVerdictsAndPointsAsDetectSequence) {
   vtkTable* table = pipeline.table();
   ASSERT_EQ(table->GetNumberOfRows(), static_cast<vtkIdType>(expected.frames.size()));
   int acceptedFrames = 0;
-  for (const FrameDetection& frame : expected.frames) {
+  for (const core::FrameDetection& frame : expected.frames) {
     SCOPED_TRACE("frame " + std::to_string(frame.frame));
-    EXPECT_EQ(textAt(table, "reason", frame.frame), std::string(rejectReasonName(frame.reason)));
+    EXPECT_EQ(textAt(table, "reason", frame.frame),
+              std::string(core::rejectReasonName(frame.reason)));
     EXPECT_EQ(table->GetValueByName(frame.frame, "peaks").ToInt(), frame.peakCount);
     if (frame.sampleIndex) {
       EXPECT_NEAR(valueAt(table, "sample_index", frame.frame), *frame.sampleIndex, 1e-9);
@@ -310,7 +311,7 @@ INSTANTIATE_TEST_SUITE_P(Presets, PipelineAgainstCore,
 
 TEST(Pipeline, RunsOnThePublicAgilentRecording) {
   ECHOREG_REQUIRE_SHARED_FILE(path, "plus/Agilent_Scope_Recording_DP310.igs.nrrd");
-  DetectionParams params = detectionPreset("calibration");
+  core::DetectionParams params = core::detectionPreset("calibration");
   Pipeline pipeline(path, params);
   pipeline.interSignal->SetHistory(1);
   pipeline.interSignal->SetMinSpreadMm(0.0);

@@ -24,19 +24,20 @@ namespace {
 
 // A stylus whose tip (tipInStylus) pivots about pivotInTracker, with `noiseMm` of tracking noise
 // and one stray pose; frame `invalidFrame` is marked INVALID.
-Sequence pivotCapture(const Eigen::Vector3d& tipInStylus, const Eigen::Vector3d& pivotInTracker,
-                      double noiseMm, int frames, int invalidFrame) {
+core::Sequence pivotCapture(const Eigen::Vector3d& tipInStylus,
+                            const Eigen::Vector3d& pivotInTracker, double noiseMm, int frames,
+                            int invalidFrame) {
   std::mt19937 random(11);
   std::uniform_real_distribution<double> angle(-0.5, 0.5);
   std::normal_distribution<double> noise(0.0, noiseMm);
-  Sequence sequence;
+  core::Sequence sequence;
   sequence.frames.resize(static_cast<std::size_t>(frames));
   for (int f = 0; f < frames; ++f) {
     const Eigen::Matrix3d rotation = (Eigen::AngleAxisd(angle(random), Eigen::Vector3d::UnitX()) *
                                       Eigen::AngleAxisd(angle(random), Eigen::Vector3d::UnitY()) *
                                       Eigen::AngleAxisd(angle(random), Eigen::Vector3d::UnitZ()))
                                          .toRotationMatrix();
-    TrackedTransform pose;
+    core::TrackedTransform pose;
     pose.matrix.block<3, 3>(0, 0) = rotation;
     pose.matrix.block<3, 1>(0, 3) = pivotInTracker - rotation * tipInStylus +
                                     Eigen::Vector3d(noise(random), noise(random), noise(random));
@@ -53,9 +54,9 @@ Sequence pivotCapture(const Eigen::Vector3d& tipInStylus, const Eigen::Vector3d&
 TEST(PivotCalibrationFilter, GivesTheCoresPivotOnTheValidPoses) {
   TempDir dir;
   const Eigen::Vector3d tip(3.0, -2.0, 160.0), pivot(100.0, 50.0, -900.0);
-  const Sequence sequence = pivotCapture(tip, pivot, 0.1, 60, 9);
+  const core::Sequence sequence = pivotCapture(tip, pivot, 0.1, 60, 9);
   const std::string path = dir.file("pivot.igs.mha");
-  writeSequence(sequence, path);
+  core::writeSequence(sequence, path);
 
   vtkNew<vtkEchoregSequenceReader> reader;
   reader->SetFileName(path);
@@ -65,9 +66,9 @@ TEST(PivotCalibrationFilter, GivesTheCoresPivotOnTheValidPoses) {
   ASSERT_EQ(filter->GetLastError(), "");
 
   std::vector<Eigen::Isometry3d> poses;
-  const Sequence read = readSequence(path);
-  for (const SequenceFrame& frame : read.frames) {
-    const TrackedTransform& pose = frame.transforms.at("StylusToTracker");
+  const core::Sequence read = core::readSequence(path);
+  for (const core::SequenceFrame& frame : read.frames) {
+    const core::TrackedTransform& pose = frame.transforms.at("StylusToTracker");
     if (!pose.valid())
       continue;
     Eigen::Isometry3d isometry;
@@ -96,8 +97,8 @@ TEST(PivotCalibrationFilter, GivesTheCoresPivotOnTheValidPoses) {
   filter->SetMinRotationSpreadDeg(15.0);  // the default: no change
   filter->Update();
   EXPECT_EQ(filter->GetExecutionCount(), 1);
-  writeSequence(pivotCapture(tip, pivot + Eigen::Vector3d(0, 0, 10), 0.1, 60, 9),
-                dir.file("pivot2.igs.mha"));
+  core::writeSequence(pivotCapture(tip, pivot + Eigen::Vector3d(0, 0, 10), 0.1, 60, 9),
+                      dir.file("pivot2.igs.mha"));
   reader->SetFileName(dir.file("pivot2.igs.mha"));
   filter->Update();
   EXPECT_EQ(filter->GetExecutionCount(), 2);
@@ -108,7 +109,7 @@ TEST(PivotCalibrationFilter, BadInputFailsThroughTheExecutive) {
   CapturedVtkOutput messages;
   TempDir dir;
   const std::string path = dir.file("pivot.igs.mha");
-  writeSequence(pivotCapture({0, 0, 150}, {0, 0, 0}, 0.1, 30, -1), path);
+  core::writeSequence(pivotCapture({0, 0, 150}, {0, 0, 0}, 0.1, 30, -1), path);
   vtkNew<vtkEchoregSequenceReader> reader;
   reader->SetFileName(path);
   vtkNew<vtkEchoregPivotCalibrationFilter> filter;

@@ -2,7 +2,7 @@
 // every triangle checks both), signed inside a closed surface, the locator built once per
 // surface, and errors through the executive.
 #include "echoreg/core/mesh_locator.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/filters/vtkEchoregPointToSurfaceDistance.h"
 #include "filter_test_helpers.hpp"
 

@@ -2,7 +2,7 @@
 // core's rigidError and meanAbsoluteError; a new reference re-runs only the decomposition, not
 // the registration upstream; bad input through the executive.
 #include "echoreg/core/rigid_error.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/filters/vtkEchoregRigidErrorFilter.h"
 #include "echoreg/filters/vtkEchoregSurfaceRegistrationFilter.h"
 #include "filter_test_helpers.hpp"

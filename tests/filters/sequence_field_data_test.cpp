@@ -1,4 +1,4 @@
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <gtest/gtest.h>
 
@@ -26,18 +26,18 @@ Eigen::Matrix4d numberedMatrix(double start) {
 
 // Three frames: frame 1 has no timestamp, ProbeToTracker is INVALID in frame 2, StylusToTracker
 // appears only in frame 1.
-Sequence threeFrames() {
-  Sequence sequence;
+core::Sequence threeFrames() {
+  core::Sequence sequence;
   sequence.frames.resize(3);
   sequence.frames[0].timestampS = 1.5;
   sequence.frames[2].timestampS = 2.5;
   for (int frame = 0; frame < 3; ++frame) {
-    TrackedTransform probe;
+    core::TrackedTransform probe;
     probe.matrix = numberedMatrix(100.0 * frame);
     probe.status = frame == 2 ? "INVALID" : "OK";
     sequence.frames[static_cast<std::size_t>(frame)].transforms["ProbeToTracker"] = probe;
   }
-  TrackedTransform stylus;
+  core::TrackedTransform stylus;
   stylus.matrix = numberedMatrix(-7.0);
   sequence.frames[1].transforms["StylusToTracker"] = stylus;
   sequence.acquisition.samplingFrequencyHz = 50e6;
@@ -89,7 +89,7 @@ TEST(SequenceFieldData, WritesTheDocumentedArrays) {
 }
 
 TEST(SequenceFieldData, ReadsBackWhatItWrote) {
-  const Sequence sequence = threeFrames();
+  const core::Sequence sequence = threeFrames();
   vtkNew<vtkFieldData> fieldData;
   SequenceFieldData::write(sequence, fieldData);
   const SequenceFieldData read(fieldData);
@@ -111,19 +111,19 @@ TEST(SequenceFieldData, ReadsBackWhatItWrote) {
   ASSERT_TRUE(read.transform("ProbeToTracker", 2).has_value());
   EXPECT_EQ(read.transform("ProbeToTracker", 2)->status, "INVALID");
 
-  const AcquisitionSettings settings = read.acquisition();
+  const core::AcquisitionSettings settings = read.acquisition();
   EXPECT_EQ(settings.samplingFrequencyHz, sequence.acquisition.samplingFrequencyHz);
   EXPECT_EQ(settings.speedOfSoundMps, sequence.acquisition.speedOfSoundMps);
   EXPECT_FALSE(settings.delayS.has_value());
   EXPECT_EQ(settings.transducer, "Olympus V312");
 
-  const std::vector<SequenceFrame> frames = read.frames();
+  const std::vector<core::SequenceFrame> frames = read.frames();
   ASSERT_EQ(frames.size(), 3U);
   for (std::size_t frame = 0; frame < frames.size(); ++frame) {
     EXPECT_EQ(frames[frame].timestampS, sequence.frames[frame].timestampS);
     ASSERT_EQ(frames[frame].transforms.size(), sequence.frames[frame].transforms.size());
     for (const auto& [name, transform] : sequence.frames[frame].transforms) {
-      const TrackedTransform& back = frames[frame].transforms.at(name);
+      const core::TrackedTransform& back = frames[frame].transforms.at(name);
       EXPECT_EQ(back.status, transform.status);
       EXPECT_TRUE(back.matrix.isApprox(transform.matrix)) << name << " frame " << frame;
     }
@@ -151,8 +151,8 @@ TEST(SequenceFieldData, NullOrForeignFieldDataHoldsNothing) {
 TEST(SequenceFieldData, RewritingRemovesSettingsNoLongerStated) {
   vtkNew<vtkFieldData> fieldData;
   SequenceFieldData::write(threeFrames(), fieldData);
-  Sequence plain = threeFrames();
-  plain.acquisition = AcquisitionSettings();
+  core::Sequence plain = threeFrames();
+  plain.acquisition = core::AcquisitionSettings();
   SequenceFieldData::write(plain, fieldData);
   EXPECT_EQ(fieldData->GetAbstractArray("SamplingFrequencyHz"), nullptr);
   EXPECT_EQ(fieldData->GetAbstractArray("Transducer"), nullptr);

@@ -31,9 +31,9 @@ TEST_P(SequenceReaderFormats, ReadsALinesAndTheirFieldData) {
   capture.samples = 300;
   capture.firstEchoSample = 150.0;
   capture.invalidProbeFrames = {3};
-  const Sequence sequence = makeCapture(capture);
+  const core::Sequence sequence = makeCapture(capture);
   const std::string path = dir.file("capture" + GetParam());
-  writeSequence(sequence, path);
+  core::writeSequence(sequence, path);
 
   vtkNew<vtkEchoregSequenceReader> reader;
   reader->SetFileName(path);
@@ -97,28 +97,29 @@ INSTANTIATE_TEST_SUITE_P(MetaImageAndNrrd, SequenceReaderFormats,
 
 TEST(SequenceReader, KeepsTheElementTypeOfTheFile) {
   TempDir dir;
-  const std::pair<ElementType, int> types[] = {{ElementType::Int8, VTK_SIGNED_CHAR},
-                                               {ElementType::Int16, VTK_SHORT},
-                                               {ElementType::Float32, VTK_FLOAT}};
+  const std::pair<core::ElementType, int> types[] = {{core::ElementType::Int8, VTK_SIGNED_CHAR},
+                                                     {core::ElementType::Int16, VTK_SHORT},
+                                                     {core::ElementType::Float32, VTK_FLOAT}};
   for (const auto& [elementType, vtkType] : types) {
-    Sequence sequence;
+    core::Sequence sequence;
     sequence.elementType = elementType;
     sequence.frameSize = {16, 1};
     sequence.frames.resize(3);
     for (auto& frame : sequence.frames)
       frame.timestampS = 1.0;
-    sequence.pixels.assign(3 * 16 * elementSize(elementType), 0);
-    sequence.pixels[elementSize(elementType)] = 3;  // sample 1 of frame 0 is small and positive
-    const std::string path = dir.file(std::string(elementTypeName(elementType)) + ".mha");
-    writeSequence(sequence, path);
+    sequence.pixels.assign(3 * 16 * core::elementSize(elementType), 0);
+    sequence.pixels[core::elementSize(elementType)] =
+        3;  // sample 1 of frame 0 is small and positive
+    const std::string path = dir.file(std::string(core::elementTypeName(elementType)) + ".mha");
+    core::writeSequence(sequence, path);
 
     vtkNew<vtkEchoregSequenceReader> reader;
     reader->SetFileName(path);
     reader->Update();
-    ASSERT_EQ(reader->GetLastError(), "") << elementTypeName(elementType);
+    ASSERT_EQ(reader->GetLastError(), "") << core::elementTypeName(elementType);
     vtkDataArray* scalars = reader->GetOutput()->GetPointData()->GetScalars();
     ASSERT_NE(scalars, nullptr);
-    EXPECT_EQ(scalars->GetDataType(), vtkType) << elementTypeName(elementType);
+    EXPECT_EQ(scalars->GetDataType(), vtkType) << core::elementTypeName(elementType);
     EXPECT_EQ(scalars->GetNumberOfTuples(), 48);
     EXPECT_EQ(scalars->GetComponent(0, 0), 0.0);
     EXPECT_GT(scalars->GetComponent(1, 0), 0.0) << "bytes in host order, sample 1 nonzero";
@@ -127,14 +128,14 @@ TEST(SequenceReader, KeepsTheElementTypeOfTheFile) {
 
 TEST(SequenceReader, TrackerOnlyCaptureIsAnImageWithoutPointsButWithFieldData) {
   TempDir dir;
-  Sequence sequence;
+  core::Sequence sequence;
   sequence.frames.resize(7);
   for (std::size_t frame = 0; frame < sequence.frames.size(); ++frame) {
     sequence.frames[frame].timestampS = 0.1 * static_cast<double>(frame);
-    sequence.frames[frame].transforms["StylusToTracker"] = TrackedTransform();
+    sequence.frames[frame].transforms["StylusToTracker"] = core::TrackedTransform();
   }
   const std::string path = dir.file("stylus.igs.mha");
-  writeSequence(sequence, path);
+  core::writeSequence(sequence, path);
 
   vtkNew<vtkEchoregSequenceReader> reader;
   reader->SetFileName(path);
@@ -167,9 +168,9 @@ TEST(SequenceReader, ReadsTheFileOnceUntilSomethingChanges) {
   capture.firstEchoSample = 50.0;
   const std::string first = dir.file("first.igs.mha");
   const std::string second = dir.file("second.igs.mha");
-  writeSequence(makeCapture(capture), first);
+  core::writeSequence(makeCapture(capture), first);
   capture.frames = 4;
-  writeSequence(makeCapture(capture), second);
+  core::writeSequence(makeCapture(capture), second);
 
   vtkNew<vtkEchoregSequenceReader> reader;
   reader->SetFileName(first);
@@ -236,7 +237,7 @@ TEST(SequenceReader, RecoversAfterAFailureAndClearsTheError) {
   capture.samples = 64;
   capture.firstEchoSample = 30.0;
   const std::string good = dir.file("good.igs.mha");
-  writeSequence(makeCapture(capture), good);
+  core::writeSequence(makeCapture(capture), good);
 
   vtkNew<vtkEchoregSequenceReader> reader;
   EXPECT_EQ(reader->GetExecutive()->Update(), 0) << "no file name";
@@ -258,13 +259,13 @@ TEST(SequenceReader, RecoversAfterAFailureAndClearsTheError) {
 TEST(SequenceReader, RefusesFramesThatAreImages) {
   CapturedVtkOutput messages;
   TempDir dir;
-  Sequence sequence;
-  sequence.elementType = ElementType::UInt8;
+  core::Sequence sequence;
+  sequence.elementType = core::ElementType::UInt8;
   sequence.frameSize = {8, 4};
   sequence.frames.resize(2);
   sequence.pixels.assign(2 * 8 * 4, 0);
   const std::string path = dir.file("images.igs.mha");
-  writeSequence(sequence, path);
+  core::writeSequence(sequence, path);
 
   vtkNew<vtkEchoregSequenceReader> reader;
   reader->SetFileName(path);

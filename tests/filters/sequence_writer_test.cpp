@@ -1,6 +1,6 @@
 // vtkEchoregSequenceWriter: reader -> writer gives back the file's A-lines, timestamps, poses with
-// their statuses and acquisition settings, as echoreg::readSequence reads them; errors through
-// the executive leave no file.
+// their statuses and acquisition settings, as echoreg::core::readSequence reads them; errors
+// through the executive leave no file.
 #include "echoreg/filters/vtkEchoregSequenceReader.h"
 #include "echoreg/filters/vtkEchoregSequenceWriter.h"
 #include "filter_test_helpers.hpp"
@@ -19,7 +19,7 @@
 namespace echoreg::test {
 namespace {
 
-void expectSameSequence(const Sequence& actual, const Sequence& expected) {
+void expectSameSequence(const core::Sequence& actual, const core::Sequence& expected) {
   EXPECT_EQ(actual.elementType, expected.elementType);
   EXPECT_EQ(actual.frameSize, expected.frameSize);
   EXPECT_EQ(actual.pixels, expected.pixels);
@@ -29,7 +29,7 @@ void expectSameSequence(const Sequence& actual, const Sequence& expected) {
     EXPECT_EQ(actual.frames[f].timestampS, expected.frames[f].timestampS);
     ASSERT_EQ(actual.frames[f].transforms.size(), expected.frames[f].transforms.size());
     for (const auto& [name, transform] : expected.frames[f].transforms) {
-      const TrackedTransform& written = actual.frames[f].transforms.at(name);
+      const core::TrackedTransform& written = actual.frames[f].transforms.at(name);
       EXPECT_EQ(written.status, transform.status) << name;
       EXPECT_TRUE(written.matrix.isApprox(transform.matrix, 1e-12)) << name;
     }
@@ -45,9 +45,9 @@ TEST(SequenceWriter, ReaderToWriterGivesTheCaptureBack) {
   capture.frames = 16;
   capture.invalidProbeFrames = {3};
   capture.withFemur = true;
-  const Sequence sequence = makeCapture(capture);
+  const core::Sequence sequence = makeCapture(capture);
   const std::string path = dir.file("capture.igs.mha");
-  writeSequence(sequence, path);
+  core::writeSequence(sequence, path);
 
   vtkNew<vtkEchoregSequenceReader> reader;
   reader->SetFileName(path);
@@ -57,7 +57,7 @@ TEST(SequenceWriter, ReaderToWriterGivesTheCaptureBack) {
     SCOPED_TRACE(name);
     writer->SetFileName(dir.file(name));
     ASSERT_EQ(writer->Write(), 1) << writer->GetLastError();
-    expectSameSequence(readSequence(dir.file(name)), readSequence(path));
+    expectSameSequence(core::readSequence(dir.file(name)), core::readSequence(path));
   }
   EXPECT_EQ(writer->GetExecutionCount(), 3);
   EXPECT_EQ(reader->GetExecutionCount(), 1) << "the reader's output is reused";
@@ -65,7 +65,7 @@ TEST(SequenceWriter, ReaderToWriterGivesTheCaptureBack) {
   writer->CompressOff();
   writer->SetFileName(dir.file("raw.igs.mha"));
   ASSERT_EQ(writer->Write(), 1);
-  expectSameSequence(readSequence(dir.file("raw.igs.mha")), readSequence(path));
+  expectSameSequence(core::readSequence(dir.file("raw.igs.mha")), core::readSequence(path));
   EXPECT_GT(std::filesystem::file_size(dir.file("raw.igs.mha")),
             std::filesystem::file_size(dir.file("copy.igs.mha")))
       << "compressed by default";
@@ -74,10 +74,10 @@ TEST(SequenceWriter, ReaderToWriterGivesTheCaptureBack) {
 TEST(SequenceWriter, TrackerOnlyCaptureKeepsItsPoses) {
   CapturedVtkOutput messages;
   TempDir dir;
-  Sequence stylus;
+  core::Sequence stylus;
   stylus.frames.resize(5);
   for (std::size_t f = 0; f < stylus.frames.size(); ++f) {
-    TrackedTransform pose;
+    core::TrackedTransform pose;
     pose.matrix(0, 3) = 2.0 * static_cast<double>(f);
     if (f == 2)
       pose.status = "INVALID";
@@ -85,14 +85,14 @@ TEST(SequenceWriter, TrackerOnlyCaptureKeepsItsPoses) {
     stylus.frames[f].timestampS = 0.1 * static_cast<double>(f);
   }
   const std::string path = dir.file("stylus.igs.mha");
-  writeSequence(stylus, path);
+  core::writeSequence(stylus, path);
   vtkNew<vtkEchoregSequenceReader> reader;
   reader->SetFileName(path);
   vtkNew<vtkEchoregSequenceWriter> writer;
   writer->SetInputConnection(reader->GetOutputPort());
   writer->SetFileName(dir.file("copy.igs.mha"));
   ASSERT_EQ(writer->Write(), 1) << writer->GetLastError();
-  expectSameSequence(readSequence(dir.file("copy.igs.mha")), readSequence(path));
+  expectSameSequence(core::readSequence(dir.file("copy.igs.mha")), core::readSequence(path));
 }
 
 TEST(SequenceWriter, RoundTripsThePublicAgilentRecording) {
@@ -104,7 +104,7 @@ TEST(SequenceWriter, RoundTripsThePublicAgilentRecording) {
   writer->SetInputConnection(reader->GetOutputPort());
   writer->SetFileName(dir.file("agilent.igs.nrrd"));
   ASSERT_EQ(writer->Write(), 1) << writer->GetLastError();
-  expectSameSequence(readSequence(dir.file("agilent.igs.nrrd")), readSequence(path));
+  expectSameSequence(core::readSequence(dir.file("agilent.igs.nrrd")), core::readSequence(path));
 }
 
 TEST(SequenceWriter, BadInputFailsThroughTheExecutiveAndWritesNothing) {
@@ -145,7 +145,7 @@ TEST(SequenceWriter, BadInputFailsThroughTheExecutiveAndWritesNothing) {
   writer->SetFileName(dir.file("alines.igs.mha"));
   EXPECT_EQ(writer->Write(), 1) << writer->GetLastError();
   EXPECT_EQ(writer->GetLastError(), "");
-  EXPECT_EQ(readSequence(dir.file("alines.igs.mha")).frameCount(), 4U);
+  EXPECT_EQ(core::readSequence(dir.file("alines.igs.mha")).frameCount(), 4U);
 }
 
 TEST(SequenceWriter, PrintSelfListsEveryParameter) {

@@ -2,7 +2,7 @@
 // or a point set, with optional landmarks; the model prepared once per model; points or model
 // changed upstream re-run it; bad input through the executive.
 #include "echoreg/core/surface_registration.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/filters/vtkEchoregSurfaceRegistrationFilter.h"
 #include "filter_test_helpers.hpp"
 

@@ -1,5 +1,5 @@
 #include "echoreg/core/error.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -51,17 +51,17 @@ TEST(MeshIO, VtpAndStlRoundTripKeepTheSurface) {
 
 TEST(MeshIO, BadFilesNameTheFile) {
   test::TempDir dir;
-  EXPECT_THROW(readMesh(dir.file("missing.stl")), FileError);
+  EXPECT_THROW(readMesh(dir.file("missing.stl")), core::FileError);
   std::ofstream(dir.file("x.txt")) << "hello";
   try {
     readMesh(dir.file("x.txt"));
     FAIL() << "no error";
-  } catch (const FileError& e) {
+  } catch (const core::FileError& e) {
     EXPECT_EQ(e.path(), dir.file("x.txt"));
   }
   std::ofstream(dir.file("empty.stl")) << "solid x\nendsolid x\n";
-  EXPECT_THROW(readMesh(dir.file("empty.stl")), FileError);
-  EXPECT_THROW(writeMesh(dir.file("no/such/folder/m.vtp"), tetrahedron()), FileError);
+  EXPECT_THROW(readMesh(dir.file("empty.stl")), core::FileError);
+  EXPECT_THROW(writeMesh(dir.file("no/such/folder/m.vtp"), tetrahedron()), core::FileError);
 }
 
 // VTK 9.1's readers pass on faces naming points the file does not have, and vtkTriangleFilter read
@@ -74,7 +74,7 @@ TEST(MeshIO, FacesNamingPointsTheFileLacksAreRefused) {
     std::ofstream(dir.file(name)) << text;
     try {
       readMesh(dir.file(name));
-    } catch (const FileError& e) {
+    } catch (const core::FileError& e) {
       EXPECT_EQ(e.path(), dir.file(name));
       return e.problem();
     }

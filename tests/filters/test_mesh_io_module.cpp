@@ -3,7 +3,7 @@
 // and a module of another build refused with a FileError naming its path.
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/loadable_module.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "mesh_files.hpp"
 #include "test_support.hpp"
 
@@ -47,7 +47,7 @@ TEST(MeshIoModule, AModuleOfAnotherBuildIsRefused) {
   try {
     echoreg::core::moduleSymbol(path, identityWith("echoreg 0.0.0 / VTK 8"), kMeshIoReadSymbol);
     ADD_FAILURE() << "no FileError";
-  } catch (const echoreg::FileError& e) {
+  } catch (const echoreg::core::FileError& e) {
     const std::string message = e.what();
     EXPECT_NE(message.find(path.string()), std::string::npos) << message;
     EXPECT_NE(message.find("is the mesh I/O module of another build"), std::string::npos)
@@ -61,7 +61,7 @@ TEST(MeshIoModule, ErrorsInsideNameTheFileAsBefore) {
   try {
     echoreg::filters::readMesh(dir.file("missing.stl"));
     ADD_FAILURE() << "no FileError";
-  } catch (const echoreg::FileError& e) {
+  } catch (const echoreg::core::FileError& e) {
     EXPECT_EQ(e.path(), dir.file("missing.stl"));
     EXPECT_EQ(e.problem(), "no such file");
   }

@@ -2,7 +2,7 @@
 // force over every triangle and against the generalised winding number.
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/random.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "mesh_test_support.hpp"
 #include "test_support.hpp"
 

@@ -3,7 +3,7 @@
 // speed-of-sound error and a landmark-like initial error (tests/support/registration_trials.hpp;
 // bench/bench_registration.cpp runs VTK's ICP and every method on the same trials).
 #include "echoreg/core/surface_registration.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "registration_trials.hpp"
 #include "test_support.hpp"
 

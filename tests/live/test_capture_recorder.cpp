@@ -24,12 +24,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-Sequence sweep(int frames) {
+core::Sequence sweep(int frames) {
   test::DemoSweepOptions options;
   options.frames = frames;
-  Sequence s = test::makeDemoSweep(options);
+  core::Sequence s = test::makeDemoSweep(options);
   for (std::size_t f = 0; f < s.frames.size(); ++f) {
-    TrackedTransform femur;
+    core::TrackedTransform femur;
     femur.matrix.topRightCorner<3, 1>() = Eigen::Vector3d(5.0, -3.0, 20.0 + 0.01 * double(f));
     s.frames[f].transforms["FemurToTracker"] = femur;
     s.frames[f].fields = {{"ImageStatus", "OK"}};
@@ -43,15 +43,15 @@ std::string bytesOf(const std::string& path) {
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
-std::size_t frameBytes(const Sequence& s) {
-  return s.samplesPerFrame() * elementSize(s.elementType);
+std::size_t frameBytes(const core::Sequence& s) {
+  return s.samplesPerFrame() * core::elementSize(s.elementType);
 }
 
-void add(CaptureRecorder& recorder, const Sequence& s, std::size_t f) {
+void add(CaptureRecorder& recorder, const core::Sequence& s, std::size_t f) {
   recorder.add(s.frames[f], s.pixels.data() + f * frameBytes(s), frameBytes(s));
 }
 
-void expectSameFrames(const Sequence& got, const Sequence& want, std::size_t frames) {
+void expectSameFrames(const core::Sequence& got, const core::Sequence& want, std::size_t frames) {
   ASSERT_EQ(got.frames.size(), frames);
   EXPECT_EQ(got.frameSize, want.frameSize);
   EXPECT_EQ(got.elementType, want.elementType);
@@ -75,9 +75,9 @@ bool waitForPartial(const CaptureRecorder& recorder, std::size_t frames) {
   for (int i = 0; i < 500; ++i) {
     if (fs::exists(recorder.partialPath())) {
       try {
-        if (readSequence(recorder.partialPath()).frames.size() == frames)
+        if (core::readSequence(recorder.partialPath()).frames.size() == frames)
           return true;
-      } catch (const FileError&) {
+      } catch (const core::FileError&) {
         // Read while the writer was between its two writes: try again.
       }
     }
@@ -88,8 +88,9 @@ bool waitForPartial(const CaptureRecorder& recorder, std::size_t frames) {
 
 TEST(CaptureRecorder, FinalCaptureIsByteForByteWhatWriteSequenceWrites) {
   test::TempDir dir;
-  const Sequence s = sweep(400);  // INVALID probe poses on frames 300-319, fields, header keys
-  writeSequence(s, dir.file("whole.igs.mha"));
+  const core::Sequence s =
+      sweep(400);  // INVALID probe poses on frames 300-319, fields, header keys
+  core::writeSequence(s, dir.file("whole.igs.mha"));
   {
     CaptureRecorder recorder(dir.file("rec.igs.mha"), s, 0.005);
     for (std::size_t f = 0; f < s.frames.size(); ++f) {
@@ -112,8 +113,8 @@ TEST(CaptureRecorder, FinalCaptureIsByteForByteWhatWriteSequenceWrites) {
 // they read back as the frames added.
 TEST(CaptureRecorder, AMultiBlockRecordingIsStillWriteSequencesBytes) {
   test::TempDir dir;
-  const Sequence s = sweep(2600);  // 10.6 MB of pixels: three blocks
-  writeSequence(s, dir.file("whole.igs.mha"));
+  const core::Sequence s = sweep(2600);  // 10.6 MB of pixels: three blocks
+  core::writeSequence(s, dir.file("whole.igs.mha"));
   {
     CaptureRecorder recorder(dir.file("rec.igs.mha"), s, 0.05);
     for (std::size_t f = 0; f < s.frames.size(); ++f)
@@ -122,34 +123,34 @@ TEST(CaptureRecorder, AMultiBlockRecordingIsStillWriteSequencesBytes) {
   }
   const std::string whole = bytesOf(dir.file("whole.igs.mha"));
   EXPECT_TRUE(bytesOf(dir.file("rec.igs.mha")) == whole);
-  EXPECT_EQ(readSequence(dir.file("rec.igs.mha")).pixels, s.pixels);
+  EXPECT_EQ(core::readSequence(dir.file("rec.igs.mha")).pixels, s.pixels);
 }
 
 TEST(CaptureRecorder, OtherFormatsReadBackAsTheFramesAdded) {
   test::TempDir dir;
-  const Sequence s = sweep(60);
+  const core::Sequence s = sweep(60);
   CaptureRecorder recorder(dir.file("rec.nrrd"), s, 0.005);
   for (std::size_t f = 0; f < s.frames.size(); ++f)
     add(recorder, s, f);
   EXPECT_EQ(recorder.finish(), 60U);
-  expectSameFrames(readSequence(dir.file("rec.nrrd")), s, 60);
+  expectSameFrames(core::readSequence(dir.file("rec.nrrd")), s, 60);
 }
 
 TEST(CaptureRecorder, PartialCaptureReadsAsEveryFrameFlushedWhileItGrows) {
   test::TempDir dir;
-  const Sequence s = sweep(120);
+  const core::Sequence s = sweep(120);
   CaptureRecorder recorder(dir.file("rec.igs.mha"), s, 0.01);
   EXPECT_EQ(recorder.partialPath(), dir.file("rec.igs.partial.mhd"));
   EXPECT_EQ(recorder.partialDataPath(), dir.file("rec.igs.partial.raw"));
   for (std::size_t f = 0; f < 50; ++f)
     add(recorder, s, f);
   ASSERT_TRUE(waitForPartial(recorder, 50));
-  expectSameFrames(readSequence(recorder.partialPath()), s, 50);
+  expectSameFrames(core::readSequence(recorder.partialPath()), s, 50);
   const auto headerBytes = fs::file_size(recorder.partialPath());
   for (std::size_t f = 50; f < 120; ++f)
     add(recorder, s, f);
   ASSERT_TRUE(waitForPartial(recorder, 120));
-  expectSameFrames(readSequence(recorder.partialPath()), s, 120);
+  expectSameFrames(core::readSequence(recorder.partialPath()), s, 120);
   EXPECT_GT(fs::file_size(recorder.partialPath()), headerBytes);
   EXPECT_EQ(fs::file_size(recorder.partialDataPath()), 120 * frameBytes(s));
   EXPECT_EQ(recorder.finish(), 120U);
@@ -157,7 +158,7 @@ TEST(CaptureRecorder, PartialCaptureReadsAsEveryFrameFlushedWhileItGrows) {
 
 TEST(CaptureRecorder, WithoutFinishThePartialCaptureKeepsEveryFrameAdded) {
   test::TempDir dir;
-  const Sequence s = sweep(30);
+  const core::Sequence s = sweep(30);
   std::string partial;
   {
     // A long flush interval: the frames are still pending when the session fails.
@@ -167,16 +168,16 @@ TEST(CaptureRecorder, WithoutFinishThePartialCaptureKeepsEveryFrameAdded) {
     partial = recorder.partialPath();
   }
   EXPECT_FALSE(fs::exists(dir.file("rec.igs.mha")));
-  expectSameFrames(readSequence(partial), s, 30);
+  expectSameFrames(core::readSequence(partial), s, 30);
 }
 
 TEST(CaptureRecorder, RefusesAFrameWriteSequenceWouldRefuseWithoutAGap) {
   test::TempDir dir;
-  const Sequence s = sweep(10);
+  const core::Sequence s = sweep(10);
   CaptureRecorder recorder(dir.file("rec.igs.mha"), s, 0.005);
   add(recorder, s, 0);
-  SequenceFrame bad = s.frames[1];
-  bad.transforms["Probe=ToTracker"] = TrackedTransform{};
+  core::SequenceFrame bad = s.frames[1];
+  bad.transforms["Probe=ToTracker"] = core::TrackedTransform{};
   EXPECT_THROW(recorder.add(bad, s.pixels.data(), frameBytes(s)), std::invalid_argument);
   bad = s.frames[1];
   bad.timestampS = std::numeric_limits<double>::quiet_NaN();
@@ -187,13 +188,13 @@ TEST(CaptureRecorder, RefusesAFrameWriteSequenceWouldRefuseWithoutAGap) {
     add(recorder, s, f);
   EXPECT_EQ(recorder.frames(), 10U);
   EXPECT_EQ(recorder.finish(), 10U);
-  expectSameFrames(readSequence(dir.file("rec.igs.mha")), s, 10);
+  expectSameFrames(core::readSequence(dir.file("rec.igs.mha")), s, 10);
 }
 
 TEST(CaptureRecorder, AFolderThatCannotBeWrittenFailsFinishWithTheReason) {
   test::TempDir dir;
   fs::create_directory(dir.file("gone"));
-  const Sequence s = sweep(5);
+  const core::Sequence s = sweep(5);
   CaptureRecorder recorder(dir.file("gone/rec.igs.mha"), s, 0.005);
   fs::remove(dir.file("gone"));
   for (std::size_t f = 0; f < s.frames.size(); ++f)
@@ -201,7 +202,7 @@ TEST(CaptureRecorder, AFolderThatCannotBeWrittenFailsFinishWithTheReason) {
   try {
     recorder.finish();
     FAIL() << "finish() wrote into a removed folder";
-  } catch (const FileError& e) {
+  } catch (const core::FileError& e) {
     EXPECT_NE(std::string(e.what()).find("rec.igs.partial"), std::string::npos) << e.what();
     EXPECT_NE(std::string(e.what()).find("cannot be created"), std::string::npos) << e.what();
   }

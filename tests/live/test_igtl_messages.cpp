@@ -37,18 +37,19 @@ TEST(IgtlMessages, TransformKeepsNameTimestampAndMatrixToFloatPrecision) {
 
 TEST(IgtlMessages, ImagesOfEveryElementTypeComeBackBitForBit) {
   std::mt19937 random(3);
-  for (const ElementType type : {ElementType::UInt8, ElementType::Int8, ElementType::Int16,
-                                 ElementType::UInt16, ElementType::Float32}) {
+  for (const core::ElementType type :
+       {core::ElementType::UInt8, core::ElementType::Int8, core::ElementType::Int16,
+        core::ElementType::UInt16, core::ElementType::Float32}) {
     const int samples = 1000;
-    std::vector<std::uint8_t> pixels(static_cast<std::size_t>(samples) * elementSize(type));
+    std::vector<std::uint8_t> pixels(static_cast<std::size_t>(samples) * core::elementSize(type));
     for (std::uint8_t& b : pixels)
       b = static_cast<std::uint8_t>(random() & 0x7f);  // finite floats
     const Message message = roundTrip(encodeImage("Image", type, pixels.data(), samples, 1, 2.5));
-    EXPECT_EQ(message.kind, MessageKind::Image) << elementTypeName(type);
+    EXPECT_EQ(message.kind, MessageKind::Image) << core::elementTypeName(type);
     EXPECT_EQ(message.elementType, type);
     EXPECT_EQ(message.samples, samples);
     EXPECT_EQ(message.rows, 1);
-    EXPECT_EQ(message.pixels, pixels) << elementTypeName(type);
+    EXPECT_EQ(message.pixels, pixels) << core::elementTypeName(type);
     EXPECT_EQ(message.header.timestampS, 2.5);
   }
 }

@@ -17,12 +17,12 @@ namespace echoreg::live {
 namespace {
 
 // The demo sweep with a FemurToTracker on every frame (a bone marker that moves a little).
-Sequence sweepWithBone(int frames) {
+core::Sequence sweepWithBone(int frames) {
   test::DemoSweepOptions options;
   options.frames = frames;
-  Sequence sweep = test::makeDemoSweep(options);
+  core::Sequence sweep = test::makeDemoSweep(options);
   for (std::size_t f = 0; f < sweep.frames.size(); ++f) {
-    TrackedTransform femur;
+    core::TrackedTransform femur;
     femur.matrix.topRightCorner<3, 1>() =
         Eigen::Vector3d(5.0 + 0.01 * static_cast<double>(f), -3.0, 20.0);
     sweep.frames[f].transforms["FemurToTracker"] = femur;
@@ -30,10 +30,10 @@ Sequence sweepWithBone(int frames) {
   return sweep;
 }
 
-LiveDetectorOptions optionsFor(const Sequence& sweep, int adaptFrames) {
+LiveDetectorOptions optionsFor(const core::Sequence& sweep, int adaptFrames) {
   LiveDetectorOptions options;
-  options.params = detectionPreset("default");
-  options.params.depth = depthFromSequence(sweep, options.params.depth);
+  options.params = core::detectionPreset("default");
+  options.params.depth = core::depthFromSequence(sweep, options.params.depth);
   options.params.envelope.samplingFrequencyHz = options.params.depth.samplingFrequencyHz;
   options.params.interSignal.history = 1;  // register's default: each echo judged alone
   options.params.interSignal.minSpreadMm = 1.0;
@@ -45,9 +45,9 @@ LiveDetectorOptions optionsFor(const Sequence& sweep, int adaptFrames) {
   return options;
 }
 
-PoseLookup exactPose(const SequenceFrame& frame, const std::string& name) {
+PoseLookup exactPose(const core::SequenceFrame& frame, const std::string& name) {
   PoseLookup lookup;
-  const TrackedTransform& t = frame.transforms.at(name);
+  const core::TrackedTransform& t = frame.transforms.at(name);
   if (t.valid())
     lookup.matrix = t.matrix;
   else
@@ -56,12 +56,13 @@ PoseLookup exactPose(const SequenceFrame& frame, const std::string& name) {
 }
 
 TEST(LiveDetector, AcceptsTheFramesAndPointsOfTheOfflineChain) {
-  Sequence sweep = sweepWithBone(600);
+  core::Sequence sweep = sweepWithBone(600);
   // Frame 310, one of those whose probe is INVALID, holds no echo at all (all samples zero).
-  const std::size_t frameBytes = sweep.samplesPerFrame() * elementSize(sweep.elementType);
+  const std::size_t frameBytes = sweep.samplesPerFrame() * core::elementSize(sweep.elementType);
   std::fill_n(sweep.pixels.begin() + static_cast<std::ptrdiff_t>(310 * frameBytes), frameBytes, 0);
   const LiveDetectorOptions options = optionsFor(sweep, 600);
-  const SequenceDetection offline = detectSequence(sweep, options.params, options.points);
+  const core::SequenceDetection offline =
+      core::detectSequence(sweep, options.params, options.points);
 
   LiveDetector live(options);
   std::vector<LiveFrame> decided;
@@ -77,15 +78,15 @@ TEST(LiveDetector, AcceptsTheFramesAndPointsOfTheOfflineChain) {
   ASSERT_EQ(decided.size(), sweep.frames.size());
   int accepted = 0;
   for (std::size_t f = 0; f < decided.size(); ++f) {
-    const FrameDetection& expected = offline.frames[f];
+    const core::FrameDetection& expected = offline.frames[f];
     ASSERT_EQ(decided[f].accepted(), expected.accepted())
         << "frame " << f << ": live " << decided[f].reason << ", offline "
-        << rejectReasonName(expected.reason);
+        << core::rejectReasonName(expected.reason);
     // Refused frames give register's reason too: a frame whose probe pose is INVALID is
     // invalid-pose only where its echo would have been accepted, else the echo's reason (live
     // counted every such frame invalid-pose: 1,298 against register's 470 on a long sweep).
     if (!expected.accepted()) {
-      EXPECT_EQ(decided[f].reason, rejectReasonName(expected.reason)) << "frame " << f;
+      EXPECT_EQ(decided[f].reason, core::rejectReasonName(expected.reason)) << "frame " << f;
     }
     if (expected.accepted()) {
       ++accepted;
@@ -99,7 +100,7 @@ TEST(LiveDetector, AcceptsTheFramesAndPointsOfTheOfflineChain) {
   // echo was found.
   EXPECT_EQ(decided[305].reason, "invalid-pose");
   EXPECT_EQ(decided[305].detail, "ProbeToTracker is INVALID");
-  EXPECT_EQ(decided[310].reason, rejectReasonName(offline.frames[310].reason));
+  EXPECT_EQ(decided[310].reason, core::rejectReasonName(offline.frames[310].reason));
   EXPECT_NE(decided[310].reason, "invalid-pose");
 }
 
@@ -114,7 +115,7 @@ TEST(LiveDetector, AcceptsTheFramesAndPointsOfTheOfflineChain) {
 // did before, accepted 14 echoes in the tilted second and 81 in all against the offline 57: 82
 // frames differed.)
 TEST(LiveDetector, AnUnrepresentativeStartIsJudgedAgainByTheWholeCapturesShadowRule) {
-  Sequence sweep = sweepWithBone(400);
+  core::Sequence sweep = sweepWithBone(400);
   constexpr int kTilted = 100;
   test::SpecimenSetOptions lineOptions;
   for (int f = 0; f < kTilted; ++f) {
@@ -125,8 +126,9 @@ TEST(LiveDetector, AnUnrepresentativeStartIsJudgedAgainByTheWholeCapturesShadowR
               sweep.pixels.begin() + static_cast<std::ptrdiff_t>(f) * 4096);
   }
   const LiveDetectorOptions options = optionsFor(sweep, 64);
-  const SequenceDetection offline = detectSequence(sweep, options.params, options.points);
-  ASSERT_EQ(offline.params.peaks.prominence.shadow, ShadowRule::Required);
+  const core::SequenceDetection offline =
+      core::detectSequence(sweep, options.params, options.points);
+  ASSERT_EQ(offline.params.peaks.prominence.shadow, core::ShadowRule::Required);
 
   LiveDetector live(options);
   std::map<int, LiveFrame> accepted;  // the session's view: frame -> its accepted verdict
@@ -160,22 +162,22 @@ TEST(LiveDetector, AnUnrepresentativeStartIsJudgedAgainByTheWholeCapturesShadowR
   const std::vector<ShadowMeasurement>& measured = live.shadowMeasurements();
   ASSERT_GE(measured.size(), 3u);
   EXPECT_EQ(measured.front().frames, 64);
-  EXPECT_EQ(measured.front().trial.rule, ShadowRule::Auto);
+  EXPECT_EQ(measured.front().trial.rule, core::ShadowRule::Auto);
   EXPECT_LT(measured.front().trial.share, 0.2);
   EXPECT_EQ(measured[1].frames, 128);
   EXPECT_EQ(measured.back().frames, 400);  // the end of the stream: every A-line
   EXPECT_EQ(measured.back().trial.records, 64);
-  EXPECT_EQ(measured.back().trial.rule, ShadowRule::Required);
+  EXPECT_EQ(measured.back().trial.rule, core::ShadowRule::Required);
   ASSERT_EQ(switches.size(), 1u);
-  EXPECT_EQ(switches[0].from, ShadowRule::Auto);
-  EXPECT_EQ(switches[0].to, ShadowRule::Required);
-  EXPECT_EQ(live.params().peaks.prominence.shadow, ShadowRule::Required);
+  EXPECT_EQ(switches[0].from, core::ShadowRule::Auto);
+  EXPECT_EQ(switches[0].to, core::ShadowRule::Required);
+  EXPECT_EQ(live.params().peaks.prominence.shadow, core::ShadowRule::Required);
   // What the first rule had accepted in the tilted second (none of it bone).
   EXPECT_GE(acceptedTiltedBeforeSwitch, 10);
   // The session's points are the offline chain's, frame for frame.
   int expectedAccepted = 0;
   for (std::size_t f = 0; f < offline.frames.size(); ++f) {
-    const FrameDetection& expected = offline.frames[f];
+    const core::FrameDetection& expected = offline.frames[f];
     const auto found = accepted.find(static_cast<int>(f));
     ASSERT_EQ(found != accepted.end(), expected.accepted()) << "frame " << f;
     if (expected.accepted()) {
@@ -193,7 +195,7 @@ TEST(LiveDetector, AnUnrepresentativeStartIsJudgedAgainByTheWholeCapturesShadowR
 }
 
 TEST(LiveDetector, FramesWaitForTheAdaptationThenFlowOneByOne) {
-  const Sequence sweep = sweepWithBone(100);
+  const core::Sequence sweep = sweepWithBone(100);
   LiveDetector live(optionsFor(sweep, 40));
   std::vector<float> samples;
   for (std::size_t f = 0; f < 100; ++f) {
@@ -209,14 +211,14 @@ TEST(LiveDetector, FramesWaitForTheAdaptationThenFlowOneByOne) {
 }
 
 TEST(LiveDetector, APoseStreamThatStopsMakesTheFramesStale) {
-  const Sequence sweep = sweepWithBone(200);
+  const core::Sequence sweep = sweepWithBone(200);
   LiveDetector live(optionsFor(sweep, 20));
   PoseBuffer poses(0.1);
   std::map<std::string, int> reasons;
   std::string example;
   std::vector<float> samples;
   for (std::size_t f = 0; f < sweep.frames.size(); ++f) {
-    const SequenceFrame& frame = sweep.frames[f];
+    const core::SequenceFrame& frame = sweep.frames[f];
     const double t = *frame.timestampS;
     if (f < 100)  // the probe's poses stop after frame 99 (the femur's go on)
       poses.add("ProbeToTracker", {t, frame.transforms.at("ProbeToTracker").matrix, "OK"});

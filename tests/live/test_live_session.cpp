@@ -41,12 +41,12 @@ int freePort() {
 }
 
 // The demo sweep with a bone marker on every frame and a field (as PLUS writes ImageStatus).
-Sequence sweep(int frames) {
+core::Sequence sweep(int frames) {
   test::DemoSweepOptions options;
   options.frames = frames;
-  Sequence s = test::makeDemoSweep(options);
+  core::Sequence s = test::makeDemoSweep(options);
   for (std::size_t f = 0; f < s.frames.size(); ++f) {
-    TrackedTransform femur;
+    core::TrackedTransform femur;
     femur.matrix.topRightCorner<3, 1>() =
         Eigen::Vector3d(5.0, -3.0, 20.0 + 0.01 * static_cast<double>(f));
     s.frames[f].transforms["FemurToTracker"] = femur;
@@ -68,10 +68,10 @@ class LiveSession : public ::testing::Test {
            << "\n";
     cube << "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n";
     cube.close();
-    TransformFile calibration{"Beam", "Probe", Eigen::Matrix4d::Identity(), {}};
-    writeTransformFile(dir_.file("BeamToProbe.json"), calibration, false);
-    TransformFile initial{"Femur", "CT", Eigen::Matrix4d::Identity(), {}};
-    writeTransformFile(dir_.file("initial.json"), initial, false);
+    core::TransformFile calibration{"Beam", "Probe", Eigen::Matrix4d::Identity(), {}};
+    core::writeTransformFile(dir_.file("BeamToProbe.json"), calibration, false);
+    core::TransformFile initial{"Femur", "CT", Eigen::Matrix4d::Identity(), {}};
+    core::writeTransformFile(dir_.file("initial.json"), initial, false);
   }
 
   std::vector<std::string> liveArgs(int port, const std::vector<std::string>& more = {}) const {
@@ -120,8 +120,8 @@ class LiveSession : public ::testing::Test {
   test::TempDir dir_;
 };
 
-void sendFrame(Connection& c, const Sequence& s, std::size_t f, bool withProbe = true) {
-  const SequenceFrame& frame = s.frames[f];
+void sendFrame(Connection& c, const core::Sequence& s, std::size_t f, bool withProbe = true) {
+  const core::SequenceFrame& frame = s.frames[f];
   const double t = *frame.timestampS;
   for (const auto& [name, transform] : frame.transforms) {
     if (name == "ProbeToTracker" && !withProbe)
@@ -129,13 +129,13 @@ void sendFrame(Connection& c, const Sequence& s, std::size_t f, bool withProbe =
     if (transform.valid())
       c.send(encodeTransform(name, transform.matrix, t));
   }
-  const std::size_t bytes = s.samplesPerFrame() * elementSize(s.elementType);
+  const std::size_t bytes = s.samplesPerFrame() * core::elementSize(s.elementType);
   c.send(encodeImage("Image", s.elementType, s.pixels.data() + f * bytes, s.frameSize[0], 1, t));
 }
 
 TEST_F(LiveSession, RecordsEverythingServedAndEndsWhenTheServerCloses) {
-  const Sequence served = sweep(400);
-  writeSequence(served, dir_.file("served.igs.mha"));
+  const core::Sequence served = sweep(400);
+  core::writeSequence(served, dir_.file("served.igs.mha"));
   const int port = freePort();
   auto serve = std::async(std::launch::async, [&] {
     return runEchoreg({"serve", dir_.file("served.igs.mha"), "--port", std::to_string(port),
@@ -164,7 +164,7 @@ TEST_F(LiveSession, RecordsEverythingServedAndEndsWhenTheServerCloses) {
 
   // The recording reads back as the served capture: pixels and timestamps exactly, statuses and
   // fields as served, the header's keys, and the poses to OpenIGTLink's float precision.
-  const Sequence recorded = readSequence(dir_.file("rec.igs.mha"));
+  const core::Sequence recorded = core::readSequence(dir_.file("rec.igs.mha"));
   ASSERT_EQ(recorded.frames.size(), served.frames.size());
   EXPECT_EQ(recorded.elementType, served.elementType);
   EXPECT_EQ(recorded.frameSize, served.frameSize);
@@ -173,13 +173,13 @@ TEST_F(LiveSession, RecordsEverythingServedAndEndsWhenTheServerCloses) {
   EXPECT_EQ(recorded.acquisition.speedOfSoundMps, served.acquisition.speedOfSoundMps);
   EXPECT_EQ(recorded.extraHeader, served.extraHeader);
   for (std::size_t f = 0; f < served.frames.size(); ++f) {
-    const SequenceFrame& a = served.frames[f];
-    const SequenceFrame& b = recorded.frames[f];
+    const core::SequenceFrame& a = served.frames[f];
+    const core::SequenceFrame& b = recorded.frames[f];
     ASSERT_EQ(a.timestampS, b.timestampS) << "frame " << f;
     EXPECT_EQ(a.fields, b.fields) << "frame " << f;
     ASSERT_EQ(a.transforms.size(), b.transforms.size()) << "frame " << f;
     for (const auto& [name, transform] : a.transforms) {
-      const TrackedTransform& got = b.transforms.at(name);
+      const core::TrackedTransform& got = b.transforms.at(name);
       EXPECT_EQ(got.status, transform.status) << "frame " << f << " " << name;
       if (transform.valid()) {
         EXPECT_LT((got.matrix - transform.matrix).cwiseAbs().maxCoeff(), 1e-4)
@@ -191,12 +191,12 @@ TEST_F(LiveSession, RecordsEverythingServedAndEndsWhenTheServerCloses) {
 
 TEST_F(LiveSession, ReconnectsWhenTheServerComesBackAndGivesUpWhenItDoesNot) {
   // The second stream is the sweep 100 s later, as a restarted PLUS server's clock goes on.
-  const Sequence first = sweep(150);
-  Sequence second = sweep(150);
-  for (SequenceFrame& frame : second.frames)
+  const core::Sequence first = sweep(150);
+  core::Sequence second = sweep(150);
+  for (core::SequenceFrame& frame : second.frames)
     *frame.timestampS += 100.0;
-  writeSequence(first, dir_.file("first.igs.mha"));
-  writeSequence(second, dir_.file("second.igs.mha"));
+  core::writeSequence(first, dir_.file("first.igs.mha"));
+  core::writeSequence(second, dir_.file("second.igs.mha"));
   const int port = freePort();
   const auto serve = [&](const std::string& capture) {
     return runEchoreg({"serve", dir_.file(capture), "--port", std::to_string(port), "--rate", "max",
@@ -227,7 +227,7 @@ TEST_F(LiveSession, ReconnectsWhenTheServerComesBackAndGivesUpWhenItDoesNot) {
   EXPECT_EQ(s.at("recorded_frames"), 300);
   EXPECT_EQ(s.at("reconnections"), 1);
   EXPECT_GE(s.at("disconnected_seconds").get<double>(), 3.0);
-  const Sequence recorded = readSequence(dir_.file("rec.igs.mha"));
+  const core::Sequence recorded = core::readSequence(dir_.file("rec.igs.mha"));
   ASSERT_EQ(recorded.frames.size(), 300U);
   std::vector<std::uint8_t> both = first.pixels;
   both.insert(both.end(), second.pixels.begin(), second.pixels.end());
@@ -239,7 +239,7 @@ TEST_F(LiveSession, ReconnectsWhenTheServerComesBackAndGivesUpWhenItDoesNot) {
 }
 
 TEST_F(LiveSession, ListeningLiveTakesAClientThatComesBackIntoTheSameRecording) {
-  const Sequence s = sweep(60);
+  const core::Sequence s = sweep(60);
   const int port = freePort();
   std::vector<std::string> args = liveArgs(port, {"--reconnect", "2"});
   args[1] = "--listen";  // "--connect", "127.0.0.1:PORT" -> "--listen", "PORT"
@@ -264,7 +264,7 @@ TEST_F(LiveSession, ListeningLiveTakesAClientThatComesBackIntoTheSameRecording) 
   const nlohmann::json j = session();
   EXPECT_EQ(j.at("reconnections"), 1);
   EXPECT_EQ(j.at("recorded_frames"), 60);
-  const Sequence recorded = readSequence(dir_.file("rec.igs.mha"));
+  const core::Sequence recorded = core::readSequence(dir_.file("rec.igs.mha"));
   ASSERT_EQ(recorded.frames.size(), 60U);
   EXPECT_EQ(recorded.pixels, s.pixels);
 }
@@ -309,7 +309,7 @@ TEST(SlowConsumer, TheDiscarderReadsWhatAStreamingServersClientSends) {
   std::optional<Connection> server = listener.accept(5.0);
   ASSERT_TRUE(server);
   const std::vector<std::uint8_t> pixels(std::size_t{1} << 20, 7);
-  const Packet image = encodeImage("Image", ElementType::UInt8, pixels.data(),
+  const Packet image = encodeImage("Image", core::ElementType::UInt8, pixels.data(),
                                    static_cast<int>(pixels.size()), 1, 1.0);
   std::size_t sent = 0;
   {
@@ -327,16 +327,16 @@ TEST_F(LiveSession, ServeWaitsForAClientThatStallsAndDropsNothing) {
   test::DemoSweepOptions options;
   options.frames = 600;
   options.frameRateHz = 3000.0;
-  const Sequence once = test::makeDemoSweep(options);
-  Sequence fast = once;
+  const core::Sequence once = test::makeDemoSweep(options);
+  core::Sequence fast = once;
   for (int copy = 1; copy < 10; ++copy) {
-    for (SequenceFrame frame : once.frames) {
+    for (core::SequenceFrame frame : once.frames) {
       *frame.timestampS += 0.2 * copy;
       fast.frames.push_back(std::move(frame));
     }
     fast.pixels.insert(fast.pixels.end(), once.pixels.begin(), once.pixels.end());
   }
-  writeSequence(fast, dir_.file("fast.igs.mha"));
+  core::writeSequence(fast, dir_.file("fast.igs.mha"));
   const int port = freePort();
   auto serve = std::async(std::launch::async, [&] {
     return runEchoreg({"serve", dir_.file("fast.igs.mha"), "--port", std::to_string(port), "--rate",
@@ -388,8 +388,8 @@ std::vector<std::pair<double, std::vector<std::uint8_t>>> readImages(Connection&
 TEST_F(LiveSession, ServeRepeatsTheCaptureWithTimestampsGoingOnAsPlusLoopsIt) {
   // 100 frames at 40 Hz (2.475 s from first to last): each pass goes on one mean frame interval
   // (2.5 s / 100) after the last one, so pass k is the capture shifted by k * 2.5 s.
-  const Sequence served = sweep(100);
-  writeSequence(served, dir_.file("served.igs.mha"));
+  const core::Sequence served = sweep(100);
+  core::writeSequence(served, dir_.file("served.igs.mha"));
   const double first = *served.frames.front().timestampS;
   const double period = (*served.frames.back().timestampS - first) * 100.0 / 99.0;
   int port = freePort();
@@ -408,7 +408,7 @@ TEST_F(LiveSession, ServeRepeatsTheCaptureWithTimestampsGoingOnAsPlusLoopsIt) {
             std::string::npos)
       << server.out;
   ASSERT_EQ(images.size(), 300U);
-  const std::size_t bytes = served.samplesPerFrame() * elementSize(served.elementType);
+  const std::size_t bytes = served.samplesPerFrame() * core::elementSize(served.elementType);
   for (std::size_t i = 0; i < images.size(); ++i) {
     const std::size_t f = i % 100, pass = i / 100;
     // OpenIGTLink's timestamps are 32.32 fixed point: 2^-32 s, well under a microsecond.
@@ -447,15 +447,15 @@ TEST_F(LiveSession, ServeRepeatsTheCaptureWithTimestampsGoingOnAsPlusLoopsIt) {
   EXPECT_NE(server.out.find("-frame capture)"), std::string::npos) << server.out;
 
   // A capture that cannot go on from itself is refused before anything is served.
-  writeSequence(sweep(1), dir_.file("one.igs.mha"));
+  core::writeSequence(sweep(1), dir_.file("one.igs.mha"));
   CommandResult r = runEchoreg(
       {"serve", dir_.file("one.igs.mha"), "--port", "0", "--wait", "0.2", "--repeat", "2"});
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("one.igs.mha: --repeat 2 needs frames spread over time"), std::string::npos)
       << r.err;
-  Sequence backwards = sweep(5);
+  core::Sequence backwards = sweep(5);
   backwards.frames[3].timestampS = *backwards.frames[1].timestampS;
-  writeSequence(backwards, dir_.file("backwards.igs.mha"));
+  core::writeSequence(backwards, dir_.file("backwards.igs.mha"));
   r = runEchoreg(
       {"serve", dir_.file("backwards.igs.mha"), "--port", "0", "--wait", "0.2", "--repeat", "0"});
   EXPECT_EQ(r.exitCode, 1);
@@ -466,7 +466,7 @@ TEST_F(LiveSession, ServeRepeatsTheCaptureWithTimestampsGoingOnAsPlusLoopsIt) {
 }
 
 TEST_F(LiveSession, AnOversizedMessageEndsTheSessionWithAClearMessageAndKeepsTheRecording) {
-  const Sequence s = sweep(30);
+  const core::Sequence s = sweep(30);
   const int port = freePort();
   auto server = fakeServer(port, [&](Connection& c) {
     c.send(encodeString(kCaptureHeaderName, captureHeaderJson(s), 10.0));
@@ -485,11 +485,11 @@ TEST_F(LiveSession, AnOversizedMessageEndsTheSessionWithAClearMessageAndKeepsThe
                           "limit of 67108864 bytes"),
             std::string::npos)
       << live.err;
-  EXPECT_EQ(readSequence(dir_.file("rec.igs.mha")).frames.size(), 30u);
+  EXPECT_EQ(core::readSequence(dir_.file("rec.igs.mha")).frames.size(), 30u);
 }
 
 TEST_F(LiveSession, ADamagedMessageIsSkippedAndTheSessionGoesOn) {
-  const Sequence s = sweep(40);
+  const core::Sequence s = sweep(40);
   const int port = freePort();
   auto server = fakeServer(port, [&](Connection& c) {
     c.send(encodeString(kCaptureHeaderName, captureHeaderJson(s), 10.0));
@@ -512,7 +512,7 @@ TEST_F(LiveSession, ADamagedMessageIsSkippedAndTheSessionGoesOn) {
 }
 
 TEST_F(LiveSession, APoseStreamThatStopsIsRefusedAsStaleWithTheReason) {
-  const Sequence s = sweep(200);
+  const core::Sequence s = sweep(200);
   const int port = freePort();
   auto server = fakeServer(port, [&](Connection& c) {
     c.send(encodeString(kCaptureHeaderName, captureHeaderJson(s), 10.0));
@@ -537,7 +537,7 @@ TEST_F(LiveSession, APoseStreamThatStopsIsRefusedAsStaleWithTheReason) {
 // and refuses its frame, while reading the recording as `register --capture` refuses the whole
 // capture, so a session that read it back would end without a result.
 TEST_F(LiveSession, TheResultComesFromTheLivePointsNotFromReadingTheRecordingBack) {
-  const Sequence s = sweep(300);
+  const core::Sequence s = sweep(300);
   const int port = freePort();
   auto server = fakeServer(port, [&](Connection& c) {
     c.send(encodeString(kCaptureHeaderName, captureHeaderJson(s), 10.0));
@@ -548,7 +548,7 @@ TEST_F(LiveSession, TheResultComesFromTheLivePointsNotFromReadingTheRecordingBac
         c.send(encodeTransform("ProbeToTracker", scaled, *s.frames[f].timestampS));
         c.send(encodeTransform("FemurToTracker", s.frames[f].transforms.at("FemurToTracker").matrix,
                                *s.frames[f].timestampS));
-        const std::size_t bytes = s.samplesPerFrame() * elementSize(s.elementType);
+        const std::size_t bytes = s.samplesPerFrame() * core::elementSize(s.elementType);
         c.send(encodeImage("Image", s.elementType, s.pixels.data() + f * bytes, s.frameSize[0], 1,
                            *s.frames[f].timestampS));
         continue;
@@ -583,7 +583,8 @@ TEST_F(LiveSession, TheResultComesFromTheLivePointsNotFromReadingTheRecordingBac
   EXPECT_EQ(live.err.find("echoreg register"), std::string::npos) << live.err;
   EXPECT_EQ(live.err.find("its ProbeToTrackerTransform is not a rigid pose"), std::string::npos)
       << live.err;
-  const TransformFile result = readTransformFile(dir_.file("FemurToCT.json"), "Femur", "CT");
+  const core::TransformFile result =
+      core::readTransformFile(dir_.file("FemurToCT.json"), "Femur", "CT");
   const int accepted = session.at("accepted").get<int>();
   ASSERT_GE(accepted, 3);
   EXPECT_EQ(result.extra.at("ultrasound_points"), accepted);
@@ -603,7 +604,7 @@ TEST_F(LiveSession, TheResultComesFromTheLivePointsNotFromReadingTheRecordingBac
 // on the recording (the same points; the cube model is not what the sweep is of, so neither fit
 // converges, and both are written).
 TEST_F(LiveSession, AShadowRuleMeasuredAgainIsSaidAndTheResultIsRegisters) {
-  Sequence s = sweep(300);
+  core::Sequence s = sweep(300);
   test::SpecimenSetOptions lineOptions;
   for (std::size_t f = 0; f < 100; ++f) {
     lineOptions.seed = 9000 + f;
@@ -611,7 +612,7 @@ TEST_F(LiveSession, AShadowRuleMeasuredAgainIsSaidAndTheResultIsRegisters) {
     std::copy(line.samples.begin(), line.samples.end(),
               s.pixels.begin() + static_cast<std::ptrdiff_t>(f * s.samplesPerFrame()));
   }
-  writeSequence(s, dir_.file("served.igs.mha"));
+  core::writeSequence(s, dir_.file("served.igs.mha"));
   const int port = freePort();
   auto serve = std::async(std::launch::async, [&] {
     return runEchoreg({"serve", dir_.file("served.igs.mha"), "--port", std::to_string(port),
@@ -642,8 +643,10 @@ TEST_F(LiveSession, AShadowRuleMeasuredAgainIsSaidAndTheResultIsRegisters) {
                   dir_.file("initial.json"), "--out", dir_.file("offline.json")});
   ASSERT_TRUE(fs::exists(dir_.file("offline.json"))) << offline.err;
   ASSERT_TRUE(fs::exists(dir_.file("FemurToCT.json"))) << live.err;
-  const TransformFile byRegister = readTransformFile(dir_.file("offline.json"), "Femur", "CT");
-  const TransformFile byLive = readTransformFile(dir_.file("FemurToCT.json"), "Femur", "CT");
+  const core::TransformFile byRegister =
+      core::readTransformFile(dir_.file("offline.json"), "Femur", "CT");
+  const core::TransformFile byLive =
+      core::readTransformFile(dir_.file("FemurToCT.json"), "Femur", "CT");
   const int accepted = byRegister.extra.at("sources").at(0).at("accepted").get<int>();
   EXPECT_GT(accepted, 30);
   EXPECT_EQ(session.at("accepted"), accepted);
@@ -657,7 +660,7 @@ TEST_F(LiveSession, AShadowRuleMeasuredAgainIsSaidAndTheResultIsRegisters) {
 // nothing more after the first drop, and whether the receiver ever saw a FemurToCT depended on how
 // many updates happened to come before the drop.)
 TEST_F(LiveSession, AResultsReceiverThatClosesIsConnectedToAgainAndGetsTheFinalUpdate) {
-  const Sequence s = sweep(300);
+  const core::Sequence s = sweep(300);
   const int port = freePort();
   const int resultsPort = freePort();
   auto server = fakeServer(port, [&](Connection& c) {
@@ -726,7 +729,7 @@ TEST_F(LiveSession, AResultsReceiverThatClosesIsConnectedToAgainAndGetsTheFinalU
 }
 
 TEST_F(LiveSession, SigintEndsTheSessionCleanly) {
-  const Sequence s = sweep(50);
+  const core::Sequence s = sweep(50);
   const int port = freePort();
   std::promise<void> sent;
   std::atomic<bool> release{false};
@@ -772,13 +775,13 @@ TEST_F(LiveSession, UsageAndPeerProblemsAreNamed) {
   EXPECT_NE(r.err.find("no OpenIGTLink server at 127.0.0.1:"), std::string::npos) << r.err;
   EXPECT_FALSE(fs::exists(dir_.file("rec.igs.mha")));
 
-  Sequence negative = sweep(3);
+  core::Sequence negative = sweep(3);
   negative.frames[1].timestampS = -1.0;
-  writeSequence(negative, dir_.file("negative.igs.mha"));
+  core::writeSequence(negative, dir_.file("negative.igs.mha"));
   r = runEchoreg({"serve", dir_.file("negative.igs.mha"), "--port", "0", "--wait", "0.2"});
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("negative.igs.mha: frame 1 has timestamp -1"), std::string::npos) << r.err;
-  writeSequence(sweep(3), dir_.file("three.igs.mha"));
+  core::writeSequence(sweep(3), dir_.file("three.igs.mha"));
   r = runEchoreg({"serve", dir_.file("three.igs.mha"), "--port", "0", "--wait", "0.2"});
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("no client connected to 127.0.0.1:"), std::string::npos) << r.err;

@@ -105,7 +105,7 @@ TEST(Offscreen, WritesAPngThatReadsBack) {
   const auto* top = static_cast<unsigned char*>(reader->GetOutput()->GetScalarPointer(0, 119, 0));
   EXPECT_EQ(top[0], image.at(0, 0, 0));
   EXPECT_THROW(echoreg::render::writePng(dir.file("missing/sphere.png"), image),
-               echoreg::FileError);
+               echoreg::core::FileError);
   EXPECT_FALSE(std::filesystem::exists(dir.file("missing")));
   EXPECT_THROW(echoreg::render::OffscreenWindow(4, 4), std::invalid_argument);
 }

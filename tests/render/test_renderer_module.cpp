@@ -26,7 +26,7 @@ template <typename Draw>
 std::string fileErrorOf(Draw draw) {
   try {
     draw();
-  } catch (const echoreg::FileError& e) {
+  } catch (const echoreg::core::FileError& e) {
     return e.what();
   }
   ADD_FAILURE() << "no FileError";

@@ -2,8 +2,8 @@
 // vtkEchoregBoneSurfaceFilter, and CT -> vtkEchoregLiveWireFilter. Each equals the segmentation
 // function it adapts on the same CT; a change re-runs only what is downstream of it; errors go
 // through the executive.
-#include "echoreg/filters/MeshIO.h"
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/mesh_io.h"
+#include "echoreg/filters/sequence_field_data.h"
 #include "echoreg/filters/vtkEchoregBeamPointsFilter.h"
 #include "echoreg/filters/vtkEchoregInterSignalFilter.h"
 #include "echoreg/filters/vtkEchoregSurfaceRegistrationFilter.h"
@@ -360,7 +360,7 @@ TEST(SegmentationFilters, PrintSelfListsEveryParameter) {
 // registration, and not the segmentation.
 vtkSmartPointer<vtkTable> sweepPeakTable(const core::TriangleMesh& surface,
                                          const Eigen::Vector3d& centre, double beamOffsetMm) {
-  Sequence sequence;
+  core::Sequence sequence;
   auto table = vtkSmartPointer<vtkTable>::New();
   vtkNew<vtkIntArray> frames;
   frames->SetName("frame");
@@ -375,13 +375,13 @@ vtkSmartPointer<vtkTable> sweepPeakTable(const core::TriangleMesh& surface,
     const Eigen::Vector3d beam = (centre - hit).normalized();
     const Eigen::Matrix3d rotation =
         Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), beam).toRotationMatrix();
-    SequenceFrame poses;
-    TrackedTransform probe;
+    core::SequenceFrame poses;
+    core::TrackedTransform probe;
     probe.matrix.block<3, 3>(0, 0) = rotation;
     probe.matrix.block<3, 1>(0, 3) =
         hit - kDepthMm * beam - rotation * Eigen::Vector3d(0, 0, beamOffsetMm);
     poses.transforms["ProbeToTracker"] = probe;
-    poses.transforms["FemurToTracker"] = TrackedTransform();  // Femur = Tracker = CT here
+    poses.transforms["FemurToTracker"] = core::TrackedTransform();  // Femur = Tracker = CT here
     poses.timestampS = 0.02 * frame;
     sequence.frames.push_back(poses);
     frames->InsertNextValue(frame++);

@@ -411,7 +411,7 @@ TEST(MaskNrrd, AMaskReadsBackWithItsGeometry) {
   EXPECT_TRUE(back.image.voxelToLps({3, 2, 1}).isApprox(ct.voxelToLps({3, 2, 1}), 1e-12));
   EXPECT_THROW(
       segmentation::writeNrrdVolume(dir.file("missing/m.nrrd"), mask.geometry, mask.voxels),
-      FileError);
+      core::FileError);
 }
 
 }  // namespace

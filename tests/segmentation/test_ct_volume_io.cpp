@@ -182,7 +182,7 @@ TEST_F(CtVolumeIo, NrrdRoundTripWithLpsGeometry) {
   try {
     echoreg::segmentation::readNrrdVolume(truncated);
     ADD_FAILURE() << "a truncated NRRD was read";
-  } catch (const echoreg::FileError& e) {
+  } catch (const echoreg::core::FileError& e) {
     EXPECT_EQ(e.path(), truncated);
   }
 }
@@ -205,7 +205,7 @@ TEST_F(CtVolumeIo, NrrdHeadersBeyondTheirDataAreRefusedBeforeAllocating) {
   const auto refusal = [](const std::string& path) {
     try {
       echoreg::segmentation::readNrrdVolume(path);
-    } catch (const echoreg::FileError& e) {
+    } catch (const echoreg::core::FileError& e) {
       EXPECT_EQ(e.path(), path);
       return std::string(e.what());
     }

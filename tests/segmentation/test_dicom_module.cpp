@@ -51,7 +51,7 @@ template <typename Work>
 std::string fileErrorOf(Work work) {
   try {
     work();
-  } catch (const echoreg::FileError& e) {
+  } catch (const echoreg::core::FileError& e) {
     return e.what();
   }
   ADD_FAILURE() << "no FileError";

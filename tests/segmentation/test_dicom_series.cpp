@@ -39,7 +39,7 @@
 namespace {
 
 namespace fs = std::filesystem;
-using echoreg::FileError;
+using echoreg::core::FileError;
 using echoreg::segmentation::CtImage;
 using echoreg::segmentation::DicomReadOptions;
 using echoreg::segmentation::DicomSeriesRead;

@@ -208,7 +208,7 @@ std::string readError(const test::TempDir& dir, const std::string& text) {
   writeText(path, text);
   try {
     readAnchors(path);
-  } catch (const FileError& e) {
+  } catch (const core::FileError& e) {
     EXPECT_EQ(e.path(), path);
     return e.what();
   }
@@ -272,7 +272,7 @@ TEST(LiveWireContour, AnchorsFilesAreReadAndWritten) {
 
 TEST(LiveWireContour, BadAnchorsFilesAreRefusedNamingFileAndContour) {
   test::TempDir dir;
-  EXPECT_THROW(readAnchors(dir.file("missing.json")), FileError);
+  EXPECT_THROW(readAnchors(dir.file("missing.json")), core::FileError);
   std::string m = readError(dir, "{not json");
   EXPECT_NE(m.find("not a JSON"), std::string::npos) << m;
   m = readError(dir, R"({"something": 1})");
@@ -308,7 +308,7 @@ TEST(LiveWireContour, BadAnchorsFilesAreRefusedNamingFileAndContour) {
   two.label = "short";
   two.anchorsLps = {{0, 0, 0}, {0, 1, 0}};
   const std::string out = dir.file("out.mrk.json");
-  EXPECT_THROW(writeAnchors(out, {two}), FileError);
+  EXPECT_THROW(writeAnchors(out, {two}), core::FileError);
   EXPECT_FALSE(std::ifstream(out).good());
 }
 

@@ -2,7 +2,7 @@
 
 #include "echoreg/core/error.hpp"
 #include "echoreg/core/mesh_locator.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -749,7 +749,7 @@ TEST(Anatomy, MeshWithAHoleIsRefusedNamingTheFile) {
   try {
     buildKnee(options);
     FAIL() << "a femur with a hole was accepted";
-  } catch (const FileError& error) {
+  } catch (const core::FileError& error) {
     EXPECT_EQ(error.path(), path);
     EXPECT_NE(std::string(error.what()).find("boundary edges"), std::string::npos) << error.what();
   }
@@ -778,7 +778,7 @@ TEST(Anatomy, BadOptionsAreRefused) {
   EXPECT_NE(message(options).find("tibia"), std::string::npos);
   options = KneeOptions{};
   options.meshFiles[BoneId::Femur] = "/nonexistent/femur.stl";
-  EXPECT_THROW(buildKnee(options), FileError);
+  EXPECT_THROW(buildKnee(options), core::FileError);
   // Not a femur: a sphere has no long axis.
   test::TempDir dir;
   const std::string path = dir.file("ball.stl");
@@ -787,7 +787,7 @@ TEST(Anatomy, BadOptionsAreRefused) {
   try {
     buildKnee(options);
     FAIL() << "a patella was accepted as a femur";
-  } catch (const FileError& error) {
+  } catch (const core::FileError& error) {
     EXPECT_EQ(error.path(), path);
   }
 }

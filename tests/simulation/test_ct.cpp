@@ -632,7 +632,7 @@ TEST(CtDicom, RefusesANonEmptyOrUnwritableFolderAndLeavesNothing) {
   try {
     writeDicomSeries(full, v, DicomSeriesInfo{});
     ADD_FAILURE() << "no exception";
-  } catch (const FileError& e) {
+  } catch (const core::FileError& e) {
     EXPECT_EQ(e.path(), full);
   }
   EXPECT_EQ(readBytes(full + "/keep.txt"), "keep");
@@ -640,17 +640,17 @@ TEST(CtDicom, RefusesANonEmptyOrUnwritableFolderAndLeavesNothing) {
 
   // The parent is a file: nothing can be created there.
   std::ofstream(dir.file("plain")) << "x";
-  EXPECT_THROW(writeDicomSeries(dir.file("plain") + "/ct", v, DicomSeriesInfo{}), FileError);
+  EXPECT_THROW(writeDicomSeries(dir.file("plain") + "/ct", v, DicomSeriesInfo{}), core::FileError);
 
   // The folder is a file.
-  EXPECT_THROW(writeDicomSeries(dir.file("plain"), v, DicomSeriesInfo{}), FileError);
+  EXPECT_THROW(writeDicomSeries(dir.file("plain"), v, DicomSeriesInfo{}), core::FileError);
 
   // A read-only parent (only meaningful when not running as root).
   if (::geteuid() != 0) {
     const std::string locked = dir.file("locked");
     fs::create_directory(locked);
     fs::permissions(locked, fs::perms::owner_read | fs::perms::owner_exec);
-    EXPECT_THROW(writeDicomSeries(locked + "/ct", v, DicomSeriesInfo{}), FileError);
+    EXPECT_THROW(writeDicomSeries(locked + "/ct", v, DicomSeriesInfo{}), core::FileError);
     EXPECT_TRUE(fs::is_empty(locked));
     fs::permissions(locked, fs::perms::owner_all);
   }

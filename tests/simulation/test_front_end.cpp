@@ -279,8 +279,8 @@ TEST(FrontEnd, ThinKneeInVivoStudy) {
   EXPECT_EQ(within, onBone);
 
   // The captures: int16 12-bit codes, the probe's frequency and name in the header.
-  const Sequence sweep = readSequence(dir.file("s/captures/femur_ultrasound.igs.mha"));
-  EXPECT_EQ(sweep.elementType, ElementType::Int16);
+  const core::Sequence sweep = core::readSequence(dir.file("s/captures/femur_ultrasound.igs.mha"));
+  EXPECT_EQ(sweep.elementType, core::ElementType::Int16);
   ASSERT_TRUE(sweep.acquisition.transducerFrequencyHz.has_value());
   EXPECT_EQ(*sweep.acquisition.transducerFrequencyHz, 7e6);
   EXPECT_NE(sweep.acquisition.transducer.find("7 MHz"), std::string::npos);

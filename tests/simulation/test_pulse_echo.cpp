@@ -343,11 +343,12 @@ TEST(PulseEcho, GloveFingerGivesTheDoubleEcho) {
   // Between them, the fat and muscle speckle is well below the bone echo.
   EXPECT_GT(bonePeak, 3.0 * maxOver(envelope, skin + 150, bone - 30));
   // The dissertation's own chain sees exactly these two peaks and takes the second.
-  DetectionParams params = detectionPreset("mozes2008");
-  SignalDetector detector(params);
+  core::DetectionParams params = core::detectionPreset("mozes2008");
+  core::SignalDetector detector(params);
   std::vector<float> samples(line.samples.begin(), line.samples.end());
-  const SignalDetection found = detector.detect(samples.data(), static_cast<int>(samples.size()));
-  ASSERT_TRUE(found.accepted()) << rejectReasonName(found.peaks.reason) << " with "
+  const core::SignalDetection found =
+      detector.detect(samples.data(), static_cast<int>(samples.size()));
+  ASSERT_TRUE(found.accepted()) << core::rejectReasonName(found.peaks.reason) << " with "
                                 << found.peaks.peaks.size() << " peaks";
   EXPECT_NEAR(found.peaks.peaks[0].index, skin, 150.0);  // the causal filter delays by ~45
   EXPECT_NEAR(found.peaks.sampleIndex, bone, 150.0);
@@ -538,21 +539,22 @@ Rates ratesOf(const std::string& preset, std::uint64_t seed, int lines) {
   }
   // One transducer and receiver: the lines are one capture, and the preset measures what it
   // needs from them (transducer band, ring-down, shadow rule) as detect does.
-  const RecordSource source = [&simulated](int i, std::vector<float>& out) {
+  const core::RecordSource source = [&simulated](int i, std::vector<float>& out) {
     const ALine& line = simulated[static_cast<std::size_t>(i)];
     out.assign(line.samples.begin(), line.samples.end());
   };
-  const DetectionParams params =
-      adaptToCapture(detectionPreset(preset), lines,
-                     static_cast<int>(simulated.front().samples.size()), source, std::nullopt);
-  SignalDetector detector(params);
+  const core::DetectionParams params = core::adaptToCapture(
+      core::detectionPreset(preset), lines, static_cast<int>(simulated.front().samples.size()),
+      source, std::nullopt);
+  core::SignalDetector detector(params);
   Rates rates;
   int missed = 0, falseAccepts = 0;
   std::vector<double> errorsMm;
   std::vector<float> samples;
   for (const ALine& line : simulated) {
     samples.assign(line.samples.begin(), line.samples.end());
-    const SignalDetection found = detector.detect(samples.data(), static_cast<int>(samples.size()));
+    const core::SignalDetection found =
+        detector.detect(samples.data(), static_cast<int>(samples.size()));
     if (line.targetClear) {
       ++rates.clear;
       if (!found.accepted()) {
@@ -597,10 +599,10 @@ TEST(PulseEcho, CalibrationPresetFindsTheSphere) {
   const Transducer transducer;
   Receiver receiver;
   receiver.gainDb = 20.0;
-  DetectionParams params = detectionPreset("calibration");
+  core::DetectionParams params = core::detectionPreset("calibration");
   params.windowMinMm = 15.0;
   params.windowMaxMm = 35.0;
-  SignalDetector detector(params);
+  core::SignalDetector detector(params);
   std::vector<float> samples;
   for (int i = 0; i < 20; ++i) {
     core::Rng rng = core::Rng::derive(7, "sphere", static_cast<std::uint64_t>(i));
@@ -609,7 +611,8 @@ TEST(PulseEcho, CalibrationPresetFindsTheSphere) {
                                      transducer, receiver, rng);
     EXPECT_TRUE(line.targetClear);
     samples.assign(line.samples.begin(), line.samples.end());
-    const SignalDetection found = detector.detect(samples.data(), static_cast<int>(samples.size()));
+    const core::SignalDetection found =
+        detector.detect(samples.data(), static_cast<int>(samples.size()));
     ASSERT_TRUE(found.accepted());
     EXPECT_NEAR(found.peaks.sampleIndex, line.targetEchoSample, 0.2 / params.depth.mmPerSample());
   }

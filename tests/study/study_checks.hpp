@@ -3,7 +3,7 @@
 
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/sequence.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -96,15 +96,15 @@ inline TruthCheck checkTrueDepths(const std::string& root) {
   for (const char* bone : {"femur", "tibia", "fibula", "patella"}) {
     surfaces.emplace(bone, core::MeshLocator(filters::readMesh(root + "/truth/" + bone + ".vtp")));
   }
-  std::map<std::string, Sequence> truthCaptures;
+  std::map<std::string, core::Sequence> truthCaptures;
   TruthCheck check;
   for (const ShotRow& shot : readShots(root + "/truth/shots.csv")) {
     if (!shot.shouldAccept || shot.bone == "sphere")
       continue;
     if (!truthCaptures.count(shot.capture)) {
-      truthCaptures[shot.capture] = readSequence(root + "/truth/captures/" + shot.capture);
+      truthCaptures[shot.capture] = core::readSequence(root + "/truth/captures/" + shot.capture);
     }
-    const SequenceFrame& frame =
+    const core::SequenceFrame& frame =
         truthCaptures[shot.capture].frames.at(static_cast<std::size_t>(shot.frame));
     const std::string marker =
         shot.bone == "femur" || shot.bone == "patella" ? "FemurToTracker" : "TibiaToTracker";

@@ -62,8 +62,9 @@ TEST_F(Calibrate, PivotFindsTheStylusTipAndTheHipCentre) {
   test::CommandResult r = runEchoreg({"pivot", "--capture", path("captures/stylus_pivot.igs.mha"),
                                       "--out", dir_.file("tip.json"), "--json"});
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  const TransformFile tip = readTransformFile(dir_.file("tip.json"), "StylusTip", "Stylus");
-  const TransformFile truth = readTransformFile(path("truth/StylusTipToStylus.json"));
+  const core::TransformFile tip =
+      core::readTransformFile(dir_.file("tip.json"), "StylusTip", "Stylus");
+  const core::TransformFile truth = core::readTransformFile(path("truth/StylusTipToStylus.json"));
   const double tipError =
       (tip.matrix.topRightCorner<3, 1>() - truth.matrix.topRightCorner<3, 1>()).norm();
   std::cout << "stylus tip error " << tipError << " mm, RMS " << tip.extra.at("rms_mm") << " mm\n";
@@ -73,11 +74,12 @@ TEST_F(Calibrate, PivotFindsTheStylusTipAndTheHipCentre) {
   r = runEchoreg({"pivot", "--capture", path("captures/hip_rotation.igs.mha"), "--marker",
                   "FemurToTracker", "--out", dir_.file("hip.json")});
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  const TransformFile hip = readTransformFile(dir_.file("hip.json"), "HipCentre", "Femur");
+  const core::TransformFile hip =
+      core::readTransformFile(dir_.file("hip.json"), "HipCentre", "Femur");
   const nlohmann::json points = readJson(path("truth/points.json"));
   const Eigen::Vector4d hipCt(points.at("hip_centre_ct")[0], points.at("hip_centre_ct")[1],
                               points.at("hip_centre_ct")[2], 1.0);
-  const Eigen::Matrix4d femurToCt = readTransformFile(path("truth/FemurToCT.json")).matrix;
+  const Eigen::Matrix4d femurToCt = core::readTransformFile(path("truth/FemurToCT.json")).matrix;
   const Eigen::Vector3d hipInFemur = (femurToCt.inverse() * hipCt).head<3>();
   const double hipError = (hip.matrix.topRightCorner<3, 1>() - hipInFemur).norm();
   std::cout << "hip centre error " << hipError << " mm\n";
@@ -92,23 +94,24 @@ TEST_F(Calibrate, RecoversBeamToProbeAndTheBathsSpeedOfSound) {
             0);
   fs::copy_file(path("truth/StylusTipToStylus.json"), dir_.file("tip.json"));
   const Eigen::Vector3d truth =
-      readTransformFile(path("truth/BeamToProbe.json")).matrix.topRightCorner<3, 1>();
+      core::readTransformFile(path("truth/BeamToProbe.json")).matrix.topRightCorner<3, 1>();
   const double water = readJson(path("truth/calibration.json")).at("water_speed_of_sound_mps");
   // As the dissertation did: 1450 m/s assumed in warmer water. The offset is biased along z.
   std::vector<std::string> args = calibrateArgs(dir_.file("tip.json"), dir_.file("c1450.json"));
   test::CommandResult r = runEchoreg(args);
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  const TransformFile assumed = readTransformFile(dir_.file("c1450.json"), "Beam", "Probe");
+  const core::TransformFile assumed =
+      core::readTransformFile(dir_.file("c1450.json"), "Beam", "Probe");
   const Eigen::Vector3d biased = assumed.matrix.topRightCorner<3, 1>() - truth;
   // With the bath's true speed, and with the speed fitted.
   args = calibrateArgs(dir_.file("tip.json"), dir_.file("ctrue.json"));
   args.insert(args.end(), {"--speed-of-sound", std::to_string(water)});
   ASSERT_EQ(runEchoreg(args).exitCode, 0);
-  const TransformFile known = readTransformFile(dir_.file("ctrue.json"));
+  const core::TransformFile known = core::readTransformFile(dir_.file("ctrue.json"));
   args = calibrateArgs(dir_.file("tip.json"), dir_.file("cfit.json"));
   args.push_back("--fit-speed-of-sound");
   ASSERT_EQ(runEchoreg(args).exitCode, 0);
-  const TransformFile fitted = readTransformFile(dir_.file("cfit.json"));
+  const core::TransformFile fitted = core::readTransformFile(dir_.file("cfit.json"));
   const double knownError = (known.matrix.topRightCorner<3, 1>() - truth).norm();
   const double fittedError = (fitted.matrix.topRightCorner<3, 1>() - truth).norm();
   const double fittedSpeed = fitted.extra.at("speed_of_sound_mps");
@@ -138,21 +141,22 @@ TEST_F(Calibrate, RecoversBeamToProbeAndTheBathsSpeedOfSound) {
   args = calibrateArgs(dir_.file("pivot-tip.json"), dir_.file("cpivot.json"));
   args.push_back("--fit-speed-of-sound");
   ASSERT_EQ(runEchoreg(args).exitCode, 0);
-  std::cout
-      << "with the pivot's tip: error "
-      << (readTransformFile(dir_.file("cpivot.json")).matrix.topRightCorner<3, 1>() - truth).norm()
-      << " mm\n";
+  std::cout << "with the pivot's tip: error "
+            << (core::readTransformFile(dir_.file("cpivot.json")).matrix.topRightCorner<3, 1>() -
+                truth)
+                   .norm()
+            << " mm\n";
   EXPECT_GT(fitted.extra.at("shots_used").get<int>(), 100);
   EXPECT_EQ(fitted.extra.at("shots").size(),
             fitted.extra.at("shots_used").get<std::size_t>() +
                 fitted.extra.at("shots_rejected_by_reason").value("outlier", 0));
 }
 
-Sequence subset(const Sequence& sequence, std::size_t first, std::size_t count) {
-  Sequence out = sequence;
+core::Sequence subset(const core::Sequence& sequence, std::size_t first, std::size_t count) {
+  core::Sequence out = sequence;
   out.frames.assign(sequence.frames.begin() + static_cast<std::ptrdiff_t>(first),
                     sequence.frames.begin() + static_cast<std::ptrdiff_t>(first + count));
-  const std::size_t bytes = sequence.samplesPerFrame() * elementSize(sequence.elementType);
+  const std::size_t bytes = sequence.samplesPerFrame() * core::elementSize(sequence.elementType);
   out.pixels.assign(sequence.pixels.begin() + static_cast<std::ptrdiff_t>(first * bytes),
                     sequence.pixels.begin() + static_cast<std::ptrdiff_t>((first + count) * bytes));
   return out;
@@ -192,10 +196,10 @@ TEST_F(Calibrate, QualityGateRefusesImplausibleCalibrationsWritingNothing) {
   ball[10] = "20";
   expectRefused(ball, "mm RMS off the sphere (above 1.50 mm): check --stylus-tip-to-stylus");
   // An identity StylusTipToStylus: the marker's origin, not the tip, on the sphere.
-  TransformFile identity;
+  core::TransformFile identity;
   identity.from = "StylusTip";
   identity.to = "Stylus";
-  writeTransformFile(dir_.file("identity.json"), identity, false);
+  core::writeTransformFile(dir_.file("identity.json"), identity, false);
   std::vector<std::string> noTip = calibrateArgs(dir_.file("identity.json"), out);
   expectRefused(noTip, "mm RMS off the sphere");
   // The thresholds are the user's: the good calibration, refused under a 0.01 mm RMS limit.
@@ -239,10 +243,10 @@ TEST_F(Calibrate, RefusesBadDataWithoutWritingAnything) {
   // A sphere capture without stylus poses.
   expectRefused(args(shots, shots), shots, "has no StylusToTracker");
   // Every stylus pose INVALID.
-  Sequence invalid = readSequence(sphere);
-  for (SequenceFrame& f : invalid.frames)
+  core::Sequence invalid = core::readSequence(sphere);
+  for (core::SequenceFrame& f : invalid.frames)
     f.transforms.at("StylusToTracker").status = "INVALID";
-  writeSequence(invalid, dir_.file("invalid.igs.mha"));
+  core::writeSequence(invalid, dir_.file("invalid.igs.mha"));
   expectRefused(args(dir_.file("invalid.igs.mha"), shots), dir_.file("invalid.igs.mha"), "INVALID");
   // A negative radius.
   std::vector<std::string> negative = args(sphere, shots);
@@ -251,11 +255,11 @@ TEST_F(Calibrate, RefusesBadDataWithoutWritingAnything) {
   EXPECT_EQ(r.exitCode, 1) << r.err;
   EXPECT_NE(r.err.find("--sphere-radius"), std::string::npos) << r.err;
   // Fewer shots than parameters.
-  const Sequence all = readSequence(shots);
-  writeSequence(subset(all, 0, 3), dir_.file("three.igs.mha"));
+  const core::Sequence all = core::readSequence(shots);
+  core::writeSequence(subset(all, 0, 3), dir_.file("three.igs.mha"));
   expectRefused(args(sphere, dir_.file("three.igs.mha")), dir_.file("three.igs.mha"), "shots");
   // Every shot from one direction: the frames of one held pose.
-  writeSequence(subset(all, 0, 15), dir_.file("one-direction.igs.mha"));
+  core::writeSequence(subset(all, 0, 15), dir_.file("one-direction.igs.mha"));
   expectRefused(args(sphere, dir_.file("one-direction.igs.mha")),
                 dir_.file("one-direction.igs.mha"), "determine");
 }

@@ -4,7 +4,7 @@
 #include "test_support.hpp"
 
 #include "echoreg/core/mesh.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>

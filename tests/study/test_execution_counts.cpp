@@ -10,7 +10,7 @@
 
 #include "command_figure.hpp"
 #include "csv_table.hpp"
-#include "echoreg/filters/DetectionPipeline.h"
+#include "echoreg/filters/detection_pipeline.h"
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
@@ -62,7 +62,7 @@ void expectEachDetectedOnce(const std::map<std::string, DetectionPipeline::Execu
     const auto found = since.find(capture);
     ASSERT_NE(found, since.end()) << capture << " was not detected through the pipeline";
     const auto frames = static_cast<long long>(
-        readSequence(folder.empty() ? capture : folder + "/" + capture).frameCount());
+        core::readSequence(folder.empty() ? capture : folder + "/" + capture).frameCount());
     const auto more = updates.find(capture);
     const int further = more == updates.end() ? 0 : more->second;
     EXPECT_EQ(found->second.envelopeFrames, (1 + further) * frames)
@@ -120,7 +120,7 @@ TEST_F(ExecutionCounts, DetectRunsThePipelineOnce) {
   const test::CommandResult r = runEchoreg({"detect", sweep, "--out", dir_.file("d.csv")});
   ASSERT_EQ(r.exitCode, 0) << r.err;
   expectEachDetectedOnce(executionsSince(before), {sweep}, oneExecutionPerBlock);
-  ASSERT_GT(readSequence(sweep).frameCount(),
+  ASSERT_GT(core::readSequence(sweep).frameCount(),
             static_cast<std::size_t>(DetectionPipeline::kStreamFramesPerBlock))
       << "the sweep should take more than one block";
 }
@@ -218,7 +218,7 @@ TEST_F(ExecutionCounts, StudySignalsFiguresUseTheStudysParams) {
   ASSERT_GT(figures, 0) << "the study drew no signals figure";
   const auto found = since.find(sweep);
   ASSERT_NE(found, since.end());
-  const auto frames = static_cast<long long>(readSequence(study + "/" + sweep).frameCount());
+  const auto frames = static_cast<long long>(core::readSequence(study + "/" + sweep).frameCount());
   const int updates = 1 + 2 * figures;  // the detection, then 2 settings per figure
   EXPECT_EQ(found->second.peaks, updates) << "the figures' peak filter updates are tallied";
   // The detection streamed in blocks, each figure's settings the whole capture at once.

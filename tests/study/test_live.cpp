@@ -80,8 +80,8 @@ TEST(Live, ServedFemurSweepRegistersAsRegisterDoes) {
   ASSERT_EQ(served.exitCode, 0) << served.err;
   ASSERT_EQ(live.exitCode, 0) << live.err;
 
-  const TransformFile a = readTransformFile(dir.file("register.json"), "Femur", "CT");
-  const TransformFile b = readTransformFile(dir.file("live.json"), "Femur", "CT");
+  const core::TransformFile a = core::readTransformFile(dir.file("register.json"), "Femur", "CT");
+  const core::TransformFile b = core::readTransformFile(dir.file("live.json"), "Femur", "CT");
   const nlohmann::json points = readJson(root + "/truth/points.json");
   Eigen::Vector4d knee(0, 0, 0, 1);
   for (int k = 0; k < 3; ++k)
@@ -110,8 +110,8 @@ TEST(Live, ServedFemurSweepRegistersAsRegisterDoes) {
   EXPECT_EQ(liveSource.at("speed_of_sound_mps"), offlineSource.at("speed_of_sound_mps"));
   EXPECT_EQ(b.extra.at("points").size(), a.extra.at("points").size());
 
-  const Sequence original = readSequence(capture);
-  const Sequence recorded = readSequence(dir.file("recorded.igs.mha"));
+  const core::Sequence original = core::readSequence(capture);
+  const core::Sequence recorded = core::readSequence(dir.file("recorded.igs.mha"));
   ASSERT_EQ(recorded.frames.size(), original.frames.size());
   EXPECT_EQ(recorded.pixels, original.pixels);
   for (std::size_t f = 0; f < original.frames.size(); ++f)

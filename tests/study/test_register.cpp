@@ -7,7 +7,7 @@
 #include "echoreg/core/mesh.hpp"
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/transform_file.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "study_checks.hpp"
 #include "test_support.hpp"
 
@@ -75,8 +75,8 @@ class Register : public ::testing::Test {
   }
   // Distance at the knee centre (mm) and rotation angle (deg) of an estimate against the truth.
   std::pair<double, double> error(const std::string& estimateFile, const std::string& bone) const {
-    const TransformFile estimate = readTransformFile(estimateFile, bone, "CT");
-    const TransformFile truth = readTransformFile(path("truth/" + bone + "ToCT.json"));
+    const core::TransformFile estimate = core::readTransformFile(estimateFile, bone, "CT");
+    const core::TransformFile truth = core::readTransformFile(path("truth/" + bone + "ToCT.json"));
     const Eigen::Matrix4d e = truth.matrix.inverse() * estimate.matrix;
     const Eigen::Vector4d k(knee_.x(), knee_.y(), knee_.z(), 1.0);
     const double distance = (estimate.matrix * (truth.matrix.inverse() * k) - k).head<3>().norm();
@@ -103,7 +103,7 @@ TEST_F(Register, FemurAndTibiaFromTheirCapturesMatchTheTruth) {
     const test::CommandResult r = runEchoreg(a);
     ASSERT_EQ(r.exitCode, 0) << r.err;
     const auto [knee, rotation] = error(out, bone);
-    const TransformFile written = readTransformFile(out, bone, "CT");
+    const core::TransformFile written = core::readTransformFile(out, bone, "CT");
     const double scale = written.extra.at("speed_of_sound_scale").get<double>();
     std::cout << bone << ": knee centre " << knee << " mm, rotation " << rotation << " deg, scale "
               << scale << ", " << written.extra.at("points_used") << " points used, "
@@ -130,7 +130,7 @@ TEST_F(Register, HipCentreMakesAPairedPointStart) {
   a.push_back("--fit-speed-of-sound");
   const test::CommandResult r = runEchoreg(a);
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  const TransformFile result = readTransformFile(out, "Femur", "CT");
+  const core::TransformFile result = core::readTransformFile(out, "Femur", "CT");
   EXPECT_EQ(result.extra.at("start").at("method"), "paired-point");
   EXPECT_EQ(result.extra.at("starts").get<int>(), 1);
   EXPECT_LT(error(out, "Femur").first, 1.5);
@@ -144,7 +144,7 @@ TEST_F(Register, FemurFromTwoLandmarksAloneIsReportedAmbiguous) {
   const test::CommandResult r = runEchoreg(args("Femur", out, false));
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("cannot tell the two poses apart"), std::string::npos) << r.err;
-  const TransformFile written = readTransformFile(out, "Femur", "CT");
+  const core::TransformFile written = core::readTransformFile(out, "Femur", "CT");
   EXPECT_FALSE(written.extra.at("converged").get<bool>());
 }
 
@@ -170,7 +170,7 @@ TEST_F(Register, HybridWithTheStylusAndTheCsvInput) {
     a.push_back(extra);
   r = runEchoreg(a);
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  const TransformFile hybrid = readTransformFile(out, "Femur", "CT");
+  const core::TransformFile hybrid = core::readTransformFile(out, "Femur", "CT");
   // The simulator held the stylus on 12 points for 0.2 s each; on 4 of them the stylus is
   // hidden from the camera (INVALID), so 8 dwells at most (7 found: one hold jitters apart).
   EXPECT_GE(hybrid.extra.at("stylus_points").get<int>(), 6);
@@ -186,7 +186,7 @@ TEST_F(Register, HybridWithTheStylusAndTheCsvInput) {
 TEST_F(Register, CsvWithBeamsFitsTheSpeedOfSound) {
   const core::TriangleMesh mesh = filters::readMesh(path("truth/femur.vtp"));
   Eigen::Isometry3d truth;
-  truth.matrix() = readTransformFile(path("truth/FemurToCT.json")).matrix;
+  truth.matrix() = core::readTransformFile(path("truth/FemurToCT.json")).matrix;
   const Eigen::Isometry3d toFemur = truth.inverse();
   const Eigen::Vector3d knee = knee_;
   std::ofstream csv(dir_.file("beams.csv"));
@@ -214,7 +214,7 @@ TEST_F(Register, CsvWithBeamsFitsTheSpeedOfSound) {
       {"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("beams.csv"),
        "--initial", path("truth/FemurToCT.json"), "--fit-speed-of-sound", "--out", out});
   ASSERT_EQ(r.exitCode, 0) << r.err;
-  const TransformFile result = readTransformFile(out, "Femur", "CT");
+  const core::TransformFile result = core::readTransformFile(out, "Femur", "CT");
   EXPECT_NEAR(result.extra.at("speed_of_sound_scale").get<double>(), 1.0, 1e-6);
   EXPECT_LT(error(out, "Femur").first, 1e-3);
 }
@@ -251,7 +251,7 @@ TEST_F(Register, RefusesBadInput) {
   EXPECT_EQ(r.exitCode, 1);
   EXPECT_NE(r.err.find("not converged"), std::string::npos) << r.err;
   ASSERT_TRUE(fs::exists(out));
-  EXPECT_FALSE(readTransformFile(out).extra.at("converged").get<bool>());
+  EXPECT_FALSE(core::readTransformFile(out).extra.at("converged").get<bool>());
   // Half a beam, and a beam direction that is not unit.
   std::ofstream(dir_.file("half.csv")) << "x,y,z,ox,oy,oz\n1,2,3,0,0,0\n";
   r = runEchoreg({"register", "--model", path("truth/femur.vtp"), "--points", dir_.file("half.csv"),
@@ -276,16 +276,16 @@ TEST_F(Register, RefusesBadInput) {
 // error at the hip instead of 3.0; such poses are refused, naming the capture, frame and
 // transform, and nothing is written.
 TEST_F(Register, RefusesProbePosesThatAreNotRigid) {
-  Sequence capture = readSequence(path("captures/femur_ultrasound.igs.mha"));
+  core::Sequence capture = core::readSequence(path("captures/femur_ultrasound.igs.mha"));
   int first = -1;
   for (std::size_t f = 0; f < capture.frames.size(); ++f) {
-    TrackedTransform& probe = capture.frames[f].transforms.at("ProbeToTracker");
+    core::TrackedTransform& probe = capture.frames[f].transforms.at("ProbeToTracker");
     probe.matrix.topLeftCorner<3, 3>() *= 1.01;
     if (first < 0 && probe.valid())
       first = static_cast<int>(f);
   }
   const std::string scaled = dir_.file("scaled.igs.mha");
-  writeSequence(capture, scaled);
+  core::writeSequence(capture, scaled);
   const std::string out = dir_.file("FemurToCT.json");
   std::vector<std::string> a = args("Femur", out);
   a[6] = scaled;

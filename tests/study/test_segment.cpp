@@ -9,7 +9,7 @@
 
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/random.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/segmentation/contour_surface.hpp"
 #include "echoreg/segmentation/livewire_contours.hpp"
 #include "echoreg/segmentation/surface_metrics.hpp"

@@ -4,7 +4,7 @@
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/sequence_detection.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/simulation/study.hpp"
 #include "study_checks.hpp"
 #include "test_support.hpp"
@@ -80,10 +80,10 @@ TEST_F(SimulatedStudy, WritesTheDocumentedLayout) {
     EXPECT_EQ(entry.path().filename().string().find(".tmp-"), std::string::npos) << entry.path();
   }
   // Every frame of an ultrasound capture carries the three transforms; A-lines are uint8 4096.
-  const Sequence femur = readSequence(path("captures/femur_ultrasound.igs.mha"));
-  EXPECT_EQ(femur.elementType, ElementType::UInt8);
+  const core::Sequence femur = core::readSequence(path("captures/femur_ultrasound.igs.mha"));
+  EXPECT_EQ(femur.elementType, core::ElementType::UInt8);
   EXPECT_EQ(femur.frameSize[0], 4096);
-  for (const SequenceFrame& frame : femur.frames) {
+  for (const core::SequenceFrame& frame : femur.frames) {
     for (const char* name : {"ProbeToTracker", "FemurToTracker", "TibiaToTracker"}) {
       ASSERT_EQ(frame.transforms.count(name), 1u) << name;
     }
@@ -105,19 +105,19 @@ TEST_F(SimulatedStudy, TrueDepthsLandOnTheTrueSurfaces) {
 TEST_F(SimulatedStudy, DetectorFindsTheTrueDepths) {
   const std::vector<ShotRow> shots = readShots(path("truth/shots.csv"));
   for (const char* capture : {"femur_ultrasound.igs.mha", "tibia_ultrasound.igs.mha"}) {
-    const Sequence sequence = readSequence(path(std::string("captures/") + capture));
-    DetectionParams params = detectionPreset("default");
-    params.depth = depthFromSequence(sequence, params.depth);
+    const core::Sequence sequence = core::readSequence(path(std::string("captures/") + capture));
+    core::DetectionParams params = core::detectionPreset("default");
+    params.depth = core::depthFromSequence(sequence, params.depth);
     // Frame by frame: the inter-signal filters thin a sweep, they do not judge one echo.
     params.interSignal.history = 1;
     params.interSignal.minSpreadMm = 0.0;
-    const SequenceDetection detection = detectSequence(sequence, params);
+    const core::SequenceDetection detection = core::detectSequence(sequence, params);
     int agree = 0, total = 0, truePositive = 0, positives = 0, falsePositive = 0, negatives = 0;
     std::vector<double> errors;
     for (const ShotRow& shot : shots) {
       if (shot.capture != capture)
         continue;
-      const FrameDetection& f = detection.frames.at(static_cast<std::size_t>(shot.frame));
+      const core::FrameDetection& f = detection.frames.at(static_cast<std::size_t>(shot.frame));
       ++total;
       agree += f.accepted() == shot.shouldAccept ? 1 : 0;
       if (shot.shouldAccept) {
@@ -226,9 +226,9 @@ TEST(SimulateStudy, RefusesBadOutputsAndMeshesLeavingNothing) {
   options.framesPerBone = 20;
   fs::create_directories(dir.file("full"));
   std::ofstream(dir.file("full/keep.txt")) << "mine";
-  EXPECT_THROW(generateStudy(options, dir.file("full")), FileError);
+  EXPECT_THROW(generateStudy(options, dir.file("full")), core::FileError);
   EXPECT_TRUE(fs::is_regular_file(dir.file("full/keep.txt")));
-  EXPECT_THROW(generateStudy(options, dir.file("no/such/parent/study")), FileError);
+  EXPECT_THROW(generateStudy(options, dir.file("no/such/parent/study")), core::FileError);
   // A mesh with a hole.
   core::TriangleMesh open;
   open.vertices = {{0, 0, 0}, {10, 0, 0}, {0, 10, 0}, {0, 0, 10}};
@@ -238,7 +238,7 @@ TEST(SimulateStudy, RefusesBadOutputsAndMeshesLeavingNothing) {
   try {
     generateStudy(options, dir.file("out"));
     FAIL() << "an open mesh was accepted";
-  } catch (const FileError& e) {
+  } catch (const core::FileError& e) {
     EXPECT_EQ(e.path(), dir.file("open.stl"));
   }
   EXPECT_FALSE(fs::exists(dir.file("out")));
@@ -294,7 +294,7 @@ TEST(SimulateStudy, SignalsRemoveTheTemporaryFolderAndStaleOnesAreSwept) {
   const std::string running = out + ".tmp-1";  // init runs
   fs::create_directories(running);
   options.meshFiles[BoneId::Femur] = dir.file("no-such-femur.stl");  // fails right after the sweep
-  EXPECT_THROW(generateStudy(options, out), FileError);
+  EXPECT_THROW(generateStudy(options, out), core::FileError);
   EXPECT_FALSE(fs::exists(stale));
   EXPECT_TRUE(fs::exists(running));
 }

@@ -2,7 +2,7 @@
 // the fixture read back by an independent DICOM implementation (pydicom).
 #include "echoreg/core/mesh_locator.hpp"
 #include "echoreg/core/sequence_detection.hpp"
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 #include "echoreg/simulation/study.hpp"
 #include "study_checks.hpp"
 #include "test_support.hpp"
@@ -63,22 +63,22 @@ TEST(StudyVariants, PhantomInWarmWaterBiasesDepthsByTheSpeedRatio) {
   const nlohmann::json calibration = readJson(dir.file("s/truth/calibration.json"));
   const double water = calibration.at("water_speed_of_sound_mps");
   EXPECT_NEAR(water, 1509.2, 0.5);  // Marczak at 30 C
-  const Sequence shots = readSequence(dir.file("s/captures/calibration_shots.igs.mha"));
+  const core::Sequence shots = core::readSequence(dir.file("s/captures/calibration_shots.igs.mha"));
   ASSERT_TRUE(shots.acquisition.speedOfSoundMps.has_value());
   EXPECT_EQ(*shots.acquisition.speedOfSoundMps, 1450.0);
-  DetectionParams params = detectionPreset("calibration");
-  params.depth = depthFromSequence(shots, params.depth);
+  core::DetectionParams params = core::detectionPreset("calibration");
+  params.depth = core::depthFromSequence(shots, params.depth);
   params.windowMinMm = 14.0;
   params.windowMaxMm = 34.0;
   params.interSignal.history = 1;
   params.interSignal.minSpreadMm = 0.0;
-  const SequenceDetection detection = detectSequence(shots, params);
+  const core::SequenceDetection detection = core::detectSequence(shots, params);
   std::vector<double> ratios, corrected;
   for (const ShotRow& shot : readShots(dir.file("s/truth/shots.csv"))) {
     if (shot.capture != "calibration_shots.igs.mha" || !shot.shouldAccept)
       continue;
     EXPECT_NEAR(shot.speedMps, water, 1e-3);
-    const FrameDetection& f = detection.frames.at(static_cast<std::size_t>(shot.frame));
+    const core::FrameDetection& f = detection.frames.at(static_cast<std::size_t>(shot.frame));
     if (!f.accepted())
       continue;
     ratios.push_back(*f.depthMm / shot.depthMm);

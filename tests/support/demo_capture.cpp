@@ -8,10 +8,10 @@
 
 namespace echoreg::test {
 
-Sequence makeDemoSweep(const DemoSweepOptions& options, std::vector<double>* boneDepthMm) {
+core::Sequence makeDemoSweep(const DemoSweepOptions& options, std::vector<double>* boneDepthMm) {
   constexpr double kPi = 3.14159265358979323846;
-  Sequence sequence;
-  sequence.elementType = ElementType::UInt8;
+  core::Sequence sequence;
+  sequence.elementType = core::ElementType::UInt8;
   sequence.frameSize = {4096, 1};
   sequence.acquisition.samplingFrequencyHz = 50e6;
   sequence.acquisition.delayS = 0.0;
@@ -22,7 +22,7 @@ Sequence makeDemoSweep(const DemoSweepOptions& options, std::vector<double>* bon
     boneDepthMm->clear();
 
   SpecimenSetOptions lineOptions;
-  const DepthConversion depth;
+  const core::DepthConversion depth;
   for (int f = 0; f < options.frames; ++f) {
     const double t = f / options.frameRateHz;
     const double alongMm = options.speedMmPerS * t;
@@ -37,10 +37,10 @@ Sequence makeDemoSweep(const DemoSweepOptions& options, std::vector<double>* bon
     if (boneDepthMm)
       boneDepthMm->push_back(line.hasBone ? depth.depthMm(line.boneSample) : -1.0);
 
-    SequenceFrame frame;
+    core::SequenceFrame frame;
     frame.timestampS = 10.0 + t;
     // The probe points down (-z of the tracker), sliding along +x; its beam is its +z axis.
-    TrackedTransform probe;
+    core::TrackedTransform probe;
     probe.matrix << 1, 0, 0, alongMm,  //
         0, -1, 0, 50.0,                //
         0, 0, -1, 300.0,               //

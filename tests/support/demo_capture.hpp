@@ -20,6 +20,7 @@ struct DemoSweepOptions {
 /// The sweep as a PLUS sequence: uint8 A-lines of 4096 samples at 50 MHz, ProbeToTracker poses
 /// (frames 300-319 INVALID), timestamps, and echoreg's acquisition keys (50 MHz, 0 s, 1540 m/s).
 /// `boneDepthMm`, when given, receives each frame's true bone depth (or -1 when the echo is lost).
-Sequence makeDemoSweep(const DemoSweepOptions& options, std::vector<double>* boneDepthMm = nullptr);
+core::Sequence makeDemoSweep(const DemoSweepOptions& options,
+                             std::vector<double>* boneDepthMm = nullptr);
 
 }  // namespace echoreg::test

@@ -29,8 +29,9 @@ void DetectionScore::add(const DetectionScore& other) {
   errorsMm.insert(errorsMm.end(), other.errorsMm.begin(), other.errorsMm.end());
 }
 
-DetectionParams withFacts(const DetectionParams& preset, const AcquisitionFacts& facts) {
-  DetectionParams params = preset;
+core::DetectionParams withFacts(const core::DetectionParams& preset,
+                                const AcquisitionFacts& facts) {
+  core::DetectionParams params = preset;
   params.depth.samplingFrequencyHz = facts.samplingFrequencyHz;
   params.depth.speedOfSoundMps = facts.speedOfSoundMps;
   params.depth.delayS = facts.delayS;
@@ -42,22 +43,23 @@ DetectionParams withFacts(const DetectionParams& preset, const AcquisitionFacts&
   return params;
 }
 
-DetectionScore scoreCapture(const DetectionParams& preset, const AcquisitionFacts& facts,
+DetectionScore scoreCapture(const core::DetectionParams& preset, const AcquisitionFacts& facts,
                             const std::vector<LabelledRecord>& records) {
   DetectionScore score;
   if (records.empty())
     return score;
-  DetectionParams params = withFacts(preset, facts);
+  core::DetectionParams params = withFacts(preset, facts);
   const int samples = static_cast<int>(records.front().samples->size());
-  const RecordSource source = [&records](int index, std::vector<float>& out) {
+  const core::RecordSource source = [&records](int index, std::vector<float>& out) {
     out = *records[static_cast<std::size_t>(index)].samples;
   };
-  params = adaptToCapture(params, static_cast<int>(records.size()), samples, source, std::nullopt);
-  SignalDetector detector(params);
+  params =
+      core::adaptToCapture(params, static_cast<int>(records.size()), samples, source, std::nullopt);
+  core::SignalDetector detector(params);
   for (const LabelledRecord& record : records) {
     if (record.ambiguous)
       continue;
-    const SignalDetection detection =
+    const core::SignalDetection detection =
         detector.detect(record.samples->data(), static_cast<int>(record.samples->size()));
     if (record.hasBone) {
       ++score.positives;

@@ -45,10 +45,10 @@ struct DetectionScore {
 };
 
 /// `preset` with the acquisition facts in place (sampling frequency, speed, delay, window).
-DetectionParams withFacts(const DetectionParams& preset, const AcquisitionFacts& facts);
+core::DetectionParams withFacts(const core::DetectionParams& preset, const AcquisitionFacts& facts);
 
 /// Runs `preset` (inter-signal filters aside: each record judged alone) on one capture.
-DetectionScore scoreCapture(const DetectionParams& preset, const AcquisitionFacts& facts,
+DetectionScore scoreCapture(const core::DetectionParams& preset, const AcquisitionFacts& facts,
                             const std::vector<LabelledRecord>& records);
 
 /// "FN 3.1 %, FP 2.0 %, wrong echo 1.2 %, median 0.004 mm (230 positives, 170 negatives)".

@@ -4,7 +4,7 @@
 #include <fstream>
 #include <string>
 
-namespace echoreg {
+namespace echoreg::core {
 
 /// An output file written under a temporary name beside the target ("TARGET.tmp-PID") and renamed
 /// onto the target by commit(). If commit() is never called (an exception, an early return) the
@@ -32,4 +32,4 @@ class AtomicFile {
   bool committed_ = false;
 };
 
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -4,7 +4,7 @@
 
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 
 /// Transfer function b(z)/a(z), a[0] == 1.
 struct IirCoefficients {
@@ -30,4 +30,4 @@ void filterCausal(const IirCoefficients& filter, const float* in, int count, flo
 /// filtered without it. `out` may alias `in`.
 void filterZeroPhase(const IirCoefficients& filter, const float* in, int count, float* out);
 
-}  // namespace echoreg
+}  // namespace echoreg::core

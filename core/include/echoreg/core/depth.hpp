@@ -3,7 +3,7 @@
 
 #include <tuple>
 
-namespace echoreg {
+namespace echoreg::core {
 
 // The speeds of sound echoreg assumes, m/s: every default in the code is one of these, and the one
 // resolver of the detection's parameters (cli/src/detection_params.hpp: preset, then the capture's
@@ -46,4 +46,4 @@ inline bool operator!=(const DepthConversion& a, const DepthConversion& b) {
   return !(a == b);
 }
 
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -15,7 +15,7 @@
 #include <tuple>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 
 /// How the temporal filter judges a frame.
 enum class TemporalMode {
@@ -221,4 +221,4 @@ class InterSignalFilter {
   std::vector<Eigen::Vector3d> accepted_;
 };
 
-}  // namespace echoreg
+}  // namespace echoreg::core

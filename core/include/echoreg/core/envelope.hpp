@@ -25,7 +25,7 @@
 #include <tuple>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 
 enum class EnvelopeMethod { Mozes, Hann, StdDev, Hilbert };
 
@@ -103,4 +103,4 @@ class EnvelopeDetector {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -4,7 +4,7 @@
 #include <stdexcept>
 #include <string>
 
-namespace echoreg {
+namespace echoreg::core {
 
 /// A failure tied to one file. what() reads "PATH: PROBLEM".
 class FileError : public std::runtime_error {
@@ -22,4 +22,4 @@ class FileError : public std::runtime_error {
   std::string problem_;
 };
 
-}  // namespace echoreg
+}  // namespace echoreg::core

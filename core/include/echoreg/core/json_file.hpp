@@ -7,7 +7,7 @@
 
 #include <string>
 
-namespace echoreg {
+namespace echoreg::core {
 
 /// nlohmann's message without its "[json.exception.type_error.302] " code, the overflow of a
 /// number such as 1e999 said as such: "type must be string, but is null", "a number too large
@@ -20,4 +20,4 @@ std::string jsonProblem(const nlohmann::json::exception& error);
 /// "is not a JSON markups file: ...").
 nlohmann::json readJsonFile(const std::string& path, const std::string& kind = "");
 
-}  // namespace echoreg
+}  // namespace echoreg::core

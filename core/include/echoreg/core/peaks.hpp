@@ -10,7 +10,7 @@
 #include <tuple>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 
 /// Why a frame gave no point. None means accepted.
 enum class RejectReason {
@@ -253,4 +253,4 @@ struct PeakResult {
 /// Finds the peaks of `envelope` (count samples) and applies the policy.
 PeakResult findPeaks(const PeakParams& params, const float* envelope, int count);
 
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -5,7 +5,7 @@
 #include <cstdint>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 
 /// Asks the kernel to map the whole pages of [data, data + bytes) writable now
 /// (MADV_POPULATE_WRITE, Linux 5.14), instead of one page fault per 4 KB page when they are first
@@ -19,4 +19,4 @@ void prefaultForWriting(void* data, std::size_t bytes);
 /// `bytes` zero bytes, their pages mapped by prefaultForWriting before the zero-fill touches them.
 std::vector<std::uint8_t> prefaultedZeros(std::size_t bytes);
 
-}  // namespace echoreg
+}  // namespace echoreg::core

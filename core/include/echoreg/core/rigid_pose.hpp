@@ -15,7 +15,7 @@
 #include <optional>
 #include <string>
 
-namespace echoreg {
+namespace echoreg::core {
 
 /// Largest |R^T R - I| and |det R - 1| accepted (and then re-orthonormalised).
 constexpr double kPoseOrthonormalTolerance = 1e-2;
@@ -57,4 +57,4 @@ RigidPoseReport enforceRigidPoses(Sequence& sequence, const std::string& path,
 std::optional<std::string> rigidPoseNote(const RigidPoseReport& report, const std::string& path,
                                          const std::string& transform);
 
-}  // namespace echoreg
+}  // namespace echoreg::core

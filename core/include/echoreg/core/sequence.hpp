@@ -19,7 +19,7 @@
 #include <utility>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 
 /// Pixel element types of an A-line capture. None is a tracker-only sequence.
 enum class ElementType { None, UInt8, Int8, Int16, UInt16, Float32 };
@@ -121,4 +121,4 @@ std::string metaImageFrameLines(const SequenceFrame& frame, std::size_t index);
 /// "DimSize = <samples> <rows> <frames>\n".
 std::string metaImageDimSizeLine(const Sequence& layout, std::size_t frames);
 
-}  // namespace echoreg
+}  // namespace echoreg::core

@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::core {
 
 /// Where a frame's point lives. Without a pose transform the point is (0, 0, depth) in Beam.
 /// With `poseTransform` (e.g. "ProbeToTracker"): p = ProbeToTracker * beamToProbe * (0, 0, d, 1);
@@ -84,4 +84,4 @@ SequenceDetection detectSequence(const Sequence& sequence, const DetectionParams
                                  const PointFrameOptions& points = {},
                                  const std::function<void(int, int)>& progress = {});
 
-}  // namespace echoreg
+}  // namespace echoreg::core

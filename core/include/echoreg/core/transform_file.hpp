@@ -8,7 +8,7 @@
 
 #include <string>
 
-namespace echoreg {
+namespace echoreg::core {
 
 struct TransformFile {
   std::string from;
@@ -38,4 +38,4 @@ std::string slicerTfmText(const Eigen::Matrix4d& matrix);
 /// The JSON rows of a matrix (4 arrays of 4 numbers).
 nlohmann::json matrixRows(const Eigen::Matrix4d& matrix);
 
-}  // namespace echoreg
+}  // namespace echoreg::core

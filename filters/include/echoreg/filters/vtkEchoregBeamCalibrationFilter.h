@@ -16,7 +16,7 @@
  * "ConditionNumber", "Iterations", "Converged"; GetLastResult() the core's result.
  *
  * The assumed speed of sound is AssumedSpeedOfSoundMps, or when NaN (the default) the shots'
- * field data "SpeedOfSoundMps" (the capture header's), else echoreg::kWaterSpeedOfSoundMps
+ * field data "SpeedOfSoundMps" (the capture header's), else echoreg::core::kWaterSpeedOfSoundMps
  * (1480 m/s, the calibration preset's, as echoreg calibrate assumes). Defaults otherwise: those of
  * echoreg::core::BeamCalibrationOptions, "ProbeToTracker", initial BeamToProbe identity.
  */

@@ -3,7 +3,8 @@
  * @brief   Places each detected echo in space: the depth along the beam becomes a 3D point.
  *
  * A depth d on an A-line is the point (0, 0, d) in Beam (Mozes 2008, section 3.2). Each frame
- * whose single-signal detection succeeded (empty "reason") becomes, through echoreg::beamPoint:
+ * whose single-signal detection succeeded (empty "reason") becomes, through
+ * echoreg::core::beamPoint:
  *  - PoseTransformName empty: (0, 0, d) in Beam (no tracking).
  *  - PoseTransformName set (e.g. "ProbeToTracker"):
  *      p = ProbeToTracker * BeamToProbe * (0, 0, d, 1)

@@ -9,8 +9,8 @@
  * decimals, depths and coordinates with 4; depth and point only for accepted frames, the sample
  * index whenever the single-signal chain chose a peak. docs/formats.md describes the file.
  *
- * The file is written under a temporary name and renamed when complete (echoreg::AtomicFile), so
- * a failure leaves no partial output. Errors (no file name, a folder that cannot be written, a
+ * The file is written under a temporary name and renamed when complete (echoreg::core::AtomicFile),
+ * so a failure leaves no partial output. Errors (no file name, a folder that cannot be written, a
  * table that is not a detection table) are reported with vtkErrorMacro, set the error code and
  * GetLastError(); Write() then returns 0.
  *

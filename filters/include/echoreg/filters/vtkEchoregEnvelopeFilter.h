@@ -3,8 +3,8 @@
  * @brief   Envelope of every A-line of an image of A-lines.
  *
  * Each row of the input (one frame: x = sample index) is converted to float and passed through
- * echoreg::EnvelopeDetector: the record's mean is removed, the first RingDownSamples samples are
- * zeroed, then one of
+ * echoreg::core::EnvelopeDetector: the record's mean is removed, the first RingDownSamples samples
+ * are zeroed, then one of
  *  - Mozes:   |x| low-passed by a Butterworth filter of order ButterworthOrder at
  *             CutoffNormalized (fraction of Nyquist), zero-phase or, with ZeroPhase off, the single
  *             causal pass of Mozes 2008 (Fig. 4.9; "Bone registration with tracked A-mode
@@ -29,10 +29,10 @@
  * An input without samples (a tracker-only capture) gives an output of the same extent without
  * scalars, with a warning.
  *
- * Defaults: those of echoreg::EnvelopeParams (Hann, 153-sample window, no ring-down zeroing;
+ * Defaults: those of echoreg::core::EnvelopeParams (Hann, 153-sample window, no ring-down zeroing;
  * Mozes: order 2, cutoff 0.01, zero-phase; Hilbert: 9 MHz, relative bandwidth 0.8, 50 MHz,
- * smoothing 5). Parameters are checked by echoreg::validate when the filter runs; a bad one is
- * an error naming it (GetLastError()).
+ * smoothing 5). Parameters are checked by echoreg::core::validate when the filter runs; a bad one
+ * is an error naming it (GetLastError()).
  */
 #pragma once
 
@@ -62,8 +62,8 @@ class vtkEchoregEnvelopeFilter : public vtkImageAlgorithm {
   /**
    * Every parameter at once. Modified() only when something differs.
    */
-  void SetParams(const echoreg::EnvelopeParams& params);
-  const echoreg::EnvelopeParams& GetParams() const { return this->Params; }
+  void SetParams(const echoreg::core::EnvelopeParams& params);
+  const echoreg::core::EnvelopeParams& GetParams() const { return this->Params; }
   ///@}
 
   ///@{
@@ -171,7 +171,7 @@ class vtkEchoregEnvelopeFilter : public vtkImageAlgorithm {
   }
   void Fail(const std::string& message);
 
-  echoreg::EnvelopeParams Params;
+  echoreg::core::EnvelopeParams Params;
   /// The last run's envelopes, reused by the next run when this filter is their only holder.
   vtkSmartPointer<vtkFloatArray> Envelopes;
   std::string LastError;

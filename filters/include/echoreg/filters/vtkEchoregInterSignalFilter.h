@@ -4,11 +4,11 @@
  *
  * Mozes 2008 (section 4.3.3) filters single-signal detections over consecutive A-lines: temporal
  * consistency (a point is accepted once enough detected frames agree with it; see
- * echoreg::TemporalMode for the dissertation's consecutive run and echoreg's neighbours in time)
- * and spatial spread (a point closer than MinSpreadMm to an already accepted point is dropped;
- * only on tracked points, since (0, 0, depth) of a transducer that does not move says nothing
- * about where the beam was). The filter is a thin adapter over echoreg::applyInterSignal, so its
- * verdicts are detectSequence's.
+ * echoreg::core::TemporalMode for the dissertation's consecutive run and echoreg's neighbours in
+ * time) and spatial spread (a point closer than MinSpreadMm to an already accepted point is
+ * dropped; only on tracked points, since (0, 0, depth) of a transducer that does not move says
+ * nothing about where the beam was). The filter is a thin adapter over
+ * echoreg::core::applyInterSignal, so its verdicts are detectSequence's.
  *
  * Input (port 0): vtkTable of vtkEchoregBeamPointsFilter ("frame", "reason", "x_mm", "y_mm",
  * "z_mm" required, "depth_mm" and "timestamp_s" used when present; every other column is kept).
@@ -21,9 +21,9 @@
  * ("Count_accepted", "Count_no-peak", ..., "Count_invalid-pose") and "EchoesBeforeInterSignal";
  * GetReasonCounts() and GetLastResult() hold the same.
  *
- * Defaults: those of echoreg::InterSignalParams (run mode, history 3, 0.5 mm, 1 mm; neighbours:
- * 30 mm/s, 0.1 s, 50 Hz). Parameters are checked when the filter runs; a bad one is an error
- * naming it.
+ * Defaults: those of echoreg::core::InterSignalParams (run mode, history 3, 0.5 mm, 1 mm;
+ * neighbours: 30 mm/s, 0.1 s, 50 Hz). Parameters are checked when the filter runs; a bad one is an
+ * error naming it.
  */
 #pragma once
 
@@ -56,16 +56,19 @@ class vtkEchoregInterSignalFilter : public vtkTableAlgorithm {
   /**
    * Every parameter at once. Modified() only when something differs.
    */
-  void SetInterSignalParams(const echoreg::InterSignalParams& params);
-  const echoreg::InterSignalParams& GetInterSignalParams() const { return this->Params; }
+  void SetInterSignalParams(const echoreg::core::InterSignalParams& params);
+  const echoreg::core::InterSignalParams& GetInterSignalParams() const { return this->Params; }
   ///@}
 
   ///@{
   /**
-   * Temporal mode: echoreg::TemporalMode::Run (the default, the dissertation's) or Neighbours.
+   * Temporal mode: echoreg::core::TemporalMode::Run (the default, the dissertation's) or
+   * Neighbours.
    */
-  void SetTemporalMode(echoreg::TemporalMode mode) { this->SetField(this->Params.temporal, mode); }
-  echoreg::TemporalMode GetTemporalMode() const { return this->Params.temporal; }
+  void SetTemporalMode(echoreg::core::TemporalMode mode) {
+    this->SetField(this->Params.temporal, mode);
+  }
+  echoreg::core::TemporalMode GetTemporalMode() const { return this->Params.temporal; }
   ///@}
 
   ///@{
@@ -109,7 +112,7 @@ class vtkEchoregInterSignalFilter : public vtkTableAlgorithm {
   ///@}
 
   /**
-   * Frames per reason of the last run: "accepted" and every echoreg::rejectReasonName
+   * Frames per reason of the last run: "accepted" and every echoreg::core::rejectReasonName
    * ("no-peak", ..., "invalid-pose"), zeros included.
    */
   const std::map<std::string, int>& GetReasonCounts() const {
@@ -151,7 +154,7 @@ class vtkEchoregInterSignalFilter : public vtkTableAlgorithm {
   }
   void Fail(const std::string& message);
 
-  echoreg::InterSignalParams Params;
+  echoreg::core::InterSignalParams Params;
   Result LastResult;
   std::string LastError;
   int ExecutionCount = 0;

@@ -2,15 +2,15 @@
  * @class   vtkEchoregPeakFilter
  * @brief   Peaks of every A-line envelope, the chosen echo and its depth: one table row per frame.
  *
- * For each row of the envelope image (one frame) echoreg::findPeaks finds the peaks, the maxima
- * of contiguous runs above a threshold (a factor of the envelope's mean or a fraction of its
+ * For each row of the envelope image (one frame) echoreg::core::findPeaks finds the peaks, the
+ * maxima of contiguous runs above a threshold (a factor of the envelope's mean or a fraction of its
  * maximum; Mozes 2008, Fig. 4.10, used 1.5 x mean), restricted to the processing window, and the
  * policy (single, double, window-max, first, max, bone) chooses one or rejects the frame with a
  * reason. The chosen (sub-sample) index i becomes a depth along the beam with
- * d = (i / fs + delay) * c / 2 (echoreg::DepthConversion; Mozes 2008, Eq. 3.2). The window is
+ * d = (i / fs + delay) * c / 2 (echoreg::core::DepthConversion; Mozes 2008, Eq. 3.2). The window is
  * given in mm (WindowMinMm, WindowMaxMm) and converted to sample indices as
- * echoreg::resolvePeakParams does; when set, it replaces the window of the PeakParams, and the
- * PeakParams' mmPerSample is always taken from the DepthConversion.
+ * echoreg::core::resolvePeakParams does; when set, it replaces the window of the PeakParams, and
+ * the PeakParams' mmPerSample is always taken from the DepthConversion.
  *
  * Input (port 0): vtkImageData of envelopes, as vtkEchoregEnvelopeFilter makes it (one slice,
  * x = sample, y = frame, one-component scalars of any numeric type). With FramesPerBlock 0 (the
@@ -25,7 +25,7 @@
  *   "frame" (int, the y index), "timestamp_s" (double, from the field data "Timestamp", NaN
  *   when absent), "peaks" (int, number of peaks found), "sample_index" (double, NaN when
  *   rejected), "depth_mm" (double, NaN when rejected), "reason" (string, "" when accepted, else
- *   echoreg::rejectReasonName), "threshold" (double, in envelope units).
+ *   echoreg::core::rejectReasonName), "threshold" (double, in envelope units).
  * The input's field data (timestamps, poses, acquisition settings) is passed through to the
  * table's field data. An input without samples gives a table without rows, with a warning.
  * Output (port 1): with PeakList on, every peak of every frame, in frame order then sample
@@ -34,13 +34,13 @@
  * `echoreg figure signals` draws). Off (the default, as `detect` runs): a table without rows.
  *
  * SetDetectionParams() takes the parameters of the whole chain (as adaptToSequence resolved them)
- * and resolves them exactly as echoreg::SignalDetector does, so the table's verdicts are
+ * and resolves them exactly as echoreg::core::SignalDetector does, so the table's verdicts are
  * detectSequence's single-signal verdicts: the transducer frequency (samples per cycle) and the
  * envelope's ring-down reach the peak policy too. Frames are processed in parallel with
  * vtkSMPTools.
  *
- * Defaults: those of echoreg::PeakParams (1.5 x mean, bone policy, sub-sample refinement) and
- * echoreg::DepthConversion (50 MHz, no delay, 1540 m/s); no window.
+ * Defaults: those of echoreg::core::PeakParams (1.5 x mean, bone policy, sub-sample refinement) and
+ * echoreg::core::DepthConversion (50 MHz, no delay, 1540 m/s); no window.
  */
 #pragma once
 
@@ -71,8 +71,8 @@ class vtkEchoregPeakFilter : public vtkTableAlgorithm {
    * Threshold, window in samples, policy, bone signature and sub-sample refinement. Modified()
    * only when something differs.
    */
-  void SetPeakParams(const echoreg::PeakParams& params);
-  const echoreg::PeakParams& GetPeakParams() const { return this->PeakParams; }
+  void SetPeakParams(const echoreg::core::PeakParams& params);
+  const echoreg::core::PeakParams& GetPeakParams() const { return this->PeakParams; }
   ///@}
 
   ///@{
@@ -81,8 +81,8 @@ class vtkEchoregPeakFilter : public vtkTableAlgorithm {
    * transducer the peak policy reads (ring-down, transducer frequency). GetDetectionParams()
    * composes them back. Modified() only when something differs.
    */
-  void SetDetectionParams(const echoreg::DetectionParams& params);
-  echoreg::DetectionParams GetDetectionParams() const;
+  void SetDetectionParams(const echoreg::core::DetectionParams& params);
+  echoreg::core::DetectionParams GetDetectionParams() const;
   ///@}
 
   ///@{
@@ -111,8 +111,8 @@ class vtkEchoregPeakFilter : public vtkTableAlgorithm {
    * Sample index to depth: sampling frequency (Hz, default 50e6), acquisition delay (s, default
    * 0) and speed of sound (m/s, default 1540). Modified() only when something differs.
    */
-  void SetDepthConversion(const echoreg::DepthConversion& conversion);
-  const echoreg::DepthConversion& GetDepthConversion() const { return this->Depth; }
+  void SetDepthConversion(const echoreg::core::DepthConversion& conversion);
+  const echoreg::core::DepthConversion& GetDepthConversion() const { return this->Depth; }
   void SetSamplingFrequencyHz(double hz) { this->SetField(this->Depth.samplingFrequencyHz, hz); }
   double GetSamplingFrequencyHz() const { return this->Depth.samplingFrequencyHz; }
   void SetDelayS(double seconds) { this->SetField(this->Depth.delayS, seconds); }
@@ -189,9 +189,9 @@ class vtkEchoregPeakFilter : public vtkTableAlgorithm {
   /// its output, or null when the update failed.
   vtkImageData* UpdateInputFrames(int firstFrame, int lastFrame);
 
-  echoreg::PeakParams PeakParams;
-  echoreg::DepthConversion Depth;
-  echoreg::EnvelopeParams Envelope;
+  echoreg::core::PeakParams PeakParams;
+  echoreg::core::DepthConversion Depth;
+  echoreg::core::EnvelopeParams Envelope;
   std::optional<double> TransducerFrequencyHz;
   double WindowMinMm;
   double WindowMaxMm;

@@ -3,7 +3,7 @@
  * @brief   Reads a PLUS sequence file of A-lines (or a tracker-only capture) into an image.
  *
  * Reads a PLUS sequence (MetaImage .mha/.mhd with .raw/.zraw, NRRD .nrrd; raw, zlib or gzip
- * data) with echoreg::readSequence and presents it to the pipeline. The format is the PLUS
+ * data) with echoreg::core::readSequence and presents it to the pipeline. The format is the PLUS
  * toolkit's (Lasso et al. 2014, "PLUS: open-source toolkit for ultrasound-guided intervention
  * systems"); A-lines are frames of N x 1 samples.
  *
@@ -15,7 +15,7 @@
  * VTK_SHORT or VTK_FLOAT). A tracker-only capture (DimSize = 0 0 F) gives an image without points:
  * extent (0, -1, 0, F-1, 0, 0), so GetDimensions() reads (0, F, 1), no scalars, and the field data
  * below still present. Frames of more than one row (2D images, or a holder of several transducers)
- * are refused with echoreg::requireSingleALineFrames's sentence.
+ * are refused with echoreg::core::requireSingleALineFrames's sentence.
  *
  * Field data of the output (see echoreg::filters::SequenceFieldData): "Timestamp" (NaN where a
  * frame has none); per transform N: "N" (16 components, row-major), "N_Valid" (1 = status OK) and
@@ -27,11 +27,11 @@
  * struct of the last successful read is available from GetSequence().
  *
  * Errors (missing file, a directory, malformed content): vtkErrorMacro with the message of
- * echoreg::FileError, which names the file, the request fails (Update() leaves an empty output)
- * and GetLastError() returns the message; it is cleared by the next successful read.
+ * echoreg::core::FileError, which names the file, the request fails (Update() leaves an empty
+ * output) and GetLastError() returns the message; it is cleared by the next successful read.
  *
  * Poses used as rigid transforms: for each name of RigidPoseTransforms the capture holds, the rule
- * of echoreg::enforceRigidPoses is applied once after the read (poses within tolerance are
+ * of echoreg::core::enforceRigidPoses is applied once after the read (poses within tolerance are
  * re-orthonormalised, others refused as an error naming the frame); GetRigidPoseReports() tells
  * what it did. Names the capture does not hold are left to the consumer (which lists the names
  * it has).
@@ -87,14 +87,15 @@ class vtkEchoregSequenceReader : public vtkImageAlgorithm {
   /**
    * Per transform of RigidPoseTransforms the capture holds, what the rule did on the last read.
    */
-  const std::vector<std::pair<std::string, echoreg::RigidPoseReport>>& GetRigidPoseReports() const {
+  const std::vector<std::pair<std::string, echoreg::core::RigidPoseReport>>& GetRigidPoseReports()
+      const {
     return this->RigidPoseReports;
   }
 
   /**
    * The sequence of the last successful read (empty before the first one).
    */
-  const echoreg::Sequence& GetSequence() const { return this->Sequence; }
+  const echoreg::core::Sequence& GetSequence() const { return this->Sequence; }
 
   /**
    * Message of the last failure ("PATH: problem"), empty after a success.
@@ -131,8 +132,8 @@ class vtkEchoregSequenceReader : public vtkImageAlgorithm {
 
   std::string FileName;
   std::vector<std::string> RigidPoseTransforms;
-  std::vector<std::pair<std::string, echoreg::RigidPoseReport>> RigidPoseReports;
-  echoreg::Sequence Sequence;
+  std::vector<std::pair<std::string, echoreg::core::RigidPoseReport>> RigidPoseReports;
+  echoreg::core::Sequence Sequence;
   std::string LastError;
   int ExecutionCount = 0;
   int ReadCount = 0;

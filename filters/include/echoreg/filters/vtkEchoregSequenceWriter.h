@@ -2,8 +2,8 @@
  * @class   vtkEchoregSequenceWriter
  * @brief   Writes an image of A-lines and its per-frame poses as a PLUS sequence file.
  *
- * The inverse of vtkEchoregSequenceReader, over echoreg::writeSequence: the input image (x the
- * sample, y the frame, one slice, one-component scalars of type unsigned char, signed char,
+ * The inverse of vtkEchoregSequenceReader, over echoreg::core::writeSequence: the input image (x
+ * the sample, y the frame, one slice, one-component scalars of type unsigned char, signed char,
  * short, unsigned short or float) becomes frames of N x 1 samples; the field data
  * (echoreg::filters::SequenceFieldData: "Timestamp", per transform the 16-component matrices with
  * their status, the acquisition settings) becomes the per-frame timestamps and

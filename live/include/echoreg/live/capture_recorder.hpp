@@ -29,7 +29,7 @@ class CaptureRecorder {
   /// `layout`: the element type, frame size, acquisition settings and header of the capture
   /// (its frames and pixels are ignored). Starts the writer thread; the partial files appear at
   /// the first flush with a frame. Throws std::invalid_argument for a header writeSequence refuses.
-  CaptureRecorder(std::string path, Sequence layout, double flushIntervalS = 1.0);
+  CaptureRecorder(std::string path, core::Sequence layout, double flushIntervalS = 1.0);
   /// Flushes what is pending and stops the writer; the partial files stay (finish() was not
   /// called: the session failed).
   ~CaptureRecorder();
@@ -40,7 +40,7 @@ class CaptureRecorder {
   /// Throws std::invalid_argument (and records nothing) when the byte count does not fit the
   /// layout or writeSequence would refuse the frame (a name that would not read back, a number
   /// that is not finite).
-  void add(const SequenceFrame& frame, const std::uint8_t* pixels, std::size_t bytes);
+  void add(const core::SequenceFrame& frame, const std::uint8_t* pixels, std::size_t bytes);
 
   /// Flushes, writes the capture to its path (temporary name, then rename) and removes the
   /// partial files; returns the frames written. Throws FileError when it cannot be written or an
@@ -65,7 +65,7 @@ class CaptureRecorder {
 
   std::string path_, partialPath_, partialDataPath_;
   double flushIntervalS_;
-  Sequence layout_;  ///< frames and pixels empty
+  core::Sequence layout_;  ///< frames and pixels empty
   std::size_t frameBytes_ = 0;
 
   mutable std::mutex mutex_;

@@ -48,7 +48,7 @@ struct Message {
   MessageHeader header;
   Eigen::Matrix4d matrix = Eigen::Matrix4d::Identity();  ///< Transform: p_To = matrix * p_From
   /// Image: the element type, samples per row, rows, and the pixels in host byte order.
-  ElementType elementType = ElementType::None;
+  core::ElementType elementType = core::ElementType::None;
   int samples = 0;
   int rows = 0;
   std::vector<std::uint8_t> pixels;
@@ -73,7 +73,7 @@ using Packet = std::vector<std::uint8_t>;
 /// non-finite timestamp (OpenIGTLink carries unsigned seconds) or a name over 20 characters.
 Packet encodeTransform(const std::string& name, const Eigen::Matrix4d& matrix, double timestampS);
 /// IMAGE `name` of `rows` rows of `samples` elements (an A-line: 1 row), as PLUS streams it.
-Packet encodeImage(const std::string& name, ElementType type, const std::uint8_t* pixels,
+Packet encodeImage(const std::string& name, core::ElementType type, const std::uint8_t* pixels,
                    int samples, int rows, double timestampS);
 /// STRING `name` (UTF-8 / US-ASCII text).
 Packet encodeString(const std::string& name, const std::string& text, double timestampS);

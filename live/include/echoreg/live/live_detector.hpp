@@ -39,12 +39,12 @@ namespace echoreg::live {
 
 struct LiveDetectorOptions {
   /// The chain's parameters with the depth conversion resolved (validated by the constructor).
-  DetectionParams params;
+  core::DetectionParams params;
   /// The transducer frequency the stream's header gives, if any.
   std::optional<double> headerFrequencyHz;
   /// beamToProbe, and the pose and reference transforms' names ("ProbeToTracker",
   /// "FemurToTracker"); the points are in the reference's frame.
-  PointFrameOptions points;
+  core::PointFrameOptions points;
   double ultrasoundSigmaMm = 0.5;
   /// A-lines measured before the first is decided (>= 1).
   int adaptFrames = 64;
@@ -66,15 +66,15 @@ struct LiveFrame {
 /// A measurement of the capture's shadow rule during a session.
 struct ShadowMeasurement {
   long long frames = 0;  ///< A-lines received when measured: the trial's records spread over them
-  ShadowTrial trial;
+  core::ShadowTrial trial;
 };
 
 /// The shadow rule changed: the frames received so far as the new rule judges them, from the
 /// first A-line on (each rule has its own inter-signal filter, fed every frame in order).
 struct ShadowRuleSwitch {
   ShadowMeasurement measurement;
-  ShadowRule from = ShadowRule::Auto;
-  ShadowRule to = ShadowRule::Auto;
+  core::ShadowRule from = core::ShadowRule::Auto;
+  core::ShadowRule to = core::ShadowRule::Auto;
   std::vector<LiveFrame> accepted;      ///< the new rule's accepted frames so far, in order
   std::map<std::string, int> verdicts;  ///< the new rule's verdicts of every frame so far
 };
@@ -101,9 +101,9 @@ class LiveDetector {
 
   bool adapted() const { return envelope_ != nullptr; }
   /// The parameters in force (the shadow rule the last measurement chose).
-  const DetectionParams& params() const { return adaptedParams_; }
+  const core::DetectionParams& params() const { return adaptedParams_; }
   /// What the first adaptation measured, with the shadow rule and share of the last measurement.
-  const CaptureAnalysis& analysis() const { return analysis_; }
+  const core::CaptureAnalysis& analysis() const { return analysis_; }
   /// Whether the shadow rule is measured as the session goes (both rules judge every frame).
   bool measuresShadowRule() const { return judges_.size() == 2; }
   /// Every measurement of the shadow rule, the first adaptation's first.
@@ -120,9 +120,9 @@ class LiveDetector {
   // One shadow rule's judgement of every frame: its peaks, its inter-signal filter, what it
   // accepted and its verdicts.
   struct Judge {
-    ShadowRule rule = ShadowRule::Auto;
-    PeakParams peaks;  // resolved (window in samples)
-    std::unique_ptr<InterSignalFilter> interSignal;
+    core::ShadowRule rule = core::ShadowRule::Auto;
+    core::PeakParams peaks;  // resolved (window in samples)
+    std::unique_ptr<core::InterSignalFilter> interSignal;
     std::vector<LiveFrame> accepted;
     std::map<std::string, int> verdicts;
   };
@@ -130,12 +130,12 @@ class LiveDetector {
   void adapt();
   void remeasure();
   LiveFrame decide(const Waiting& waiting);
-  LiveFrame judge(Judge& judge, const Waiting& waiting, const PeakResult& peaks);
+  LiveFrame judge(Judge& judge, const Waiting& waiting, const core::PeakResult& peaks);
 
   LiveDetectorOptions options_;
-  DetectionParams adaptedParams_;
-  CaptureAnalysis analysis_;
-  std::unique_ptr<EnvelopeDetector> envelope_;
+  core::DetectionParams adaptedParams_;
+  core::CaptureAnalysis analysis_;
+  std::unique_ptr<core::EnvelopeDetector> envelope_;
   std::vector<float> envelopeSamples_;
   std::vector<Judge> judges_;  // one, or two when the shadow rule is measured: [0] Auto
   std::size_t active_ = 0;

@@ -18,10 +18,10 @@ constexpr const char* kCaptureHeaderName = "EchoregCapture";
 constexpr const char* kFrameName = "EchoregFrame";
 
 /// The acquisition settings and extra header keys of `sequence` as JSON text.
-std::string captureHeaderJson(const Sequence& sequence);
+std::string captureHeaderJson(const core::Sequence& sequence);
 /// Sets `layout`'s acquisition and extraHeader from captureHeaderJson's text. Throws
 /// std::invalid_argument for text that is not such JSON.
-void applyCaptureHeader(const std::string& text, Sequence& layout);
+void applyCaptureHeader(const std::string& text, core::Sequence& layout);
 
 /// A frame's exact timestamp and its fields.
 struct FrameMetadata {
@@ -30,7 +30,7 @@ struct FrameMetadata {
 };
 /// As JSON text ({"timestamp": 11.120000000000001, "fields": [["ImageStatus","OK"]]}) and back
 /// (throws std::invalid_argument for other text).
-std::string frameJson(const SequenceFrame& frame);
+std::string frameJson(const core::SequenceFrame& frame);
 FrameMetadata parseFrameJson(const std::string& text);
 
 }  // namespace echoreg::live

@@ -20,8 +20,8 @@
  *
  * RequestInformation scans the headers only (readDicomSeriesGeometry) for the extent; RequestData
  * reads the pixels. Errors (missing folder, a refused series): vtkErrorMacro with the message of
- * echoreg::FileError (it names the folder and the files), the request fails, the output is left
- * empty and GetLastError() returns the message. Warnings of the read are in GetWarnings().
+ * echoreg::core::FileError (it names the folder and the files), the request fails, the output is
+ * left empty and GetLastError() returns the message. Warnings of the read are in GetWarnings().
  */
 #pragma once
 

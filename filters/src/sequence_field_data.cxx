@@ -1,4 +1,4 @@
-#include "echoreg/filters/SequenceFieldData.h"
+#include "echoreg/filters/sequence_field_data.h"
 
 #include <vtkDoubleArray.h>
 #include <vtkFieldData.h>
@@ -63,7 +63,7 @@ TransformArrays transformArrays(vtkFieldData* fieldData, const std::string& name
 
 }  // namespace
 
-void SequenceFieldData::write(const Sequence& sequence, vtkFieldData* fieldData) {
+void SequenceFieldData::write(const core::Sequence& sequence, vtkFieldData* fieldData) {
   const auto frameCount = static_cast<vtkIdType>(sequence.frameCount());
 
   vtkNew<vtkDoubleArray> timestamps;
@@ -162,12 +162,12 @@ bool SequenceFieldData::hasTransform(const std::string& name) const {
   return static_cast<bool>(transformArrays(fieldData_, name));
 }
 
-std::optional<TrackedTransform> SequenceFieldData::transform(const std::string& name,
-                                                             vtkIdType frame) const {
+std::optional<core::TrackedTransform> SequenceFieldData::transform(const std::string& name,
+                                                                   vtkIdType frame) const {
   const TransformArrays arrays = transformArrays(fieldData_, name);
   if (!arrays || frame < 0 || frame >= arrays.matrices->GetNumberOfTuples())
     return std::nullopt;
-  TrackedTransform result;
+  core::TrackedTransform result;
   result.status = arrays.status->GetValue(frame);
   if (result.status.empty())
     return std::nullopt;
@@ -187,14 +187,14 @@ std::optional<Eigen::Matrix4d> SequenceFieldData::validMatrix(const std::string&
       arrays.valid->GetValue(frame) != 1) {
     return std::nullopt;
   }
-  std::optional<TrackedTransform> tracked = transform(name, frame);
+  std::optional<core::TrackedTransform> tracked = transform(name, frame);
   if (!tracked || !tracked->matrix.allFinite())
     return std::nullopt;
   return tracked->matrix;
 }
 
-AcquisitionSettings SequenceFieldData::acquisition() const {
-  AcquisitionSettings settings;
+core::AcquisitionSettings SequenceFieldData::acquisition() const {
+  core::AcquisitionSettings settings;
   if (fieldData_ == nullptr)
     return settings;
   settings.samplingFrequencyHz = readSetting(fieldData_, kSamplingFrequencyHz);
@@ -207,8 +207,8 @@ AcquisitionSettings SequenceFieldData::acquisition() const {
   return settings;
 }
 
-std::vector<SequenceFrame> SequenceFieldData::frames() const {
-  std::vector<SequenceFrame> result(static_cast<std::size_t>(frameCount()));
+std::vector<core::SequenceFrame> SequenceFieldData::frames() const {
+  std::vector<core::SequenceFrame> result(static_cast<std::size_t>(frameCount()));
   const std::vector<std::string> names = transformNames();
   for (std::size_t frame = 0; frame < result.size(); ++frame) {
     const auto frameId = static_cast<vtkIdType>(frame);

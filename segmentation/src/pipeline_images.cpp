@@ -1,4 +1,4 @@
-#include "PipelineImages.h"
+#include "pipeline_images.hpp"
 
 #include <vtkDataArray.h>
 #include <vtkDataObject.h>

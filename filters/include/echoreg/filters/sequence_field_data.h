@@ -46,7 +46,7 @@ class SequenceFieldData {
 
   /// Adds (or replaces) the timestamps, transforms and acquisition settings of `sequence` in
   /// `fieldData`. Arrays of acquisition settings the sequence does not state are removed.
-  static void write(const Sequence& sequence, vtkFieldData* fieldData);
+  static void write(const core::Sequence& sequence, vtkFieldData* fieldData);
 
   /// Reads `fieldData`, which may be null (then it holds nothing).
   explicit SequenceFieldData(vtkFieldData* fieldData);
@@ -61,15 +61,15 @@ class SequenceFieldData {
   bool hasTransform(const std::string& name) const;
   /// Transform `name` of `frame` with its status word verbatim; nullopt when the field data has
   /// no such transform, `frame` is out of range, or that frame does not carry it.
-  std::optional<TrackedTransform> transform(const std::string& name, vtkIdType frame) const;
+  std::optional<core::TrackedTransform> transform(const std::string& name, vtkIdType frame) const;
   /// The matrix of transform `name` in `frame` when it is present and its status is OK.
   std::optional<Eigen::Matrix4d> validMatrix(const std::string& name, vtkIdType frame) const;
 
   /// The acquisition settings stored (absent ones stay unset).
-  AcquisitionSettings acquisition() const;
+  core::AcquisitionSettings acquisition() const;
   /// Timestamps and transforms of every frame, as a Sequence holds them (other per-frame fields
   /// are not carried in field data).
-  std::vector<SequenceFrame> frames() const;
+  std::vector<core::SequenceFrame> frames() const;
 
  private:
   vtkSmartPointer<vtkFieldData> fieldData_;

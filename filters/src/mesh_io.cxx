@@ -1,4 +1,4 @@
-#include "echoreg/filters/MeshIO.h"
+#include "echoreg/filters/mesh_io.h"
 
 #include "echoreg/core/error.hpp"
 #include "mesh_files.hpp"
@@ -97,9 +97,10 @@ void checkCellsNameTheFilesPoints(const std::string& path, vtkPolyData* poly) {
     for (cells->InitTraversal(); cells->GetNextCell(count, ids); ++cell) {
       for (vtkIdType corner = 0; corner < count; ++corner) {
         if (ids[corner] < 0 || ids[corner] >= points) {
-          throw FileError(path, "a face (cell " + std::to_string(cell + 1) + ") names point " +
-                                    std::to_string(ids[corner] + 1) + ", but the file has " +
-                                    std::to_string(points) + " points: a damaged model");
+          throw core::FileError(path, "a face (cell " + std::to_string(cell + 1) +
+                                          ") names point " + std::to_string(ids[corner] + 1) +
+                                          ", but the file has " + std::to_string(points) +
+                                          " points: a damaged model");
         }
       }
     }
@@ -111,11 +112,11 @@ void checkCellsNameTheFilesPoints(const std::string& path, vtkPolyData* poly) {
 core::TriangleMesh readMesh(const std::string& path) {
   const vtkSmartPointer<vtkPolyData> poly = detail::readPolyDataFile(path);
   if (!poly || poly->GetNumberOfPolys() == 0)
-    throw FileError(path, "holds no triangles");
+    throw core::FileError(path, "holds no triangles");
   checkCellsNameTheFilesPoints(path, poly);
   core::TriangleMesh mesh = toTriangleMesh(poly);
   if (mesh.triangles.empty())
-    throw FileError(path, "holds no triangles");
+    throw core::FileError(path, "holds no triangles");
   return mesh;
 }
 

@@ -14,7 +14,7 @@ namespace echoreg::filters {
 /// when accepted); `accepted`, `rejectedByReason` (reasons that occur) and `echoes` (field data
 /// "EchoesBeforeInterSignal"). `params` and `analysis` are left default: they are the caller's.
 /// Throws std::invalid_argument naming a missing column or an unknown reason.
-SequenceDetection sequenceDetectionOf(vtkTable* table);
+core::SequenceDetection sequenceDetectionOf(vtkTable* table);
 
 /// Whether the table's points are tracked (field data "PointFrame" other than "Beam").
 bool hasTrackedPoints(vtkTable* table);

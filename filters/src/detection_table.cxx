@@ -1,4 +1,4 @@
-#include "echoreg/filters/DetectionTable.h"
+#include "echoreg/filters/detection_table.h"
 
 #include <vtkDataArray.h>
 #include <vtkFieldData.h>
@@ -14,16 +14,17 @@ namespace echoreg::filters {
 
 namespace {
 
-constexpr RejectReason kAllReasons[] = {
-    RejectReason::None,         RejectReason::NoPeak,        RejectReason::TooManyPeaks,
-    RejectReason::TooFewPeaks,  RejectReason::OutsideWindow, RejectReason::NotBone,
-    RejectReason::Inconsistent, RejectReason::TooClose,      RejectReason::InvalidPose,
-    RejectReason::InRingDown,
+constexpr core::RejectReason kAllReasons[] = {
+    core::RejectReason::None,          core::RejectReason::NoPeak,
+    core::RejectReason::TooManyPeaks,  core::RejectReason::TooFewPeaks,
+    core::RejectReason::OutsideWindow, core::RejectReason::NotBone,
+    core::RejectReason::Inconsistent,  core::RejectReason::TooClose,
+    core::RejectReason::InvalidPose,   core::RejectReason::InRingDown,
 };
 
-RejectReason reasonNamed(const std::string& name) {
-  for (RejectReason reason : kAllReasons) {
-    if (rejectReasonName(reason) == name)
+core::RejectReason reasonNamed(const std::string& name) {
+  for (core::RejectReason reason : kAllReasons) {
+    if (core::rejectReasonName(reason) == name)
       return reason;
   }
   throw std::invalid_argument("the detection table holds an unknown reason \"" + name + "\"");
@@ -45,7 +46,7 @@ bool hasTrackedPoints(vtkTable* table) {
   return frame != nullptr && frame->GetNumberOfValues() == 1 && frame->GetValue(0) != "Beam";
 }
 
-SequenceDetection sequenceDetectionOf(vtkTable* table) {
+core::SequenceDetection sequenceDetectionOf(vtkTable* table) {
   if (table == nullptr)
     throw std::invalid_argument("no detection table");
   auto* frames = requiredColumn<vtkDataArray>(table, "frame");
@@ -58,11 +59,11 @@ SequenceDetection sequenceDetectionOf(vtkTable* table) {
   auto* ys = requiredColumn<vtkDataArray>(table, "y_mm");
   auto* zs = requiredColumn<vtkDataArray>(table, "z_mm");
 
-  SequenceDetection detection;
+  core::SequenceDetection detection;
   const vtkIdType rows = table->GetNumberOfRows();
   detection.frames.reserve(static_cast<std::size_t>(rows));
   for (vtkIdType row = 0; row < rows; ++row) {
-    FrameDetection frame;
+    core::FrameDetection frame;
     frame.frame = static_cast<int>(frames->GetComponent(row, 0));
     const double timestamp = timestamps->GetComponent(row, 0);
     if (!std::isnan(timestamp))
@@ -78,7 +79,7 @@ SequenceDetection sequenceDetectionOf(vtkTable* table) {
                                       zs->GetComponent(row, 0));
       ++detection.accepted;
     } else {
-      ++detection.rejectedByReason[std::string(rejectReasonName(frame.reason))];
+      ++detection.rejectedByReason[std::string(core::rejectReasonName(frame.reason))];
     }
     detection.frames.push_back(frame);
   }

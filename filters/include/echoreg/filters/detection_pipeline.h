@@ -60,17 +60,19 @@ class DetectionPipeline {
   /// The capture to read and the transforms whose poses must be rigid (empty names ignored).
   /// Reads the file (RequestInformation) and returns the sequence; throws std::runtime_error
   /// with the reader's message ("PATH: problem") when it cannot be read.
-  const Sequence& open(const std::string& capturePath, const std::vector<std::string>& rigidPoses);
+  const core::Sequence& open(const std::string& capturePath,
+                             const std::vector<std::string>& rigidPoses);
 
   /// Resolves the capture-dependent parameters (adaptToSequence on the opened capture) and sets
   /// every step's parameters; returns what adaptToSequence measured. Throws std::invalid_argument
   /// as detectSequence does, with its words: a capture without A-lines, a reference without a
   /// pose, a transform the capture does not hold (listing those it has), bad parameters.
-  const CaptureAnalysis& configure(const DetectionParams& params, const PointFrameOptions& points);
+  const core::CaptureAnalysis& configure(const core::DetectionParams& params,
+                                         const core::PointFrameOptions& points);
 
   /// Updates the chain up to the inter-signal filter and returns the detection, with the params
   /// and analysis of configure(). Throws std::runtime_error with the first failing step's message.
-  SequenceDetection run();
+  core::SequenceDetection run();
 
   /// Updates the chain up to the peak filter only (what `figure signals` draws: the envelopes and
   /// the verdicts, with the peak list when on), counting the executions as run() does. Throws
@@ -90,7 +92,7 @@ class DetectionPipeline {
   static constexpr int kStreamFramesPerBlock = 512;
 
   /// The parameters as configure() resolved them.
-  const DetectionParams& params() const { return params_; }
+  const core::DetectionParams& params() const { return params_; }
 
   /// How often the envelope and the peak filter executed (RequestData) in the updates of run()
   /// and write(), and how many frames the envelope filter computed: a capture streamed in blocks
@@ -120,8 +122,8 @@ class DetectionPipeline {
   void throwFirstError(const std::string& fallback) const;
 
   std::string capturePath_;
-  DetectionParams params_;
-  CaptureAnalysis analysis_;
+  core::DetectionParams params_;
+  core::CaptureAnalysis analysis_;
 };
 
 }  // namespace echoreg::filters

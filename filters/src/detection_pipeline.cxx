@@ -1,6 +1,6 @@
-#include "echoreg/filters/DetectionPipeline.h"
+#include "echoreg/filters/detection_pipeline.h"
 
-#include "echoreg/filters/DetectionTable.h"
+#include "echoreg/filters/detection_table.h"
 
 #include <vtkExecutive.h>
 #include <vtkLogger.h>
@@ -19,7 +19,7 @@ namespace echoreg::filters {
 namespace {
 
 // detectSequence's words for a transform the capture does not hold.
-void requireTransform(const Sequence& sequence, const std::string& name) {
+void requireTransform(const core::Sequence& sequence, const std::string& name) {
   if (name.empty())
     return;
   const std::vector<std::string> names = sequence.transformNames();
@@ -59,8 +59,8 @@ DetectionPipeline::DetectionPipeline() {
   writer->SetInputConnection(interSignal->GetOutputPort());
 }
 
-const Sequence& DetectionPipeline::open(const std::string& capturePath,
-                                        const std::vector<std::string>& rigidPoses) {
+const core::Sequence& DetectionPipeline::open(const std::string& capturePath,
+                                              const std::vector<std::string>& rigidPoses) {
   const VtkMessageCapture quiet;
   capturePath_ = capturePath;
   reader->SetFileName(capturePath);
@@ -71,9 +71,9 @@ const Sequence& DetectionPipeline::open(const std::string& capturePath,
   return reader->GetSequence();
 }
 
-const CaptureAnalysis& DetectionPipeline::configure(const DetectionParams& given,
-                                                    const PointFrameOptions& points) {
-  const Sequence& sequence = reader->GetSequence();
+const core::CaptureAnalysis& DetectionPipeline::configure(const core::DetectionParams& given,
+                                                          const core::PointFrameOptions& points) {
+  const core::Sequence& sequence = reader->GetSequence();
   if (!sequence.hasPixels()) {
     throw std::invalid_argument("the capture holds no A-lines (a tracker-only sequence)");
   }
@@ -83,8 +83,8 @@ const CaptureAnalysis& DetectionPipeline::configure(const DetectionParams& given
   requireTransform(sequence, points.poseTransform);
   requireTransform(sequence, points.referenceTransform);
 
-  analysis_ = CaptureAnalysis();
-  params_ = adaptToSequence(sequence, given, &analysis_);
+  analysis_ = core::CaptureAnalysis();
+  params_ = core::adaptToSequence(sequence, given, &analysis_);
   validate(params_);
   envelope->SetParams(params_.envelope);
   peaks->SetDetectionParams(params_);
@@ -137,10 +137,10 @@ void DetectionPipeline::update(vtkAlgorithm* last) {
     throwFirstError(capturePath_ + ": the detection pipeline failed");
 }
 
-SequenceDetection DetectionPipeline::run() {
+core::SequenceDetection DetectionPipeline::run() {
   const VtkMessageCapture quiet;
   update();
-  SequenceDetection detection = sequenceDetectionOf(interSignal->GetOutput());
+  core::SequenceDetection detection = sequenceDetectionOf(interSignal->GetOutput());
   detection.params = params_;
   detection.analysis = analysis_;
   return detection;
