@@ -11,19 +11,6 @@ namespace echoreg::core {
 
 namespace {
 
-void requireTransform(const Sequence& sequence, const std::string& name) {
-  if (name.empty())
-    return;
-  const std::vector<std::string> names = sequence.transformNames();
-  if (std::find(names.begin(), names.end(), name) != names.end())
-    return;
-  std::string known;
-  for (const auto& n : names)
-    known += (known.empty() ? "" : ", ") + n;
-  throw std::invalid_argument("the capture has no transform " + name +
-                              " (it has: " + (known.empty() ? "none" : known) + ")");
-}
-
 // The frame's transform when named, present and valid.
 const Eigen::Matrix4d* validTransform(const SequenceFrame& frame, const std::string& name) {
   if (name.empty())
@@ -60,6 +47,19 @@ DepthConversion depthFromSequence(const Sequence& sequence, const DepthConversio
   if (acquisition.speedOfSoundMps)
     depth.speedOfSoundMps = *acquisition.speedOfSoundMps;
   return depth;
+}
+
+void requireTransform(const Sequence& sequence, const std::string& name) {
+  if (name.empty())
+    return;
+  const std::vector<std::string> names = sequence.transformNames();
+  if (std::find(names.begin(), names.end(), name) != names.end())
+    return;
+  std::string known;
+  for (const auto& n : names)
+    known += (known.empty() ? "" : ", ") + n;
+  throw std::invalid_argument("the capture has no transform " + name +
+                              " (it has: " + (known.empty() ? "none" : known) + ")");
 }
 
 void requireSingleALineFrames(const Sequence& sequence) {

@@ -16,24 +16,6 @@
 
 namespace echoreg::filters {
 
-namespace {
-
-// detectSequence's words for a transform the capture does not hold.
-void requireTransform(const core::Sequence& sequence, const std::string& name) {
-  if (name.empty())
-    return;
-  const std::vector<std::string> names = sequence.transformNames();
-  if (std::find(names.begin(), names.end(), name) != names.end())
-    return;
-  std::string known;
-  for (const auto& n : names)
-    known += (known.empty() ? "" : ", ") + n;
-  throw std::invalid_argument("the capture has no transform " + name +
-                              " (it has: " + (known.empty() ? "none" : known) + ")");
-}
-
-}  // namespace
-
 VtkMessageCapture::VtkMessageCapture()
     : previous_(vtkOutputWindow::GetInstance()),
       previousVerbosity_(static_cast<int>(vtkLogger::GetCurrentVerbosityCutoff())),
@@ -80,8 +62,8 @@ const core::CaptureAnalysis& DetectionPipeline::configure(const core::DetectionP
   if (!points.referenceTransform.empty() && points.poseTransform.empty()) {
     throw std::invalid_argument("a reference transform needs a pose transform too");
   }
-  requireTransform(sequence, points.poseTransform);
-  requireTransform(sequence, points.referenceTransform);
+  core::requireTransform(sequence, points.poseTransform);
+  core::requireTransform(sequence, points.referenceTransform);
 
   analysis_ = core::CaptureAnalysis();
   params_ = core::adaptToSequence(sequence, given, &analysis_);

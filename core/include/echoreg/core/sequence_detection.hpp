@@ -71,6 +71,10 @@ DetectionParams adaptToSequence(const Sequence& sequence, const DetectionParams&
 /// reads them.
 void requireSingleALineFrames(const Sequence& sequence);
 
+/// Throws std::invalid_argument naming the transforms the capture has unless `name` is empty or
+/// one of them (a pose or reference transform asked for by name).
+void requireTransform(const Sequence& sequence, const std::string& name);
+
 /// The depth conversion a capture implies: echoreg's acquisition header keys where present,
 /// `fallback` otherwise.
 DepthConversion depthFromSequence(const Sequence& sequence, const DepthConversion& fallback);
