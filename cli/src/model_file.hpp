@@ -255,6 +255,15 @@ inline void checkPlyFile(const std::string& path) {
   };
   if (!has("vertex") || !has("face"))
     refuse("the header declares no " + std::string(has("vertex") ? "face" : "vertex") + " element");
+  // VTK 9.1 frees, closing the file, memory it never allocated for an element with no properties,
+  // wherever it is declared (a crash in vtkPLY::ply_close, found by fuzz/fuzz_mesh).
+  for (const Element& element : elements) {
+    if (element.list.empty()) {
+      lineNumber = element.line;
+      refuse("element " + element.name +
+             " has no properties: VTK's PLY reader crashes on such an element");
+    }
+  }
   // VTK reads the vertices' x, y, z and the faces' vertex_indices (it crashed on another name).
   for (const Element& element : elements) {
     const auto named = [&](const char* name) {

@@ -93,6 +93,11 @@ class CliHostileInputs : public ::testing::Test {
     std::ofstream(dir_.file("two-vertex-elements.ply")) << "ply\nformat ascii 1.0\n" + plyVertices +
                                                                plyVertices + plyFaces +
                                                                "end_header\n" + plyData;
+    // Found by fuzz/fuzz_mesh: VTK's PLY reader frees memory it never allocated for an element
+    // with no properties, here after the faces (a crash in vtkPLY::ply_close under ASan).
+    std::ofstream(dir_.file("no-properties.ply")) << "ply\nformat ascii 1.0\n" + plyVertices +
+                                                         plyFaces + "element extra 2\n" +
+                                                         "end_header\n" + plyData;
     std::ofstream(dir_.file("empty.stl")) << "";
     // Found by fuzz/fuzz_mesh: VTK 9.1's PLY reader crashed (a null pointer) on this header.
     std::ofstream(dir_.file("misspelt.ply"))
@@ -284,6 +289,9 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
        "reads only the vertex and face elements and would read its rows as theirs"},
       {figureWith({"--model", "@two-vertex-elements.ply", "--out", "@out.png"}), 1,
        "@two-vertex-elements.ply: line 7: a second vertex element"},
+      {figureWith({"--model", "@no-properties.ply", "--out", "@out.png"}), 1,
+       "@no-properties.ply: line 9: element extra has no properties: VTK's PLY reader crashes on "
+       "such an element"},
       {figureWith({"--model", "@indented.obj", "--out", "@out.png"}), 1,
        "@indented.obj: line 7: face \"  f 2 3 9\": \"9\" is not a vertex number from 1 to 4"},
       // Item 8: a negative sphere radius was drawn.
