@@ -271,7 +271,12 @@ inline void checkPlyFile(const std::string& path) {
     };
     if (element.name == "vertex" && !(named("x") && named("y") && named("z")))
       refuse("the vertex element has no x, y and z properties");
-    if (element.name == "face" && !named("vertex_indices"))
+    // A vertex_indices that is not a list: VTK frees a list it never allocated (a crash in
+    // vtkPLYReader::RequestData, found by fuzz/fuzz_mesh).
+    const auto indices = std::find(element.names.begin(), element.names.end(), "vertex_indices");
+    if (element.name == "face" &&
+        (indices == element.names.end() ||
+         !element.list[static_cast<std::size_t>(indices - element.names.begin())]))
       refuse("the face element has no vertex_indices list");
   }
   if (formats == 0)

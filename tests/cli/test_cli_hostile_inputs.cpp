@@ -98,6 +98,10 @@ class CliHostileInputs : public ::testing::Test {
     std::ofstream(dir_.file("no-properties.ply")) << "ply\nformat ascii 1.0\n" + plyVertices +
                                                          plyFaces + "element extra 2\n" +
                                                          "end_header\n" + plyData;
+    // Found by fuzz/fuzz_mesh: vertex_indices not a list made VTK free a list it never allocated.
+    std::ofstream(dir_.file("indices-not-a-list.ply"))
+        << "ply\nformat ascii 1.0\n" + plyVertices +
+               "element face 4\nproperty int vertex_indices\nend_header\n" + plyData;
     std::ofstream(dir_.file("empty.stl")) << "";
     // Found by fuzz/fuzz_mesh: VTK 9.1's PLY reader crashed (a null pointer) on this header.
     std::ofstream(dir_.file("misspelt.ply"))
@@ -292,6 +296,8 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
       {figureWith({"--model", "@no-properties.ply", "--out", "@out.png"}), 1,
        "@no-properties.ply: line 9: element extra has no properties: VTK's PLY reader crashes on "
        "such an element"},
+      {figureWith({"--model", "@indices-not-a-list.ply", "--out", "@out.png"}), 1,
+       "@indices-not-a-list.ply: line 9: the face element has no vertex_indices list"},
       {figureWith({"--model", "@indented.obj", "--out", "@out.png"}), 1,
        "@indented.obj: line 7: face \"  f 2 3 9\": \"9\" is not a vertex number from 1 to 4"},
       // Item 8: a negative sphere radius was drawn.
