@@ -213,6 +213,11 @@ inline void checkPlyFile(const std::string& path) {
       if (element.name.empty() || !number(count, n) || n < 0 || n != std::floor(n) ||
           (words >> extra))
         refuse("\"" + line + "\" is not \"element NAME COUNT\"");
+      // VTK keeps a count in an int; a larger one (1e62 from fuzz/fuzz_mesh) is not a count of
+      // rows, nor convertible to one.
+      if (n > 2147483647.0)
+        refuse(fmt::format("element {} claims {} rows, more than VTK's PLY reader can count",
+                           element.name, count));
       element.count = static_cast<std::uint64_t>(n);
       element.line = lineNumber;
       elements.push_back(element);
