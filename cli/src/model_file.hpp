@@ -215,6 +215,11 @@ inline void checkPlyFile(const std::string& path) {
       if (element.name.empty() || !number(count, n) || n < 0 || n != std::floor(n) ||
           (words >> extra))
         refuse("\"" + line + "\" is not \"element NAME COUNT\"");
+      // VTK keeps a count in an int; a larger one (1e62 from fuzz/fuzz_mesh) is not a count of
+      // rows, nor convertible to one.
+      if (n > 2147483647.0)
+        refuse(fmt::format("element {} claims {} rows, more than VTK's PLY reader can count",
+                           element.name, count));
       element.count = static_cast<std::uint64_t>(n);
       element.line = lineNumber;
       elements.push_back(element);
@@ -257,6 +262,15 @@ inline void checkPlyFile(const std::string& path) {
   };
   if (!has("vertex") || !has("face"))
     refuse("the header declares no " + std::string(has("vertex") ? "face" : "vertex") + " element");
+  // VTK 9.1 frees, closing the file, memory it never allocated for an element with no properties,
+  // wherever it is declared (a crash in vtkPLY::ply_close, found by fuzz/fuzz_mesh).
+  for (const Element& element : elements) {
+    if (element.list.empty()) {
+      lineNumber = element.line;
+      refuse("element " + element.name +
+             " has no properties: VTK's PLY reader crashes on such an element");
+    }
+  }
   // VTK reads the vertices' x, y, z and the faces' vertex_indices (it crashed on another name).
   for (const Element& element : elements) {
     const auto named = [&](const char* name) {
@@ -264,7 +278,12 @@ inline void checkPlyFile(const std::string& path) {
     };
     if (element.name == "vertex" && !(named("x") && named("y") && named("z")))
       refuse("the vertex element has no x, y and z properties");
-    if (element.name == "face" && !named("vertex_indices"))
+    // A vertex_indices that is not a list: VTK frees a list it never allocated (a crash in
+    // vtkPLYReader::RequestData, found by fuzz/fuzz_mesh).
+    const auto indices = std::find(element.names.begin(), element.names.end(), "vertex_indices");
+    if (element.name == "face" &&
+        (indices == element.names.end() ||
+         !element.list[static_cast<std::size_t>(indices - element.names.begin())]))
       refuse("the face element has no vertex_indices list");
   }
   if (formats == 0)

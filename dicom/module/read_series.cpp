@@ -197,6 +197,11 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
   if (size >= 132 && bytes(0, 132, head) && std::memcmp(head + 128, "DICM", 4) == 0)
     pos = 132;
   bool explicitVr = true, bigEndian = false, meta = pos == 132, fragments = false;
+  // The sequences ('S') and items ('I') of undefined length still open, innermost last, with the
+  // byte each began at: GDCM reads an item's elements until its item delimiter, and asserts
+  // (aborts the process) when the file ends first (gdcm::DataSet::ReadNested; found by
+  // fuzz/fuzz_dicom).
+  std::vector<std::pair<char, std::uint64_t>> open;
   // The VRs GDCM knows (gdcm::VR::GetVRTypeFromFile).
   static const std::set<std::string> kVr{"AE", "AS", "AT", "CS", "DA", "DS", "DT", "FD", "FL",
                                          "IS", "LO", "LT", "OB", "OD", "OF", "OL", "OV", "OW",
@@ -281,8 +286,19 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
     if (group == 0xfffe) {  // an item or a delimiter: no VR, a 4-byte length
       length = unsignedAt(e + 4, 4, big);
       pos = valueAt;
-      if (element == 0xe0dd)
+      if (element == 0xe0dd && fragments) {
         fragments = false;
+      } else if (element == 0xe00d || element == 0xe0dd) {
+        // An item delimiter ends the open item. A sequence delimiter ends the open sequence, and
+        // an item left open in it, which GDCM takes for ended there too (ReadNested: "SQ End
+        // found but no Item end found").
+        if (!open.empty() && open.back().first == 'I')
+          open.pop_back();
+        if (element == 0xe0dd && !open.empty() && open.back().first == 'S')
+          open.pop_back();
+      }
+      if (element == 0xe000 && length == kUndefined && !fragments)
+        open.emplace_back('I', start);
       if (element != 0xe000 || length == kUndefined)
         continue;
       if (length > size - pos)
@@ -352,6 +368,8 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       if (vr == "UN")
         return "";            // a sequence in implicit VR inside an explicit one: GDCM sorts it out
       fragments = pixelData;  // encapsulated pixel data, else a sequence: items follow
+      if (!pixelData)
+        open.emplace_back('S', start);
       continue;
     }
     if (length > size - pos) {
@@ -388,6 +406,14 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
   // its VR or length (gdcm::ExplicitDataElement::ReadPreValue; found by fuzz/fuzz_dicom).
   if (size - pos >= 4 && !fragments)
     return fmt::format("the file ends at byte {}, inside the header of an element", size);
+  const auto item =
+      std::find_if(open.rbegin(), open.rend(), [](const auto& o) { return o.first == 'I'; });
+  if (item != open.rend()) {
+    return fmt::format(
+        "the file ends at byte {}, inside the item of undefined length at byte {}, which no item "
+        "delimiter ends",
+        size, item->second);
+  }
   return "";
 }
 

@@ -93,6 +93,20 @@ class CliHostileInputs : public ::testing::Test {
     std::ofstream(dir_.file("two-vertex-elements.ply")) << "ply\nformat ascii 1.0\n" + plyVertices +
                                                                plyVertices + plyFaces +
                                                                "end_header\n" + plyData;
+    // Found by fuzz/fuzz_mesh: VTK's PLY reader frees memory it never allocated for an element
+    // with no properties, here after the faces (a crash in vtkPLY::ply_close under ASan).
+    std::ofstream(dir_.file("no-properties.ply")) << "ply\nformat ascii 1.0\n" + plyVertices +
+                                                         plyFaces + "element extra 2\n" +
+                                                         "end_header\n" + plyData;
+    // Found by fuzz/fuzz_mesh: vertex_indices not a list made VTK free a list it never allocated.
+    std::ofstream(dir_.file("indices-not-a-list.ply"))
+        << "ply\nformat ascii 1.0\n" + plyVertices +
+               "element face 4\nproperty int vertex_indices\nend_header\n" + plyData;
+    // Found by fuzz/fuzz_mesh: a count of 1e62 was cast to an integer (undefined behaviour).
+    std::ofstream(dir_.file("huge-count.ply"))
+        << "ply\nformat ascii 1.0\nelement vertex 1e62\nproperty float x\nproperty float y\n"
+           "property float z\n" +
+               plyFaces + "end_header\n" + plyData;
     std::ofstream(dir_.file("empty.stl")) << "";
     // Found by fuzz/fuzz_mesh: VTK 9.1's PLY reader crashed (a null pointer) on this header.
     std::ofstream(dir_.file("misspelt.ply"))
@@ -284,6 +298,14 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
        "reads only the vertex and face elements and would read its rows as theirs"},
       {figureWith({"--model", "@two-vertex-elements.ply", "--out", "@out.png"}), 1,
        "@two-vertex-elements.ply: line 7: a second vertex element"},
+      {figureWith({"--model", "@no-properties.ply", "--out", "@out.png"}), 1,
+       "@no-properties.ply: line 9: element extra has no properties: VTK's PLY reader crashes on "
+       "such an element"},
+      {figureWith({"--model", "@indices-not-a-list.ply", "--out", "@out.png"}), 1,
+       "@indices-not-a-list.ply: line 9: the face element has no vertex_indices list"},
+      {figureWith({"--model", "@huge-count.ply", "--out", "@out.png"}), 1,
+       "@huge-count.ply: line 3: element vertex claims 1e62 rows, more than VTK's PLY reader can "
+       "count"},
       {figureWith({"--model", "@indented.obj", "--out", "@out.png"}), 1,
        "@indented.obj: line 7: face \"  f 2 3 9\": \"9\" is not a vertex number from 1 to 4"},
       // Item 8: a negative sphere radius was drawn.

@@ -486,6 +486,36 @@ TEST_F(DicomSeriesRefusal, UnknownVrsAndCutHeadersAreWalkedAsGdcmReadsThem) {
                   "header of an element");
 }
 
+// Found by fuzz/fuzz_dicom (seed found-abort-item-never-ended-c1b40295): an item of undefined
+// length that no item delimiter ends before the file does (the fuzzer's file: a sequence's item
+// holding the rest of the data set, its pixel data included). GDCM reads the item's elements up to
+// its delimiter and asserts (aborts the process) at the end of the file; the walk now refuses it.
+TEST_F(DicomSeriesRefusal, AnItemOfUndefinedLengthTheFileEndsInsideIsDamaged) {
+  const std::string file = dir_.file("open-item.dcm");
+  const std::string head = shortElement(0x0008, 0x0060, "CS", "CT") +
+                           longElementHeader(0x0008, 0x9215, "SQ", 0xffffffffU) + le(0xfffe, 2) +
+                           le(0xe000, 2) + le(0xffffffffU, 4) +
+                           shortElement(0x0008, 0x0100, "SH", "ABCD");
+  std::ofstream(file, std::ios::binary | std::ios::trunc) << head;
+  EXPECT_CONTAINS(refusal(file),
+                  "open-item.dcm: is a damaged DICOM file: the file ends at byte 42, inside the "
+                  "item of undefined length at byte 22, which no item delimiter ends");
+  // A sequence of undefined length inside the open item, ended with its item: the open item is
+  // still the one named.
+  const std::string ends =
+      le(0xfffe, 2) + le(0xe00d, 2) + le(0, 4) + le(0xfffe, 2) + le(0xe0dd, 2) + le(0, 4);
+  std::ofstream(file, std::ios::binary | std::ios::trunc)
+      << head + longElementHeader(0x0008, 0x1115, "SQ", 0xffffffffU) + le(0xfffe, 2) +
+             le(0xe000, 2) + le(0xffffffffU, 4) + ends;
+  EXPECT_CONTAINS(refusal(file),
+                  "open-item.dcm: is a damaged DICOM file: the file ends at byte 78, inside the "
+                  "item of undefined length at byte 22, which no item delimiter ends");
+  // The same item ended by its delimiter, and its sequence by its own: read.
+  std::ofstream(file, std::ios::binary | std::ios::trunc)
+      << head + le(0xfffe, 2) + le(0xe00d, 2) + le(0, 4) + le(0xfffe, 2) + le(0xe0dd, 2) + le(0, 4);
+  EXPECT_EQ(refusal(file).find("damaged"), std::string::npos) << refusal(file);
+}
+
 // GDCM reads a VR it does not know but made of two printable characters ("Xy") as UN: 2 reserved
 // bytes and a 4-byte length (gdcm::VR::GetVRTypeFromFile). The walk took such an element for one
 // of GDCM's INVALID VRs and read its length the implicit way ("Xy\0\0", 31064 bytes), so a file
