@@ -54,6 +54,12 @@ inline void checkObjFile(const std::string& path) {
     rest.assign(keyword + 1, line.end());
     return true;
   };
+  // A two-letter keyword ("vt", "vn") followed by white space.
+  const auto startsWith2 = [&space](const std::string& line, const char* kind) {
+    const auto keyword = std::find_if_not(line.begin(), line.end(), space);
+    return line.end() - keyword >= 3 && keyword[0] == kind[0] && keyword[1] == kind[1] &&
+           space(keyword[2]);
+  };
   std::string rest;
   long long vertices = 0;
   for (std::size_t i = 0; i < lines.size(); ++i) {
@@ -76,6 +82,20 @@ inline void checkObjFile(const std::string& path) {
       }
     }
   }
+  // Texture coordinates and normals a face may name after its vertex ("7/1", "7//3", "7/1/3"):
+  // VTK's reader reads a number beyond them out of bounds too (a crash, found by fuzz/fuzz_mesh).
+  long long texture = 0, normals = 0;
+  for (const std::string& line : lines) {
+    texture += startsWith2(line, "vt") ? 1 : 0;
+    normals += startsWith2(line, "vn") ? 1 : 0;
+  }
+  // `number` is a whole number from 1 to `count`, or from -1 to -count (from the end).
+  const auto isIndex = [](const std::string& number, long long count) {
+    long long index = 0;
+    const auto parsed = std::from_chars(number.data(), number.data() + number.size(), index);
+    return parsed.ec == std::errc() && parsed.ptr == number.data() + number.size() && index != 0 &&
+           index <= count && index >= -count;
+  };
   for (std::size_t i = 0; i < lines.size(); ++i) {
     if (!starts(lines[i], 'f', rest))
       continue;
@@ -84,15 +104,27 @@ inline void checkObjFile(const std::string& path) {
     int corners = 0;
     while (words >> word) {
       // "7", "7/1", "7//3", "7/1/3": the vertex number comes first; negative counts from the end.
-      const std::string number = word.substr(0, word.find('/'));
-      long long index = 0;
-      const auto parsed = std::from_chars(number.data(), number.data() + number.size(), index);
-      const bool inRange = index != 0 && index <= vertices && index >= -vertices;
-      if (parsed.ec != std::errc() || parsed.ptr != number.data() + number.size() || !inRange) {
+      const std::size_t slash = word.find('/');
+      if (!isIndex(word.substr(0, slash), vertices)) {
         throw core::FileError(path,
                               fmt::format("line {}: face \"{}\": \"{}\" is not a vertex number "
                                           "from 1 to {}",
                                           i + 1, lines[i], word, vertices));
+      }
+      if (slash != std::string::npos) {
+        const std::size_t second = word.find('/', slash + 1);
+        const std::string uv = word.substr(
+            slash + 1, second == std::string::npos ? std::string::npos : second - slash - 1);
+        const std::string normal =
+            second == std::string::npos ? std::string() : word.substr(second + 1);
+        if ((!uv.empty() && !isIndex(uv, texture)) ||
+            (!normal.empty() && !isIndex(normal, normals))) {
+          throw core::FileError(
+              path, fmt::format("line {}: face \"{}\": \"{}\" names a texture coordinate or "
+                                "normal the file does not have ({} texture coordinates, {} "
+                                "normals)",
+                                i + 1, lines[i], word, texture, normals));
+        }
       }
       ++corners;
     }

@@ -79,6 +79,16 @@ class CliHostileInputs : public ::testing::Test {
       start = end;
     }
     std::ofstream(dir_.file("indented.obj")) << indented;
+    // Found by fuzz/fuzz_mesh: a face naming texture coordinate 2222 of a file with none was read
+    // out of bounds by VTK's OBJ reader (a crash); a normal beyond the file's likewise.
+    std::string texture = tetrahedronObj("0 30 0");
+    texture.replace(texture.find("f 1 3 2"), 7, "f 1 3 2/2222");
+    std::ofstream(dir_.file("texture-beyond.obj")) << texture;
+    std::ofstream(dir_.file("normal-beyond.obj"))
+        << "vn 0 0 1\n" + tetrahedronObj("0 30 0") + "f 1//1 2//2 3//1\n";
+    std::ofstream(dir_.file("with-texture.obj"))
+        << "vt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nv 0 0 0\nv 30 0 0\nv 0 30 0\nv 0 0 30\n"
+           "f 1/1/1 3/3/1 2/2/1\nf 1/1/1 2/2/1 4/-1/1\nf 2/2/1 3/3/1 4/1/-1\nf 3//1 1//1 4//1\n";
     // Found by fuzz/fuzz_mesh: VTK's PLY reader skips no element but vertex and face, so the rows
     // of another before the faces were read as faces (a crash in vtkPLYReader); a second vertex
     // element is read over the first.
@@ -277,6 +287,12 @@ TEST_F(CliHostileInputs, TheGoodInputsOfTheTableAreAccepted) {
                                dir_.file("FemurToCT.json"), "--out", dir_.file("stl.png")});
   ASSERT_EQ(stl.exitCode, 0) << stl.err;
   EXPECT_TRUE(fs::is_regular_file(dir_.file("stl.png")));
+  // An OBJ whose faces name texture coordinates and normals it has (one counted from the end).
+  const auto uv = runEchoreg({"figure", "registration", "--model", dir_.file("with-texture.obj"),
+                              "--points", dir_.file("points.csv"), "--transform",
+                              dir_.file("FemurToCT.json"), "--out", dir_.file("uv.png")});
+  ASSERT_EQ(uv.exitCode, 0) << uv.err;
+  EXPECT_TRUE(fs::is_regular_file(dir_.file("uv.png")));
 }
 
 TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
@@ -308,6 +324,12 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
        "count"},
       {figureWith({"--model", "@indented.obj", "--out", "@out.png"}), 1,
        "@indented.obj: line 7: face \"  f 2 3 9\": \"9\" is not a vertex number from 1 to 4"},
+      {figureWith({"--model", "@texture-beyond.obj", "--out", "@out.png"}), 1,
+       "@texture-beyond.obj: line 5: face \"f 1 3 2/2222\": \"2/2222\" names a texture "
+       "coordinate or normal the file does not have (0 texture coordinates, 0 normals)"},
+      {figureWith({"--model", "@normal-beyond.obj", "--out", "@out.png"}), 1,
+       "@normal-beyond.obj: line 10: face \"f 1//1 2//2 3//1\": \"2//2\" names a texture "
+       "coordinate or normal the file does not have (0 texture coordinates, 1 normals)"},
       // Item 8: a negative sphere radius was drawn.
       {figureWith({"--model", "@good.obj", "--point-radius", "-1", "--out", "@out.png"}), 2,
        "--point-radius: must be a finite number > 0, got -1"},
