@@ -386,8 +386,8 @@ std::vector<std::pair<double, std::vector<std::uint8_t>>> readImages(Connection&
 }
 
 TEST_F(LiveSession, ServeRepeatsTheCaptureWithTimestampsGoingOnAsPlusLoopsIt) {
-  // 100 frames at 40 Hz (2.475 s from first to last): each pass goes on one mean frame interval
-  // (2.5 s / 100) after the last one, so pass k is the capture shifted by k * 2.5 s.
+  // 100 frames at 100 Hz (0.99 s from first to last): each pass goes on one mean frame interval
+  // (0.01 s) after the last one, so pass k is the capture shifted by k * 1 s.
   const core::Sequence served = sweep(100);
   core::writeSequence(served, dir_.file("served.igs.mha"));
   const double first = *served.frames.front().timestampS;
