@@ -188,13 +188,7 @@ int runServe(const ServeOptions& o, const Streams& io) {
                                     name + " " + transform.status, t));
           }
         }
-        if (pass == 0) {
-          send(live::encodeString(live::kFrameName, live::frameJson(frame), t));
-        } else {
-          core::SequenceFrame shifted = frame;
-          shifted.timestampS = t;
-          send(live::encodeString(live::kFrameName, live::frameJson(shifted), t));
-        }
+        send(live::encodeString(live::kFrameName, live::frameJson(frame, t), t));
         if (sequence.hasPixels()) {
           send(live::encodeImage(o.imageName, sequence.elementType,
                                  sequence.pixels.data() + f * frameBytes, sequence.frameSize[0],

@@ -22,6 +22,7 @@
 #include <initializer_list>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <vector>
 
@@ -45,25 +46,21 @@ inline void checkObjFile(const std::string& path) {
     }
   }
   const auto space = [](char c) { return std::isspace(static_cast<unsigned char>(c)) != 0; };
-  // The line's keyword is `kind` (after any white space), followed by white space; `rest` is what
-  // follows the keyword.
-  const auto starts = [&space](const std::string& line, char kind, std::string& rest) {
+  // The line's keyword is `kind` ("v", "vt", "f"...; after any white space), followed by white
+  // space; `rest` is what follows the keyword.
+  const auto starts = [&space](const std::string& line, std::string_view kind, std::string& rest) {
     const auto keyword = std::find_if_not(line.begin(), line.end(), space);
-    if (line.end() - keyword < 2 || *keyword != kind || !space(keyword[1]))
+    const auto size = static_cast<std::ptrdiff_t>(kind.size());
+    if (line.end() - keyword <= size || !std::equal(kind.begin(), kind.end(), keyword) ||
+        !space(keyword[size]))
       return false;
-    rest.assign(keyword + 1, line.end());
+    rest.assign(keyword + size, line.end());
     return true;
-  };
-  // A two-letter keyword ("vt", "vn") followed by white space.
-  const auto startsWith2 = [&space](const std::string& line, const char* kind) {
-    const auto keyword = std::find_if_not(line.begin(), line.end(), space);
-    return line.end() - keyword >= 3 && keyword[0] == kind[0] && keyword[1] == kind[1] &&
-           space(keyword[2]);
   };
   std::string rest;
   long long vertices = 0;
   for (std::size_t i = 0; i < lines.size(); ++i) {
-    if (!starts(lines[i], 'v', rest))
+    if (!starts(lines[i], "v", rest))
       continue;  // not a vertex position (vn, vt, f, comments, ...)
     ++vertices;
     std::istringstream words(rest);
@@ -86,8 +83,8 @@ inline void checkObjFile(const std::string& path) {
   // VTK's reader reads a number beyond them out of bounds too (a crash, found by fuzz/fuzz_mesh).
   long long texture = 0, normals = 0;
   for (const std::string& line : lines) {
-    texture += startsWith2(line, "vt") ? 1 : 0;
-    normals += startsWith2(line, "vn") ? 1 : 0;
+    texture += starts(line, "vt", rest) ? 1 : 0;
+    normals += starts(line, "vn", rest) ? 1 : 0;
   }
   // `number` is a whole number from 1 to `count`, or from -1 to -count (from the end).
   const auto isIndex = [](const std::string& number, long long count) {
@@ -97,7 +94,7 @@ inline void checkObjFile(const std::string& path) {
            index <= count && index >= -count;
   };
   for (std::size_t i = 0; i < lines.size(); ++i) {
-    if (!starts(lines[i], 'f', rest))
+    if (!starts(lines[i], "f", rest))
       continue;
     std::istringstream words(rest);
     std::string word;

@@ -47,9 +47,8 @@ void applyCaptureHeader(const std::string& text, core::Sequence& layout) {
   }
 }
 
-std::string frameJson(const core::SequenceFrame& frame) {
-  return nlohmann::json{{"timestamp", frame.timestampS.value_or(0.0)}, {"fields", frame.fields}}
-      .dump();
+std::string frameJson(const core::SequenceFrame& frame, double timestampS) {
+  return nlohmann::json{{"timestamp", timestampS}, {"fields", frame.fields}}.dump();
 }
 
 FrameMetadata parseFrameJson(const std::string& text) {

@@ -28,9 +28,10 @@ struct FrameMetadata {
   double timestampS = 0.0;
   std::vector<std::pair<std::string, std::string>> fields;
 };
-/// As JSON text ({"timestamp": 11.120000000000001, "fields": [["ImageStatus","OK"]]}) and back
-/// (throws std::invalid_argument for other text).
-std::string frameJson(const core::SequenceFrame& frame);
+/// A frame's fields at `timestampS` (its own, or shifted: `serve --repeat`) as JSON text
+/// ({"timestamp": 11.120000000000001, "fields": [["ImageStatus","OK"]]}) and back (throws
+/// std::invalid_argument for other text).
+std::string frameJson(const core::SequenceFrame& frame, double timestampS);
 FrameMetadata parseFrameJson(const std::string& text);
 
 }  // namespace echoreg::live
