@@ -123,6 +123,13 @@ std::string nameList(const std::vector<std::string>& names) {
   return out;
 }
 
+/// Native pixel data whose declared length runs past the end of the file (found by the walk).
+struct PixelBeyondFile {
+  std::uint64_t elementAt = 0;  ///< the element's first byte (its tag); 0: none found
+  std::uint64_t valueAt = 0;    ///< its value's first byte
+  std::uint64_t declared = 0;   ///< the length its header declares
+};
+
 /// What the header of one file says (read up to the pixel data).
 struct SliceHeader {
   std::string name;  ///< file name (the path's last component)
@@ -146,6 +153,9 @@ struct SliceHeader {
   /// native (uncompressed) element must fit in the file; GDCM pads a truncated one silently.
   std::uint64_t pixelDataOffset = 0;
   std::uint64_t fileSize = 0;
+  /// Native pixel data declaring more bytes than the file holds after its start (elementAt 0:
+  /// none).
+  PixelBeyondFile pixelBeyondFile;
 };
 
 /// The unsigned number in the `count` (at most 4) bytes at `b`, little endian unless `bigEndian`
@@ -170,7 +180,9 @@ std::uint32_t unsignedAt(const unsigned char* b, int count, bool bigEndian = fal
 /// private syntax; "Ul" for "UL" made GDCM abort, fuzz/fuzz_dicom). Returns the first element whose
 /// declared length runs past the end of the file, or "" when none does (or the file is not DICOM
 /// enough to tell: GDCM then says so). Native little endian pixel data longer than the file is not
-/// reported here: the reader refuses it as truncated, with its size.
+/// reported here but in `pixelBeyondFile` (its element's start, its value's and the length it
+/// declares): the reader refuses it before any pixel is read, as truncated with its sizes when its
+/// pixels are missing, else as a wrong length.
 ///
 /// An element whose VR GDCM does not know and is not two printable characters (GDCM reads those
 /// as UN), in an explicit data set, makes GDCM read the data set
@@ -180,7 +192,8 @@ std::uint32_t unsignedAt(const unsigned char* b, int count, bool bigEndian = fal
 /// after the tag (ExplicitImplicitDataElement): a 32-byte file whose second element had the VR
 /// "\0@" took 1.4 GB (fuzz/fuzz_dicom). The walk follows `unknownVrImplicit`'s way and says in
 /// `sawUnknownVr` whether the other way needs walking too.
-std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& sawUnknownVr) {
+std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& sawUnknownVr,
+                         PixelBeyondFile& pixelBeyondFile) {
   std::ifstream in(path, std::ios::binary);
   std::error_code sizeError;
   const std::uint64_t size = fs::file_size(path, sizeError);
@@ -376,8 +389,10 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       // Native little endian pixel data cut short is refused later with its sizes, and read from
       // the file, not by GDCM. Any other is read by GDCM, which allocates the length it declares:
       // 4 GB for RLE pixel data of a defined length in a 908-byte file (fuzz/fuzz_dicom).
-      if (pixelData && !bigEndian && !encapsulated)
+      if (pixelData && !bigEndian && !encapsulated) {
+        pixelBeyondFile = {start, pos, length};
         return "";
+      }
       return fmt::format(
           "element ({:04x},{:04x}) at byte {} claims {} bytes, but {} are left in "
           "the file",
@@ -417,11 +432,15 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
   return "";
 }
 
-std::string elementBeyondFile(const fs::path& path) {
+std::string elementBeyondFile(const fs::path& path, PixelBeyondFile& pixelBeyondFile) {
   bool sawUnknownVr = false;
-  std::string damaged = walkElements(path, true, sawUnknownVr);
-  if (damaged.empty() && sawUnknownVr)
-    damaged = walkElements(path, false, sawUnknownVr);
+  std::string damaged = walkElements(path, true, sawUnknownVr, pixelBeyondFile);
+  if (damaged.empty() && sawUnknownVr) {
+    PixelBeyondFile other;
+    damaged = walkElements(path, false, sawUnknownVr, other);
+    if (pixelBeyondFile.elementAt == 0)
+      pixelBeyondFile = other;
+  }
   return damaged;
 }
 
@@ -429,7 +448,7 @@ SliceHeader scanHeader(const fs::path& path) {
   SliceHeader h;
   h.name = path.filename().string();
   h.path = path.string();
-  h.damaged = elementBeyondFile(path);
+  h.damaged = elementBeyondFile(path, h.pixelBeyondFile);
   if (!h.damaged.empty())
     return h;
   try {
@@ -1424,15 +1443,38 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
 void checkSizesBeforeAllocating(const std::string& folder, const std::vector<SliceHeader>& slices,
                                 const CtImage& image) {
   for (const SliceHeader& h : slices) {
+    const std::uint64_t bytesPerPixel =
+        static_cast<std::uint64_t>(std::max(1, h.samplesPerPixel)) *
+        static_cast<std::uint64_t>((std::max(0, h.bitsAllocated) + 7) / 8);
+    const std::uint64_t needed = static_cast<std::uint64_t>(std::max(0, h.rows)) *
+                                 static_cast<std::uint64_t>(std::max(0, h.columns)) * bytesPerPixel;
+    // GDCM allocates the declared length before it reads the value, and fills what the file lacks
+    // silently: a 836-byte slice declaring 3,288,334,464 bytes of pixel data took 3.2 GB and 12 s
+    // and was read without a word when its 128 bytes of pixels were there and a private element
+    // after the pixel data's tag made the header scan miss the pixels' start (fuzz/fuzz_dicom).
+    if (const PixelBeyondFile& beyond = h.pixelBeyondFile; beyond.elementAt != 0) {
+      const std::uint64_t held = h.fileSize > beyond.valueAt ? h.fileSize - beyond.valueAt : 0;
+      if (needed > held) {
+        throw core::FileError(
+            folder,
+            fmt::format("{}: truncated pixel data: its header claims {} x {} pixels of {} bits "
+                        "({} bytes), but the file holds {} bytes after the pixel data's start: "
+                        "Rows / Columns in the header are wrong, or the file was cut short",
+                        h.name, h.columns, h.rows, h.bitsAllocated, needed, held));
+      }
+      throw core::FileError(
+          folder, fmt::format("{}: damaged pixel data: its element at byte {} declares {} bytes, "
+                              "but the file ends {} bytes after the value's start (the {} x {} "
+                              "pixels of {} bits need {}): the length in the file is wrong, or "
+                              "the file was cut short",
+                              h.name, beyond.elementAt, beyond.declared, held, h.columns, h.rows,
+                              h.bitsAllocated, needed));
+    }
     const bool native = h.transferSyntax == "1.2.840.10008.1.2" ||
                         h.transferSyntax == "1.2.840.10008.1.2.1" ||
                         h.transferSyntax == "1.2.840.10008.1.2.2";
     if (!native || h.pixelDataOffset == 0 || h.fileSize == 0 || h.bitsAllocated <= 0)
       continue;
-    const std::uint64_t needed = static_cast<std::uint64_t>(h.rows) *
-                                 static_cast<std::uint64_t>(h.columns) *
-                                 static_cast<std::uint64_t>(std::max(1, h.samplesPerPixel)) *
-                                 static_cast<std::uint64_t>((h.bitsAllocated + 7) / 8);
     const std::uint64_t held = h.fileSize - std::min(h.fileSize, h.pixelDataOffset);
     if (needed > held) {
       throw core::FileError(

@@ -384,6 +384,44 @@ TEST_F(DicomSeriesRefusal, AnElementLongerThanTheFileIsNotAllocated) {
   EXPECT_LT(usage.ru_maxrss, 1000L * 1024L) << "peak kB: the declared length was allocated";
 }
 
+// Found by fuzz/fuzz_dicom (seed found-oom-pixel-length-94f3771e): native pixel data whose
+// declared length runs past the end of the file, its pixels all there. GDCM allocates the declared
+// length before reading, and pads what the file lacks without a word: 3.2 GB and 12 s for an
+// 836-byte slice, read as if whole, when an element out of tag order before the pixel data (a
+// private (ff27,1052)) made the header scan miss where the pixels start. Both ways the slice is
+// refused before anything is allocated, naming the element and the lengths.
+TEST_F(DicomSeriesRefusal, PixelDataDeclaringMoreThanTheFileHoldsIsRefusedBeforeAllocating) {
+  std::string bytes;
+  {
+    std::ifstream in(path(2), std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::size_t pixels = bytes.find(std::string("\xe0\x7f\x10\x00OW\x00\x00", 8));
+  ASSERT_NE(pixels, std::string::npos);
+  const std::size_t held = bytes.size() - (pixels + 12);
+  ASSERT_EQ(held, 4U * 3U * 2U);  // 4 x 3 pixels of 16 bits, nothing after them
+  bytes.replace(pixels + 8, 4, std::string("\x80\x00\x00\xc4", 4));  // 3,288,334,464
+  const std::size_t intercept =
+      bytes.find(std::string("\x28\x00\x52\x10"
+                             "DS",
+                             6));
+  ASSERT_NE(intercept, std::string::npos);
+  for (const bool outOfOrder : {false, true}) {
+    if (outOfOrder)
+      bytes.replace(intercept, 2, std::string("\x27\xff", 2));  // (0028,1052) -> (ff27,1052)
+    std::ofstream(path(2), std::ios::binary | std::ios::trunc) << bytes;
+    const std::string message = refusal(path(2));
+    EXPECT_CONTAINS(message, fileName(2) + ": damaged pixel data: its element at byte " +
+                                 std::to_string(pixels) + " declares 3288334464 bytes, but the " +
+                                 "file ends 24 bytes after the value's start (the 4 x 3 pixels " +
+                                 "of 16 bits need 24)");
+    EXPECT_CONTAINS(refusal(folder_), fileName(2) + ": damaged pixel data");
+  }
+  struct rusage usage {};
+  getrusage(RUSAGE_SELF, &usage);
+  EXPECT_LT(usage.ru_maxrss, 1000L * 1024L) << "peak kB: the declared length was allocated";
+}
+
 // Debian's GDCM asserts (aborts) when a file ends inside its file meta group (found by
 // fuzz/fuzz_dicom, seed found-abort-meta-truncated-ebd7dc42): such a file is refused as damaged
 // before GDCM reads it, naming the file.
