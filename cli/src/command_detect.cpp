@@ -5,6 +5,7 @@
 #include "pose_check.hpp"
 
 #include "echoreg/core/error.hpp"
+#include "echoreg/core/prefault.hpp"
 #include "echoreg/core/sequence.hpp"
 #include "echoreg/core/sequence_detection.hpp"
 #include "echoreg/core/transform_file.hpp"
@@ -128,6 +129,10 @@ CommandAction addDetectCommand(CLI::App& app) {
     ParamsSources sources{o->paramsFile, {}};
     if (!o->paramsFile.empty())
       sources.fromFile = mergeParamsFile(o->paramsFile, preset, settings);
+    // The per-frame tables, strings and envelope blocks of a long capture are tens of megabytes
+    // allocated in many blocks: on huge pages, a few page faults instead of thousands
+    // (docs/benchmarks.md).
+    core::reserveHugePageHeap(std::size_t{32} << 20);
     // reader -> envelope -> peaks -> beam points -> inter-signal -> writer (detection_pipeline.h)
     filters::DetectionPipeline pipeline;
     const core::Sequence& sequence = pipeline.open(o->capture, {o->pose, o->reference});

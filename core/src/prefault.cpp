@@ -3,6 +3,12 @@
 #include <sys/mman.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cstdlib>
+#if defined(__GLIBC__)
+#include <malloc.h>
+#endif
+
 namespace echoreg::core {
 
 #ifdef MADV_POPULATE_WRITE
@@ -46,6 +52,32 @@ std::vector<std::uint8_t> prefaultedZeros(std::size_t bytes) {
   prefaultForWriting(buffer.data(), bytes);
   buffer.resize(bytes);
   return buffer;
+}
+
+void reserveHugePageHeap(std::size_t bytes) {
+#if defined(__GLIBC__) && defined(MADV_HUGEPAGE) && defined(MADV_POPULATE_WRITE)
+  if (bytes == 0)
+    return;
+  // Blocks up to 32 MiB (glibc's largest mmap threshold on 64-bit) come from the heap rather than
+  // mappings of their own, and the heap is not given back while the process runs.
+  constexpr int kMmapThreshold = 32 << 20;
+  if (::mallopt(M_MMAP_THRESHOLD, kMmapThreshold) == 0 ||
+      ::mallopt(M_TRIM_THRESHOLD, static_cast<int>(std::min<std::size_t>(bytes * 2, 1U << 30))) ==
+          0) {
+    return;
+  }
+  const auto start = reinterpret_cast<std::uintptr_t>(::sbrk(0));
+  // One block below the threshold grows the heap by that much; freed, it stays in the heap.
+  const std::size_t block = std::min<std::size_t>(bytes, kMmapThreshold - 4096);
+  void* grow = std::malloc(block);
+  std::free(grow);
+  const auto end = reinterpret_cast<std::uintptr_t>(::sbrk(0));
+  if (grow == nullptr || end <= start)
+    return;
+  adviseWholeUnits(start, end - start, std::uintptr_t{2} << 20, MADV_HUGEPAGE);
+#else
+  (void)bytes;
+#endif
 }
 
 }  // namespace echoreg::core

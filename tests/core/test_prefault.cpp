@@ -32,4 +32,34 @@ TEST(Prefault, ZerosAreZerosOfTheSizeAsked) {
   }
 }
 
+// The heap grown and advised for huge pages keeps serving allocations, and what the heap already
+// held is unchanged by it (advice that dropped pages would read them back as zeros).
+TEST(Prefault, AHugePageHeapKeepsServingAndKeepsWhatItHolds) {
+  std::vector<std::vector<std::uint32_t>> blocks;
+  const auto fill = [](std::vector<std::uint32_t>& block, std::uint32_t seed) {
+    for (std::size_t i = 0; i < block.size(); ++i)
+      block[i] = static_cast<std::uint32_t>(i) * 2654435761u + seed;
+  };
+  const auto holds = [](const std::vector<std::uint32_t>& block, std::uint32_t seed) {
+    for (std::size_t i = 0; i < block.size(); ++i) {
+      if (block[i] != static_cast<std::uint32_t>(i) * 2654435761u + seed)
+        return false;
+    }
+    return true;
+  };
+  for (const std::size_t n : {std::size_t{1}, std::size_t{1000}, std::size_t{1} << 18}) {
+    blocks.emplace_back(n);
+    fill(blocks.back(), static_cast<std::uint32_t>(n));
+  }
+  echoreg::core::reserveHugePageHeap(std::size_t{16} << 20);
+  echoreg::core::reserveHugePageHeap(0);
+  for (const std::size_t n : {std::size_t{7}, std::size_t{5000}, std::size_t{3} << 20}) {
+    blocks.emplace_back(n);
+    fill(blocks.back(), static_cast<std::uint32_t>(n));
+  }
+  echoreg::core::reserveHugePageHeap(std::size_t{4} << 20);  // again: harmless
+  for (const auto& block : blocks)
+    EXPECT_TRUE(holds(block, static_cast<std::uint32_t>(block.size()))) << block.size();
+}
+
 }  // namespace
