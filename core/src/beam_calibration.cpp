@@ -1,9 +1,10 @@
 #include "echoreg/core/beam_calibration.hpp"
 
+#include "beam_model.hpp"
 #include "echoreg/core/number_text.hpp"
 #include "robust_solve.hpp"
+#include "solve_calls.hpp"
 
-#include <ceres/ceres.h>
 #include <Eigen/SVD>
 
 #include <algorithm>
@@ -52,18 +53,8 @@ Layout layoutOf(const BeamCalibrationOptions& options) {
   return layout;
 }
 
-/// One shot, reduced to what the residual needs: p - c = R_i t + (R_i R0) q(d) + (t_i - c).
-struct ShotData {
-  Eigen::Matrix3d probeRotation;  ///< R_i of ProbeToTracker
-  Eigen::Matrix3d beamRotation;   ///< R_i R0 (R0: the initial BeamToProbe rotation)
-  Eigen::Vector3d offset;         ///< t_i - c
-  double depthMm = 0.0;
-  double radiusMm = 0.0;
-  double inverseAssumedSpeed = 0.0;  ///< s / m
-};
-
-ShotData shotData(const BeamShot& shot, const BeamCalibrationOptions& options) {
-  ShotData data;
+detail::ShotData shotData(const BeamShot& shot, const BeamCalibrationOptions& options) {
+  detail::ShotData data;
   data.probeRotation = shot.probeToTracker.linear();
   data.beamRotation = data.probeRotation * options.initialBeamToProbe.linear();
   data.offset = shot.probeToTracker.translation() - options.sphereCentreTracker;
@@ -73,81 +64,21 @@ ShotData shotData(const BeamShot& shot, const BeamCalibrationOptions& options) {
   return data;
 }
 
-/// r - |p - c| for one shot; the parameter layout follows from their number: 3 translation,
-/// 4 translation + speed, 5 translation + tilts, 6 translation + tilts + speed.
-template <int kCount>
-struct ShotResidual {
-  static constexpr bool kTilt = kCount >= 5;
-  static constexpr bool kSpeed = kCount == 4 || kCount == 6;
-
-  explicit ShotResidual(const ShotData& shot) : data(shot) {}
-
-  template <typename T>
-  bool operator()(const T* x, T* residual) const {
-    const T scale = kSpeed ? T(x[kCount - 1] * data.inverseAssumedSpeed) : T(1.0);
-    const T along = scale * data.depthMm;  // distance along the beam, mm
-    // The beam point in the initial beam frame: Rx(tilt_x) Ry(tilt_y) (0, 0, along).
-    T q[3] = {T(0.0), T(0.0), along};
-    if constexpr (kTilt) {
-      using std::cos;
-      using std::sin;
-      const T sinY = sin(x[4]);
-      const T cosY = cos(x[4]);
-      q[0] = along * sinY;
-      q[1] = -sin(x[3]) * along * cosY;
-      q[2] = cos(x[3]) * along * cosY;
-    }
-    T squared = T(0.0);
-    for (int row = 0; row < 3; ++row) {
-      T value = T(data.offset[row]);
-      for (int col = 0; col < 3; ++col) {
-        value += data.probeRotation(row, col) * x[col] + data.beamRotation(row, col) * q[col];
-      }
-      squared += value * value;
-    }
-    using std::sqrt;
-    residual[0] = T(data.radiusMm) - sqrt(squared);
-    return true;
-  }
-
-  ShotData data;
-};
-
-std::unique_ptr<ceres::CostFunction> makeCost(int count, const ShotData& data) {
-  switch (count) {
-    case 3:
-      return std::make_unique<ceres::AutoDiffCostFunction<ShotResidual<3>, 1, 3>>(
-          new ShotResidual<3>(data));
-    case 4:
-      return std::make_unique<ceres::AutoDiffCostFunction<ShotResidual<4>, 1, 4>>(
-          new ShotResidual<4>(data));
-    case 5:
-      return std::make_unique<ceres::AutoDiffCostFunction<ShotResidual<5>, 1, 5>>(
-          new ShotResidual<5>(data));
-    case 6:
-      return std::make_unique<ceres::AutoDiffCostFunction<ShotResidual<6>, 1, 6>>(
-          new ShotResidual<6>(data));
-    default:
-      throw std::logic_error("beam calibration: no cost function for " + std::to_string(count) +
-                             " parameters");
-  }
-}
-
 /// The residual alone (the solver's functor, without derivatives).
-double residualAt(int count, const ShotData& data, const double* x) {
+double residualAt(int count, const detail::ShotData& data, const double* x) {
   double value = 0.0;
   switch (count) {
     case 3:
-      ShotResidual<3>{data}(x, &value);
+      detail::ShotResidual<3>{data}(x, &value);
       break;
     case 4:
-      ShotResidual<4>{data}(x, &value);
+      detail::ShotResidual<4>{data}(x, &value);
       break;
     case 5:
-      ShotResidual<5>{data}(x, &value);
+      detail::ShotResidual<5>{data}(x, &value);
       break;
     default:
-      ShotResidual<6>{data}(x, &value);
+      detail::ShotResidual<6>{data}(x, &value);
       break;
   }
   return value;
@@ -337,17 +268,13 @@ Eigen::MatrixXd beamCalibrationJacobian(const std::vector<BeamShot>& shots,
                                                  " parameters given, the mode has " +
                                                  std::to_string(layout.count));
   require(parameters.allFinite(), "the parameters are not finite");
-  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  RowMajor jacobian(static_cast<Eigen::Index>(shots.size()), layout.count);
-  const double* blocks[] = {parameters.data()};
-  for (std::size_t i = 0; i < shots.size(); ++i) {
-    const auto cost = makeCost(layout.count, shotData(shots[i], options));
-    double residual = 0.0;
-    double* row[] = {jacobian.row(static_cast<Eigen::Index>(i)).data()};
-    if (!cost->Evaluate(blocks, &residual, row)) {
-      require(false, "shot " + std::to_string(i) + ": the residual cannot be evaluated");
-    }
-  }
+  std::vector<detail::ShotData> data;
+  data.reserve(shots.size());
+  for (const BeamShot& shot : shots)
+    data.push_back(shotData(shot, options));
+  detail::ShotJacobian jacobian;
+  const int failed = detail::beamJacobianInSolverModule(layout.count, data, parameters, jacobian);
+  require(failed < 0, "shot " + std::to_string(failed) + ": the residual cannot be evaluated");
   return jacobian;
 }
 
@@ -358,7 +285,7 @@ BeamCalibrationResult calibrateBeam(const std::vector<BeamShot>& shots,
   const Layout layout = layoutOf(options);
   const std::size_t count = static_cast<std::size_t>(layout.count);
 
-  std::vector<ShotData> data;
+  std::vector<detail::ShotData> data;
   data.reserve(shots.size());
   for (const BeamShot& shot : shots)
     data.push_back(shotData(shot, options));
@@ -369,22 +296,13 @@ BeamCalibrationResult calibrateBeam(const std::vector<BeamShot>& shots,
       beamParameters(options.initialBeamToProbe, options.assumedSpeedOfSoundMps, options);
   std::vector<bool> used(shots.size(), true);
   std::vector<double> residuals(shots.size(), 0.0);
-  const ceres::Solver::Options solver = detail::levenbergMarquardt(1e-12, 1e-14, 1e-12);
-
   for (int round = 1; round <= options.maxRounds; ++round) {
-    ceres::Problem problem;
-    for (std::size_t i = 0; i < data.size(); ++i) {
-      if (used[i])
-        problem.AddResidualBlock(makeCost(layout.count, data[i]).release(), nullptr, x.data());
-    }
-    ceres::Solver::Summary summary;
-    ceres::Solve(solver, &problem, &summary);
-    if (!summary.IsSolutionUsable() || !x.allFinite()) {
-      throw std::runtime_error("beam calibration: the solver failed: " + summary.message);
-    }
-    result.iterations += static_cast<int>(summary.iterations.size()) - 1;
+    const detail::BeamRound solved = detail::beamRoundInSolverModule(layout.count, data, used, x);
+    if (!solved.usable || !x.allFinite())
+      throw std::runtime_error("beam calibration: the solver failed: " + solved.message);
+    result.iterations += solved.iterations;
     result.rounds = round;
-    result.converged = summary.termination_type == ceres::CONVERGENCE;
+    result.converged = solved.converged;
     for (std::size_t i = 0; i < data.size(); ++i)
       residuals[i] = residualAt(layout.count, data[i], x.data());
     if (round == options.maxRounds)

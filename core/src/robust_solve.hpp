@@ -1,8 +1,7 @@
-// Shared by the calibration solvers (fits.cpp, beam_calibration.cpp): the robust outlier
-// threshold and the Ceres Levenberg-Marquardt settings. Private to echoreg::core.
+// Shared by the calibration solvers (fits.cpp, beam_calibration.cpp) and the robust surface
+// registration: the robust outlier threshold. Private to echoreg::core (and the solver module,
+// solve/, which holds the Ceres half of those solvers).
 #pragma once
-
-#include <ceres/ceres.h>
 
 #include <algorithm>
 #include <cstddef>
@@ -29,23 +28,6 @@ inline double robustThreshold(const std::vector<double>& absoluteResiduals, doub
   if (absoluteResiduals.empty())
     return minimum;
   return std::max(sigmas * 1.4826 * median(absoluteResiduals), minimum);
-}
-
-/// Levenberg-Marquardt, dense QR, one thread (deterministic), silent.
-inline ceres::Solver::Options levenbergMarquardt(double functionTolerance, double gradientTolerance,
-                                                 double parameterTolerance) {
-  ceres::Solver::Options options;
-  options.minimizer_type = ceres::TRUST_REGION;
-  options.trust_region_strategy_type = ceres::LEVENBERG_MARQUARDT;
-  options.linear_solver_type = ceres::DENSE_QR;
-  options.num_threads = 1;
-  options.minimizer_progress_to_stdout = false;
-  options.logging_type = ceres::SILENT;
-  options.max_num_iterations = 200;
-  options.function_tolerance = functionTolerance;
-  options.gradient_tolerance = gradientTolerance;
-  options.parameter_tolerance = parameterTolerance;
-  return options;
 }
 
 }  // namespace echoreg::core::detail
