@@ -30,9 +30,6 @@ Function dicomFunction(const char* symbol,
 }
 
 /// Rethrows what the module caught, if anything.
-inline void rethrowFromModule(const std::exception_ptr& error) {
-  if (error)
-    std::rethrow_exception(error);
-}
+using core::rethrowFromModule;
 
 }  // namespace echoreg::dicom

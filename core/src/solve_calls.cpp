@@ -26,11 +26,6 @@ Function solverFunction(const char* symbol) {
       moduleSymbol(moduleBesideExecutable(ECHOREG_SOLVE_MODULE_FILE_NAME), identity, symbol));
 }
 
-void rethrowFromModule(const std::exception_ptr& error) {
-  if (error)
-    std::rethrow_exception(error);
-}
-
 }  // namespace
 
 void refineSphereInSolverModule(const std::vector<Eigen::Vector3d>& points, bool knownRadius,

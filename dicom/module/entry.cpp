@@ -2,22 +2,11 @@
 // handed back as a std::exception_ptr, which the caller rethrows.
 #include "dicom_module_abi.hpp"
 
+#include "echoreg/core/loadable_module.hpp"
+
 #include <exception>
 #include <string>
 #include <vector>
-
-namespace {
-
-template <typename Work>
-void capture(std::exception_ptr* error, Work work) {
-  try {
-    work();
-  } catch (...) {
-    *error = std::current_exception();
-  }
-}
-
-}  // namespace
 
 extern "C" {
 
@@ -29,13 +18,14 @@ __attribute__((visibility("default"))) const char* echoreg_dicom_abi() {
 __attribute__((visibility("default"))) void echoreg_dicom_list_series(
     const std::string* folder, std::vector<std::string>* warnings,
     std::vector<echoreg::segmentation::DicomSeriesSummary>* out, std::exception_ptr* error) {
-  capture(error, [&] { *out = echoreg::segmentation::listDicomSeries(*folder, warnings); });
+  echoreg::core::captureException(
+      error, [&] { *out = echoreg::segmentation::listDicomSeries(*folder, warnings); });
 }
 
 __attribute__((visibility("default"))) void echoreg_dicom_read_series(
     const std::string* folder, const echoreg::segmentation::DicomReadOptions* options, int voxels,
     echoreg::segmentation::DicomSeriesRead* out, std::exception_ptr* error) {
-  capture(error, [&] {
+  echoreg::core::captureException(error, [&] {
     *out = voxels != 0 ? echoreg::segmentation::readDicomSeriesWithWarnings(*folder, *options)
                        : echoreg::segmentation::readDicomSeriesGeometry(*folder, *options);
   });
@@ -44,7 +34,8 @@ __attribute__((visibility("default"))) void echoreg_dicom_read_series(
 __attribute__((visibility("default"))) void echoreg_dicom_write_series(
     const std::string* folder, const echoreg::simulation::CtVolume* volume,
     const echoreg::simulation::DicomSeriesInfo* info, std::exception_ptr* error) {
-  capture(error, [&] { echoreg::simulation::writeDicomSeries(*folder, *volume, *info); });
+  echoreg::core::captureException(
+      error, [&] { echoreg::simulation::writeDicomSeries(*folder, *volume, *info); });
 }
 
 }  // extern "C"

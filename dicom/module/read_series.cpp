@@ -1452,16 +1452,20 @@ void checkSizesBeforeAllocating(const std::string& folder, const std::vector<Sli
     // silently: a 836-byte slice declaring 3,288,334,464 bytes of pixel data took 3.2 GB and 12 s
     // and was read without a word when its 128 bytes of pixels were there and a private element
     // after the pixel data's tag made the header scan miss the pixels' start (fuzz/fuzz_dicom).
+    // The pixels the header claims, against the bytes the file holds after their start.
+    const auto refuseTruncated = [&](std::uint64_t held) {
+      if (needed <= held)
+        return;
+      throw core::FileError(
+          folder,
+          fmt::format("{}: truncated pixel data: its header claims {} x {} pixels of {} bits "
+                      "({} bytes), but the file holds {} bytes after the pixel data's start: "
+                      "Rows / Columns in the header are wrong, or the file was cut short",
+                      h.name, h.columns, h.rows, h.bitsAllocated, needed, held));
+    };
     if (const PixelBeyondFile& beyond = h.pixelBeyondFile; beyond.elementAt != 0) {
       const std::uint64_t held = h.fileSize > beyond.valueAt ? h.fileSize - beyond.valueAt : 0;
-      if (needed > held) {
-        throw core::FileError(
-            folder,
-            fmt::format("{}: truncated pixel data: its header claims {} x {} pixels of {} bits "
-                        "({} bytes), but the file holds {} bytes after the pixel data's start: "
-                        "Rows / Columns in the header are wrong, or the file was cut short",
-                        h.name, h.columns, h.rows, h.bitsAllocated, needed, held));
-      }
+      refuseTruncated(held);
       throw core::FileError(
           folder, fmt::format("{}: damaged pixel data: its element at byte {} declares {} bytes, "
                               "but the file ends {} bytes after the value's start (the {} x {} "
@@ -1475,15 +1479,7 @@ void checkSizesBeforeAllocating(const std::string& folder, const std::vector<Sli
                         h.transferSyntax == "1.2.840.10008.1.2.2";
     if (!native || h.pixelDataOffset == 0 || h.fileSize == 0 || h.bitsAllocated <= 0)
       continue;
-    const std::uint64_t held = h.fileSize - std::min(h.fileSize, h.pixelDataOffset);
-    if (needed > held) {
-      throw core::FileError(
-          folder,
-          fmt::format("{}: truncated pixel data: its header claims {} x {} pixels of {} bits "
-                      "({} bytes), but the file holds {} bytes after the pixel data's start: "
-                      "Rows / Columns in the header are wrong, or the file was cut short",
-                      h.name, h.columns, h.rows, h.bitsAllocated, needed, held));
-    }
+    refuseTruncated(h.fileSize - std::min(h.fileSize, h.pixelDataOffset));
   }
   const long pages = ::sysconf(_SC_PHYS_PAGES);
   const long pageBytes = ::sysconf(_SC_PAGE_SIZE);

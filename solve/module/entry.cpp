@@ -3,22 +3,11 @@
 #include "module.hpp"
 #include "solve_module_abi.hpp"
 
+#include "echoreg/core/loadable_module.hpp"
+
 #include <exception>
 #include <string>
 #include <vector>
-
-namespace {
-
-template <typename Work>
-void capture(std::exception_ptr* error, Work work) {
-  try {
-    work();
-  } catch (...) {
-    *error = std::current_exception();
-  }
-}
-
-}  // namespace
 
 extern "C" {
 
@@ -30,21 +19,23 @@ __attribute__((visibility("default"))) const char* echoreg_solve_abi() {
 __attribute__((visibility("default"))) void echoreg_solve_sphere(
     const std::vector<Eigen::Vector3d>* points, int knownRadius, Eigen::Vector3d* centre,
     double* radiusMm, std::exception_ptr* error) {
-  capture(error,
-          [&] { echoreg::solve::refineSphere(*points, knownRadius != 0, *centre, *radiusMm); });
+  echoreg::core::captureException(
+      error, [&] { echoreg::solve::refineSphere(*points, knownRadius != 0, *centre, *radiusMm); });
 }
 
 __attribute__((visibility("default"))) void echoreg_solve_beam_round(
     int count, const std::vector<echoreg::core::detail::ShotData>* data,
     const std::vector<bool>* used, Eigen::VectorXd* x, echoreg::core::detail::BeamRound* out,
     std::exception_ptr* error) {
-  capture(error, [&] { *out = echoreg::solve::beamRound(count, *data, *used, *x); });
+  echoreg::core::captureException(
+      error, [&] { *out = echoreg::solve::beamRound(count, *data, *used, *x); });
 }
 
 __attribute__((visibility("default"))) void echoreg_solve_beam_jacobian(
     int count, const std::vector<echoreg::core::detail::ShotData>* data, const Eigen::VectorXd* x,
     echoreg::core::detail::ShotJacobian* jacobian, int* failedShot, std::exception_ptr* error) {
-  capture(error, [&] { *failedShot = echoreg::solve::beamJacobian(count, *data, *x, *jacobian); });
+  echoreg::core::captureException(
+      error, [&] { *failedShot = echoreg::solve::beamJacobian(count, *data, *x, *jacobian); });
 }
 
 __attribute__((visibility("default"))) void echoreg_solve_robust(
@@ -53,7 +44,7 @@ __attribute__((visibility("default"))) void echoreg_solve_robust(
     const std::vector<echoreg::core::LandmarkPair>* landmarks,
     const echoreg::core::SurfaceRegistrationOptions* options, const Eigen::Isometry3d* start,
     echoreg::core::detail::Solution* out, std::exception_ptr* error) {
-  capture(error, [&] {
+  echoreg::core::captureException(error, [&] {
     *out = echoreg::solve::solveRobust(*locator, *points, *landmarks, *options, *start);
   });
 }

@@ -5,6 +5,7 @@
 // function returning its ABI string, which must equal the executable's.
 #pragma once
 
+#include <exception>
 #include <filesystem>
 #include <string>
 
@@ -39,5 +40,23 @@ std::filesystem::path moduleBesideExecutable(const std::string& fileName);
 /// missing) or is the module of another build. Thread-safe.
 void* moduleSymbol(const std::filesystem::path& path, const ModuleIdentity& identity,
                    const char* symbol);
+
+/// Runs `work` inside a module's C entry point: whatever it throws is caught into `*error` (an
+/// exception must not unwind through a C function), for the caller to rethrow.
+template <typename Work>
+void captureException(std::exception_ptr* error, Work&& work) {
+  try {
+    work();
+  } catch (...) {
+    *error = std::current_exception();
+  }
+}
+
+/// Rethrows what a module's entry point caught (captureException), if anything: the same object,
+/// so the same type and message as if the work had run in the caller.
+inline void rethrowFromModule(const std::exception_ptr& error) {
+  if (error)
+    std::rethrow_exception(error);
+}
 
 }  // namespace echoreg::core
