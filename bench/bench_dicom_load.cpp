@@ -135,7 +135,7 @@ void BM_ReadDicomSeries(benchmark::State& state) {
   echoreg::segmentation::DicomReadOptions options;
   options.threads = static_cast<int>(state.range(0));
   for (auto _ : state) {
-    const echoreg::segmentation::CtImage image =
+    const echoreg::core::CtImage image =
         echoreg::segmentation::readDicomSeries(seriesFolder(), options);
     benchmark::DoNotOptimize(image.hu.data());
   }

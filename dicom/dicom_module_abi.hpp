@@ -59,8 +59,7 @@ inline std::string dicomAbi() {
       "CtVolume {} DicomSeriesInfo {}",
       ECHOREG_VERSION, __VERSION__, sizeof(segmentation::DicomSeriesSummary),
       sizeof(segmentation::DicomReadOptions), sizeof(segmentation::DicomSeriesRead),
-      sizeof(segmentation::CtImage), sizeof(simulation::CtVolume),
-      sizeof(simulation::DicomSeriesInfo));
+      sizeof(core::CtImage), sizeof(simulation::CtVolume), sizeof(simulation::DicomSeriesInfo));
 }
 
 }  // namespace echoreg::dicom

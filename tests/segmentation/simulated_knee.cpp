@@ -18,8 +18,8 @@
 
 namespace echoreg::test {
 
-segmentation::CtImage toCtImage(const simulation::CtVolume& volume) {
-  segmentation::CtImage image;
+core::CtImage toCtImage(const simulation::CtVolume& volume) {
+  core::CtImage image;
   image.dimensions = {volume.columns, volume.rows, volume.slices()};
   image.originMm = volume.voxelCentreMm(0, 0, 0);
   image.pixelSpacingMm = {volume.pixelSpacingMm, volume.pixelSpacingMm};
@@ -87,7 +87,7 @@ bool loadCache(const std::string& path, SimulatedKnee& s) {
   std::ifstream in(path, std::ios::binary);
   if (!in)
     return false;
-  segmentation::CtImage& ct = s.ct;
+  core::CtImage& ct = s.ct;
   std::uint64_t slices = 0;
   if (!get(in, ct.dimensions) || !get(in, ct.originMm) || !get(in, ct.pixelSpacingMm) ||
       !get(in, s.kneeZMinMm) || !get(in, s.kneeZMaxMm) || !get(in, slices) ||

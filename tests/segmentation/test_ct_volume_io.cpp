@@ -20,7 +20,7 @@
 
 namespace {
 
-using echoreg::segmentation::CtImage;
+using echoreg::core::CtImage;
 
 /// Three groups (2 slices at 4 mm, 5 at 1 mm, 2 at 4 mm) of 5 x 4 pixels of 0.7 mm, written by
 /// the simulator's writer; HU = 10 i + 100 j + k - 500.

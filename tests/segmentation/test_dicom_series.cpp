@@ -39,8 +39,8 @@
 namespace {
 
 namespace fs = std::filesystem;
+using echoreg::core::CtImage;
 using echoreg::core::FileError;
-using echoreg::segmentation::CtImage;
 using echoreg::segmentation::DicomReadOptions;
 using echoreg::segmentation::DicomSeriesRead;
 using echoreg::segmentation::readDicomSeries;

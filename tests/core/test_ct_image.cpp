@@ -1,10 +1,10 @@
-#include "echoreg/segmentation/ct_image.hpp"
+#include "echoreg/core/ct_image.hpp"
 
 #include <gtest/gtest.h>
 
 namespace {
 
-using echoreg::segmentation::CtImage;
+using echoreg::core::CtImage;
 
 // A 2 x 1 image of three slices at 0, 5 and 6 mm (two groups: the step changes) on a rotated frame.
 CtImage threeSlices() {
@@ -35,7 +35,7 @@ TEST(CtImage, VoxelToLpsFollowsDirectionSpacingAndSlicePositions) {
 }
 
 TEST(CtImage, ResampleUniformInterpolatesAlongTheSlices) {
-  const CtImage out = echoreg::segmentation::resampleUniform(threeSlices());
+  const CtImage out = echoreg::core::resampleUniform(threeSlices());
   EXPECT_TRUE(out.uniform());
   ASSERT_EQ(out.dimensions[2], 7);  // 0..6 mm at 1 mm
   EXPECT_DOUBLE_EQ(out.sliceSpacingMm(), 1.0);
@@ -44,7 +44,7 @@ TEST(CtImage, ResampleUniformInterpolatesAlongTheSlices) {
   EXPECT_EQ(out.at(1, 0, 5), 150);
   EXPECT_EQ(out.at(0, 0, 6), 60);
   EXPECT_TRUE(out.voxelToLps({0, 0, 6}).isApprox(threeSlices().voxelToLps({0, 0, 2}), 1e-12));
-  EXPECT_THROW(echoreg::segmentation::resampleUniform(CtImage{}), std::invalid_argument);
+  EXPECT_THROW(echoreg::core::resampleUniform(CtImage{}), std::invalid_argument);
 }
 
 }  // namespace
