@@ -2,6 +2,10 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
+#include <string>
+#include <vector>
+
 namespace {
 
 using echoreg::core::CtImage;
@@ -45,6 +49,37 @@ TEST(CtImage, ResampleUniformInterpolatesAlongTheSlices) {
   EXPECT_EQ(out.at(0, 0, 6), 60);
   EXPECT_TRUE(out.voxelToLps({0, 0, 6}).isApprox(threeSlices().voxelToLps({0, 0, 2}), 1e-12));
   EXPECT_THROW(echoreg::core::resampleUniform(CtImage{}), std::invalid_argument);
+}
+
+TEST(CtImage, AxialImageKeepsTheSlicesZExactly) {
+  // z that origin + offset does not give back in the last bit: 0.1 + (0.3 - 0.1) != 0.3.
+  const std::vector<double> hip = {0.1, 0.3}, knee = {0.7, 0.8, 0.9};
+  const CtImage image =
+      echoreg::core::axialCtImage(4, 3, 0.5, {-1.0, 2.0}, {{"hip", hip, 5.0}, {"knee", knee, 1.0}});
+  EXPECT_EQ(image.dimensions, (std::array<int, 3>{4, 3, 5}));
+  EXPECT_TRUE(image.direction.isIdentity(0.0));
+  EXPECT_TRUE(image.hu.empty());
+  EXPECT_EQ(image.originMm, Eigen::Vector3d(-1.0, 2.0, 0.1));
+  EXPECT_EQ(image.sliceLocationsMm, (std::vector<double>{0.1, 0.3, 0.7, 0.8, 0.9}));
+  EXPECT_EQ(image.sliceThicknessMm, (std::vector<double>{5.0, 5.0, 1.0, 1.0, 1.0}));
+  EXPECT_EQ(image.groupNames, (std::vector<std::string>{"hip", "knee"}));
+  ASSERT_EQ(image.groups.size(), 2u);
+  EXPECT_EQ(image.groups[0].firstSlice, 0);
+  EXPECT_EQ(image.groups[0].count, 2);
+  EXPECT_EQ(image.groups[0].spacingMm, 0.3 - 0.1);
+  EXPECT_EQ(image.groups[1].firstSlice, 2);
+  EXPECT_EQ(image.groups[1].count, 3);
+  EXPECT_EQ(image.groups[1].spacingMm, 0.8 - 0.7);
+  for (std::size_t k = 0; k < 5; ++k)
+    EXPECT_EQ(image.slicePositionsMm[k], image.sliceLocationsMm[k] - 0.1);
+  // The voxel centre is the kept z itself; voxelToLps agrees to rounding.
+  const Eigen::Vector3d c = image.voxelCentreMm(3, 2, 1);
+  EXPECT_EQ(c, Eigen::Vector3d(-1.0 + 3 * 0.5, 2.0 + 2 * 0.5, 0.3));
+  EXPECT_NEAR((image.voxelToLps(Eigen::Vector3d(3, 2, 1)) - c).norm(), 0.0, 1e-12);
+  // Without kept locations (an image read from DICOM), the centre is voxelToLps.
+  CtImage read = image;
+  read.sliceLocationsMm.clear();
+  EXPECT_EQ(read.voxelCentreMm(3, 2, 1), read.voxelToLps(Eigen::Vector3d(3, 2, 1)));
 }
 
 }  // namespace

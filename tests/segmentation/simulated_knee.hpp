@@ -21,9 +21,6 @@ struct SimulatedKnee {
   double kneeZMinMm = 0.0, kneeZMaxMm = 0.0;  ///< the first and last slice centres
 };
 
-/// The simulated CT as a CtImage (axial, identity direction, groups from the slice spacing).
-core::CtImage toCtImage(const simulation::CtVolume& volume);
-
 /// A knee other than the shared one: a narrowed joint, a patella on the femur, faint bone,
 /// osteophytes, thick slices.
 struct KneeVariant {
