@@ -8,7 +8,7 @@
 
 #include <filesystem>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 using test::runEchoreg;
@@ -95,4 +95,4 @@ TEST(CliInfoCt, BadFolderExitsOneNamingIt) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

@@ -17,7 +17,7 @@
 #include <filesystem>
 #include <fstream>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 using test::runEchoreg;
@@ -281,4 +281,4 @@ TEST_F(CliSegment, WrongUsageExitsTwo) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

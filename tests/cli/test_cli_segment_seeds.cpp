@@ -15,7 +15,7 @@
 #include <filesystem>
 #include <fstream>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 using test::runEchoreg;
@@ -261,4 +261,4 @@ TEST(CliSegmentSeeds, MetalIsReportedOrRefused) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli
