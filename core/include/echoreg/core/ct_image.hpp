@@ -45,7 +45,8 @@ struct CtImage {
   std::string folder;
 
   // What the simulator knows of its scan and the DICOM writer needs; empty when not known (the
-  // DICOM reader, the NRRD reader and the segmentation's derived images leave them empty).
+  // DICOM and NRRD readers leave them empty, and so do the images the segmentation makes on other
+  // slices: a group, a crop, a resampling; a copy of the same grid keeps them).
 
   /// Empty, or each slice's position along the k axis in patient coordinates, mm (the slice
   /// centre's projection on the k axis: z of an axial scan, DICOM's SliceLocation), as the
