@@ -58,16 +58,11 @@ void ensureSeries() {
   fs::remove_all(folder);
   fs::create_directories(ECHOREG_BENCH_DATA_DIR);
   std::cerr << "writing the 1000-slice benchmark series into " << folder << " (once)\n";
-  echoreg::simulation::CtVolume v;
-  v.columns = kSize;
-  v.rows = kSize;
-  v.pixelSpacingMm = 0.48;
-  v.firstPixelXYMm = {-122.64, -122.64};
+  std::vector<double> z;
   for (int k = 0; k < kSlices; ++k)
-    v.sliceZMm.push_back(-500.0 + k);
-  v.sliceGroup.assign(kSlices, 0);
-  v.groupNames = {"leg"};
-  v.sliceThicknessMm.assign(kSlices, 1.0);
+    z.push_back(-500.0 + k);
+  echoreg::core::CtImage v =
+      echoreg::core::axialCtImage(kSize, kSize, 0.48, {-122.64, -122.64}, {{"leg", z, 1.0}});
   v.hu.resize(static_cast<std::size_t>(kSlices) * kSize * kSize);
   for (int k = 0; k < kSlices; ++k) {
     for (int j = 0; j < kSize; ++j) {
@@ -135,7 +130,7 @@ void BM_ReadDicomSeries(benchmark::State& state) {
   echoreg::segmentation::DicomReadOptions options;
   options.threads = static_cast<int>(state.range(0));
   for (auto _ : state) {
-    const echoreg::segmentation::CtImage image =
+    const echoreg::core::CtImage image =
         echoreg::segmentation::readDicomSeries(seriesFolder(), options);
     benchmark::DoNotOptimize(image.hu.data());
   }

@@ -139,8 +139,8 @@ BENCHMARK(BM_CompetingKneeBones)->Unit(benchmark::kMillisecond);
 // a femur (cylinder of 4 mm cortex around marrow, radius 15 mm) standing 1 mm above a tibia, a
 // fibula touching the tibia and a patella (sphere) touching the femur, in 40 HU tissue with
 // noise. Four seeds.
-segmentation::CtImage legCt(int slices, bool stem = false) {
-  segmentation::CtImage ct;
+core::CtImage legCt(int slices, bool stem = false) {
+  core::CtImage ct;
   ct.dimensions = {512, 512, slices};
   ct.pixelSpacingMm = {0.5, 0.5};
   for (int k = 0; k < slices; ++k)
@@ -186,7 +186,7 @@ segmentation::CtImage legCt(int slices, bool stem = false) {
 
 void BM_CompetingLegBones(benchmark::State& state) {
   const int slices = static_cast<int>(state.range(0));
-  const segmentation::CtImage ct = legCt(slices);
+  const core::CtImage ct = legCt(slices);
   const double joint = 0.25 * slices;
   const std::vector<segmentation::BoneSeed> seeds = {
       {"femur", {128.0, 128.0, joint + 40.0}},
@@ -202,7 +202,7 @@ BENCHMARK(BM_CompetingLegBones)->Arg(200)->Arg(1000)->Unit(benchmark::kMilliseco
 // The same leg with a metal stem in the femur (the streaks looked for on its every slice).
 void BM_CompetingLegBonesWithStem(benchmark::State& state) {
   const int slices = static_cast<int>(state.range(0));
-  const segmentation::CtImage ct = legCt(slices, true);
+  const core::CtImage ct = legCt(slices, true);
   const double joint = 0.25 * slices;
   const std::vector<segmentation::BoneSeed> seeds = {
       {"femur", {128.0, 128.0 + 10.0, joint + 40.0}},

@@ -45,10 +45,10 @@ inline constexpr const char* kReadSeriesSymbol = "echoreg_dicom_read_series";
 using ReadSeriesFunction = void (*)(const std::string*, const segmentation::DicomReadOptions*, int,
                                     segmentation::DicomSeriesRead*, std::exception_ptr*);
 
-/// void echoreg_dicom_write_series(const std::string* folder, const CtVolume* volume,
+/// void echoreg_dicom_write_series(const std::string* folder, const core::CtImage* volume,
 /// const DicomSeriesInfo* info, std::exception_ptr* error): simulation::writeDicomSeries.
 inline constexpr const char* kWriteSeriesSymbol = "echoreg_dicom_write_series";
-using WriteSeriesFunction = void (*)(const std::string*, const simulation::CtVolume*,
+using WriteSeriesFunction = void (*)(const std::string*, const core::CtImage*,
                                      const simulation::DicomSeriesInfo*, std::exception_ptr*);
 
 /// The version, the compiler and the layout of the types that cross; the module and the
@@ -56,11 +56,10 @@ using WriteSeriesFunction = void (*)(const std::string*, const simulation::CtVol
 inline std::string dicomAbi() {
   return fmt::format(
       "echoreg {} / {} / DicomSeriesSummary {} DicomReadOptions {} DicomSeriesRead {} CtImage {} "
-      "CtVolume {} DicomSeriesInfo {}",
+      "DicomSeriesInfo {}",
       ECHOREG_VERSION, __VERSION__, sizeof(segmentation::DicomSeriesSummary),
       sizeof(segmentation::DicomReadOptions), sizeof(segmentation::DicomSeriesRead),
-      sizeof(segmentation::CtImage), sizeof(simulation::CtVolume),
-      sizeof(simulation::DicomSeriesInfo));
+      sizeof(core::CtImage), sizeof(simulation::DicomSeriesInfo));
 }
 
 }  // namespace echoreg::dicom

@@ -51,7 +51,7 @@ nlohmann::ordered_json vector3(const Eigen::Vector3d& v) {
 // groups it is the smallest step between consecutive slices (what resampleUniform uses by
 // default), and slice_groups gives every group's own spacing; for one slice it is 1.
 nlohmann::ordered_json describeCt(const segmentation::DicomSeriesRead& read) {
-  const segmentation::CtImage& image = read.image;
+  const core::CtImage& image = read.image;
   double sliceSpacing = 1.0;
   if (image.uniform()) {
     sliceSpacing = image.sliceSpacingMm();
@@ -81,7 +81,7 @@ nlohmann::ordered_json describeCt(const segmentation::DicomSeriesRead& read) {
   info["direction"] = direction;
   info["hu_range"] = {low, high};
   nlohmann::ordered_json groups = nlohmann::ordered_json::array();
-  for (const segmentation::CtSliceGroup& g : image.groups) {
+  for (const core::CtSliceGroup& g : image.groups) {
     groups.push_back({{"count", g.count}, {"spacing_mm", g.spacingMm}});
   }
   info["slice_groups"] = groups;

@@ -109,7 +109,7 @@ double secondsSince(std::chrono::steady_clock::time_point t) {
 }
 
 // The group holding most of `points` (-1 when none lies in any group).
-int majorityGroup(const seg::CtImage& ct, const std::vector<Eigen::Vector3d>& points) {
+int majorityGroup(const core::CtImage& ct, const std::vector<Eigen::Vector3d>& points) {
   std::map<int, int> votes;
   for (const auto& p : points) {
     const int g = seg::groupContaining(ct, p);
@@ -266,7 +266,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   const seg::DicomSeriesRead series = seg::readDicomSeriesWithWarnings(o.dicom, read);
   for (const std::string& w : series.warnings)
     warnings.push_back(w);
-  const seg::CtImage& ct = series.image;
+  const core::CtImage& ct = series.image;
   timings["read_s"] = secondsSince(t0);
 
   // 2. The protocol group to segment in.
@@ -304,9 +304,9 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     if (group < 0)
       throw core::FileError(o.anchors, "no anchor lies within the CT's slices");
   }
-  const seg::CtImage volume =
+  const core::CtImage volume =
       ct.uniform() ? ct : seg::extractGroup(ct, static_cast<std::size_t>(group));
-  const seg::CtSliceGroup& used = ct.groups[static_cast<std::size_t>(group)];
+  const core::CtSliceGroup& used = ct.groups[static_cast<std::size_t>(group)];
   const double zFirst = ct.voxelToLps(Eigen::Vector3d(0, 0, used.firstSlice)).z();
   const double zLast = ct.voxelToLps(Eigen::Vector3d(0, 0, used.firstSlice + used.count - 1)).z();
   const double zLow = std::min(zFirst, zLast), zHigh = std::max(zFirst, zLast);

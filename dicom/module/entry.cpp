@@ -32,7 +32,7 @@ __attribute__((visibility("default"))) void echoreg_dicom_read_series(
 }
 
 __attribute__((visibility("default"))) void echoreg_dicom_write_series(
-    const std::string* folder, const echoreg::simulation::CtVolume* volume,
+    const std::string* folder, const echoreg::core::CtImage* volume,
     const echoreg::simulation::DicomSeriesInfo* info, std::exception_ptr* error) {
   echoreg::core::captureException(
       error, [&] { echoreg::simulation::writeDicomSeries(*folder, *volume, *info); });

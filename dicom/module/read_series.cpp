@@ -1003,7 +1003,7 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
           slices[k].name, slices[k + 1].name, steps[k], before));
     }
   }
-  CtImage& image = result.image;
+  core::CtImage& image = result.image;
   image.folder = folder;
   image.seriesInstanceUid = selection.uid;
   image.dimensions = {slices.front().columns, slices.front().rows, static_cast<int>(count)};
@@ -1024,7 +1024,7 @@ DicomSeriesRead buildGeometry(const std::string& folder, Selection& selection) {
     int groupSteps = 0;
     const auto close = [&](int last) {
       image.groups.push_back(
-          CtSliceGroup{start, last - start + 1, groupSteps > 0 ? sum / groupSteps : 0.0});
+          core::CtSliceGroup{start, last - start + 1, groupSteps > 0 ? sum / groupSteps : 0.0});
     };
     for (std::size_t k = 0; k < steps.size(); ++k) {
       const double step = steps[k];
@@ -1441,7 +1441,7 @@ void decodeSlice(const std::string& folder, const SliceHeader& h, std::int16_t* 
 /// An uncompressed slice must hold its Rows x Columns pixels after the pixel data's start; the
 /// volume (16-bit HU) must fit in this machine's memory whatever the transfer syntax.
 void checkSizesBeforeAllocating(const std::string& folder, const std::vector<SliceHeader>& slices,
-                                const CtImage& image) {
+                                const core::CtImage& image) {
   for (const SliceHeader& h : slices) {
     const std::uint64_t bytesPerPixel =
         static_cast<std::uint64_t>(std::max(1, h.samplesPerPixel)) *
@@ -1531,7 +1531,7 @@ DicomSeriesRead readDicomSeriesWithWarnings(const std::string& folder,
   const int threads = threadCount(options);
   std::vector<SliceHeader> slices;
   DicomSeriesRead result = readGeometry(folder, options, threads, slices);
-  CtImage& image = result.image;
+  core::CtImage& image = result.image;
   checkSizesBeforeAllocating(folder, slices, image);
   const std::size_t plane =
       static_cast<std::size_t>(image.dimensions[0]) * static_cast<std::size_t>(image.dimensions[1]);

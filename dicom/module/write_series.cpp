@@ -1,6 +1,7 @@
 // The CT series writer (GDCM), inside the DICOM module (dicom/CMakeLists.txt): one CT Image
 // Storage file per slice, written into a temporary sibling folder that is renamed onto the target
 // at the end. simulation::writeDicomSeries calls it through the module.
+#include "echoreg/core/ct_image.hpp"
 #include "echoreg/core/error.hpp"
 #include "echoreg/simulation/ct.hpp"
 
@@ -73,47 +74,84 @@ void requireText(const std::string& value, std::size_t maxLength, const std::str
   }
 }
 
-void checkInputs(const CtVolume& volume, const DicomSeriesInfo& info) {
-  if (volume.columns < 1 || volume.columns > 65535 || volume.rows < 1 || volume.rows > 65535) {
-    throw std::invalid_argument(fmt::format("CtVolume is {} x {} pixels, expected 1..65535 each",
-                                            volume.columns, volume.rows));
-  }
-  if (!std::isfinite(volume.pixelSpacingMm) || volume.pixelSpacingMm <= 0.0) {
+/// The z of slice k: the location the slice was made at when kept (CtImage::sliceLocationsMm),
+/// otherwise the origin's plus the slice's position.
+double sliceZ(const core::CtImage& volume, std::size_t k) {
+  return volume.sliceLocationsMm.empty() ? volume.originMm.z() + volume.slicePositionsMm[k]
+                                         : volume.sliceLocationsMm[k];
+}
+
+void checkInputs(const core::CtImage& volume, const DicomSeriesInfo& info) {
+  const int columns = volume.dimensions[0];
+  const int rows = volume.dimensions[1];
+  if (columns < 1 || columns > 65535 || rows < 1 || rows > 65535) {
     throw std::invalid_argument(
-        fmt::format("CtVolume.pixelSpacingMm = {} is not positive", volume.pixelSpacingMm));
+        fmt::format("CtImage is {} x {} pixels, expected 1..65535 each", columns, rows));
   }
-  const std::size_t slices = volume.sliceZMm.size();
-  if (slices == 0)
-    throw std::invalid_argument("CtVolume has no slices");
+  if (!std::isfinite(volume.pixelSpacingMm.x()) || volume.pixelSpacingMm.x() <= 0.0 ||
+      volume.pixelSpacingMm.y() != volume.pixelSpacingMm.x()) {
+    throw std::invalid_argument(
+        fmt::format("CtImage.pixelSpacingMm = {} x {} is not positive and square",
+                    volume.pixelSpacingMm.x(), volume.pixelSpacingMm.y()));
+  }
+  if (volume.direction != Eigen::Matrix3d::Identity()) {
+    throw std::invalid_argument(
+        "CtImage.direction is not the identity: the writer writes axial slices only");
+  }
+  if (!std::isfinite(volume.originMm.x()) || !std::isfinite(volume.originMm.y())) {
+    throw std::invalid_argument(fmt::format("CtImage.originMm = {} {} {} is not finite",
+                                            volume.originMm.x(), volume.originMm.y(),
+                                            volume.originMm.z()));
+  }
+  if (volume.dimensions[2] < 1)
+    throw std::invalid_argument("CtImage has no slices");
+  const auto slices = static_cast<std::size_t>(volume.dimensions[2]);
   if (slices > 999999)
-    throw std::invalid_argument("CtVolume has more than 999999 slices");
-  if (volume.sliceThicknessMm.size() != slices || volume.sliceGroup.size() != slices) {
+    throw std::invalid_argument("CtImage has more than 999999 slices");
+  if (volume.slicePositionsMm.size() != slices || volume.sliceThicknessMm.size() != slices ||
+      (!volume.sliceLocationsMm.empty() && volume.sliceLocationsMm.size() != slices)) {
     throw std::invalid_argument(
-        fmt::format("CtVolume has {} slice positions but {} thicknesses and {} groups", slices,
-                    volume.sliceThicknessMm.size(), volume.sliceGroup.size()));
+        fmt::format("CtImage has {} slices but {} slice positions, {} thicknesses and {} locations",
+                    slices, volume.slicePositionsMm.size(), volume.sliceThicknessMm.size(),
+                    volume.sliceLocationsMm.size()));
+  }
+  if (!volume.groupNames.empty() && volume.groupNames.size() != volume.groups.size()) {
+    throw std::invalid_argument(fmt::format("CtImage has {} groups but {} group names",
+                                            volume.groups.size(), volume.groupNames.size()));
+  }
+  std::size_t covered = 0;
+  for (const core::CtSliceGroup& group : volume.groups) {
+    if (group.count < 1 || static_cast<std::size_t>(group.firstSlice) != covered) {
+      throw std::invalid_argument(fmt::format(
+          "CtImage.groups: a group starts at slice {} with {} slices, expected slice {}",
+          group.firstSlice, group.count, covered));
+    }
+    covered += static_cast<std::size_t>(group.count);
+  }
+  if (covered != slices) {
+    throw std::invalid_argument(
+        fmt::format("CtImage.groups cover {} slices of {}", covered, slices));
   }
   for (std::size_t k = 0; k < slices; ++k) {
-    if (!std::isfinite(volume.sliceZMm[k]) ||
-        (k > 0 && volume.sliceZMm[k] <= volume.sliceZMm[k - 1])) {
-      throw std::invalid_argument(fmt::format(
-          "CtVolume.sliceZMm[{}] = {} is not finite and increasing", k, volume.sliceZMm[k]));
+    const double z = sliceZ(volume, k);
+    if (!std::isfinite(z) || (k > 0 && z <= sliceZ(volume, k - 1))) {
+      throw std::invalid_argument(
+          fmt::format("CtImage: slice {} at z = {} is not finite and increasing", k, z));
     }
     if (!std::isfinite(volume.sliceThicknessMm[k]) || volume.sliceThicknessMm[k] <= 0.0) {
-      throw std::invalid_argument(fmt::format("CtVolume.sliceThicknessMm[{}] = {} is not positive",
+      throw std::invalid_argument(fmt::format("CtImage.sliceThicknessMm[{}] = {} is not positive",
                                               k, volume.sliceThicknessMm[k]));
     }
   }
-  const std::size_t expected =
-      slices * static_cast<std::size_t>(volume.rows) * static_cast<std::size_t>(volume.columns);
+  const std::size_t expected = volume.voxelCount();
   if (volume.hu.size() != expected) {
-    throw std::invalid_argument(fmt::format("CtVolume.hu has {} voxels, expected {} x {} x {} = {}",
-                                            volume.hu.size(), volume.columns, volume.rows, slices,
-                                            expected));
+    throw std::invalid_argument(fmt::format("CtImage.hu has {} voxels, expected {} x {} x {} = {}",
+                                            volume.hu.size(), columns, rows, slices, expected));
   }
   for (std::size_t v = 0; v < expected; ++v) {
     if (volume.hu[v] < kCtMinHu || volume.hu[v] > kCtMaxHu) {
       throw std::invalid_argument(
-          fmt::format("CtVolume.hu[{}] = {} is outside the stored range [{}, {}]", v, volume.hu[v],
+          fmt::format("CtImage.hu[{}] = {} is outside the stored range [{}, {}]", v, volume.hu[v],
                       kCtMinHu, kCtMaxHu));
     }
   }
@@ -159,14 +197,14 @@ struct SeriesUids {
   std::string frameOfReference;
 };
 
-void writeSlice(const fs::path& file, const CtVolume& volume, const DicomSeriesInfo& info,
+void writeSlice(const fs::path& file, const core::CtImage& volume, const DicomSeriesInfo& info,
                 const SeriesUids& uids, int k, const std::string& groupName) {
   const auto ks = static_cast<std::size_t>(k);
   gdcm::ImageWriter writer;
   gdcm::Image& image = writer.GetImage();
   image.SetNumberOfDimensions(2);
-  image.SetDimension(0, static_cast<unsigned int>(volume.columns));
-  image.SetDimension(1, static_cast<unsigned int>(volume.rows));
+  image.SetDimension(0, static_cast<unsigned int>(volume.dimensions[0]));
+  image.SetDimension(1, static_cast<unsigned int>(volume.dimensions[1]));
   gdcm::PixelFormat format(gdcm::PixelFormat::UINT16);
   format.SetBitsStored(12);
   format.SetHighBit(11);
@@ -175,19 +213,19 @@ void writeSlice(const fs::path& file, const CtVolume& volume, const DicomSeriesI
   image.SetTransferSyntax(gdcm::TransferSyntax::ExplicitVRLittleEndian);
   image.SetIntercept(kRescaleIntercept);
   image.SetSlope(1.0);
-  const Eigen::Vector3d first = volume.voxelCentreMm(0, 0, k);
+  const Eigen::Vector3d first(volume.originMm.x(), volume.originMm.y(), sliceZ(volume, ks));
   image.SetOrigin(0, first.x());
   image.SetOrigin(1, first.y());
   image.SetOrigin(2, first.z());
   const double directions[6] = {1, 0, 0, 0, 1, 0};
   image.SetDirectionCosines(directions);
-  image.SetSpacing(0, volume.pixelSpacingMm);
-  image.SetSpacing(1, volume.pixelSpacingMm);
+  image.SetSpacing(0, volume.pixelSpacingMm.x());
+  image.SetSpacing(1, volume.pixelSpacingMm.y());
   image.SetSpacing(2, volume.sliceThicknessMm[ks]);
 
   // Stored value HU + 1024, little endian whatever the host.
-  const std::size_t plane =
-      static_cast<std::size_t>(volume.columns) * static_cast<std::size_t>(volume.rows);
+  const std::size_t plane = static_cast<std::size_t>(volume.dimensions[0]) *
+                            static_cast<std::size_t>(volume.dimensions[1]);
   std::vector<char> bytes(2 * plane);
   const std::size_t offset = ks * plane;
   for (std::size_t v = 0; v < plane; ++v) {
@@ -254,7 +292,7 @@ void writeSlice(const fs::path& file, const CtVolume& volume, const DicomSeriesI
 
 }  // namespace
 
-void writeDicomSeries(const std::string& folder, const CtVolume& volume,
+void writeDicomSeries(const std::string& folder, const core::CtImage& volume,
                       const DicomSeriesInfo& info) {
   checkInputs(volume, info);
   std::string trimmed = folder;
@@ -289,18 +327,19 @@ void writeDicomSeries(const std::string& folder, const CtVolume& volume,
   const SeriesUids uids{derivedDicomUid(info.uidSeed, "study"),
                         derivedDicomUid(info.uidSeed, "series"),
                         derivedDicomUid(info.uidSeed, "frame-of-reference")};
-  for (int k = 0; k < volume.slices(); ++k) {
-    const fs::path file = temporary.path() / fmt::format("IM{:06d}.dcm", k + 1);
-    const int group = volume.sliceGroup[static_cast<std::size_t>(k)];
+  for (std::size_t g = 0; g < volume.groups.size(); ++g) {
+    // The group's name, or its number when the image names none.
     const std::string groupName =
-        group >= 0 && static_cast<std::size_t>(group) < volume.groupNames.size()
-            ? volume.groupNames[static_cast<std::size_t>(group)]
-            : std::to_string(group);
-    try {
-      writeSlice(file, volume, info, uids, k, groupName);
-    } catch (const core::FileError& e) {
-      throw core::FileError(
-          folder, fmt::format("writing {} failed: {}", file.filename().string(), e.problem()));
+        g < volume.groupNames.size() ? volume.groupNames[g] : std::to_string(g);
+    const core::CtSliceGroup& group = volume.groups[g];
+    for (int k = group.firstSlice; k < group.firstSlice + group.count; ++k) {
+      const fs::path file = temporary.path() / fmt::format("IM{:06d}.dcm", k + 1);
+      try {
+        writeSlice(file, volume, info, uids, k, groupName);
+      } catch (const core::FileError& e) {
+        throw core::FileError(
+            folder, fmt::format("writing {} failed: {}", file.filename().string(), e.problem()));
+      }
     }
   }
 

@@ -50,7 +50,7 @@ struct Neighbours {
 
 // Calls f(neighbourIndex) for every in-grid 26-neighbour of voxel (i, j, k).
 template <class F>
-void forNeighbours(const CtImage& g, int i, int j, int k, F f) {
+void forNeighbours(const core::CtImage& g, int i, int j, int k, F f) {
   static const Neighbours nb;
   const int nx = g.dimensions[0], ny = g.dimensions[1], nz = g.dimensions[2];
   for (int n = 0; n < 26; ++n) {
@@ -61,7 +61,7 @@ void forNeighbours(const CtImage& g, int i, int j, int k, F f) {
   }
 }
 
-void ijkOf(const CtImage& g, std::size_t idx, int& i, int& j, int& k) {
+void ijkOf(const core::CtImage& g, std::size_t idx, int& i, int& j, int& k) {
   const std::size_t plane = sz(g.dimensions[0]) * sz(g.dimensions[1]);
   k = static_cast<int>(idx / plane);
   j = static_cast<int>((idx % plane) / sz(g.dimensions[0]));
@@ -69,7 +69,8 @@ void ijkOf(const CtImage& g, std::size_t idx, int& i, int& j, int& k) {
 }
 
 // 26-connected components of `mask` (labels 1.., 0 background) and their sizes.
-std::vector<std::uint32_t> labelComponents(const CtImage& g, const std::vector<std::uint8_t>& mask,
+std::vector<std::uint32_t> labelComponents(const core::CtImage& g,
+                                           const std::vector<std::uint8_t>& mask,
                                            std::vector<std::size_t>& sizes) {
   std::vector<std::uint32_t> label(mask.size(), 0);
   sizes.assign(1, 0);
@@ -104,8 +105,9 @@ std::string lpsText(const Eigen::Vector3d& p) {
 
 // Why the voxel `seed` is not in the filled bone: its HU, the cortex around it, or the
 // hysteresis' strong level not reached from its patch.
-std::string notInBone(const CtImage& image, const VoxelMask& threshold, const Eigen::Vector3i& seed,
-                      const Eigen::Vector3d& seedLps, const BoneThreshold& t) {
+std::string notInBone(const core::CtImage& image, const VoxelMask& threshold,
+                      const Eigen::Vector3i& seed, const Eigen::Vector3d& seedLps,
+                      const BoneThreshold& t) {
   const int hu = image.at(seed.x(), seed.y(), seed.z());
   if (hu >= t.weakHu) {
     // The patch of >= weak around the seed (26-connected; it holds no strong voxel, else the
@@ -188,8 +190,8 @@ std::string notInBone(const CtImage& image, const VoxelMask& threshold, const Ei
 
 // Joint lines: solid voxels darker by `dip` than bone >= strong on both sides along one of the 13
 // directions, within `reachMm`.
-std::vector<std::uint8_t> jointLines(const CtImage& image, const VoxelMask& solid, double strong,
-                                     double dip, double reachMm) {
+std::vector<std::uint8_t> jointLines(const core::CtImage& image, const VoxelMask& solid,
+                                     double strong, double dip, double reachMm) {
   std::vector<std::uint8_t> out(solid.voxels.size(), 0);
   if (!(dip > 0.0))
     return out;
@@ -352,7 +354,7 @@ std::string implausibleBone(const std::string& bone, double volumeMm3,
 }
 
 std::vector<SliceUncertainty> sliceUncertainty(
-    const CtImage& ct, const VoxelMask& region,
+    const core::CtImage& ct, const VoxelMask& region,
     const std::vector<std::pair<std::string, const VoxelMask*>>& neighbours, SlicePlane plane,
     const std::vector<double>& positionsMm, const UncertaintyOptions& options) {
   if (!ct.uniform() || ct.hu.size() != ct.voxelCount() || region.voxels.size() != ct.voxelCount())
@@ -465,7 +467,7 @@ std::vector<SliceUncertainty> sliceUncertainty(
 
 // Streaks of the metal piece `label` (voxels of `pieceLabel` == label) on every axial slice it
 // crosses (see CompetingOptions::detectStreaks): marks `streak` (1 bright, 2 dark) and counts.
-void findStreaks(const CtImage& image, const std::vector<std::size_t>& pieceVoxels,
+void findStreaks(const core::CtImage& image, const std::vector<std::size_t>& pieceVoxels,
                  const CompetingOptions& o, std::vector<std::uint8_t>& streak, MetalPiece& piece) {
   // streak: 1 bright over soft tissue (the angular median below the weak threshold: left out of
   // the bone), 3 bright over bone (kept), 2 dark.
@@ -637,7 +639,7 @@ void findStreaks(const CtImage& image, const std::vector<std::size_t>& pieceVoxe
 }
 
 // The work, on a grid that holds every bone voxel (see segmentCompetingBones).
-static CompetingResult segmentOnGrid(const CtImage& image, const std::vector<BoneSeed>& seeds,
+static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vector<BoneSeed>& seeds,
                                      const CompetingOptions& options) {
   if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount())
     throw std::invalid_argument("the CT image is empty");
@@ -1188,7 +1190,7 @@ static CompetingResult segmentOnGrid(const CtImage& image, const std::vector<Bon
   return result;
 }
 
-ThresholdEstimate estimateBoneThreshold(const CtImage& image,
+ThresholdEstimate estimateBoneThreshold(const core::CtImage& image,
                                         const std::vector<Eigen::Vector3i>& seedVoxels,
                                         double radiusMm, double metalHu,
                                         const BoneThreshold& ceiling) {
@@ -1294,7 +1296,7 @@ ThresholdEstimate estimateBoneThreshold(const CtImage& image,
 // there are none. Every voxel of a hysteresis threshold, and every path that connects it to a
 // strong one, is at or above the weak level: the threshold runs on the box of those voxels only,
 // and the answer is the same as on the whole image without a mask of the whole field of view.
-static void boneBox(const CtImage& image, const BoneThreshold& threshold, Eigen::Vector3i& lo,
+static void boneBox(const core::CtImage& image, const BoneThreshold& threshold, Eigen::Vector3i& lo,
                     Eigen::Vector3i& hi) {
   const auto& d = image.dimensions;
   // hu >= weakHu for integer HU, in integers (the scan of every voxel vectorises).
@@ -1319,7 +1321,7 @@ static void boneBox(const CtImage& image, const BoneThreshold& threshold, Eigen:
   hi = Eigen::Vector3i(-1, -1, -1);
   if (whi.x() < 0)
     return;
-  CtImage box;
+  core::CtImage box;
   box.dimensions = {whi.x() - wlo.x() + 1, whi.y() - wlo.y() + 1, whi.z() - wlo.z() + 1};
   box.pixelSpacingMm = image.pixelSpacingMm;
   for (int k = wlo.z(); k <= whi.z(); ++k)
@@ -1349,7 +1351,8 @@ static void boneBox(const CtImage& image, const BoneThreshold& threshold, Eigen:
   }
 }
 
-CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<BoneSeed>& seeds,
+CompetingResult segmentCompetingBones(const core::CtImage& image,
+                                      const std::vector<BoneSeed>& seeds,
                                       const CompetingOptions& given) {
   if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount() || !image.uniform() ||
       seeds.empty())
@@ -1405,7 +1408,7 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
           fmt::format("{} ({})", notInBone(image, bone, q, s.pointLps, options.threshold), s.bone));
     }
   }
-  CtImage box;
+  core::CtImage box;
   box.dimensions = {hi.x() - lo.x() + 1, hi.y() - lo.y() + 1, hi.z() - lo.z() + 1};
   box.direction = image.direction;
   box.pixelSpacingMm = image.pixelSpacingMm;
@@ -1425,7 +1428,7 @@ CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<Bo
   }
   CompetingResult result = segmentOnGrid(box, seeds, options);
   // Back on the whole grid.
-  CtImage geometry;  // the image without its HU (emptyMask would copy them)
+  core::CtImage geometry;  // the image without its HU (emptyMask would copy them)
   geometry.dimensions = image.dimensions;
   geometry.originMm = image.originMm;
   geometry.direction = image.direction;

@@ -17,14 +17,14 @@ namespace echoreg::segmentation {
 
 namespace {
 
-bool sameGrid(const CtImage& a, const CtImage& b) {
+bool sameGrid(const core::CtImage& a, const core::CtImage& b) {
   return a.dimensions == b.dimensions && a.slicePositionsMm == b.slicePositionsMm &&
          (a.originMm - b.originMm).norm() < 1e-9 &&
          (a.pixelSpacingMm - b.pixelSpacingMm).norm() < 1e-12;
 }
 
-CtImage geometryOf(const CtImage& image) {
-  CtImage g = image;
+core::CtImage geometryOf(const core::CtImage& image) {
+  core::CtImage g = image;
   g.hu.clear();
   g.hu.shrink_to_fit();
   return g;
@@ -129,8 +129,8 @@ std::vector<float> squaredDistance(const VoxelMask& mask, bool toForeground) {
 
 // Flood fill from `starts` through voxels where `pass` is true; 6- or 26-connected.
 template <class Pass>
-std::vector<std::uint8_t> flood(const CtImage& g, const std::vector<std::size_t>& starts, Pass pass,
-                                bool connect26) {
+std::vector<std::uint8_t> flood(const core::CtImage& g, const std::vector<std::size_t>& starts,
+                                Pass pass, bool connect26) {
   const int nx = g.dimensions[0], ny = g.dimensions[1], nz = g.dimensions[2];
   std::vector<std::uint8_t> reached(g.voxelCount(), 0);
   std::vector<std::size_t> stack;
@@ -179,7 +179,7 @@ std::size_t VoxelMask::count() const {
   return static_cast<std::size_t>(std::count(voxels.begin(), voxels.end(), std::uint8_t{1}));
 }
 
-VoxelMask emptyMask(const CtImage& image) {
+VoxelMask emptyMask(const core::CtImage& image) {
   VoxelMask m;
   m.geometry = geometryOf(image);
   const std::size_t n = image.voxelCount();
@@ -201,13 +201,13 @@ VoxelMask emptyMask(const CtImage& image) {
   return m;
 }
 
-CtImage extractGroup(const CtImage& image, std::size_t group) {
+core::CtImage extractGroup(const core::CtImage& image, std::size_t group) {
   if (group >= image.groups.size()) {
     throw std::invalid_argument(
         fmt::format("the CT has {} slice groups, no group {}", image.groups.size(), group));
   }
-  const CtSliceGroup& gr = image.groups[group];
-  CtImage out;
+  const core::CtSliceGroup& gr = image.groups[group];
+  core::CtImage out;
   out.dimensions = {image.dimensions[0], image.dimensions[1], gr.count};
   out.direction = image.direction;
   out.pixelSpacingMm = image.pixelSpacingMm;
@@ -217,7 +217,7 @@ CtImage extractGroup(const CtImage& image, std::size_t group) {
   out.originMm = image.originMm + image.direction.col(2) * z0;
   for (int k = 0; k < gr.count; ++k)
     out.slicePositionsMm.push_back(image.slicePositionsMm[sz(gr.firstSlice + k)] - z0);
-  out.groups = {CtSliceGroup{0, gr.count, gr.count > 1 ? gr.spacingMm : 0.0}};
+  out.groups = {core::CtSliceGroup{0, gr.count, gr.count > 1 ? gr.spacingMm : 0.0}};
   const std::size_t plane = sz(image.dimensions[0]) * sz(image.dimensions[1]);
   if (!image.hu.empty()) {
     out.hu.assign(
@@ -227,7 +227,7 @@ CtImage extractGroup(const CtImage& image, std::size_t group) {
   return out;
 }
 
-int groupContaining(const CtImage& image, const Eigen::Vector3d& pointLps) {
+int groupContaining(const core::CtImage& image, const Eigen::Vector3d& pointLps) {
   if (image.voxelCount() == 0 || image.slicePositionsMm.empty())
     return -1;
   const Eigen::Vector3d local = image.direction.transpose() * (pointLps - image.originMm);
@@ -236,7 +236,7 @@ int groupContaining(const CtImage& image, const Eigen::Vector3d& pointLps) {
     return -1;
   // Along k in mm: within half the group's own spacing of its end slices (0.5 mm for one slice).
   for (std::size_t g = 0; g < image.groups.size(); ++g) {
-    const CtSliceGroup& gr = image.groups[g];
+    const core::CtSliceGroup& gr = image.groups[g];
     const double first = image.slicePositionsMm[sz(gr.firstSlice)];
     const double last = image.slicePositionsMm[sz(gr.firstSlice + gr.count - 1)];
     const double half = gr.count > 1 ? 0.5 * gr.spacingMm : 0.5;
@@ -246,7 +246,7 @@ int groupContaining(const CtImage& image, const Eigen::Vector3d& pointLps) {
   return -1;
 }
 
-VoxelMask thresholdBone(const CtImage& image, const BoneThreshold& threshold) {
+VoxelMask thresholdBone(const core::CtImage& image, const BoneThreshold& threshold) {
   if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount()) {
     throw std::invalid_argument("thresholdBone: the CT image is empty");
   }
@@ -303,7 +303,7 @@ std::vector<float> squaredDistanceMm2(const VoxelMask& mask, bool toForeground) 
 }
 
 void fillHoles(VoxelMask& mask, double maxSliceHoleMm2, bool closedScanEnds) {
-  const CtImage& g = mask.geometry;
+  const core::CtImage& g = mask.geometry;
   const int nx = g.dimensions[0], ny = g.dimensions[1], nz = g.dimensions[2];
   std::vector<std::size_t> border;
   for (int k = 0; k < nz; ++k) {
@@ -366,7 +366,7 @@ void fillHoles(VoxelMask& mask, double maxSliceHoleMm2, bool closedScanEnds) {
 
 VoxelMask connectedComponent(const VoxelMask& mask, const Eigen::Vector3i& seed) {
   VoxelMask out = mask;
-  const CtImage& g = mask.geometry;
+  const core::CtImage& g = mask.geometry;
   if (seed.x() < 0 || seed.y() < 0 || seed.z() < 0 || seed.x() >= g.dimensions[0] ||
       seed.y() >= g.dimensions[1] || seed.z() >= g.dimensions[2] ||
       !mask.at(seed.x(), seed.y(), seed.z())) {
@@ -397,7 +397,7 @@ VoxelMask otherBones(const VoxelMask& threshold, const VoxelMask& region, double
   return out;
 }
 
-GrowResult growBone(const CtImage& image, const Eigen::Vector3d& seedLps,
+GrowResult growBone(const core::CtImage& image, const Eigen::Vector3d& seedLps,
                     const GrowOptions& options) {
   if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount()) {
     throw std::invalid_argument("the CT image is empty");

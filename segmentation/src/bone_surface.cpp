@@ -81,8 +81,8 @@ std::vector<core::TriangleMesh> components(const core::TriangleMesh& mesh) {
 // `start`) at `level`, maps to LPS, smooths, keeps the closed pieces, decimates. `levelHu` names
 // the level in messages.
 BoneSurfaceResult contourField(const std::vector<float>& field, const std::array<int, 3>& dims,
-                               const Eigen::Vector3i& start, const CtImage& geometry, double level,
-                               const BoneSurfaceOptions& options, double levelHu) {
+                               const Eigen::Vector3i& start, const core::CtImage& geometry,
+                               double level, const BoneSurfaceOptions& options, double levelHu) {
   const Eigen::Vector3d spacing = geometry.spacingMm();
   auto image = vtkSmartPointer<vtkImageData>::New();
   image->SetDimensions(dims[0], dims[1], dims[2]);
@@ -172,7 +172,7 @@ BoneSurfaceResult contourField(const std::vector<float>& field, const std::array
   return result;
 }
 
-void requireUniform(const CtImage& g, const char* what) {
+void requireUniform(const core::CtImage& g, const char* what) {
   if (!g.uniform())
     throw std::invalid_argument(std::string(what) + " needs a CT of one slice group");
 }
@@ -223,8 +223,8 @@ VoxelMask dilateOrErode(const VoxelMask& mask, double mm, double voxels, bool gr
   return out;
 }
 
-BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const VoxelMask* exclude,
-                              const BoneSurfaceOptions& options) {
+BoneSurfaceResult boneSurface(const core::CtImage& ct, const VoxelMask& region,
+                              const VoxelMask* exclude, const BoneSurfaceOptions& options) {
   requireUniform(ct, "boneSurface");
   if (ct.hu.size() != ct.voxelCount() || region.voxels.size() != ct.voxelCount() ||
       region.geometry.dimensions != ct.dimensions ||

@@ -480,7 +480,7 @@ std::vector<AnchorSet> proposeAnchors(const core::TriangleMesh& surface, SlicePl
   return sets;
 }
 
-VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImage& grid,
+VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const core::CtImage& grid,
                          const ContourMaskOptions& options) {
   if (contours.empty())
     throw std::invalid_argument("no contour to fill");
@@ -581,7 +581,7 @@ SliceCorrectionResult correctOnSlices(const VoxelMask& region,
                                       const std::vector<SliceContour>& absent) {
   if (contours.empty() && absent.empty())
     throw std::invalid_argument("no corrected contour");
-  const CtImage& g = region.geometry;
+  const core::CtImage& g = region.geometry;
   if (!g.uniform() || region.voxels.size() != g.voxelCount() || g.voxelCount() == 0)
     throw std::invalid_argument("correctOnSlices: the region is empty or not on a uniform grid");
   const SlicePlane plane = contours.empty() ? absent.front().plane : contours.front().plane;
@@ -632,7 +632,7 @@ SliceCorrectionResult correctOnSlices(const VoxelMask& region,
   };
   // In-plane signed distance (mm, negative inside) of a u x v mask, capped (an empty layer is
   // far outside everywhere).
-  CtImage plane2;
+  core::CtImage plane2;
   plane2.dimensions = {nu, nv, 1};
   plane2.pixelSpacingMm = {spacing[ua], spacing[va]};
   plane2.slicePositionsMm = {0.0};

@@ -44,7 +44,7 @@ DicomSeriesRead readDicomSeriesWithWarnings(const std::string& folder,
   return readThroughModule(folder, options, true);
 }
 
-CtImage readDicomSeries(const std::string& folder, const DicomReadOptions& options) {
+core::CtImage readDicomSeries(const std::string& folder, const DicomReadOptions& options) {
   return readDicomSeriesWithWarnings(folder, options).image;
 }
 

@@ -30,7 +30,7 @@ constexpr int kSamplesPerSlab = 40;
 
 std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exclude,
                                    const EndShareOptions& options) {
-  const CtImage& g = region.geometry;
+  const core::CtImage& g = region.geometry;
   if (!g.uniform())
     throw std::invalid_argument("zEndShares needs a CT of one slice group");
   const std::size_t n = g.voxelCount();
@@ -63,7 +63,7 @@ std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exc
   ++i1;
   ++j1;
   const int nu = i1 - i0 + 1, nv = j1 - j0 + 1;
-  CtImage plane;
+  core::CtImage plane;
   plane.dimensions = {nu, nv, 1};
   plane.pixelSpacingMm = g.pixelSpacingMm;
   plane.slicePositionsMm = {0.0};

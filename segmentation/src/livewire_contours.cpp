@@ -30,7 +30,7 @@ std::string pointText(const Eigen::Vector3d& p) {
   return "(" + mm(p.x()) + ", " + mm(p.y()) + ", " + mm(p.z()) + ")";
 }
 
-void checkCt(const CtImage& ct) {
+void checkCt(const core::CtImage& ct) {
   if (ct.dimensions[0] < 1 || ct.dimensions[1] < 1 || ct.dimensions[2] < 1 ||
       ct.hu.size() != ct.voxelCount() ||
       ct.slicePositionsMm.size() != static_cast<std::size_t>(ct.dimensions[2]))
@@ -199,7 +199,7 @@ Eigen::Vector2d CtSlice::pixel(const Eigen::Vector3d& point) const {
           (point[axes.v] - originUvMm.y()) / spacingMm};
 }
 
-double sampleCt(const CtImage& ct, const Eigen::Vector3d& lps) {
+double sampleCt(const core::CtImage& ct, const Eigen::Vector3d& lps) {
   checkCt(ct);
   const Eigen::Vector3d ijk = ct.lpsToVoxel(lps);
   int i0[3];
@@ -225,7 +225,7 @@ double sampleCt(const CtImage& ct, const Eigen::Vector3d& lps) {
   return result;
 }
 
-CtSlice resliceCt(const CtImage& ct, SlicePlane plane, double positionMm,
+CtSlice resliceCt(const core::CtImage& ct, SlicePlane plane, double positionMm,
                   const Eigen::Vector2d& minUvMm, const Eigen::Vector2d& maxUvMm,
                   double spacingMm) {
   checkCt(ct);
@@ -319,7 +319,7 @@ void writeAnchors(const std::string& path, const std::vector<AnchorSet>& anchors
   core::writeMarkups(path, markups);
 }
 
-SliceContour liveWireContour(const CtImage& ct, const AnchorSet& anchors,
+SliceContour liveWireContour(const core::CtImage& ct, const AnchorSet& anchors,
                              const LiveWireContourOptions& options) {
   checkCt(ct);
   const std::string name = "contour \"" + anchors.label + "\"";

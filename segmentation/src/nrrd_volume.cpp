@@ -26,7 +26,7 @@ bool hostIsLittleEndian() {
   return first == 1;
 }
 
-std::string header(const CtImage& g, const char* type, bool gzip) {
+std::string header(const core::CtImage& g, const char* type, bool gzip) {
   const Eigen::Vector3d spacing = g.spacingMm();
   std::string text = "NRRD0004\n# Written by echoreg\n";
   text += fmt::format("type: {}\ndimension: 3\nspace: left-posterior-superior\n", type);
@@ -43,7 +43,7 @@ std::string header(const CtImage& g, const char* type, bool gzip) {
   return text;
 }
 
-void writeBytes(const std::string& path, const CtImage& geometry, const char* type,
+void writeBytes(const std::string& path, const core::CtImage& geometry, const char* type,
                 const char* data, std::size_t count, std::size_t elementSize,
                 const NrrdWriteOptions& options) {
   if (!geometry.uniform()) {
@@ -121,13 +121,13 @@ bool parseTriple(const std::string& text, Eigen::Vector3d& v) {
 
 }  // namespace
 
-void writeNrrdVolume(const std::string& path, const CtImage& geometry,
+void writeNrrdVolume(const std::string& path, const core::CtImage& geometry,
                      const std::vector<std::int16_t>& voxels, const NrrdWriteOptions& options) {
   writeBytes(path, geometry, "short", reinterpret_cast<const char*>(voxels.data()), voxels.size(),
              2, options);
 }
 
-void writeNrrdVolume(const std::string& path, const CtImage& geometry,
+void writeNrrdVolume(const std::string& path, const core::CtImage& geometry,
                      const std::vector<std::uint8_t>& voxels, const NrrdWriteOptions& options) {
   writeBytes(path, geometry, "uchar", reinterpret_cast<const char*>(voxels.data()), voxels.size(),
              1, options);
@@ -246,7 +246,7 @@ NrrdVolume readNrrdVolume(const std::string& path) {
   }
   NrrdVolume volume;
   volume.isMask = isMask;
-  CtImage& image = volume.image;
+  core::CtImage& image = volume.image;
   image.dimensions = sizes;
   const Eigen::Vector3d flip(sign, sign, 1.0);
   image.originMm = origin.cwiseProduct(flip);
@@ -268,7 +268,7 @@ NrrdVolume readNrrdVolume(const std::string& path) {
   image.pixelSpacingMm = Eigen::Vector2d(spacing.x(), spacing.y());
   for (int k = 0; k < sizes[2]; ++k)
     image.slicePositionsMm.push_back(k * spacing.z());
-  image.groups = {CtSliceGroup{0, sizes[2], sizes[2] > 1 ? spacing.z() : 0.0}};
+  image.groups = {core::CtSliceGroup{0, sizes[2], sizes[2] > 1 ? spacing.z() : 0.0}};
   const std::size_t bytes = image.voxelCount() * elementSize;
   std::vector<char> data(bytes);
   if (encoding == "raw") {

@@ -15,10 +15,10 @@
 
 namespace echoreg::segmentation::pipeline {
 
-CtImage ctImageOf(vtkImageData* image, bool withVoxels) {
+core::CtImage ctImageOf(vtkImageData* image, bool withVoxels) {
   if (image == nullptr)
     throw std::invalid_argument("no CT image");
-  CtImage ct;
+  core::CtImage ct;
   int dimensions[3];
   image->GetDimensions(dimensions);
   if (dimensions[0] <= 0 || dimensions[1] <= 0 || dimensions[2] <= 0)
@@ -36,7 +36,7 @@ CtImage ctImageOf(vtkImageData* image, bool withVoxels) {
   ct.slicePositionsMm.resize(static_cast<std::size_t>(dimensions[2]));
   for (int k = 0; k < dimensions[2]; ++k)
     ct.slicePositionsMm[static_cast<std::size_t>(k)] = k * spacing[2];
-  ct.groups = {CtSliceGroup{0, dimensions[2], dimensions[2] > 1 ? spacing[2] : 0.0}};
+  ct.groups = {core::CtSliceGroup{0, dimensions[2], dimensions[2] > 1 ? spacing[2] : 0.0}};
   if (!withVoxels)
     return ct;
   vtkDataArray* scalars = image->GetPointData()->GetScalars();
@@ -58,7 +58,7 @@ CtImage ctImageOf(vtkImageData* image, bool withVoxels) {
 
 vtkSmartPointer<vtkImageData> maskImageOf(const VoxelMask& mask, const char* name) {
   auto image = vtkSmartPointer<vtkImageData>::New();
-  const CtImage& grid = mask.geometry;
+  const core::CtImage& grid = mask.geometry;
   image->SetDimensions(grid.dimensions[0], grid.dimensions[1], grid.dimensions[2]);
   const Eigen::Vector3d spacing = grid.spacingMm();
   image->SetSpacing(spacing.x(), spacing.y(), spacing.z());
@@ -77,7 +77,7 @@ vtkSmartPointer<vtkImageData> maskImageOf(const VoxelMask& mask, const char* nam
   return image;
 }
 
-VoxelMask voxelMaskOf(vtkImageData* image, const CtImage& grid) {
+VoxelMask voxelMaskOf(vtkImageData* image, const core::CtImage& grid) {
   if (image == nullptr)
     throw std::invalid_argument("no mask image");
   int dimensions[3];

@@ -1,9 +1,9 @@
 // CT images and masks between the pipeline (vtkImageData) and the segmentation functions
-// (CtImage, VoxelMask), for the segmentation algorithms' adapters.
+// (core::CtImage, VoxelMask), for the segmentation algorithms' adapters.
 #pragma once
 
+#include "echoreg/core/ct_image.hpp"
 #include "echoreg/segmentation/bone_mask.hpp"
-#include "echoreg/segmentation/ct_image.hpp"
 
 #include <vtkImageData.h>
 #include <vtkSmartPointer.h>
@@ -12,18 +12,18 @@ class vtkInformationVector;
 
 namespace echoreg::segmentation::pipeline {
 
-/// The uniform CtImage of a vtkImageData as vtkEchoregDicomSeriesReader / toImageData make it:
-/// one-component scalars (HU, converted to int16 when of another type), spacing, origin (the
+/// The uniform core::CtImage of a vtkImageData as vtkEchoregDicomSeriesReader / toImageData make
+/// it: one-component scalars (HU, converted to int16 when of another type), spacing, origin (the
 /// centre of voxel 0, LPS) and direction matrix. With `withVoxels` false only the geometry.
 /// Throws std::invalid_argument for an image without voxels or scalars.
-CtImage ctImageOf(vtkImageData* image, bool withVoxels = true);
+core::CtImage ctImageOf(vtkImageData* image, bool withVoxels = true);
 
 /// A mask image (uint8 0/1 scalars named `name`) on the mask's grid.
 vtkSmartPointer<vtkImageData> maskImageOf(const VoxelMask& mask, const char* name);
 
 /// The mask of an image's scalars (non-zero = inside) on the grid of `grid`; throws
 /// std::invalid_argument when the dimensions differ.
-VoxelMask voxelMaskOf(vtkImageData* image, const CtImage& grid);
+VoxelMask voxelMaskOf(vtkImageData* image, const core::CtImage& grid);
 
 /// RequestInformation of an algorithm whose first `ports` outputs are uint8 masks on its input's
 /// grid: copies the whole extent, spacing, origin and direction of input 0 to each of them.

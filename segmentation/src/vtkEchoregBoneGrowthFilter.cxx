@@ -83,7 +83,7 @@ int vtkEchoregBoneGrowthFilter::RequestData(vtkInformation* /*request*/,
   }
   echoreg::segmentation::GrowResult grown;
   try {
-    const echoreg::segmentation::CtImage ct = echoreg::segmentation::pipeline::ctImageOf(input);
+    const echoreg::core::CtImage ct = echoreg::segmentation::pipeline::ctImageOf(input);
     grown = echoreg::segmentation::growBone(ct, this->SeedLps, this->Options);
   } catch (const std::exception& exception) {
     this->Fail(std::string("bone growth failed: ") + exception.what());

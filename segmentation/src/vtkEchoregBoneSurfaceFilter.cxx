@@ -85,7 +85,7 @@ int vtkEchoregBoneSurfaceFilter::RequestData(vtkInformation* /*request*/,
   echoreg::segmentation::BoneSurfaceResult result;
   try {
     namespace pipeline = echoreg::segmentation::pipeline;
-    const echoreg::segmentation::CtImage ct = pipeline::ctImageOf(ctImage);
+    const echoreg::core::CtImage ct = pipeline::ctImageOf(ctImage);
     const echoreg::segmentation::VoxelMask region = pipeline::voxelMaskOf(regionImage, ct);
     std::optional<echoreg::segmentation::VoxelMask> exclude;
     if (excludeImage != nullptr)

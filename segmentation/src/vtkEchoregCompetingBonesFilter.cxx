@@ -88,7 +88,7 @@ int vtkEchoregCompetingBonesFilter::RequestData(vtkInformation* /*request*/,
   try {
     if (this->Seeds.empty())
       throw std::invalid_argument("no seeds (AddSeed)");
-    const seg::CtImage ct = seg::pipeline::ctImageOf(input);
+    const echoreg::core::CtImage ct = seg::pipeline::ctImageOf(input);
     competing = seg::segmentCompetingBones(ct, this->Seeds, this->Options);
     if (!this->SelectedBone.empty()) {
       const auto it =

@@ -46,7 +46,7 @@ void releaseVoxels(void* pointer) {
   }
 }
 
-void checkImage(const CtImage& image) {
+void checkImage(const core::CtImage& image) {
   if (!image.uniform()) {
     throw std::invalid_argument(
         "toImageData: the CT has several slice spacings (groups); resample it (resampleUniform) or "
@@ -57,7 +57,7 @@ void checkImage(const CtImage& image) {
   }
 }
 
-vtkSmartPointer<vtkImageData> emptyImage(const CtImage& image) {
+vtkSmartPointer<vtkImageData> emptyImage(const core::CtImage& image) {
   auto data = vtkSmartPointer<vtkImageData>::New();
   data->SetDimensions(image.dimensions[0], image.dimensions[1], image.dimensions[2]);
   const Eigen::Vector3d spacing = image.spacingMm();
@@ -74,8 +74,8 @@ vtkSmartPointer<vtkImageData> emptyImage(const CtImage& image) {
 
 // A copy of everything but the voxels (copying the CtImage and clearing `hu` would hold a second
 // full volume for a moment).
-CtImage geometryOnly(const CtImage& image) {
-  CtImage out;
+core::CtImage geometryOnly(const core::CtImage& image) {
+  core::CtImage out;
   out.dimensions = image.dimensions;
   out.originMm = image.originMm;
   out.direction = image.direction;
@@ -88,7 +88,7 @@ CtImage geometryOnly(const CtImage& image) {
 }
 
 // Geometry of resampleUniform(image, spacing) without voxels (same slice count rule).
-CtImage resampledGeometry(const CtImage& image, double spacingMm) {
+core::CtImage resampledGeometry(const core::CtImage& image, double spacingMm) {
   if (spacingMm <= 0.0) {
     spacingMm = 0.0;
     for (std::size_t k = 1; k < image.slicePositionsMm.size(); ++k) {
@@ -99,27 +99,27 @@ CtImage resampledGeometry(const CtImage& image, double spacingMm) {
     if (spacingMm <= 0.0)
       spacingMm = 1.0;
   }
-  CtImage out = geometryOnly(image);
+  core::CtImage out = geometryOnly(image);
   const double length = image.slicePositionsMm.empty() ? 0.0 : image.slicePositionsMm.back();
   const int slices = static_cast<int>(std::floor(length / spacingMm + 1e-6)) + 1;
   out.dimensions[2] = slices;
   out.slicePositionsMm.resize(static_cast<std::size_t>(slices));
   for (int k = 0; k < slices; ++k)
     out.slicePositionsMm[static_cast<std::size_t>(k)] = k * spacingMm;
-  out.groups = {CtSliceGroup{0, slices, slices > 1 ? spacingMm : 0.0}};
+  out.groups = {core::CtSliceGroup{0, slices, slices > 1 ? spacingMm : 0.0}};
   return out;
 }
 
 }  // namespace
 
-CtImage extractSliceGroup(const CtImage& image, int group) {
+core::CtImage extractSliceGroup(const core::CtImage& image, int group) {
   if (group < 0 || static_cast<std::size_t>(group) >= image.groups.size()) {
     throw std::invalid_argument("slice group " + std::to_string(group) +
                                 " does not exist (the CT has " +
                                 std::to_string(image.groups.size()) + ")");
   }
-  const CtSliceGroup& g = image.groups[static_cast<std::size_t>(group)];
-  CtImage out;
+  const core::CtSliceGroup& g = image.groups[static_cast<std::size_t>(group)];
+  core::CtImage out;
   out.dimensions = {image.dimensions[0], image.dimensions[1], g.count};
   const double first = image.slicePositionsMm[static_cast<std::size_t>(g.firstSlice)];
   out.originMm = image.originMm + first * image.direction.col(2);
@@ -129,7 +129,7 @@ CtImage extractSliceGroup(const CtImage& image, int group) {
     out.slicePositionsMm.push_back(
         image.slicePositionsMm[static_cast<std::size_t>(g.firstSlice + k)] - first);
   }
-  out.groups = {CtSliceGroup{0, g.count, g.spacingMm}};
+  out.groups = {core::CtSliceGroup{0, g.count, g.spacingMm}};
   out.seriesInstanceUid = image.seriesInstanceUid;
   out.folder = image.folder;
   if (!image.hu.empty()) {
@@ -143,7 +143,7 @@ CtImage extractSliceGroup(const CtImage& image, int group) {
   return out;
 }
 
-vtkSmartPointer<vtkImageData> toImageData(const CtImage& image) {
+vtkSmartPointer<vtkImageData> toImageData(const core::CtImage& image) {
   checkImage(image);
   vtkSmartPointer<vtkImageData> data = emptyImage(image);
   auto scalars = vtkSmartPointer<vtkShortArray>::New();
@@ -154,7 +154,7 @@ vtkSmartPointer<vtkImageData> toImageData(const CtImage& image) {
   return data;
 }
 
-vtkSmartPointer<vtkImageData> toImageData(CtImage&& image) {
+vtkSmartPointer<vtkImageData> toImageData(core::CtImage&& image) {
   checkImage(image);
   vtkSmartPointer<vtkImageData> data = emptyImage(image);
   auto owner = std::make_unique<std::vector<std::int16_t>>(std::move(image.hu));
@@ -209,8 +209,8 @@ void vtkEchoregDicomSeriesReader::Fail(const std::string& message) {
   vtkErrorMacro(<< message);
 }
 
-echoreg::segmentation::CtImage vtkEchoregDicomSeriesReader::OutputGeometry(
-    const echoreg::segmentation::CtImage& series) const {
+echoreg::core::CtImage vtkEchoregDicomSeriesReader::OutputGeometry(
+    const echoreg::core::CtImage& series) const {
   using namespace echoreg::segmentation;
   if (this->ResampleToUniform)
     return resampledGeometry(series, this->ResampleSpacing);
@@ -224,7 +224,7 @@ echoreg::segmentation::CtImage vtkEchoregDicomSeriesReader::OutputGeometry(
   }
   if (!series.uniform()) {
     std::string groups;
-    for (const CtSliceGroup& g : series.groups) {
+    for (const echoreg::core::CtSliceGroup& g : series.groups) {
       groups += (groups.empty() ? "" : ", ") + std::to_string(g.count) + " at " +
                 std::to_string(g.spacingMm) + " mm";
     }
@@ -248,7 +248,7 @@ int vtkEchoregDicomSeriesReader::RequestInformation(vtkInformation* /*request*/,
         echoreg::segmentation::readDicomSeriesGeometry(this->DirectoryName, options);
     this->SeriesGeometry = std::move(read.image);
     this->Warnings = std::move(read.warnings);
-    const echoreg::segmentation::CtImage geometry = this->OutputGeometry(this->SeriesGeometry);
+    const echoreg::core::CtImage geometry = this->OutputGeometry(this->SeriesGeometry);
     const int extent[6] = {0, geometry.dimensions[0] - 1, 0, geometry.dimensions[1] - 1,
                            0, geometry.dimensions[2] - 1};
     const Eigen::Vector3d spacing = geometry.spacingMm();
@@ -288,10 +288,10 @@ int vtkEchoregDicomSeriesReader::RequestData(vtkInformation* /*request*/,
     options.seriesUid = this->SeriesUid;
     DicomSeriesRead read = readDicomSeriesWithWarnings(this->DirectoryName, options);
     this->Warnings = std::move(read.warnings);
-    CtImage image = std::move(read.image);
+    echoreg::core::CtImage image = std::move(read.image);
     this->OutputGeometry(image);  // throws for a non-uniform series without resampling or group
     if (this->ResampleToUniform) {
-      image = resampleUniform(image, this->ResampleSpacing);
+      image = echoreg::core::resampleUniform(image, this->ResampleSpacing);
     } else if (this->Group >= 0) {
       image = extractSliceGroup(image, this->Group);
     }

@@ -94,7 +94,7 @@ int vtkEchoregLiveWireFilter::RequestData(vtkInformation* /*request*/,
                   : echoreg::segmentation::readAnchors(this->AnchorsFileName);
     if (anchors.empty())
       throw std::invalid_argument("no anchors (SetAnchors or AnchorsFileName)");
-    const echoreg::segmentation::CtImage ct = echoreg::segmentation::pipeline::ctImageOf(input);
+    const echoreg::core::CtImage ct = echoreg::segmentation::pipeline::ctImageOf(input);
     for (const echoreg::segmentation::AnchorSet& set : anchors) {
       try {
         contours.push_back(echoreg::segmentation::liveWireContour(ct, set, this->ContourOptions));

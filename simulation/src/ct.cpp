@@ -152,7 +152,7 @@ struct SliceBuffers {
 class Synthesizer {
  public:
   Synthesizer(const TissueField& field, const CtProtocol& protocol, std::uint64_t seed,
-              CtVolume& volume)
+              core::CtImage& volume)
       : field_(field), protocol_(protocol), seed_(seed), volume_(volume) {
     for (std::size_t t = 0; t < kTissueCount; ++t) {
       const TissueProperties& p = properties(static_cast<Tissue>(t));
@@ -167,14 +167,14 @@ class Synthesizer {
   }
 
   void slice(int k, SliceBuffers& buffers) const {
-    const int columns = volume_.columns;
-    const int rows = volume_.rows;
+    const int columns = volume_.dimensions[0];
+    const int rows = volume_.dimensions[1];
     const std::size_t plane = static_cast<std::size_t>(columns) * static_cast<std::size_t>(rows);
-    const double z = volume_.sliceZMm[static_cast<std::size_t>(k)];
+    const double z = volume_.sliceLocationsMm[static_cast<std::size_t>(k)];
     const double thickness = volume_.sliceThicknessMm[static_cast<std::size_t>(k)];
-    const double ps = volume_.pixelSpacingMm;
-    const double x0 = volume_.firstPixelXYMm.x();
-    const double y0 = volume_.firstPixelXYMm.y();
+    const double ps = volume_.pixelSpacingMm.x();
+    const double x0 = volume_.originMm.x();
+    const double y0 = volume_.originMm.y();
 
     // Through-slice sub-planes and the check planes among them.
     const int nz =
@@ -305,7 +305,7 @@ class Synthesizer {
   const TissueField& field_;
   const CtProtocol& protocol_;
   std::uint64_t seed_;
-  CtVolume& volume_;
+  core::CtImage& volume_;
   std::array<double, kTissueCount> hu_{};
   std::array<double, kTissueCount> sigma_{};
   std::vector<double> psfKernel_;
@@ -336,7 +336,7 @@ CtProtocol smallProtocol(double hipZ, double kneeZ, double ankleZ, Eigen::Vector
   return protocol;
 }
 
-CtVolume ctGeometry(const CtProtocol& p) {
+core::CtImage ctGeometry(const CtProtocol& p) {
   require(p.columns >= 1 && p.columns <= 65535, "columns must be 1..65535", p.columns);
   require(p.rows >= 1 && p.rows <= 65535, "rows must be 1..65535", p.rows);
   require(std::isfinite(p.pixelSpacingMm) && p.pixelSpacingMm > 0.0,
@@ -358,12 +358,7 @@ CtVolume ctGeometry(const CtProtocol& p) {
   if (p.groups.empty())
     throw std::invalid_argument("CtProtocol.groups is empty: no slices");
 
-  CtVolume volume;
-  volume.columns = p.columns;
-  volume.rows = p.rows;
-  volume.pixelSpacingMm = p.pixelSpacingMm;
-  volume.firstPixelXYMm =
-      p.centreXYMm - 0.5 * p.pixelSpacingMm * Eigen::Vector2d(p.columns - 1, p.rows - 1);
+  std::vector<core::AxialSliceGroup> slices;
   for (std::size_t g = 0; g < p.groups.size(); ++g) {
     const CtSliceGroup& group = p.groups[g];
     const std::string name = fmt::format("groups[{}] ({})", g, group.name);
@@ -387,24 +382,23 @@ CtVolume ctGeometry(const CtProtocol& p) {
                           name, bottom),
               previousTop);
     }
-    volume.groupNames.push_back(group.name);
+    core::AxialSliceGroup& run = slices.emplace_back();
+    run.name = group.name;
+    run.thicknessMm = group.spacingMm;
     const int count = static_cast<int>(whole) + 1;
-    for (int s = 0; s < count; ++s) {
-      volume.sliceZMm.push_back(group.firstZMm + s * group.spacingMm);
-      volume.sliceGroup.push_back(static_cast<int>(g));
-      volume.sliceThicknessMm.push_back(group.spacingMm);
-    }
+    for (int s = 0; s < count; ++s)
+      run.zMm.push_back(group.firstZMm + s * group.spacingMm);
   }
-  return volume;
+  const Eigen::Vector2d firstPixel =
+      p.centreXYMm - 0.5 * p.pixelSpacingMm * Eigen::Vector2d(p.columns - 1, p.rows - 1);
+  return core::axialCtImage(p.columns, p.rows, p.pixelSpacingMm, firstPixel, slices);
 }
 
-CtVolume synthesizeCt(const TissueField& field, const CtProtocol& protocol, std::uint64_t seed,
-                      const std::function<void(double fraction)>& progress) {
-  CtVolume volume = ctGeometry(protocol);
-  const int slices = volume.slices();
-  volume.hu.assign(static_cast<std::size_t>(slices) * static_cast<std::size_t>(volume.rows) *
-                       static_cast<std::size_t>(volume.columns),
-                   0);
+core::CtImage synthesizeCt(const TissueField& field, const CtProtocol& protocol, std::uint64_t seed,
+                           const std::function<void(double fraction)>& progress) {
+  core::CtImage volume = ctGeometry(protocol);
+  const int slices = volume.dimensions[2];
+  volume.hu.assign(volume.voxelCount(), 0);
   const Synthesizer synthesizer(field, protocol, seed, volume);
 
   std::atomic<int> next{0};

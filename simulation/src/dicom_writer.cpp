@@ -8,7 +8,7 @@
 
 namespace echoreg::simulation {
 
-void writeDicomSeries(const std::string& folder, const CtVolume& volume,
+void writeDicomSeries(const std::string& folder, const core::CtImage& volume,
                       const DicomSeriesInfo& info) {
   const auto write = dicom::dicomFunction<dicom::WriteSeriesFunction>(dicom::kWriteSeriesSymbol);
   std::exception_ptr error;

@@ -138,7 +138,7 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
           ? smallProtocol(knee.hipCentre.z(), knee.kneeCentre.z(), knee.ankleCentre.z(), centre)
           : dissertationProtocol(knee.hipCentre.z(), knee.kneeCentre.z(), knee.ankleCentre.z(),
                                  centre);
-  const CtVolume volume =
+  const core::CtImage volume =
       synthesizeCt(specimen, protocol, options.seed, [&](double f) { report("ct", f); });
   DicomSeriesInfo dicom;
   dicom.patientId = fmt::format("ECHOREG-{}-{}", presetName(options.preset), options.seed);
@@ -149,8 +149,8 @@ StudySummary generateStudy(const StudyOptions& options, const std::string& folde
                       .next();
   writeDicomSeries(root + "/ct/series", volume, dicom);
   writeMarkups(root + "/ct/landmarks.mrk.json", builder.ctLandmarks());
-  summary.ctSlices = static_cast<int>(volume.sliceZMm.size());
-  summary.ctSize = {volume.columns, volume.rows};
+  summary.ctSlices = volume.dimensions[2];
+  summary.ctSize = {volume.dimensions[0], volume.dimensions[1]};
   summary.stepSeconds.push_back({"ct", secondsSince(stepStart)});
 
   // Truth.

@@ -16,7 +16,7 @@
 #include <fstream>
 #include <iterator>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 std::string slurp(const std::string& path) {
@@ -293,4 +293,4 @@ TEST(CaptureDetection, StudyRefusesABadParamsFileBeforeAnyStep) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

@@ -12,7 +12,7 @@
 #include <iterator>
 #include <sstream>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 using test::runEchoreg;
@@ -171,4 +171,4 @@ TEST_F(CliBadInput, TrackerOnlyCaptureHasNoALinesToDetect) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

@@ -14,7 +14,7 @@
 #include <map>
 #include <sstream>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 using test::runEchoreg;
@@ -315,4 +315,4 @@ TEST(CliDetect, UsageErrorsExitTwo) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

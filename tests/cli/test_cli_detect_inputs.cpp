@@ -17,7 +17,7 @@
 #include <string>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 using test::runEchoreg;
@@ -188,4 +188,4 @@ TEST(CliDetectInputs, UnsignedSixteenBitCapturesAreRead) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

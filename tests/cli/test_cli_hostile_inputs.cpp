@@ -23,7 +23,7 @@
 #include <utility>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 namespace fs = std::filesystem;
@@ -465,4 +465,4 @@ TEST_F(CliHostileInputs, ImplausibleHeaderValuesSayTheyCameFromTheHeader) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

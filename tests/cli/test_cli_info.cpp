@@ -4,7 +4,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 using test::runEchoreg;
@@ -45,4 +45,4 @@ TEST(CliInfo, TrackerOnlyLandmarkRecording) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

@@ -8,22 +8,14 @@
 
 #include <filesystem>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 using test::runEchoreg;
 
 // 2 slices at 5 mm, 3 at 1 mm (after a gap), 4 x 3 pixels of 0.5 mm; HU from -1024 to 3071.
 void writeSmallSeries(const std::string& folder) {
-  simulation::CtVolume v;
-  v.columns = 4;
-  v.rows = 3;
-  v.pixelSpacingMm = 0.5;
-  v.firstPixelXYMm = {-1.0, 2.0};
-  v.sliceZMm = {10, 15, 30, 31, 32};
-  v.sliceGroup.assign(5, 0);
-  v.groupNames = {"g"};
-  v.sliceThicknessMm.assign(5, 1.0);
+  core::CtImage v = core::axialCtImage(4, 3, 0.5, {-1.0, 2.0}, {{"g", {10, 15, 30, 31, 32}, 1.0}});
   v.hu.assign(60, 0);
   v.hu[0] = -1024;
   v.hu[59] = 3071;
@@ -103,4 +95,4 @@ TEST(CliInfoCt, BadFolderExitsOneNamingIt) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 using test::runEchoreg;
@@ -302,4 +302,4 @@ TEST_F(CliEvaluate, RefusesMismatchedOrBrokenInput) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

@@ -9,7 +9,7 @@
 #include <utility>
 #include <vector>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 using test::runEchoreg;
@@ -69,4 +69,4 @@ TEST(CliMessages, NumberFlagsSayWhatTheyAcceptWithoutInternalNames) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

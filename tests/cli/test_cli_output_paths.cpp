@@ -13,7 +13,7 @@
 #include <fstream>
 #include <iterator>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 namespace fs = std::filesystem;
@@ -160,4 +160,4 @@ TEST_F(CliOutputPaths, SegmentRefusesTwoOutputsOfOneName) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

@@ -16,7 +16,7 @@
 #include <filesystem>
 #include <functional>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 namespace fs = std::filesystem;
@@ -107,4 +107,4 @@ TEST_F(CliPoses, PivotReorthonormalisesTrackerRoundingAndSaysHowMany) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

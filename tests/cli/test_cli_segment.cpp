@@ -17,7 +17,7 @@
 #include <filesystem>
 #include <fstream>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 using test::runEchoreg;
@@ -37,24 +37,19 @@ double phantomHu(double x, double y) {
 }
 
 std::string writePhantom(const std::string& folder) {
-  simulation::CtVolume v;
-  v.columns = 56;
-  v.rows = 48;
-  v.pixelSpacingMm = 0.8;
-  v.firstPixelXYMm = {-18.0, -18.8};
-  v.groupNames = {"hip", "knee", "ankle"};
+  std::vector<double> hip, knee, ankle;
   for (int k = 0; k < 3; ++k)
-    v.sliceZMm.push_back(-60.0 + 5.0 * k), v.sliceGroup.push_back(0),
-        v.sliceThicknessMm.push_back(5.0);
+    hip.push_back(-60.0 + 5.0 * k);
   for (int k = 0; k < 30; ++k)
-    v.sliceZMm.push_back(-15.0 + k), v.sliceGroup.push_back(1), v.sliceThicknessMm.push_back(1.0);
+    knee.push_back(-15.0 + k);
   for (int k = 0; k < 3; ++k)
-    v.sliceZMm.push_back(40.0 + 5.0 * k), v.sliceGroup.push_back(2),
-        v.sliceThicknessMm.push_back(5.0);
-  v.hu.resize(static_cast<std::size_t>(v.columns * v.rows * v.slices()));
-  for (int k = 0; k < v.slices(); ++k) {
-    for (int j = 0; j < v.rows; ++j) {
-      for (int i = 0; i < v.columns; ++i) {
+    ankle.push_back(40.0 + 5.0 * k);
+  core::CtImage v = core::axialCtImage(
+      56, 48, 0.8, {-18.0, -18.8}, {{"hip", hip, 5.0}, {"knee", knee, 1.0}, {"ankle", ankle, 5.0}});
+  v.hu.resize(v.voxelCount());
+  for (int k = 0; k < v.dimensions[2]; ++k) {
+    for (int j = 0; j < v.dimensions[1]; ++j) {
+      for (int i = 0; i < v.dimensions[0]; ++i) {
         const Eigen::Vector3d c = v.voxelCentreMm(i, j, k);
         double sum = 0.0;  // partial volume: 4 x 4 samples in the pixel
         for (int a = 0; a < 4; ++a) {
@@ -286,4 +281,4 @@ TEST_F(CliSegment, WrongUsageExitsTwo) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

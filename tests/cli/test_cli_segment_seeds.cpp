@@ -15,7 +15,7 @@
 #include <filesystem>
 #include <fstream>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 using test::runEchoreg;
@@ -35,18 +35,14 @@ double phantomHu(double x, double y, double z, bool metal) {
 }
 
 std::string writePhantom(const std::string& folder, bool metal = false) {
-  simulation::CtVolume v;
-  v.columns = 56;
-  v.rows = 40;
-  v.pixelSpacingMm = 0.8;
-  v.firstPixelXYMm = {-16.0, -16.0};
-  v.groupNames = {"knee"};
+  std::vector<double> knee;
   for (int k = 0; k < 30; ++k)
-    v.sliceZMm.push_back(-15.0 + k), v.sliceGroup.push_back(0), v.sliceThicknessMm.push_back(1.0);
-  v.hu.resize(static_cast<std::size_t>(v.columns * v.rows * v.slices()));
-  for (int k = 0; k < v.slices(); ++k) {
-    for (int j = 0; j < v.rows; ++j) {
-      for (int i = 0; i < v.columns; ++i) {
+    knee.push_back(-15.0 + k);
+  core::CtImage v = core::axialCtImage(56, 40, 0.8, {-16.0, -16.0}, {{"knee", knee, 1.0}});
+  v.hu.resize(v.voxelCount());
+  for (int k = 0; k < v.dimensions[2]; ++k) {
+    for (int j = 0; j < v.dimensions[1]; ++j) {
+      for (int i = 0; i < v.dimensions[0]; ++i) {
         const Eigen::Vector3d c = v.voxelCentreMm(i, j, k);
         double sum = 0.0;
         for (int a = 0; a < 4; ++a) {
@@ -265,4 +261,4 @@ TEST(CliSegmentSeeds, MetalIsReportedOrRefused) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

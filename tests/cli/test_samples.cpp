@@ -18,7 +18,7 @@
 #include <fstream>
 #include <set>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 namespace fs = std::filesystem;
@@ -107,4 +107,4 @@ TEST(Samples, SlicerAnchorsReadAsSagittalLiveWireContours) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

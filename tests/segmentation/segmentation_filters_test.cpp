@@ -45,7 +45,7 @@
 namespace {
 
 using namespace echoreg;
-using segmentation::CtImage;
+using core::CtImage;
 
 // VTK's messages into a string while it lives (the errors these tests provoke).
 class QuietVtk {

@@ -18,32 +18,6 @@
 
 namespace echoreg::test {
 
-segmentation::CtImage toCtImage(const simulation::CtVolume& volume) {
-  segmentation::CtImage image;
-  image.dimensions = {volume.columns, volume.rows, volume.slices()};
-  image.originMm = volume.voxelCentreMm(0, 0, 0);
-  image.pixelSpacingMm = {volume.pixelSpacingMm, volume.pixelSpacingMm};
-  for (double z : volume.sliceZMm)
-    image.slicePositionsMm.push_back(z - volume.sliceZMm.front());
-  int first = 0;
-  for (int k = 1; k <= volume.slices(); ++k) {
-    const auto kk = static_cast<std::size_t>(k);
-    const bool breakHere =
-        k == volume.slices() || volume.sliceGroup[kk] != volume.sliceGroup[kk - 1];
-    if (!breakHere)
-      continue;
-    const int count = k - first;
-    const double spacing = count > 1 ? volume.sliceZMm[static_cast<std::size_t>(first + 1)] -
-                                           volume.sliceZMm[static_cast<std::size_t>(first)]
-                                     : 0.0;
-    image.groups.push_back({first, count, spacing});
-    first = k;
-  }
-  image.hu = volume.hu;
-  image.seriesInstanceUid = "simulated";
-  return image;
-}
-
 namespace {
 
 // The CT takes seconds to synthesise; ctest runs each test in its own process, so the volume is
@@ -87,7 +61,7 @@ bool loadCache(const std::string& path, SimulatedKnee& s) {
   std::ifstream in(path, std::ios::binary);
   if (!in)
     return false;
-  segmentation::CtImage& ct = s.ct;
+  core::CtImage& ct = s.ct;
   std::uint64_t slices = 0;
   if (!get(in, ct.dimensions) || !get(in, ct.originMm) || !get(in, ct.pixelSpacingMm) ||
       !get(in, s.kneeZMinMm) || !get(in, s.kneeZMaxMm) || !get(in, slices) ||
@@ -186,14 +160,13 @@ std::unique_ptr<SimulatedKnee> buildSimulatedKnee(const KneeVariant& variant) {
   protocol.centreXYMm = s->knee.kneeCentre.head<2>();
   if (variant.cancellousHu != 300.0)
     protocol.cancellousHu = variant.cancellousHu;
-  const simulation::CtVolume volume =
-      simulation::synthesizeCt(specimen, protocol, static_cast<std::uint64_t>(variant.seed));
-  s->ct = toCtImage(volume);
-  s->kneeZMinMm = volume.sliceZMm.front();
-  s->kneeZMaxMm = volume.sliceZMm.back();
+  s->ct = simulation::synthesizeCt(specimen, protocol, static_cast<std::uint64_t>(variant.seed));
+  s->ct.seriesInstanceUid = "simulated";
+  s->kneeZMinMm = s->ct.sliceLocationsMm.front();
+  s->kneeZMaxMm = s->ct.sliceLocationsMm.back();
   saveCache(cache, *s);
-  std::cout << "[ fixture  ] simulated knee CT " << volume.columns << " x " << volume.rows << " x "
-            << volume.slices() << " in "
+  std::cout << "[ fixture  ] simulated knee CT " << s->ct.dimensions[0] << " x "
+            << s->ct.dimensions[1] << " x " << s->ct.dimensions[2] << " in "
             << std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count()
             << " s (bones " << tKnee << " s, leg " << tSpecimen - tKnee << " s)\n";
   return s;

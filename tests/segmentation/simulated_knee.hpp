@@ -5,7 +5,7 @@
 // is cached in the tests' temporary folder under a checksum of the bones.
 #pragma once
 
-#include "echoreg/segmentation/ct_image.hpp"
+#include "echoreg/core/ct_image.hpp"
 #include "echoreg/simulation/anatomy.hpp"
 #include "echoreg/simulation/ct.hpp"
 
@@ -17,12 +17,9 @@ namespace echoreg::test {
 
 struct SimulatedKnee {
   simulation::Knee knee;
-  segmentation::CtImage ct;                   ///< knee group only (uniform)
+  core::CtImage ct;                           ///< knee group only (uniform)
   double kneeZMinMm = 0.0, kneeZMaxMm = 0.0;  ///< the first and last slice centres
 };
-
-/// The simulated CT as a CtImage (axial, identity direction, groups from the slice spacing).
-segmentation::CtImage toCtImage(const simulation::CtVolume& volume);
 
 /// A knee other than the shared one: a narrowed joint, a patella on the femur, faint bone,
 /// osteophytes, thick slices.

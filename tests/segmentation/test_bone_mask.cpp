@@ -21,7 +21,7 @@
 namespace {
 
 using namespace echoreg;
-using segmentation::CtImage;
+using core::CtImage;
 
 // A uniform CT of `n` voxels of `spacing` mm whose HU at a point is `hu(p)` averaged over 3^3
 // sub-samples (partial volume), origin at (-n/2 * spacing) so the grid is centred on 0.

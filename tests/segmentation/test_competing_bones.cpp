@@ -286,7 +286,7 @@ TEST(CompetingBones, MetalStreaksAreFoundAndTheBoneSegmentedAroundThem) {
     return p.x() <= surfaceX && p.x() > surfaceX - 3.0 && std::abs(p.y() - seed.y()) <= 4.0 &&
            std::abs(p.z() - seed.z()) <= 20.0;
   };
-  const segmentation::CtImage plain = sim.ct;
+  const core::CtImage plain = sim.ct;
   const Eigen::Vector2d centre(surfaceX - 1.5, seed.y());
   std::vector<std::uint8_t> drawn(sim.ct.hu.size(), 0);  // streak pixels drawn in soft tissue
   std::vector<core::MeshLocator> bones;
@@ -330,7 +330,7 @@ TEST(CompetingBones, MetalStreaksAreFoundAndTheBoneSegmentedAroundThem) {
       }
     }
   }
-  segmentation::CtImage plateOnly = plain;
+  core::CtImage plateOnly = plain;
   for (std::size_t v = 0; v < plateOnly.hu.size(); ++v) {
     if (sim.ct.hu[v] == 3000)
       plateOnly.hu[v] = 3000;
@@ -441,7 +441,7 @@ TEST(CompetingBones, MetalStreaksAreFoundAndTheBoneSegmentedAroundThem) {
 // sigma 5.8), a block of 1000 HU cortex around 250 HU cancellous bone: S, C and the levels as
 // the formulas say; a box without bone gets the floors; no seed is refused.
 TEST(CompetingBones, ThresholdEstimateFollowsTheHistogram) {
-  segmentation::CtImage ct;
+  core::CtImage ct;
   ct.dimensions = {60, 60, 60};
   ct.pixelSpacingMm = {1.0, 1.0};
   for (int k = 0; k < 60; ++k)

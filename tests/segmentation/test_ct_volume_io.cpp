@@ -20,23 +20,16 @@
 
 namespace {
 
-using echoreg::segmentation::CtImage;
+using echoreg::core::CtImage;
 
 /// Three groups (2 slices at 4 mm, 5 at 1 mm, 2 at 4 mm) of 5 x 4 pixels of 0.7 mm, written by
 /// the simulator's writer; HU = 10 i + 100 j + k - 500.
-echoreg::simulation::CtVolume threeGroups() {
-  echoreg::simulation::CtVolume v;
-  v.columns = 5;
-  v.rows = 4;
-  v.pixelSpacingMm = 0.7;
-  v.firstPixelXYMm = {3.0, -4.0};
-  v.sliceZMm = {0, 4, 20, 21, 22, 23, 24, 40, 44};
-  v.sliceGroup.assign(v.sliceZMm.size(), 0);
-  v.groupNames = {"g"};
-  v.sliceThicknessMm.assign(v.sliceZMm.size(), 1.0);
-  for (int k = 0; k < v.slices(); ++k) {
-    for (int j = 0; j < v.rows; ++j) {
-      for (int i = 0; i < v.columns; ++i)
+CtImage threeGroups() {
+  CtImage v = echoreg::core::axialCtImage(5, 4, 0.7, {3.0, -4.0},
+                                          {{"g", {0, 4, 20, 21, 22, 23, 24, 40, 44}, 1.0}});
+  for (int k = 0; k < v.dimensions[2]; ++k) {
+    for (int j = 0; j < v.dimensions[1]; ++j) {
+      for (int i = 0; i < v.dimensions[0]; ++i)
         v.hu.push_back(static_cast<std::int16_t>(10 * i + 100 * j + k - 500));
     }
   }

@@ -20,20 +20,13 @@
 namespace {
 
 namespace dicom = echoreg::dicom;
+using echoreg::core::CtImage;
 using echoreg::segmentation::DicomReadOptions;
 using echoreg::segmentation::DicomSeriesRead;
-using echoreg::simulation::CtVolume;
 
-CtVolume smallVolume() {
-  CtVolume volume;
-  volume.columns = 6;
-  volume.rows = 5;
-  volume.pixelSpacingMm = 0.5;
-  volume.firstPixelXYMm = {-1.25, 2.5};
-  volume.sliceZMm = {0.0, 1.0, 2.0};
-  volume.sliceGroup.assign(3, 0);
-  volume.groupNames = {"knee"};
-  volume.sliceThicknessMm.assign(3, 1.0);
+CtImage smallVolume() {
+  CtImage volume =
+      echoreg::core::axialCtImage(6, 5, 0.5, {-1.25, 2.5}, {{"knee", {0.0, 1.0, 2.0}, 1.0}});
   volume.hu.resize(static_cast<std::size_t>(6 * 5 * 3));
   for (std::size_t v = 0; v < volume.hu.size(); ++v)
     volume.hu[v] = static_cast<std::int16_t>(static_cast<int>(v) * 29 - 400);
@@ -142,8 +135,8 @@ TEST(DicomModule, ExceptionsThrownInsideReachTheCallerAsTheirOwnType) {
   const std::string message = fileErrorOf([&] { echoreg::segmentation::readDicomSeries(missing); });
   EXPECT_NE(message.find(missing), std::string::npos) << message;
 
-  CtVolume empty = smallVolume();
-  empty.columns = 0;
+  CtImage empty = smallVolume();
+  empty.dimensions[0] = 0;
   EXPECT_THROW(echoreg::simulation::writeDicomSeries(dir.file("bad"), empty, {}),
                std::invalid_argument);
   EXPECT_FALSE(std::filesystem::exists(dir.file("bad")));

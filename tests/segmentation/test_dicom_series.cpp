@@ -39,31 +39,23 @@
 namespace {
 
 namespace fs = std::filesystem;
+using echoreg::core::CtImage;
 using echoreg::core::FileError;
-using echoreg::segmentation::CtImage;
 using echoreg::segmentation::DicomReadOptions;
 using echoreg::segmentation::DicomSeriesRead;
 using echoreg::segmentation::readDicomSeries;
 using echoreg::segmentation::readDicomSeriesWithWarnings;
-using echoreg::simulation::CtVolume;
 
 /// HU covering the whole stored range [-1024, 3071], different in every voxel of a small volume.
 std::int16_t pattern(int i, int j, int k) {
   return static_cast<std::int16_t>((i * 37 + j * 101 + k * 613) % 4096 - 1024);
 }
 
-CtVolume volumeWithSlices(const std::vector<double>& z, int columns, int rows, double pixelMm) {
-  CtVolume v;
-  v.columns = columns;
-  v.rows = rows;
-  v.pixelSpacingMm = pixelMm;
-  v.firstPixelXYMm = {-10.5, 20.25};
-  v.sliceZMm = z;
-  v.sliceGroup.assign(z.size(), 0);
-  v.groupNames = {"test"};
-  v.sliceThicknessMm.assign(z.size(), 1.0);
+CtImage volumeWithSlices(const std::vector<double>& z, int columns, int rows, double pixelMm) {
+  CtImage v =
+      echoreg::core::axialCtImage(columns, rows, pixelMm, {-10.5, 20.25}, {{"test", z, 1.0}});
   v.hu.resize(z.size() * static_cast<std::size_t>(rows * columns));
-  for (int k = 0; k < v.slices(); ++k) {
+  for (int k = 0; k < v.dimensions[2]; ++k) {
     for (int j = 0; j < rows; ++j) {
       for (int i = 0; i < columns; ++i)
         v.hu[v.index(i, j, k)] = pattern(i, j, k);
@@ -72,7 +64,7 @@ CtVolume volumeWithSlices(const std::vector<double>& z, int columns, int rows, d
   return v;
 }
 
-void writeSeries(const std::string& folder, const CtVolume& volume) {
+void writeSeries(const std::string& folder, const CtImage& volume) {
   echoreg::simulation::DicomSeriesInfo info;
   info.uidSeed = 11;
   info.seriesDescription = "reader test";
@@ -128,13 +120,12 @@ TEST(DicomSeries, ThreeGroupsOfTheSimulatedProtocolGiveExactGeometryGroupsAndHu)
   echoreg::test::TempDir dir;
   // The simulator's small protocol: 3 hip slices at 5 mm, 160 knee slices at 1 mm, 3 ankle slices
   // at 5 mm, with large gaps between the groups; 256 x 256 pixels of 0.8 mm.
-  CtVolume volume = echoreg::simulation::ctGeometry(
+  CtImage volume = echoreg::simulation::ctGeometry(
       echoreg::simulation::smallProtocol(0.0, -430.0, -830.0, Eigen::Vector2d(5.0, -3.0)));
-  volume.hu.resize(static_cast<std::size_t>(volume.slices()) *
-                   static_cast<std::size_t>(volume.rows * volume.columns));
-  for (int k = 0; k < volume.slices(); ++k) {
-    for (int j = 0; j < volume.rows; ++j) {
-      for (int i = 0; i < volume.columns; ++i)
+  volume.hu.resize(volume.voxelCount());
+  for (int k = 0; k < volume.dimensions[2]; ++k) {
+    for (int j = 0; j < volume.dimensions[1]; ++j) {
+      for (int i = 0; i < volume.dimensions[0]; ++i)
         volume.hu[volume.index(i, j, k)] = pattern(i, j, k);
     }
   }
@@ -169,7 +160,8 @@ TEST(DicomSeries, ThreeGroupsOfTheSimulatedProtocolGiveExactGeometryGroupsAndHu)
   EXPECT_DOUBLE_EQ(image.pixelSpacingMm.y(), 0.8);
   for (int k = 0; k < 166; ++k) {
     EXPECT_NEAR(image.slicePositionsMm[static_cast<std::size_t>(k)],
-                volume.sliceZMm[static_cast<std::size_t>(k)] - volume.sliceZMm[0], 1e-9);
+                volume.sliceLocationsMm[static_cast<std::size_t>(k)] - volume.sliceLocationsMm[0],
+                1e-9);
     EXPECT_NEAR((image.voxelToLps(Eigen::Vector3d(7, 9, k)) - volume.voxelCentreMm(7, 9, k)).norm(),
                 0.0, 1e-9);
   }
@@ -200,7 +192,7 @@ class DicomSeriesRefusal : public ::testing::Test {
 
   echoreg::test::TempDir dir_;
   std::string folder_;
-  CtVolume volume_;
+  CtImage volume_;
 };
 
 TEST_F(DicomSeriesRefusal, TheGoodSeriesReadsTheSameWithAnyThreadCount) {

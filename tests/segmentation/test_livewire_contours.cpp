@@ -18,6 +18,8 @@
 namespace echoreg::segmentation {
 namespace {
 
+using core::CtImage;
+
 constexpr double kPi = 3.14159265358979323846;
 constexpr double kRadius = 14.0;
 constexpr double kBoneHu = 1200.0;

@@ -21,9 +21,8 @@ namespace {
 using namespace echoreg;
 
 // Columns i0.., rows j0.. (ni x nj) of the lowest `count` slices.
-segmentation::CtImage crop(const segmentation::CtImage& ct, int i0, int j0, int ni, int nj,
-                           int count) {
-  segmentation::CtImage out = ct;
+core::CtImage crop(const core::CtImage& ct, int i0, int j0, int ni, int nj, int count) {
+  core::CtImage out = ct;
   out.dimensions = {ni, nj, count};
   out.originMm = ct.voxelToLps(Eigen::Vector3d(i0, j0, 0));
   out.slicePositionsMm.resize(static_cast<std::size_t>(count));
@@ -52,7 +51,7 @@ TEST(RealCt, PelvisFromTwoSeedsByErosion) {
   const auto start = std::chrono::steady_clock::now();
   // The pelvis' part of the slices (x -168 to 169 mm, y -17 to 253 mm): the body's outline stays
   // outside the crop, as the whole image's border does.
-  const segmentation::CtImage ct = crop(
+  const core::CtImage ct = crop(
       segmentation::readDicomSeries(test::sharedDataDir() + "/ct-abdomen"), 100, 150, 314, 252, 40);
   ASSERT_TRUE(ct.uniform());
   // Seeds in the right and the left iliac wing (found on the axial slice z = 91.9 mm).
@@ -122,7 +121,7 @@ namespace {
 TEST(RealCt, HipBonesAndSacrumFromOneSeedEach) {
   ECHOREG_REQUIRE_SHARED_FILE(first, "ct-abdomen/1-001.dcm");
   const auto start = std::chrono::steady_clock::now();
-  const segmentation::CtImage ct = crop(
+  const core::CtImage ct = crop(
       segmentation::readDicomSeries(test::sharedDataDir() + "/ct-abdomen"), 100, 150, 314, 252, 40);
   const std::vector<segmentation::BoneSeed> seeds = {{"right hip", {-65.5, 133.4, 91.91}},
                                                      {"left hip", {66.6, 144.2, 91.91}},

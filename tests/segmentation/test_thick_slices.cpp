@@ -194,7 +194,7 @@ TEST(ThickSlices, MorphologyRadiiAreAtLeastTheVoxels) {
   EXPECT_DOUBLE_EQ(r.z(), 4.5);
   // The ellipsoid's dilation of one voxel: 2 mm in plane (2 voxels of 0.8 mm, 2.5 rounded
   // down), 4.5 mm along z (1 voxel of 3 mm).
-  segmentation::CtImage g;
+  core::CtImage g;
   g.dimensions = {21, 21, 11};
   g.pixelSpacingMm = {0.8, 0.8};
   for (int k = 0; k < 11; ++k)
@@ -346,7 +346,7 @@ TEST(ThickSlices, EndFieldPutsTheCrossingWhereTheShareEndsTheBone) {
 // fills 0.4 of it; nothing lies in the slab beyond. Ends on the scan's last slice or at a gap of
 // one slice are not ends, and a voxel beyond marked as another bone's gets no share.
 TEST(ThickSlices, EndSharesOfABlock) {
-  segmentation::CtImage g;
+  core::CtImage g;
   g.dimensions = {19, 19, 9};
   g.pixelSpacingMm = {1.0, 1.0};
   for (int k = 0; k < 9; ++k)

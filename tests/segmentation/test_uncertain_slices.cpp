@@ -194,7 +194,7 @@ TEST(UncertainSlices, CorrectingTheUncertainSlicesFixesTheJoint) {
 }
 
 TEST(UncertainSlices, CorrectionsRefuseWhatTheyCannotUse) {
-  segmentation::CtImage g;
+  core::CtImage g;
   g.dimensions = {8, 8, 8};
   g.pixelSpacingMm = {1.0, 1.0};
   g.slicePositionsMm = {0, 1, 2, 3, 4, 5, 6, 7};
@@ -232,7 +232,7 @@ TEST(UncertainSlices, CorrectionsRefuseWhatTheyCannotUse) {
 // the block tapers toward it (the layers next to it lose their rim, not their core) and is left
 // alone beyond the falloff.
 TEST(UncertainSlices, AbsentAreasTakeTheBoneAway) {
-  segmentation::CtImage g;
+  core::CtImage g;
   g.dimensions = {20, 20, 12};
   g.pixelSpacingMm = {1.0, 1.0};
   for (int k = 0; k < 12; ++k)
@@ -269,7 +269,7 @@ TEST(UncertainSlices, AbsentAreasTakeTheBoneAway) {
 }
 
 TEST(UncertainSlices, RefusesMasksOfAnotherGrid) {
-  segmentation::CtImage g;
+  core::CtImage g;
   g.dimensions = {4, 4, 4};
   g.slicePositionsMm = {0, 1, 2, 3};
   g.groups = {{0, 4, 1.0}};

@@ -91,16 +91,16 @@ struct Stats {
 };
 
 /// Mean and SD of the voxels whose centre radius from the z axis lies in [r0, r1).
-Stats ringStats(const CtVolume& v, double r0, double r1) {
+Stats ringStats(const core::CtImage& v, double r0, double r1) {
   double sum = 0, sum2 = 0;
   std::size_t n = 0;
-  for (int k = 0; k < v.slices(); ++k) {
-    for (int j = 0; j < v.rows; ++j) {
-      for (int i = 0; i < v.columns; ++i) {
+  for (int k = 0; k < v.dimensions[2]; ++k) {
+    for (int j = 0; j < v.dimensions[1]; ++j) {
+      for (int i = 0; i < v.dimensions[0]; ++i) {
         const double r = v.voxelCentreMm(i, j, k).head<2>().norm();
         if (r < r0 || r >= r1)
           continue;
-        const double x = v.huAt(i, j, k);
+        const double x = v.at(i, j, k);
         sum += x;
         sum2 += x * x;
         ++n;
@@ -117,7 +117,7 @@ Stats ringStats(const CtVolume& v, double r0, double r1) {
 TEST(CtSynthesis, TissueMeansMatchTheTable) {
   const CtProtocol protocol = testProtocol(128, 128, 0.8, 3, 1.0);
   const CylinderPhantom phantom;
-  const CtVolume v = synthesizeCt(phantom, protocol, 7);
+  const core::CtImage v = synthesizeCt(phantom, protocol, 7);
   ASSERT_EQ(v.hu.size(), 128u * 128u * 3u);
   struct Region {
     Tissue tissue;
@@ -148,9 +148,9 @@ TEST(CtSynthesis, QuantumNoiseHasTheProtocolSigma) {
   // is the noise alone (plus rounding, variance 2 / 12).
   CtProtocol protocol = testProtocol(128, 128, 0.8, 2, 1.0);
   const CylinderPhantom phantom;
-  const CtVolume noisy = synthesizeCt(phantom, protocol, 3);
+  const core::CtImage noisy = synthesizeCt(phantom, protocol, 3);
   protocol.noiseSigmaHu = 0.0;
-  const CtVolume clean = synthesizeCt(phantom, protocol, 3);
+  const core::CtImage clean = synthesizeCt(phantom, protocol, 3);
   double sum = 0, sum2 = 0;
   std::size_t n = 0;
   for (std::size_t v = 0; v < noisy.hu.size(); ++v) {
@@ -177,17 +177,17 @@ TEST(CtSynthesis, TextureIsCorrelatedOverAboutOneMillimetre) {
   CtProtocol protocol = testProtocol(200, 200, 0.5, 1, 1.0);
   protocol.noiseSigmaHu = 0.0;
   protocol.psfSigmaMm = 0.0;
-  const CtVolume v = synthesizeCt(AllMuscle(), protocol, 11);
+  const core::CtImage v = synthesizeCt(AllMuscle(), protocol, 11);
   double sum = 0;
   for (auto x : v.hu)
     sum += x;
   const double mean = sum / static_cast<double>(v.hu.size());
   const auto correlation = [&](int lag) {
     double c = 0, var = 0;
-    for (int j = 0; j < v.rows; ++j) {
-      for (int i = 0; i + lag < v.columns; ++i) {
-        const double a = v.huAt(i, j, 0) - mean;
-        c += a * (v.huAt(i + lag, j, 0) - mean);
+    for (int j = 0; j < v.dimensions[1]; ++j) {
+      for (int i = 0; i + lag < v.dimensions[0]; ++i) {
+        const double a = v.at(i, j, 0) - mean;
+        c += a * (v.at(i + lag, j, 0) - mean);
         var += a * a;
       }
     }
@@ -208,15 +208,15 @@ TEST(CtSynthesis, PartialVolumeInPlaneAveragesTheSubGrid) {
   // 3 x 3 sub-samples at -1/3, 0, +1/3 of a pixel: an interface 0.1 pixel right of a voxel
   // centre leaves two thirds muscle in that voxel.
   CtProtocol protocol = noiseless(testProtocol(40, 8, 1.0, 1, 1.0));
-  const CtVolume geometry = ctGeometry(protocol);
+  const core::CtImage geometry = ctGeometry(protocol);
   const int i0 = 20;
-  const double xb = geometry.firstPixelXYMm.x() + i0 + 0.1;
-  const CtVolume v = synthesizeCt(HalfSpace(xb, 1e9), protocol, 1);
+  const double xb = geometry.originMm.x() + i0 + 0.1;
+  const core::CtImage v = synthesizeCt(HalfSpace(xb, 1e9), protocol, 1);
   const double mixed = (2.0 * hu(Tissue::Muscle) + hu(Tissue::Air)) / 3.0;
-  for (int j = 0; j < v.rows; ++j) {
-    EXPECT_EQ(v.huAt(i0 - 1, j, 0), hu(Tissue::Muscle));
-    EXPECT_EQ(v.huAt(i0, j, 0), std::floor(mixed + 0.5));
-    EXPECT_EQ(v.huAt(i0 + 1, j, 0), hu(Tissue::Air));
+  for (int j = 0; j < v.dimensions[1]; ++j) {
+    EXPECT_EQ(v.at(i0 - 1, j, 0), hu(Tissue::Muscle));
+    EXPECT_EQ(v.at(i0, j, 0), std::floor(mixed + 0.5));
+    EXPECT_EQ(v.at(i0 + 1, j, 0), hu(Tissue::Air));
   }
 }
 
@@ -233,7 +233,7 @@ TEST(CtSynthesis, PartialVolumePreservesTheCrossSectionArea) {
   CtProtocol protocol = noiseless(testProtocol(64, 64, 0.8, 1, 1.0));
   protocol.inPlaneSupersample = 8;
   protocol.psfSigmaMm = 0.35;
-  const CtVolume v = synthesizeCt(Disc(), protocol, 1);
+  const core::CtImage v = synthesizeCt(Disc(), protocol, 1);
   double fraction = 0;
   for (auto x : v.hu)
     fraction += (x - hu(Tissue::Air)) / (hu(Tissue::Muscle) - hu(Tissue::Air));
@@ -245,12 +245,12 @@ TEST(CtSynthesis, ThickSlicesAverageThroughTheirThickness) {
   // A 5 mm slice centred on z = 0 sampled at 10 planes 0.5 mm apart (-2.25 ... 2.25): muscle below
   // z = -1.5 fills two of them.
   CtProtocol protocol = noiseless(testProtocol(16, 16, 1.0, 1, 5.0));
-  const CtVolume v = synthesizeCt(HalfSpace(1e9, -1.5), protocol, 1);
+  const core::CtImage v = synthesizeCt(HalfSpace(1e9, -1.5), protocol, 1);
   const double expected = 0.2 * hu(Tissue::Muscle) + 0.8 * hu(Tissue::Air);
   for (auto x : v.hu)
     EXPECT_EQ(x, std::floor(expected + 0.5));
   // A 1 mm slice of the same field centred on z = 0 is all air.
-  const CtVolume thin =
+  const core::CtImage thin =
       synthesizeCt(HalfSpace(1e9, -1.5), noiseless(testProtocol(16, 16, 1.0, 1, 1.0)), 1);
   for (auto x : thin.hu)
     EXPECT_EQ(x, hu(Tissue::Air));
@@ -263,9 +263,9 @@ TEST(CtSynthesis, PsfBlursAnEdgeLikeAGaussian) {
   // discrete blur of pixel values matches it within about 1 % of the step.
   CtProtocol protocol = noiseless(testProtocol(48, 8, 0.25, 1, 1.0));
   protocol.psfSigmaMm = 0.35;
-  const CtVolume geometry = ctGeometry(protocol);
-  const double xb = geometry.firstPixelXYMm.x() + 23.5 * 0.25;
-  const CtVolume v = synthesizeCt(HalfSpace(xb, 1e9), protocol, 1);
+  const core::CtImage geometry = ctGeometry(protocol);
+  const double xb = geometry.originMm.x() + 23.5 * 0.25;
+  const core::CtImage v = synthesizeCt(HalfSpace(xb, 1e9), protocol, 1);
   const double step = hu(Tissue::Muscle) - hu(Tissue::Air);
   const double sigma = 0.35;
   // Integral of Phi(-t / sigma) dt: F(t) = t Phi(-t/s) - s phi(t/s).
@@ -275,15 +275,15 @@ TEST(CtSynthesis, PsfBlursAnEdgeLikeAGaussian) {
            sigma * std::exp(-0.5 * u * u) / std::sqrt(2.0 * M_PI);
   };
   for (int i = 14; i < 34; ++i) {
-    const double t = geometry.firstPixelXYMm.x() + i * 0.25 - xb;
+    const double t = geometry.originMm.x() + i * 0.25 - xb;
     const double muscleFraction = (integral(t + 0.125) - integral(t - 0.125)) / 0.25;
-    EXPECT_NEAR(v.huAt(i, 4, 0), hu(Tissue::Air) + step * muscleFraction, 0.012 * step)
+    EXPECT_NEAR(v.at(i, 4, 0), hu(Tissue::Air) + step * muscleFraction, 0.012 * step)
         << "column " << i;
     // The edge is centred on xb: values mirror about it.
-    EXPECT_NEAR(v.huAt(i, 4, 0) + v.huAt(47 - i, 4, 0), hu(Tissue::Air) + hu(Tissue::Muscle), 1.0);
+    EXPECT_NEAR(v.at(i, 4, 0) + v.at(47 - i, 4, 0), hu(Tissue::Air) + hu(Tissue::Muscle), 1.0);
   }
-  EXPECT_EQ(v.huAt(10, 4, 0), hu(Tissue::Muscle));  // far from the edge: untouched
-  EXPECT_EQ(v.huAt(37, 4, 0), hu(Tissue::Air));
+  EXPECT_EQ(v.at(10, 4, 0), hu(Tissue::Muscle));  // far from the edge: untouched
+  EXPECT_EQ(v.at(37, 4, 0), hu(Tissue::Air));
 }
 
 TEST(CtSynthesis, SupersamplesOnlyNearInterfaces) {
@@ -303,17 +303,17 @@ TEST(CtSynthesis, SameSeedSameBytesOtherSeedOtherNoise) {
   int calls = 0;
   double last = 0.0;
   bool increasing = true;
-  const CtVolume a = synthesizeCt(phantom, protocol, 42, [&](double fraction) {
+  const core::CtImage a = synthesizeCt(phantom, protocol, 42, [&](double fraction) {
     ++calls;
     increasing = increasing && fraction > last;
     last = fraction;
   });
-  EXPECT_EQ(calls, a.slices());
+  EXPECT_EQ(calls, a.dimensions[2]);
   EXPECT_TRUE(increasing);
   EXPECT_DOUBLE_EQ(last, 1.0);
-  const CtVolume b = synthesizeCt(phantom, protocol, 42);
+  const core::CtImage b = synthesizeCt(phantom, protocol, 42);
   EXPECT_TRUE(a.hu == b.hu);
-  const CtVolume c = synthesizeCt(phantom, protocol, 43);
+  const core::CtImage c = synthesizeCt(phantom, protocol, 43);
   std::size_t differing = 0;
   double sumDifference = 0.0;
   for (std::size_t v = 0; v < a.hu.size(); ++v) {
@@ -343,36 +343,46 @@ TEST(CtSynthesis, FieldErrorsPropagate) {
 
 TEST(CtProtocol, GroupsGiveSlicesAtTheRightZAndThickness) {
   const CtProtocol small = smallProtocol(300.0, 0.0, -350.0, {5.0, -20.0});
-  const CtVolume v = ctGeometry(small);
-  ASSERT_EQ(v.slices(), 3 + 160 + 3);
+  const core::CtImage v = ctGeometry(small);
+  ASSERT_EQ(v.dimensions[2], 3 + 160 + 3);
   ASSERT_EQ(v.groupNames, (std::vector<std::string>{"ankle", "knee", "hip"}));
-  EXPECT_EQ(v.columns, 256);
-  EXPECT_DOUBLE_EQ(v.pixelSpacingMm, 0.8);
-  EXPECT_NEAR(v.firstPixelXYMm.x(), 5.0 - 127.5 * 0.8, 1e-12);
-  EXPECT_NEAR(v.firstPixelXYMm.y(), -20.0 - 127.5 * 0.8, 1e-12);
+  ASSERT_EQ(v.groups.size(), 3u);
+  EXPECT_EQ(v.groups[0].firstSlice, 0);
+  EXPECT_EQ(v.groups[0].count, 3);
+  EXPECT_DOUBLE_EQ(v.groups[0].spacingMm, 5.0);
+  EXPECT_EQ(v.groups[1].firstSlice, 3);
+  EXPECT_EQ(v.groups[1].count, 160);
+  EXPECT_DOUBLE_EQ(v.groups[1].spacingMm, 1.0);
+  EXPECT_EQ(v.groups[2].firstSlice, 163);
+  EXPECT_EQ(v.groups[2].count, 3);
+  EXPECT_TRUE(v.direction.isIdentity(0.0));
+  EXPECT_EQ(v.dimensions[0], 256);
+  EXPECT_DOUBLE_EQ(v.pixelSpacingMm.x(), 0.8);
+  EXPECT_DOUBLE_EQ(v.pixelSpacingMm.y(), 0.8);
+  EXPECT_NEAR(v.originMm.x(), 5.0 - 127.5 * 0.8, 1e-12);
+  EXPECT_NEAR(v.originMm.y(), -20.0 - 127.5 * 0.8, 1e-12);
   for (int s = 0; s < 3; ++s) {
-    EXPECT_NEAR(v.sliceZMm[static_cast<std::size_t>(s)], -355.0 + 5.0 * s, 1e-9);
+    EXPECT_NEAR(v.sliceLocationsMm[static_cast<std::size_t>(s)], -355.0 + 5.0 * s, 1e-9);
     EXPECT_EQ(v.sliceThicknessMm[static_cast<std::size_t>(s)], 5.0);
-    EXPECT_EQ(v.sliceGroup[static_cast<std::size_t>(s)], 0);
-    EXPECT_NEAR(v.sliceZMm[static_cast<std::size_t>(163 + s)], 295.0 + 5.0 * s, 1e-9);
+    EXPECT_NEAR(v.sliceLocationsMm[static_cast<std::size_t>(163 + s)], 295.0 + 5.0 * s, 1e-9);
     EXPECT_EQ(v.sliceThicknessMm[static_cast<std::size_t>(163 + s)], 5.0);
   }
   for (int s = 0; s < 160; ++s) {
-    EXPECT_NEAR(v.sliceZMm[static_cast<std::size_t>(3 + s)], -79.5 + s, 1e-9);
+    EXPECT_NEAR(v.sliceLocationsMm[static_cast<std::size_t>(3 + s)], -79.5 + s, 1e-9);
     EXPECT_EQ(v.sliceThicknessMm[static_cast<std::size_t>(3 + s)], 1.0);
-    EXPECT_EQ(v.sliceGroup[static_cast<std::size_t>(3 + s)], 1);
   }
 
   // The dissertation's protocol: 10 cm at 5 mm, 2 x 10 cm at 1 mm, 10 cm at 5 mm, 0.48 mm pixels.
-  const CtVolume full = ctGeometry(dissertationProtocol(420.0, 0.0, -380.0, {0.0, 0.0}));
-  EXPECT_EQ(full.slices(), 240);
-  EXPECT_EQ(full.columns, 512);
-  EXPECT_EQ(full.rows, 512);
-  EXPECT_DOUBLE_EQ(full.pixelSpacingMm, 0.48);
-  EXPECT_NEAR(full.sliceZMm.front() - 2.5, -430.0, 1e-9);  // ankle slab starts 5 cm below
-  EXPECT_NEAR(full.sliceZMm[20] - 0.5, -100.0, 1e-9);      // knee slab 10 cm below the joint
-  EXPECT_NEAR(full.sliceZMm[219] + 0.5, 100.0, 1e-9);      // and 10 cm above
-  EXPECT_NEAR(full.sliceZMm.back() + 2.5, 470.0, 1e-9);    // hip slab ends 5 cm above
+  const core::CtImage full = ctGeometry(dissertationProtocol(420.0, 0.0, -380.0, {0.0, 0.0}));
+  EXPECT_EQ(full.dimensions[2], 240);
+  EXPECT_EQ(full.dimensions[0], 512);
+  EXPECT_EQ(full.dimensions[1], 512);
+  EXPECT_DOUBLE_EQ(full.pixelSpacingMm.x(), 0.48);
+  EXPECT_DOUBLE_EQ(full.pixelSpacingMm.y(), 0.48);
+  EXPECT_NEAR(full.sliceLocationsMm.front() - 2.5, -430.0, 1e-9);  // ankle slab starts 5 cm below
+  EXPECT_NEAR(full.sliceLocationsMm[20] - 0.5, -100.0, 1e-9);    // knee slab 10 cm below the joint
+  EXPECT_NEAR(full.sliceLocationsMm[219] + 0.5, 100.0, 1e-9);    // and 10 cm above
+  EXPECT_NEAR(full.sliceLocationsMm.back() + 2.5, 470.0, 1e-9);  // hip slab ends 5 cm above
 
   // Overlapping groups and bad values are refused with the value named.
   EXPECT_THROW(dissertationProtocol(120.0, 0.0, -380.0, {0.0, 0.0}), std::invalid_argument);
@@ -399,14 +409,14 @@ TEST(CtProtocol, GroupsGiveSlicesAtTheRightZAndThickness) {
 // DICOM
 
 /// A small volume with uneven slices, non-square slices and the extremes of the stored range.
-CtVolume dicomTestVolume() {
+core::CtImage dicomTestVolume() {
   CtProtocol protocol;
   protocol.columns = 40;
   protocol.rows = 30;
   protocol.pixelSpacingMm = 0.7;
   protocol.centreXYMm = {3.1, -12.35};
   protocol.groups = {{"knee", -1.5, 1.5, 1.0}, {"hip", 20.0, 25.0, 5.0}};
-  CtVolume v = synthesizeCt(CylinderPhantom({3.0, -12.0}), protocol, 5);
+  core::CtImage v = synthesizeCt(CylinderPhantom({3.0, -12.0}), protocol, 5);
   v.hu[v.index(0, 0, 0)] = static_cast<std::int16_t>(kCtMinHu);
   v.hu[v.index(39, 29, 5)] = static_cast<std::int16_t>(kCtMaxHu);
   v.hu[v.index(39, 0, 1)] = 0;
@@ -443,7 +453,7 @@ bool isDerivedUid(const std::string& uid) {
 }
 
 TEST(CtDicom, GdcmReadsBackExactlyWhatWasWritten) {
-  const CtVolume v = dicomTestVolume();
+  const core::CtImage v = dicomTestVolume();
   const test::TempDir dir;
   const std::string folder = dir.file("ct");
   DicomSeriesInfo info;
@@ -454,7 +464,7 @@ TEST(CtDicom, GdcmReadsBackExactlyWhatWasWritten) {
 
   std::set<std::string> instanceUids;
   std::set<std::string> studyUids, seriesUids, frameUids;
-  for (int k = 0; k < v.slices(); ++k) {
+  for (int k = 0; k < v.dimensions[2]; ++k) {
     SCOPED_TRACE(k);
     char name[32];
     std::snprintf(name, sizeof name, "IM%06d.dcm", k + 1);
@@ -478,7 +488,7 @@ TEST(CtDicom, GdcmReadsBackExactlyWhatWasWritten) {
         const std::size_t p = static_cast<std::size_t>(j * 40 + i) * 2;
         const int stored = static_cast<unsigned char>(buffer[p]) |
                            (static_cast<unsigned char>(buffer[p + 1]) << 8);
-        mismatches += stored - 1024 != v.huAt(i, j, k) ? 1 : 0;
+        mismatches += stored - 1024 != v.at(i, j, k) ? 1 : 0;
       }
     }
     EXPECT_EQ(mismatches, 0);
@@ -496,7 +506,8 @@ TEST(CtDicom, GdcmReadsBackExactlyWhatWasWritten) {
     EXPECT_EQ(numbers(tag(0x0020, 0x0037)), (std::vector<double>{1, 0, 0, 0, 1, 0}));
     EXPECT_EQ(numbers(tag(0x0028, 0x0030)), (std::vector<double>{0.7, 0.7}));
     EXPECT_EQ(std::stod(tag(0x0018, 0x0050)), v.sliceThicknessMm[static_cast<std::size_t>(k)]);
-    EXPECT_NEAR(std::stod(tag(0x0020, 0x1041)), v.sliceZMm[static_cast<std::size_t>(k)], 1e-9);
+    EXPECT_NEAR(std::stod(tag(0x0020, 0x1041)), v.sliceLocationsMm[static_cast<std::size_t>(k)],
+                1e-9);
     EXPECT_EQ(std::stod(tag(0x0028, 0x1052)), -1024.0);
     EXPECT_EQ(std::stod(tag(0x0028, 0x1053)), 1.0);
     EXPECT_EQ(tag(0x0028, 0x1054), "HU");
@@ -523,7 +534,7 @@ TEST(CtDicom, GdcmReadsBackExactlyWhatWasWritten) {
     seriesUids.insert(tag(0x0020, 0x000e));
     frameUids.insert(tag(0x0020, 0x0052));
   }
-  EXPECT_EQ(instanceUids.size(), static_cast<std::size_t>(v.slices()));
+  EXPECT_EQ(instanceUids.size(), static_cast<std::size_t>(v.dimensions[2]));
   ASSERT_EQ(studyUids.size(), 1u);
   ASSERT_EQ(seriesUids.size(), 1u);
   ASSERT_EQ(frameUids.size(), 1u);
@@ -531,13 +542,13 @@ TEST(CtDicom, GdcmReadsBackExactlyWhatWasWritten) {
   all.insert(*studyUids.begin());
   all.insert(*seriesUids.begin());
   all.insert(*frameUids.begin());
-  EXPECT_EQ(all.size(), static_cast<std::size_t>(v.slices()) + 3);
+  EXPECT_EQ(all.size(), static_cast<std::size_t>(v.dimensions[2]) + 3);
   EXPECT_EQ(std::distance(fs::directory_iterator(dir.path()), fs::directory_iterator()), 1)
       << "no temporary folder left beside the series";
 }
 
 TEST(CtDicom, SameUidSeedSameBytes) {
-  const CtVolume v = dicomTestVolume();
+  const core::CtImage v = dicomTestVolume();
   const test::TempDir dir;
   DicomSeriesInfo info;
   info.uidSeed = 7;
@@ -545,7 +556,7 @@ TEST(CtDicom, SameUidSeedSameBytes) {
   writeDicomSeries(dir.file("b"), v, info);
   info.uidSeed = 8;
   writeDicomSeries(dir.file("c"), v, info);
-  for (int k = 1; k <= v.slices(); ++k) {
+  for (int k = 1; k <= v.dimensions[2]; ++k) {
     char name[32];
     std::snprintf(name, sizeof name, "/IM%06d.dcm", k);
     const std::string a = readBytes(dir.file("a") + name);
@@ -563,7 +574,7 @@ TEST(CtDicom, PydicomReadsTheSameGeometryAndValues) {
   if (std::system("/usr/bin/python3 -c 'import pydicom' >/dev/null 2>&1") != 0) {
     GTEST_SKIP() << "pydicom is not installed for /usr/bin/python3";
   }
-  const CtVolume v = dicomTestVolume();
+  const core::CtImage v = dicomTestVolume();
   const test::TempDir dir;
   const std::string folder = dir.file("series");
   writeDicomSeries(folder, v, DicomSeriesInfo{});
@@ -578,8 +589,8 @@ TEST(CtDicom, PydicomReadsTheSameGeometryAndValues) {
   ASSERT_EQ(std::system((command + " > '" + output + "'").c_str()), 0) << command;
   const nlohmann::json json = nlohmann::json::parse(readBytes(output));
   const auto& slices = json.at("slices");
-  ASSERT_EQ(slices.size(), static_cast<std::size_t>(v.slices()));
-  for (int k = 0; k < v.slices(); ++k) {
+  ASSERT_EQ(slices.size(), static_cast<std::size_t>(v.dimensions[2]));
+  for (int k = 0; k < v.dimensions[2]; ++k) {
     SCOPED_TRACE(k);
     const auto& s = slices.at(static_cast<std::size_t>(k));
     const Eigen::Vector3d first = v.voxelCentreMm(0, 0, k);
@@ -595,7 +606,8 @@ TEST(CtDicom, PydicomReadsTheSameGeometryAndValues) {
               (std::vector<double>{1, 0, 0, 0, 1, 0}));
     EXPECT_EQ(s.at("pixelSpacing").get<std::vector<double>>(), (std::vector<double>{0.7, 0.7}));
     EXPECT_EQ(s.at("thickness").get<double>(), v.sliceThicknessMm[static_cast<std::size_t>(k)]);
-    EXPECT_NEAR(s.at("location").get<double>(), v.sliceZMm[static_cast<std::size_t>(k)], 1e-9);
+    EXPECT_NEAR(s.at("location").get<double>(), v.sliceLocationsMm[static_cast<std::size_t>(k)],
+                1e-9);
     EXPECT_EQ(s.at("intercept").get<double>(), -1024.0);
     EXPECT_EQ(s.at("slope").get<double>(), 1.0);
     EXPECT_EQ(s.at("rescaleType"), "HU");
@@ -608,7 +620,7 @@ TEST(CtDicom, PydicomReadsTheSameGeometryAndValues) {
   ASSERT_EQ(values.size(), voxels.size());
   for (std::size_t n = 0; n < voxels.size(); ++n) {
     const auto& p = voxels[n];
-    EXPECT_EQ(values.at(n).at("hu").get<double>(), v.huAt(p[0], p[1], p[2]))
+    EXPECT_EQ(values.at(n).at("hu").get<double>(), v.at(p[0], p[1], p[2]))
         << p[0] << "," << p[1] << "," << p[2];
   }
 }
@@ -622,7 +634,7 @@ bool hasTemporarySibling(const std::string& folder) {
 }
 
 TEST(CtDicom, RefusesANonEmptyOrUnwritableFolderAndLeavesNothing) {
-  const CtVolume v = dicomTestVolume();
+  const core::CtImage v = dicomTestVolume();
   const test::TempDir dir;
 
   // Existing, non-empty: refused, contents untouched.
@@ -660,15 +672,28 @@ TEST(CtDicom, RefusesANonEmptyOrUnwritableFolderAndLeavesNothing) {
   const std::string empty = dir.file("empty");
   fs::create_directory(empty);
   writeDicomSeries(empty + "/", v, DicomSeriesInfo{});
-  EXPECT_EQ(std::distance(fs::directory_iterator(empty), fs::directory_iterator()), v.slices());
+  EXPECT_EQ(std::distance(fs::directory_iterator(empty), fs::directory_iterator()),
+            v.dimensions[2]);
   EXPECT_FALSE(hasTemporarySibling(empty));
 
   // An inconsistent volume is refused before anything is written.
-  CtVolume bad = v;
+  core::CtImage bad = v;
   bad.hu[3] = 4000;
   EXPECT_THROW(writeDicomSeries(dir.file("bad"), bad, DicomSeriesInfo{}), std::invalid_argument);
   bad = v;
   bad.hu.pop_back();
+  EXPECT_THROW(writeDicomSeries(dir.file("bad"), bad, DicomSeriesInfo{}), std::invalid_argument);
+  bad = v;
+  bad.direction << 0, 1, 0, 1, 0, 0, 0, 0, 1;  // not axial as written
+  EXPECT_THROW(writeDicomSeries(dir.file("bad"), bad, DicomSeriesInfo{}), std::invalid_argument);
+  bad = v;
+  bad.sliceThicknessMm.clear();  // the writer needs each slice's thickness
+  EXPECT_THROW(writeDicomSeries(dir.file("bad"), bad, DicomSeriesInfo{}), std::invalid_argument);
+  bad = v;
+  bad.groups.back().count -= 1;  // groups not covering every slice
+  EXPECT_THROW(writeDicomSeries(dir.file("bad"), bad, DicomSeriesInfo{}), std::invalid_argument);
+  bad = v;
+  bad.sliceLocationsMm[1] = bad.sliceLocationsMm[0];  // not increasing
   EXPECT_THROW(writeDicomSeries(dir.file("bad"), bad, DicomSeriesInfo{}), std::invalid_argument);
   DicomSeriesInfo badInfo;
   badInfo.studyDate = "2008-12-01";

@@ -12,7 +12,7 @@
 #include <filesystem>
 #include <fstream>
 
-namespace echoreg {
+namespace echoreg::cli {
 namespace {
 
 namespace fs = std::filesystem;
@@ -156,4 +156,4 @@ TEST(CliSimulate, InVivoOptionsReachTheCapturesAndTheManifest) {
 }
 
 }  // namespace
-}  // namespace echoreg
+}  // namespace echoreg::cli

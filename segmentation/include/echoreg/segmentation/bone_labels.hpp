@@ -9,8 +9,8 @@
 // one bone and the boundary lies in the neck. See docs/segmentation.md.
 #pragma once
 
+#include "echoreg/core/ct_image.hpp"
 #include "echoreg/segmentation/bone_mask.hpp"
-#include "echoreg/segmentation/ct_image.hpp"
 #include "echoreg/segmentation/livewire_contours.hpp"
 
 #include <Eigen/Core>
@@ -47,7 +47,7 @@ struct ThresholdEstimate {
 /// and S + 80. The factors give 575 / 199 HU on the simulated knee (S 45, C 1337 HU), whose
 /// accuracy is that of 600 / 200. Throws std::invalid_argument for an
 /// empty image or no seed.
-ThresholdEstimate estimateBoneThreshold(const CtImage& image,
+ThresholdEstimate estimateBoneThreshold(const core::CtImage& image,
                                         const std::vector<Eigen::Vector3i>& seedVoxels,
                                         double radiusMm = 30.0, double metalHu = 2500.0,
                                         const BoneThreshold& ceiling = {});
@@ -150,7 +150,8 @@ struct CompetingResult {
 /// a seed outside the volume, not in bone (with the reason: its HU, no cortex around it, or
 /// cortex not reached), two bones' seeds in one bone, a bone smaller than minVolumeMm3, or a
 /// bone implausible for its name (what it is, what it should be, what to do).
-CompetingResult segmentCompetingBones(const CtImage& image, const std::vector<BoneSeed>& seeds,
+CompetingResult segmentCompetingBones(const core::CtImage& image,
+                                      const std::vector<BoneSeed>& seeds,
                                       const CompetingOptions& options = {});
 
 /// Where the automatic boundary of a bone is uncertain, per slice of a plane family: the part of
@@ -183,7 +184,7 @@ struct SliceUncertainty {
 /// against `neighbours` (name, mask on the same grid; "" for bones found automatically). `ct` is
 /// uniform; throws std::invalid_argument for grids that differ.
 std::vector<SliceUncertainty> sliceUncertainty(
-    const CtImage& ct, const VoxelMask& region,
+    const core::CtImage& ct, const VoxelMask& region,
     const std::vector<std::pair<std::string, const VoxelMask*>>& neighbours, SlicePlane plane,
     const std::vector<double>& positionsMm, const UncertaintyOptions& options = {});
 

@@ -1,10 +1,11 @@
 // Bone masks on a CT (plain arrays, no VTK): the protocol group that holds a point, hysteresis
 // threshold of cortical bone, seeded region growing that does not leak across a joint (growth in
 // the mask opened by a small ball, then given back its border), marrow filling, and the
-// morphology the surface step needs. A mask lives on the voxel grid of the CtImage it came from.
+// morphology the surface step needs. A mask lives on the voxel grid of the core::CtImage it came
+// from.
 #pragma once
 
-#include "echoreg/segmentation/ct_image.hpp"
+#include "echoreg/core/ct_image.hpp"
 
 #include <Eigen/Core>
 
@@ -15,25 +16,25 @@
 
 namespace echoreg::segmentation {
 
-/// A binary mask on the voxel grid of `geometry` (a CtImage whose `hu` may be empty).
+/// A binary mask on the voxel grid of `geometry` (a core::CtImage whose `hu` may be empty).
 struct VoxelMask {
-  CtImage geometry;
-  std::vector<std::uint8_t> voxels;  ///< 0 or 1, same layout as CtImage::hu
+  core::CtImage geometry;
+  std::vector<std::uint8_t> voxels;  ///< 0 or 1, same layout as core::CtImage::hu
 
   std::size_t count() const;
   bool at(int i, int j, int k) const { return voxels[geometry.index(i, j, k)] != 0; }
 };
 
 /// An empty (all 0) mask on the grid of `image` (geometry copied, HU dropped).
-VoxelMask emptyMask(const CtImage& image);
+VoxelMask emptyMask(const core::CtImage& image);
 
-/// The slices of protocol group `group` as a CtImage of their own (uniform). Throws
+/// The slices of protocol group `group` as a core::CtImage of their own (uniform). Throws
 /// std::invalid_argument for a group index out of range.
-CtImage extractGroup(const CtImage& image, std::size_t group);
+core::CtImage extractGroup(const core::CtImage& image, std::size_t group);
 
 /// Index of the group whose slices span `pointLps` along k (to half the group's spacing beyond its
 /// end slices); -1 for a point in a gap between groups or outside the volume.
-int groupContaining(const CtImage& image, const Eigen::Vector3d& pointLps);
+int groupContaining(const core::CtImage& image, const Eigen::Vector3d& pointLps);
 
 struct BoneThreshold {
   double strongHu = 600.0;  ///< cortical bone: every voxel at or above it is bone
@@ -42,7 +43,7 @@ struct BoneThreshold {
 
 /// Hysteresis threshold: voxels >= strongHu, plus voxels >= weakHu 26-connected to them.
 /// Throws std::invalid_argument when weakHu > strongHu or the image is empty.
-VoxelMask thresholdBone(const CtImage& image, const BoneThreshold& threshold = {});
+VoxelMask thresholdBone(const core::CtImage& image, const BoneThreshold& threshold = {});
 
 struct GrowOptions {
   BoneThreshold threshold;
@@ -81,7 +82,7 @@ struct GrowResult {
 /// Throws std::invalid_argument with a sentence for the user: the image is not uniform, the seed
 /// lies outside the volume, the seed is not in bone (its HU), the seed lies on a joint's bridge
 /// that went to another bone, or the grown bone is smaller than minVolumeMm3.
-GrowResult growBone(const CtImage& image, const Eigen::Vector3d& seedLps,
+GrowResult growBone(const core::CtImage& image, const Eigen::Vector3d& seedLps,
                     const GrowOptions& options = {});
 
 /// Union of masks on one grid (throws std::invalid_argument when the grids differ).

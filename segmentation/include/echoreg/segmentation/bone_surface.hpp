@@ -8,9 +8,9 @@
 // decimated. A mask alone (no CT) gives the discrete iso-surface of the smoothed mask instead.
 #pragma once
 
+#include "echoreg/core/ct_image.hpp"
 #include "echoreg/core/mesh.hpp"
 #include "echoreg/segmentation/bone_mask.hpp"
-#include "echoreg/segmentation/ct_image.hpp"
 #include "echoreg/segmentation/end_shares.hpp"
 
 #include <cstddef>
@@ -90,8 +90,8 @@ VoxelMask dilateOrErode(const VoxelMask& mask, double mm, double voxels, bool gr
 /// same grid) marks voxels of other bones: they count as soft tissue. `ct` must be uniform (one
 /// group). Throws std::invalid_argument for an empty region, grids that differ, a non-uniform
 /// CT, or a surface that comes out empty or not closed.
-BoneSurfaceResult boneSurface(const CtImage& ct, const VoxelMask& region, const VoxelMask* exclude,
-                              const BoneSurfaceOptions& options = {});
+BoneSurfaceResult boneSurface(const core::CtImage& ct, const VoxelMask& region,
+                              const VoxelMask* exclude, const BoneSurfaceOptions& options = {});
 
 /// The surface of a mask alone: the 0.5 level of the mask blurred by a Gaussian of sigmaMm
 /// (no CT), smoothed and decimated as above. Throws std::invalid_argument for an empty mask.

@@ -83,7 +83,7 @@ struct ContourMaskOptions {
 /// distance grows so that the solid closes within half the spacing to the neighbouring slice
 /// (1 mm for a single slice). Throws std::invalid_argument when
 /// there is no contour, the contours lie in different plane families, or the grid is empty.
-VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const CtImage& grid,
+VoxelMask contoursToMask(const std::vector<SliceContour>& contours, const core::CtImage& grid,
                          const ContourMaskOptions& options = {});
 
 struct SliceCorrectionResult {

@@ -1,5 +1,5 @@
 // The DICOM CT series reader (GDCM): lists the series of a folder from their headers, and reads
-// one series into a CtImage in Hounsfield units with its geometry taken only from
+// one series into a core::CtImage in Hounsfield units with its geometry taken only from
 // ImagePositionPatient / ImageOrientationPatient / PixelSpacing. Slices are sorted along the slice
 // normal and may be unevenly spaced (the dissertation's hip 5 mm / knee 1 mm / ankle 5 mm protocol,
 // section 4.3.1): runs of equal spacing are reported as groups. Series that would give a wrong
@@ -7,7 +7,7 @@
 // pixel data, multi-frame files) are refused with a FileError naming the folder and the files.
 #pragma once
 
-#include "echoreg/segmentation/ct_image.hpp"
+#include "echoreg/core/ct_image.hpp"
 
 #include <functional>
 #include <string>
@@ -48,7 +48,7 @@ struct DicomReadOptions {
 
 /// A read series with what the reader noticed on the way.
 struct DicomSeriesRead {
-  CtImage image;
+  core::CtImage image;
   /// File names (not paths) in slice order (image slice k came from files[k]).
   std::vector<std::string> files;
   /// The modality of the series ("CT" normally).
@@ -60,25 +60,25 @@ struct DicomSeriesRead {
 };
 
 /// Reads one series of `folder` (or the single DICOM file `folder`, as a one-slice image) into a
-/// CtImage: voxels in HU (each slice's own RescaleSlope / RescaleIntercept applied to the stored
-/// values of BitsStored bits, signed or not; rounded, clamped to int16); slices sorted by their
-/// position along normal = row x column (of ImageOrientationPatient), k increasing along it, so
-/// `direction` = [row, column, row x column] is always right-handed; originMm = the first slice's
-/// ImagePositionPatient; slicePositionsMm and groups from the sorted positions (a step within 1 %
-/// (or 0.01 mm) of a group's spacing continues the group). Compressed transfer syntaxes are
-/// decoded by GDCM. Peak memory is the volume plus a few slices per thread.
-/// Throws FileError naming `folder` and the files involved when: it does not exist or holds no
-/// readable image; there is no CT series (the message lists the series found) or no series
-/// `options.seriesUid`; files differ in rows, columns, pixel spacing or orientation; the slices are
-/// tilted (positions not along the normal, or a non-zero GantryDetectorTilt); two slices share a
-/// position; a slice is missing (a step over 1.5 x the spacing of the steps on both sides of it,
-/// when those two are equal); a file is multi-frame, colour, or lacks position / orientation; the
-/// pixel data is shorter than Rows x Columns x BitsAllocated, or GDCM cannot decode it.
+/// core::CtImage: voxels in HU (each slice's own RescaleSlope / RescaleIntercept applied to the
+/// stored values of BitsStored bits, signed or not; rounded, clamped to int16); slices sorted by
+/// their position along normal = row x column (of ImageOrientationPatient), k increasing along it,
+/// so `direction` = [row, column, row x column] is always right-handed; originMm = the first
+/// slice's ImagePositionPatient; slicePositionsMm and groups from the sorted positions (a step
+/// within 1 % (or 0.01 mm) of a group's spacing continues the group). Compressed transfer syntaxes
+/// are decoded by GDCM. Peak memory is the volume plus a few slices per thread. Throws FileError
+/// naming `folder` and the files involved when: it does not exist or holds no readable image; there
+/// is no CT series (the message lists the series found) or no series `options.seriesUid`; files
+/// differ in rows, columns, pixel spacing or orientation; the slices are tilted (positions not
+/// along the normal, or a non-zero GantryDetectorTilt); two slices share a position; a slice is
+/// missing (a step over 1.5 x the spacing of the steps on both sides of it, when those two are
+/// equal); a file is multi-frame, colour, or lacks position / orientation; the pixel data is
+/// shorter than Rows x Columns x BitsAllocated, or GDCM cannot decode it.
 DicomSeriesRead readDicomSeriesWithWarnings(const std::string& folder,
                                             const DicomReadOptions& options = {});
 
 /// readDicomSeriesWithWarnings(folder, options).image.
-CtImage readDicomSeries(const std::string& folder, const DicomReadOptions& options = {});
+core::CtImage readDicomSeries(const std::string& folder, const DicomReadOptions& options = {});
 
 /// The same checks and geometry as readDicomSeriesWithWarnings from the headers only: the image
 /// has its dimensions, geometry and groups but no voxels (`hu` empty). For a reader that must

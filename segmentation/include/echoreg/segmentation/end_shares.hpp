@@ -34,7 +34,7 @@ struct EndShareOptions {
 };
 
 struct VoxelShare {
-  std::size_t voxel = 0;  ///< index in the grid (CtImage::index)
+  std::size_t voxel = 0;  ///< index in the grid (core::CtImage::index)
   double share = 0.0;     ///< the part of the voxel's slab the bone fills, 0-1
   bool flatEnd = false;   ///< the end is flat (EndShareOptions::flatShrinkSlices)
 };

@@ -5,8 +5,8 @@
 // echoreg anchors JSON or 3D Slicer .mrk.json closed curves.
 #pragma once
 
+#include "echoreg/core/ct_image.hpp"
 #include "echoreg/core/livewire.hpp"
-#include "echoreg/segmentation/ct_image.hpp"
 
 #include <Eigen/Core>
 
@@ -68,7 +68,7 @@ struct LiveWireContourOptions {
 
 /// The closed live-wire contour through `anchors` (in order) on their slice of `ct`. Throws
 /// std::invalid_argument when an anchor lies outside the volume or off the set's plane.
-SliceContour liveWireContour(const CtImage& ct, const AnchorSet& anchors,
+SliceContour liveWireContour(const core::CtImage& ct, const AnchorSet& anchors,
                              const LiveWireContourOptions& options = {});
 
 // --- Reslicing (used by liveWireContour; public for the segmentation pipeline and tests) ---
@@ -103,13 +103,13 @@ struct CtSlice {
 /// Trilinear interpolation of the CT's Hounsfield units at an LPS point (uneven slices
 /// honoured: k comes from the slice positions). Outside the volume the nearest edge voxel's value
 /// (clamped indices). Throws std::invalid_argument for an empty CT.
-double sampleCt(const CtImage& ct, const Eigen::Vector3d& lps);
+double sampleCt(const core::CtImage& ct, const Eigen::Vector3d& lps);
 
 /// Samples the CT on `plane` at `positionMm` over the rectangle [minUvMm, maxUvMm] (u, v in mm)
 /// intersected with the box of the CT's voxel centres, `spacingMm` apart. Throws
 /// std::invalid_argument for an empty CT, spacingMm <= 0, or a rectangle that misses the volume or
 /// is smaller than 2 x 2 samples, or larger than 4096 x 4096.
-CtSlice resliceCt(const CtImage& ct, SlicePlane plane, double positionMm,
+CtSlice resliceCt(const core::CtImage& ct, SlicePlane plane, double positionMm,
                   const Eigen::Vector2d& minUvMm, const Eigen::Vector2d& maxUvMm, double spacingMm);
 
 }  // namespace echoreg::segmentation

@@ -4,7 +4,7 @@
 // masks (`--mask MASK.nrrd`) and for handing a CT to Slicer.
 #pragma once
 
-#include "echoreg/segmentation/ct_image.hpp"
+#include "echoreg/core/ct_image.hpp"
 
 #include <cstdint>
 #include <string>
@@ -21,15 +21,15 @@ struct NrrdWriteOptions {
 /// own `hu` is not used) to `path` as a single-file NRRD (.nrrd), little endian, atomically.
 /// Throws std::invalid_argument when `geometry` is not uniform (resample or extract a group first)
 /// or the voxel count differs; FileError naming `path` when it cannot be written.
-void writeNrrdVolume(const std::string& path, const CtImage& geometry,
+void writeNrrdVolume(const std::string& path, const core::CtImage& geometry,
                      const std::vector<std::int16_t>& voxels, const NrrdWriteOptions& options = {});
-void writeNrrdVolume(const std::string& path, const CtImage& geometry,
+void writeNrrdVolume(const std::string& path, const core::CtImage& geometry,
                      const std::vector<std::uint8_t>& voxels, const NrrdWriteOptions& options = {});
 
 /// A volume read back from NRRD: the geometry in `image` (one group), the voxels in `hu` for int16
 /// files or in `mask` for uint8 files (the other stays empty).
 struct NrrdVolume {
-  CtImage image;
+  core::CtImage image;
   std::vector<std::uint8_t> mask;
   bool isMask = false;  ///< uint8 voxels
 };

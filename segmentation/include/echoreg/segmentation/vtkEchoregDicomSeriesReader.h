@@ -25,7 +25,7 @@
  */
 #pragma once
 
-#include "echoreg/segmentation/ct_image.hpp"
+#include "echoreg/core/ct_image.hpp"
 
 #include <vtkImageAlgorithm.h>
 #include <vtkSmartPointer.h>
@@ -72,7 +72,7 @@ class vtkEchoregDicomSeriesReader : public vtkImageAlgorithm {
 
   /// Geometry (no voxels) of the series as read, before group selection or resampling: every slice
   /// position and group. Valid after a successful RequestInformation.
-  const echoreg::segmentation::CtImage& GetSeriesGeometry() const { return this->SeriesGeometry; }
+  const echoreg::core::CtImage& GetSeriesGeometry() const { return this->SeriesGeometry; }
   /// Warnings of the last read (skipped files, other series...).
   const std::vector<std::string>& GetWarnings() const { return this->Warnings; }
   /// Message of the last failure ("FOLDER: problem"), empty after a success.
@@ -94,14 +94,14 @@ class vtkEchoregDicomSeriesReader : public vtkImageAlgorithm {
   void Fail(const std::string& message);
   /// The output's geometry from the series' (group / resampling applied; no voxels). Throws
   /// FileError for a non-uniform series without resampling or group, or a group out of range.
-  echoreg::segmentation::CtImage OutputGeometry(const echoreg::segmentation::CtImage& series) const;
+  echoreg::core::CtImage OutputGeometry(const echoreg::core::CtImage& series) const;
 
   std::string DirectoryName;
   std::string SeriesUid;
   bool ResampleToUniform = false;
   double ResampleSpacing = 0.0;
   int Group = -1;
-  echoreg::segmentation::CtImage SeriesGeometry;
+  echoreg::core::CtImage SeriesGeometry;
   std::vector<std::string> Warnings;
   std::string LastError;
 };
@@ -111,14 +111,14 @@ namespace echoreg::segmentation {
 /// The slices of group `group` (0-based) of `image` as an image of their own (origin moved to the
 /// group's first slice). Copies the group's voxels when `image` has them. Throws
 /// std::invalid_argument when `group` is out of range.
-CtImage extractSliceGroup(const CtImage& image, int group);
+core::CtImage extractSliceGroup(const core::CtImage& image, int group);
 
 /// A vtkImageData of a uniform CtImage (one slice group or one slice): VTK_SHORT scalars "HU",
 /// origin, spacing and direction matrix as vtkEchoregDicomSeriesReader's output. The const
 /// overload copies the voxels; the rvalue overload takes them over without a copy (the image's
 /// `hu` is left empty). Throws std::invalid_argument for a non-uniform image (resample it or
 /// extract a group first) or one whose `hu` does not hold dimensions' voxels.
-vtkSmartPointer<vtkImageData> toImageData(const CtImage& image);
-vtkSmartPointer<vtkImageData> toImageData(CtImage&& image);
+vtkSmartPointer<vtkImageData> toImageData(const core::CtImage& image);
+vtkSmartPointer<vtkImageData> toImageData(core::CtImage&& image);
 
 }  // namespace echoreg::segmentation

@@ -3,6 +3,7 @@
 // protocol (section 4.3.1), and a writer of that volume as a DICOM CT series (one file per slice).
 #pragma once
 
+#include "echoreg/core/ct_image.hpp"
 #include "echoreg/simulation/tissue.hpp"
 
 #include <Eigen/Core>
@@ -71,40 +72,11 @@ CtProtocol dissertationProtocol(double hipZ, double kneeZ, double ankleZ, Eigen:
 /// and ankle 3 slices at 5 mm each (centred on the joint). Same noise and blur as the full one.
 CtProtocol smallProtocol(double hipZ, double kneeZ, double ankleZ, Eigen::Vector2d centreXY);
 
-/// A CT volume of axial slices in HU. Slices may be unevenly spaced (groups, gaps).
-struct CtVolume {
-  int columns = 0;                       ///< pixels along +x (index i)
-  int rows = 0;                          ///< pixels along +y (index j)
-  double pixelSpacingMm = 0;             ///< square pixels
-  Eigen::Vector2d firstPixelXYMm{0, 0};  ///< centre of pixel (0, 0)
-  std::vector<double> sliceZMm;          ///< slice centres, increasing
-  std::vector<int> sliceGroup;           ///< index into the protocol's groups (and groupNames)
-  std::vector<std::string> groupNames;   ///< the protocol's group names ("hip", "knee", "ankle")
-  std::vector<double> sliceThicknessMm;
-  std::vector<std::int16_t> hu;  ///< index (k * rows + j) * columns + i; i along +x, j along +y
-
-  /// Number of slices.
-  int slices() const { return static_cast<int>(sliceZMm.size()); }
-  /// Index of voxel (i, j, k) in `hu`.
-  std::size_t index(int i, int j, int k) const {
-    return (static_cast<std::size_t>(k) * static_cast<std::size_t>(rows) +
-            static_cast<std::size_t>(j)) *
-               static_cast<std::size_t>(columns) +
-           static_cast<std::size_t>(i);
-  }
-  /// HU of voxel (i, j, k); indices must be in range.
-  int huAt(int i, int j, int k) const { return hu[index(i, j, k)]; }
-  /// Centre of voxel (i, j, k) in CT coordinates, mm.
-  Eigen::Vector3d voxelCentreMm(int i, int j, int k) const {
-    return {firstPixelXYMm.x() + i * pixelSpacingMm, firstPixelXYMm.y() + j * pixelSpacingMm,
-            sliceZMm[static_cast<std::size_t>(k)]};
-  }
-};
-
-/// The geometry `protocol` gives (slice positions, groups, thicknesses, first pixel centre) with
-/// no voxels (`hu` empty). Throws std::invalid_argument naming the offending value when the
-/// protocol is unusable (no groups, non-positive sizes or spacings, slices not increasing...).
-CtVolume ctGeometry(const CtProtocol& protocol);
+/// The geometry `protocol` gives, with no voxels (`hu` empty): an axial core::CtImage
+/// (core::axialCtImage) whose slice z, thicknesses and group names are the protocol's. Throws
+/// std::invalid_argument naming the offending value when the protocol is unusable (no groups,
+/// non-positive sizes or spacings, slices not increasing...).
+core::CtImage ctGeometry(const CtProtocol& protocol);
 
 /// Images `field` with `protocol`. Each voxel is the mean HU of the tissues inside it: tissueAt is
 /// sampled at the voxel centre on every through-slice check plane (at most 1 mm apart); where the
@@ -120,8 +92,8 @@ CtVolume ctGeometry(const CtProtocol& protocol);
 /// whatever the thread count. `progress` (if set) is called once per finished slice with the
 /// fraction done, from worker threads but never concurrently. An exception from tissueAt or
 /// `progress` stops the work and is rethrown. Throws std::invalid_argument for a bad protocol.
-CtVolume synthesizeCt(const TissueField& field, const CtProtocol& protocol, std::uint64_t seed,
-                      const std::function<void(double fraction)>& progress = {});
+core::CtImage synthesizeCt(const TissueField& field, const CtProtocol& protocol, std::uint64_t seed,
+                           const std::function<void(double fraction)>& progress = {});
 
 /// Patient, study and series fields of a written series. Dates and times are fixed so that the
 /// same seed gives the same bytes.
@@ -147,13 +119,16 @@ std::string derivedDicomUid(std::uint64_t uidSeed, const std::string& label,
 /// order (increasing z), explicit VR little endian, MONOCHROME2. Pixels are stored unsigned, 16
 /// bits allocated, 12 stored (high bit 11), as HU + 1024 with RescaleIntercept -1024, RescaleSlope
 /// 1, RescaleType HU, so the volume must lie within [kCtMinHu, kCtMaxHu]. Geometry: axial
-/// ImageOrientationPatient 1\0\0\0\1\0, ImagePositionPatient the first pixel centre (LPS),
-/// PixelSpacing, SliceThickness, SliceLocation = z; KVP 120, bone window (400 / 1800).
+/// ImageOrientationPatient 1\0\0\0\1\0 (the volume's direction must be the identity, its
+/// pixels square), ImagePositionPatient the first pixel centre (LPS; z from sliceLocationsMm when
+/// kept, else originMm.z + slicePositionsMm), PixelSpacing, SliceThickness (sliceThicknessMm, one
+/// per slice, required), SliceLocation = z; ImageComments "slice group NAME" (groupNames, or the
+/// group's number); KVP 120, bone window (400 / 1800). The groups must cover the slices in order.
 /// Files are written into a temporary sibling folder ("FOLDER.tmp-PID") that is renamed to
 /// `folder` at the end, so a failure leaves nothing behind. `folder` may exist if it is empty; its
 /// parent must exist. Throws FileError naming `folder` (not writable, not empty, missing parent, a
 /// write failing) or std::invalid_argument for an inconsistent volume or info.
-void writeDicomSeries(const std::string& folder, const CtVolume& volume,
+void writeDicomSeries(const std::string& folder, const core::CtImage& volume,
                       const DicomSeriesInfo& info);
 
 }  // namespace echoreg::simulation

@@ -1,10 +1,10 @@
-#include "echoreg/segmentation/ct_image.hpp"
+#include "echoreg/core/ct_image.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 
-namespace echoreg::segmentation {
+namespace echoreg::core {
 
 double CtImage::sliceSpacingMm() const {
   if (!uniform())
@@ -73,6 +73,39 @@ Eigen::Vector3d CtImage::lpsToVoxel(const Eigen::Vector3d& lps) const {
           sliceIndex(*this, local.z())};
 }
 
+Eigen::Vector3d CtImage::voxelCentreMm(int i, int j, int k) const {
+  if (direction == Eigen::Matrix3d::Identity() &&
+      sliceLocationsMm.size() == static_cast<std::size_t>(dimensions[2])) {
+    return {originMm.x() + i * pixelSpacingMm.x(), originMm.y() + j * pixelSpacingMm.y(),
+            sliceLocationsMm[static_cast<std::size_t>(k)]};
+  }
+  return voxelToLps(Eigen::Vector3d(i, j, k));
+}
+
+CtImage axialCtImage(int columns, int rows, double pixelSpacingMm,
+                     const Eigen::Vector2d& firstPixelXYMm,
+                     const std::vector<AxialSliceGroup>& groups) {
+  CtImage image;
+  image.dimensions = {columns, rows, 0};
+  image.pixelSpacingMm = {pixelSpacingMm, pixelSpacingMm};
+  for (const AxialSliceGroup& group : groups) {
+    const int first = image.dimensions[2];
+    const int count = static_cast<int>(group.zMm.size());
+    image.groups.push_back({first, count, count > 1 ? group.zMm[1] - group.zMm[0] : 0.0});
+    image.groupNames.push_back(group.name);
+    for (double z : group.zMm) {
+      image.sliceLocationsMm.push_back(z);
+      image.sliceThicknessMm.push_back(group.thicknessMm);
+    }
+    image.dimensions[2] += count;
+  }
+  const double z0 = image.sliceLocationsMm.empty() ? 0.0 : image.sliceLocationsMm.front();
+  image.originMm = {firstPixelXYMm.x(), firstPixelXYMm.y(), z0};
+  for (double z : image.sliceLocationsMm)
+    image.slicePositionsMm.push_back(z - z0);
+  return image;
+}
+
 CtImage resampleUniform(const CtImage& image, double spacingMm) {
   if (image.voxelCount() == 0 || image.slicePositionsMm.empty()) {
     throw std::invalid_argument("resampleUniform: the CT image is empty");
@@ -121,4 +154,4 @@ CtImage resampleUniform(const CtImage& image, double spacingMm) {
   return out;
 }
 
-}  // namespace echoreg::segmentation
+}  // namespace echoreg::core
