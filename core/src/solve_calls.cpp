@@ -22,8 +22,7 @@ Function solverFunction(const char* symbol) {
   const ModuleIdentity identity{"solver module", "echoreg_solve",
                                 "fits spheres, calibrates beams and registers surfaces (Ceres)",
                                 solve::kAbiSymbol, solve::solveAbi()};
-  return reinterpret_cast<Function>(
-      moduleSymbol(moduleBesideExecutable(ECHOREG_SOLVE_MODULE_FILE_NAME), identity, symbol));
+  return moduleFunction<Function>(ECHOREG_SOLVE_MODULE_FILE_NAME, identity, symbol);
 }
 
 }  // namespace

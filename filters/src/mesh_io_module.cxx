@@ -18,8 +18,7 @@ template <typename Function>
 Function meshIoFunction(const char* symbol) {
   const core::ModuleIdentity identity{"mesh I/O module", "echoreg_mesh_io",
                                       "reads and writes mesh files", kMeshIoAbiSymbol, meshIoAbi()};
-  return reinterpret_cast<Function>(core::moduleSymbol(
-      core::moduleBesideExecutable(ECHOREG_MESH_IO_MODULE_FILE_NAME), identity, symbol));
+  return core::moduleFunction<Function>(ECHOREG_MESH_IO_MODULE_FILE_NAME, identity, symbol);
 }
 
 }  // namespace

@@ -34,12 +34,7 @@ rm -f register.json register.tfm
 # The installed layout: without the module, the registration fails naming where it looked.
 installed_layout "$echoreg"
 cp "$(dirname "$echoreg")/../lib/echoreg/libechoreg_mesh_io.so" prefix/lib/echoreg/
-status=0
-register "$work/prefix/bin/echoreg" || status=$?
-[ "$status" -eq 1 ] || fail "register without the module exited $status, not 1"
-grep -q "$work/prefix/lib/echoreg/$(basename "$module")" register.err ||
-  fail "the error does not name the module's path: $(cat register.err)"
-[ ! -e register.json ] || fail "register.json written without the module"
+refused_without_module "$module" register.json
 cp "$module" prefix/lib/echoreg/
 register "$work/prefix/bin/echoreg" || fail "the installed layout did not register: $(cat register.err)"
 cmp -s register.json register-build-tree.json ||

@@ -45,3 +45,15 @@ exits_1_naming() {
   [ "$_status" -eq 1 ] || fail "$_what exited $_status, not 1"
   grep -q "$_path" "$_err" || fail "the error does not name the module's path: $(cat "$_err")"
 }
+
+# refused_without_module MODULE OUTPUT: in the installed layout (./prefix, installed_layout) with
+# no module, the test's `register` function fails with exit 1, its stderr (register.err) names
+# where it looked for MODULE's file, and OUTPUT is not written.
+refused_without_module() {
+  _status=0
+  register "$PWD/prefix/bin/echoreg" || _status=$?
+  [ "$_status" -eq 1 ] || fail "register without the module exited $_status, not 1"
+  grep -q "$PWD/prefix/lib/echoreg/$(basename "$1")" register.err ||
+    fail "the error does not name the module's path: $(cat register.err)"
+  [ ! -e "$2" ] || fail "$2 written without the module"
+}

@@ -41,6 +41,15 @@ std::filesystem::path moduleBesideExecutable(const std::string& fileName);
 void* moduleSymbol(const std::filesystem::path& path, const ModuleIdentity& identity,
                    const char* symbol);
 
+/// The entry point `symbol` of the module `fileName` beside the executable (moduleBesideExecutable,
+/// moduleSymbol), as the function pointer type `Function`.
+template <typename Function>
+Function moduleFunction(const std::string& fileName, const ModuleIdentity& identity,
+                        const char* symbol) {
+  return reinterpret_cast<Function>(
+      moduleSymbol(moduleBesideExecutable(fileName), identity, symbol));
+}
+
 /// Runs `work` inside a module's C entry point: whatever it throws is caught into `*error` (an
 /// exception must not unwind through a C function), for the caller to rethrow.
 template <typename Work>
