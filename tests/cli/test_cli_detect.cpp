@@ -52,6 +52,33 @@ std::string slurp(const std::string& path) {
   return {std::istreambuf_iterator<char>(in), {}};
 }
 
+// How `detect`'s CSV of PLUS's Agilent recording agrees with PLUS's own depths
+// (ZOffsetToTracker): frames 0-129 accepted and within 0.05 mm of PLUS, and frames 130-149 (the
+// echo lost) accepted.
+struct AgilentAgreement {
+  int accepted = 0, within = 0, lost = 0;
+};
+
+AgilentAgreement agreementWithPlus(const std::string& capture, const std::string& csv) {
+  const core::Sequence plus = core::readSequence(capture);
+  const auto rows = readCsv(csv);
+  EXPECT_EQ(rows.size(), 150U);
+  AgilentAgreement agreement;
+  for (std::size_t f = 0; f < rows.size() && f < plus.frames.size(); ++f) {
+    if (rows[f]["status"] != "accepted")
+      continue;
+    if (f >= 130) {
+      ++agreement.lost;
+      continue;
+    }
+    ++agreement.accepted;
+    const double theirs = plus.frames[f].transforms.at("ZOffsetToTracker").matrix(2, 3);
+    if (std::fabs(std::stod(rows[f]["depth_mm"]) - theirs) <= 0.05)
+      ++agreement.within;
+  }
+  return agreement;
+}
+
 TEST(CliDetect, AgilentDepthsAgreeWithPlus) {
   ECHOREG_REQUIRE_SHARED_FILE(capture, "plus/Agilent_Scope_Recording_DP310.igs.nrrd");
   test::TempDir dir;
@@ -116,20 +143,7 @@ TEST(CliDetect, AgilentDepthsAgreeWithPlusWithTheAcquisitionFactsOnly) {
   ASSERT_EQ(result.exitCode, 0) << result.err;
   const auto summary = nlohmann::json::parse(result.out);
   EXPECT_EQ(summary["ring_down_source"], "measured");
-  const core::Sequence plus = core::readSequence(capture);
-  const auto rows = readCsv(csv);
-  ASSERT_EQ(rows.size(), 150U);
-  int within = 0;
-  for (int f = 0; f < 130; ++f) {
-    const auto& row = rows[static_cast<std::size_t>(f)];
-    if (row["status"] != "accepted")
-      continue;
-    const double theirs =
-        plus.frames[static_cast<std::size_t>(f)].transforms.at("ZOffsetToTracker").matrix(2, 3);
-    if (std::fabs(std::stod(row["depth_mm"]) - theirs) <= 0.05)
-      ++within;
-  }
-  EXPECT_EQ(within, 130);
+  EXPECT_EQ(agreementWithPlus(capture, csv).within, 130);
 }
 
 // The defaults with nothing given but the file (the header's own sampling frequency): the echoes
@@ -178,27 +192,10 @@ TEST(CliDetect, AgilentDefaultsWithTheAcquisitionFactsTakeTheRingingReflector) {
   ASSERT_EQ(result.exitCode, 0) << result.err;
   const auto summary = nlohmann::json::parse(result.out);
   EXPECT_EQ(summary["shadow_rule"], "required");
-  const core::Sequence plus = core::readSequence(capture);
-  const auto rows = readCsv(csv);
-  ASSERT_EQ(rows.size(), 150U);
-  int accepted = 0, within = 0, lost = 0;
-  for (int f = 0; f < 150; ++f) {
-    const auto& row = rows[static_cast<std::size_t>(f)];
-    if (row["status"] != "accepted")
-      continue;
-    if (f >= 130) {
-      ++lost;
-      continue;
-    }
-    ++accepted;
-    const double theirs =
-        plus.frames[static_cast<std::size_t>(f)].transforms.at("ZOffsetToTracker").matrix(2, 3);
-    if (std::fabs(std::stod(row["depth_mm"]) - theirs) <= 0.05)
-      ++within;
-  }
-  EXPECT_GE(accepted, 100) << "of frames 0-129 (112 today, 39 before)";
-  EXPECT_GE(within, 95) << "within 0.05 mm of PLUS (106 today, 33 before)";
-  EXPECT_EQ(lost, 0) << "of frames 130-149, which lost the echo";
+  const AgilentAgreement agreement = agreementWithPlus(capture, csv);
+  EXPECT_GE(agreement.accepted, 100) << "of frames 0-129 (112 today, 39 before)";
+  EXPECT_GE(agreement.within, 95) << "within 0.05 mm of PLUS (106 today, 33 before)";
+  EXPECT_EQ(agreement.lost, 0) << "of frames 130-149, which lost the echo";
 }
 
 TEST(CliDetect, DemoSweepGivesSpreadConsistentPointsAndSaysWhyFramesWereRejected) {
