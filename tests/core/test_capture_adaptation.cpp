@@ -534,6 +534,59 @@ TEST(ProminencePolicy, BoneInWaterThatRingsIsBoneATissueLayerBehindAnEchoIsNoTra
   }
 }
 
+// Shallow bone in vivo on the ring-down's decaying tail (issue 12's recordings: the burst over by
+// sample ~28, a tail over ~3 mm, bone 1-10 mm deep): speckle on a tail falling from 12 to 1.5
+// times the speckle over samples 30-230, bone at sample 100 (1.5 mm) 6 times the tail there, its
+// cortex ringing behind it (echoes a period apart, 7 samples, from 0.55 of it, halving every 3 mm,
+// as the randomised set's in-vivo profile draws it) for 4.5 mm, then tissue. The echo stands only
+// 3-5 times over the median before it (the tail), under the ringing contrast of 6. Against it, the
+// same record without the bone: the strongest speckle grain on the tail is no echo.
+std::vector<float> boneOnTheRingDownTail(bool bone, std::uint64_t seed) {
+  test::PulseModel pulse;
+  pulse.centreFrequencyHz = 7e6;
+  std::vector<test::EchoSpec> echoes;
+  std::mt19937_64 random(seed);
+  std::uniform_real_distribution<double> grain(0.5, 1.5);
+  for (double s = 30.0; s < 1500.0; s += 7.0) {
+    const double tail = s < 230.0 ? 12.0 * std::pow(1.5 / 12.0, (s - 30.0) / 200.0) : 1.0;
+    if (!bone || s < 95.0 || s > 400.0)
+      echoes.push_back({s, 3.0 * tail * grain(random)});
+  }
+  if (bone) {
+    const double echo = 6.0 * 3.0 * 12.0 * std::pow(1.5 / 12.0, 70.0 / 200.0);
+    echoes.push_back({100.0, echo});
+    std::uniform_real_distribution<double> ring(0.8, 1.2);
+    for (double s = 107.0; s < 400.0; s += 7.0)
+      echoes.push_back({s, 0.55 * std::pow(0.5, (s - 107.0) / 195.0) * ring(random) * echo});
+  }
+  return test::makeEchoRecord(1500, echoes, pulse, 0.0, 0.5, seed);
+}
+
+TEST(ProminencePolicy, ShallowBoneOnTheRingDownTailRingsAsBone) {
+  DetectionParams params = perRecordRule();
+  params.peaks.ringDownEnd = 30;
+  const auto count = [&params](bool bone) {
+    SignalDetector detector(params);
+    int atBone = 0, elsewhere = 0;
+    for (std::uint64_t seed = 1; seed <= 100; ++seed) {
+      const auto x = boneOnTheRingDownTail(bone, seed);
+      const SignalDetection d = detector.detect(x.data(), 1500);
+      if (d.accepted())
+        ++(std::fabs(d.peaks.sampleIndex - 100.0) < 4.0 ? atBone : elsewhere);
+    }
+    return std::pair<int, int>{atBone, elsewhere};
+  };
+  const auto bone = count(true);
+  const auto tissue = count(false);
+  std::cout << "[ measured ] bone on the tail: " << bone.first << " at the bone, " << bone.second
+            << " elsewhere; the tail without bone: " << tissue.first + tissue.second << " of 100\n";
+  // 42 today, none before the dominant echo's contrast of 3; in the others the tail before the
+  // echo is higher and the contrast under 3.
+  EXPECT_GE(bone.first, 30) << "of 100";
+  EXPECT_LE(bone.second, 5) << "of 100";
+  EXPECT_LE(tissue.first + tissue.second, 5) << "of 100";
+}
+
 // Shallow bone in vivo: the skin and muscle's speckle before it, the cortex ringing behind it
 // and its reverberation stepping up over the speckle as the tissue behind a wall does. A wall (the
 // skin behind a water standoff) has water before it, as quiet as the record's quietest stretch;
