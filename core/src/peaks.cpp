@@ -705,11 +705,6 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
       continue;
     }
     tailEnd = std::max(tailEnd, tail.end);
-    // A wall (skin, standoff membrane): the envelope steps up from quiet water before it to the
-    // tissue's speckle after it. Bone is followed by its shadow, or (shallow in vivo) by
-    // reverberation no stronger than the tissue before it.
-    // Bone whose cortex rings keeps the envelope above half its echo behind it; the speckle
-    // behind a wall stays well below the wall's echo.
     // Bare bone in water that rings: water before it all the way from the ring-down, and a
     // decaying train behind it that dies into the quiet (ringsIntoQuiet); a wall's tissue does
     // not. Decided on first use (the quiet level costs a median per block).
@@ -730,6 +725,11 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
       }
       return ringsInWaterState == 1;
     };
+    // A wall (skin, standoff membrane): the envelope steps up from quiet water before it to the
+    // tissue's speckle after it. Bone is followed by its shadow, or (shallow in vivo) by
+    // reverberation no stronger than the tissue before it.
+    // Bone whose cortex rings keeps the envelope above half its echo behind it; the speckle
+    // behind a wall stays well below the wall's echo. Bone in water that rings is no wall.
     const bool wall = before >= 0.0 && left - gap - ringDown >= region / 2 &&
                       after >= e.wallStep * std::max(before, tiny) && after < 0.4 * c.value &&
                       before <= kWaterBeforeWall * quietLevel() && !ringsInWater();
