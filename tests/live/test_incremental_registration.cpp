@@ -48,23 +48,35 @@ struct TakenRun {
   double seconds = 0.0;
 };
 
-// Feeds a point every millisecond for `seconds` (so new points are always waiting) and collects
-// every update taken, polling every 0.5 ms.
-std::vector<TakenRun> feed(IncrementalRegistration& registration, double seconds) {
+// Feeds a point every millisecond (so new points are always waiting) and collects every update
+// taken, polling every 0.5 ms: for `seconds`, and on until `consecutive` pairs of updates of
+// consecutive runs have been taken (a loaded machine or a sanitizer build fits fewer in the
+// time), at most 60 s in all.
+std::vector<TakenRun> feed(IncrementalRegistration& registration, double seconds,
+                           std::size_t consecutive) {
+  const Clock::time_point start = Clock::now();
+  const auto after = [&](double s) {
+    return start + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(s));
+  };
+  std::atomic<bool> stop{false};
   std::atomic<bool> done{false};
   std::thread feeder([&] {
-    const Clock::time_point end = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                     std::chrono::duration<double>(seconds));
-    for (int i = 0; Clock::now() < end; ++i) {
+    for (int i = 0; !stop && Clock::now() < after(60.0); ++i) {
       registration.addPoint(surfacePoint(i));
       std::this_thread::sleep_for(std::chrono::milliseconds(1));
     }
     done = true;
   });
   std::vector<TakenRun> runs;
+  std::size_t pairs = 0;
   while (!done) {
-    if (std::optional<RegistrationUpdate> u = registration.take())
+    if (std::optional<RegistrationUpdate> u = registration.take()) {
+      if (!runs.empty() && u->run == runs.back().run + 1)
+        ++pairs;
       runs.push_back({u->run, u->started, u->seconds});
+    }
+    if (pairs >= consecutive && Clock::now() >= after(seconds))
+      stop = true;
     std::this_thread::sleep_for(std::chrono::microseconds(500));
   }
   feeder.join();
@@ -83,7 +95,7 @@ double median(std::vector<double> v) {
 TEST(IncrementalRegistration, RunsWhenTheIntervalIsDueNotAtAPollsTick) {
   core::SurfaceRegistrationOptions options;
   IncrementalRegistration registration(ellipsoid(), options, {}, 30, 100.0);  // every 10 ms
-  const std::vector<TakenRun> runs = feed(registration, 1.5);
+  const std::vector<TakenRun> runs = feed(registration, 1.5, 20);
   std::vector<double> intervals, fits;
   for (std::size_t i = 1; i < runs.size(); ++i) {
     if (runs[i].run != runs[i - 1].run + 1)
@@ -119,7 +131,7 @@ TEST(IncrementalRegistration, AFitSlowerThanTheIntervalIsFollowedAtOnce) {
   core::SurfaceRegistrationOptions options;
   // An interval of 0.1 ms: every fit is longer, so the next starts as soon as it ends.
   IncrementalRegistration registration(ellipsoid(), options, {}, 30, 10000.0);
-  const std::vector<TakenRun> runs = feed(registration, 1.0);
+  const std::vector<TakenRun> runs = feed(registration, 1.0, 20);
   std::vector<double> gaps;  // from a run's end to the next run's start
   for (std::size_t i = 1; i < runs.size(); ++i) {
     if (runs[i].run == runs[i - 1].run + 1)
