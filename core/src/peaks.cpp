@@ -103,6 +103,16 @@ double medianOf(const float* envelope, int count, int begin, int end, std::vecto
   return n <= 32 ? rankSelect(scratch.data(), n, n / 2) : selectKth(scratch.data(), n, n / 2);
 }
 
+// medianOf(envelope, count, begin, end) <= level, without copying or selecting: the middle of
+// every 8th sample is at most `level` when more than half of them are (false for an empty range).
+bool medianAtMost(const float* envelope, int count, int begin, int end, float level) {
+  end = std::min(end, count);
+  int n = 0, above = 0;
+  for (int i = std::max(begin, 0); i < end; i += 8, ++n)
+    above += envelope[i] > level ? 1 : 0;
+  return n > 0 && above <= n - n / 2 - 1;
+}
+
 // Full width at half maximum of the peak at `index`, in samples.
 int halfMaximumWidth(const float* envelope, int count, int index) {
   const float half = envelope[index] * 0.5F;
@@ -351,36 +361,26 @@ bool fallsBehind(const float* envelope, int count, int from, int region) {
   const int mid = std::min(count, from + region / 2), end = std::min(count, from + region);
   if (from < 0 || mid <= from || end <= mid)
     return false;
-  const float nearMax = *std::max_element(envelope + from, envelope + mid);
-  const float farMax = *std::max_element(envelope + mid, envelope + end);
-  return farMax <= 0.7F * nearMax;
+  return maxOf(envelope + mid, end - mid) <= 0.7F * maxOf(envelope + from, mid - from);
 }
 
-// Does a decaying train behind an echo in water die into the quiet within `reach` samples? From
+// Does a decaying train behind an echo in water die into the quiet within `region` samples? From
 // `from` on, the first start p (in steps of a sixteenth of the region) at which the envelope's
 // medians over the next half region and the next region are within kNoiseShadowSpread of the
 // quiet level ends the train; the train [from, p) stays under kTrainCeiling of the echo, and
 // when it lasts a quarter region or more, the envelope's sum over its second half is at most
 // kTrainDecay of the sum over its first half.
-bool ringsIntoQuiet(const float* envelope, int count, int from, int reach, int region, float echo,
+bool ringsIntoQuiet(const float* envelope, int count, int from, int region, float echo,
                     double quietLevel) {
   const int step = std::max(1, region / 16);
   const auto quiet = static_cast<float>(kNoiseShadowSpread * quietLevel);
-  // medianOf(envelope, count, begin, end) <= quiet, without selecting: medianOf takes the middle
-  // of every 8th sample, which is at most `quiet` when more than half of them are.
-  const auto medianAtMostQuiet = [&](int begin, int end) {
-    end = std::min(end, count);
-    int n = 0, above = 0;
-    for (int i = std::max(begin, 0); i < end; i += 8, ++n)
-      above += envelope[i] > quiet ? 1 : 0;
-    return n > 0 && above <= n - n / 2 - 1;
-  };
-  for (int p = from + step; p <= from + reach && p + region / 2 <= count; p += step) {
-    if (!medianAtMostQuiet(p, p + region / 2) || !medianAtMostQuiet(p, p + region))
+  for (int p = from + step; p <= from + region && p + region / 2 <= count; p += step) {
+    if (!medianAtMost(envelope, count, p, p + region / 2, quiet) ||
+        !medianAtMost(envelope, count, p, p + region, quiet))
       continue;
     // Nothing behind it echoes half as strongly: little gets through bone, and an echo of
     // similar strength deeper (bone under a fascia) has the better claim.
-    if (*std::max_element(envelope + from, envelope + p) > kTrainCeiling * echo ||
+    if (maxOf(envelope + from, p - from) > kTrainCeiling * echo ||
         maxOf(envelope + p, count - p) > kTrainCeiling * echo)
       return false;
     // Shorter than a quarter region, the train is the echo's own tail and a bounce or two: no
@@ -388,8 +388,7 @@ bool ringsIntoQuiet(const float* envelope, int count, int from, int reach, int r
     // 22.5 -> 13.6 %, false positives 18.7 -> 19.5 % and 3.1 %).
     if (p - from < region / 4)
       return true;
-    const int span = p - from;
-    const int mid = from + span / 2;
+    const int mid = from + (p - from) / 2;
     double first = 0.0, second = 0.0;
     for (int i = from; i < mid; ++i)
       first += envelope[i];
@@ -398,6 +397,23 @@ bool ringsIntoQuiet(const float* envelope, int count, int from, int reach, int r
     return second <= kTrainDecay * first;
   }
   return false;
+}
+
+// Bare bone in water that rings, as both the shadow mode and the per-record rule judge it: no echo
+// half as strong in the water [waterBegin, waterEnd) before it, at least half the record's
+// strongest echo, the median before it (`before`) within kWaterBeforeBone of the record's quiet
+// level and the echo `echoFactor` times above that level, and behind it, from `trainFrom`, a train
+// that dies into the quiet within `region` (ringsIntoQuiet). The cheap tests come first: the quiet
+// level costs a median per block.
+template <typename Strongest>
+bool ringingBoneInWater(const float* envelope, int count, float echo, double before, int waterBegin,
+                        int waterEnd, int trainFrom, int region, double echoFactor,
+                        Strongest&& strongest, LazyLevel& quietLevel) {
+  return echoFactor > 0.0 && fallsBehind(envelope, count, trainFrom, region) &&
+         echo >= kNoiseShadowShareOfStrongest * strongest() &&
+         maxOf(envelope + waterBegin, std::max(0, waterEnd - waterBegin)) <= kTrainCeiling * echo &&
+         before <= kWaterBeforeBone * quietLevel() && echo >= echoFactor * quietLevel() &&
+         ringsIntoQuiet(envelope, count, trainFrom, region, echo, quietLevel());
 }
 
 // Does the peak look like bone: narrow as a pulse, well above the speckle before it, and
@@ -432,14 +448,10 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
   // record's strongest echo, and behind it a decaying train that dies into the quiet within the
   // region.
   const auto ringingInWater = [&]() {
-    return bone.noiseShadowEchoFactor > 0.0 && widthSamples <= bone.noiseShadowMaxWidthSamples &&
-           fallsBehind(envelope, count, afterBegin, region) &&
-           peak.value >= kNoiseShadowShareOfStrongest * strongest() &&
-           maxOf(envelope, std::max(0, std::min(beforeEnd, peak.index - widthSamples))) <=
-               kTrainCeiling * peak.value &&
-           before <= kWaterBeforeBone * shadowLevel() &&
-           peak.value >= bone.noiseShadowEchoFactor * shadowLevel() &&
-           ringsIntoQuiet(envelope, count, afterBegin, region, region, peak.value, shadowLevel());
+    return widthSamples <= bone.noiseShadowMaxWidthSamples &&
+           ringingBoneInWater(envelope, count, peak.value, before, 0,
+                              std::min(beforeEnd, peak.index - widthSamples), afterBegin, region,
+                              bone.noiseShadowEchoFactor, strongest, shadowLevel);
   };
   // Bone lies under soft tissue: its speckle stands above the noise floor before the echo. Skin
   // and standoff-wall echoes have water in front of them (bone in water: above).
@@ -712,16 +724,12 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     const auto ringsInWater = [&]() {
       if (ringsInWaterState < 0) {
         ringsInWaterState =
-            e.noiseShadowEchoFactor > 0.0 && before >= 0.0 &&
-            c.value >= kNoiseShadowShareOfStrongest * strongestCandidate &&
-            fallsBehind(envelope, count, right + gap, region) &&
-            maxOf(envelope + ringDown, std::max(0, left - gap - ringDown)) <=
-                kTrainCeiling * c.value &&
-            before <= kWaterBeforeBone * quietLevel() &&
-            c.value >= e.noiseShadowEchoFactor * quietLevel() &&
+            before >= 0.0 &&
+            ringingBoneInWater(
+                envelope, count, c.value, before, ringDown, left - gap, right + gap, region,
+                e.noiseShadowEchoFactor, [&] { return strongestCandidate; }, quietLevel) &&
             medianOf(envelope, count, ringDown, left - gap, scratch) <=
-                kWaterBeforeBone * quietLevel() &&
-            ringsIntoQuiet(envelope, count, right + gap, region, region, c.value, quietLevel());
+                kWaterBeforeBone * quietLevel();
       }
       return ringsInWaterState == 1;
     };
