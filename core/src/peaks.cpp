@@ -612,6 +612,20 @@ bool isAirTrain(const float* envelope, int count, int index, double ratio, int r
   return true;
 }
 
+// The capture's context (EchoContext). At least this share of the records before a record were
+// accepted on their own; their depths agree within kContextSpreadMm (median absolute deviation);
+// the record's echo lies within kContextToleranceMm of their median depth, at least
+// kContextStrength of their median echo. Stop 27's values, measured on the blind generators'
+// seeds 1-6 (scratch programs over scoreCapture, docs/detection.md "Stop 27" and "Stop 30"): the
+// spread is the temporal filter's own consistency (0.5 mm), the tolerance half as much again;
+// half the neighbours' strength keeps a record whose echo is lost (PLUS's Agilent frames 130-149)
+// from taking a smaller maximum at the old depth.
+constexpr int kMaxContextFrames = 1000;
+constexpr double kContextShare = 0.6;
+constexpr double kContextSpreadMm = 0.5;
+constexpr double kContextToleranceMm = 0.75;
+constexpr float kContextStrength = 0.5F;
+
 // Is `c` at least kDominantOverOthers times every candidate more than `region` samples from it?
 bool dominatesOutside(const std::vector<EchoCandidate>& candidates, const EchoCandidate& c,
                       int region) {
@@ -1053,6 +1067,8 @@ void validate(const PeakParams& p) {
           "echo ringing fraction must be in (0, 1]");
   require(e.shadowNoiseFactor >= 0.0 && std::isfinite(e.shadowNoiseFactor),
           "echo shadow noise factor must be >= 0");
+  require(e.contextFrames >= 0 && e.contextFrames <= kMaxContextFrames,
+          "echo context must be between 0 (off) and 1000 frames");
   require(p.ringDownEnd >= 0, "ring-down end must be >= 0");
   require(p.samplesPerCycle > 0.0 && std::isfinite(p.samplesPerCycle),
           "samples per transducer cycle must be > 0");
@@ -1312,6 +1328,79 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
     }
   }
   return result;
+}
+
+EchoContext::EchoContext(const PeakParams& params)
+    : frames_(params.policy == PeakPolicy::Prominence ? params.prominence.contextFrames : 0),
+      mmPerSample_(params.mmPerSample),
+      subsample_(params.subsample),
+      maxRise_(std::max(2, static_cast<int>(std::lround(params.prominence.maxRiseCycles *
+                                                        params.samplesPerCycle)))) {
+  require(frames_ >= 0 && frames_ <= kMaxContextFrames,
+          "echo context must be between 0 (off) and 1000 frames");
+  require(mmPerSample_ > 0.0 && std::isfinite(mmPerSample_), "mm per sample must be > 0");
+  past_.reserve(static_cast<std::size_t>(frames_));
+}
+
+bool EchoContext::judge(PeakResult& result, const float* envelope, int count) {
+  if (frames_ <= 0)
+    return false;
+  bool rescued = false;
+  const Record own{result.accepted(), result.sampleIndex,
+                   result.accepted() && result.selected >= 0
+                       ? result.peaks[static_cast<std::size_t>(result.selected)].value
+                       : 0.F};
+  const auto needed = static_cast<std::size_t>(std::ceil(kContextShare * frames_));
+  if (result.reason == RejectReason::NotBone && !result.peaks.empty() &&
+      past_.size() == static_cast<std::size_t>(frames_)) {
+    depths_.clear();
+    strengths_.clear();
+    for (const Record& r : past_) {
+      if (!r.accepted)
+        continue;
+      depths_.push_back(r.sampleIndex);
+      strengths_.push_back(r.value);
+    }
+    if (depths_.size() >= needed) {
+      // The upper median of an even count: every value comes from a record, none is invented.
+      const auto median = [](std::vector<double>& values) {
+        const auto mid = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
+        std::nth_element(values.begin(), mid, values.end());
+        return *mid;
+      };
+      const double centre = median(depths_);
+      for (double& d : depths_)
+        d = std::fabs(d - centre);
+      const double spread = median(depths_);
+      const double strength = median(strengths_);
+      if (spread * mmPerSample_ <= kContextSpreadMm) {
+        int best = -1;
+        double bestDistance = kContextToleranceMm / mmPerSample_;
+        for (std::size_t k = 0; k < result.peaks.size(); ++k) {
+          const Peak& peak = result.peaks[k];
+          const double distance = std::fabs(peak.index - centre);
+          // A pulse (its leading edge within maxRiseCycles), not a burst of noise over bone.
+          if (distance <= bestDistance && peak.value >= kContextStrength * strength &&
+              peak.index - peak.runBegin <= maxRise_) {
+            best = static_cast<int>(k);
+            bestDistance = distance;
+          }
+        }
+        if (best >= 0) {
+          const int index = result.peaks[static_cast<std::size_t>(best)].index;
+          result.selected = best;
+          result.reason = RejectReason::None;
+          result.sampleIndex =
+              subsample_ && envelope != nullptr ? refinedIndex(envelope, count, index) : index;
+          rescued = true;
+        }
+      }
+    }
+  }
+  if (past_.size() == static_cast<std::size_t>(frames_))
+    past_.erase(past_.begin());
+  past_.push_back(own);
+  return rescued;
 }
 
 }  // namespace echoreg::core

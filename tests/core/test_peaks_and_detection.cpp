@@ -209,5 +209,132 @@ TEST(Detection, PresetsAndValidation) {
   EXPECT_THROW(parsePeakPolicy("triple"), std::invalid_argument);
 }
 
+// EchoContext's inputs, made by hand: a record's verdict and its prominent echoes (a pulse: the
+// run begins 3 samples before the maximum).
+PeakResult recordOf(RejectReason reason, const std::vector<std::pair<int, float>>& echoes,
+                    int selected = -1) {
+  PeakResult result;
+  result.reason = reason;
+  for (const auto& [index, value] : echoes) {
+    Peak peak;
+    peak.index = index;
+    peak.value = value;
+    peak.runBegin = index - 3;
+    peak.runEnd = index + 4;
+    result.peaks.push_back(peak);
+  }
+  result.selected = selected;
+  if (selected >= 0)
+    result.sampleIndex = result.peaks[static_cast<std::size_t>(selected)].index;
+  return result;
+}
+
+PeakParams contextParams(int frames) {
+  PeakParams params;
+  params.policy = PeakPolicy::Prominence;
+  params.prominence.contextFrames = frames;
+  params.mmPerSample = 0.015;  // 0.75 mm = 50 samples, 0.5 mm = 33
+  params.samplesPerCycle = 5.0;
+  params.subsample = false;
+  return params;
+}
+
+// Feeds `accepted` records with bone at sample 1000 (+-2) and strength 100, then `rejected`
+// not-bone ones, into `context`.
+void feed(EchoContext& context, int accepted, int rejected) {
+  for (int i = 0; i < accepted; ++i) {
+    PeakResult r = recordOf(RejectReason::None, {{300, 60.F}, {1000 + (i % 5) - 2, 100.F}}, 1);
+    EXPECT_FALSE(context.judge(r, nullptr, 0));
+  }
+  for (int i = 0; i < rejected; ++i) {
+    PeakResult r = recordOf(RejectReason::NoPeak, {});
+    EXPECT_FALSE(context.judge(r, nullptr, 0));
+  }
+}
+
+TEST(EchoContext, ANotBoneRecordTakesTheEchoTheRecordsBeforeItAgreeOn) {
+  EchoContext context(contextParams(10));
+  feed(context, 6, 4);  // 6 of the last 10 accepted at 1000
+  // A skin echo at 300 stronger than anything, and bone 20 samples (0.3 mm) deeper than before.
+  PeakResult r = recordOf(RejectReason::NotBone, {{300, 200.F}, {1020, 60.F}});
+  ASSERT_TRUE(context.judge(r, nullptr, 0));
+  EXPECT_TRUE(r.accepted());
+  EXPECT_EQ(r.selected, 1);
+  EXPECT_DOUBLE_EQ(r.sampleIndex, 1020.0);
+}
+
+TEST(EchoContext, TakesNothingWithoutAnAgreeingContextOrAnEchoThere) {
+  {  // 5 of 10 accepted: too few
+    EchoContext context(contextParams(10));
+    feed(context, 5, 5);
+    PeakResult r = recordOf(RejectReason::NotBone, {{1000, 100.F}});
+    EXPECT_FALSE(context.judge(r, nullptr, 0));
+    EXPECT_EQ(r.reason, RejectReason::NotBone);
+  }
+  {  // the records before disagree: depths spread over 3 mm
+    EchoContext context(contextParams(10));
+    for (int i = 0; i < 10; ++i) {
+      PeakResult a = recordOf(RejectReason::None, {{800 + 45 * i, 100.F}}, 0);
+      context.judge(a, nullptr, 0);
+    }
+    PeakResult r = recordOf(RejectReason::NotBone, {{1000, 100.F}});
+    EXPECT_FALSE(context.judge(r, nullptr, 0));
+  }
+  {  // the echo is 1 mm (67 samples) from the context's depth, or under half its strength, or
+     // a slow burst, or the record was rejected for another reason than not-bone
+    EchoContext context(contextParams(10));
+    feed(context, 10, 0);
+    PeakResult far = recordOf(RejectReason::NotBone, {{1067, 100.F}});
+    EXPECT_FALSE(context.judge(far, nullptr, 0));
+    feed(context, 10, 0);
+    PeakResult weak = recordOf(RejectReason::NotBone, {{1000, 45.F}});
+    EXPECT_FALSE(context.judge(weak, nullptr, 0));
+    feed(context, 10, 0);
+    PeakResult burst = recordOf(RejectReason::NotBone, {{1000, 100.F}});
+    burst.peaks[0].runBegin = 1000 - 16;  // a leading edge of 3.2 periods
+    EXPECT_FALSE(context.judge(burst, nullptr, 0));
+    feed(context, 10, 0);
+    PeakResult noisy = recordOf(RejectReason::TooManyPeaks, {{1000, 100.F}});
+    EXPECT_FALSE(context.judge(noisy, nullptr, 0));
+  }
+  {  // a capture's first records have no context yet
+    EchoContext context(contextParams(10));
+    feed(context, 9, 0);
+    PeakResult r = recordOf(RejectReason::NotBone, {{1000, 100.F}});
+    EXPECT_FALSE(context.judge(r, nullptr, 0));
+  }
+}
+
+TEST(EchoContext, OnlyRecordsAcceptedAloneMakeTheContext) {
+  // Records taken from their context do not carry it on: 10 accepted alone, then not-bone
+  // records with bone where the first ones had it. The 6th of these has only 5 records accepted
+  // alone among its last 10; taken ones counted, every later record would be taken.
+  EchoContext context(contextParams(10));
+  feed(context, 10, 0);
+  int taken = 0;
+  for (int i = 0; i < 12; ++i) {
+    PeakResult r = recordOf(RejectReason::NotBone, {{1000, 100.F}});
+    taken += context.judge(r, nullptr, 0) ? 1 : 0;
+  }
+  EXPECT_EQ(taken, 5);
+}
+
+TEST(EchoContext, OffWithZeroFramesOrAnotherPolicy) {
+  PeakParams off = contextParams(0);
+  PeakParams bone = contextParams(10);
+  bone.policy = PeakPolicy::Bone;
+  for (const PeakParams& params : {off, bone}) {
+    EchoContext context(params);
+    EXPECT_FALSE(context.enabled());
+    feed(context, 10, 0);
+    PeakResult r = recordOf(RejectReason::NotBone, {{1000, 100.F}});
+    EXPECT_FALSE(context.judge(r, nullptr, 0));
+  }
+  PeakParams bad = contextParams(-1);
+  EXPECT_THROW(validate(bad), std::invalid_argument);
+  bad.prominence.contextFrames = 1001;
+  EXPECT_THROW(validate(bad), std::invalid_argument);
+  EXPECT_THROW(EchoContext{bad}, std::invalid_argument);
+}
 }  // namespace
 }  // namespace echoreg::core

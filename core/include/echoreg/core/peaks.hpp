@@ -171,6 +171,12 @@ struct ProminenceParams {
   /// 1.3 times that level from the ring-down on) and behind it no more than 1.4 times the noise
   /// (bare bone in water, whose inner cortex and marrow lift the median behind it a little).
   double noiseShadowEchoFactor = 10.0;
+  /// The capture's context (EchoContext, fed frame by frame in order): a record judged not-bone
+  /// takes the echo that the `contextFrames` records before it agree on, when at least 0.6 of
+  /// them were accepted on their own, their depths agree (median absolute deviation at most
+  /// 0.5 mm), and the record holds a prominent echo within 0.75 mm of their median depth and at
+  /// least half their median strength. 0 switches it off (>= 0, at most 1000).
+  int contextFrames = 10;
 };
 
 struct PeakParams {
@@ -212,13 +218,16 @@ inline bool operator==(const BoneEchoParams& a, const BoneEchoParams& b) {
 }
 inline bool operator==(const ProminenceParams& a, const ProminenceParams& b) {
   const auto& [snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
-               ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA, strongA] = a;
+               ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA, strongA,
+               contextA] = a;
   const auto& [snrB, medianB, promB, riseB, contrastB, regionB, wallB, airB, similarB, shadowB,
-               ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB, innerB, strongB] = b;
+               ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB, innerB, strongB,
+               contextB] = b;
   return std::tie(snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
-                  ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA, strongA) ==
-         std::tie(snrB, medianB, promB, riseB, contrastB, regionB, wallB, airB, similarB, shadowB,
-                  ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB, innerB, strongB);
+                  ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA, strongA,
+                  contextA) == std::tie(snrB, medianB, promB, riseB, contrastB, regionB, wallB,
+                                        airB, similarB, shadowB, ratioB, noiseB, shadowContrastB,
+                                        ringingB, ringingContrastB, innerB, strongB, contextB);
 }
 inline bool operator==(const PeakParams& a, const PeakParams& b) {
   const auto& [modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, promA, ringA, cycleA,
@@ -252,5 +261,39 @@ struct PeakResult {
 
 /// Finds the peaks of `envelope` (count samples) and applies the policy.
 PeakResult findPeaks(const PeakParams& params, const float* envelope, int count);
+
+/// The capture's context for the prominence policy (ProminenceParams::contextFrames): bone is a
+/// surface under a probe that moves little from one record to the next, so where most of the
+/// records just before a record agree on bone's depth and the record holds a prominent echo there
+/// as strong as theirs, that echo is bone even when the record alone shows no signature of it (a
+/// shadow at the noise the medians cannot see, ringing lost in reverberation). Only records before
+/// it count, so a live session decides each record when it comes, as `detect` does; only their
+/// own verdicts count, so one record taken from its context does not carry the next. Fed every
+/// record of one capture (one transducer) in order.
+class EchoContext {
+ public:
+  /// `params`: the resolved peak parameters (mmPerSample, subsample) of the capture.
+  explicit EchoContext(const PeakParams& params);
+
+  /// Judges the record's single-signal `result` (envelope: the record's, count samples): a
+  /// not-bone verdict becomes the echo its context agrees on (reason None, selected and
+  /// sampleIndex set). Returns true when it did. Every record must be given, in order.
+  bool judge(PeakResult& result, const float* envelope, int count);
+
+  bool enabled() const { return frames_ > 0; }
+
+ private:
+  struct Record {
+    bool accepted = false;
+    double sampleIndex = 0.0;
+    float value = 0.F;
+  };
+  int frames_ = 0;
+  double mmPerSample_ = 0.0;
+  bool subsample_ = true;
+  int maxRise_ = 2;
+  std::vector<Record> past_;  // the last frames_ records, oldest first
+  std::vector<double> depths_, strengths_;  // of the accepted ones among them
+};
 
 }  // namespace echoreg::core
