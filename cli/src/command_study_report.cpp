@@ -325,10 +325,11 @@ void reportDetectionRates(Report& report, nlohmann::json& numbers, const StudyMa
   if (!rows.empty()) {
     report.heading("Detection rates (Table 6.1)");
     report.paragraph(
-        "Each A-line judged alone (no inter-signal filter) under the dissertation's "
-        "chain at three low-pass cutoffs and under the study's preset, against the "
-        "simulation's truth: false negatives among the frames a correct detector should "
-        "accept, false positives among the others.");
+        "Each A-line judged without the inter-signal filters, under the dissertation's "
+        "chain at three low-pass cutoffs and under the study's preset (the default's capture "
+        "context looks at the A-lines before each one), against the simulation's truth: false "
+        "negatives among the frames a correct detector should accept, false positives among "
+        "the others.");
     report.table({"bone", "setting", "bone frames", "other frames", "false negatives (%)",
                   "false positives (%)"},
                  rows);

@@ -141,6 +141,10 @@ const std::vector<Tunable>& tunables() {
       {"echo-similar", "Prominence policy",
        "prominence: echoes within this fraction of the strongest compete on depth (0.6)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.similarRatio = as<double>(v); }},
+      {"echo-context", "Prominence policy",
+       "prominence: a not-bone frame takes the echo that 0.6 of the frames before it, accepted "
+       "alone, agree on (frames looked at, 10; 0 = off)",
+       0, [](P& p, const V& v) { p.peaks.prominence.contextFrames = as<int>(v); }},
       {"no-subsample", "Peaks", "Report the integer sample of the peak (no parabola)", false,
        [](P& p, const V& v) { p.peaks.subsample = !as<bool>(v); }},
       {"bone-region-mm", "Bone policy", "bone: tissue/shadow region length, mm (3)", 0.0,

@@ -100,6 +100,7 @@ SequenceDetection detectSequence(const Sequence& sequence, const DetectionParams
   result.params = adaptToSequence(sequence, given, &result.analysis);
   const DetectionParams& params = result.params;
   SignalDetector detector(params);
+  EchoContext context(resolvePeakParams(params));
   const int frameCount = static_cast<int>(sequence.frameCount());
   const int samples = static_cast<int>(sequence.samplesPerFrame());
   std::vector<float> record;
@@ -113,7 +114,11 @@ SequenceDetection detectSequence(const Sequence& sequence, const DetectionParams
     out.frame = f;
     out.timestampS = frame.timestampS;
     sequence.frameSamples(static_cast<std::size_t>(f), record);
-    const SignalDetection detection = detector.detect(record.data(), samples);
+    SignalDetection detection = detector.detect(record.data(), samples);
+    if (context.judge(detection.peaks, detector.envelope().data(), samples)) {
+      detection.depthMm = params.depth.depthMm(detection.peaks.sampleIndex);
+      ++result.fromContext;
+    }
     out.peakCount = static_cast<int>(detection.peaks.peaks.size());
     out.reason = detection.peaks.reason;
     InterSignalInput& input = inputs[static_cast<std::size_t>(f)];

@@ -87,6 +87,10 @@ core::SequenceDetection sequenceDetectionOf(vtkTable* table) {
           table->GetFieldData()->GetAbstractArray("EchoesBeforeInterSignal"))) {
     detection.echoes = static_cast<int>(echoes->GetComponent(0, 0));
   }
+  if (auto* fromContext = vtkDataArray::SafeDownCast(
+          table->GetFieldData()->GetAbstractArray("EchoesFromContext"))) {
+    detection.fromContext = static_cast<int>(fromContext->GetComponent(0, 0));
+  }
   return detection;
 }
 

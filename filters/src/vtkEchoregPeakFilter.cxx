@@ -223,6 +223,11 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
   std::vector<echoreg::core::RejectReason> verdicts(static_cast<std::size_t>(rows));
   std::vector<std::vector<echoreg::core::Peak>> peaksOfFrames(
       this->PeakList ? static_cast<std::size_t>(rows) : 0);
+  // The capture's context (EchoContext) judges the rows in frame order once a block's verdicts
+  // are in, from each row's whole result (its peaks), while the block's envelopes are held.
+  echoreg::core::EchoContext context(peakParams);
+  std::vector<echoreg::core::PeakResult> blockResults;
+  int fromContext = 0;
 
   vtkIdType rowsDone = 0;
   for (std::size_t b = 0; b < blocks.size(); ++b) {
@@ -262,6 +267,8 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
     const echoreg::filters::SequenceFieldData sequenceData(image->GetFieldData());
     std::mutex mutex;
     std::string error;
+    if (context.enabled())
+      blockResults.assign(static_cast<std::size_t>(block.last - block.first + 1), {});
     const auto peaksOfRows = [&](vtkIdType begin, vtkIdType end) {
       try {
         for (vtkIdType frame = begin; frame < end; ++frame) {
@@ -279,6 +286,8 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
           verdicts[static_cast<std::size_t>(row)] = result.reason;
           if (this->PeakList)
             peaksOfFrames[static_cast<std::size_t>(row)] = result.peaks;
+          if (context.enabled())
+            blockResults[static_cast<std::size_t>(frame - block.first)] = result;
         }
       } catch (const std::exception& exception) {
         const std::lock_guard<std::mutex> lock(mutex);
@@ -298,6 +307,20 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
     if (!error.empty()) {
       this->Fail("peak detection failed: " + error);
       return 0;
+    }
+    if (context.enabled()) {
+      for (vtkIdType frame = block.first; frame <= block.last; ++frame) {
+        echoreg::core::PeakResult& result =
+            blockResults[static_cast<std::size_t>(frame - block.first)];
+        if (!context.judge(result, envelopes->GetPointer((frame - extent[2]) * samplesPerRow),
+                           samplesPerRow))
+          continue;
+        const vtkIdType row = frame - tableFirstFrame;
+        sampleColumn->SetValue(row, result.sampleIndex);
+        depthColumn->SetValue(row, this->Depth.depthMm(result.sampleIndex));
+        verdicts[static_cast<std::size_t>(row)] = result.reason;
+        ++fromContext;
+      }
     }
   }
   for (const auto& peaks : peaksOfFrames)
@@ -328,6 +351,10 @@ int vtkEchoregPeakFilter::RequestData(vtkInformation* /*request*/,
   output->AddColumn(reasonColumn);
   output->AddColumn(thresholdColumn);
   output->GetFieldData()->ShallowCopy(input->GetFieldData());
+  vtkNew<vtkIntArray> fromContextArray;
+  fromContextArray->SetName("EchoesFromContext");
+  fromContextArray->InsertNextValue(fromContext);
+  output->GetFieldData()->AddArray(fromContextArray);
   peakList->Initialize();
   peakList->AddColumn(listFrame);
   peakList->AddColumn(listIndex);

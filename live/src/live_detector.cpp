@@ -78,6 +78,7 @@ void LiveDetector::adapt() {
     judge.rule = rule;
     judge.peaks = core::resolvePeakParams(params);
     judge.interSignal = std::make_unique<core::InterSignalFilter>(params.interSignal);
+    judge.context = std::make_unique<core::EchoContext>(judge.peaks);
     judges_.push_back(std::move(judge));
   }
 }
@@ -161,7 +162,8 @@ LiveFrame LiveDetector::decide(const Waiting& waiting) {
   LiveFrame decided;
   for (std::size_t k = 0; k < judges_.size(); ++k) {
     Judge& judge = judges_[k];
-    const core::PeakResult peaks = core::findPeaks(judge.peaks, envelopeSamples_.data(), count);
+    core::PeakResult peaks = core::findPeaks(judge.peaks, envelopeSamples_.data(), count);
+    judge.context->judge(peaks, envelopeSamples_.data(), count);
     LiveFrame frame;
     if (refused != nullptr && peaks.accepted()) {
       frame.frame = waiting.frame;

@@ -1,5 +1,6 @@
 #include "cli_test_support.hpp"
 #include "demo_capture.hpp"
+#include "randomised_alines.hpp"
 #include "test_support.hpp"
 
 #include "echoreg/core/sequence.hpp"
@@ -7,7 +8,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -287,6 +290,7 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
   std::ofstream(dir.file("broken.json")) << R"({"envelope": )";
   std::ofstream(dir.file("type.json")) << R"({"envelope-window": 7.5})";
   std::ofstream(dir.file("window.json")) << R"({"window-mm": [5]})";
+  std::ofstream(dir.file("context.json")) << R"({"echo-context": 2.5})";
   const std::vector<std::vector<std::string>> cases{
       {"detect", capture, "--out", csv, "--envelope", "gauss"},
       {"detect", capture, "--out", csv, "--peaks", "triple"},
@@ -295,6 +299,9 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
       {"detect", capture, "--out", csv, "--params", dir.file("broken.json")},
       {"detect", capture, "--out", csv, "--params", dir.file("type.json")},
       {"detect", capture, "--out", csv, "--params", dir.file("window.json")},
+      {"detect", capture, "--out", csv, "--params", dir.file("context.json")},
+      {"detect", capture, "--out", csv, "--echo-context", "-1"},
+      {"detect", capture, "--out", csv, "--echo-context", "1001"},
       {"detect", capture, "--out", csv, "--threshold-factor", "2", "--threshold-of-max", "0.5"},
       {"detect", capture, "--out", csv, "--pose", "StylusToTracker"},
       {"detect", capture, "--out", dir.path() + "/missing-folder/d.csv"},
@@ -309,6 +316,83 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
       runEchoreg({"detect", capture, "--out", csv, "--params", dir.file("typo.json")});
   EXPECT_NE(typo.err.find("typo.json"), std::string::npos);
   EXPECT_NE(typo.err.find("envelope-widnow"), std::string::npos);
+  const auto context = runEchoreg({"detect", capture, "--out", csv, "--echo-context", "-1"});
+  EXPECT_NE(context.err.find("echo context"), std::string::npos) << context.err;
+}
+
+// One capture of the blind generator (tests/support/randomised_alines) as a PLUS sequence: its
+// int16 codes, its acquisition facts in the header.
+core::Sequence sequenceOf(const test::RandomisedCapture& capture) {
+  core::Sequence sequence;
+  sequence.elementType = core::ElementType::Int16;
+  const std::size_t samples = capture.frames.front().samples.size();
+  sequence.frameSize = {static_cast<int>(samples), 1};
+  sequence.acquisition.samplingFrequencyHz = capture.samplingFrequencyHz;
+  sequence.acquisition.delayS = capture.delayS;
+  sequence.acquisition.speedOfSoundMps = capture.speedOfSoundMps;
+  for (std::size_t f = 0; f < capture.frames.size(); ++f) {
+    for (float code : capture.frames[f].samples) {
+      const auto value = static_cast<std::int16_t>(std::lround(code));
+      const auto bits = static_cast<std::uint16_t>(value);
+      sequence.pixels.push_back(static_cast<std::uint8_t>(bits & 0xFF));
+      sequence.pixels.push_back(static_cast<std::uint8_t>(bits >> 8));
+    }
+    core::SequenceFrame frame;
+    frame.timestampS = capture.frames[f].timestampS;
+    frame.fields.emplace_back("ImageStatus", "OK");
+    sequence.frames.push_back(std::move(frame));
+  }
+  return sequence;
+}
+
+// The capture's context (--echo-context, on by default), on a strapped holder's capture of the
+// blind generator (in-vivo profile, seed 16, its 7th capture: 12-bit int16 records, 41 of 50
+// frames accepted alone): the summary counts the frames it took, 0 switches it off (by flag or
+// --params file, the same bytes), and it only adds accepted frames the single-signal chain
+// judged not-bone.
+TEST(CliDetect, EchoContextIsCountedAndZeroSwitchesItOff) {
+  test::TempDir dir;
+  const std::string capture = dir.file("holder.igs.mha");
+  test::RandomisedSetOptions options;
+  options.profile = "invivo-holder";
+  options.seed = 16;
+  const std::vector<test::RandomisedCapture> captures = test::makeRandomisedSet(options);
+  ASSERT_GT(captures.size(), 6U);
+  const test::RandomisedCapture* chosen = &captures[6];
+  ASSERT_EQ(chosen->storage, test::SampleStorage::Int16);
+  core::writeSequence(sequenceOf(*chosen), capture);
+  std::ofstream(dir.file("off.json")) << R"({"echo-context": 0})";
+  const auto run = [&](const std::vector<std::string>& extra, const std::string& csv) {
+    std::vector<std::string> args{"detect", capture, "--out", dir.file(csv), "--json"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto result = runEchoreg(args);
+    EXPECT_EQ(result.exitCode, 0) << result.err;
+    return nlohmann::json::parse(result.out);
+  };
+  const auto on = run({}, "on.csv");
+  const auto off = run({"--echo-context", "0"}, "off.csv");
+  const auto file = run({"--params", dir.file("off.json")}, "file.csv");
+  EXPECT_GT(on["echoes_from_context"].get<int>(), 0);
+  EXPECT_EQ(off["echoes_from_context"].get<int>(), 0);
+  EXPECT_EQ(on["echoes_before_inter_signal"].get<int>(),
+            off["echoes_before_inter_signal"].get<int>() + on["echoes_from_context"].get<int>());
+  EXPECT_EQ(
+      on["rejected_by_reason"]["not-bone"].get<int>(),
+      off["rejected_by_reason"]["not-bone"].get<int>() - on["echoes_from_context"].get<int>());
+  EXPECT_EQ(slurp(dir.file("off.csv")), slurp(dir.file("file.csv")));
+  // Every frame taken from the context was not-bone without it; the others are unchanged.
+  const auto withRows = readCsv(dir.file("on.csv"));
+  const auto withoutRows = readCsv(dir.file("off.csv"));
+  ASSERT_EQ(withRows.size(), withoutRows.size());
+  int changed = 0;
+  for (std::size_t f = 0; f < withRows.size(); ++f) {
+    if (withRows[f]["sample_index"] == withoutRows[f]["sample_index"])
+      continue;
+    ++changed;
+    EXPECT_EQ(withoutRows[f]["reason"], "not-bone") << "frame " << f;
+    EXPECT_TRUE(withoutRows[f]["sample_index"].empty()) << "frame " << f;
+  }
+  EXPECT_EQ(changed, on["echoes_from_context"].get<int>());
 }
 
 // --speed-of-sound is checked where the flag is parsed, with register's and calibrate's range

@@ -205,9 +205,11 @@ TEST(PeakFilter, PassesTheFieldDataThroughToTheTable) {
   PeakChain chain(capture, image);
   chain.peaks->Update();
   vtkFieldData* fieldData = chain.table()->GetFieldData();
-  EXPECT_EQ(fieldData->GetNumberOfArrays(), image->GetFieldData()->GetNumberOfArrays());
+  // The input's arrays, plus the count of echoes the capture's context took.
+  EXPECT_EQ(fieldData->GetNumberOfArrays(), image->GetFieldData()->GetNumberOfArrays() + 1);
   EXPECT_EQ(fieldData->GetAbstractArray("ProbeToTracker"),
             image->GetFieldData()->GetAbstractArray("ProbeToTracker"));
+  ASSERT_NE(fieldData->GetAbstractArray("EchoesFromContext"), nullptr);
 }
 
 TEST(PeakFilter, InvalidWindowFailsThroughTheExecutive) {

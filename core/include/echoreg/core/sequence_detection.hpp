@@ -54,6 +54,9 @@ struct SequenceDetection {
   CaptureAnalysis analysis;
   /// Frames the single-signal chain accepted (before the inter-signal filters).
   int echoes = 0;
+  /// Of those, frames judged not-bone alone whose echo the frames before them agreed on
+  /// (EchoContext, the prominence policy's `echo-context`).
+  int fromContext = 0;
 };
 
 /// What a user should know about a detection, one sentence each: what adaptToCapture warned of,

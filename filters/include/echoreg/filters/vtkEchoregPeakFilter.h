@@ -27,7 +27,11 @@
  *   rejected), "depth_mm" (double, NaN when rejected), "reason" (string, "" when accepted, else
  *   echoreg::core::rejectReasonName), "threshold" (double, in envelope units).
  * The input's field data (timestamps, poses, acquisition settings) is passed through to the
- * table's field data. An input without samples gives a table without rows, with a warning.
+ * table's field data, plus "EchoesFromContext" (one int: the rows the capture's context took,
+ * below). An input without samples gives a table without rows, with a warning.
+ * With the prominence policy, the rows are then judged in frame order by
+ * echoreg::core::EchoContext (ProminenceParams::contextFrames): a not-bone row takes the echo the
+ * rows before it agree on, as detectSequence and a live session do.
  * Output (port 1): with PeakList on, every peak of every frame, in frame order then sample
  * order: "frame" (int), "sample_index" (int, the maximum of the run above the threshold),
  * "value" (double, the envelope there); the peaks the verdicts of port 0 were chosen from (what

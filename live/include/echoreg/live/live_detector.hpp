@@ -123,6 +123,7 @@ class LiveDetector {
     core::ShadowRule rule = core::ShadowRule::Auto;
     core::PeakParams peaks;  // resolved (window in samples)
     std::unique_ptr<core::InterSignalFilter> interSignal;
+    std::unique_ptr<core::EchoContext> context;  // the frames before each one (echo-context)
     std::vector<LiveFrame> accepted;
     std::map<std::string, int> verdicts;
   };
