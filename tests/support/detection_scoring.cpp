@@ -56,11 +56,17 @@ DetectionScore scoreCapture(const core::DetectionParams& preset, const Acquisiti
   params =
       core::adaptToCapture(params, static_cast<int>(records.size()), samples, source, std::nullopt);
   core::SignalDetector detector(params);
+  // Every record in order, the ambiguous ones too: the capture's context (EchoContext) judges a
+  // record by the ones before it, as detect does before the inter-signal filters.
+  core::EchoContext context(core::resolvePeakParams(params));
   for (const LabelledRecord& record : records) {
+    core::SignalDetection detection =
+        detector.detect(record.samples->data(), static_cast<int>(record.samples->size()));
+    if (context.judge(detection.peaks, detector.envelope().data(),
+                      static_cast<int>(record.samples->size())))
+      detection.depthMm = params.depth.depthMm(detection.peaks.sampleIndex);
     if (record.ambiguous)
       continue;
-    const core::SignalDetection detection =
-        detector.detect(record.samples->data(), static_cast<int>(record.samples->size()));
     if (record.hasBone) {
       ++score.positives;
       if (!detection.accepted()) {

@@ -47,7 +47,8 @@ struct DetectionScore {
 /// `preset` with the acquisition facts in place (sampling frequency, speed, delay, window).
 core::DetectionParams withFacts(const core::DetectionParams& preset, const AcquisitionFacts& facts);
 
-/// Runs `preset` (inter-signal filters aside: each record judged alone) on one capture.
+/// Runs `preset` on one capture: the single-signal chain on every record in order, with the
+/// capture's context (EchoContext) as detect runs it, inter-signal filters aside.
 DetectionScore scoreCapture(const core::DetectionParams& preset, const AcquisitionFacts& facts,
                             const std::vector<LabelledRecord>& records);
 
