@@ -1,6 +1,6 @@
 #include "cli_test_support.hpp"
 #include "demo_capture.hpp"
-#include "randomised_alines.hpp"
+#include "randomised_sequence.hpp"
 #include "test_support.hpp"
 
 #include "echoreg/core/sequence.hpp"
@@ -10,7 +10,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <cstdint>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -320,31 +319,6 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
   EXPECT_NE(context.err.find("echo context"), std::string::npos) << context.err;
 }
 
-// One capture of the blind generator (tests/support/randomised_alines) as a PLUS sequence: its
-// int16 codes, its acquisition facts in the header.
-core::Sequence sequenceOf(const test::RandomisedCapture& capture) {
-  core::Sequence sequence;
-  sequence.elementType = core::ElementType::Int16;
-  const std::size_t samples = capture.frames.front().samples.size();
-  sequence.frameSize = {static_cast<int>(samples), 1};
-  sequence.acquisition.samplingFrequencyHz = capture.samplingFrequencyHz;
-  sequence.acquisition.delayS = capture.delayS;
-  sequence.acquisition.speedOfSoundMps = capture.speedOfSoundMps;
-  for (std::size_t f = 0; f < capture.frames.size(); ++f) {
-    for (float code : capture.frames[f].samples) {
-      const auto value = static_cast<std::int16_t>(std::lround(code));
-      const auto bits = static_cast<std::uint16_t>(value);
-      sequence.pixels.push_back(static_cast<std::uint8_t>(bits & 0xFF));
-      sequence.pixels.push_back(static_cast<std::uint8_t>(bits >> 8));
-    }
-    core::SequenceFrame frame;
-    frame.timestampS = capture.frames[f].timestampS;
-    frame.fields.emplace_back("ImageStatus", "OK");
-    sequence.frames.push_back(std::move(frame));
-  }
-  return sequence;
-}
-
 // The capture's context (--echo-context, on by default), on a strapped holder's capture of the
 // blind generator (in-vivo profile, seed 16, its 7th capture: 12-bit int16 records, 41 of 50
 // frames accepted alone): the summary counts the frames it took, 0 switches it off (by flag or
@@ -360,7 +334,7 @@ TEST(CliDetect, EchoContextIsCountedAndZeroSwitchesItOff) {
   ASSERT_GT(captures.size(), 6U);
   const test::RandomisedCapture* chosen = &captures[6];
   ASSERT_EQ(chosen->storage, test::SampleStorage::Int16);
-  core::writeSequence(sequenceOf(*chosen), capture);
+  core::writeSequence(test::randomisedSequence(*chosen), capture);
   std::ofstream(dir.file("off.json")) << R"({"echo-context": 0})";
   const auto run = [&](const std::vector<std::string>& extra, const std::string& csv) {
     std::vector<std::string> args{"detect", capture, "--out", dir.file(csv), "--json"};

@@ -4,6 +4,7 @@
 #include "echoreg/filters/detection_pipeline.h"
 #include "echoreg/core/sequence_detection.hpp"
 #include "filter_test_helpers.hpp"
+#include "randomised_sequence.hpp"
 #include "test_support.hpp"
 
 #include <gtest/gtest.h>
@@ -41,6 +42,7 @@ void expectSameDetection(const core::SequenceDetection& actual,
   EXPECT_EQ(actual.accepted, expected.accepted);
   EXPECT_EQ(actual.rejectedByReason, expected.rejectedByReason);
   EXPECT_EQ(actual.echoes, expected.echoes);
+  EXPECT_EQ(actual.fromContext, expected.fromContext);
   EXPECT_EQ(actual.analysis.ringDownSamples, expected.analysis.ringDownSamples);
   EXPECT_EQ(actual.analysis.transducerFrequencyHz, expected.analysis.transducerFrequencyHz);
   EXPECT_EQ(actual.analysis.shadowRule, expected.analysis.shadowRule);
@@ -93,6 +95,41 @@ TEST_P(DetectionPipelineAgainstCore, SameDetectionAsDetectSequence) {
   pipeline.configure(params, points);
   expectSameDetection(pipeline.run(), expected);
   EXPECT_EQ(pipeline.params().envelope, expected.params.envelope) << "adapted as detectSequence";
+}
+
+// The capture's context (EchoContext) judges the records in frame order across the blocks a
+// streamed capture is read in: a capture of the blind generator (in-vivo holder, seed 16, its
+// 7th capture, 7 records taken from their context) gives detectSequence's detection whole and in
+// blocks of 7 records.
+TEST(DetectionPipeline, TheCapturesContextCrossesBlocksAsDetectSequenceDoes) {
+  TempDir dir;
+  RandomisedSetOptions options;
+  options.profile = "invivo-holder";
+  options.seed = 16;
+  const std::vector<RandomisedCapture> captures = makeRandomisedSet(options);
+  ASSERT_GT(captures.size(), 6U);
+  const core::Sequence sequence = randomisedSequence(captures[6]);
+  const std::string path = dir.file("holder.igs.mha");
+  core::writeSequence(sequence, path);
+  core::DetectionParams params = core::detectionPreset("default");
+  params.depth = core::depthFromSequence(sequence, params.depth);
+  params.envelope.samplingFrequencyHz = params.depth.samplingFrequencyHz;
+  const core::SequenceDetection expected = core::detectSequence(sequence, params);
+  EXPECT_GT(expected.fromContext, 0);
+
+  for (const int block : {0, 7}) {
+    SCOPED_TRACE("frames per block " + std::to_string(block));
+    filters::DetectionPipeline pipeline;
+    pipeline.open(path, {});
+    pipeline.configure(params, {});
+    pipeline.setFramesPerBlock(block);
+    expectSameDetection(pipeline.run(), expected);
+  }
+  core::DetectionParams off = params;
+  off.peaks.prominence.contextFrames = 0;
+  const core::SequenceDetection alone = core::detectSequence(sequence, off);
+  EXPECT_EQ(alone.fromContext, 0);
+  EXPECT_EQ(expected.echoes, alone.echoes + expected.fromContext);
 }
 
 INSTANTIATE_TEST_SUITE_P(Presets, DetectionPipelineAgainstCore,
