@@ -292,7 +292,7 @@ class EchoContext {
   double mmPerSample_ = 0.0;
   bool subsample_ = true;
   int maxRise_ = 2;
-  std::vector<Record> past_;  // the last frames_ records, oldest first
+  std::vector<Record> past_;                // the last frames_ records, oldest first
   std::vector<double> depths_, strengths_;  // of the accepted ones among them
 };
 
