@@ -86,7 +86,9 @@ CommandAction addDetectCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand(
       "detect",
       "Find the bone (or sphere) echo in every A-line of a capture: envelope, peaks, depth,\n"
-      "then the temporal and spatial inter-signal filters. Writes one CSV row per frame:\n"
+      "the capture's context (--echo-context: a frame judged not-bone alone takes the echo the\n"
+      "frames before it agree on), then the temporal and spatial inter-signal filters. Writes\n"
+      "one CSV row per frame:\n"
       "frame,timestamp_s,status,reason,peaks,sample_index,depth_mm (+ x_mm,y_mm,z_mm with "
       "--pose).\n"
       "Parameter precedence: flags > --params file > capture header > what the preset measures\n"
