@@ -23,18 +23,23 @@ core::Sequence randomisedSequence(const RandomisedCapture& capture) {
   if (capture.frames.empty())
     throw std::invalid_argument("a capture without frames");
   core::Sequence sequence;
+  void (*store)(std::vector<std::uint8_t>&, float) = nullptr;
   switch (capture.storage) {
     case SampleStorage::UInt8:
       sequence.elementType = core::ElementType::UInt8;
+      store = append<std::uint8_t>;
       break;
     case SampleStorage::Int8:
       sequence.elementType = core::ElementType::Int8;
+      store = append<std::int8_t>;
       break;
     case SampleStorage::Int16:
       sequence.elementType = core::ElementType::Int16;
+      store = append<std::int16_t>;
       break;
     case SampleStorage::UInt16:
       sequence.elementType = core::ElementType::UInt16;
+      store = append<std::uint16_t>;
       break;
   }
   const std::size_t samples = capture.frames.front().samples.size();
@@ -45,22 +50,8 @@ core::Sequence randomisedSequence(const RandomisedCapture& capture) {
   for (const RandomisedFrame& record : capture.frames) {
     if (record.samples.size() != samples)
       throw std::invalid_argument("the capture's records differ in length");
-    for (float code : record.samples) {
-      switch (capture.storage) {
-        case SampleStorage::UInt8:
-          append<std::uint8_t>(sequence.pixels, code);
-          break;
-        case SampleStorage::Int8:
-          append<std::int8_t>(sequence.pixels, code);
-          break;
-        case SampleStorage::Int16:
-          append<std::int16_t>(sequence.pixels, code);
-          break;
-        case SampleStorage::UInt16:
-          append<std::uint16_t>(sequence.pixels, code);
-          break;
-      }
-    }
+    for (float code : record.samples)
+      store(sequence.pixels, code);
     core::SequenceFrame frame;
     frame.timestampS = record.timestampS;
     frame.fields.emplace_back("ImageStatus", "OK");
