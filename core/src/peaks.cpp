@@ -244,6 +244,11 @@ constexpr float kStrongerBehind = 1.5F;
 // A leading echo rises from at most this share of its height before it (see ringingTailOf).
 constexpr float kLeaderRise = 0.1F;
 
+// A leading echo's ringing keeps the envelope between it and the tail's peaks at least this many
+// times the tissue before the echo (see ringsOnFrom): between a fascia and the bone under it the
+// envelope falls back to the tissue's speckle.
+constexpr double kRingingFloor = 1.5;
+
 struct RingingTail {
   int end = -1;      // the tail's peak; -1: the echo does not lead a ringing tail
   float rise = 0.F;  // the echo's height over the tissue before it
@@ -522,8 +527,9 @@ struct EchoCandidate {
   int peak = -1;  // index into PeakResult::peaks (the prominent ones)
   bool passed = false;
   bool shadowed = false;
-  bool ringing = false;   // the envelope stays above ringingFraction of it behind it
-  double contrast = 0.0;  // peak / median before it
+  bool ringing = false;         // the envelope stays above ringingFraction of it behind it
+  bool strongerBehind = false;  // passed every test but has a stronger echo behind it
+  double contrast = 0.0;        // peak / median before it
 };
 
 // Topographic prominence of the local maximum at `index` within [lo, hi): the height above the
@@ -844,11 +850,26 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   for (auto c = candidates.rbegin(); c != candidates.rend(); ++c) {
     if (!c->passed)
       continue;
-    if (strongestBehind > c->value)
+    if (strongestBehind > c->value) {
       c->passed = false;
-    else
+      c->strongerBehind = true;
+    } else {
       strongestBehind = std::max(strongestBehind, c->value);
+    }
   }
+  // Does the echo at k ring on from the one at a: within a region behind it, the envelope between
+  // them never back down to the tissue before a (kRingingFloor)? The cortex's reverberation and
+  // its own inner echoes follow bone's echo that way, in phase or not, and can peak higher than
+  // it; a fascia and the bone under it have the tissue's speckle between them.
+  const auto ringsOnFrom = [&](std::size_t a, std::size_t k) {
+    const EchoCandidate& lead = candidates[a];
+    const EchoCandidate& tail = candidates[k];
+    if (tail.index - lead.index > region || !(lead.contrast > 0.0) || lead.contrast >= 1e9)
+      return false;
+    const double tissue = lead.value / lead.contrast;
+    const float low = *std::min_element(envelope + lead.index, envelope + tail.index + 1);
+    return low >= kRingingFloor * tissue;
+  };
 
   // Bone: an echo with bone's signature behind it, a shadow or the cortex's ringing. The
   // strongest, unless a deeper one of similar strength stands apart from it (a fascia or a strong
@@ -881,6 +902,8 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     const float valley = *std::min_element(envelope + strongest.index, envelope + deeper.index);
     if (valley > 0.3F * std::min(strongest.value, deeper.value))
       continue;
+    if (ringsOnFrom(static_cast<std::size_t>(chosen), k))
+      continue;
     chosen = static_cast<int>(k);
     break;
   }
@@ -903,6 +926,27 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     }
     if (above >= 0 && candidates[static_cast<std::size_t>(above)].value >= ratio * pick.value)
       chosen = above;
+  }
+  // Bone's echo before its own ringing: the pick rings on from an echo just above it that passed
+  // every test but had the pick (or another peak of its ringing) behind it, stronger by at most
+  // kStrongerBehind. In-vivo holder profile of the randomised set, accepted echoes more than 0.5
+  // mm from bone: 5.9 / 5.7 -> 3.2 / 1.8 % (seeds 1-3 / 4-6), 5.1 / 4.5 -> 1.9 / 1.5 % (10-15 /
+  // 16-18), no other rate changed.
+  for (bool moved = true; moved;) {
+    moved = false;
+    for (int a = chosen - 1; a >= 0; --a) {
+      const auto lead = static_cast<std::size_t>(a);
+      const auto pick = static_cast<std::size_t>(chosen);
+      if (candidates[pick].index - candidates[lead].index > region)
+        break;
+      if (candidates[lead].strongerBehind &&
+          kStrongerBehind * candidates[lead].value >= candidates[pick].value &&
+          ringsOnFrom(lead, pick)) {
+        chosen = a;
+        moved = true;
+        break;
+      }
+    }
   }
   result.selected = candidates[static_cast<std::size_t>(chosen)].peak;
   result.reason = RejectReason::None;

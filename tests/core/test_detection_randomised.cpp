@@ -83,6 +83,10 @@ TEST(DetectionRandomised, EveryProfileAndSeed) {
           // recognised.
           if (std::string(profile) == "invivo-holder") {
             EXPECT_LE(score.falseNegativeRate(), 0.12) << profile << " seed " << seed;
+            // The peaks of the cortex's ringing behind bone's echo are not bone (peaks.cpp,
+            // ringsOnFrom): echoes taken more than 0.5 mm from bone 0.7-5.3 % per seed today,
+            // 5.7-5.9 % over seeds 1-3 and 4-6 before (most of them 0.5-1.5 mm too deep).
+            EXPECT_LE(score.wrongEchoRate(), 0.06) << profile << " seed " << seed;
           }
           EXPECT_LE(score.falsePositiveRate(), 0.28) << profile << " seed " << seed;
           EXPECT_LE(score.wrongEchoRate(), 0.31) << profile << " seed " << seed;
@@ -117,6 +121,11 @@ TEST(DetectionRandomised, TheCapturesContextFindsBoneTheRecordAloneCannotSee) {
     EXPECT_LE(withContext.falsePositiveRate(), alone.falsePositiveRate() + 0.02) << profile;
     EXPECT_LE(withContext.wrongEchoRate(), alone.wrongEchoRate() + 0.005) << profile;
     EXPECT_LE(withContext.medianErrorMm(), 0.1) << profile;
+    // Seeds no rule was chosen on: bone's echo taken before its ringing's stronger peaks (stop
+    // 31, ringsOnFrom) took the in-vivo wrong echoes from 4.5 to 1.5 %.
+    if (std::string(profile) == "invivo-holder") {
+      EXPECT_LE(withContext.wrongEchoRate(), 0.03) << profile;
+    }
   }
 }
 

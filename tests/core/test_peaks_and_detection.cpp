@@ -165,6 +165,64 @@ TEST(Detection, ProminencePolicyTakesTheEchoThatLeadsItsRingingTail) {
   EXPECT_FALSE(ramp.accepted() && std::fabs(ramp.sampleIndex - 1000.0) < 1.0);
 }
 
+// Bone whose cortex rings on after its echo, the envelope falling to 0.4 of the echo (a valley:
+// the echo keeps its prominence) but never back to the tissue before it, then climbing to a
+// reverberation peak 1.1 times the echo 0.6 mm deeper (40 samples at 50 MHz), reverberation at
+// 0.45 of the echo for 3 mm, the shadow. Nothing behind bone is stronger than bone, so the echo
+// alone was refused for the peak behind it, and that peak was taken: 0.6 mm too deep. The peak
+// rings on from the echo: the echo is the bone. With the tissue's speckle between them (a fascia
+// above the bone) the deeper, stronger echo is the bone, as before. (`deeper`: the later peak.)
+std::vector<float> echoThenPeak(float valley, float deeper) {
+  std::vector<float> envelope(4096);
+  for (std::size_t i = 0; i < envelope.size(); ++i)
+    envelope[i] =
+        1.F + 0.3F * static_cast<float>(std::pow(std::sin(0.7 * static_cast<double>(i)), 2.0));
+  const auto set = [&](int i, float v) { envelope[static_cast<std::size_t>(i)] = v; };
+  const auto ramp = [&](int from, float a, int to, float b) {  // a at from, b at to
+    for (int i = from; i <= to; ++i)
+      set(i, a + (b - a) * static_cast<float>(i - from) / static_cast<float>(to - from));
+  };
+  const float rise[] = {3.F, 8.F, 14.F, 18.F};  // samples 996-999
+  for (int k = 0; k < 4; ++k)
+    set(996 + k, rise[k]);
+  set(1000, 20.F);
+  ramp(1001, 17.F, 1010, valley);  // down to the valley
+  ramp(1011, valley, 1030, valley);
+  ramp(1031, valley, 1039, 0.9F * deeper);  // up to the deeper peak
+  set(1040, deeper);
+  ramp(1041, 0.85F * deeper, 1050, 9.F);  // down to the reverberation's level
+  for (int i = 1051; i < 1250; ++i)
+    set(i, 9.F + 0.5F * static_cast<float>(i % 2));
+  return envelope;
+}
+
+TEST(Detection, ProminencePolicyTakesBonesEchoBeforeAStrongerPeakOfItsRinging) {
+  DetectionParams params = detectionPreset("default");
+  params.transducerFrequencyHz = 7.5e6;
+  PeakParams peaks = resolvePeakParams(params);
+  peaks.ringDownEnd = 0;
+  peaks.prominence.shadow = ShadowRule::Auto;
+  ASSERT_NEAR(peaks.mmPerSample, 0.0154, 1e-9);
+
+  const std::vector<float> ringing = echoThenPeak(8.F, 22.F);
+  const PeakResult result = findPeaks(peaks, ringing.data(), 4096);
+  ASSERT_TRUE(result.accepted()) << rejectReasonName(result.reason);
+  EXPECT_NEAR(result.sampleIndex, 1000.0, 1.0);
+
+  const std::vector<float> fasciaThenBone = echoThenPeak(1.1F, 22.F);
+  const PeakResult apart = findPeaks(peaks, fasciaThenBone.data(), 4096);
+  ASSERT_TRUE(apart.accepted()) << rejectReasonName(apart.reason);
+  EXPECT_NEAR(apart.sampleIndex, 1040.0, 1.0);
+
+  // A weaker peak of the ringing (0.8 of the echo) whose valley falls under 0.3 of both but not
+  // to the tissue: still the echo (a deeper echo of similar strength that stands apart is bone
+  // under a fascia only when the tissue lies between them).
+  const std::vector<float> weaker = echoThenPeak(3.5F, 16.F);
+  const PeakResult near = findPeaks(peaks, weaker.data(), 4096);
+  ASSERT_TRUE(near.accepted()) << rejectReasonName(near.reason);
+  EXPECT_NEAR(near.sampleIndex, 1000.0, 1.0);
+}
+
 TEST(InterSignal, TemporalConsistencyNeedsHistoryAgreeingFrames) {
   InterSignalParams params;
   params.history = 3;
