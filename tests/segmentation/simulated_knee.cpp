@@ -116,6 +116,8 @@ std::unique_ptr<SimulatedKnee> buildSimulatedKnee(const KneeVariant& variant) {
   options.tibiofemoralGapMm = variant.tibiofemoralGapMm;
   options.patellofemoralGapMm = variant.patellofemoralGapMm;
   options.osteophyteMm = variant.osteophyteMm;
+  if (!variant.femurMesh.empty())
+    options.meshFiles[simulation::BoneId::Femur] = variant.femurMesh;
   s->knee = simulation::buildKnee(options);
   const double tKnee =
       std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -129,6 +131,9 @@ std::unique_ptr<SimulatedKnee> buildSimulatedKnee(const KneeVariant& variant) {
   if (variant.sliceMm != 1.0) {
     key = (key ^ static_cast<std::uint64_t>(std::llround(variant.sliceMm * 256.0 + 7.0))) *
           1099511628211ULL;
+  }
+  if (variant.columns != 144) {
+    key = (key ^ static_cast<std::uint64_t>(variant.columns * 131 + 5)) * 1099511628211ULL;
   }
   if (variant.seed != 3) {
     key = (key ^ static_cast<std::uint64_t>(variant.seed * 977 + 11)) * 1099511628211ULL;
@@ -155,8 +160,8 @@ std::unique_ptr<SimulatedKnee> buildSimulatedKnee(const KneeVariant& variant) {
   protocol.groups[0].firstZMm = s->knee.kneeCentre.z() - variant.halfRangeMm;
   protocol.groups[0].lastZMm = s->knee.kneeCentre.z() + variant.halfRangeMm;
   protocol.groups[0].spacingMm = variant.sliceMm;
-  protocol.columns = 144;
-  protocol.rows = 144;
+  protocol.columns = variant.columns;
+  protocol.rows = variant.columns;
   protocol.centreXYMm = s->knee.kneeCentre.head<2>();
   if (variant.cancellousHu != 300.0)
     protocol.cancellousHu = variant.cancellousHu;
@@ -186,7 +191,7 @@ const SimulatedKnee& simulatedKnee(const KneeVariant& variant) {
         v.patellofemoralGapMm == variant.patellofemoralGapMm &&
         v.cancellousHu == variant.cancellousHu && v.halfRangeMm == variant.halfRangeMm &&
         v.sliceMm == variant.sliceMm && v.osteophyteMm == variant.osteophyteMm &&
-        v.seed == variant.seed)
+        v.seed == variant.seed && v.femurMesh == variant.femurMesh && v.columns == variant.columns)
       return *knee;
   }
   built.emplace_back(variant, buildSimulatedKnee(variant));

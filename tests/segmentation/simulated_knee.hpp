@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include <optional>
+#include <string>
 
 namespace echoreg::test {
 
@@ -33,6 +34,12 @@ struct KneeVariant {
   /// The simulator's seed (bones, soft tissue and CT noise): 3 is the shared knee's; others are
   /// knees not used to choose a method.
   int seed = 3;
+  /// A femur surface to use instead of the simulator's (simulation::KneeOptions::meshFiles):
+  /// e.g. ../shared/data/meshes/femur.stl, a real femur's shape; empty: the simulator's.
+  std::string femurMesh;
+  /// Pixels per row and column (0.8 mm): 144 holds the simulator's knee; a larger femur pushes the
+  /// patella out of that field of view.
+  int columns = 144;
 };
 
 /// The shared knee (built on first use).
