@@ -192,8 +192,13 @@ std::uint32_t unsignedAt(const unsigned char* b, int count, bool bigEndian = fal
 /// after the tag (ExplicitImplicitDataElement): a 32-byte file whose second element had the VR
 /// "\0@" took 1.4 GB (fuzz/fuzz_dicom). The walk follows `unknownVrImplicit`'s way and says in
 /// `sawUnknownVr` whether the other way needs walking too.
+///
+/// A file without the preamble whose first tag gives GDCM no encoding ("Cannot find DICOM type")
+/// sets `notDicom`: GDCM does not always give up there, and reads on as explicit VR big endian; a
+/// 130-byte file whose first VR was "??" had a length of 0x3f3f3f3f read from it, 1 GB allocated
+/// and filled (7.8 s; fuzz/fuzz_dicom). Such a file is not a CT slice: it is never given to GDCM.
 std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& sawUnknownVr,
-                         PixelBeyondFile& pixelBeyondFile) {
+                         PixelBeyondFile& pixelBeyondFile, bool& notDicom) {
   std::ifstream in(path, std::ios::binary);
   std::error_code sizeError;
   const std::uint64_t size = fs::file_size(path, sizeError);
@@ -257,8 +262,10 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       meta = true;
       metaImplicit = !vrFollows;
     } else if (group == 0x0800) {
-      if (!vrFollows)
-        return "";  // implicit big endian (ACR-NEMA): GDCM refuses it at once
+      if (!vrFollows) {  // implicit big endian (ACR-NEMA): GDCM refuses it
+        notDicom = true;
+        return "";
+      }
       bigEndian = true;
     } else if (group == 0x0008 || element == 0x0010) {
       explicitVr = vrFollows;  // group 0x0008, or a private creator: little endian
@@ -266,8 +273,9 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       bigEndian = group > 0xff || element > 0xff;  // any other group, explicit
     } else if (group == 0 && element == 0 && unsignedAt(first + 4, 4, false) == 4) {
       explicitVr = false;  // a command group length (0000,0000), implicit
-    } else {
-      return "";  // GDCM refuses it at once ("Cannot find DICOM type"): not DICOM
+    } else {               // "Cannot find DICOM type": not DICOM
+      notDicom = true;
+      return "";
     }
     if (!endsInHeader.empty())
       return endsInHeader;
@@ -432,12 +440,13 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
   return "";
 }
 
-std::string elementBeyondFile(const fs::path& path, PixelBeyondFile& pixelBeyondFile) {
+std::string elementBeyondFile(const fs::path& path, PixelBeyondFile& pixelBeyondFile,
+                              bool& notDicom) {
   bool sawUnknownVr = false;
-  std::string damaged = walkElements(path, true, sawUnknownVr, pixelBeyondFile);
+  std::string damaged = walkElements(path, true, sawUnknownVr, pixelBeyondFile, notDicom);
   if (damaged.empty() && sawUnknownVr) {
     PixelBeyondFile other;
-    damaged = walkElements(path, false, sawUnknownVr, other);
+    damaged = walkElements(path, false, sawUnknownVr, other, notDicom);
     if (pixelBeyondFile.elementAt == 0)
       pixelBeyondFile = other;
   }
@@ -448,8 +457,9 @@ SliceHeader scanHeader(const fs::path& path) {
   SliceHeader h;
   h.name = path.filename().string();
   h.path = path.string();
-  h.damaged = elementBeyondFile(path, h.pixelBeyondFile);
-  if (!h.damaged.empty())
+  bool notDicom = false;
+  h.damaged = elementBeyondFile(path, h.pixelBeyondFile, notDicom);
+  if (!h.damaged.empty() || notDicom)
     return h;
   try {
     gdcm::Reader reader;

@@ -376,6 +376,24 @@ TEST_F(DicomSeriesRefusal, AnElementLongerThanTheFileIsNotAllocated) {
   EXPECT_LT(usage.ru_maxrss, 1000L * 1024L) << "peak kB: the declared length was allocated";
 }
 
+// Found by fuzz/fuzz_dicom (stop 31, seed found-timeout-first-vr-unknown-55567a98): a 130-byte file
+// without the preamble whose first tag (4c30,3054) is followed by "??", no VR: GDCM's own guess
+// finds no encoding ("Cannot find DICOM type") but reads on as explicit VR big endian, takes
+// "????" for a length and allocates and fills 1 GB (7.8 s) before giving up. Such a file is not
+// handed to GDCM: skipped as not DICOM at once.
+TEST_F(DicomSeriesRefusal, AFileWhoseFirstTagGivesNoEncodingIsNotGivenToGdcm) {
+  const std::string folder = dir_.file("junk");
+  fs::create_directories(folder);
+  std::ofstream(folder + "/a.dcm", std::ios::binary)
+      << "0LT0" + std::string(94, '?') + "LN4gdcm9ExcepT" +
+             std::string("\0\xf1\0DI\x0f\0\0\0\0\0\x02 \x0f\0\0\0L", 18);
+  ASSERT_EQ(fs::file_size(folder + "/a.dcm"), 130U);
+  EXPECT_CONTAINS(refusal(folder), "skipped 1 file that GDCM cannot read as DICOM: a.dcm");
+  struct rusage usage {};
+  getrusage(RUSAGE_SELF, &usage);
+  EXPECT_LT(usage.ru_maxrss, 500L * 1024L) << "peak kB: the length GDCM read was allocated";
+}
+
 // Found by fuzz/fuzz_dicom (seed found-oom-pixel-length-94f3771e): native pixel data whose
 // declared length runs past the end of the file, its pixels all there. GDCM allocates the declared
 // length before reading, and pads what the file lacks without a word: 3.2 GB and 12 s for an
