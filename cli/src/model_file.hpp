@@ -114,6 +114,14 @@ inline void checkObjFile(const std::string& path) {
             slash + 1, second == std::string::npos ? std::string::npos : second - slash - 1);
         const std::string normal =
             second == std::string::npos ? std::string() : word.substr(second + 1);
+        // "7/": a slash and nothing after it, in none of OBJ's forms; VTK's reader then reads a
+        // texture coordinate of a file with none (a crash, found by fuzz/fuzz_mesh).
+        if (uv.empty() && normal.empty()) {
+          throw core::FileError(
+              path, fmt::format("line {}: face \"{}\": \"{}\" is not a corner (a vertex number, "
+                                "then /texture, //normal or /texture/normal)",
+                                i + 1, lines[i], word));
+        }
         if ((!uv.empty() && !isIndex(uv, texture)) ||
             (!normal.empty() && !isIndex(normal, normals))) {
           throw core::FileError(

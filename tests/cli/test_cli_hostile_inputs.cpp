@@ -86,6 +86,11 @@ class CliHostileInputs : public ::testing::Test {
     std::ofstream(dir_.file("texture-beyond.obj")) << texture;
     std::ofstream(dir_.file("normal-beyond.obj"))
         << "vn 0 0 1\n" + tetrahedronObj("0 30 0") + "f 1//1 2//2 3//1\n";
+    // Found by fuzz/fuzz_mesh (stop 31): a corner "1/", a slash and nothing after it, made VTK's
+    // reader read a texture coordinate of a file with none (a crash).
+    std::string slash = tetrahedronObj("0 30 0");
+    slash.replace(slash.find("f 1 3 2"), 7, "f 1/ 3 2");
+    std::ofstream(dir_.file("slash.obj")) << slash;
     std::ofstream(dir_.file("with-texture.obj"))
         << "vt 0 0\nvt 1 0\nvt 0 1\nvn 0 0 1\nv 0 0 0\nv 30 0 0\nv 0 30 0\nv 0 0 30\n"
            "f 1/1/1 3/3/1 2/2/1\nf 1/1/1 2/2/1 4/-1/1\nf 2/2/1 3/3/1 4/1/-1\nf 3//1 1//1 4//1\n";
@@ -327,6 +332,9 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
       {figureWith({"--model", "@texture-beyond.obj", "--out", "@out.png"}), 1,
        "@texture-beyond.obj: line 5: face \"f 1 3 2/2222\": \"2/2222\" names a texture "
        "coordinate or normal the file does not have (0 texture coordinates, 0 normals)"},
+      {figureWith({"--model", "@slash.obj", "--out", "@out.png"}), 1,
+       "@slash.obj: line 5: face \"f 1/ 3 2\": \"1/\" is not a corner (a vertex number, then "
+       "/texture, //normal or /texture/normal)"},
       {figureWith({"--model", "@normal-beyond.obj", "--out", "@out.png"}), 1,
        "@normal-beyond.obj: line 10: face \"f 1//1 2//2 3//1\": \"2//2\" names a texture "
        "coordinate or normal the file does not have (0 texture coordinates, 1 normals)"},
