@@ -1037,13 +1037,30 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       if (a == b)
         continue;
       if (a < firstAuto && b < firstAuto) {
-        if (share < options.insideShare)
-          continue;
-        throw std::invalid_argument(fmt::format(
-            "the {} and the {} seeds lie in one bone: their parts meet through the inside of a "
-            "bone ({:.0f} % of the boundary between them is cancellous bone or marrow), not at a "
-            "joint; give one seed per bone",
-            names[sz(a)], names[sz(b)], 100.0 * share));
+        if (share >= options.insideShare) {
+          throw std::invalid_argument(fmt::format(
+              "the {} and the {} seeds lie in one bone: their parts meet through the inside of a "
+              "bone ({:.0f} % of the boundary between them is cancellous bone or marrow), not at "
+              "a joint; give one seed per bone{}",
+              names[sz(a)], names[sz(b)], 100.0 * share,
+              maxSpacing >= 3.0 ? fmt::format(" (at {:.1f} mm slices a joint may not show: if the "
+                                              "seeds are in two bones, draw the joint's slices "
+                                              "with --anchors)",
+                                              maxSpacing)
+                                : std::string()));
+        }
+        if (jointShare < options.seededJointShare) {
+          throw std::invalid_argument(fmt::format(
+              "the {} and the {} cannot be told apart: the boundary found between them is not a "
+              "joint (only {:.0f} % of it a joint line or cortex against cortex, {:.0f} % "
+              "cancellous bone or marrow){}; draw the joint's slices (--anchors) or segment a "
+              "thinner series",
+              names[sz(a)], names[sz(b)], 100.0 * jointShare, 100.0 * share,
+              maxSpacing >= 3.0
+                  ? fmt::format(": at {:.1f} mm slices the joint does not show", maxSpacing)
+                  : std::string()));
+        }
+        continue;
       }
       if (share < options.insideShare && jointShare >= options.jointShare)
         continue;
