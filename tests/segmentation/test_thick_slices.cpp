@@ -41,6 +41,25 @@ std::vector<segmentation::BoneSeed> seedsOf(const test::SimulatedKnee& sim) {
   return seeds;
 }
 
+// Every voxel the watershed gave to anything but bone b (the other bones, unnamed bone, metal):
+// what boneSurface keeps out of b's surface.
+segmentation::VoxelMask othersOf(const segmentation::CompetingResult& result, std::size_t b) {
+  segmentation::VoxelMask others = segmentation::unite(result.unnamed, result.metalMask);
+  for (std::size_t o = 0; o < result.bones.size(); ++o) {
+    if (o != b)
+      others = segmentation::unite(others, result.bones[o].mask);
+  }
+  return others;
+}
+
+// The comparison's slab: 2 mm inside the knee group's first and last slice centres.
+segmentation::SurfaceComparisonOptions slabOf(const test::SimulatedKnee& sim) {
+  segmentation::SurfaceComparisonOptions co;
+  co.zMinMm = sim.kneeZMinMm + 2.0;
+  co.zMaxMm = sim.kneeZMaxMm - 2.0;
+  return co;
+}
+
 struct Row {
   double msd = 0.0, p95 = 0.0, dice = 0.0;
 };
@@ -54,16 +73,10 @@ std::map<std::string, std::map<std::string, Row>> measure(
   const auto& sim = test::simulatedKnee(v);
   const auto result = segmentation::segmentCompetingBones(sim.ct, seedsOf(sim));
   std::map<std::string, std::map<std::string, Row>> out;
-  segmentation::SurfaceComparisonOptions co;
-  co.zMinMm = sim.kneeZMinMm + 2.0;
-  co.zMaxMm = sim.kneeZMaxMm - 2.0;
+  const segmentation::SurfaceComparisonOptions co = slabOf(sim);
   for (std::size_t b = 0; b < result.bones.size(); ++b) {
     const auto& bone = result.bones[b];
-    segmentation::VoxelMask others = segmentation::unite(result.unnamed, result.metalMask);
-    for (std::size_t o = 0; o < result.bones.size(); ++o) {
-      if (o != b)
-        others = segmentation::unite(others, result.bones[o].mask);
-    }
+    const segmentation::VoxelMask others = othersOf(result, b);
     const auto& truth = sim.knee.bone(kAll[b]).mesh;
     auto record = [&](const std::string& what, const core::TriangleMesh& mesh) {
       const auto c = segmentation::compareSurfaces(mesh, truth, co);
@@ -156,11 +169,7 @@ TEST(ThickSlices, WhereTheErrorIs) {
     const auto& sim = test::simulatedKnee(v);
     const auto result = segmentation::segmentCompetingBones(sim.ct, seedsOf(sim));
     for (std::size_t b = 0; b < result.bones.size(); ++b) {
-      segmentation::VoxelMask others = segmentation::unite(result.unnamed, result.metalMask);
-      for (std::size_t o = 0; o < result.bones.size(); ++o) {
-        if (o != b)
-          others = segmentation::unite(others, result.bones[o].mask);
-      }
+      const segmentation::VoxelMask others = othersOf(result, b);
       const auto model = segmentation::boneSurface(sim.ct, result.bones[b].mask, &others).mesh;
       const auto classes =
           whereTheErrorIs(model, sim, kAll[b], sim.kneeZMinMm + 2.0, sim.kneeZMaxMm - 2.0);
@@ -279,16 +288,10 @@ TEST(ThickSlices, EndSharesOnKneesNotUsedToChooseThem) {
     const auto& sim = test::simulatedKnee(v);
     const auto result = segmentation::segmentCompetingBones(sim.ct, seedsOf(sim));
     ASSERT_EQ(result.bones.size(), 4u);
-    segmentation::SurfaceComparisonOptions co;
-    co.zMinMm = sim.kneeZMinMm + 2.0;
-    co.zMaxMm = sim.kneeZMaxMm - 2.0;
+    const segmentation::SurfaceComparisonOptions co = slabOf(sim);
     double sumHu = 0.0, sumSections = 0.0;
     for (std::size_t b = 0; b < result.bones.size(); ++b) {
-      segmentation::VoxelMask others = segmentation::unite(result.unnamed, result.metalMask);
-      for (std::size_t o = 0; o < result.bones.size(); ++o) {
-        if (o != b)
-          others = segmentation::unite(others, result.bones[o].mask);
-      }
+      const segmentation::VoxelMask others = othersOf(result, b);
       const auto& truth = sim.knee.bone(kAll[b]).mesh;
       segmentation::BoneSurfaceOptions hu;
       hu.endSharesMinSliceMm = 0.0;
@@ -332,15 +335,9 @@ TEST(ThickSlices, ARealFemursShapeAtOneAndThreeMillimetres) {
       const auto& sim = test::simulatedKnee(v);
       const auto result = segmentation::segmentCompetingBones(sim.ct, seedsOf(sim));
       ASSERT_EQ(result.bones.size(), 4u);
-      segmentation::SurfaceComparisonOptions co;
-      co.zMinMm = sim.kneeZMinMm + 2.0;
-      co.zMaxMm = sim.kneeZMaxMm - 2.0;
+      const segmentation::SurfaceComparisonOptions co = slabOf(sim);
       for (std::size_t b = 0; b < result.bones.size(); ++b) {
-        segmentation::VoxelMask others = segmentation::unite(result.unnamed, result.metalMask);
-        for (std::size_t o = 0; o < result.bones.size(); ++o) {
-          if (o != b)
-            others = segmentation::unite(others, result.bones[o].mask);
-        }
+        const segmentation::VoxelMask others = othersOf(result, b);
         const auto c = segmentation::compareSurfaces(
             segmentation::boneSurface(sim.ct, result.bones[b].mask, &others).mesh,
             sim.knee.bone(kAll[b]).mesh, co);
