@@ -1044,8 +1044,8 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
               "a joint; give one seed per bone{}",
               names[sz(a)], names[sz(b)], 100.0 * share,
               maxSpacing >= 3.0 ? fmt::format(" (at {:.1f} mm slices a joint may not show: if the "
-                                              "seeds are in two bones, draw the joint's slices "
-                                              "with --anchors)",
+                                              "seeds are in two bones, outline them with "
+                                              "--anchors)",
                                               maxSpacing)
                                 : std::string()));
         }
@@ -1053,8 +1053,8 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
           throw std::invalid_argument(fmt::format(
               "the {} and the {} cannot be told apart: the boundary found between them is not a "
               "joint (only {:.0f} % of it a joint line or cortex against cortex, {:.0f} % "
-              "cancellous bone or marrow){}; draw the joint's slices (--anchors) or segment a "
-              "thinner series",
+              "cancellous bone or marrow){}; outline them with --anchors (Live-Wire) or segment "
+              "a thinner series",
               names[sz(a)], names[sz(b)], 100.0 * jointShare, 100.0 * share,
               maxSpacing >= 3.0
                   ? fmt::format(": at {:.1f} mm slices the joint does not show", maxSpacing)
