@@ -167,6 +167,29 @@ std::uint32_t unsignedAt(const unsigned char* b, int count, bool bigEndian = fal
   return value;
 }
 
+/// The VR of an element of the image (pixel description, geometry, rescale) that GDCM reads through
+/// its typed attributes (gdcm::Attribute, whose SetFromDataElement asserts, aborting the process,
+/// on any other VR but UN: a RescaleSlope of VR CS, found by fuzz/fuzz_dicom), or null for any
+/// other.
+const char* imageElementVr(std::uint32_t group, std::uint32_t element) {
+  struct Known {
+    std::uint32_t group, element;
+    const char* vr;
+  };
+  static const Known kKnown[] = {
+      {0x0018, 0x0050, "DS"}, {0x0018, 0x0088, "DS"}, {0x0018, 0x1164, "DS"},
+      {0x0020, 0x0032, "DS"}, {0x0020, 0x0037, "DS"}, {0x0028, 0x0002, "US"},
+      {0x0028, 0x0004, "CS"}, {0x0028, 0x0006, "US"}, {0x0028, 0x0008, "IS"},
+      {0x0028, 0x0010, "US"}, {0x0028, 0x0011, "US"}, {0x0028, 0x0030, "DS"},
+      {0x0028, 0x0100, "US"}, {0x0028, 0x0101, "US"}, {0x0028, 0x0102, "US"},
+      {0x0028, 0x0103, "US"}, {0x0028, 0x1052, "DS"}, {0x0028, 0x1053, "DS"}};
+  for (const Known& k : kKnown) {
+    if (k.group == group && k.element == element)
+      return k.vr;
+  }
+  return nullptr;
+}
+
 /// GDCM allocates (and zero-fills) the length a data element declares before it reads the value:
 /// 1.2 GB for a 1.5 kB file (found by fuzz/fuzz_dicom), up to 4 GB per file and thread. So the
 /// elements of a file are walked first, without reading their values: the file meta group
@@ -350,6 +373,14 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       }
       if (otherVr && printable)
         vr = "UN";
+      if (!meta && open.empty()) {
+        const char* expected = imageElementVr(group, element);
+        if (expected != nullptr && !vr.empty() && vr != "UN" && vr != expected && !unknownVr) {
+          return fmt::format(
+              "element ({:04x},{:04x}) at byte {} has the VR {}, where it must be {}", group,
+              element, start, vr, expected);
+        }
+      }
       if (unknownVr && unknownVrImplicit) {
         vr.clear();
         length = unsignedAt(e + 4, 4, big);

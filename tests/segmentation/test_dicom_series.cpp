@@ -394,6 +394,30 @@ TEST_F(DicomSeriesRefusal, AFileWhoseFirstTagGivesNoEncodingIsNotGivenToGdcm) {
   EXPECT_LT(usage.ru_maxrss, 500L * 1024L) << "peak kB: the length GDCM read was allocated";
 }
 
+// Found by fuzz/fuzz_dicom (stop 31, seed found-abort-rescale-vr-5d7e66de): GDCM reads the image's
+// own elements (rescale, spacing, geometry, pixel description) through typed attributes that
+// assert, aborting the process, on another VR: a RescaleIntercept of VR CS here (the fuzzer's file
+// had RescaleSlope). Refused as damaged, naming the element, before GDCM reads it.
+TEST_F(DicomSeriesRefusal, AnImageElementOfAnotherVrIsDamaged) {
+  std::string bytes;
+  {
+    std::ifstream in(path(2), std::ios::binary);
+    bytes.assign(std::istreambuf_iterator<char>(in), {});
+  }
+  const std::size_t at =
+      bytes.find(std::string("\x28\x00\x52\x10"
+                             "DS",
+                             6));
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at + 4, 2, "CS");
+  std::ofstream(path(2), std::ios::binary | std::ios::trunc) << bytes;
+  EXPECT_CONTAINS(refusal(path(2)), fileName(2) +
+                                        ": is a damaged DICOM file: element (0028,1052) "
+                                        "at byte " +
+                                        std::to_string(at) + " has the VR CS, where it must be DS");
+  EXPECT_CONTAINS(refusal(folder_), "missing");
+}
+
 // Found by fuzz/fuzz_dicom (seed found-oom-pixel-length-94f3771e): native pixel data whose
 // declared length runs past the end of the file, its pixels all there. GDCM allocates the declared
 // length before reading, and pads what the file lacks without a word: 3.2 GB and 12 s for an
