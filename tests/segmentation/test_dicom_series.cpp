@@ -189,6 +189,17 @@ class DicomSeriesRefusal : public ::testing::Test {
     writeSeries(folder_, volume_);
   }
   std::string path(int k) const { return folder_ + "/" + fileName(k); }
+  /// Slice k's file, whole.
+  std::string bytesOf(int k) const {
+    std::ifstream in(path(k), std::ios::binary);
+    return std::string(std::istreambuf_iterator<char>(in), {});
+  }
+  /// The test process's peak resident size so far, kB: a declared length GDCM allocated shows.
+  static long peakKb() {
+    struct rusage usage {};
+    getrusage(RUSAGE_SELF, &usage);
+    return usage.ru_maxrss;
+  }
 
   echoreg::test::TempDir dir_;
   std::string folder_;
@@ -355,11 +366,7 @@ TEST_F(DicomSeriesRefusal, RowsAndColumnsLargerThanTheFileAreRefusedBeforeAlloca
 // made "UT" (2 reserved bytes, then a 4-byte length: the first bytes of "reader test", about
 // 1.9 GB). The file is skipped as damaged, named with the element, before GDCM reads it.
 TEST_F(DicomSeriesRefusal, AnElementLongerThanTheFileIsNotAllocated) {
-  std::string bytes;
-  {
-    std::ifstream in(path(2), std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  std::string bytes = bytesOf(2);
   const std::size_t at = bytes.find(std::string("\x08\x00\x3e\x10LO", 6));
   ASSERT_NE(at, std::string::npos);
   bytes.replace(at + 4, 2, "UT");
@@ -371,9 +378,7 @@ TEST_F(DicomSeriesRefusal, AnElementLongerThanTheFileIsNotAllocated) {
   // In the series: that slice is skipped (and said to be), the gap it leaves refused.
   const std::string series = refusal(folder_);
   EXPECT_CONTAINS(series, "missing");
-  struct rusage usage {};
-  getrusage(RUSAGE_SELF, &usage);
-  EXPECT_LT(usage.ru_maxrss, 1000L * 1024L) << "peak kB: the declared length was allocated";
+  EXPECT_LT(peakKb(), 1000L * 1024L) << "peak kB: the declared length was allocated";
 }
 
 // Found by fuzz/fuzz_dicom (stop 31, seed found-timeout-first-vr-unknown-55567a98): a 130-byte file
@@ -389,9 +394,7 @@ TEST_F(DicomSeriesRefusal, AFileWhoseFirstTagGivesNoEncodingIsNotGivenToGdcm) {
              std::string("\0\xf1\0DI\x0f\0\0\0\0\0\x02 \x0f\0\0\0L", 18);
   ASSERT_EQ(fs::file_size(folder + "/a.dcm"), 130U);
   EXPECT_CONTAINS(refusal(folder), "skipped 1 file that GDCM cannot read as DICOM: a.dcm");
-  struct rusage usage {};
-  getrusage(RUSAGE_SELF, &usage);
-  EXPECT_LT(usage.ru_maxrss, 500L * 1024L) << "peak kB: the length GDCM read was allocated";
+  EXPECT_LT(peakKb(), 500L * 1024L) << "peak kB: the length GDCM read was allocated";
 }
 
 // Found by fuzz/fuzz_dicom (stop 31, seed found-abort-rescale-vr-5d7e66de): GDCM reads the image's
@@ -399,11 +402,7 @@ TEST_F(DicomSeriesRefusal, AFileWhoseFirstTagGivesNoEncodingIsNotGivenToGdcm) {
 // assert, aborting the process, on another VR: a RescaleIntercept of VR CS here (the fuzzer's file
 // had RescaleSlope). Refused as damaged, naming the element, before GDCM reads it.
 TEST_F(DicomSeriesRefusal, AnImageElementOfAnotherVrIsDamaged) {
-  std::string bytes;
-  {
-    std::ifstream in(path(2), std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  std::string bytes = bytesOf(2);
   const std::size_t at =
       bytes.find(std::string("\x28\x00\x52\x10"
                              "DS",
@@ -425,11 +424,7 @@ TEST_F(DicomSeriesRefusal, AnImageElementOfAnotherVrIsDamaged) {
 // private (ff27,1052)) made the header scan miss where the pixels start. Both ways the slice is
 // refused before anything is allocated, naming the element and the lengths.
 TEST_F(DicomSeriesRefusal, PixelDataDeclaringMoreThanTheFileHoldsIsRefusedBeforeAllocating) {
-  std::string bytes;
-  {
-    std::ifstream in(path(2), std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  std::string bytes = bytesOf(2);
   const std::size_t pixels = bytes.find(std::string("\xe0\x7f\x10\x00OW\x00\x00", 8));
   ASSERT_NE(pixels, std::string::npos);
   const std::size_t held = bytes.size() - (pixels + 12);
@@ -451,20 +446,14 @@ TEST_F(DicomSeriesRefusal, PixelDataDeclaringMoreThanTheFileHoldsIsRefusedBefore
                                  "of 16 bits need 24)");
     EXPECT_CONTAINS(refusal(folder_), fileName(2) + ": damaged pixel data");
   }
-  struct rusage usage {};
-  getrusage(RUSAGE_SELF, &usage);
-  EXPECT_LT(usage.ru_maxrss, 1000L * 1024L) << "peak kB: the declared length was allocated";
+  EXPECT_LT(peakKb(), 1000L * 1024L) << "peak kB: the declared length was allocated";
 }
 
 // Debian's GDCM asserts (aborts) when a file ends inside its file meta group (found by
 // fuzz/fuzz_dicom, seed found-abort-meta-truncated-ebd7dc42): such a file is refused as damaged
 // before GDCM reads it, naming the file.
 TEST_F(DicomSeriesRefusal, AFileEndingInsideItsMetaGroupIsDamaged) {
-  std::string bytes;
-  {
-    std::ifstream in(path(2), std::ios::binary);
-    bytes.assign(std::istreambuf_iterator<char>(in), {});
-  }
+  std::string bytes = bytesOf(2);
   ASSERT_EQ(bytes.compare(128, 8, std::string("DICM\x02\x00\x00\x00", 8)), 0);
   const auto groupLength = static_cast<std::size_t>(static_cast<unsigned char>(bytes[140])) |
                            static_cast<std::size_t>(static_cast<unsigned char>(bytes[141])) << 8;
@@ -644,9 +633,7 @@ TEST_F(DicomSeriesRefusal, CompressedPixelDataLongerThanTheFileIsNotAllocated) {
                         std::to_string(at) +
                         " claims 4294902015 bytes, but 4 are left in the file");
   }
-  struct rusage usage {};
-  getrusage(RUSAGE_SELF, &usage);
-  EXPECT_LT(usage.ru_maxrss, 1000L * 1024L) << "peak kB: the declared length was allocated";
+  EXPECT_LT(peakKb(), 1000L * 1024L) << "peak kB: the declared length was allocated";
 }
 
 /// Rewrites a slice as RLE Lossless with GDCM's encoder (gdcmconv --rle does the same).
