@@ -213,15 +213,28 @@ const char* imageElementVr(std::uint32_t group, std::uint32_t element) {
 /// (VR16ExplicitDataElement; the pixel data: 2 reserved bytes and a 4-byte length), and, when
 /// that fails, from the start with such elements read as implicit, their 4-byte length right
 /// after the tag (ExplicitImplicitDataElement): a 32-byte file whose second element had the VR
-/// "\0@" took 1.4 GB (fuzz/fuzz_dicom). The walk follows `unknownVrImplicit`'s way and says in
-/// `sawUnknownVr` whether the other way needs walking too.
+/// "\0@" took 1.4 GB (fuzz/fuzz_dicom). Both ways read little endian, whatever the transfer
+/// syntax: in a big-endian data set GDCM first reads big endian up to that element, then the rest
+/// little endian, then the whole data set little endian; a 244-byte file whose first group made
+/// GDCM guess explicit big endian had a length of 3.77 GB read little endian from its second
+/// element (11 s; fuzz/fuzz_dicom). The walk follows `way` and says in `sawUnknownVr` whether the
+/// other ways need walking too.
 ///
 /// A file without the preamble whose first tag gives GDCM no encoding ("Cannot find DICOM type")
 /// sets `notDicom`: GDCM does not always give up there, and reads on as explicit VR big endian; a
 /// 130-byte file whose first VR was "??" had a length of 0x3f3f3f3f read from it, 1 GB allocated
 /// and filled (7.8 s; fuzz/fuzz_dicom). Such a file is not a CT slice: it is never given to GDCM.
-std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& sawUnknownVr,
+/// The ways GDCM reads a data set (gdcm::Reader::InternalReadCommon): as its transfer syntax says
+/// (an element of an unknown VR ends that read in a big-endian data set; in a little-endian one
+/// the read goes on as the third way does); on from an element of an unknown VR, little endian,
+/// with a 2-byte length for such VRs (VR16ExplicitDataElement); from the start, little endian,
+/// such elements read as implicit (ExplicitImplicitDataElement).
+enum class ReadWay { AsEncoded, Vr16AfterUnknown, LittleEndianImplicitUnknown };
+
+std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
                          PixelBeyondFile& pixelBeyondFile, bool& notDicom) {
+  const bool unknownVrImplicit = way != ReadWay::Vr16AfterUnknown;
+  const bool littleEndianOnly = way == ReadWay::LittleEndianImplicitUnknown;
   std::ifstream in(path, std::ios::binary);
   std::error_code sizeError;
   const std::uint64_t size = fs::file_size(path, sizeError);
@@ -289,11 +302,11 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
         notDicom = true;
         return "";
       }
-      bigEndian = true;
+      bigEndian = !littleEndianOnly;
     } else if (group == 0x0008 || element == 0x0010) {
       explicitVr = vrFollows;  // group 0x0008, or a private creator: little endian
     } else if (vrFollows) {
-      bigEndian = group > 0xff || element > 0xff;  // any other group, explicit
+      bigEndian = !littleEndianOnly && (group > 0xff || element > 0xff);  // other group, explicit
     } else if (group == 0 && element == 0 && unsignedAt(first + 4, 4, false) == 4) {
       explicitVr = false;  // a command group length (0000,0000), implicit
     } else {               // "Cannot find DICOM type": not DICOM
@@ -381,6 +394,13 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
               element, start, vr, expected);
         }
       }
+      if (unknownVr && big) {
+        if (way == ReadWay::AsEncoded)
+          return "";  // GDCM's big-endian read ends here; the other ways read on little endian
+        bigEndian = false;  // this element again, little endian
+        pos = start;
+        continue;
+      }
       if (unknownVr && unknownVrImplicit) {
         vr.clear();
         length = unsignedAt(e + 4, 4, big);
@@ -446,7 +466,7 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
       if (uid == "1.2.840.10008.1.2.1.99")
         return "";  // deflated: GDCM inflates it
       explicitVr = uid != "1.2.840.10008.1.2";
-      bigEndian = uid == "1.2.840.10008.1.2.2";
+      bigEndian = !littleEndianOnly && uid == "1.2.840.10008.1.2.2";
       encapsulated = explicitVr && !bigEndian && uid != "1.2.840.10008.1.2.1";
     }
     if (vr != "SQ")
@@ -474,10 +494,15 @@ std::string walkElements(const fs::path& path, bool unknownVrImplicit, bool& saw
 std::string elementBeyondFile(const fs::path& path, PixelBeyondFile& pixelBeyondFile,
                               bool& notDicom) {
   bool sawUnknownVr = false;
-  std::string damaged = walkElements(path, true, sawUnknownVr, pixelBeyondFile, notDicom);
-  if (damaged.empty() && sawUnknownVr) {
+  std::string damaged =
+      walkElements(path, ReadWay::AsEncoded, sawUnknownVr, pixelBeyondFile, notDicom);
+  // An element of an unknown VR: the other ways GDCM may read the file (in a little-endian data
+  // set the first way already walked the third).
+  for (const ReadWay way : {ReadWay::Vr16AfterUnknown, ReadWay::LittleEndianImplicitUnknown}) {
+    if (!damaged.empty() || !sawUnknownVr)
+      break;
     PixelBeyondFile other;
-    damaged = walkElements(path, false, sawUnknownVr, other, notDicom);
+    damaged = walkElements(path, way, sawUnknownVr, other, notDicom);
     if (pixelBeyondFile.elementAt == 0)
       pixelBeyondFile = other;
   }

@@ -397,6 +397,34 @@ TEST_F(DicomSeriesRefusal, AFileWhoseFirstTagGivesNoEncodingIsNotGivenToGdcm) {
   EXPECT_LT(peakKb(), 500L * 1024L) << "peak kB: the length GDCM read was allocated";
 }
 
+// Found by fuzz/fuzz_dicom (stop 32, seed found-oom-big-endian-guess-15e0be15): a file without the
+// preamble whose first group (4c30) and VR ("LT") make GDCM guess explicit VR big endian. Its
+// second element's VR is two zero bytes, which GDCM does not know: it then reads the data set
+// again little endian from the start, that element as implicit, and allocated the length its last
+// four bytes give read little endian (3.77 GB, 11 s); before that, GDCM's read on from that
+// element with a 2-byte length takes 57600 from them. Read big endian they gave 225, inside the
+// file, so the walk before GDCM missed it. Refused as damaged, naming the element, before GDCM.
+// A second file, of 16 bytes, tells the ways apart: on from the element, its 2-byte length is 0
+// and the file ends there, whole; from the start as implicit, its length is 513 little endian
+// (16.9 MB big endian).
+TEST_F(DicomSeriesRefusal, AnUnknownVrInABigEndianGuessIsWalkedLittleEndianAsGdcmRereadsIt) {
+  const std::string folder = dir_.file("guess");
+  fs::create_directories(folder);
+  std::ofstream(folder + "/a.dcm", std::ios::binary)
+      << std::string("0LT0LT\0\0\0\x02\x20\x0f\0\0\0\xe1", 16) + std::string(228, '\xe1');
+  ASSERT_EQ(fs::file_size(folder + "/a.dcm"), 244U);
+  EXPECT_CONTAINS(refusal(folder),
+                  "skipped 1 damaged DICOM file: a.dcm (element (0200,0f20) at "
+                  "byte 8 claims 57600 bytes, but 228 are left in the file)");
+  EXPECT_LT(peakKb(), 500L * 1024L) << "peak kB: the length GDCM read was allocated";
+
+  std::ofstream(folder + "/a.dcm", std::ios::binary | std::ios::trunc)
+      << std::string("0LT0LT\0\0\0\x02\x20\x0f\x01\x02\0\0", 16);
+  EXPECT_CONTAINS(refusal(folder),
+                  "skipped 1 damaged DICOM file: a.dcm (element (0200,0f20) at "
+                  "byte 8 claims 513 bytes, but 0 are left in the file)");
+}
+
 // Found by fuzz/fuzz_dicom (stop 31, seed found-abort-rescale-vr-5d7e66de): GDCM reads the image's
 // own elements (rescale, spacing, geometry, pixel description) through typed attributes that
 // assert, aborting the process, on another VR: a RescaleIntercept of VR CS here (the fuzzer's file
