@@ -185,6 +185,11 @@ constexpr double kWaterBeforeWall = 2.0;
 // region differ by some per cent; 1.4 is about three of their standard deviations at the 20 or so
 // independent samples a 3 mm region holds at 7-10 MHz.
 constexpr double kNoiseShadowSpread = 1.4;
+
+// The tissue an echo lies in, for its shadow (hasBoneSignature): where the median of the region
+// before the echo is at least this many times that of its near half, the region's median is set by
+// other echoes farther up (the skin's, a standoff's), and the near half's is the tissue's.
+constexpr double kFarEchoesOverTissue = 2.0;
 // ... the tissue before the echo this many times the quiet level (a lone pulse in a record of
 // noise has noise before it too; where the quiet level is the deep tissue of a short record, a
 // fascia over a darker layer has tissue behind it at that level)...
@@ -465,6 +470,19 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
   const double tiny = 1e-12;
   if (peak.value < bone.minContrast * std::max(before, tiny))
     return false;
+  // The tissue right before the echo, against which its shadow is measured: a fascia a few mm
+  // under the skin has the skin's echoes in its region before it, a median twice the speckle
+  // around it or more, and the speckle behind it (muscle going on) passed for its shadow; it took
+  // bone's place in whole captures of both physical sets' hand-held and holder profiles.
+  double nearTissue = -1.0;
+  const auto tissueBefore = [&]() {
+    if (nearTissue < 0.0) {
+      nearTissue = medianOf(envelope, count, beforeEnd - region / 2, beforeEnd, scratch);
+      if (nearTissue < 0.0 || nearTissue * kFarEchoesOverTissue > before)
+        nearTissue = before;
+    }
+    return nearTissue;
+  };
   // The shadow starts right behind bone: test the near half of the region on its own too, so an
   // echo a millimetre or two above the bone (a fascia) does not borrow the bone's shadow.
   const auto isShadow = [&](int begin, int end) {
@@ -476,7 +494,8 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
     // the echo far above it (a noise spike is a few times the noise, never kQuietEchoFactor).
     // (The shadow mode keeps this stricter rule; the per-record rule of the prominence policy
     // accepts a quiet record before the echo: see prominencePolicy.)
-    if (before >= bone.minShadowRatio * std::max(after, tiny))
+    if (before >= bone.minShadowRatio * std::max(after, tiny) &&
+        tissueBefore() >= bone.minShadowRatio * std::max(after, tiny))
       return true;
     if (!bone.shadowAtQuietLevel)
       return after <= bone.noiseFloorFactor * shadowLevel();

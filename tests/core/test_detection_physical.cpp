@@ -295,6 +295,7 @@ void printKindsOfFailures(const std::string& profile, const core::DetectionParam
 struct Bound {
   double falseNegative;
   double falsePositive;
+  double wrongEcho;  ///< of the accepted positives, more than 0.5 mm from the bone
 };
 
 void scoreProfile(const std::string& profile, Bound defaultBound) {
@@ -319,6 +320,7 @@ void scoreProfile(const std::string& profile, Bound defaultBound) {
               describe(pooledDefault).c_str());
   EXPECT_LE(pooledDefault.falseNegativeRate(), defaultBound.falseNegative) << profile;
   EXPECT_LE(pooledDefault.falsePositiveRate(), defaultBound.falsePositive) << profile;
+  EXPECT_LE(pooledDefault.wrongEchoRate(), defaultBound.wrongEcho) << profile;
   printKindsOfFailures(profile, core::detectionPreset("default"));
 }
 
@@ -327,15 +329,16 @@ void scoreProfile(const std::string& profile, Bound defaultBound) {
 // 19.6 %; stop 25: phantom-water 23.1 % / 18.7 % since bare bone in water is seen, holder
 // 18.7 % / 10.4 % with a shadow quieter than the rest of a short record; after stop 13: 40.7
 // / 17.9, 29.8 / 10.3, 65.1 / 17.7; before it 56.6 / 17.6, 37.7 / 10.3, 79.3 / 14.7), to catch a
-// regression, not to claim the 5 %.
+// regression, not to claim the 5 %. Wrong echoes (stop 32, when a fascia under the skin
+// lost its borrowed shadow): handheld 9.3 %, holder 0.2 % (7.2 % before), phantom-water 0.5 %.
 TEST(DetectionPhysical, HandheldSweeps) {
-  scoreProfile("handheld", {0.40, 0.24});
+  scoreProfile("handheld", {0.40, 0.24, 0.13});
 }
 TEST(DetectionPhysical, StrappedHolder) {
-  scoreProfile("holder", {0.23, 0.14});
+  scoreProfile("holder", {0.23, 0.14, 0.03});
 }
 TEST(DetectionPhysical, PhantomInWater) {
-  scoreProfile("phantom-water", {0.27, 0.23});
+  scoreProfile("phantom-water", {0.27, 0.23, 0.03});
 }
 
 }  // namespace
