@@ -266,6 +266,8 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
   bool metaImplicit = false, sawSyntax = false;
   // A compressed (encapsulated) transfer syntax: its pixel data is read by GDCM only.
   bool encapsulated = false;
+  // Met an element of an unknown VR, little endian: GDCM's read on from it (Vr16AfterUnknown).
+  bool readingVr16 = false;
   {
     // The encoding GDCM takes (gdcm::Reader, gdcm::FileMetaInformation::Read and ReadCompat),
     // from the first tag after the preamble (or at the start of a file without one) read little
@@ -341,6 +343,18 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
     std::uint64_t valueAt = pos + 8;
     std::string vr;
     if (group == 0xfffe) {  // an item or a delimiter: no VR, a 4-byte length
+      // Where GDCM reads an element's header, it asserts (aborts the process) on the tag
+      // (fffe,0000), and on a sequence delimiter where the rest is read with 2-byte lengths
+      // (VR16ExplicitDataElement::ReadPreValue): that is where an explicit little-endian data set
+      // has one outside any sequence (its read fails there and goes on that way), or on from an
+      // element of an unknown VR, inside an item too (found by fuzz/fuzz_dicom).
+      const bool asElement = !fragments && !meta && (open.empty() || open.back().first == 'I');
+      const bool vr16 = (way == ReadWay::Vr16AfterUnknown && readingVr16) ||
+                        (explicitVr && !bigEndian && open.empty());
+      if (asElement && (element == 0x0000 || (element == 0xe0dd && vr16))) {
+        return fmt::format("a {} at byte {} stands where an element must",
+                           element == 0x0000 ? "tag (fffe,0000)" : "sequence delimiter", start);
+      }
       length = unsignedAt(e + 4, 4, big);
       pos = valueAt;
       if (element == 0xe0dd && fragments) {
@@ -378,6 +392,7 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
           std::all_of(vr.begin(), vr.end(), [](char c) { return c >= ' ' && c <= '~'; });
       const bool unknownVr = otherVr && !printable;
       sawUnknownVr = sawUnknownVr || unknownVr;
+      readingVr16 = readingVr16 || (unknownVr && !big);
       // GDCM asserts (aborts the process) on pixel data of an unknown VR whose next two bytes are
       // not zero (VR16ExplicitDataElement; found by fuzz/fuzz_dicom).
       if (otherVr && pixelData && (e[6] != 0 || e[7] != 0)) {

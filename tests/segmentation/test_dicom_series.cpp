@@ -425,6 +425,30 @@ TEST_F(DicomSeriesRefusal, AnUnknownVrInABigEndianGuessIsWalkedLittleEndianAsGdc
                   "byte 8 claims 513 bytes, but 0 are left in the file)");
 }
 
+// Found by fuzz/fuzz_dicom (stop 32, seed found-abort-sequence-delimiter-as-element-5c2cb3b8): a
+// sequence delimiter outside any sequence in an explicit little-endian data set ends GDCM's read
+// there, which goes on with 2-byte lengths from it and asserts (aborts the process) on that tag;
+// so does the tag (fffe,0000) wherever an element is read. Refused as damaged before GDCM.
+TEST_F(DicomSeriesRefusal, ADelimiterWhereAnElementMustStandIsDamaged) {
+  const std::string original = bytesOf(2);
+  const std::size_t at =
+      original.find(std::string("\x28\x00\x52\x10"
+                                "DS",
+                                6));
+  ASSERT_NE(at, std::string::npos);
+  for (const std::string& tag :
+       {std::string("\xfe\xff\xdd\xe0", 4), std::string("\xfe\xff\0\0", 4)}) {
+    std::string bytes = original;
+    bytes.insert(at, tag + std::string(4, '\0'));
+    std::ofstream(path(2), std::ios::binary | std::ios::trunc) << bytes;
+    EXPECT_CONTAINS(refusal(path(2)),
+                    fileName(2) + ": is a damaged DICOM file: a " +
+                        (tag[2] == '\0' ? "tag (fffe,0000)" : "sequence delimiter") + " at byte " +
+                        std::to_string(at) + " stands where an element must");
+  }
+  EXPECT_CONTAINS(refusal(folder_), "missing");
+}
+
 // Found by fuzz/fuzz_dicom (stop 31, seed found-abort-rescale-vr-5d7e66de): GDCM reads the image's
 // own elements (rescale, spacing, geometry, pixel description) through typed attributes that
 // assert, aborting the process, on another VR: a RescaleIntercept of VR CS here (the fuzzer's file
