@@ -190,6 +190,13 @@ const char* imageElementVr(std::uint32_t group, std::uint32_t element) {
   return nullptr;
 }
 
+/// The ways GDCM reads a data set (gdcm::Reader::InternalReadCommon): as its transfer syntax says
+/// (an element of an unknown VR ends that read in a big-endian data set; in a little-endian one
+/// the read goes on as the third way does); on from an element of an unknown VR, little endian,
+/// with a 2-byte length for such VRs (VR16ExplicitDataElement); from the start, little endian,
+/// such elements read as implicit (ExplicitImplicitDataElement).
+enum class ReadWay { AsEncoded, Vr16AfterUnknown, LittleEndianImplicitUnknown };
+
 /// GDCM allocates (and zero-fills) the length a data element declares before it reads the value:
 /// 1.2 GB for a 1.5 kB file (found by fuzz/fuzz_dicom), up to 4 GB per file and thread. So the
 /// elements of a file are walked first, without reading their values: the file meta group
@@ -224,13 +231,6 @@ const char* imageElementVr(std::uint32_t group, std::uint32_t element) {
 /// sets `notDicom`: GDCM does not always give up there, and reads on as explicit VR big endian; a
 /// 130-byte file whose first VR was "??" had a length of 0x3f3f3f3f read from it, 1 GB allocated
 /// and filled (7.8 s; fuzz/fuzz_dicom). Such a file is not a CT slice: it is never given to GDCM.
-/// The ways GDCM reads a data set (gdcm::Reader::InternalReadCommon): as its transfer syntax says
-/// (an element of an unknown VR ends that read in a big-endian data set; in a little-endian one
-/// the read goes on as the third way does); on from an element of an unknown VR, little endian,
-/// with a 2-byte length for such VRs (VR16ExplicitDataElement); from the start, little endian,
-/// such elements read as implicit (ExplicitImplicitDataElement).
-enum class ReadWay { AsEncoded, Vr16AfterUnknown, LittleEndianImplicitUnknown };
-
 std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
                          PixelBeyondFile& pixelBeyondFile, bool& notDicom) {
   const bool unknownVrImplicit = way != ReadWay::Vr16AfterUnknown;
