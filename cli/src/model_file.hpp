@@ -350,8 +350,18 @@ inline void checkPlyFile(const std::string& path) {
     lineNumber = endHeader;  // the data's lines are counted on from here
   }
   std::uint64_t vertexCount = 0;
-  for (const Element& element : elements)
-    vertexCount = element.name == "vertex" ? element.count : vertexCount;
+  for (const Element& element : elements) {
+    if (element.name == "vertex") {
+      vertexCount = element.count;
+      // No vertices: nothing to register, and VTK 9.1's PLY reader frees memory it never
+      // allocated when a face row of such a file holds more than its list (found by
+      // fuzz/fuzz_mesh).
+      if (vertexCount == 0) {
+        lineNumber = element.line;
+        refuse("the vertex element has no rows");
+      }
+    }
+  }
   if (!ascii) {
     // Value by value: each list's count, then its items; the file must hold every row, and a
     // face's corners must be vertices (VTK reads faces beyond the vertices out of bounds).

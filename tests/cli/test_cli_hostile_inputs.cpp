@@ -140,6 +140,12 @@ class CliHostileInputs : public ::testing::Test {
         << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
            "property float z\nelement face 4\nproperty list uchar int vertex_indices\n"
            "end_header\n0 0 0\n30 0 0\n0 30 0\n0 0 30\n3 0 2 1\n3 0 1 3\n3 1 2 3\n3 2\n";
+    // Found by fuzz/fuzz_mesh (stop 32): no vertices and a face row longer than its list; VTK
+    // frees memory it never allocated.
+    std::ofstream(dir_.file("no-vertices.ply"))
+        << "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
+           "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
+           "end_header\n0 vertex_index\n";
     // Found by fuzz/fuzz_mesh: LeakSanitizer, what VTK read of a header with two format lines.
     std::ofstream(dir_.file("two-formats.ply"))
         << "ply\nformat ascii 1.0\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
@@ -354,6 +360,8 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
        "the file holds 134 bytes"},
       {figureWith({"--model", "@short-face.ply", "--out", "@out.png"}), 1,
        "@short-face.ply: line 17: element face: \"3 2\" has too few numbers"},
+      {figureWith({"--model", "@no-vertices.ply", "--out", "@out.png"}), 1,
+       "@no-vertices.ply: line 3: the vertex element has no rows"},
       {figureWith({"--model", "@four-corners.stl", "--out", "@out.png"}), 1,
        "@four-corners.stl: line 7: expected \"endloop\", found \"vertex 0 0 30\""},
       {figureWith({"--model", "@nan.stl", "--out", "@out.png"}), 1,
