@@ -74,6 +74,8 @@ nlohmann::json summary(const core::SequenceDetection& detection,
           {"high_pass_samples", detection.analysis.highPassSamples},
           {"shadow_rule", detection.analysis.shadowRule},
           {"shadow_share", detection.analysis.shadowShare},
+          {"tgc_db_per_mm", detection.analysis.tgcDbPerMm},
+          {"tgc_source", detection.analysis.tgcSource},
           {"envelope_window_samples", detection.analysis.envelopeWindowSamples},
           {"warnings", core::detectionWarnings(detection)},
           {"poses_reorthonormalised", posesReorthonormalised}};
@@ -92,9 +94,9 @@ CommandAction addDetectCommand(CLI::App& app) {
       "frame,timestamp_s,status,reason,peaks,sample_index,depth_mm (+ x_mm,y_mm,z_mm with "
       "--pose).\n"
       "Parameter precedence: flags > --params file > capture header > what the preset measures\n"
-      "from the capture (transducer band, ring-down, shadow rule) > --preset. Warns when most\n"
-      "frames are rejected, with the reason and the setting to blame. docs/detection.md\n"
-      "documents every parameter.");
+      "from the capture (transducer band, ring-down, time-gain compensation, shadow rule) >\n"
+      "--preset. Warns when most frames are rejected, with the reason and the setting to\n"
+      "blame. docs/detection.md documents every parameter.");
   cmd->add_option("capture", o->capture,
                   "A-line capture (PLUS sequence: .igs.mha, .mhd, .igs.nrrd)")
       ->required();
@@ -104,8 +106,9 @@ CommandAction addDetectCommand(CLI::App& app) {
   cmd->add_flag("--json", o->json, "Print a JSON summary: frames, accepted, rejected by reason");
   cmd->add_option(
       "--preset", o->preset,
-      "default (any probe and anatomy: band, ring-down and shadow rule measured from the "
-      "capture, the prominence policy), mozes2008 (the dissertation's chain as it was), "
+      "default (any probe and anatomy: band, ring-down, time-gain compensation and shadow rule "
+      "measured from the capture, the prominence policy), mozes2008 (the dissertation's chain as "
+      "it was), "
       "calibration (window-max in water), shadow (the earlier default: the bone policy after a "
       "200-sample ring-down)");
   addTunableFlags(cmd, o->settings);

@@ -310,10 +310,13 @@ void LiveSession::onAdaptation(bool adaptedNow) {
     const core::CaptureAnalysis& a = detector_->analysis();
     note(fmt::format(
         "measured on the first {} A-line(s): transducer {:.2f} MHz ({}), ring-down {} samples, "
-        "shadow rule {} (bone's shadow in {:.1f} % of them){}",
+        "time-gain compensation {}, shadow rule {} (bone's shadow in {:.1f} % of them){}",
         frames_, a.transducerFrequencyHz / 1e6,
         a.transducerFrequencySource.empty() ? "not needed" : a.transducerFrequencySource,
-        a.ringDownSamples, a.shadowRule, 100.0 * a.shadowShare,
+        a.ringDownSamples,
+        a.tgcDbPerMm > 0.0 ? fmt::format("{:.2f} dB/mm ({})", a.tgcDbPerMm, a.tgcSource)
+                           : std::string("none"),
+        a.shadowRule, 100.0 * a.shadowShare,
         detector_->measuresShadowRule()
             ? "; the shadow rule is measured again as the capture grows, over A-lines spread "
               "through all received"
@@ -564,6 +567,8 @@ nlohmann::json LiveSession::summary() const {
                          {"transducer_frequency_hz", a.transducerFrequencyHz},
                          {"transducer_frequency_source", a.transducerFrequencySource},
                          {"ring_down_samples", a.ringDownSamples},
+                         {"tgc_db_per_mm", a.tgcDbPerMm},
+                         {"tgc_source", a.tgcSource},
                          {"shadow_rule", a.shadowRule},
                          {"shadow_rule_measured", detector_->measuresShadowRule()},
                          {"shadow_rule_measurements", measurements},
@@ -931,7 +936,8 @@ CommandAction addLiveCommand(CLI::App& app) {
       ->group("Live");
   cmd->add_option("--adapt-frames", o->adaptFrames,
                   "A-lines the chain measures its capture-dependent settings on (band, ring-down, "
-                  "shadow rule) before deciding the first. A measured shadow rule (--echo-shadow "
+                  "time-gain compensation, shadow rule) before deciding the first. A measured "
+                  "shadow rule (--echo-shadow "
                   "auto) is measured again on A-lines spread over all received each time their "
                   "count doubles and at the end; when it changes, every frame so far is judged by "
                   "the new rule (said on stderr and in <Bone>Status)")

@@ -145,6 +145,12 @@ const std::vector<Tunable>& tunables() {
        "prominence: a not-bone frame takes the echo that 0.6 of the frames before it, accepted "
        "alone, agree on (frames looked at, 10; 0 = off)",
        0, [](P& p, const V& v) { p.peaks.prominence.contextFrames = as<int>(v); }},
+      {"tgc", "Peaks",
+       "Time-gain compensation the front end applied, dB per mm of depth: shadows are judged "
+       "against the noise at their own depth (default: measured from the steady rise of the "
+       "capture's deep noise, none where it does not rise; 0 = none)",
+       0.0, [](P& p, const V& v) { p.tgcDbPerMm = as<double>(v); },
+       std::array<double, 2>{0.0, core::kMaxTgcDbPerMm}},
       {"no-subsample", "Peaks", "Report the integer sample of the peak (no parabola)", false,
        [](P& p, const V& v) { p.peaks.subsample = !as<bool>(v); }},
       {"bone-region-mm", "Bone policy", "bone: tissue/shadow region length, mm (3)", 0.0,

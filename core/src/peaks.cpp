@@ -286,19 +286,32 @@ RingingTail ringingTailOf(const float* envelope, int ringDown, int count, int in
   return {top, value - leftMin};
 }
 
+// The most time-gain compensation the quiet level follows (PeakParams::gainDbPerSample), dB:
+// front ends' TGC ranges are 40-60 dB.
+constexpr double kMaxGainDb = 60.0;
+
+// The gain the front end applied at `sample` over sample 0, as a factor.
+double gainAt(double gainDbPerSample, double sample) {
+  return gainDbPerSample > 0.0
+             ? std::pow(10.0, std::clamp(gainDbPerSample * sample, 0.0, kMaxGainDb) / 20.0)
+             : 1.0;
+}
+
 // The level of the record's quietest stretch: the lower quartile of the medians of blocks of
 // `block` samples of envelope[begin, count). Where the tissue's speckle lies under the
 // digitiser's noise (8-bit records, water), a shadow behind bone is no quieter than the noise
 // before it; it is as quiet as the quietest part of the record. (A low percentile of single
 // samples lies far below the median of noise: a shadow's median never reaches it.)
-double quietLevelOf(const float* envelope, int count, int begin, int block,
+// With time-gain compensation (`gainDbPerSample` > 0) each block's median is taken back to sample
+// 0 by the gain at the block's centre: the level at sample 0 of noise amplified with depth.
+double quietLevelOf(const float* envelope, int count, int begin, int block, double gainDbPerSample,
                     std::vector<float>& scratch) {
   std::vector<float> medians;
   block = std::max(block, 64);
   for (int b = std::max(begin, 0); b + block <= count; b += block) {
     const double m = medianOf(envelope, count, b, b + block, scratch);
     if (m >= 0.0)
-      medians.push_back(static_cast<float>(m));
+      medians.push_back(static_cast<float>(m / gainAt(gainDbPerSample, b + 0.5 * block)));
   }
   if (medians.empty())
     return 0.0;
@@ -308,22 +321,34 @@ double quietLevelOf(const float* envelope, int count, int begin, int block,
 
 // A level computed on first use: the quiet level costs a median per block, and most records
 // never need it (their shadows pass the ratio test, or nothing comes to the shadow test).
+// `level(at)`: the level at sample `at`, where the front end's time-gain compensation lifts the
+// noise with depth (PeakParams::gainDbPerSample; a fixed level is the same at every depth).
 class LazyLevel {
  public:
   explicit LazyLevel(double fixed) : value_(fixed) {}
-  LazyLevel(const float* envelope, int count, int begin, int block)
-      : envelope_(envelope), count_(count), begin_(begin), block_(block) {}
-  double operator()() {
+  LazyLevel(const float* envelope, int count, int begin, int block, double gainDbPerSample)
+      : envelope_(envelope),
+        count_(count),
+        begin_(begin),
+        block_(block),
+        gainDbPerSample_(gainDbPerSample) {}
+  double operator()(double at) {
     if (value_ < 0.0) {
       std::vector<float> scratch;
-      value_ = quietLevelOf(envelope_, count_, begin_, block_, scratch);
+      value_ = quietLevelOf(envelope_, count_, begin_, block_, gainDbPerSample_, scratch);
     }
-    return value_;
+    return value_ * gainAt(gainDbPerSample_, at);
+  }
+  // The gain from sample `from` to sample `to` (1 without time-gain compensation): how much
+  // louder the same noise is at `to`.
+  double gainFrom(double from, double to) const {
+    return gainAt(gainDbPerSample_, to) / gainAt(gainDbPerSample_, from);
   }
 
  private:
   const float* envelope_ = nullptr;
   int count_ = 0, begin_ = 0, block_ = 0;
+  double gainDbPerSample_ = 0.0;
   double value_ = -1.0;
 };
 
@@ -414,16 +439,16 @@ bool ringsIntoQuiet(const float* envelope, int count, int from, int region, floa
 // strongest echo, the median before it (`before`) within kWaterBeforeBone of the record's quiet
 // level and the echo `echoFactor` times above that level, and behind it, from `trainFrom`, a train
 // that dies into the quiet within `region` (ringsIntoQuiet). The cheap tests come first: the quiet
-// level costs a median per block.
+// level costs a median per block; it is taken at the echo (`at`).
 template <typename Strongest>
 bool ringingBoneInWater(const float* envelope, int count, float echo, double before, int waterBegin,
                         int waterEnd, int trainFrom, int region, double echoFactor,
-                        Strongest&& strongest, LazyLevel& quietLevel) {
+                        Strongest&& strongest, LazyLevel& quietLevel, int at) {
   return echoFactor > 0.0 && fallsBehind(envelope, count, trainFrom, region) &&
          echo >= kNoiseShadowShareOfStrongest * strongest() &&
          maxOf(envelope + waterBegin, std::max(0, waterEnd - waterBegin)) <= kTrainCeiling * echo &&
-         before <= kWaterBeforeBone * quietLevel() && echo >= echoFactor * quietLevel() &&
-         ringsIntoQuiet(envelope, count, trainFrom, region, echo, quietLevel());
+         before <= kWaterBeforeBone * quietLevel(at) && echo >= echoFactor * quietLevel(at) &&
+         ringsIntoQuiet(envelope, count, trainFrom, region, echo, quietLevel(at));
 }
 
 // Does the peak look like bone: narrow as a pulse, well above the speckle before it, and
@@ -461,7 +486,7 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
     return widthSamples <= bone.noiseShadowMaxWidthSamples &&
            ringingBoneInWater(envelope, count, peak.value, before, 0,
                               std::min(beforeEnd, peak.index - widthSamples), afterBegin, region,
-                              bone.noiseShadowEchoFactor, strongest, shadowLevel);
+                              bone.noiseShadowEchoFactor, strongest, shadowLevel, peak.index);
   };
   // Bone lies under soft tissue: its speckle stands above the noise floor before the echo. Skin
   // and standoff-wall echoes have water in front of them (bone in water: above).
@@ -485,8 +510,11 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
   };
   // The shadow starts right behind bone: test the near half of the region on its own too, so an
   // echo a millimetre or two above the bone (a fascia) does not borrow the bone's shadow.
+  // The quiet level at each region's depth (it rises with depth under time-gain compensation).
+  const double beforeAt = 0.5 * (beforeBegin + beforeEnd);
   const auto isShadow = [&](int begin, int end) {
     const double after = medianOf(envelope, count, begin, end, scratch);
+    const double afterAt = 0.5 * (begin + std::min(end, count));
     // Deep in the tissue the speckle itself fades to the noise floor; a shadow at the noise
     // floor still counts there.
     // Against the quiet level, the tissue before must stand above it as far as a shadow would
@@ -498,26 +526,30 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
         tissueBefore() >= bone.minShadowRatio * std::max(after, tiny))
       return true;
     if (!bone.shadowAtQuietLevel)
-      return after <= bone.noiseFloorFactor * shadowLevel();
+      return after <= bone.noiseFloorFactor * shadowLevel(afterAt);
     // Bone's shadow at the noise behind a strong echo: the tissue before it may be barely above
     // the noise (8-bit records), but it is clearly louder than the shadow.
     // (The cheap tests first: the level and the record's maximum are computed on first use.)
-    if (bone.noiseShadowEchoFactor > 0.0 && before >= kNoiseShadowSpread * after &&
+    // (Under time-gain compensation the noise behind is louder than the same noise before by
+    // the gain between them: the tissue is compared with the shadow taken back to its depth.)
+    if (bone.noiseShadowEchoFactor > 0.0 &&
+        before * shadowLevel.gainFrom(beforeAt, afterAt) >= kNoiseShadowSpread * after &&
         widthSamples <= bone.noiseShadowMaxWidthSamples &&
         peak.value >= kNoiseShadowContrast * before &&
         peak.value >= kNoiseShadowShareOfStrongest * strongest() &&
-        (before >= kNoiseShadowTissue * shadowLevel() ||
-         after <= kShadowBelowQuiet * shadowLevel()) &&
-        peak.value >= bone.noiseShadowEchoFactor * shadowLevel() &&
-        after <= kNoiseShadowSpread * shadowLevel())
+        (before >= kNoiseShadowTissue * shadowLevel(beforeAt) ||
+         after <= kShadowBelowQuiet * shadowLevel(afterAt)) &&
+        peak.value >= bone.noiseShadowEchoFactor * shadowLevel(peak.index) &&
+        after <= kNoiseShadowSpread * shadowLevel(afterAt))
       return true;
     // Both quiet-level conditions imply before x factor >= ratio x after: where that fails, the
     // level (a median per block) is not needed.
-    if (before * bone.noiseFloorFactor * (1.0 + 1e-9) < bone.minShadowRatio * after)
+    if (before * bone.noiseFloorFactor * shadowLevel.gainFrom(beforeAt, afterAt) * (1.0 + 1e-9) <
+        bone.minShadowRatio * after)
       return false;
-    return after <= bone.noiseFloorFactor * shadowLevel() &&
-           before >= bone.minShadowRatio * shadowLevel() &&
-           peak.value >= kQuietEchoFactor * shadowLevel();
+    return after <= bone.noiseFloorFactor * shadowLevel(afterAt) &&
+           before >= bone.minShadowRatio * shadowLevel(beforeAt) &&
+           peak.value >= kQuietEchoFactor * shadowLevel(peak.index);
   };
   return (isShadow(afterBegin, afterBegin + region / 2) && isShadow(afterBegin, afterEnd)) ||
          ringingInWater();
@@ -711,7 +743,7 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   const int maxRise =
       std::max(2, static_cast<int>(std::lround(e.maxRiseCycles * params.samplesPerCycle)));
   const int reverbRadius = std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
-  LazyLevel quietLevel(envelope, count, ringDown, region / 2);
+  LazyLevel quietLevel(envelope, count, ringDown, region / 2, params.gainDbPerSample);
   float strongestCandidate = 0.F;
   for (const EchoCandidate& c : candidates)
     strongestCandidate = std::max(strongestCandidate, c.value);
@@ -752,6 +784,10 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     const double before =
         medianOf(envelope, count, std::max(ringDown, left - gap - region), left - gap, scratch);
     const double after = medianOf(envelope, count, right + gap, right + gap + region, scratch);
+    // Where they lie, for the quiet level at their depth (time-gain compensation), and the water
+    // from the ring-down to the echo.
+    const double beforeAt = 0.5 * (std::max(ringDown, left - gap - region) + left - gap);
+    const double waterAt = 0.5 * (ringDown + left - gap);
     if (before >= 0.0 && c.value < e.minContrast * std::max(before, tiny)) {
       continue;
     }
@@ -766,9 +802,9 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
             before >= 0.0 &&
             ringingBoneInWater(
                 envelope, count, c.value, before, ringDown, left - gap, right + gap, region,
-                e.noiseShadowEchoFactor, [&] { return strongestCandidate; }, quietLevel) &&
+                e.noiseShadowEchoFactor, [&] { return strongestCandidate; }, quietLevel, c.index) &&
             medianOf(envelope, count, ringDown, left - gap, scratch) <=
-                kWaterBeforeBone * quietLevel();
+                kWaterBeforeBone * quietLevel(waterAt);
       }
       return ringsInWaterState == 1;
     };
@@ -779,7 +815,7 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     // behind a wall stays well below the wall's echo. Bone in water that rings is no wall.
     const bool wall = before >= 0.0 && left - gap - ringDown >= region / 2 &&
                       after >= e.wallStep * std::max(before, tiny) && after < 0.4 * c.value &&
-                      before <= kWaterBeforeWall * quietLevel() && !ringsInWater();
+                      before <= kWaterBeforeWall * quietLevel(beforeAt) && !ringsInWater();
     if (wall) {
       continue;
     }
@@ -793,6 +829,10 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     c.passed = true;
     const auto isShadow = [&](int from, int to) {
       const double behind = medianOf(envelope, count, from, to, scratch);
+      // Under time-gain compensation the same noise is louder behind than before by the gain
+      // between them; "no louder than before" allows for it.
+      const double behindAt = 0.5 * (from + std::min(to, count));
+      const double rise = quietLevel.gainFrom(beforeAt, behindAt);
       // Behind the echo half the tissue before it, or as quiet as the record's quietest stretch
       // (and no louder than before it, within kQuietMedianSpread) with the echo far above that:
       // bone in water, and deep bone whose tissue is at the digitiser's noise, are as quiet
@@ -804,15 +844,15 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
       // fascia deep in tissue whose speckle has faded to the noise has tissue above it.
       return behind >= 0.0 &&
              (before >= e.shadowRatio * std::max(behind, tiny) ||
-              (before * kQuietMedianSpread >= behind &&
-               behind <= e.shadowNoiseFactor * quietLevel() &&
-               c.value >= kQuietEchoFactor * quietLevel()) ||
-              (e.noiseShadowEchoFactor > 0.0 && before * kNoiseShadowSpread >= behind &&
-               behind <= kNoiseShadowSpread * quietLevel() &&
-               before <= kWaterBeforeBone * quietLevel() &&
-               c.value >= e.noiseShadowEchoFactor * quietLevel() &&
+              (before * kQuietMedianSpread * rise >= behind &&
+               behind <= e.shadowNoiseFactor * quietLevel(behindAt) &&
+               c.value >= kQuietEchoFactor * quietLevel(c.index)) ||
+              (e.noiseShadowEchoFactor > 0.0 && before * kNoiseShadowSpread * rise >= behind &&
+               behind <= kNoiseShadowSpread * quietLevel(behindAt) &&
+               before <= kWaterBeforeBone * quietLevel(beforeAt) &&
+               c.value >= e.noiseShadowEchoFactor * quietLevel(c.index) &&
                medianOf(envelope, count, ringDown, left - gap, scratch) <=
-                   kWaterBeforeBone * quietLevel()));
+                   kWaterBeforeBone * quietLevel(waterAt)));
     };
     // A shadow needs room behind the echo to be seen.
     c.contrast = before >= 0.0 ? c.value / std::max(before, tiny) : 1e9;
@@ -832,8 +872,14 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
 
   // A reverberation: at twice or three times the time of flight of a shallower echo at least
   // twice as strong, or one spacing behind a pair of them (each bounce loses more than half).
+  // Echoes at different depths are compared as they arrived, before the front end's time-gain
+  // compensation lifted the deeper one (PeakParams::gainDbPerSample): a bounce at twice bone's
+  // time of flight is amplified by the gain over bone's whole depth.
+  const auto arrived = [&](const EchoCandidate& c) {
+    return c.value / gainAt(params.gainDbPerSample, c.index);
+  };
   const auto isSource = [&](std::size_t a, std::size_t k) {
-    return candidates[a].peak >= 0 && candidates[a].value >= 2.F * candidates[k].value;
+    return candidates[a].peak >= 0 && arrived(candidates[a]) >= 2.0 * arrived(candidates[k]);
   };
   // The source of k's reverberation (the head of the train), or -1.
   const auto reverberationSource = [&](std::size_t k) -> int {
@@ -865,15 +911,15 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   // stronger than bone itself. An echo with a stronger one behind it (the skin or a fascia
   // above the bone, whose tissue behind it rings like a cortex; a membrane of the standoff
   // above a fascia as strong as bone) is not bone.
-  float strongestBehind = 0.F;
+  double strongestBehind = 0.0;
   for (auto c = candidates.rbegin(); c != candidates.rend(); ++c) {
     if (!c->passed)
       continue;
-    if (strongestBehind > c->value) {
+    if (strongestBehind > arrived(*c)) {
       c->passed = false;
       c->strongerBehind = true;
     } else {
-      strongestBehind = std::max(strongestBehind, c->value);
+      strongestBehind = std::max(strongestBehind, arrived(*c));
     }
   }
   // Does the echo at k ring on from the one at a: within a region behind it, the envelope between
@@ -1097,6 +1143,8 @@ void validate(const PeakParams& p) {
     require(*p.windowBegin < *p.windowEnd, "processing window must have min < max");
   }
   require(p.mmPerSample > 0.0 && std::isfinite(p.mmPerSample), "mm per sample must be > 0");
+  require(p.gainDbPerSample >= 0.0 && p.gainDbPerSample <= 1.0,
+          "time-gain compensation must be in [0, 1] dB per sample");
   require(p.bone.regionMm > 0.0, "bone region must be > 0 mm");
   require(p.bone.gapMm >= 0.0, "bone gap must be >= 0 mm");
   require(p.bone.minShadowRatio > 1.0, "bone shadow ratio must be > 1");
@@ -1337,7 +1385,8 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
           params.bone.shadowAtQuietLevel
               ? LazyLevel(
                     envelope, count, 0,
-                    static_cast<int>(std::lround(0.5 * params.bone.regionMm / params.mmPerSample)))
+                    static_cast<int>(std::lround(0.5 * params.bone.regionMm / params.mmPerSample)),
+                    params.gainDbPerSample)
               : LazyLevel(noiseFloor);
       result.reason = RejectReason::NotBone;
       LazyMax recordMax(envelope, count);

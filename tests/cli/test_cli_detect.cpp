@@ -194,6 +194,9 @@ TEST(CliDetect, AgilentDefaultsWithTheAcquisitionFactsTakeTheRingingReflector) {
   ASSERT_EQ(result.exitCode, 0) << result.err;
   const auto summary = nlohmann::json::parse(result.out);
   EXPECT_EQ(summary["shadow_rule"], "required");
+  // The oscilloscope applied no time-gain compensation: its deep noise does not rise.
+  EXPECT_EQ(summary["tgc_source"], "none");
+  EXPECT_EQ(summary["tgc_db_per_mm"], 0.0);
   const AgilentAgreement agreement = agreementWithPlus(capture, csv);
   EXPECT_GE(agreement.accepted, 100) << "of frames 0-129 (112 today, 39 before)";
   EXPECT_GE(agreement.within, 95) << "within 0.05 mm of PLUS (106 today, 33 before)";
@@ -367,6 +370,32 @@ TEST(CliDetect, EchoContextIsCountedAndZeroSwitchesItOff) {
     EXPECT_TRUE(withoutRows[f]["sample_index"].empty()) << "frame " << f;
   }
   EXPECT_EQ(changed, on["echoes_from_context"].get<int>());
+}
+
+// --tgc, the time-gain compensation a user knows the front end applied (dB per mm, 0 = none),
+// is held to 0-10 where the flag is parsed, and said in the summary as given.
+TEST(CliDetect, TimeGainCompensationGivenIsCheckedAndSaid) {
+  test::TempDir dir;
+  const std::string capture = dir.file("sweep.igs.mha");
+  core::writeSequence(test::makeDemoSweep({30}), capture);
+  const std::string csv = dir.file("d.csv");
+  for (const std::string bad : {"-0.5", "10.5", "nan", "steep"}) {
+    const auto result = runEchoreg({"detect", capture, "--out", csv, "--tgc", bad});
+    EXPECT_EQ(result.exitCode, 2) << bad << ": " << result.err;
+    EXPECT_NE(result.err.find("--tgc: must be a number from 0 to 10, got " + bad),
+              std::string::npos)
+        << result.err;
+    EXPECT_FALSE(std::filesystem::exists(csv)) << bad;
+  }
+  const auto given = runEchoreg({"detect", capture, "--out", csv, "--tgc", "0.4", "--json"});
+  ASSERT_EQ(given.exitCode, 0) << given.err;
+  const auto summary = nlohmann::json::parse(given.out);
+  EXPECT_EQ(summary["tgc_source"], "given");
+  EXPECT_EQ(summary["tgc_db_per_mm"], 0.4);
+  const auto measured = runEchoreg({"detect", capture, "--out", csv, "--json"});
+  ASSERT_EQ(measured.exitCode, 0) << measured.err;
+  EXPECT_EQ(nlohmann::json::parse(measured.out)["tgc_source"], "none")
+      << "the demo sweep has no time-gain compensation";
 }
 
 // --speed-of-sound is checked where the flag is parsed, with register's and calibrate's range

@@ -790,5 +790,99 @@ TEST(Detection, BoundsOnTheAcquisitionFacts) {
   }
 }
 
+// A front end's time-gain compensation (TGC) amplifies everything it receives by a gain rising
+// with depth, the receiver's noise included: behind bone the shadow's noise then grows louder
+// with depth than the water or tissue before the echo. Records of a phantom in water: bone's
+// echo at sample 700 (10.8 mm at 50 MHz and 1540 m/s) in noise, the bounce between bone and the
+// transducer's face at twice its time of flight (0.3 of it), the whole record then amplified
+// by `dbPerMm` per mm of depth (a water standoff of `waterTo` samples before tissue speckle when
+// given instead of bone: the level steps up once, no steady rise).
+std::vector<std::vector<float>> gainedCapture(double dbPerMm, int records, int waterTo = 0) {
+  test::PulseModel pulse;  // 9 MHz at 50 MHz
+  const double mmPerSample = 1540.0 / 2.0 * 1000.0 / 50e6;
+  std::vector<std::vector<float>> out;
+  for (int r = 0; r < records; ++r) {
+    std::mt19937_64 random(static_cast<std::uint64_t>(r + 1));
+    std::vector<test::EchoSpec> echoes;
+    if (waterTo > 0) {
+      echoes.push_back({static_cast<double>(waterTo), 60.0});
+      addSpeckle(echoes, waterTo + 6.0, 2000.0, 6.0, 4.0, 12.0, random);
+    } else {
+      const double bone = 700.0 + (r % 8);
+      echoes.push_back({bone, 100.0});
+      echoes.push_back({2.0 * bone, 30.0});
+    }
+    std::vector<float> x =
+        test::makeEchoRecord(2000, echoes, pulse, 0.0, 1.0, static_cast<std::uint64_t>(r + 1));
+    for (std::size_t i = 0; i < x.size(); ++i)
+      x[i] *=
+          static_cast<float>(std::pow(10.0, dbPerMm * mmPerSample * static_cast<double>(i) / 20.0));
+    out.push_back(std::move(x));
+  }
+  return out;
+}
+
+TEST(CaptureAdaptation, TimeGainCompensationIsMeasuredFromTheSteadyRiseOfTheDeepNoise) {
+  for (const double dbPerMm : {0.3, 0.8, 1.2}) {
+    const auto records = gainedCapture(dbPerMm, 64);
+    CaptureAnalysis analysis;
+    const DetectionParams params = adaptToCapture(detectionPreset("default"), 64, 2000,
+                                                  sourceOf(records), std::nullopt, &analysis);
+    EXPECT_EQ(analysis.tgcSource, "measured") << dbPerMm;
+    EXPECT_NEAR(analysis.tgcDbPerMm, dbPerMm, 0.1 * dbPerMm) << dbPerMm;
+    EXPECT_NEAR(params.peaks.gainDbPerSample, analysis.tgcDbPerMm * params.peaks.mmPerSample, 1e-9);
+  }
+  // No gain; a water standoff giving way to tissue two thirds down the record (a step, no
+  // rise); the user's word over the measurement.
+  for (const int waterTo : {0, 1300}) {
+    const auto records = gainedCapture(0.0, 64, waterTo);
+    CaptureAnalysis analysis;
+    const DetectionParams params = adaptToCapture(detectionPreset("default"), 64, 2000,
+                                                  sourceOf(records), std::nullopt, &analysis);
+    EXPECT_EQ(analysis.tgcSource, "none") << waterTo;
+    EXPECT_EQ(params.peaks.gainDbPerSample, 0.0) << waterTo;
+  }
+  const auto records = gainedCapture(0.8, 64);
+  DetectionParams given = detectionPreset("default");
+  given.tgcDbPerMm = 0.0;
+  CaptureAnalysis analysis;
+  EXPECT_EQ(adaptToCapture(given, 64, 2000, sourceOf(records), std::nullopt, &analysis)
+                .peaks.gainDbPerSample,
+            0.0);
+  EXPECT_EQ(analysis.tgcSource, "given");
+  given.tgcDbPerMm = 10.5;
+  EXPECT_THROW(validate(given), std::invalid_argument);
+  given.tgcDbPerMm = std::nan("");
+  EXPECT_THROW(validate(given), std::invalid_argument);
+}
+
+// Bone in water under TGC: the noise behind the echo is louder than the water before it by the
+// gain between them, and the bounce at twice bone's time of flight is lifted by the gain over
+// bone's whole depth. Judged against the noise at each region's depth and with echoes compared
+// as they arrived, bone is taken; with the gain not allowed for, the noise's rise is no shadow
+// and the bounce passes for an echo stronger than bone behind it.
+TEST(ProminencePolicy, UnderTimeGainCompensationAShadowIsTheNoiseAtItsOwnDepth) {
+  const auto records = gainedCapture(1.0, 64);
+  const auto count = [&records](DetectionParams given) {
+    const DetectionParams params = adaptToCapture(given, 64, 2000, sourceOf(records), std::nullopt);
+    SignalDetector detector(params);
+    std::pair<int, int> picks{0, 0};  // bone, anything else
+    for (int r = 0; r < 64; ++r) {
+      const auto& x = records[static_cast<std::size_t>(r)];
+      const SignalDetection d = detector.detect(x.data(), 2000);
+      if (d.accepted())
+        ++(std::fabs(d.peaks.sampleIndex - (700.0 + r % 8)) < 3.0 ? picks.first : picks.second);
+    }
+    return picks;
+  };
+  const auto measured = count(detectionPreset("default"));
+  DetectionParams none = detectionPreset("default");
+  none.tgcDbPerMm = 0.0;
+  const auto unaware = count(none);
+  EXPECT_GE(measured.first, 50) << "of 64 (56 today)";
+  EXPECT_EQ(measured.second, 0) << "the bounce, or noise, taken";
+  EXPECT_LE(unaware.first, 6) << "of 64 with the gain not allowed for (0 today)";
+}
+
 }  // namespace
 }  // namespace echoreg::core

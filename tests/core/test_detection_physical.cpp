@@ -331,8 +331,11 @@ void scoreProfile(const std::string& profile, Bound defaultBound) {
 // / 17.9, 29.8 / 10.3, 65.1 / 17.7; before it 56.6 / 17.6, 37.7 / 10.3, 79.3 / 14.7), to catch a
 // regression, not to claim the 5 %. Wrong echoes (stop 32, when a fascia under the skin
 // lost its borrowed shadow): handheld 9.3 %, holder 0.2 % (7.2 % before), phantom-water 0.5 %.
+// Stop 33, shadows judged against the noise at their depth under a measured time-gain
+// compensation: handheld FN 32.3 -> 27.3 %, FP 19.2 -> 14.6 %, wrong echo 9.3 -> 7.3 %;
+// phantom-water FN 9.3 -> 9.5 %, wrong echo 0.5 -> 0.9 %; holder unchanged.
 TEST(DetectionPhysical, HandheldSweeps) {
-  scoreProfile("handheld", {0.40, 0.24, 0.13});
+  scoreProfile("handheld", {0.32, 0.19, 0.11});
 }
 TEST(DetectionPhysical, StrappedHolder) {
   scoreProfile("holder", {0.23, 0.14, 0.03});

@@ -75,13 +75,17 @@ struct CaptureAdaptation {
   double highPassHz = 0.0;
   /// > 0: Hann/StdDev window of this many transducer periods (else envelope.windowSamples).
   double envelopeCycles = 0.0;
+  /// Measure the time-gain compensation the front end applied (the rise of the capture's deep
+  /// noise with depth); the shadow tests then judge each region against the noise at its depth
+  /// (PeakParams::gainDbPerSample).
+  bool gain = false;
 };
 
 /// Field-by-field equality (a new field must be added here, or this stops compiling).
 inline bool operator==(const CaptureAdaptation& a, const CaptureAdaptation& b) {
-  const auto& [ringA, highA, hzA, cyclesA] = a;
-  const auto& [ringB, highB, hzB, cyclesB] = b;
-  return std::tie(ringA, highA, hzA, cyclesA) == std::tie(ringB, highB, hzB, cyclesB);
+  const auto& [ringA, highA, hzA, cyclesA, gainA] = a;
+  const auto& [ringB, highB, hzB, cyclesB, gainB] = b;
+  return std::tie(ringA, highA, hzA, cyclesA, gainA) == std::tie(ringB, highB, hzB, cyclesB, gainB);
 }
 
 /// Every parameter of the chain. Window limits are depths (mm) and become sample indices through
@@ -97,7 +101,13 @@ struct DetectionParams {
   /// The transducer's centre frequency when the user gave it (else the capture header's, else
   /// measured from the capture's spectrum when something needs it).
   std::optional<double> transducerFrequencyHz;
+  /// The time-gain compensation the front end applied when the user gave it, dB per mm of depth
+  /// (0: none; else measured when adapt.gain).
+  std::optional<double> tgcDbPerMm;
 };
+
+/// The most time-gain compensation a user may give (DetectionParams::tgcDbPerMm), dB per mm.
+inline constexpr double kMaxTgcDbPerMm = 10.0;
 
 /// What adaptToCapture measured and decided, for the summary.
 struct CaptureAnalysis {
@@ -111,6 +121,12 @@ struct CaptureAnalysis {
   /// records in which bone cast a shadow (>= 20 %: "required", else "ignored").
   std::string shadowRule;
   double shadowShare = 0.0;
+  /// The time-gain compensation allowed for, dB per mm; its source ("given", "measured", "none"
+  /// when the capture's deep noise does not rise steadily, or "" when none was looked for); and
+  /// the rise of the capture's deep noise it was measured from (0 when it is not steady).
+  double tgcDbPerMm = 0.0;
+  std::string tgcSource;
+  double deepNoiseRiseDbPerMm = 0.0;
   std::vector<std::string> warnings;
 };
 

@@ -201,6 +201,10 @@ struct PeakParams {
   bool subsample = true;
   /// Millimetres per sample, for the bone policy's lengths (DepthConversion::mmPerSample()).
   double mmPerSample = 0.0154;
+  /// The time-gain compensation the front end applied, dB per sample (0: none; measured per
+  /// capture by adaptToCapture): the noise a shadow falls to rises with depth by this much, and
+  /// the shadow tests judge each region against the record's quiet level at its own depth.
+  double gainDbPerSample = 0.0;
 };
 
 /// Checks the parameters; throws std::invalid_argument naming the first bad one.
@@ -231,13 +235,13 @@ inline bool operator==(const ProminenceParams& a, const ProminenceParams& b) {
 }
 inline bool operator==(const PeakParams& a, const PeakParams& b) {
   const auto& [modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, promA, ringA, cycleA,
-               emissionA, subsampleA, mmA] = a;
+               emissionA, subsampleA, mmA, gainA] = a;
   const auto& [modeB, factorB, ofMaxB, beginB, endB, policyB, boneB, promB, ringB, cycleB,
-               emissionB, subsampleB, mmB] = b;
+               emissionB, subsampleB, mmB, gainB] = b;
   return std::tie(modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, promA, ringA, cycleA,
-                  emissionA, subsampleA, mmA) == std::tie(modeB, factorB, ofMaxB, beginB, endB,
-                                                          policyB, boneB, promB, ringB, cycleB,
-                                                          emissionB, subsampleB, mmB);
+                  emissionA, subsampleA, mmA,
+                  gainA) == std::tie(modeB, factorB, ofMaxB, beginB, endB, policyB, boneB, promB,
+                                     ringB, cycleB, emissionB, subsampleB, mmB, gainB);
 }
 inline bool operator!=(const PeakParams& a, const PeakParams& b) {
   return !(a == b);
