@@ -362,6 +362,26 @@ inline void checkPlyFile(const std::string& path) {
       }
     }
   }
+  // VTK reads an ASCII list it does not use (any list of the vertex and face elements but the
+  // faces' vertex_indices and texcoord) with an item size it never set: a crash in
+  // vtkPLY::ascii_get_element, found by fuzz/fuzz_mesh (stop 33). Binary files skip such lists.
+  if (ascii) {
+    for (const Element& element : elements) {
+      if (element.name != "vertex" && element.name != "face")
+        continue;
+      for (std::size_t p = 0; p < element.list.size(); ++p) {
+        const bool used = element.name == "face" &&
+                          (element.names[p] == "vertex_indices" || element.names[p] == "texcoord");
+        if (element.list[p] && !used) {
+          lineNumber = element.line;
+          refuse(
+              fmt::format("element {} has a list property {} that VTK does not read: VTK's "
+                          "PLY reader crashes on such a list in an ASCII file",
+                          element.name, element.names[p]));
+        }
+      }
+    }
+  }
   if (!ascii) {
     // Value by value: each list's count, then its items; the file must hold every row, and a
     // face's corners must be vertices (VTK reads faces beyond the vertices out of bounds).

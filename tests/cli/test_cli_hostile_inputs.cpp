@@ -146,6 +146,12 @@ class CliHostileInputs : public ::testing::Test {
         << "ply\nformat ascii 1.0\nelement vertex 0\nproperty float x\nproperty float y\n"
            "property float z\nelement face 1\nproperty list uchar int vertex_indices\n"
            "end_header\n0 vertex_index\n";
+    // Found by fuzz/fuzz_mesh (stop 33): a list VTK does not read in an ASCII file (a crash).
+    std::ofstream(dir_.file("unused-list.ply"))
+        << "ply\nformat ascii 1.0\nelement vertex 4\nproperty float x\nproperty float y\n"
+           "property float z\nelement face 1\nproperty list uchar int other\n"
+           "property list uchar int vertex_indices\nend_header\n0 0 0\n0 30 0\n0 0 30\n30 0 0\n"
+           "1 0 3 0 1 3\n";
     // Found by fuzz/fuzz_mesh: LeakSanitizer, what VTK read of a header with two format lines.
     std::ofstream(dir_.file("two-formats.ply"))
         << "ply\nformat ascii 1.0\nformat ascii 1.0\nelement vertex 4\nproperty float x\n"
@@ -362,6 +368,8 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
        "@short-face.ply: line 17: element face: \"3 2\" has too few numbers"},
       {figureWith({"--model", "@no-vertices.ply", "--out", "@out.png"}), 1,
        "@no-vertices.ply: line 3: the vertex element has no rows"},
+      {figureWith({"--model", "@unused-list.ply", "--out", "@out.png"}), 1,
+       "@unused-list.ply: line 7: element face has a list property other that VTK does not read"},
       {figureWith({"--model", "@four-corners.stl", "--out", "@out.png"}), 1,
        "@four-corners.stl: line 7: expected \"endloop\", found \"vertex 0 0 30\""},
       {figureWith({"--model", "@nan.stl", "--out", "@out.png"}), 1,
