@@ -425,6 +425,40 @@ TEST_F(DicomSeriesRefusal, AnUnknownVrInABigEndianGuessIsWalkedLittleEndianAsGdc
                   "byte 8 claims 513 bytes, but 0 are left in the file)");
 }
 
+// Found by fuzz/fuzz_dicom (stop 33, seed found-oom-two-transfer-syntaxes-5effd428): a file meta
+// group with two transfer syntaxes, explicit VR little endian first and implicit second, over a
+// data set in implicit VR. GDCM keeps the first (its data set inserts and never replaces), reads
+// the data set as explicit and allocated 800 MB from a 304-byte file (2.4 s), then found no image;
+// the walk before it took the second and saw nothing wrong. It now takes the first, as GDCM does:
+// refused as damaged before GDCM, naming the element that reading gives.
+TEST_F(DicomSeriesRefusal, TheFirstOfTwoTransferSyntaxesIsTheOneGdcmReadsBy) {
+  const auto le16 = [](unsigned v) { return std::string{char(v & 0xff), char(v >> 8)}; };
+  const auto le32 = [&](unsigned v) { return le16(v & 0xffff) + le16(v >> 16); };
+  const auto explicitElement = [&](unsigned group, unsigned element, const std::string& vr,
+                                   const std::string& value) {
+    return le16(group) + le16(element) + vr + le16(static_cast<unsigned>(value.size())) + value;
+  };
+  const auto implicitElement = [&](unsigned group, unsigned element, const std::string& value) {
+    return le16(group) + le16(element) + le32(static_cast<unsigned>(value.size())) + value;
+  };
+  std::string meta = explicitElement(2, 0x10, "UI", std::string("1.2.840.10008.1.2.1\0", 20)) +
+                     explicitElement(2, 0x10, "UI", std::string("1.2.840.10008.1.2\0", 18));
+  meta = explicitElement(2, 0, "UL", le32(static_cast<unsigned>(meta.size()))) + meta;
+  const std::string dataSet =
+      implicitElement(8, 0x16, std::string("1.2.840.10008.5.1.4.1.1.2\0", 26)) +
+      implicitElement(8, 0x18, std::string("1.2.826.0.1.3680043.8.498.1\0", 28)) +
+      implicitElement(0x20, 0xd, std::string("1.2.826.0.1.3680043.8.498.2\0", 28));
+  const std::string folder = dir_.file("two-syntaxes");
+  fs::create_directories(folder);
+  std::ofstream(folder + "/a.dcm", std::ios::binary)
+      << std::string(128, '\0') + "DICM" + meta + dataSet;
+  ASSERT_EQ(fs::file_size(folder + "/a.dcm"), 304U);
+  EXPECT_CONTAINS(refusal(folder),
+                  "skipped 1 damaged DICOM file: a.dcm (element (2e31,2e32) at byte 206 claims "
+                  "808464433 bytes, but 86 are left in the file)");
+  EXPECT_LT(peakKb(), 500L * 1024L) << "peak kB: the length GDCM read was allocated";
+}
+
 // Found by fuzz/fuzz_dicom (stop 32, seed found-abort-sequence-delimiter-as-element-5c2cb3b8): a
 // sequence delimiter outside any sequence in an explicit little-endian data set ends GDCM's read
 // there, which goes on with 2-byte lengths from it and asserts (aborts the process) on that tag;
