@@ -195,7 +195,12 @@ const char* imageElementVr(std::uint32_t group, std::uint32_t element) {
 /// the read goes on as the third way does); on from an element of an unknown VR, little endian,
 /// with a 2-byte length for such VRs (VR16ExplicitDataElement); from the start, little endian,
 /// such elements read as implicit (ExplicitImplicitDataElement).
-enum class ReadWay { AsEncoded, Vr16AfterUnknown, LittleEndianImplicitUnknown };
+enum class ReadWay {
+  AsEncoded,
+  Vr16AfterUnknown,
+  LittleEndianImplicitUnknown,
+  UnSequencesExplicit
+};
 
 /// GDCM allocates (and zero-fills) the length a data element declares before it reads the value:
 /// 1.2 GB for a 1.5 kB file (found by fuzz/fuzz_dicom), up to 4 GB per file and thread. So the
@@ -227,12 +232,21 @@ enum class ReadWay { AsEncoded, Vr16AfterUnknown, LittleEndianImplicitUnknown };
 /// element (11 s; fuzz/fuzz_dicom). The walk follows `way` and says in `sawUnknownVr` whether the
 /// other ways need walking too.
 ///
+/// An element of VR UN and undefined length in an explicit data set is read by GDCM as a sequence
+/// in implicit VR; when that read fails, GDCM reads the whole data set again with the items of
+/// such sequences in explicit VR (gdcm::Reader, "Attempt to read non CP 246":
+/// CP246ExplicitDataElement), which asserts (aborts the process) on a sequence delimiter where an
+/// element must stand (found by fuzz/fuzz_dicom). The walk stops at such an element
+/// (ReadWay::UnSequencesExplicit excepted), says in `unFailsImplicit` whether the sequence does
+/// not read in implicit VR to its delimiter within the file, and walks into it in explicit VR the
+/// UnSequencesExplicit way.
+///
 /// A file without the preamble whose first tag gives GDCM no encoding ("Cannot find DICOM type")
 /// sets `notDicom`: GDCM does not always give up there, and reads on as explicit VR big endian; a
 /// 130-byte file whose first VR was "??" had a length of 0x3f3f3f3f read from it, 1 GB allocated
 /// and filled (7.8 s; fuzz/fuzz_dicom). Such a file is not a CT slice: it is never given to GDCM.
 std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
-                         PixelBeyondFile& pixelBeyondFile, bool& notDicom) {
+                         bool& unFailsImplicit, PixelBeyondFile& pixelBeyondFile, bool& notDicom) {
   const bool unknownVrImplicit = way != ReadWay::Vr16AfterUnknown;
   const bool littleEndianOnly = way == ReadWay::LittleEndianImplicitUnknown;
   std::ifstream in(path, std::ios::binary);
@@ -324,6 +338,35 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
                                               "FL", "FD", "IS", "LO", "LT", "PN", "SH",
                                               "SL", "SS", "ST", "TM", "UI", "UL", "US"};
   constexpr std::uint32_t kUndefined = 0xffffffffu;
+  // Does the sequence whose items start at `from` read in implicit VR little endian (a 4-byte
+  // length after each tag; items and nested sequences of undefined length closed by their
+  // delimiters) to its sequence delimiter, every length within the file?
+  const auto implicitSequenceEnds = [&](std::uint64_t from) {
+    std::vector<char> nesting{'S'};
+    for (std::uint64_t at = from; at + 8 <= size;) {
+      unsigned char h[8] = {};
+      if (!bytes(at, 8, h))
+        return false;
+      const std::uint32_t group = unsignedAt(h, 2, false), element = unsignedAt(h + 2, 2, false);
+      const std::uint32_t length = unsignedAt(h + 4, 4, false);
+      at += 8;
+      if (group == 0xfffe && (element == 0xe00d || element == 0xe0dd)) {
+        if (!nesting.empty() && nesting.back() == 'I')
+          nesting.pop_back();
+        if (element == 0xe0dd && !nesting.empty())
+          nesting.pop_back();
+        if (nesting.empty())
+          return true;
+      } else if (length == kUndefined) {
+        nesting.push_back(group == 0xfffe ? 'I' : 'S');
+      } else if (length > size - at) {
+        return false;
+      } else if (group != 0xfffe || element != 0xe000) {
+        at += length;  // a value (an item of a defined length: its elements follow)
+      }
+    }
+    return false;
+  };
   while (pos + 8 <= size) {
     const std::uint64_t start = pos;
     unsigned char e[12] = {};
@@ -350,7 +393,8 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
       // element of an unknown VR, inside an item too (found by fuzz/fuzz_dicom).
       const bool asElement = !fragments && !meta && (open.empty() || open.back().first == 'I');
       const bool vr16 = (way == ReadWay::Vr16AfterUnknown && readingVr16) ||
-                        (explicitVr && !bigEndian && open.empty());
+                        (explicitVr && !bigEndian && open.empty()) ||
+                        way == ReadWay::UnSequencesExplicit;
       if (asElement && (element == 0x0000 || (element == 0xe0dd && vr16))) {
         return fmt::format("a {} at byte {} stands where an element must",
                            element == 0x0000 ? "tag (fffe,0000)" : "sequence delimiter", start);
@@ -452,8 +496,12 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
           group, element, start, vr);
     }
     if (length == kUndefined) {
-      if (vr == "UN")
-        return "";            // a sequence in implicit VR inside an explicit one: GDCM sorts it out
+      if (vr == "UN" && way != ReadWay::UnSequencesExplicit) {
+        // A sequence in implicit VR inside an explicit data set: GDCM reads it so, and reads the
+        // data set again the UnSequencesExplicit way when that fails.
+        unFailsImplicit = unFailsImplicit || !implicitSequenceEnds(pos);
+        return "";
+      }
       fragments = pixelData;  // encapsulated pixel data, else a sequence: items follow
       if (!pixelData)
         open.emplace_back('S', start);
@@ -511,18 +559,25 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
 
 std::string elementBeyondFile(const fs::path& path, PixelBeyondFile& pixelBeyondFile,
                               bool& notDicom) {
-  bool sawUnknownVr = false;
-  std::string damaged =
-      walkElements(path, ReadWay::AsEncoded, sawUnknownVr, pixelBeyondFile, notDicom);
+  bool sawUnknownVr = false, unFailsImplicit = false;
+  std::string damaged = walkElements(path, ReadWay::AsEncoded, sawUnknownVr, unFailsImplicit,
+                                     pixelBeyondFile, notDicom);
   // An element of an unknown VR: the other ways GDCM may read the file (in a little-endian data
   // set the first way already walked the third).
   for (const ReadWay way : {ReadWay::Vr16AfterUnknown, ReadWay::LittleEndianImplicitUnknown}) {
     if (!damaged.empty() || !sawUnknownVr)
       break;
     PixelBeyondFile other;
-    damaged = walkElements(path, way, sawUnknownVr, other, notDicom);
+    damaged = walkElements(path, way, sawUnknownVr, unFailsImplicit, other, notDicom);
     if (pixelBeyondFile.elementAt == 0)
       pixelBeyondFile = other;
+  }
+  // A sequence of VR UN that does not read in implicit VR: GDCM reads its items explicit.
+  if (damaged.empty() && unFailsImplicit) {
+    PixelBeyondFile other;
+    bool unused = false;
+    damaged =
+        walkElements(path, ReadWay::UnSequencesExplicit, sawUnknownVr, unused, other, notDicom);
   }
   return damaged;
 }

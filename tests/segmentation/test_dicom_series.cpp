@@ -425,6 +425,49 @@ TEST_F(DicomSeriesRefusal, AnUnknownVrInABigEndianGuessIsWalkedLittleEndianAsGdc
                   "byte 8 claims 513 bytes, but 0 are left in the file)");
 }
 
+// Found by fuzz/fuzz_dicom (stop 33, seed found-abort-un-sequence-explicit-3f59f142): an element
+// of VR UN and undefined length in an explicit data set is read by GDCM as a sequence in implicit
+// VR (CP-246); when that fails, GDCM reads the whole data set again with such sequences' items in
+// explicit VR, and asserts (aborts the process) on a sequence delimiter where an item's element
+// must stand. The walk stopped at the UN sequence ("GDCM sorts it out"); it now reads the sequence
+// in implicit VR to its delimiter, and where that fails walks into it in explicit VR as GDCM will.
+// A sequence that reads either way is read; one whose item lacks its delimiter is refused.
+TEST_F(DicomSeriesRefusal, AnUnSequenceThatDoesNotReadImplicitIsWalkedExplicitAsGdcmRereadsIt) {
+  const std::string original = bytesOf(2);
+  const std::size_t at =
+      original.find(std::string("\x28\x00\x52\x10"
+                                "DS",
+                                6));
+  ASSERT_NE(at, std::string::npos);
+  const std::string un("\x08\x00\x15\x11UN\0\0\xff\xff\xff\xff", 12);
+  const std::string itemOpen("\xfe\xff\x00\xe0\xff\xff\xff\xff", 8);
+  const std::string itemEnd("\xfe\xff\x0d\xe0\0\0\0\0", 8);
+  const std::string sequenceEnd("\xfe\xff\xdd\xe0\0\0\0\0", 8);
+  const std::string implicitElement(
+      "\x08\x00\x50\x11\x04\0\0\0"
+      "1.2\0",
+      12);
+  const std::string explicitElement(
+      "\x08\x00\x50\x11UI\x04\0"
+      "1.2\0",
+      12);
+  const auto withSequence = [&](const std::string& sequence) {
+    std::string bytes = original;
+    bytes.insert(at, un + sequence);
+    std::ofstream(path(2), std::ios::binary | std::ios::trunc) << bytes;
+  };
+  for (const std::string& element : {implicitElement, explicitElement}) {
+    withSequence(itemOpen + element + itemEnd + sequenceEnd);
+    EXPECT_TRUE(readDicomSeries(folder_).hu == volume_.hu)
+        << (element == implicitElement ? "implicit" : "explicit") << " items";
+  }
+  withSequence(itemOpen + explicitElement + sequenceEnd);
+  EXPECT_CONTAINS(refusal(path(2)), fileName(2) +
+                                        ": is a damaged DICOM file: a sequence delimiter "
+                                        "at byte " +
+                                        std::to_string(at + 32) + " stands where an element must");
+}
+
 // Found by fuzz/fuzz_dicom (stop 33, seed found-oom-two-transfer-syntaxes-5effd428): a file meta
 // group with two transfer syntaxes, explicit VR little endian first and implicit second, over a
 // data set in implicit VR. GDCM keeps the first (its data set inserts and never replaces), reads
