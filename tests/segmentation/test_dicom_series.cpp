@@ -194,6 +194,14 @@ class DicomSeriesRefusal : public ::testing::Test {
     std::ifstream in(path(k), std::ios::binary);
     return std::string(std::istreambuf_iterator<char>(in), {});
   }
+  /// Where a slice's RescaleIntercept element (0028,1052) starts in its bytes, explicit VR
+  /// little endian (npos when it is not there): an element inserted there lies inside the data set.
+  static std::size_t rescaleInterceptAt(const std::string& bytes) {
+    return bytes.find(
+        std::string("\x28\x00\x52\x10"
+                    "DS",
+                    6));
+  }
   /// The test process's peak resident size so far, kB: a declared length GDCM allocated shows.
   static long peakKb() {
     struct rusage usage {};
@@ -434,10 +442,7 @@ TEST_F(DicomSeriesRefusal, AnUnknownVrInABigEndianGuessIsWalkedLittleEndianAsGdc
 // A sequence that reads either way is read; one whose item lacks its delimiter is refused.
 TEST_F(DicomSeriesRefusal, AnUnSequenceThatDoesNotReadImplicitIsWalkedExplicitAsGdcmRereadsIt) {
   const std::string original = bytesOf(2);
-  const std::size_t at =
-      original.find(std::string("\x28\x00\x52\x10"
-                                "DS",
-                                6));
+  const std::size_t at = rescaleInterceptAt(original);
   ASSERT_NE(at, std::string::npos);
   const std::string un("\x08\x00\x15\x11UN\0\0\xff\xff\xff\xff", 12);
   const std::string itemOpen("\xfe\xff\x00\xe0\xff\xff\xff\xff", 8);
@@ -508,10 +513,7 @@ TEST_F(DicomSeriesRefusal, TheFirstOfTwoTransferSyntaxesIsTheOneGdcmReadsBy) {
 // so does the tag (fffe,0000) wherever an element is read. Refused as damaged before GDCM.
 TEST_F(DicomSeriesRefusal, ADelimiterWhereAnElementMustStandIsDamaged) {
   const std::string original = bytesOf(2);
-  const std::size_t at =
-      original.find(std::string("\x28\x00\x52\x10"
-                                "DS",
-                                6));
+  const std::size_t at = rescaleInterceptAt(original);
   ASSERT_NE(at, std::string::npos);
   for (const std::string& tag :
        {std::string("\xfe\xff\xdd\xe0", 4), std::string("\xfe\xff\0\0", 4)}) {
