@@ -473,6 +473,26 @@ TEST_F(DicomSeriesRefusal, AnUnSequenceThatDoesNotReadImplicitIsWalkedExplicitAs
                                         std::to_string(at + 32) + " stands where an element must");
 }
 
+// Found by fuzz/fuzz_dicom (stop 33, seed found-oom-vr16-pixel-data-074d2007): pixel data whose VR
+// is neither known to GDCM nor printable ("O\x80") in an explicit little-endian data set. GDCM
+// reads the data set again on from it with 2-byte lengths (VR16ExplicitDataElement), which for
+// pixel data reads 2 reserved bytes and a 4-byte length and allocates that length, skipping the
+// pixel data or not: 1.46 GB for an 840-byte file. The walk deferred pixel data beyond the file
+// to the reader's own check (GDCM skips it when it reads as encoded); on that way it no longer
+// does: refused as damaged, naming the length GDCM would allocate.
+TEST_F(DicomSeriesRefusal, PixelDataBeyondTheFileIsDamagedWhereGdcmReadsItWithTwoByteLengths) {
+  std::string bytes = bytesOf(2);
+  const std::size_t at = bytes.find(std::string("\xe0\x7f\x10\x00OW\0\0", 8));
+  ASSERT_NE(at, std::string::npos);
+  bytes.replace(at + 4, 8, std::string("O\x80\0\0\0\x65\0\x57", 8));
+  std::ofstream(path(2), std::ios::binary | std::ios::trunc) << bytes;
+  EXPECT_CONTAINS(refusal(path(2)), fileName(2) +
+                                        ": is a damaged DICOM file: element (7fe0,0010) "
+                                        "at byte " +
+                                        std::to_string(at) + " claims 1459643648 bytes");
+  EXPECT_LT(peakKb(), 500L * 1024L) << "peak kB: the length GDCM read was allocated";
+}
+
 // Found by fuzz/fuzz_dicom (stop 33, seed found-oom-two-transfer-syntaxes-5effd428): a file meta
 // group with two transfer syntaxes, explicit VR little endian first and implicit second, over a
 // data set in implicit VR. GDCM keeps the first (its data set inserts and never replaces), reads
