@@ -334,8 +334,7 @@ constexpr double kShadowCaptureShare = 0.2;
 // record's deep half (after the ring-down). 0 when that half spans less than kMinTgcSpanMm.
 double measureDeepNoiseRise(const DetectionParams& params, int recordCount, int samples,
                             const RecordSource& record, int ringDown) {
-  const double mmPerSample =
-      params.depth.speedOfSoundMps / 2.0 * 1000.0 / params.depth.samplingFrequencyHz;
+  const double mmPerSample = params.depth.mmPerSample();
   const int block = std::max(8, static_cast<int>(std::lround(1.0 / mmPerSample)));
   const int blocks = samples / block;
   const int first = std::max(blocks / 2, ringDown / block + 1);
@@ -591,11 +590,9 @@ DetectionParams adaptToCapture(const DetectionParams& given, int recordCount, in
   }
   // Time-gain compensation: given, or measured from the rise of the capture's deep noise; the
   // shadow tests then judge each region against the noise at its depth (PeakParams).
-  const double mmPerSample = params.depth.speedOfSoundMps / 2.0 * 1000.0 / fs;
   if (params.tgcDbPerMm) {
     out.tgcDbPerMm = *params.tgcDbPerMm;
     out.tgcSource = "given";
-    params.peaks.gainDbPerSample = *params.tgcDbPerMm * mmPerSample;
   } else if (params.adapt.gain && recordCount > 0 && samples > 0) {
     out.deepNoiseRiseDbPerMm =
         measureDeepNoiseRise(params, recordCount, samples, record,
@@ -603,11 +600,11 @@ DetectionParams adaptToCapture(const DetectionParams& given, int recordCount, in
     if (out.deepNoiseRiseDbPerMm >= kMinTgcDbPerMm) {
       out.tgcDbPerMm = std::min(out.deepNoiseRiseDbPerMm, kMaxTgcDbPerMm);
       out.tgcSource = "measured";
-      params.peaks.gainDbPerSample = std::min(1.0, out.tgcDbPerMm * mmPerSample);
     } else {
       out.tgcSource = "none";
     }
   }
+  params.peaks.gainDbPerSample = std::min(1.0, out.tgcDbPerMm * params.depth.mmPerSample());
   // The shadow rule for the whole capture: where bone under tissue casts a shadow in many
   // records, the shadow is required of every record (the bone policy, proven on specimens);
   // elsewhere (shallow bone in vivo whose cortex rings, a phantom in water) each record is

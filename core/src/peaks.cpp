@@ -875,11 +875,11 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   // Echoes at different depths are compared as they arrived, before the front end's time-gain
   // compensation lifted the deeper one (PeakParams::gainDbPerSample): a bounce at twice bone's
   // time of flight is amplified by the gain over bone's whole depth.
-  const auto arrived = [&](const EchoCandidate& c) {
-    return c.value / gainAt(params.gainDbPerSample, c.index);
-  };
+  std::vector<double> arrived(candidates.size());
+  for (std::size_t k = 0; k < candidates.size(); ++k)
+    arrived[k] = candidates[k].value / gainAt(params.gainDbPerSample, candidates[k].index);
   const auto isSource = [&](std::size_t a, std::size_t k) {
-    return candidates[a].peak >= 0 && arrived(candidates[a]) >= 2.0 * arrived(candidates[k]);
+    return candidates[a].peak >= 0 && arrived[a] >= 2.0 * arrived[k];
   };
   // The source of k's reverberation (the head of the train), or -1.
   const auto reverberationSource = [&](std::size_t k) -> int {
@@ -912,14 +912,15 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   // above the bone, whose tissue behind it rings like a cortex; a membrane of the standoff
   // above a fascia as strong as bone) is not bone.
   double strongestBehind = 0.0;
-  for (auto c = candidates.rbegin(); c != candidates.rend(); ++c) {
-    if (!c->passed)
+  for (std::size_t k = candidates.size(); k-- > 0;) {
+    EchoCandidate& c = candidates[k];
+    if (!c.passed)
       continue;
-    if (strongestBehind > arrived(*c)) {
-      c->passed = false;
-      c->strongerBehind = true;
+    if (strongestBehind > arrived[k]) {
+      c.passed = false;
+      c.strongerBehind = true;
     } else {
-      strongestBehind = std::max(strongestBehind, arrived(*c));
+      strongestBehind = std::max(strongestBehind, arrived[k]);
     }
   }
   // Does the echo at k ring on from the one at a: within a region behind it, the envelope between
