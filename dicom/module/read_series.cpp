@@ -265,6 +265,7 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
   if (size >= 132 && bytes(0, 132, head) && std::memcmp(head + 128, "DICM", 4) == 0)
     pos = 132;
   bool explicitVr = true, bigEndian = false, meta = pos == 132, fragments = false;
+  std::uint64_t fragmentsAt = 0;  // where the encapsulated pixel data's element starts
   // The sequences ('S') and items ('I') of undefined length still open, innermost last, with the
   // byte each began at: GDCM reads an item's elements until its item delimiter, and asserts
   // (aborts the process) when the file ends first (gdcm::DataSet::ReadNested; found by
@@ -385,6 +386,24 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
     std::uint32_t length = 0;
     std::uint64_t valueAt = pos + 8;
     std::string vr;
+    // Encapsulated pixel data is items of a defined length (the basic offset table, then the
+    // fragments) up to a sequence delimiter (DICOM PS3.5 A.4). GDCM reads anything else there as
+    // a broken file it tries to mend: a first item with another tag makes it read the data set
+    // again on from two bytes before that tag with 2-byte lengths (VR16ExplicitDataElement), which
+    // allocated 3.7 GB for a 157 kB JPEG 2000 slice (found by fuzz/fuzz_dicom, stop 34); other tags
+    // after a fragment take it into repairs that assert (abort the process).
+    if (fragments && (group != 0xfffe || (element != 0xe000 && element != 0xe0dd))) {
+      return fmt::format(
+          "byte {} of the file is neither a fragment of the pixel data at byte {} nor their end "
+          "(tag ({:04x},{:04x}))",
+          start, fragmentsAt, group, element);
+    }
+    if (fragments && element == 0xe000 && unsignedAt(e + 4, 4, big) == kUndefined) {
+      return fmt::format(
+          "the fragment at byte {} of the pixel data at byte {} has an undefined "
+          "length",
+          start, fragmentsAt);
+    }
     if (group == 0xfffe) {  // an item or a delimiter: no VR, a 4-byte length
       // Where GDCM reads an element's header, it asserts (aborts the process) on the tag
       // (fffe,0000), and on a sequence delimiter where the rest is read with 2-byte lengths
@@ -503,6 +522,8 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
         return "";
       }
       fragments = pixelData;  // encapsulated pixel data, else a sequence: items follow
+      if (pixelData)
+        fragmentsAt = start;
       if (!pixelData)
         open.emplace_back('S', start);
       continue;

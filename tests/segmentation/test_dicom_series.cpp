@@ -904,6 +904,44 @@ TEST_F(DicomSeriesRefusal, AnRleSeriesReadsAsTheUncompressedOne) {
   }
 }
 
+// Found by fuzz/fuzz_dicom (stop 34): two slices of the JPEG 2000 series, the basic offset table's
+// item tag in one changed to (fffe,ffff) with a length of 0xdddf. GDCM (gdcm::BasicOffsetTable)
+// throws there, and gdcm::Reader reads the data set again on from two bytes before that tag with
+// 2-byte lengths (VR16ExplicitDataElement), which met a 4-byte length of 3.78 GB and allocated it
+// (18 s, 3.7 GB for a 157 kB slice). Encapsulated pixel data is items up to a sequence delimiter
+// (DICOM PS3.5 A.4): anything else there, and a fragment of undefined length, is now damaged
+// before GDCM reads the file. Shown on the RLE series (seed found-oom-offset-table-not-an-item).
+TEST_F(DicomSeriesRefusal, EncapsulatedPixelDataOfAnythingButItemsIsDamaged) {
+  for (int k = 0; k < 6; ++k)
+    compressRle(path(k));
+  const std::string original = bytesOf(2);
+  const std::size_t frameAt = rleFrameIn(original).first;
+  ASSERT_NE(frameAt, std::string::npos);
+  const std::size_t pixelAt = frameAt - 28, tableAt = frameAt - 16, fragmentAt = frameAt - 8;
+  const auto damaged = [&](std::size_t at, const std::string& bytes) {
+    std::string changed = original;
+    changed.replace(at, bytes.size(), bytes);
+    std::ofstream(path(2), std::ios::binary | std::ios::trunc) << changed;
+    return refusal(path(2));
+  };
+  const std::string prefix = fileName(2) + ": is a damaged DICOM file: ";
+  EXPECT_CONTAINS(damaged(tableAt, std::string("\xfe\xff\xff\xff\xdf\xdd\0\0", 8)),
+                  prefix + "byte " + std::to_string(tableAt) +
+                      " of the file is neither a fragment of the pixel data at byte " +
+                      std::to_string(pixelAt) + " nor their end (tag (fffe,ffff))");
+  EXPECT_CONTAINS(damaged(fragmentAt, std::string("\x28\x00\x52\x10", 4)),
+                  prefix + "byte " + std::to_string(fragmentAt) +
+                      " of the file is neither a fragment of the pixel data at byte " +
+                      std::to_string(pixelAt) + " nor their end (tag (0028,1052))");
+  EXPECT_CONTAINS(damaged(fragmentAt + 4, std::string("\xff\xff\xff\xff", 4)),
+                  prefix + "the fragment at byte " + std::to_string(fragmentAt) +
+                      " of the pixel data at byte " + std::to_string(pixelAt) +
+                      " has an undefined length");
+  EXPECT_LT(peakKb(), 500L * 1024L) << "peak kB: a length GDCM read was allocated";
+  std::ofstream(path(2), std::ios::binary | std::ios::trunc) << original;
+  EXPECT_TRUE(readDicomSeries(folder_).hu == volume_.hu);
+}
+
 // Debian's GDCM (3.0.21) trusts an RLE frame's header: a segment count that does not divide the
 // slice's bytes fails an assertion in gdcm::RLECodec::Decode (`check == len`; found by
 // fuzz/fuzz_dicom) and 0 segments divide by zero (SIGFPE), both ending the process, already while
