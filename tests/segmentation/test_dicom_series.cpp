@@ -910,7 +910,8 @@ TEST_F(DicomSeriesRefusal, AnRleSeriesReadsAsTheUncompressedOne) {
 // 2-byte lengths (VR16ExplicitDataElement), which met a 4-byte length of 3.78 GB and allocated it
 // (18 s, 3.7 GB for a 157 kB slice). Encapsulated pixel data is items up to a sequence delimiter
 // (DICOM PS3.5 A.4): anything else there, and a fragment of undefined length, is now damaged
-// before GDCM reads the file. Shown on the RLE series (seed found-oom-offset-table-not-an-item).
+// before GDCM reads the file, and so is a delimiter after the fragments with a length. Shown on
+// the RLE series (seed found-oom-offset-table-not-an-item).
 TEST_F(DicomSeriesRefusal, EncapsulatedPixelDataOfAnythingButItemsIsDamaged) {
   for (int k = 0; k < 6; ++k)
     compressRle(path(k));
@@ -937,6 +938,15 @@ TEST_F(DicomSeriesRefusal, EncapsulatedPixelDataOfAnythingButItemsIsDamaged) {
                   prefix + "the fragment at byte " + std::to_string(fragmentAt) +
                       " of the pixel data at byte " + std::to_string(pixelAt) +
                       " has an undefined length");
+  // Found next (seed found-oom-fragments-delimiter-length-3a2958b6): the delimiter after the
+  // fragments with a length of 0x5b000000, which GDCM reads as a fragment's and allocates (1.5 GB
+  // for a 909-byte slice).
+  const std::size_t delimiterAt = original.rfind(std::string("\xfe\xff\xdd\xe0\0\0\0\0", 8));
+  ASSERT_NE(delimiterAt, std::string::npos);
+  EXPECT_CONTAINS(damaged(delimiterAt + 4, std::string("\0\0\0\x5b", 4)),
+                  prefix + "the sequence delimiter at byte " + std::to_string(delimiterAt) +
+                      " of the pixel data at byte " + std::to_string(pixelAt) +
+                      " has a length of 1526726656 (0 in DICOM)");
   EXPECT_LT(peakKb(), 500L * 1024L) << "peak kB: a length GDCM read was allocated";
   std::ofstream(path(2), std::ios::binary | std::ios::trunc) << original;
   EXPECT_TRUE(readDicomSeries(folder_).hu == volume_.hu);
