@@ -271,6 +271,27 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
   // (aborts the process) when the file ends first (gdcm::DataSet::ReadNested; found by
   // fuzz/fuzz_dicom).
   std::vector<std::pair<char, std::uint64_t>> open;
+  // The sequences ('S') and items ('I') of a defined length still open, innermost last: where
+  // each began and where it ends. An element must end within them: GDCM mends a data set whose
+  // element runs past its item or sequence ("Out of Range SQ detected", "Item length is wrong")
+  // by reading it again as a mixture of explicit and implicit VR, without clearing the stream's
+  // error state first, and asserts (aborts the process) when that read met the file's end (found
+  // by fuzz/fuzz_dicom, stop 34).
+  struct Within {
+    char kind;
+    std::uint64_t start, end;
+  };
+  std::vector<Within> within;
+  const auto pastItsEnd = [&](std::uint32_t group, std::uint32_t element, std::uint64_t start,
+                              std::uint64_t end) -> std::string {
+    if (within.empty() || end <= within.back().end)
+      return "";
+    return fmt::format(
+        "element ({:04x},{:04x}) at byte {} runs {} bytes past the end of the {} "
+        "at byte {}",
+        group, element, start, end - within.back().end,
+        within.back().kind == 'S' ? "sequence" : "item", within.back().start);
+  };
   // The VRs GDCM knows (gdcm::VR::GetVRTypeFromFile).
   static const std::set<std::string> kVr{"AE", "AS", "AT", "CS", "DA", "DS", "DT", "FD", "FL",
                                          "IS", "LO", "LT", "OB", "OD", "OF", "OL", "OV", "OW",
@@ -370,6 +391,8 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
   };
   while (pos + 8 <= size) {
     const std::uint64_t start = pos;
+    while (!within.empty() && start >= within.back().end)
+      within.pop_back();
     unsigned char e[12] = {};
     if (!bytes(pos, 8, e))
       return "";
@@ -420,6 +443,14 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
       }
       length = unsignedAt(e + 4, 4, big);
       pos = valueAt;
+      const bool definedItem = element == 0xe000 && length != kUndefined && !fragments;
+      // (An item longer than the file is damaged below, saying so.)
+      if (const std::string past = pastItsEnd(
+              group, element, start,
+              definedItem ? valueAt + std::min<std::uint64_t>(length, size - valueAt) : valueAt);
+          !past.empty()) {
+        return past;
+      }
       if (element == 0xe0dd && fragments) {
         // GDCM reads the delimiter of encapsulated pixel data as a fragment and allocates the
         // length it declares (gdcm::Fragment::ReadValue): 1.5 GB for a 909-byte file (found by
@@ -449,7 +480,9 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
                            length, size - pos);
       if (fragments)
         pos += length;  // a fragment of encapsulated pixel data: bytes, not elements
-      continue;         // an item of a sequence: its elements follow
+      else
+        within.push_back({'I', start, pos + length});
+      continue;  // an item of a sequence: its elements follow
     }
     const bool pixelData = group == 0x7fe0 && element == 0x0010;
     if (meta && metaImplicit) {
@@ -512,6 +545,14 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
       return fmt::format("element ({:04x},{:04x}) at byte {} of the file meta group is a {}", group,
                          element, start, vr == "SQ" ? "sequence" : "value of undefined length");
     }
+    // (An element longer than the file is damaged below, saying so.)
+    if (const std::string past = pastItsEnd(
+            group, element, start,
+            length == kUndefined ? valueAt
+                                 : valueAt + std::min<std::uint64_t>(length, size - valueAt));
+        !past.empty()) {
+      return past;
+    }
     pos = valueAt;
     // An undefined length in an explicit data set only on a sequence, UN, or pixel data of OB, OW
     // or UN: Debian's GDCM asserts (aborts the process) on any other
@@ -570,6 +611,8 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
     }
     if (vr != "SQ")
       pos += length;  // a value; a sequence's items follow as elements
+    else
+      within.push_back({'S', start, pos + length});
   }
   // A file that ends inside (or right after) its file meta group: GDCM asserts (aborts the
   // process) reading the next tag (found by fuzz/fuzz_dicom).

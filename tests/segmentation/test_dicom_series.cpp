@@ -904,6 +904,42 @@ TEST_F(DicomSeriesRefusal, AnRleSeriesReadsAsTheUncompressedOne) {
   }
 }
 
+// Found by fuzz/fuzz_dicom (stop 34, seed found-abort-element-past-its-item-3ac0f635): an element
+// inside an item of a defined length that runs past the item's end (a mutated JPEG 2000 slice).
+// GDCM warns ("Out of Range SQ detected", "Item length is wrong"), then reads the data set again
+// as a mixture of explicit and implicit VR without clearing the stream's error state, and asserts
+// (aborts the process) in gdcm::FileMetaInformation::ReadCompat when the first read had met the
+// file's end. An element (or an item) must end within the item (or sequence) of a defined length
+// it lies in (DICOM PS3.5 7.5); one that does not is damaged before GDCM reads the file. The same
+// sequence with its lengths right is read.
+TEST_F(DicomSeriesRefusal, AnElementRunningPastItsItemOrSequenceIsDamaged) {
+  const std::string original = bytesOf(2);
+  const std::size_t at = rescaleInterceptAt(original);
+  ASSERT_NE(at, std::string::npos);
+  const auto le32 = [](std::uint32_t v) { return le(v, 4); };
+  const std::string element(
+      "\x08\x00\x50\x11UI\x08\x00"
+      "1.2.3.4\0",
+      16);
+  const auto withSequence = [&](std::uint32_t sequenceLength, std::uint32_t itemLength) {
+    std::string bytes = original;
+    bytes.insert(at, std::string("\x08\x00\x40\x11SQ\0\0", 8) + le32(sequenceLength) +
+                         std::string("\xfe\xff\x00\xe0", 4) + le32(itemLength) + element);
+    std::ofstream(path(2), std::ios::binary | std::ios::trunc) << bytes;
+  };
+  withSequence(24, 16);
+  EXPECT_TRUE(readDicomSeries(folder_).hu == volume_.hu) << "the lengths right";
+  const std::string prefix = fileName(2) + ": is a damaged DICOM file: ";
+  withSequence(20, 12);
+  EXPECT_CONTAINS(refusal(path(2)),
+                  prefix + "element (0008,1150) at byte " + std::to_string(at + 20) +
+                      " runs 4 bytes past the end of the item at byte " + std::to_string(at + 12));
+  withSequence(20, 16);
+  EXPECT_CONTAINS(refusal(path(2)),
+                  prefix + "element (fffe,e000) at byte " + std::to_string(at + 12) +
+                      " runs 4 bytes past the end of the sequence at byte " + std::to_string(at));
+}
+
 // Found by fuzz/fuzz_dicom (stop 34): two slices of the JPEG 2000 series, the basic offset table's
 // item tag in one changed to (fffe,ffff) with a length of 0xdddf. GDCM (gdcm::BasicOffsetTable)
 // throws there, and gdcm::Reader reads the data set again on from two bytes before that tag with
