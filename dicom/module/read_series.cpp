@@ -496,6 +496,17 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
       const bool printable =
           std::all_of(vr.begin(), vr.end(), [](char c) { return c >= ' ' && c <= '~'; });
       const bool unknownVr = otherVr && !printable;
+      // GDCM's first read of an explicit data set stops at the first element whose VR it cannot
+      // read (a ParseException naming that element), and asserts (aborts the process) when that
+      // element's tag is (feff,00e0), an item tag byte-swapped (gdcm::Reader: "Philips with
+      // ByteSwap private sequence"; 8 bytes inserted in a slice were enough).
+      if (unknownVr && !sawUnknownVr && way == ReadWay::AsEncoded && group == 0xfeff &&
+          element == 0x00e0) {
+        return fmt::format(
+            "element (feff,00e0) at byte {}, an item tag byte-swapped, has no VR "
+            "(bytes {:02x} {:02x})",
+            start, e[4], e[5]);
+      }
       sawUnknownVr = sawUnknownVr || unknownVr;
       readingVr16 = readingVr16 || (unknownVr && !big);
       // GDCM asserts (aborts the process) on pixel data of an unknown VR whose next two bytes are

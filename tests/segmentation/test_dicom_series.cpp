@@ -904,6 +904,23 @@ TEST_F(DicomSeriesRefusal, AnRleSeriesReadsAsTheUncompressedOne) {
   }
 }
 
+// Found reading gdcm::Reader for the previous case (stop 34): GDCM's first read of an explicit data
+// set stops at the first element whose VR it cannot read, and when that element's tag is
+// (feff,00e0), an item tag byte-swapped (its fallback for a Philips bug it never finished), it
+// asserts: the 8 bytes (feff,00e0) "\0\0" 0 inserted in a slice made `echoreg info` abort. Refused
+// as damaged before GDCM reads the file; an element of an unknown VR with another tag is walked as
+// before (AnUnknownVrInABigEndianGuessIsWalkedLittleEndianAsGdcmRereadsIt and others).
+TEST_F(DicomSeriesRefusal, AByteSwappedItemTagWithoutAVrIsDamaged) {
+  std::string bytes = bytesOf(2);
+  const std::size_t at = rescaleInterceptAt(bytes);
+  ASSERT_NE(at, std::string::npos);
+  bytes.insert(at, std::string("\xff\xfe\xe0\x00\0\0\0\0", 8));
+  std::ofstream(path(2), std::ios::binary | std::ios::trunc) << bytes;
+  EXPECT_CONTAINS(refusal(path(2)),
+                  fileName(2) + ": is a damaged DICOM file: element (feff,00e0) at byte " +
+                      std::to_string(at) + ", an item tag byte-swapped, has no VR (bytes 00 00)");
+}
+
 // Found by fuzz/fuzz_dicom (stop 34, seed found-abort-element-past-its-item-3ac0f635): an element
 // inside an item of a defined length that runs past the item's end (a mutated JPEG 2000 slice).
 // GDCM warns ("Out of Range SQ detected", "Item length is wrong"), then reads the data set again
