@@ -441,6 +441,14 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
         return fmt::format("a {} at byte {} stands where an element must",
                            element == 0x0000 ? "tag (fffe,0000)" : "sequence delimiter", start);
       }
+      // Group fffe holds items and delimiters only. GDCM reads any other tag of it as an element
+      // with a VR, fails there, and reads the data set again on from it with 2-byte lengths
+      // (VR16ExplicitDataElement), at the top level, where the sequence delimiter behind it made
+      // it assert (found by fuzz/fuzz_dicom, stop 34).
+      if (element != 0xe000 && element != 0xe00d && element != 0xe0dd) {
+        return fmt::format("the tag (fffe,{:04x}) at byte {} is neither an item nor a delimiter",
+                           element, start);
+      }
       length = unsignedAt(e + 4, 4, big);
       pos = valueAt;
       const bool definedItem = element == 0xe000 && length != kUndefined && !fragments;

@@ -904,6 +904,28 @@ TEST_F(DicomSeriesRefusal, AnRleSeriesReadsAsTheUncompressedOne) {
   }
 }
 
+// Found by fuzz/fuzz_dicom (stop 34, seed found-abort-group-fffe-element): inside a sequence's item
+// an element with the tag (fffe,23f3), then the item's and the sequence's delimiters. GDCM reads a
+// tag of group fffe other than an item or a delimiter as an element with a VR, fails on its VR,
+// reads the data set again on from it with 2-byte lengths at the top level, and asserts on the
+// sequence delimiter behind it. Group fffe holds items and delimiters only: any other tag of it
+// is damaged before GDCM reads the file.
+TEST_F(DicomSeriesRefusal, AGroupFffeTagThatIsNoItemNorDelimiterIsDamaged) {
+  std::string bytes = bytesOf(2);
+  const std::size_t at = rescaleInterceptAt(bytes);
+  ASSERT_NE(at, std::string::npos);
+  bytes.insert(at, std::string("\x08\x00\x15\x11SQ\0\0\xff\xff\xff\xff"
+                               "\xfe\xff\x00\xe0\xff\xff\xff\xff"
+                               "\xfe\xff\xf3\x23\0\0\0\0"
+                               "\xfe\xff\x0d\xe0\0\0\0\0"
+                               "\xfe\xff\xdd\xe0\0\0\0\0",
+                               44));
+  std::ofstream(path(2), std::ios::binary | std::ios::trunc) << bytes;
+  EXPECT_CONTAINS(refusal(path(2)),
+                  fileName(2) + ": is a damaged DICOM file: the tag (fffe,23f3) at byte " +
+                      std::to_string(at + 20) + " is neither an item nor a delimiter");
+}
+
 // Found reading gdcm::Reader for the previous case (stop 34): GDCM's first read of an explicit data
 // set stops at the first element whose VR it cannot read, and when that element's tag is
 // (feff,00e0), an item tag byte-swapped (its fallback for a Philips bug it never finished), it
