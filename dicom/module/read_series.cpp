@@ -362,15 +362,24 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
   constexpr std::uint32_t kUndefined = 0xffffffffu;
   // Does the sequence whose items start at `from` read in implicit VR little endian (a 4-byte
   // length after each tag; items and nested sequences of undefined length closed by their
-  // delimiters) to its sequence delimiter, every length within the file?
-  const auto implicitSequenceEnds = [&](std::uint64_t from) {
+  // delimiters) to its sequence delimiter, every length within the file? Returns where it ends
+  // (after that delimiter), or 0. A tag of group fffe that is no item nor delimiter in it is
+  // damaged (`damage`): GDCM's implicit read fails there and it reads the data set again as
+  // GDCM 1.x wrote it (a VR UN with a 2-byte length: UNExplicitDataElement), which took the text
+  // behind it for a length of 1.7 GB (found by fuzz/fuzz_dicom, stop 35).
+  const auto implicitSequenceEnd = [&](std::uint64_t from, std::string& damage) -> std::uint64_t {
     std::vector<char> nesting{'S'};
     for (std::uint64_t at = from; at + 8 <= size;) {
       unsigned char h[8] = {};
       if (!bytes(at, 8, h))
-        return false;
+        return 0;
       const std::uint32_t group = unsignedAt(h, 2, false), element = unsignedAt(h + 2, 2, false);
       const std::uint32_t length = unsignedAt(h + 4, 4, false);
+      if (group == 0xfffe && element != 0xe000 && element != 0xe00d && element != 0xe0dd) {
+        damage = fmt::format("the tag (fffe,{:04x}) at byte {} is neither an item nor a delimiter",
+                             element, at);
+        return 0;
+      }
       at += 8;
       if (group == 0xfffe && (element == 0xe00d || element == 0xe0dd)) {
         if (!nesting.empty() && nesting.back() == 'I')
@@ -378,16 +387,16 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
         if (element == 0xe0dd && !nesting.empty())
           nesting.pop_back();
         if (nesting.empty())
-          return true;
+          return at;
       } else if (length == kUndefined) {
         nesting.push_back(group == 0xfffe ? 'I' : 'S');
       } else if (length > size - at) {
-        return false;
+        return 0;
       } else if (group != 0xfffe || element != 0xe000) {
         at += length;  // a value (an item of a defined length: its elements follow)
       }
     }
-    return false;
+    return 0;
   };
   while (pos + 8 <= size) {
     const std::uint64_t start = pos;
@@ -587,8 +596,21 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
       if (vr == "UN" && way != ReadWay::UnSequencesExplicit) {
         // A sequence in implicit VR inside an explicit data set: GDCM reads it so, and reads the
         // data set again the UnSequencesExplicit way when that fails.
-        unFailsImplicit = unFailsImplicit || !implicitSequenceEnds(pos);
-        return "";
+        // (Pixel data of VR UN and an undefined length: fragments, not items; as before.)
+        std::string damage;
+        const std::uint64_t end = implicitSequenceEnd(pos, damage);
+        if (pixelData) {
+          unFailsImplicit = unFailsImplicit || end == 0;
+          return "";
+        }
+        if (!damage.empty())
+          return damage;
+        if (end == 0) {
+          unFailsImplicit = true;
+          return "";
+        }
+        pos = end;  // the data set goes on as encoded behind the sequence
+        continue;
       }
       fragments = pixelData;  // encapsulated pixel data, else a sequence: items follow
       if (pixelData)

@@ -926,6 +926,48 @@ TEST_F(DicomSeriesRefusal, AGroupFffeTagThatIsNoItemNorDelimiterIsDamaged) {
                       std::to_string(at + 20) + " is neither an item nor a delimiter");
 }
 
+// Found by fuzz/fuzz_dicom (stop 35, seed found-oom-fffe-tag-in-un-sequence-c4f50699): the same tag
+// (fffe,23f3) inside an item of a sequence of VR UN and an undefined length, which GDCM reads in
+// implicit VR (CP 246). Its implicit read fails there, and it reads the data set again as GDCM 1.x
+// wrote it (a VR UN with a 2-byte length), which took text further on for a length of 1.7 GB: 6.6 s
+// and 1.7 GB for a 901-byte file before it gave up. The walk checked nothing inside or behind such
+// a sequence; it now walks the sequence's tags and goes on behind it.
+TEST_F(DicomSeriesRefusal, AGroupFffeTagInASequenceOfVrUnIsDamaged) {
+  const std::string original = bytesOf(2);
+  const std::size_t at = rescaleInterceptAt(original);
+  ASSERT_NE(at, std::string::npos);
+  const auto withUnSequence = [&](const std::string& inItem, const std::string& behind) {
+    std::string bytes = original;
+    bytes.insert(at, std::string("\x08\x00\x15\x11UN\0\0\xff\xff\xff\xff"
+                                 "\xfe\xff\x00\xe0\xff\xff\xff\xff",
+                                 20) +
+                         inItem +
+                         std::string("\xfe\xff\x0d\xe0\0\0\0\0"
+                                     "\xfe\xff\xdd\xe0\0\0\0\0",
+                                     16) +
+                         behind);
+    std::ofstream(path(2), std::ios::binary | std::ios::trunc) << bytes;
+  };
+  // An element in implicit VR in the item: read.
+  const std::string implicitElement(
+      "\x08\x00\x50\x11\x08\0\0\0"
+      "1.2.3.4\0",
+      16);
+  withUnSequence(implicitElement, "");
+  EXPECT_TRUE(readDicomSeries(folder_).hu == volume_.hu) << "a good sequence of VR UN";
+  const std::string prefix = fileName(2) + ": is a damaged DICOM file: ";
+  withUnSequence(std::string("\xfe\xff\xf3\x23\0\0\0\0", 8), "");
+  EXPECT_CONTAINS(refusal(path(2)), prefix + "the tag (fffe,23f3) at byte " +
+                                        std::to_string(at + 20) +
+                                        " is neither an item nor a delimiter");
+  // Behind the sequence the data set is walked as before: the byte-swapped item tag without a VR
+  // (AByteSwappedItemTagWithoutAVrIsDamaged) made GDCM abort there.
+  withUnSequence(implicitElement, std::string("\xff\xfe\xe0\x00\0\0\0\0", 8));
+  EXPECT_CONTAINS(refusal(path(2)), prefix + "element (feff,00e0) at byte " +
+                                        std::to_string(at + 52) +
+                                        ", an item tag byte-swapped, has no VR (bytes 00 00)");
+}
+
 // Found reading gdcm::Reader for the previous case (stop 34): GDCM's first read of an explicit data
 // set stops at the first element whose VR it cannot read, and when that element's tag is
 // (feff,00e0), an item tag byte-swapped (its fallback for a Philips bug it never finished), it
