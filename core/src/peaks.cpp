@@ -636,6 +636,13 @@ bool isAirTrain(const float* envelope, int count, int index, double ratio, int r
   // it has its earlier bounces before it, each nearly as strong as the next or stronger. A fascia 2
   // mm above bone, followed by the bone and the cortex's ringing, is spaced like neither.
   const int slack = std::max(radius, spacing / 25);
+  // Either way the echo's own time of flight is the spacing or a multiple of it: the path from
+  // the face to the interface and back is the train's spacing. An echo that arrived sooner than
+  // one spacing after the transmit cannot head a train at that spacing: a strong fascia at 7.7 mm
+  // with bone's echo at 19.2 mm (2.5 times as deep, nearly as strong) was taken for air, and the
+  // bone behind it rejected (physical set, hand-held profile; stop 35).
+  if (index - emissionSample < spacing - 2.0 * slack)
+    return false;
   const bool fromFace = std::fabs((index - emissionSample) - spacing) <= 2.0 * slack;
   if (!fromFace) {
     float later = value;
