@@ -1208,6 +1208,7 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
     bone.bone.noiseShadowEchoFactor = params.prominence.noiseShadowEchoFactor;
     bone.bone.noiseShadowMaxWidthSamples = kNoiseShadowMaxCycles * params.samplesPerCycle;
     bone.ringDownEnd = 0;
+    bone.emissionSample = params.emissionSample - ringDown;  // the record after the ring-down
     if (bone.windowBegin)
       bone.windowBegin = std::max(0, *bone.windowBegin - ringDown);
     if (bone.windowEnd)
@@ -1437,9 +1438,48 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       }
       if (strongest < 0.F)
         break;
+      // An echo beyond the strongest's shadow is no faint echo behind it: the share does not apply
+      // to one whose tissue before it lies wholly behind the strongest's shadow region (the two
+      // regions apart) and stands above the record's quiet level, as bone's shadow never does,
+      // unless the strongest heads an air train (its later bounces have quiet before them too).
+      // A strong fascia with a dark muscle behind it (a shadow to the test) took the pick from
+      // bone 10-16 mm under it, much weaker at oblique incidence: the physical set's hand-held
+      // captures judged by the shadow, seeds 10-18, accepted echoes more than 0.5 mm from bone
+      // 14.3 -> 9.2 %, randomised 6.1 -> 5.2 %, no rate of misses or false positives moved more
+      // than 0.1 point (stop 35).
+      int strongestAt = -1;
+      for (int candidate : byValue) {
+        if (result.peaks[static_cast<std::size_t>(candidate)].value == strongest) {
+          strongestAt = result.peaks[static_cast<std::size_t>(candidate)].index;
+          break;
+        }
+      }
+      const int region =
+          std::max(1, static_cast<int>(std::lround(params.bone.regionMm / params.mmPerSample)));
+      const int gap = static_cast<int>(std::lround(params.bone.gapMm / params.mmPerSample));
+      int strongestIsAir = -1;  // decided on first use
+      const auto beyondShadow = [&](const Peak& peak) {
+        if (peak.index - strongestAt <= 2 * (region + gap) + 1)
+          return false;
+        const double before =
+            medianOf(envelope, count, peak.index - gap - region, peak.index - gap, scratch);
+        if (before < kNoiseShadowTissue * shadowLevel(peak.index - gap - 0.5 * region))
+          return false;
+        if (strongestIsAir < 0) {
+          const int radius =
+              std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
+          strongestIsAir =
+              isAirTrain(envelope, count, strongestAt, params.prominence.airReverberation, radius,
+                         params.emissionSample, 0, scratch)
+                  ? 1
+                  : 0;
+        }
+        return strongestIsAir == 0;
+      };
       for (int candidate = found - 1; candidate >= 0; --candidate) {
         const Peak& peak = result.peaks[static_cast<std::size_t>(candidate)];
-        if (peak.value >= params.bone.minShareOfStrongest * strongest && hasSignature(candidate)) {
+        if ((peak.value >= params.bone.minShareOfStrongest * strongest || beyondShadow(peak)) &&
+            hasSignature(candidate)) {
           accept(candidate, peak.index);
           break;
         }
