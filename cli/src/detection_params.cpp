@@ -98,7 +98,7 @@ const std::vector<Tunable>& tunables() {
        "Policy: prominence (default) | bone | single | double | window-max | first | max",
        std::string(),
        [](P& p, const V& v) { p.peaks.policy = core::parsePeakPolicy(as<std::string>(v)); }},
-      {"echo-snr", "Prominence policy", "prominence: min peak / noise floor (8)", 0.0,
+      {"echo-snr", "Prominence policy", "prominence: min peak / noise floor (6)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.minSnr = as<double>(v); }},
       {"echo-over-median", "Prominence policy", "prominence: min peak / median envelope (3)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.minOverMedian = as<double>(v); }},
