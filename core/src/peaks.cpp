@@ -787,17 +787,18 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     if (c.index - left > maxRise) {  // a slow rise: a burst of noise, not a pulse
       continue;
     }
-    // What lies before and after the echo, beyond its own extent.
+    // What lies before and after the echo, beyond its own extent (after only for an echo above
+    // the speckle before it: most candidates near the noise are not, and a median costs).
     const double before =
         medianOf(envelope, count, std::max(ringDown, left - gap - region), left - gap, scratch);
+    if (before >= 0.0 && c.value < e.minContrast * std::max(before, tiny)) {
+      continue;
+    }
     const double after = medianOf(envelope, count, right + gap, right + gap + region, scratch);
     // Where they lie, for the quiet level at their depth (time-gain compensation), and the water
     // from the ring-down to the echo.
     const double beforeAt = 0.5 * (std::max(ringDown, left - gap - region) + left - gap);
     const double waterAt = 0.5 * (ringDown + left - gap);
-    if (before >= 0.0 && c.value < e.minContrast * std::max(before, tiny)) {
-      continue;
-    }
     tailEnd = std::max(tailEnd, tail.end);
     // Bare bone in water that rings: water before it all the way from the ring-down, and a
     // decaying train behind it that dies into the quiet (ringsIntoQuiet); a wall's tissue does
@@ -834,8 +835,15 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
       continue;
     }
     c.passed = true;
-    const auto isShadow = [&](int from, int to) {
-      const double behind = medianOf(envelope, count, from, to, scratch);
+    // The medians behind the echo over the near half region and the whole region (`after`),
+    // each taken once: the shadow and the ringing tests share them.
+    double nearAfter = -2.0;
+    const auto nearAfterMedian = [&]() {
+      if (nearAfter < -1.5)
+        nearAfter = medianOf(envelope, count, right + gap, right + gap + region / 2, scratch);
+      return nearAfter;
+    };
+    const auto isShadow = [&](int from, int to, double behind) {
       // Under time-gain compensation the same noise is louder behind than before by the gain
       // between them; "no louder than before" allows for it.
       const double behindAt = 0.5 * (from + std::min(to, count));
@@ -863,15 +871,14 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     };
     // A shadow needs room behind the echo to be seen.
     c.contrast = before >= 0.0 ? c.value / std::max(before, tiny) : 1e9;
-    c.shadowed = (c.contrast >= e.shadowContrast && count - (right + gap) >= region / 2 &&
-                  before >= 0.0 && isShadow(right + gap, right + gap + region / 2) &&
-                  isShadow(right + gap, right + gap + region)) ||
-                 ringsInWater();
+    c.shadowed =
+        (c.contrast >= e.shadowContrast && count - (right + gap) >= region / 2 && before >= 0.0 &&
+         isShadow(right + gap, right + gap + region / 2, nearAfterMedian()) &&
+         isShadow(right + gap, right + gap + region, after)) ||
+        ringsInWater();
     // Shallow bone in vivo: its cortex rings, the envelope behind it stays near its own height
     // (behind a fascia or the skin, the tissue's speckle is far below the echo).
-    const double nearAfter =
-        medianOf(envelope, count, right + gap, right + gap + region / 2, scratch);
-    c.ringing = nearAfter >= e.ringingFraction * c.value &&
+    c.ringing = nearAfterMedian() >= e.ringingFraction * c.value &&
                 (c.contrast >= e.ringingContrast ||
                  (c.contrast >= kDominantRingingContrast && c.value >= strongestCandidate &&
                   dominatesOutside(candidates, c, region)));
