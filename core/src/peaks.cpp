@@ -605,6 +605,12 @@ float maxAround(const float* envelope, int count, double centre, int radius) {
   return best;
 }
 
+// How far a bounce may land from its multiple of a train's spacing (isAirTrain, the reverberation
+// test): two periods of the transducer, at least two samples.
+int reverbRadiusOf(const PeakParams& params) {
+  return std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
+}
+
 // An air interface (a probe uncoupled, a standoff in air) sends its echo back almost whole, again
 // and again: a train of echoes at one spacing, each at least `ratio` of the one before (and no
 // stronger), with nothing between them. Bone returns half the energy at most, so its second
@@ -749,7 +755,7 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   const int gap = std::max(1, static_cast<int>(std::lround(params.samplesPerCycle)));
   const int maxRise =
       std::max(2, static_cast<int>(std::lround(e.maxRiseCycles * params.samplesPerCycle)));
-  const int reverbRadius = std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
+  const int reverbRadius = reverbRadiusOf(params);
   LazyLevel quietLevel(envelope, count, ringDown, region / 2, params.gainDbPerSample);
   float strongestCandidate = 0.F;
   for (const EchoCandidate& c : candidates)
@@ -1238,7 +1244,7 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
       // The bone policy cannot tell a probe in air from bone under tissue: its reverberation
       // train can.
       std::vector<float> scratch;
-      const int radius = std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
+      const int radius = reverbRadiusOf(params);
       const int index = shifted.peaks[static_cast<std::size_t>(shifted.selected)].index;
       if (isAirTrain(envelope, count, index, params.prominence.airReverberation, radius,
                      params.emissionSample, ringDown, scratch)) {
@@ -1468,8 +1474,7 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
         if (before < kNoiseShadowTissue * shadowLevel(peak.index - gap - 0.5 * region))
           return false;
         if (strongestIsAir < 0) {
-          const int radius =
-              std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
+          const int radius = reverbRadiusOf(params);
           strongestIsAir =
               isAirTrain(envelope, count, strongestAt, params.prominence.airReverberation, radius,
                          params.emissionSample, 0, scratch)

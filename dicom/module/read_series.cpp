@@ -360,6 +360,14 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
                                               "FL", "FD", "IS", "LO", "LT", "PN", "SH",
                                               "SL", "SS", "ST", "TM", "UI", "UL", "US"};
   constexpr std::uint32_t kUndefined = 0xffffffffu;
+  // Group fffe holds items and delimiters only: any other tag of it is damaged (why, where each
+  // is checked), "" otherwise.
+  const auto notItemNorDelimiter = [](std::uint32_t element, std::uint64_t at) -> std::string {
+    if (element == 0xe000 || element == 0xe00d || element == 0xe0dd)
+      return "";
+    return fmt::format("the tag (fffe,{:04x}) at byte {} is neither an item nor a delimiter",
+                       element, at);
+  };
   // Does the sequence whose items start at `from` read in implicit VR little endian (a 4-byte
   // length after each tag; items and nested sequences of undefined length closed by their
   // delimiters) to its sequence delimiter, every length within the file? Returns where it ends
@@ -375,11 +383,8 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
         return 0;
       const std::uint32_t group = unsignedAt(h, 2, false), element = unsignedAt(h + 2, 2, false);
       const std::uint32_t length = unsignedAt(h + 4, 4, false);
-      if (group == 0xfffe && element != 0xe000 && element != 0xe00d && element != 0xe0dd) {
-        damage = fmt::format("the tag (fffe,{:04x}) at byte {} is neither an item nor a delimiter",
-                             element, at);
+      if (group == 0xfffe && !(damage = notItemNorDelimiter(element, at)).empty())
         return 0;
-      }
       at += 8;
       if (group == 0xfffe && (element == 0xe00d || element == 0xe0dd)) {
         if (!nesting.empty() && nesting.back() == 'I')
@@ -454,10 +459,8 @@ std::string walkElements(const fs::path& path, ReadWay way, bool& sawUnknownVr,
       // with a VR, fails there, and reads the data set again on from it with 2-byte lengths
       // (VR16ExplicitDataElement), at the top level, where the sequence delimiter behind it made
       // it assert (found by fuzz/fuzz_dicom, stop 34).
-      if (element != 0xe000 && element != 0xe00d && element != 0xe0dd) {
-        return fmt::format("the tag (fffe,{:04x}) at byte {} is neither an item nor a delimiter",
-                           element, start);
-      }
+      if (std::string damage = notItemNorDelimiter(element, start); !damage.empty())
+        return damage;
       length = unsignedAt(e + 4, 4, big);
       pos = valueAt;
       const bool definedItem = element == 0xe000 && length != kUndefined && !fragments;
