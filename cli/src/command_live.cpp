@@ -220,7 +220,7 @@ class LiveSession {
   std::optional<std::pair<double, live::FrameMetadata>> frameMetadata_;
   core::Sequence unpaired_;  // transforms received at no A-line's time (a tracker-only capture)
 
-  int frames_ = 0, accepted_ = 0, updates_ = 0, skipped_ = 0;
+  int frames_ = 0, accepted_ = 0, updates_ = 0;
   std::map<std::string, int> reasons_;
   std::map<std::string, std::string> reasonExamples_;
   std::map<std::string, int> messagesByType_;
