@@ -100,7 +100,7 @@ const std::vector<Tunable>& tunables() {
        [](P& p, const V& v) { p.peaks.policy = core::parsePeakPolicy(as<std::string>(v)); }},
       {"echo-snr", "Prominence policy", "prominence: min peak / noise floor (6)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.minSnr = as<double>(v); }},
-      {"echo-over-median", "Prominence policy", "prominence: min peak / median envelope (3)", 0.0,
+      {"echo-over-median", "Prominence policy", "prominence: min peak / median envelope (2)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.minOverMedian = as<double>(v); }},
       {"echo-prominence", "Prominence policy", "prominence: min prominence / peak, (0, 1] (0.5)",
        0.0, [](P& p, const V& v) { p.peaks.prominence.minProminence = as<double>(v); }},

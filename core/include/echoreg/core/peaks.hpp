@@ -134,7 +134,7 @@ ShadowRule parseShadowRule(std::string_view name);
 
 struct ProminenceParams {
   double minSnr = 6.0;             ///< peak / noise floor (> 1)
-  double minOverMedian = 3.0;      ///< peak / median of the envelope after the ring-down (>= 1)
+  double minOverMedian = 2.0;      ///< peak / median of the envelope after the ring-down (>= 1)
   double minProminence = 0.5;      ///< prominence / peak height, (0, 1]
   double maxRiseCycles = 3.0;      ///< leading edge, transducer periods (> 0)
   double minContrast = 2.0;        ///< peak / median of the envelope before it (>= 1)
