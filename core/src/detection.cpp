@@ -1,5 +1,7 @@
 #include "echoreg/core/detection.hpp"
 
+#include "echoreg/core/number_text.hpp"
+
 #include <unsupported/Eigen/FFT>
 
 #include <algorithm>
@@ -11,6 +13,10 @@
 namespace echoreg::core {
 
 namespace {
+
+// A sample index far outside any record (a billion samples: 20 s at 50 MHz) that still fits an
+// int with room to spare.
+constexpr double kFarSample = 1e9;
 
 void require(bool condition, const std::string& message) {
   if (!condition)
@@ -149,12 +155,19 @@ PeakParams resolvePeakParams(const DetectionParams& params) {
     peaks.samplesPerCycle = fs / transducer;
   peaks.emissionSample = -params.depth.delayS * fs;
   peaks.ringDownEnd = std::max(peaks.ringDownEnd, params.envelope.ringDownSamples);
+  // A depth far beyond any record (--window-mm 0 1e9: 6.5e10 samples) does not fit an int; the
+  // window is clipped to the record where it is used, so a bound well outside int's range but
+  // inside any record's reach keeps its meaning.
+  // The end is clipped one sample further than the beginning, so that a window beyond reach
+  // stays a window (adaptToCapture says it lies beyond the record).
   if (params.windowMinMm) {
-    peaks.windowBegin = static_cast<int>(std::ceil(params.depth.sampleIndex(*params.windowMinMm)));
+    peaks.windowBegin = static_cast<int>(std::clamp(
+        std::ceil(params.depth.sampleIndex(*params.windowMinMm)), -kFarSample, kFarSample));
   }
   if (params.windowMaxMm) {
     peaks.windowEnd =
-        static_cast<int>(std::floor(params.depth.sampleIndex(*params.windowMaxMm))) + 1;
+        static_cast<int>(std::clamp(std::floor(params.depth.sampleIndex(*params.windowMaxMm)) + 1.0,
+                                    -kFarSample + 1.0, kFarSample + 1.0));
   }
   return peaks;
 }
@@ -528,6 +541,38 @@ DetectionParams adaptToCapture(const DetectionParams& given, int recordCount, in
   }
   out.highPassSamples = params.envelope.highPassSamples;
   out.envelopeWindowSamples = params.envelope.windowSamples;
+  // A processing window wholly outside the record finds nothing in any record.
+  if (samples > 0 && (params.windowMinMm || params.windowMaxMm)) {
+    const PeakParams resolved = resolvePeakParams(params);
+    const double firstMm = params.depth.depthMm(0.0);
+    const double lastMm = params.depth.depthMm(samples - 1.0);
+    const std::string window = "the processing window (" +
+                               number(params.windowMinMm.value_or(firstMm), "%.6g") + " to " +
+                               number(params.windowMaxMm.value_or(lastMm), "%.6g") + " mm)";
+    if (resolved.windowBegin && *resolved.windowBegin >= samples) {
+      throw std::invalid_argument(window + " starts beyond the record, whose last sample lies at " +
+                                  number(lastMm, 1) + " mm");
+    }
+    if (resolved.windowEnd && *resolved.windowEnd <= 0) {
+      throw std::invalid_argument(window + " ends before the record, whose first sample lies at " +
+                                  number(firstMm, 1) + " mm");
+    }
+  }
+  // Lengths in samples longer than the record mean nothing for it (every sample's window would
+  // be the whole record), and the envelope's weights alone take memory in proportion to them
+  // (--envelope-window 1000000000: 24 GB before the kernel stopped it): refused before any
+  // envelope is computed.
+  if (samples > 0 && params.envelope.windowSamples > samples) {
+    throw std::invalid_argument(
+        "the envelope window (" + std::to_string(params.envelope.windowSamples) +
+        " samples) is longer than the whole " + std::to_string(samples) + "-sample record");
+  }
+  if (samples > 0 && params.envelope.method == EnvelopeMethod::Hilbert &&
+      params.envelope.smoothingSamples > samples) {
+    throw std::invalid_argument(
+        "the envelope's smoothing (" + std::to_string(params.envelope.smoothingSamples) +
+        " samples) is longer than the whole " + std::to_string(samples) + "-sample record");
+  }
 
   if (params.adapt.ringDown && recordCount > 0 && samples > 0) {
     // The median envelope over records spread through the capture: the ring-down is the same in

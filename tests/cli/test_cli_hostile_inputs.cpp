@@ -448,6 +448,20 @@ TEST_F(CliHostileInputs, EachIsRefusedNamingTheFileOrFlagWithNothingWritten) {
       {{"study", "run", "@array-study"},
        1,
        "@array-study/study.json: is not an echoreg study manifest"},
+      // Item 12: lengths in samples longer than the record (the envelope window of a billion
+      // samples took 24 GB until the kernel killed it) and a window beyond it (1e9 mm was cast to
+      // an int out of its range, then refused as "processing window must have min < max").
+      {{"detect", "@capture.igs.mha", "--envelope-window", "1000000000", "--out", "@out.csv"},
+       1,
+       "@capture.igs.mha: the envelope window (1000000000 samples) is longer than the whole "},
+      {{"detect", "@capture.igs.mha", "--envelope", "hilbert", "--smoothing", "1000000000", "--out",
+        "@out.csv"},
+       1,
+       "@capture.igs.mha: the envelope's smoothing (1000000000 samples) is longer than the whole "},
+      {{"detect", "@capture.igs.mha", "--window-mm", "1e9", "2e9", "--out", "@out.csv"},
+       1,
+       "@capture.igs.mha: the processing window (1e+09 to 2e+09 mm) starts beyond the record, "
+       "whose last sample lies at "},
       // Item 12: register with more points than it takes.
       {{"register", "--model", "@good.obj", "--points", "@points.csv", "--initial",
         "@FemurToCT.json", "--max-points", "3", "--out", "@out.json"},

@@ -12,6 +12,7 @@
 #include <cmath>
 #include <random>
 #include <stdexcept>
+#include <string>
 #include <vector>
 
 namespace echoreg::core {
@@ -100,6 +101,59 @@ TEST(CaptureAdaptation, GivenValuesWinAndARingDownLongerThanTheRecordIsRefused) 
   given.envelope.ringDownSamples = 1500;
   EXPECT_THROW(adaptToCapture(given, 10, 1500, sourceOf(records), std::nullopt),
                std::invalid_argument);
+}
+
+// Issue 15, item 12: an envelope window or a smoothing longer than the record is refused before
+// any envelope is computed (a window of a billion samples took 24 GB); a processing window is
+// clipped to the record, however far it reaches (1e9 mm was cast to an int out of its range), and
+// one wholly beyond the record is refused.
+TEST(CaptureAdaptation, LengthsBeyondTheRecordAreRefusedAndFarWindowsClipped) {
+  const auto records = capture(7e6, 10, 30.0, 0.0);
+  DetectionParams given = detectionPreset("default");
+  given.depth.samplingFrequencyHz = 50e6;
+  given.adapt.envelopeCycles = 0.0;
+  given.envelope.windowSamples = 1000000000;
+  EXPECT_THROW(adaptToCapture(given, 10, 1500, sourceOf(records), std::nullopt),
+               std::invalid_argument);
+  given.envelope.windowSamples = 1500;  // the whole record: allowed
+  EXPECT_NO_THROW(adaptToCapture(given, 10, 1500, sourceOf(records), std::nullopt));
+  DetectionParams hilbert = detectionPreset("default");
+  hilbert.depth.samplingFrequencyHz = 50e6;
+  hilbert.envelope.method = EnvelopeMethod::Hilbert;
+  hilbert.envelope.smoothingSamples = 1501;
+  EXPECT_THROW(adaptToCapture(hilbert, 10, 1500, sourceOf(records), std::nullopt),
+               std::invalid_argument);
+
+  DetectionParams far = detectionPreset("default");
+  far.depth.samplingFrequencyHz = 50e6;
+  far.windowMinMm = 0.0;
+  far.windowMaxMm = 1e9;
+  const PeakParams clipped = resolvePeakParams(far);
+  EXPECT_EQ(*clipped.windowBegin, 0);
+  EXPECT_GT(*clipped.windowEnd, 1500);
+  // The same verdicts as without a window.
+  DetectionParams none = detectionPreset("default");
+  none.depth.samplingFrequencyHz = 50e6;
+  const DetectionParams a = adaptToCapture(far, 10, 1500, sourceOf(records), std::nullopt);
+  const DetectionParams b = adaptToCapture(none, 10, 1500, sourceOf(records), std::nullopt);
+  SignalDetector withWindow(a), without(b);
+  for (const auto& record : records) {
+    const SignalDetection x = withWindow.detect(record.data(), 1500);
+    const SignalDetection y = without.detect(record.data(), 1500);
+    EXPECT_EQ(x.accepted(), y.accepted());
+    EXPECT_DOUBLE_EQ(x.depthMm, y.depthMm);
+  }
+  far.windowMinMm = 1e9;
+  far.windowMaxMm = 2e9;
+  const PeakParams beyond = resolvePeakParams(far);
+  EXPECT_LT(*beyond.windowBegin, *beyond.windowEnd);
+  try {
+    adaptToCapture(far, 10, 1500, sourceOf(records), std::nullopt);
+    ADD_FAILURE() << "a window beyond the record was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("starts beyond the record"), std::string::npos)
+        << e.what();
+  }
 }
 
 TEST(CaptureAdaptation, HighPassRemovesTheBaselineAndKeepsTheEcho) {
