@@ -155,11 +155,11 @@ PeakParams resolvePeakParams(const DetectionParams& params) {
     peaks.samplesPerCycle = fs / transducer;
   peaks.emissionSample = -params.depth.delayS * fs;
   peaks.ringDownEnd = std::max(peaks.ringDownEnd, params.envelope.ringDownSamples);
-  // A depth far beyond any record (--window-mm 0 1e9: 6.5e10 samples) does not fit an int; the
-  // window is clipped to the record where it is used, so a bound well outside int's range but
-  // inside any record's reach keeps its meaning.
-  // The end is clipped one sample further than the beginning, so that a window beyond reach
-  // stays a window (adaptToCapture says it lies beyond the record).
+  // A depth far beyond any record (--window-mm 0 1e9: 6.5e10 samples) does not fit an int. The
+  // window is clipped to the record where it is used, so a bound clipped to a billion samples
+  // (beyond any record, well inside an int) keeps its meaning; the end is clipped one sample
+  // further than the beginning, so that a window beyond reach stays a window (adaptToCapture
+  // says it lies beyond the record).
   if (params.windowMinMm) {
     peaks.windowBegin = static_cast<int>(std::clamp(
         std::ceil(params.depth.sampleIndex(*params.windowMinMm)), -kFarSample, kFarSample));
