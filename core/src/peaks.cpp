@@ -632,6 +632,13 @@ bool isAirTrain(const float* envelope, int count, int index, double ratio, int r
   const float second = envelope[next];
   if (second > value)
     return false;  // a stronger echo is an echo of its own
+  // Nothing gets through air, so nothing behind it echoes back stronger than it: a strong fascia
+  // whose bounces between it and the face look like a train, with bone stronger than the fascia
+  // between them, was taken for air and the bone rejected (physical hand-held set, seeds 1-6:
+  // misses 21.6 -> 19.8 %; stop 37). Asked last, of a train that is air otherwise.
+  const auto nothingStrongerBehind = [&]() {
+    return !(maxOf(envelope + next, count - next) > value);
+  };
   const int spacing = next - index;
   if (spacing < 2 * radius)
     return false;
@@ -672,14 +679,14 @@ bool isAirTrain(const float* envelope, int count, int index, double ratio, int r
   for (int bounce = 2; bounce <= 3; ++bounce) {
     const int at = index + bounce * spacing;
     if (at + tolerance >= count)
-      return bounce == 3;  // the record ends: two bounces seen are enough
+      return bounce == 3 && nothingStrongerBehind();  // the record ends: two bounces are enough
     const float echo = maxAround(envelope, count, at, tolerance);
     const double share = echo / std::max(previous, 1e-12F);
     if (share < ratio || share > 1.0 || share < 0.5 * first || share > 2.0 * first)
       return false;
     previous = echo;
   }
-  return true;
+  return nothingStrongerBehind();
 }
 
 // The capture's context (EchoContext). At least this share of the records before a record were
@@ -795,8 +802,15 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     }
     // What lies before and after the echo, beyond its own extent (after only for an echo above
     // the speckle before it: most candidates near the noise are not, and a median costs).
-    const double before =
+    // An echo that touches the ring-down has no tissue of its own before it: it is measured
+    // against the ring-down's envelope there. (With nothing to measure, its contrast was taken as
+    // infinite, and a probe in air ringing on past the capture's ring-down end, which the median
+    // record sets, passed for bone's ringing: the physical set's hand-held captures, seeds 1-6,
+    // 88 -> 63 of 271 uncoupled frames accepted, no other rate moved by 0.1 point; stop 37.)
+    double before =
         medianOf(envelope, count, std::max(ringDown, left - gap - region), left - gap, scratch);
+    if (before < 0.0)
+      before = medianOf(envelope, count, left - gap - region, left - gap, scratch);
     if (before >= 0.0 && c.value < e.minContrast * std::max(before, tiny)) {
       continue;
     }
