@@ -806,7 +806,8 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     // against the ring-down's envelope there. (With nothing to measure, its contrast was taken as
     // infinite, and a probe in air ringing on past the capture's ring-down end, which the median
     // record sets, passed for bone's ringing: the physical set's hand-held captures, seeds 1-6,
-    // 88 -> 63 of 271 uncoupled frames accepted, no other rate moved by 0.1 point; stop 37.)
+    // 88 -> 63 of 271 uncoupled frames accepted, no other rate moved by more than 0.1 point;
+    // stop 37.)
     double before =
         medianOf(envelope, count, std::max(ringDown, left - gap - region), left - gap, scratch);
     if (before < 0.0)
