@@ -808,10 +808,9 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     // record sets, passed for bone's ringing: the physical set's hand-held captures, seeds 1-6,
     // 88 -> 63 of 271 uncoupled frames accepted, no other rate moved by more than 0.1 point;
     // stop 37.)
-    double before =
-        medianOf(envelope, count, std::max(ringDown, left - gap - region), left - gap, scratch);
-    if (before < 0.0)
-      before = medianOf(envelope, count, left - gap - region, left - gap, scratch);
+    const int beforeBegin =
+        left - gap > ringDown ? std::max(ringDown, left - gap - region) : left - gap - region;
+    const double before = medianOf(envelope, count, beforeBegin, left - gap, scratch);
     if (before >= 0.0 && c.value < e.minContrast * std::max(before, tiny)) {
       continue;
     }
