@@ -254,6 +254,14 @@ constexpr float kLeaderRise = 0.1F;
 // envelope falls back to the tissue's speckle.
 constexpr double kRingingFloor = 1.5;
 
+// The skin after a water standoff is several interfaces over a millimetre or two (epidermis,
+// dermis, the membrane's own), and behind its first echo the envelope stays up as it does behind
+// bone's ringing cortex. Its layers end within kSkinLayersReach regions of the echo, where the
+// envelope's median over a quarter region falls under kSkinLayersEnd of the echo, into the
+// tissue's speckle (see skinLayersEndInTissue).
+constexpr double kSkinLayersReach = 1.5;
+constexpr double kSkinLayersEnd = 0.25;
+
 struct RingingTail {
   int end = -1;      // the tail's peak; -1: the echo does not lead a ringing tail
   float rise = 0.F;  // the echo's height over the tissue before it
@@ -556,6 +564,23 @@ bool hasBoneSignature(const BoneEchoParams& bone, double mmPerSample, double noi
 }
 
 // ---- The prominence policy ---------------------------------------------------------------------
+
+// The median of the region behind an echo's layers (the skin's, kSkinLayersReach): where the
+// envelope from `from` on falls under kSkinLayersEnd x `echo` within kSkinLayersReach regions of
+// the echo's peak `index`, the median of the region after that fall; -1 when it does not fall
+// there (bone's ringing and reverberation last longer). The caller asks that region to stay under
+// the same share (tissue, not a reverberation rising again) and to step up from the water.
+double skinLayersEndInTissue(const float* envelope, int count, int index, int from, int region,
+                             float echo, std::vector<float>& scratch) {
+  const int quarter = std::max(4, region / 4);
+  const int limit = std::min(count, index + static_cast<int>(kSkinLayersReach * region));
+  const double end = kSkinLayersEnd * echo;
+  for (int p = from; p + quarter <= limit; p += quarter / 2) {
+    if (medianOf(envelope, count, p, p + quarter, scratch) < end)
+      return medianOf(envelope, count, p + quarter, p + quarter + region, scratch);
+  }
+  return -1.0;
+}
 
 // Percentiles of envelope[begin, count) from every 16th sample: (10th, 50th).
 std::pair<double, double> floorAndMedian(const float* envelope, int count, int begin,
@@ -902,6 +927,20 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
                 (c.contrast >= e.ringingContrast ||
                  (c.contrast >= kDominantRingingContrast && c.value >= strongestCandidate &&
                   dominatesOutside(candidates, c, region)));
+    // ... unless it is a wall whose layers ring: water before it, and the layers ending within a
+    // few mm into tissue whose speckle steps up from that water as a wall's does (the skin under
+    // a water standoff was taken for a ringing cortex in the specimen captures of the randomised
+    // set; see docs/detection.md, stop 38).
+    // (Cheapest first: the tissue can step up from the water and stay under the layers' end only
+    // where the echo stands that far above the water; the quiet level is computed last.)
+    if (c.ringing && !c.shadowed && before >= 0.0 && left - gap - ringDown >= region / 2 &&
+        kSkinLayersEnd * c.value > e.wallStep * std::max(before, tiny)) {
+      const double tissue =
+          skinLayersEndInTissue(envelope, count, c.index, right + gap, region, c.value, scratch);
+      if (tissue >= e.wallStep * std::max(before, tiny) && tissue < kSkinLayersEnd * c.value &&
+          before <= kWaterBeforeWall * quietLevel(beforeAt))
+        c.ringing = false;
+    }
   }
 
   // A reverberation: at twice or three times the time of flight of a shallower echo at least
