@@ -271,6 +271,19 @@ void addSpeckle(std::vector<test::EchoSpec>& echoes, double from, double to, dou
     echoes.push_back({s, amplitude(random)});
 }
 
+// A hand-built envelope's knots (sample, level), joined by half cosines from each to the next.
+void joinKnots(std::vector<float>& envelope, const std::vector<std::pair<int, double>>& knots) {
+  for (std::size_t k = 0; k + 1 < knots.size(); ++k) {
+    const auto [from, low] = knots[k];
+    const auto [to, high] = knots[k + 1];
+    for (int i = from; i < to; ++i) {
+      const double t = static_cast<double>(i - from) / (to - from);
+      envelope[static_cast<std::size_t>(i)] =
+          static_cast<float>(low + (high - low) * 0.5 * (1.0 - std::cos(kPi * t)));
+    }
+  }
+}
+
 // Shallow bone in vivo under a fascia of similar strength: speckle from the skin, the fascia at
 // 700, the bone at 900 (three quarters of it) with the cortex ringing behind it for a millimetre
 // and its reverberations at 1100 and 1300. Fascia, bone and reverberations are spaced evenly
@@ -1022,22 +1035,13 @@ TEST(ProminencePolicy, AProbeRingingPastTheRingDownEndIsNotBone) {
   std::uniform_real_distribution<double> noise(600.0, 1200.0);
   for (float& value : envelope)
     value = static_cast<float>(noise(random));
-  // The envelope's knots (sample, level), joined by half cosines: the burst at full scale, then
-  // saturated bounces of uneven spacing and depth between them, then noise from sample 395 on.
-  const std::vector<std::pair<int, double>> knots = {
-      {0, 33000},  {140, 33000}, {150, 12000}, {161, 33400}, {173, 4000}, {186, 31700},
-      {199, 2800}, {212, 31700}, {225, 9000},  {239, 32800}, {252, 5000}, {266, 33000},
-      {281, 3300}, {296, 32900}, {309, 6000},  {323, 30100}, {336, 4500}, {350, 29600},
-      {362, 7000}, {375, 30600}, {395, 900}};
-  for (std::size_t k = 0; k + 1 < knots.size(); ++k) {
-    const auto [from, low] = knots[k];
-    const auto [to, high] = knots[k + 1];
-    for (int i = from; i < to; ++i) {
-      const double t = static_cast<double>(i - from) / (to - from);
-      envelope[static_cast<std::size_t>(i)] =
-          static_cast<float>(low + (high - low) * 0.5 * (1.0 - std::cos(kPi * t)));
-    }
-  }
+  // The burst at full scale, then saturated bounces of uneven spacing and depth between them,
+  // then noise from sample 395 on.
+  joinKnots(envelope,
+            {{0, 33000},  {140, 33000}, {150, 12000}, {161, 33400}, {173, 4000}, {186, 31700},
+             {199, 2800}, {212, 31700}, {225, 9000},  {239, 32800}, {252, 5000}, {266, 33000},
+             {281, 3300}, {296, 32900}, {309, 6000},  {323, 30100}, {336, 4500}, {350, 29600},
+             {362, 7000}, {375, 30600}, {395, 900}});
   const PeakResult result = findPeaks(peaks, envelope.data(), count);
   EXPECT_FALSE(result.accepted()) << "accepted at sample " << result.sampleIndex;
   EXPECT_EQ(result.reason, RejectReason::NotBone);
@@ -1097,29 +1101,17 @@ TEST(ProminencePolicy, ASkinWhoseLayersRingIsAWall) {
     envelope[static_cast<std::size_t>(i)] = static_cast<float>(i < 150    ? 30000.0
                                                                : i < 1000 ? water(random)
                                                                           : tissue(random));
-  // Knots (sample, level) joined by half cosines.
-  const auto shape = [&envelope](const std::vector<std::pair<int, double>>& knots) {
-    for (std::size_t k = 0; k + 1 < knots.size(); ++k) {
-      const auto [from, low] = knots[k];
-      const auto [to, high] = knots[k + 1];
-      for (int i = from; i < to; ++i) {
-        const double t = static_cast<double>(i - from) / (to - from);
-        envelope[static_cast<std::size_t>(i)] =
-            static_cast<float>(low + (high - low) * 0.5 * (1.0 - std::cos(kPi * t)));
-      }
-    }
-  };
-  shape({{985, 600},
-         {1000, 20000},
-         {1012, 9000},
-         {1026, 15000},
-         {1040, 8000},
-         {1055, 12000},
-         {1070, 7500},
-         {1085, 10000},
-         {1100, 6000},
-         {1112, 7000},
-         {1130, 2600}});
+  joinKnots(envelope, {{985, 600},
+                       {1000, 20000},
+                       {1012, 9000},
+                       {1026, 15000},
+                       {1040, 8000},
+                       {1055, 12000},
+                       {1070, 7500},
+                       {1085, 10000},
+                       {1100, 6000},
+                       {1112, 7000},
+                       {1130, 2600}});
   const PeakResult skin = findPeaks(peaks, envelope.data(), count);
   EXPECT_FALSE(skin.accepted()) << "accepted at sample " << skin.sampleIndex;
   EXPECT_EQ(skin.reason, RejectReason::NotBone);
@@ -1127,7 +1119,7 @@ TEST(ProminencePolicy, ASkinWhoseLayersRingIsAWall) {
   for (int i = 1130; i < count; ++i)
     envelope[static_cast<std::size_t>(i)] = static_cast<float>(
         i < 1330 ? 7000.0 + 3000.0 * std::cos(kPi * (i - 1130) / 14.0) : water(random));
-  shape({{1325, 7000}, {1345, 600}});
+  joinKnots(envelope, {{1325, 7000}, {1345, 600}});
   const PeakResult bone = findPeaks(peaks, envelope.data(), count);
   ASSERT_TRUE(bone.accepted()) << rejectReasonName(bone.reason);
   EXPECT_NEAR(bone.sampleIndex, 1000.0, 1.0);
