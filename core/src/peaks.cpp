@@ -840,9 +840,10 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
       continue;
     }
     const double after = medianOf(envelope, count, right + gap, right + gap + region, scratch);
-    // Where they lie, for the quiet level at their depth (time-gain compensation), and the water
-    // from the ring-down to the echo.
-    const double beforeAt = 0.5 * (std::max(ringDown, left - gap - region) + left - gap);
+    // Where they lie, for the quiet level at their depth (time-gain compensation): the centre of
+    // the range the median before the echo was taken over (into the ring-down for an echo that
+    // touches it); and the water from the ring-down to the echo.
+    const double beforeAt = 0.5 * (beforeBegin + left - gap);
     const double waterAt = 0.5 * (ringDown + left - gap);
     tailEnd = std::max(tailEnd, tail.end);
     // Bare bone in water that rings: water before it all the way from the ring-down, and a

@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <stdexcept>
@@ -1055,6 +1056,34 @@ TEST(ProminencePolicy, AProbeRingingPastTheRingDownEndIsNotBone) {
   const PeakResult bone = findPeaks(peaks, envelope.data(), count);
   ASSERT_TRUE(bone.accepted()) << rejectReasonName(bone.reason);
   EXPECT_NEAR(bone.sampleIndex, 1500.0, 1.0);
+}
+
+// Under time-gain compensation (0.06 dB a sample) the noise rises with depth before and behind
+// an echo just past the capture's ring-down end (150); the echo stands 20 times above the noise
+// at its depth. The tissue before it is measured into the ring-down (samples 5-135), so the gain
+// between that and the region behind it is taken from the centre of that range: behind the echo
+// lies the noise at its depth, as quiet as the record's quietest stretch, bone whose tissue is at
+// the noise. (Taken from the centre of the range clipped at the ring-down, 142 instead of 70, the
+// gain was under-counted by 4.4 dB and the echo was `not-bone`.)
+TEST(ProminencePolicy, AnEchoAtTheRingDownsEndIsJudgedWithTheGainWhereItsTissueWasMeasured) {
+  DetectionParams params = perRecordRule();
+  params.peaks.ringDownEnd = 150;
+  params.peaks.gainDbPerSample = 0.06;
+  const PeakParams peaks = resolvePeakParams(params);
+  const int count = 500;
+  const auto noise = [](double i) { return 100.0 * std::pow(10.0, 0.06 * i / 20.0); };
+  std::vector<float> envelope(count);
+  for (int i = 0; i < count; ++i)
+    envelope[static_cast<std::size_t>(i)] = static_cast<float>(noise(i));
+  for (int i = 150; i <= 170; ++i)
+    envelope[static_cast<std::size_t>(i)] = static_cast<float>(
+        std::max(noise(i), 20.0 * noise(160) * std::cos(kPi * (i - 160) / 20.0)));
+  const PeakResult result = findPeaks(peaks, envelope.data(), count);
+  ASSERT_TRUE(result.accepted()) << rejectReasonName(result.reason);
+  EXPECT_NEAR(result.sampleIndex, 160.0, 1.0);
+  // Without the gain the same noise is louder behind the echo than before it: no shadow.
+  params.peaks.gainDbPerSample = 0.0;
+  EXPECT_FALSE(findPeaks(resolvePeakParams(params), envelope.data(), count).accepted());
 }
 
 // A strong fascia at 600 whose echo bounces between it and the face (at 1200 and 1800, each
