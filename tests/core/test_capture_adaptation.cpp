@@ -1086,6 +1086,41 @@ TEST(ProminencePolicy, AnEchoAtTheRingDownsEndIsJudgedWithTheGainWhereItsTissueW
   EXPECT_FALSE(findPeaks(resolvePeakParams(params), envelope.data(), count).accepted());
 }
 
+// A strapped holder's transducer off the bone, its window set from sample 800: a strong fascia
+// at 600, above the window, bounces back at twice its time of flight (1200, a fifth of it), and
+// behind that the record is quiet. The bounce, alone in the window with tissue before it and
+// quiet behind, is no bone: its source lies above the window. Bone at 1200 as strong as the
+// fascia's half or more is no bounce of it and is still found.
+TEST(ProminencePolicy, AReverberationsSourceAboveTheWindowCounts) {
+  DetectionParams params = perRecordRule();
+  PeakParams peaks = resolvePeakParams(params);
+  const int count = 2000;
+  std::vector<float> envelope(count);
+  std::mt19937_64 random(39);
+  std::uniform_real_distribution<double> tissue(800.0, 1200.0), quiet(250.0, 350.0);
+  for (int i = 0; i < count; ++i)
+    envelope[static_cast<std::size_t>(i)] =
+        static_cast<float>(i < 1210 ? tissue(random) : quiet(random));
+  const auto echo = [&envelope](int at, double height) {
+    for (int i = at - 10; i <= at + 10; ++i)
+      envelope[static_cast<std::size_t>(i)] =
+          std::max(envelope[static_cast<std::size_t>(i)],
+                   static_cast<float>(height * std::cos(kPi * (i - at) / 20.0)));
+  };
+  echo(600, 30000.0);
+  echo(1200, 6000.0);
+  // The whole record: the fascia is in view and its bounce is known for one.
+  EXPECT_FALSE(findPeaks(peaks, envelope.data(), count).accepted());
+  peaks.windowBegin = 800;
+  const PeakResult bounce = findPeaks(peaks, envelope.data(), count);
+  EXPECT_FALSE(bounce.accepted()) << "accepted at sample " << bounce.sampleIndex;
+  EXPECT_EQ(bounce.reason, RejectReason::NotBone);
+  echo(1200, 20000.0);
+  const PeakResult bone = findPeaks(peaks, envelope.data(), count);
+  ASSERT_TRUE(bone.accepted()) << rejectReasonName(bone.reason);
+  EXPECT_NEAR(bone.sampleIndex, 1200.0, 1.0);
+}
+
 // A strong fascia at 600 whose echo bounces between it and the face (at 1200 and 1800, each
 // about half the one before: a train from the face, as an air gap's), and bone at 1530 under
 // the tissue, stronger than the fascia, with its shadow. Air lets nothing through, so nothing
