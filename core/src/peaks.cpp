@@ -246,9 +246,9 @@ constexpr float kEarlierBounce = 0.7F;
 // A later bounce of an air train is no stronger than the one before it, within this factor: the
 // envelope's own ripple. The default envelope (a Hann average of |x| over 1.25 periods) of one
 // steady tone rises and falls by up to 10 % from sample to sample at 5-7 samples a period, so two
-// bounces of one height can peak 10 % apart. (Exactly 1: an uncoupled transducer whose fourth
-// bounce peaked 0.1 % above its third was no air, and a later bounce was taken for bone: the
-// in-vivo holder's seed 14 capture 28, 48 of 50 uncoupled frames.)
+// bounces of one height can peak 10 % apart. (Exactly 1: an uncoupled transducer whose sixth
+// bounce peaked 0.1 % above its fifth made the train headed by its third no air, and that bounce
+// was taken for bone: the in-vivo holder's seed 14 capture 28, 48 of 50 uncoupled frames.)
 constexpr double kBounceRipple = 1.1;
 
 // A leading echo's ringing tail climbs to at most this many times the echo (see ringingTailOf).
@@ -986,8 +986,8 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   // A source above the window: the user's window (a holder's transducer set to where its bone
   // lies) can leave out a strong interface whose bounce lands in it. An echo of the record
   // between the ring-down and the window, at half or a third of k's time of flight, at least
-  // twice as strong as k as they arrived. (A strapped holder's probe off the bone, a fascia at
-  // 8.2 mm just above its window and its bounce at 16.8 mm inside it, quiet behind: the bounce
+  // twice as strong as k as they arrived. (A strapped holder's probe off the bone, a fascia near
+  // 8.4 mm above its window and its bounce at 16.8 mm inside it, quiet behind: the bounce
   // was taken for bone in 149 of 150 frames, physical holder seed 17 capture 4.)
   const auto sourceAboveWindow = [&](std::size_t k) {
     if (begin <= ringDown)
