@@ -1013,7 +1013,8 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     return reverberationSource(k) >= 0 || sourceAboveWindow(k);
   };
   for (std::size_t k = 0; k < candidates.size(); ++k) {
-    if (candidates[k].peak >= 0 && isReverberation(k) && candidates[k].passed) {
+    // The cheap tests first: looking for a source above the window scans the record.
+    if (candidates[k].passed && candidates[k].peak >= 0 && isReverberation(k)) {
       candidates[k].passed = false;
     }
   }

@@ -32,6 +32,14 @@ test::AcquisitionFacts factsOf(const test::RandomisedCapture& capture) {
   return facts;
 }
 
+// The capture's frames with their labels, as the scorer takes them.
+std::vector<test::LabelledRecord> recordsOf(const test::RandomisedCapture& capture) {
+  std::vector<test::LabelledRecord> records;
+  for (const test::RandomisedFrame& frame : capture.frames)
+    records.push_back({&frame.samples, frame.hasBone, frame.ambiguous, frame.boneDepthMm});
+  return records;
+}
+
 test::DetectionScore scoreRandomised(const DetectionParams& preset, const std::string& profile,
                                      std::uint64_t seed) {
   test::RandomisedSetOptions options;
@@ -40,17 +48,7 @@ test::DetectionScore scoreRandomised(const DetectionParams& preset, const std::s
   const std::vector<test::RandomisedCapture> captures = test::makeRandomisedSet(options);
   test::DetectionScore total;
   for (const test::RandomisedCapture& capture : captures) {
-    const test::AcquisitionFacts facts = factsOf(capture);
-    std::vector<test::LabelledRecord> records;
-    for (const test::RandomisedFrame& frame : capture.frames) {
-      test::LabelledRecord record;
-      record.samples = &frame.samples;
-      record.hasBone = frame.hasBone;
-      record.ambiguous = frame.ambiguous;
-      record.boneDepthMm = frame.boneDepthMm;
-      records.push_back(record);
-    }
-    total.add(test::scoreCapture(preset, facts, records));
+    total.add(test::scoreCapture(preset, factsOf(capture), recordsOf(capture)));
   }
   return total;
 }
@@ -140,15 +138,12 @@ TEST(DetectionRandomised, AnUncoupledHolderTransducerRingsAsAir) {
   options.profile = "invivo-holder";
   options.seed = 14;
   const test::RandomisedCapture capture = test::makeRandomisedSet(options).at(28);
-  std::vector<test::LabelledRecord> records;
   int uncoupled = 0;
-  for (const test::RandomisedFrame& frame : capture.frames) {
+  for (const test::RandomisedFrame& frame : capture.frames)
     uncoupled += frame.kind == "uncoupled";
-    records.push_back({&frame.samples, frame.hasBone, frame.ambiguous, frame.boneDepthMm});
-  }
   ASSERT_EQ(uncoupled, 50) << capture.description;
   const test::DetectionScore score =
-      test::scoreCapture(detectionPreset("default"), factsOf(capture), records);
+      test::scoreCapture(detectionPreset("default"), factsOf(capture), recordsOf(capture));
   std::cout << "[ measured ] in-vivo seed 14 capture 28 (uncoupled): " << test::describe(score)
             << "\n";
   EXPECT_EQ(score.negatives, 50);
