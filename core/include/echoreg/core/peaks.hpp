@@ -94,6 +94,13 @@ struct BoneEchoParams {
   /// ... with the echo at most this wide at half maximum, samples (a pulse; the shadow mode sets
   /// three periods of the transducer).
   double noiseShadowMaxWidthSamples = 0.0;
+  /// An echo at twice the time of flight of a local maximum of the record after the ring-down
+  /// (inside the window or above it) at least twice as strong as it arrived (before time-gain
+  /// compensation), prominent as a candidate of the prominence policy must be, and the record's
+  /// strongest echo, is that echo's reverberation and not bone, however quiet behind it. The
+  /// prominence policy's shadow mode sets it; the bone policy's default keeps echoreg's earlier
+  /// rule.
+  bool rejectReverberations = false;
 };
 
 /// The prominence policy (the default), decided from the statistics of the record itself rather
@@ -213,12 +220,13 @@ void validate(const PeakParams& params);
 /// Field-by-field equality (a new field must be added here, or this stops compiling).
 inline bool operator==(const BoneEchoParams& a, const BoneEchoParams& b) {
   const auto& [regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA, shareA, quietA, strongA,
-               pulseA] = a;
+               pulseA, reverbA] = a;
   const auto& [regionB, gapB, shadowB, contrastB, widthB, noiseB, tissueB, shareB, quietB, strongB,
-               pulseB] = b;
+               pulseB, reverbB] = b;
   return std::tie(regionA, gapA, shadowA, contrastA, widthA, noiseA, tissueA, shareA, quietA,
-                  strongA, pulseA) == std::tie(regionB, gapB, shadowB, contrastB, widthB, noiseB,
-                                               tissueB, shareB, quietB, strongB, pulseB);
+                  strongA, pulseA, reverbA) == std::tie(regionB, gapB, shadowB, contrastB, widthB,
+                                                        noiseB, tissueB, shareB, quietB, strongB,
+                                                        pulseB, reverbB);
 }
 inline bool operator==(const ProminenceParams& a, const ProminenceParams& b) {
   const auto& [snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
