@@ -1552,9 +1552,12 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
         if (!params.bone.rejectReverberations)
           return false;
         const double arrived = peak.value / gainAt(params.gainDbPerSample, peak.index);
+        // The source within the per-record test's tolerance of the bounce's time (reverbRadius),
+        // half of it at half the time of flight.
         const double at = 0.5 * (peak.index - params.emissionSample) + params.emissionSample;
-        const int from = std::max(0, static_cast<int>(std::floor(at)) - reverbRadius);
-        const int to = std::min(peak.index, static_cast<int>(std::ceil(at)) + reverbRadius + 1);
+        const int from = std::max(0, static_cast<int>(std::floor(at - 0.5 * reverbRadius)));
+        const int to =
+            std::min(peak.index, static_cast<int>(std::ceil(at + 0.5 * reverbRadius)) + 1);
         if (from >= to)
           return false;
         const int source =
