@@ -1004,15 +1004,20 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   // between the ring-down and the window, at half or a third of k's time of flight, at least
   // twice as strong as k as they arrived. (A strapped holder's probe off the bone, a fascia near
   // 8.4 mm above its window and its bounce at 16.8 mm inside it, quiet behind: the bounce
-  // was taken for bone in 149 of 150 frames, physical holder seed 17 capture 4.)
+  // was taken for bone in 149 of 150 frames, physical holder seed 17 capture 4.) The bounce's
+  // time within reverbRadius of k's, as for a source inside the window: the source within
+  // reverbRadius / bounce of its time. (Within reverbRadius of it, stop 39's first version, bone
+  // up to four periods off twice a fascia's time of flight was rejected: the physical holder's
+  // seeds 6 and 16, 28 frames.)
   const auto sourceAboveWindow = [&](std::size_t k) {
     if (begin <= ringDown)
       return false;
     const double t = candidates[k].index - params.emissionSample;
     for (const int bounce : {2, 3}) {
       const double at = t / bounce + params.emissionSample;
-      const int from = std::max(ringDown, static_cast<int>(std::floor(at)) - reverbRadius);
-      const int to = std::min(begin, static_cast<int>(std::ceil(at)) + reverbRadius + 1);
+      const double radius = static_cast<double>(reverbRadius) / bounce;
+      const int from = std::max(ringDown, static_cast<int>(std::floor(at - radius)));
+      const int to = std::min(begin, static_cast<int>(std::ceil(at + radius)) + 1);
       if (from >= to)
         continue;
       const int source =
