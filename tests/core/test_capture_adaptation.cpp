@@ -265,6 +265,25 @@ DetectionParams perRecordRule() {
   return params;
 }
 
+// A hand-built envelope for the reverberation tests: tissue's speckle (800-1200) before
+// `tissueEnd`, quiet (250-350) from there on.
+std::vector<float> tissueThenQuiet(int count, int tissueEnd, std::mt19937_64& random) {
+  std::uniform_real_distribution<double> tissue(800.0, 1200.0), quiet(250.0, 350.0);
+  std::vector<float> envelope(static_cast<std::size_t>(count));
+  for (int i = 0; i < count; ++i)
+    envelope[static_cast<std::size_t>(i)] =
+        static_cast<float>(i < tissueEnd ? tissue(random) : quiet(random));
+  return envelope;
+}
+
+// An echo of `height` at `at` (half a cosine, 21 samples wide) over what the envelope holds.
+void paintEcho(std::vector<float>& envelope, int at, double height) {
+  for (int i = at - 10; i <= at + 10; ++i)
+    envelope[static_cast<std::size_t>(i)] =
+        std::max(envelope[static_cast<std::size_t>(i)],
+                 static_cast<float>(height * std::cos(kPi * (i - at) / 20.0)));
+}
+
 void addSpeckle(std::vector<test::EchoSpec>& echoes, double from, double to, double step,
                 double low, double high, std::mt19937_64& random) {
   std::uniform_real_distribution<double> amplitude(low, high);
@@ -1095,27 +1114,17 @@ TEST(ProminencePolicy, AReverberationsSourceAboveTheWindowCounts) {
   DetectionParams params = perRecordRule();
   PeakParams peaks = resolvePeakParams(params);
   const int count = 2000;
-  std::vector<float> envelope(count);
   std::mt19937_64 random(39);
-  std::uniform_real_distribution<double> tissue(800.0, 1200.0), quiet(250.0, 350.0);
-  for (int i = 0; i < count; ++i)
-    envelope[static_cast<std::size_t>(i)] =
-        static_cast<float>(i < 1210 ? tissue(random) : quiet(random));
-  const auto echo = [&envelope](int at, double height) {
-    for (int i = at - 10; i <= at + 10; ++i)
-      envelope[static_cast<std::size_t>(i)] =
-          std::max(envelope[static_cast<std::size_t>(i)],
-                   static_cast<float>(height * std::cos(kPi * (i - at) / 20.0)));
-  };
-  echo(600, 30000.0);
-  echo(1200, 6000.0);
+  std::vector<float> envelope = tissueThenQuiet(count, 1210, random);
+  paintEcho(envelope, 600, 30000.0);
+  paintEcho(envelope, 1200, 6000.0);
   // The whole record: the fascia is in view and its bounce is known for one.
   EXPECT_FALSE(findPeaks(peaks, envelope.data(), count).accepted());
   peaks.windowBegin = 800;
   const PeakResult bounce = findPeaks(peaks, envelope.data(), count);
   EXPECT_FALSE(bounce.accepted()) << "accepted at sample " << bounce.sampleIndex;
   EXPECT_EQ(bounce.reason, RejectReason::NotBone);
-  echo(1200, 20000.0);
+  paintEcho(envelope, 1200, 20000.0);
   const PeakResult bone = findPeaks(peaks, envelope.data(), count);
   ASSERT_TRUE(bone.accepted()) << rejectReasonName(bone.reason);
   EXPECT_NEAR(bone.sampleIndex, 1200.0, 1.0);
@@ -1133,18 +1142,10 @@ TEST(ProminencePolicy, ASourceAboveTheWindowIsTimedAsOneInsideIt) {
   peaks.windowBegin = 800;
   const int count = 2000;
   std::mt19937_64 random(41);
-  std::uniform_real_distribution<double> tissue(800.0, 1200.0), quiet(250.0, 350.0);
   const auto record = [&](int bone) {
-    std::vector<float> envelope(count);
-    for (int i = 0; i < count; ++i)
-      envelope[static_cast<std::size_t>(i)] =
-          static_cast<float>(i < bone + 10 ? tissue(random) : quiet(random));
-    for (const auto& [at, height] : {std::pair<int, double>{600, 30000.0}, {bone, 6000.0}}) {
-      for (int i = at - 10; i <= at + 10; ++i)
-        envelope[static_cast<std::size_t>(i)] =
-            std::max(envelope[static_cast<std::size_t>(i)],
-                     static_cast<float>(height * std::cos(kPi * (i - at) / 20.0)));
-    }
+    std::vector<float> envelope = tissueThenQuiet(count, bone + 10, random);
+    paintEcho(envelope, 600, 30000.0);
+    paintEcho(envelope, bone, 6000.0);
     return envelope;
   };
   ASSERT_EQ(std::lround(2.0 * peaks.samplesPerCycle), 11);  // the bounce tolerance, samples
@@ -1171,32 +1172,18 @@ TEST(ProminencePolicy, ABounceInBonesShadowIsNoBone) {
   const PeakParams peaks = resolvePeakParams(params);
   const int count = 2000;
   std::mt19937_64 random(40);
-  std::uniform_real_distribution<double> tissue(800.0, 1200.0), quiet(250.0, 350.0);
-  const auto record = [&](int tissueEnd) {
-    std::vector<float> envelope(count);
-    for (int i = 0; i < count; ++i)
-      envelope[static_cast<std::size_t>(i)] =
-          static_cast<float>(i < tissueEnd ? tissue(random) : quiet(random));
-    return envelope;
-  };
-  const auto echo = [](std::vector<float>& envelope, int at, double height) {
-    for (int i = at - 10; i <= at + 10; ++i)
-      envelope[static_cast<std::size_t>(i)] =
-          std::max(envelope[static_cast<std::size_t>(i)],
-                   static_cast<float>(height * std::cos(kPi * (i - at) / 20.0)));
-  };
-  std::vector<float> bounce = record(1130);
-  echo(bounce, 600, 30000.0);
-  echo(bounce, 1050, 6000.0);
-  echo(bounce, 1200, 4400.0);
+  std::vector<float> bounce = tissueThenQuiet(count, 1130, random);
+  paintEcho(bounce, 600, 30000.0);
+  paintEcho(bounce, 1050, 6000.0);
+  paintEcho(bounce, 1200, 4400.0);
   const PeakResult inShadow = findPeaks(peaks, bounce.data(), count);
   EXPECT_FALSE(inShadow.accepted() && std::fabs(inShadow.sampleIndex - 1200.0) < 10.0)
       << "the bounce at 1200 taken for bone";
 
-  std::vector<float> weakSource = record(1210);
-  echo(weakSource, 300, 32000.0);  // the skin
-  echo(weakSource, 600, 20000.0);  // a tissue echo
-  echo(weakSource, 1200, 4000.0);  // bone at twice its time of flight
+  std::vector<float> weakSource = tissueThenQuiet(count, 1210, random);
+  paintEcho(weakSource, 300, 32000.0);  // the skin
+  paintEcho(weakSource, 600, 20000.0);  // a tissue echo
+  paintEcho(weakSource, 1200, 4000.0);  // bone at twice its time of flight
   const PeakResult bone = findPeaks(peaks, weakSource.data(), count);
   ASSERT_TRUE(bone.accepted()) << rejectReasonName(bone.reason);
   EXPECT_NEAR(bone.sampleIndex, 1200.0, 1.0);
