@@ -252,8 +252,8 @@ constexpr float kEarlierBounce = 0.7F;
 constexpr double kBounceRipple = 1.1;
 
 // A reverberation loses at least this factor at each bounce: the reflector sends back at most
-// all of what reaches it and the transducer's face at most half (the prominence policy's
-// reverberation test asks the same of its source).
+// all of what reaches it and the transducer's face at most half. Both reverberation tests (the
+// prominence policy's and the shadow rule's) ask their source to be this many times as strong.
 constexpr double kBounceLoss = 2.0;
 
 // A leading echo's ringing tail climbs to at most this many times the echo (see ringingTailOf).
@@ -977,7 +977,7 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   for (std::size_t k = 0; k < candidates.size(); ++k)
     arrived[k] = candidates[k].value / gainAt(params.gainDbPerSample, candidates[k].index);
   const auto isSource = [&](std::size_t a, std::size_t k) {
-    return candidates[a].peak >= 0 && arrived[a] >= 2.0 * arrived[k];
+    return candidates[a].peak >= 0 && arrived[a] >= kBounceLoss * arrived[k];
   };
   // The source of k's reverberation (the head of the train), or -1.
   const auto reverberationSource = [&](std::size_t k) -> int {
@@ -1024,7 +1024,7 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
           static_cast<int>(std::max_element(envelope + from, envelope + to) - envelope);
       const float value = envelope[source];
       if (isLocalMaximum(envelope, count, source) &&
-          value / gainAt(params.gainDbPerSample, source) >= 2.0 * arrived[k] &&
+          value / gainAt(params.gainDbPerSample, source) >= kBounceLoss * arrived[k] &&
           prominenceOf(envelope, ringDown, count, source) >= e.minProminence * value)
         return true;
     }
