@@ -660,6 +660,26 @@ int reverbRadiusOf(const PeakParams& params) {
   return std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
 }
 
+// The source of a bounce that arrived as `arrived` (before time-gain compensation): the largest
+// sample of envelope[lo, hi) within `radius` of sample `at`, when it is a local maximum, at least
+// kBounceLoss times as strong as they arrived and prominent (minProminence of its height, over the
+// envelope from lo); else -1. Both reverberation tests (the prominence policy's source above the
+// window, the shadow rule's) look for their source so.
+int bounceSource(const float* envelope, int count, int lo, int hi, double at, double radius,
+                 double gainDbPerSample, double arrived, double minProminence) {
+  const int from = std::max(lo, static_cast<int>(std::floor(at - radius)));
+  const int to = std::min(hi, static_cast<int>(std::ceil(at + radius)) + 1);
+  if (from >= to)
+    return -1;
+  const int source = static_cast<int>(std::max_element(envelope + from, envelope + to) - envelope);
+  const float value = envelope[source];
+  if (!isLocalMaximum(envelope, count, source) ||
+      value / gainAt(gainDbPerSample, source) < kBounceLoss * arrived ||
+      prominenceOf(envelope, lo, count, source) < minProminence * value)
+    return -1;
+  return source;
+}
+
 // An air interface (a probe uncoupled, a standoff in air) sends its echo back almost whole, again
 // and again: a train of echoes at one spacing, each at least `ratio` of the one before (and no
 // stronger), with nothing between them. Bone returns half the energy at most, so its second
@@ -1014,18 +1034,9 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
       return false;
     const double t = candidates[k].index - params.emissionSample;
     for (const int bounce : {2, 3}) {
-      const double at = t / bounce + params.emissionSample;
-      const double radius = static_cast<double>(reverbRadius) / bounce;
-      const int from = std::max(ringDown, static_cast<int>(std::floor(at - radius)));
-      const int to = std::min(begin, static_cast<int>(std::ceil(at + radius)) + 1);
-      if (from >= to)
-        continue;
-      const int source =
-          static_cast<int>(std::max_element(envelope + from, envelope + to) - envelope);
-      const float value = envelope[source];
-      if (isLocalMaximum(envelope, count, source) &&
-          value / gainAt(params.gainDbPerSample, source) >= kBounceLoss * arrived[k] &&
-          prominenceOf(envelope, ringDown, count, source) >= e.minProminence * value)
+      if (bounceSource(envelope, count, ringDown, begin, t / bounce + params.emissionSample,
+                       static_cast<double>(reverbRadius) / bounce, params.gainDbPerSample,
+                       arrived[k], e.minProminence) >= 0)
         return true;
     }
     return false;
@@ -1559,22 +1570,15 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
         const double arrived = peak.value / gainAt(params.gainDbPerSample, peak.index);
         // The source within the per-record test's tolerance of the bounce's time (reverbRadius),
         // half of it at half the time of flight.
-        const double at = 0.5 * (peak.index - params.emissionSample) + params.emissionSample;
-        const int from = std::max(0, static_cast<int>(std::floor(at - 0.5 * reverbRadius)));
-        const int to =
-            std::min(peak.index, static_cast<int>(std::ceil(at + 0.5 * reverbRadius)) + 1);
-        if (from >= to)
-          return false;
-        const int source =
-            static_cast<int>(std::max_element(envelope + from, envelope + to) - envelope);
-        const float value = envelope[source];
-        const double sourceArrived = value / gainAt(params.gainDbPerSample, source);
-        if (!isLocalMaximum(envelope, count, source) || sourceArrived < kBounceLoss * arrived ||
-            prominenceOf(envelope, 0, count, source) < params.prominence.minProminence * value)
+        const int source = bounceSource(
+            envelope, count, 0, peak.index,
+            0.5 * (peak.index - params.emissionSample) + params.emissionSample, 0.5 * reverbRadius,
+            params.gainDbPerSample, arrived, params.prominence.minProminence);
+        if (source < 0)
           return false;
         if (strongestArrived < 0.0)
           strongestArrived = strongestAsArrived(envelope, count, params.gainDbPerSample);
-        return sourceArrived >= strongestArrived;
+        return envelope[source] / gainAt(params.gainDbPerSample, source) >= strongestArrived;
       };
       // The deepest of the echoes with bone's signature that are not much weaker than the
       // strongest of them: a faint echo behind bone (the inner cortex, a reverberation) can
