@@ -138,6 +138,10 @@ const std::vector<Tunable>& tunables() {
        "is bone (shadow required: half the strongest echo, tissue before it; per record: water "
        "before it) (10; 0 = off)",
        0.0, [](P& p, const V& v) { p.peaks.prominence.noiseShadowEchoFactor = as<double>(v); }},
+      {"echo-shadow-only", "Prominence policy",
+       "prominence, shadow required: take only echoes with a shadow (default: in a record with "
+       "none, its strongest echo when it rings, as shallow bone does)",
+       false, [](P& p, const V& v) { p.peaks.prominence.shadowOnly = as<bool>(v); }},
       {"echo-similar", "Prominence policy",
        "prominence: echoes within this fraction of the strongest compete on depth (0.6)", 0.0,
        [](P& p, const V& v) { p.peaks.prominence.similarRatio = as<double>(v); }},

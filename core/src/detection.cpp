@@ -477,6 +477,9 @@ ShadowTrial measureShadowRule(const DetectionParams& adapted, int recordCount, i
   // A capture is judged by the shadow where bone casts a clear one; the shadow at the noise
   // behind a strong echo then finds bone in the records whose tissue is at the noise too.
   trial.peaks.prominence.noiseShadowEchoFactor = 0.0;
+  // The trial counts records in which an echo casts bone's shadow; a record judged by its own
+  // signature casts none.
+  trial.peaks.prominence.shadowOnly = true;
   // Shadows as recorded, the time-gain compensation not allowed for: a shadow that stands out
   // only against the noise's rise with depth is no clear shadow of bone under tissue, and the
   // rule it would set judges bone in water by the shadow too (physical generator, phantom in

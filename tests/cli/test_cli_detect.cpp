@@ -293,6 +293,7 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
   std::ofstream(dir.file("type.json")) << R"({"envelope-window": 7.5})";
   std::ofstream(dir.file("window.json")) << R"({"window-mm": [5]})";
   std::ofstream(dir.file("context.json")) << R"({"echo-context": 2.5})";
+  std::ofstream(dir.file("shadow-only.json")) << R"({"echo-shadow-only": "yes"})";
   const std::vector<std::vector<std::string>> cases{
       {"detect", capture, "--out", csv, "--envelope", "gauss"},
       {"detect", capture, "--out", csv, "--peaks", "triple"},
@@ -302,6 +303,7 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
       {"detect", capture, "--out", csv, "--params", dir.file("type.json")},
       {"detect", capture, "--out", csv, "--params", dir.file("window.json")},
       {"detect", capture, "--out", csv, "--params", dir.file("context.json")},
+      {"detect", capture, "--out", csv, "--params", dir.file("shadow-only.json")},
       {"detect", capture, "--out", csv, "--echo-context", "-1"},
       {"detect", capture, "--out", csv, "--echo-context", "1001"},
       {"detect", capture, "--out", csv, "--threshold-factor", "2", "--threshold-of-max", "0.5"},
@@ -320,6 +322,9 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
   EXPECT_NE(typo.err.find("envelope-widnow"), std::string::npos);
   const auto context = runEchoreg({"detect", capture, "--out", csv, "--echo-context", "-1"});
   EXPECT_NE(context.err.find("echo context"), std::string::npos) << context.err;
+  const auto shadowOnly =
+      runEchoreg({"detect", capture, "--out", csv, "--params", dir.file("shadow-only.json")});
+  EXPECT_NE(shadowOnly.err.find("echo-shadow-only"), std::string::npos) << shadowOnly.err;
 }
 
 // The capture's context (--echo-context, on by default), on a strapped holder's capture of the

@@ -1189,6 +1189,48 @@ TEST(ProminencePolicy, ABounceInBonesShadowIsNoBone) {
   EXPECT_NEAR(bone.sampleIndex, 1200.0, 1.0);
 }
 
+// A record of a capture judged by the shadow (ShadowRule::Required) in which bone rings and casts
+// no shadow: tissue's speckle (800-1200) from the ring-down, bone at 600 (20,000), and behind it
+// the cortex's and the tissue's reverberation, 0.45 of the echo falling to 0.3 at the record's
+// end. The shadow rule finds no bone in it; the record's own signature does (shallow bone in
+// vivo: the in-vivo holder profile missed such records). With the shadow only, it stays refused;
+// and the same ringing echo under water (quiet from the ring-down) whose envelope falls back to
+// the water's level within a few millimetres is a layer in water (a phantom's soft tissue), not
+// taken: the shadow rule has judged it.
+TEST(ProminencePolicy, RingingBoneWithoutAShadowIsFoundUnderTheShadowRule) {
+  DetectionParams params = perRecordRule();
+  params.peaks.prominence.shadow = ShadowRule::Required;
+  const PeakParams peaks = resolvePeakParams(params);
+  const int count = 2000;
+  std::mt19937_64 random(41);
+  std::uniform_real_distribution<double> speckle(0.8, 1.2);
+  const auto ringingBone = [&](double before, int ringingEnd) {
+    std::vector<float> envelope(static_cast<std::size_t>(count));
+    for (int i = 0; i < count; ++i) {
+      const double level =
+          i < 611          ? before
+          : i < ringingEnd ? 20000.0 * (0.45 - 0.15 * static_cast<double>(i - 611) / (count - 611))
+                           : before;
+      envelope[static_cast<std::size_t>(i)] = static_cast<float>(level * speckle(random));
+    }
+    paintEcho(envelope, 600, 20000.0);
+    return envelope;
+  };
+  const std::vector<float> inTissue = ringingBone(1000.0, count);
+  const PeakResult bone = findPeaks(peaks, inTissue.data(), count);
+  ASSERT_TRUE(bone.accepted()) << rejectReasonName(bone.reason);
+  EXPECT_NEAR(bone.sampleIndex, 600.0, 2.0);
+
+  PeakParams shadowOnly = peaks;
+  shadowOnly.prominence.shadowOnly = true;
+  EXPECT_FALSE(findPeaks(shadowOnly, inTissue.data(), count).accepted())
+      << "a record without a shadow accepted with the shadow only";
+
+  const std::vector<float> layerInWater = ringingBone(300.0, 800);
+  const PeakResult layer = findPeaks(peaks, layerInWater.data(), count);
+  EXPECT_FALSE(layer.accepted()) << "a ringing layer in water taken at " << layer.sampleIndex;
+}
+
 // A strong fascia at 600 whose echo bounces between it and the face (at 1200 and 1800, each
 // about half the one before: a train from the face, as an air gap's), and bone at 1530 under
 // the tissue, stronger than the fascia, with its shadow. Air lets nothing through, so nothing

@@ -178,6 +178,13 @@ struct ProminenceParams {
   /// 1.3 times that level from the ring-down on) and behind it no more than 1.4 times the noise
   /// (bare bone in water, whose inner cortex and marrow lift the median behind it a little).
   double noiseShadowEchoFactor = 10.0;
+  /// With the shadow required, take only echoes with bone's shadow. When false (the default), a
+  /// record in which no echo has it is judged by its own signature (the rule a capture without
+  /// shadows gets), and its pick is taken when it rings (shallow bone's cortex and the tissue over
+  /// it reverberate: no shadow), is the strongest echo after the ring-down, and is no object in
+  /// water (water before it and the envelope back at the water's level 3 regions behind). The
+  /// capture's shadow trial (adaptToCapture) runs with it true.
+  bool shadowOnly = false;
   /// The capture's context (EchoContext, fed frame by frame in order): a record judged not-bone
   /// takes the echo that the `contextFrames` records before it agree on, when at least 0.6 of
   /// them were accepted on their own, their depths agree (median absolute deviation at most
@@ -230,16 +237,17 @@ inline bool operator==(const BoneEchoParams& a, const BoneEchoParams& b) {
 }
 inline bool operator==(const ProminenceParams& a, const ProminenceParams& b) {
   const auto& [snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
-               ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA, strongA,
+               ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA, strongA, onlyA,
                contextA] = a;
   const auto& [snrB, medianB, promB, riseB, contrastB, regionB, wallB, airB, similarB, shadowB,
-               ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB, innerB, strongB,
+               ratioB, noiseB, shadowContrastB, ringingB, ringingContrastB, innerB, strongB, onlyB,
                contextB] = b;
   return std::tie(snrA, medianA, promA, riseA, contrastA, regionA, wallA, airA, similarA, shadowA,
                   ratioA, noiseA, shadowContrastA, ringingA, ringingContrastA, innerA, strongA,
-                  contextA) == std::tie(snrB, medianB, promB, riseB, contrastB, regionB, wallB,
-                                        airB, similarB, shadowB, ratioB, noiseB, shadowContrastB,
-                                        ringingB, ringingContrastB, innerB, strongB, contextB);
+                  onlyA, contextA) == std::tie(snrB, medianB, promB, riseB, contrastB, regionB,
+                                               wallB, airB, similarB, shadowB, ratioB, noiseB,
+                                               shadowContrastB, ringingB, ringingContrastB, innerB,
+                                               strongB, onlyB, contextB);
 }
 inline bool operator==(const PeakParams& a, const PeakParams& b) {
   const auto& [modeA, factorA, ofMaxA, beginA, endA, policyA, boneA, promA, ringA, cycleA,
