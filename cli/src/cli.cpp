@@ -58,6 +58,17 @@ int run(const std::vector<std::string>& args, std::ostream& out, std::ostream& e
   } catch (const CLI::ParseError& e) {
     const int code = app.exit(e, out, err);
     return code == 0 ? 0 : 2;
+  } catch (const std::logic_error&) {
+    // Debian's CLI11 converts a flag's value it does not know (--causal=maybe) with std::stoll,
+    // whose std::invalid_argument ("stoll") escapes its own error handling.
+    std::string given;
+    for (const std::string& arg : args) {
+      if (arg.rfind("--", 0) == 0 && arg.find('=') != std::string::npos)
+        given += (given.empty() ? "" : ", ") + arg;
+    }
+    err << "echoreg: a flag's value is not true, false, on, off, yes, no, 1 or 0"
+        << (given.empty() ? std::string() : " (given: " + given + ")") << "; echoreg --help\n";
+    return 2;
   }
 
   const Streams streams{out, err, &err == &std::cerr && ::isatty(STDERR_FILENO) != 0};

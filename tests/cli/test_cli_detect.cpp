@@ -325,6 +325,14 @@ TEST(CliDetect, BadParametersFailWithoutOutput) {
   const auto shadowOnly =
       runEchoreg({"detect", capture, "--out", csv, "--params", dir.file("shadow-only.json")});
   EXPECT_NE(shadowOnly.err.find("echo-shadow-only"), std::string::npos) << shadowOnly.err;
+  // A flag's value CLI11 does not know (it threw std::stoll's exception out of its parser, and
+  // echoreg aborted): a usage error naming the argument.
+  for (const char* flag : {"--echo-shadow-only=maybe", "--no-subsample=perhaps"}) {
+    const auto bad = runEchoreg({"detect", capture, "--out", csv, flag});
+    EXPECT_EQ(bad.exitCode, 2) << flag << ": " << bad.err;
+    EXPECT_NE(bad.err.find(flag), std::string::npos) << bad.err;
+    EXPECT_FALSE(std::filesystem::exists(csv)) << flag;
+  }
 }
 
 // The capture's context (--echo-context, on by default), on a strapped holder's capture of the
