@@ -27,6 +27,7 @@
 #include <memory>
 #include <optional>
 #include <ostream>
+#include <string>
 #include <type_traits>
 #include <variant>
 #include <vector>
@@ -49,7 +50,9 @@ struct DetectOptions {
 
 nlohmann::json summary(const core::SequenceDetection& detection,
                        const core::DetectionParams& params, const DetectOptions& options,
-                       const std::string& preset, int posesReorthonormalised) {
+                       const std::string& preset, int posesReorthonormalised,
+                       const std::string& samplingSource,
+                       const std::vector<std::string>& warnings) {
   nlohmann::json rejected = nlohmann::json::object();
   for (const auto& [reason, count] : detection.rejectedByReason)
     rejected[reason] = count;
@@ -63,6 +66,7 @@ nlohmann::json summary(const core::SequenceDetection& detection,
           {"envelope", std::string(core::envelopeMethodName(params.envelope.method))},
           {"peaks", std::string(core::peakPolicyName(params.peaks.policy))},
           {"sampling_frequency_hz", params.depth.samplingFrequencyHz},
+          {"sampling_frequency_source", samplingSource},
           {"delay_s", params.depth.delayS},
           {"speed_of_sound_mps", params.depth.speedOfSoundMps},
           {"echoes_before_inter_signal", detection.echoes},
@@ -77,7 +81,7 @@ nlohmann::json summary(const core::SequenceDetection& detection,
           {"tgc_db_per_mm", detection.analysis.tgcDbPerMm},
           {"tgc_source", detection.analysis.tgcSource},
           {"envelope_window_samples", detection.analysis.envelopeWindowSamples},
-          {"warnings", core::detectionWarnings(detection)},
+          {"warnings", warnings},
           {"poses_reorthonormalised", posesReorthonormalised}};
 }
 
@@ -190,13 +194,29 @@ CommandAction addDetectCommand(CLI::App& app) {
     if (showProgress)
       io.err << "\n";
     const core::SequenceDetection detection = pipeline.run();
-    for (const std::string& warning : core::detectionWarnings(detection)) {
+    // Where the sampling frequency came from: every depth, and every length the detector takes
+    // in mm, scales with it; an assumed one is said (PLUS's Agilent recording holds none: at the
+    // assumed 50 MHz its depths are 8.4 times too large).
+    const std::string samplingSource = settings.count("sampling-frequency") != 0  ? "given"
+                                       : sequence.acquisition.samplingFrequencyHz ? "header"
+                                                                                  : "assumed";
+    std::vector<std::string> warnings;
+    if (samplingSource == "assumed") {
+      warnings.push_back(fmt::format(
+          "{} gives no sampling frequency and none was given: assumed {:g} MHz; every depth "
+          "scales with it (--sampling-frequency)",
+          o->capture, params.depth.samplingFrequencyHz / 1e6));
+    }
+    for (const std::string& warning : core::detectionWarnings(detection))
+      warnings.push_back(warning);
+    for (const std::string& warning : warnings) {
       io.err << "echoreg detect: warning: " << warning << "\n";
     }
     if (o->json) {
-      io.out
-          << summary(detection, detection.params, *o, preset, poseNotes.reorthonormalised).dump(2)
-          << "\n";
+      io.out << summary(detection, detection.params, *o, preset, poseNotes.reorthonormalised,
+                        samplingSource, warnings)
+                    .dump(2)
+             << "\n";
     } else {
       io.out << fmt::format("{}: {} of {} frames accepted", o->out, detection.accepted,
                             detection.frames.size());
