@@ -265,6 +265,13 @@ DetectionParams perRecordRule() {
   return params;
 }
 
+// The peak parameters of the same with the shadow required (a capture judged by the shadow).
+PeakParams shadowRulePeaks() {
+  DetectionParams params = perRecordRule();
+  params.peaks.prominence.shadow = ShadowRule::Required;
+  return resolvePeakParams(params);
+}
+
 // A hand-built envelope for the reverberation tests: tissue's speckle (800-1200) before
 // `tissueEnd`, quiet (250-350) from there on.
 std::vector<float> tissueThenQuiet(int count, int tissueEnd, std::mt19937_64& random) {
@@ -1167,9 +1174,7 @@ TEST(ProminencePolicy, ASourceAboveTheWindowIsTimedAsOneInsideIt) {
 // 29: bone at 45.6 mm under a tissue echo at 22.7 mm, which a rule asking only a source twice
 // as strong rejected.)
 TEST(ProminencePolicy, ABounceInBonesShadowIsNoBone) {
-  DetectionParams params = perRecordRule();
-  params.peaks.prominence.shadow = ShadowRule::Required;
-  const PeakParams peaks = resolvePeakParams(params);
+  const PeakParams peaks = shadowRulePeaks();
   const int count = 2000;
   std::mt19937_64 random(40);
   std::vector<float> bounce = tissueThenQuiet(count, 1130, random);
@@ -1198,9 +1203,7 @@ TEST(ProminencePolicy, ABounceInBonesShadowIsNoBone) {
 // the water's level within a few millimetres is a layer in water (a phantom's soft tissue), not
 // taken: the shadow rule has judged it.
 TEST(ProminencePolicy, RingingBoneWithoutAShadowIsFoundUnderTheShadowRule) {
-  DetectionParams params = perRecordRule();
-  params.peaks.prominence.shadow = ShadowRule::Required;
-  const PeakParams peaks = resolvePeakParams(params);
+  const PeakParams peaks = shadowRulePeaks();
   const int count = 2000;
   std::mt19937_64 random(41);
   std::uniform_real_distribution<double> speckle(0.8, 1.2);
