@@ -1255,6 +1255,38 @@ bool ringsAsTheStrongestEcho(const PeakParams& params, const float* envelope, in
   return behind < 0.0 || behind > kNoiseShadowSpread * quiet(from + 0.25 * region);
 }
 
+// The fallback's first look, before the per-record rule runs (it costs twice the whole chain of a
+// record, and the shadow mode refuses about half the records of a specimen's capture): whether
+// any local maximum after the ring-down within the envelope's ripple of the record's strongest
+// echo rings, over the near half region from one period behind it (nearer than
+// ringsAsTheStrongestEcho looks, so more of the echo's own tail counts).
+bool mayRingAsTheStrongestEcho(const PeakParams& params, const float* envelope, int count,
+                               int ringDown) {
+  const double gain = params.gainDbPerSample;
+  const double strongest =
+      strongestAsArrived(envelope + ringDown, count - ringDown, gain) / gainAt(gain, ringDown);
+  const int region = echoRegionOf(params);
+  const int gap = std::max(1, static_cast<int>(std::lround(params.samplesPerCycle)));
+  std::vector<float> scratch;
+  // Without time-gain compensation the level is one value: most of the record lies under it and
+  // is skipped eight samples at a time (below it a little, so that a sample at it is looked at).
+  const float skipUnder =
+      gain > 0.0 ? 0.F : std::nextafter(static_cast<float>(strongest / kBounceRipple), 0.F);
+  for (int i = ringDown; i < count; ++i) {
+    while (i + 8 <= count && noneAbove8(envelope + i, skipUnder))
+      i += 8;
+    if (i >= count)
+      break;
+    if (envelope[i] / gainAt(gain, i) * kBounceRipple < strongest ||
+        !isLocalMaximum(envelope, count, i))
+      continue;
+    if (medianOf(envelope, count, i + gap, i + gap + region / 2, scratch) >=
+        params.prominence.ringingFraction * envelope[i])
+      return true;
+  }
+  return false;
+}
+
 }  // namespace
 
 std::string_view rejectReasonName(RejectReason reason) {
@@ -1439,7 +1471,8 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
         shifted.sampleIndex = params.subsample ? refinedIndex(envelope, count, at) : at;
       }
     }
-    if (!shifted.accepted() && !params.prominence.shadowOnly) {
+    if (!shifted.accepted() && !params.prominence.shadowOnly &&
+        mayRingAsTheStrongestEcho(params, envelope, count, ringDown)) {
       // No echo with bone's shadow: the record judged by its own signature, as in a capture
       // without shadows, taking only its strongest echo when it rings (shallow bone whose cortex
       // rings casts none; the in-vivo holder profile of the randomised set, seeds 1-6: misses
