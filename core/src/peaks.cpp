@@ -1213,6 +1213,12 @@ int strongerEchoAbove(const PeakParams& params, const float* envelope, int count
   return best;
 }
 
+// The strongest sample of the record from `from` on as it arrived, before time-gain compensation.
+double strongestAfter(const float* envelope, int count, int from, double gainDbPerSample) {
+  return strongestAsArrived(envelope + from, count - from, gainDbPerSample) /
+         gainAt(gainDbPerSample, from);
+}
+
 // An echo behind which the envelope is back at the water's level this many of the prominence
 // policy's regions is an object in water (see ringsAsTheStrongestEcho).
 constexpr int kBackToWaterRegions = 3;
@@ -1232,11 +1238,11 @@ constexpr int kBackToWaterRegions = 3;
 // per-record rule takes, a lone pulse in the record's noise, is what a burst of electrical noise
 // looks like too: the shadow rule refused it, and it stays refused (echoreg's generator set,
 // seed 1: false positives 4.2 -> 6.3 % with any pick of the per-record rule).
+// `strongest`: the record's strongest echo after the ring-down as it arrived (strongestAfter).
 bool ringsAsTheStrongestEcho(const PeakParams& params, const float* envelope, int count,
-                             int ringDown, const Peak& pick) {
+                             int ringDown, double strongest, const Peak& pick) {
   const double gain = params.gainDbPerSample;
-  if (pick.value / gainAt(gain, pick.index) * kBounceRipple <
-      strongestAsArrived(envelope + ringDown, count - ringDown, gain) / gainAt(gain, ringDown))
+  if (pick.value / gainAt(gain, pick.index) * kBounceRipple < strongest)
     return false;
   const int region = echoRegionOf(params);
   const int gap = std::max(1, static_cast<int>(std::lround(params.samplesPerCycle)));
@@ -1261,10 +1267,8 @@ bool ringsAsTheStrongestEcho(const PeakParams& params, const float* envelope, in
 // echo rings, over the near half region from one period behind it (nearer than
 // ringsAsTheStrongestEcho looks, so more of the echo's own tail counts).
 bool mayRingAsTheStrongestEcho(const PeakParams& params, const float* envelope, int count,
-                               int ringDown) {
+                               int ringDown, double strongest) {
   const double gain = params.gainDbPerSample;
-  const double strongest =
-      strongestAsArrived(envelope + ringDown, count - ringDown, gain) / gainAt(gain, ringDown);
   const int region = echoRegionOf(params);
   const int gap = std::max(1, static_cast<int>(std::lround(params.samplesPerCycle)));
   std::vector<float> scratch;
@@ -1471,21 +1475,24 @@ PeakResult findPeaks(const PeakParams& params, const float* envelope, int count)
         shifted.sampleIndex = params.subsample ? refinedIndex(envelope, count, at) : at;
       }
     }
-    if (!shifted.accepted() && !params.prominence.shadowOnly &&
-        mayRingAsTheStrongestEcho(params, envelope, count, ringDown)) {
+    if (!shifted.accepted() && !params.prominence.shadowOnly) {
       // No echo with bone's shadow: the record judged by its own signature, as in a capture
       // without shadows, taking only its strongest echo when it rings (shallow bone whose cortex
       // rings casts none; the in-vivo holder profile of the randomised set, seeds 1-6: misses
       // 6.9 -> 5.9 %; see docs/detection.md, stop 41).
-      PeakParams each = params;
-      each.prominence.shadow = ShadowRule::Auto;
-      PeakResult own;
-      prominencePolicy(each, envelope, count, std::clamp(params.windowBegin.value_or(0), 0, count),
-                       std::clamp(params.windowEnd.value_or(count), 0, count), own);
-      if (own.accepted() &&
-          ringsAsTheStrongestEcho(params, envelope, count, ringDown,
-                                  own.peaks[static_cast<std::size_t>(own.selected)]))
-        return own;
+      const double strongest = strongestAfter(envelope, count, ringDown, params.gainDbPerSample);
+      if (mayRingAsTheStrongestEcho(params, envelope, count, ringDown, strongest)) {
+        PeakParams each = params;
+        each.prominence.shadow = ShadowRule::Auto;
+        PeakResult own;
+        prominencePolicy(each, envelope, count,
+                         std::clamp(params.windowBegin.value_or(0), 0, count),
+                         std::clamp(params.windowEnd.value_or(count), 0, count), own);
+        if (own.accepted() &&
+            ringsAsTheStrongestEcho(params, envelope, count, ringDown, strongest,
+                                    own.peaks[static_cast<std::size_t>(own.selected)]))
+          return own;
+      }
     }
     if (!shifted.accepted() && params.windowBegin && *params.windowBegin < ringDown &&
         (shifted.reason == RejectReason::NoPeak || shifted.reason == RejectReason::OutsideWindow)) {
