@@ -1234,6 +1234,37 @@ TEST(ProminencePolicy, RingingBoneWithoutAShadowIsFoundUnderTheShadowRule) {
   EXPECT_FALSE(layer.accepted()) << "a ringing layer in water taken at " << layer.sampleIndex;
 }
 
+// Bone at 600 under tissue (1000) whose cortex echoes behind it for 60 samples (`cortex`, and
+// its inner surface at 640, an eighth of bone's echo), then the shadow (300). The cortex fills
+// the near half of the region behind the echo; the shadow shows over the whole region. At the
+// tissue's level or under it the cortex's echoes are bone's own: a shadow. Brighter than the
+// tissue before the echo, what lies behind it is more tissue: no shadow.
+TEST(ProminencePolicy, BoneWhoseCortexEchoesBehindItHasAShadow) {
+  const PeakParams peaks = resolvePeakParams(perRecordRule());
+  const int count = 2000;
+  std::mt19937_64 random(42);
+  std::uniform_real_distribution<double> speckle(0.8, 1.2);
+  const auto boneWithCortex = [&](double cortex) {
+    std::vector<float> envelope(static_cast<std::size_t>(count));
+    for (int i = 0; i < count; ++i) {
+      const double level = i < 611 ? 1000.0 : i < 670 ? cortex : 300.0;
+      envelope[static_cast<std::size_t>(i)] = static_cast<float>(level * speckle(random));
+    }
+    paintEcho(envelope, 600, 20000.0);
+    paintEcho(envelope, 640, 2500.0);
+    return envelope;
+  };
+  const std::vector<float> bone = boneWithCortex(800.0);
+  const PeakResult found = findPeaks(peaks, bone.data(), count);
+  ASSERT_TRUE(found.accepted()) << rejectReasonName(found.reason);
+  EXPECT_NEAR(found.sampleIndex, 600.0, 2.0);
+
+  const std::vector<float> tissue = boneWithCortex(1400.0);
+  const PeakResult behindTissue = findPeaks(peaks, tissue.data(), count);
+  EXPECT_FALSE(behindTissue.accepted()) << "taken at " << behindTissue.sampleIndex;
+  EXPECT_EQ(behindTissue.reason, RejectReason::NotBone);
+}
+
 // A strong fascia at 600 whose echo bounces between it and the face (at 1200 and 1800, each
 // about half the one before: a train from the face, as an air gap's), and bone at 1530 under
 // the tissue, stronger than the fascia, with its shadow. Air lets nothing through, so nothing
