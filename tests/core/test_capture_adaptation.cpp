@@ -717,7 +717,7 @@ TEST(ProminencePolicy, BoneInWaterThatRingsIsBoneATissueLayerBehindAnEchoIsNoTra
     const std::string mode(shadowRuleName(rule));
     // The shadow mode judges the train over its 3 mm bone region; the per-record rule over its
     // 2 mm echo region, where this train goes quiet after two or three bounces and more than half
-    // the records fail the decay test (43 of 100 taken today, 97 in the shadow mode).
+    // the records fail the decay test (47 of 100 taken today, 97 in the shadow mode).
     EXPECT_GE(train.first, rule == ShadowRule::Required ? 85 : 30) << "of 100, " << mode;
     EXPECT_EQ(train.second, 0) << mode << ": a bounce of the train taken";
     // (A speckle grain at the layer's end, with the quiet behind it, is taken in about a third
