@@ -212,6 +212,9 @@ class LiveSession {
   live::PoseBuffer poses_;
   core::Sequence layout_;
   bool haveCaptureHeader_ = false;
+  // Where the A-lines' sampling frequency came from: "header" (echoreg's capture header), "given"
+  // (--sampling-frequency) or "assumed" (neither: the preset's). Decided at the first A-line.
+  std::string samplingSource_;
   std::unique_ptr<live::CaptureRecorder> recorder_;
   std::unique_ptr<live::LiveDetector> detector_;
   std::unique_ptr<live::IncrementalRegistration> registration_;
@@ -356,11 +359,22 @@ void LiveSession::onImage(const live::Message& message, Clock::time_point arriva
   if (!recorder_) {
     layout_.elementType = message.elementType;
     layout_.frameSize = {message.samples, 1};
-    if (!haveCaptureHeader_ && o_.samplingFrequencyHz > 0.0)
+    // The capture header's sampling frequency, else --sampling-frequency, else the preset's,
+    // which is said: every depth, and every length the detector takes in mm, scales with it.
+    const bool fromHeader =
+        haveCaptureHeader_ && layout_.acquisition.samplingFrequencyHz.has_value();
+    if (!fromHeader && o_.samplingFrequencyHz > 0.0)
       layout_.acquisition.samplingFrequencyHz = o_.samplingFrequencyHz;
+    samplingSource_ = fromHeader ? "header" : o_.samplingFrequencyHz > 0.0 ? "given" : "assumed";
     recorder_ = std::make_unique<live::CaptureRecorder>(o_.record, layout_);
     // As register resolves them: the preset, the stream's header, then the tunables given.
     params_ = resolveParams(preset_, settings_, layout_);
+    if (samplingSource_ == "assumed")
+      note(
+          fmt::format("warning: the stream gives no sampling frequency (no capture header from "
+                      "the server) and none was given: assumed {:g} MHz; every depth scales "
+                      "with it (--sampling-frequency)",
+                      params_.depth.samplingFrequencyHz / 1e6));
     live::LiveDetectorOptions detection;
     detection.params = params_;
     detection.headerFrequencyHz = layout_.acquisition.transducerFrequencyHz;
@@ -531,6 +545,7 @@ nlohmann::json LiveSession::summary() const {
                          {"refusal_examples", reasonExamples_},
                          {"messages", messagesByType_},
                          {"skipped", problems_},
+                         {"sampling_frequency_source", samplingSource_},
                          {"unpaired_transforms", unpaired_.frames.size()},
                          {"latency_ms",
                           {{"count", latencies_.count()},
@@ -957,8 +972,8 @@ CommandAction addLiveCommand(CLI::App& app) {
       ->group("Live");
   cmd->add_option(
          "--sampling-frequency", o->samplingFrequencyHz,
-         "A-lines' sampling frequency, Hz, when the server does not send echoreg's capture "
-         "header")
+         "A-lines' sampling frequency, Hz, when the server sends no capture header of "
+         "echoreg's with one (without either, the preset's 50 MHz is assumed, with a warning)")
       ->check(finiteNumber(0.0, false))
       ->group("Live");
   addRegistrationOptions(cmd, r, {"sampling-frequency"})->required();

@@ -156,6 +156,8 @@ TEST_F(LiveSession, RecordsEverythingServedAndEndsWhenTheServerCloses) {
             std::string::npos);
   // Frames 300-319 of the sweep have an INVALID probe, served as STATUS and refused by the pose.
   EXPECT_EQ(s.at("verdicts").at("invalid-pose"), 20);
+  EXPECT_EQ(s.at("sampling_frequency_source"), "header");
+  EXPECT_EQ(live.err.find("assumed"), std::string::npos) << live.err;
   EXPECT_NE(s.at("refusal_examples")
                 .at("invalid-pose")
                 .get<std::string>()
@@ -463,6 +465,36 @@ TEST_F(LiveSession, ServeRepeatsTheCaptureWithTimestampsGoingOnAsPlusLoopsIt) {
       << r.err;
   r = runEchoreg({"serve", dir_.file("one.igs.mha"), "--port", "0", "--repeat", "-1"});
   EXPECT_EQ(r.exitCode, 2) << r.err;
+}
+
+// A server that sends A-lines and poses but no capture header (a PLUS server does not): the
+// sampling frequency is --sampling-frequency's, recorded in the capture; without it the preset's
+// 50 MHz is assumed and said, since every depth scales with it.
+TEST_F(LiveSession, ASamplingFrequencyTheStreamDoesNotGiveIsTakenFromTheOptionOrSaidToBeAssumed) {
+  const core::Sequence s = sweep(30);
+  const auto runWithoutHeader = [&](const std::vector<std::string>& more) {
+    const int port = freePort();
+    auto server = fakeServer(port, [&](Connection& c) {
+      for (std::size_t f = 0; f < 30; ++f)
+        sendFrame(c, s, f);
+    });
+    const CommandResult live = runEchoreg(liveArgs(port, more));
+    server.get();
+    return live;
+  };
+  const CommandResult assumed = runWithoutHeader({});
+  EXPECT_NE(assumed.err.find("echoreg live: warning: the stream gives no sampling frequency (no "
+                             "capture header from the server) and none was given: assumed 50 "
+                             "MHz; every depth scales with it (--sampling-frequency)"),
+            std::string::npos)
+      << assumed.err;
+  EXPECT_EQ(session().at("sampling_frequency_source"), "assumed");
+  EXPECT_EQ(session().at("recorded_frames"), 30);
+
+  const CommandResult given = runWithoutHeader({"--sampling-frequency", "40e6"});
+  EXPECT_EQ(given.err.find("assumed"), std::string::npos) << given.err;
+  EXPECT_EQ(session().at("sampling_frequency_source"), "given");
+  EXPECT_EQ(core::readSequence(dir_.file("rec.igs.mha")).acquisition.samplingFrequencyHz, 40e6);
 }
 
 TEST_F(LiveSession, AnOversizedMessageEndsTheSessionWithAClearMessageAndKeepsTheRecording) {
