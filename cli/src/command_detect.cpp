@@ -197,16 +197,11 @@ CommandAction addDetectCommand(CLI::App& app) {
     // Where the sampling frequency came from: every depth, and every length the detector takes
     // in mm, scales with it; an assumed one is said (PLUS's Agilent recording holds none: at the
     // assumed 50 MHz its depths are 8.4 times too large).
-    const std::string samplingSource = settings.count("sampling-frequency") != 0  ? "given"
-                                       : sequence.acquisition.samplingFrequencyHz ? "header"
-                                                                                  : "assumed";
+    const std::string samplingSource = samplingFrequencySource(settings, sequence);
     std::vector<std::string> warnings;
-    if (samplingSource == "assumed") {
-      warnings.push_back(fmt::format(
-          "{} gives no sampling frequency and none was given: assumed {:g} MHz; every depth "
-          "scales with it (--sampling-frequency)",
-          o->capture, params.depth.samplingFrequencyHz / 1e6));
-    }
+    if (samplingSource == "assumed")
+      warnings.push_back(
+          assumedSamplingFrequencyWarning(o->capture, params.depth.samplingFrequencyHz));
     for (const std::string& warning : core::detectionWarnings(detection))
       warnings.push_back(warning);
     for (const std::string& warning : warnings) {

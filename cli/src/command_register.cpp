@@ -149,11 +149,14 @@ std::vector<core::SurfacePoint> capturePoints(const CaptureDetection& capture,
   nlohmann::json rejected = nlohmann::json::object();
   for (const auto& [reason, count] : detection.rejectedByReason)
     rejected[reason] = count;
-  report.push_back({{"capture", request.capture},
-                    {"frames", detection.frames.size()},
-                    {"accepted", detection.accepted},
-                    {"rejected_by_reason", rejected},
-                    {"speed_of_sound_mps", detection.params.depth.speedOfSoundMps}});
+  report.push_back(
+      {{"capture", request.capture},
+       {"frames", detection.frames.size()},
+       {"accepted", detection.accepted},
+       {"rejected_by_reason", rejected},
+       {"speed_of_sound_mps", detection.params.depth.speedOfSoundMps},
+       {"sampling_frequency_hz", detection.params.depth.samplingFrequencyHz},
+       {"sampling_frequency_source", samplingFrequencySource(request.settings, sequence)}});
   return points;
 }
 
@@ -541,6 +544,7 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
 
   // The points.
   PoseNotes poseNotes;
+  std::vector<std::string> warnings;
   std::vector<core::SurfacePoint> points;
   nlohmann::json sources = nlohmann::json::array();
   std::optional<double> speedOfSound;  ///< the detection's, when the points were detected here
@@ -558,6 +562,9 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
       poseNotes.lines.insert(poseNotes.lines.end(), detected.poseNotes.lines.begin(),
                              detected.poseNotes.lines.end());
       speedOfSound = detected.detection.params.depth.speedOfSoundMps;
+      if (samplingFrequencySource(request.settings, detected.sequence()) == "assumed")
+        warnings.push_back(assumedSamplingFrequencyWarning(
+            capture, detected.detection.params.depth.samplingFrequencyHz));
       const std::vector<core::SurfacePoint> found =
           capturePoints(detected, request, o.ultrasoundSigma, sources);
       points.insert(points.end(), found.begin(), found.end());
@@ -583,6 +590,7 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
   gathered.sources = std::move(sources);
   gathered.speedOfSoundMps = speedOfSound;
   gathered.poseNotes = std::move(poseNotes);
+  gathered.warnings = std::move(warnings);
   return solveAndWrite(o, loaded, start, gathered, io);
 }
 
@@ -652,7 +660,7 @@ int solveAndWrite(const RegisterOptions& o, const RegistrationModel& loaded,
   // A start from two landmarks leaves the rotation about their line to the surface points: on a
   // round surface (the femur's condyles) a wrong rotation can fit them as well as the right one,
   // and no fit statistic shows it. Said in the result and on stderr, never silently.
-  std::vector<std::string> warnings;
+  std::vector<std::string> warnings = gathered.warnings;
   if (options.searchAboutAxis) {
     warnings.push_back(
         "started from two landmarks: the rotation about their line rests on the surface points "

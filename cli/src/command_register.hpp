@@ -110,6 +110,8 @@ struct RegistrationPoints {
   /// The detection's speed of sound, m/s, when the points were detected from A-lines.
   std::optional<double> speedOfSoundMps;
   PoseNotes poseNotes;
+  /// Said in the result's "warnings" and on stderr (e.g. a capture's assumed sampling frequency).
+  std::vector<std::string> warnings;
 };
 /// The bounds the solver needs (at most --max-points, at least 3, beams for
 /// --fit-speed-of-sound), checked before it runs: std::invalid_argument, or FileError naming the

@@ -395,4 +395,18 @@ nlohmann::json settingsJson(const TunableSettings& settings) {
   return json;
 }
 
+std::string samplingFrequencySource(const TunableSettings& settings,
+                                    const core::Sequence& sequence) {
+  if (settings.count("sampling-frequency") != 0)
+    return "given";
+  return sequence.acquisition.samplingFrequencyHz ? "header" : "assumed";
+}
+
+std::string assumedSamplingFrequencyWarning(const std::string& capture, double hz) {
+  return fmt::format(
+      "{} gives no sampling frequency and none was given: assumed {:g} MHz; every depth scales "
+      "with it (--sampling-frequency)",
+      capture, hz / 1e6);
+}
+
 }  // namespace echoreg::cli

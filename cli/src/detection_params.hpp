@@ -78,4 +78,13 @@ core::DetectionParams resolveParams(const std::string& preset, const TunableSett
 /// The settings as a JSON object (the study's cache key).
 nlohmann::json settingsJson(const TunableSettings& settings);
 
+/// Where a capture's sampling frequency comes from: "given" (the settings: a flag or --params),
+/// "header" (the capture's) or "assumed" (the preset's). Every depth, and every length the
+/// detector takes in mm, scales with it.
+std::string samplingFrequencySource(const TunableSettings& settings,
+                                    const core::Sequence& sequence);
+
+/// The warning for an assumed sampling frequency of `hz` for `capture`, naming the flag.
+std::string assumedSamplingFrequencyWarning(const std::string& capture, double hz);
+
 }  // namespace echoreg::cli

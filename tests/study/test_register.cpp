@@ -14,6 +14,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <fmt/format.h>
+
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <fstream>
@@ -116,10 +119,42 @@ TEST_F(Register, FemurAndTibiaFromTheirCapturesMatchTheTruth) {
     // The tibia starts from its two malleoli: the result says the rotation about their line
     // rests on the surface; the femur has its hip centre as a third landmark.
     EXPECT_EQ(written.extra.at("warnings").size(), bone == "Tibia" ? 1u : 0u) << bone;
+    EXPECT_EQ(written.extra.at("sources").at(0).at("sampling_frequency_source"), "header");
     EXPECT_EQ(written.extra.at("rms_over"), "inliers");
     EXPECT_GT(written.extra.at("points_used").get<int>(), 50);
     EXPECT_TRUE(fs::is_regular_file(dir_.file(bone + "ToCT.tfm")));
   }
+}
+
+// A capture whose header holds no sampling frequency (PLUS's Agilent recording holds none): the
+// preset's 50 MHz is assumed and said, on stderr and in the result's warnings and sources, since
+// every depth scales with it; --sampling-frequency gives it.
+TEST_F(Register, AnAssumedSamplingFrequencyIsSaid) {
+  core::Sequence capture = core::readSequence(path("captures/femur_ultrasound.igs.mha"));
+  const double hz = *capture.acquisition.samplingFrequencyHz;
+  capture.acquisition.samplingFrequencyHz.reset();
+  const std::string stripped = dir_.file("femur_no_rate.igs.mha");
+  core::writeSequence(capture, stripped);
+  std::vector<std::string> a = args("Femur", dir_.file("FemurToCT.json"));
+  *std::find(a.begin(), a.end(), path("captures/femur_ultrasound.igs.mha")) = stripped;
+  const test::CommandResult assumed = runEchoreg(a);
+  const std::string words = stripped +
+                            " gives no sampling frequency and none was given: assumed 50 MHz; "
+                            "every depth scales with it (--sampling-frequency)";
+  EXPECT_NE(assumed.err.find("echoreg register: warning: " + words), std::string::npos)
+      << assumed.err;
+  const core::TransformFile written = core::readTransformFile(dir_.file("FemurToCT.json"));
+  EXPECT_EQ(written.extra.at("warnings").at(0), words);
+  EXPECT_EQ(written.extra.at("sources").at(0).at("sampling_frequency_source"), "assumed");
+
+  a.insert(a.end(), {"--sampling-frequency", fmt::format("{:.17g}", hz)});
+  const test::CommandResult given = runEchoreg(a);
+  ASSERT_EQ(given.exitCode, 0) << given.err;
+  EXPECT_EQ(given.err.find("assumed"), std::string::npos) << given.err;
+  const core::TransformFile again = core::readTransformFile(dir_.file("FemurToCT.json"));
+  EXPECT_EQ(again.extra.at("warnings").size(), 0u);
+  EXPECT_EQ(again.extra.at("sources").at(0).at("sampling_frequency_source"), "given");
+  EXPECT_EQ(again.extra.at("sources").at(0).at("sampling_frequency_hz"), hz);
 }
 
 // The hip centre (pivot of the femur's marker) as a third landmark: the start is the paired-point
