@@ -660,6 +660,12 @@ int reverbRadiusOf(const PeakParams& params) {
   return std::max(2, static_cast<int>(std::lround(2.0 * params.samplesPerCycle)));
 }
 
+// The gap between an echo's extent and the regions measured before and behind it: one period of
+// the transducer, at least one sample.
+int gapOf(const PeakParams& params) {
+  return std::max(1, static_cast<int>(std::lround(params.samplesPerCycle)));
+}
+
 // The source of a bounce that arrived as `arrived` (before time-gain compensation): the largest
 // sample of envelope[lo, hi) within `radius` of sample `at`, when it is a local maximum, at least
 // kBounceLoss times as strong as they arrived and prominent (minProminence of its height, over the
@@ -843,7 +849,7 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
   }
 
   const int region = echoRegionOf(params);
-  const int gap = std::max(1, static_cast<int>(std::lround(params.samplesPerCycle)));
+  const int gap = gapOf(params);
   const int maxRise =
       std::max(2, static_cast<int>(std::lround(e.maxRiseCycles * params.samplesPerCycle)));
   const int reverbRadius = reverbRadiusOf(params);
@@ -1214,7 +1220,7 @@ int strongerEchoAbove(const PeakParams& params, const float* envelope, int count
   if (strong.value < ratio * pick.value)
     return -1;
   std::vector<float> scratch;
-  const int gap = std::max(1, static_cast<int>(std::lround(params.samplesPerCycle)));
+  const int gap = gapOf(params);
   const double before = medianOf(envelope, count, std::max(ringDown, strong.runBegin - gap - reach),
                                  strong.runBegin - gap, scratch);
   if (before >= 0.0 && strong.value < params.bone.minContrast * std::max(before, 1e-12))
@@ -1254,7 +1260,7 @@ bool ringsAsTheStrongestEcho(const PeakParams& params, const float* envelope, in
   if (pick.value / gainAt(gain, pick.index) * kBounceRipple < strongest)
     return false;
   const int region = echoRegionOf(params);
-  const int gap = std::max(1, static_cast<int>(std::lround(params.samplesPerCycle)));
+  const int gap = gapOf(params);
   std::vector<float> scratch;
   const int behindFrom = pick.runEnd - 1 + gap;
   if (!(medianOf(envelope, count, behindFrom, behindFrom + region / 2, scratch) >=
@@ -1279,7 +1285,7 @@ bool mayRingAsTheStrongestEcho(const PeakParams& params, const float* envelope, 
                                int ringDown, double strongest) {
   const double gain = params.gainDbPerSample;
   const int region = echoRegionOf(params);
-  const int gap = std::max(1, static_cast<int>(std::lround(params.samplesPerCycle)));
+  const int gap = gapOf(params);
   std::vector<float> scratch;
   // Without time-gain compensation the level is one value: most of the record lies under it and
   // is skipped eight samples at a time (below it a little, so that a sample at it is looked at).
