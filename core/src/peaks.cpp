@@ -986,8 +986,9 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     // most (they come from inside bone, which returns less than the tissue over it), and the
     // shadow shows over the whole region. Without this a low-frequency or long-tailed pulse's
     // bone, whose cortical echoes last a millimetre or more behind it, had no shadow (randomised
-    // set, 3.85 MHz gamma pulse: echoes 0.25 and 0.5 of bone's 0.6-1.2 mm behind it, the near
-    // half's median 0.9 of the tissue before it, the whole region's 0.24; 44 of 50 frames missed).
+    // set, 3.85 MHz gamma pulse: echoes a quarter and a tenth of bone's, 0.6-1.2 mm behind it; the
+    // near half's median 0.9 of the tissue before it, the whole region's 0.24; 44 of 50 frames
+    // missed).
     c.contrast = before >= 0.0 ? c.value / std::max(before, tiny) : 1e9;
     c.shadowed =
         (c.contrast >= e.shadowContrast && count - (right + gap) >= region / 2 && before >= 0.0 &&
