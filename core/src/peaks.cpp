@@ -990,13 +990,12 @@ void prominencePolicy(const PeakParams& params, const float* envelope, int count
     // near half's median 0.9 of the tissue before it, the whole region's 0.24; 44 of 50 frames
     // missed).
     c.contrast = before >= 0.0 ? c.value / std::max(before, tiny) : 1e9;
-    c.shadowed =
-        (c.contrast >= e.shadowContrast && count - (right + gap) >= region / 2 && before >= 0.0 &&
-         isShadow(right + gap, right + gap + region / 2, nearAfterMedian()) &&
-         isShadow(right + gap, right + gap + region, after)) ||
-        (c.contrast >= e.shadowContrast && count - (right + gap) >= region && before >= 0.0 &&
-         nearAfterMedian() <= before && isShadow(right + gap, right + gap + region, after)) ||
-        ringsInWater();
+    const int room = count - (right + gap);
+    c.shadowed = (c.contrast >= e.shadowContrast && room >= region / 2 && before >= 0.0 &&
+                  isShadow(right + gap, right + gap + region, after) &&
+                  (isShadow(right + gap, right + gap + region / 2, nearAfterMedian()) ||
+                   (room >= region && nearAfterMedian() <= before))) ||
+                 ringsInWater();
     // Shallow bone in vivo: its cortex rings, the envelope behind it stays near its own height
     // (behind a fascia or the skin, the tissue's speckle is far below the echo).
     c.ringing = nearAfterMedian() >= e.ringingFraction * c.value &&
