@@ -419,6 +419,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                 {"seeds", seedsJson},
                 {"bones", bonesJson},
                 {"automatic_neighbours", bones.automaticNeighbours},
+                {"joint_slab_voxels", bones.jointSlabVoxels},
                 {"marker_dynamic_mm", bones.markerDynamicMm},
                 {"threshold",
                  {{"strong_hu", bones.thresholdUsed.strongHu},

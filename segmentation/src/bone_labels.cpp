@@ -1,5 +1,7 @@
 #include "echoreg/segmentation/bone_labels.hpp"
 
+#include "echoreg/segmentation/joint_slabs.hpp"
+
 #include <fmt/format.h>
 
 #include <algorithm>
@@ -1103,6 +1105,18 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
         piece.voxels[i] = 0;  // the fill does not take another bone's voxels
     }
     bone.mask = std::move(piece);
+    result.bones.push_back(std::move(bone));
+  }
+  // The joint's slab on thick slices goes to the bone it holds (joint_slabs.hpp).
+  if (options.jointSlabMinSliceMm > 0.0 && spacing.z() >= options.jointSlabMinSliceMm &&
+      result.bones.size() >= 2) {
+    std::vector<VoxelMask*> masks;
+    for (SegmentedBone& b : result.bones)
+      masks.push_back(&b.mask);
+    const double soft = std::isfinite(options.softTissueHu) ? options.softTissueHu : 0.0;
+    result.jointSlabVoxels = giveJointSlabs(image, masks, soft, options.jointSlabShare);
+  }
+  for (SegmentedBone& bone : result.bones) {
     const std::size_t n = bone.mask.count();
     bone.volumeMm3 = static_cast<double>(n) * voxelMm3;
     Eigen::Vector3i lo(dims[0], dims[1], dims[2]), hi(-1, -1, -1);
@@ -1118,7 +1132,6 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
     }
     if (hi.x() >= 0)
       bone.extentMm = ((hi - lo).cast<double>() + Eigen::Vector3d::Ones()).cwiseProduct(spacing);
-    result.bones.push_back(std::move(bone));
   }
   // Metal: the bone it lies in or on.
   for (MetalPiece& m : result.metal) {
@@ -1392,6 +1405,8 @@ CompetingResult segmentCompetingBones(const core::CtImage& image,
     estimate =
         estimateBoneThreshold(image, voxels, given.thresholdBoxMm, given.metalHu, given.threshold);
     options.threshold = estimate.threshold;
+    if (!std::isfinite(given.softTissueHu))
+      options.softTissueHu = estimate.softTissueHu;
   }
   auto finish = [&](CompetingResult r) {
     r.thresholdUsed = options.threshold;

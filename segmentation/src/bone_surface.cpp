@@ -321,7 +321,9 @@ BoneSurfaceResult boneSurface(const core::CtImage& ct, const VoxelMask& region,
     // Thick slices: the share of bone in the voxels at the ends along z from the sections
     // around them (their HU does not tell it).
     if (options.endSharesMinSliceMm > 0.0 && spacing.z() >= options.endSharesMinSliceMm) {
-      for (const VoxelShare& end : zEndShares(region, exclude, options.endShares)) {
+      const VoxelMask sections =
+          jointSlabSections(ct, region, exclude, soft, options.jointSlabShare);
+      for (const VoxelShare& end : zEndShares(region, exclude, options.endShares, &sections)) {
         const int i = static_cast<int>(end.voxel % sz(d[0]));
         const int j = static_cast<int>((end.voxel / sz(d[0])) % sz(d[1]));
         const int k = static_cast<int>(end.voxel / (sz(d[0]) * sz(d[1])));

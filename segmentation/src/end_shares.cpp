@@ -29,13 +29,15 @@ constexpr int kSamplesPerSlab = 40;
 }  // namespace
 
 std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exclude,
-                                   const EndShareOptions& options) {
+                                   const EndShareOptions& options, const VoxelMask* sectionRegion) {
   const core::CtImage& g = region.geometry;
   if (!g.uniform())
     throw std::invalid_argument("zEndShares needs a CT of one slice group");
   const std::size_t n = g.voxelCount();
-  if (region.voxels.size() != n || (exclude != nullptr && exclude->voxels.size() != n))
+  if (region.voxels.size() != n || (exclude != nullptr && exclude->voxels.size() != n) ||
+      (sectionRegion != nullptr && sectionRegion->voxels.size() != n))
     throw std::invalid_argument("zEndShares: the masks lie on different grids");
+  const VoxelMask& sectioned = sectionRegion != nullptr ? *sectionRegion : region;
   const auto& d = g.dimensions;
   const Eigen::Vector3d spacing = g.spacingMm();
   const double h = spacing.z();
@@ -46,7 +48,7 @@ std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exc
   for (int k = 0; k < d[2]; ++k) {
     for (int j = 0; j < d[1]; ++j) {
       for (int i = 0; i < d[0]; ++i) {
-        if (region.at(i, j, k)) {
+        if (sectioned.at(i, j, k)) {
           i0 = std::min(i0, i);
           i1 = std::max(i1, i);
           j0 = std::min(j0, j);
@@ -81,7 +83,7 @@ std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exc
     for (int b = 0; b < nv; ++b) {
       for (int a = 0; a < nu; ++a) {
         const int i = i0 + a, j = j0 + b;
-        if (i >= 0 && j >= 0 && i < d[0] && j < d[1] && region.at(i, j, k)) {
+        if (i >= 0 && j >= 0 && i < d[0] && j < d[1] && sectioned.at(i, j, k)) {
           layer.voxels[sz(b) * sz(nu) + sz(a)] = 1;
           s->present = true;
         }

@@ -156,6 +156,8 @@ TEST_F(CliSegment, CompetingSeedsAndTheErosionMethod) {
   ASSERT_EQ(r.exitCode, 0) << r.err;
   auto json = nlohmann::json::parse(r.out);
   EXPECT_EQ(json["method"], "watershed");
+  // The joint's slab rule runs on slices of 4 mm and more only (these are 1 mm): none moved.
+  EXPECT_EQ(json["joint_slab_voxels"], 0);
   ASSERT_EQ(json["bones"].size(), 2u);
   EXPECT_EQ(json["bones"][0]["bone"], "femur");
   EXPECT_TRUE(json["bones"][0]["modelled"].get<bool>());

@@ -12,6 +12,7 @@
 #include "echoreg/segmentation/bone_labels.hpp"
 #include "echoreg/segmentation/bone_surface.hpp"
 #include "echoreg/segmentation/end_shares.hpp"
+#include "echoreg/segmentation/joint_slabs.hpp"
 #include "echoreg/segmentation/surface_metrics.hpp"
 
 #include "simulated_knee.hpp"
@@ -253,11 +254,10 @@ TEST(ThickSlices, RefinementWorksAtThreeMillimetreSlices) {
 
 // At the hip's 5 mm the defaults beat the mask's surface, the one level of before and the ends'
 // HU (before the ends' shares from the sections) on every bone; the targets (MSD <= 0.3 mm,
-// Dice >= 0.97) hold for every bone's Dice and for the fibula's and patella's MSD, not quite for
-// the femur's and tibia's MSD (0.32 / 0.30 mm; 0.43 / 0.55 from the ends' HU: what remains is
-// the shares of the condyles' and the plateau's end slabs, see WhereTheErrorIs and
-// docs/segmentation.md). The (0, 0) candidate has the ends' shares too, so it is no longer the
-// refinement of before.
+// Dice >= 0.97) hold for every bone: femur / tibia 0.277 / 0.292 mm with the joint's slabs
+// (joint_slabs.hpp; 0.322 / 0.299 without them, 0.43 / 0.55 from the ends' HU; see
+// WhereTheErrorIs and docs/segmentation.md). The (0, 0) candidate has the ends' shares too, so
+// it is no longer the refinement of before.
 TEST(ThickSlices, RefinementWorksAtTheHipsFiveMillimetreSlices) {
   const auto rows = measure(5.0, kCandidates);
   ASSERT_EQ(rows.size(), 4u);
@@ -268,17 +268,18 @@ TEST(ThickSlices, RefinementWorksAtTheHipsFiveMillimetreSlices) {
     EXPECT_LE(r.at("defaults").msd, 0.35) << bone;
     EXPECT_GE(r.at("defaults").dice, 0.97) << bone;
   }
-  EXPECT_LE(rows.at("fibula").at("defaults").msd, 0.3);
-  EXPECT_LE(rows.at("patella").at("defaults").msd, 0.3);
+  for (const auto& [bone, r] : rows)
+    EXPECT_LE(r.at("defaults").msd, 0.3) << bone;
   EXPECT_LT(meanMsd(rows, "defaults"), meanMsd(rows, "ends from HU") - 0.08);
 }
 
 // The ends' shares from the sections (EndShareOptions and the flat rule chosen on seed 3) on
 // knees not used to choose them: seeds 5 and 7 at 5 mm. From the ends' HU MSD femur / tibia /
 // fibula / patella were 0.420 / 0.542 / 0.272 / 0.213 and 0.443 / 0.526 / 0.287 / 0.230 mm; from
-// the sections 0.296 / 0.297 / 0.231 / 0.183 and 0.322 / 0.339 / 0.230 / 0.197, and with the
+// the sections 0.296 / 0.297 / 0.231 / 0.183 and 0.322 / 0.339 / 0.230 / 0.197, with the
 // field that ends the bone where the share says (zEndFieldValue) 0.294 / 0.273 / 0.212 / 0.186
-// and 0.323 / 0.313 / 0.211 / 0.204.
+// and 0.323 / 0.313 / 0.211 / 0.204, and with the joint's slabs (joint_slabs.hpp) 0.260 / 0.283 /
+// 0.213 / 0.186 and 0.288 / 0.290 / 0.212 / 0.204: issue 13's 0.3 mm for every bone.
 TEST(ThickSlices, EndSharesOnKneesNotUsedToChooseThem) {
   for (int seed : {5, 7}) {
     test::KneeVariant v;
@@ -305,9 +306,7 @@ TEST(ThickSlices, EndSharesOnKneesNotUsedToChooseThem) {
                 << after.meanMm << " mm, Dice " << after.dice << "\n";
       EXPECT_LT(after.meanMm, before.meanMm - 0.02) << "seed " << seed << " " << bone;
       EXPECT_GE(after.dice, 0.975) << "seed " << seed << " " << bone;
-      EXPECT_LE(after.meanMm, bone == "femur"   ? 0.36
-                              : bone == "tibia" ? 0.33
-                                                : 0.24)
+      EXPECT_LE(after.meanMm, bone == "femur" || bone == "tibia" ? 0.3 : 0.24)
           << "seed " << seed << " " << bone;
       sumHu += before.meanMm;
       sumSections += after.meanMm;
@@ -483,6 +482,103 @@ TEST(ThickSlices, EndSharesOfABlock) {
   segmentation::VoxelMask twoGroups = block;
   twoGroups.geometry.groups = {{0, 4, 5.0}, {4, 5, 5.0}};
   EXPECT_THROW(segmentation::zEndShares(twoGroups, nullptr), std::invalid_argument);
+}
+
+// The joint's slab (joint_slabs.hpp) on a hand-made pair of bones along z (1 mm pixels, 5 mm
+// slices): the upper bone (1000 HU) was given its slab next to the lower one though it reads 200
+// HU (0.2 of its inward voxel above the soft tissue at 0 HU: the joint space); it goes to the
+// lower bone. The lower bone's contact slab reads 300 HU against 800 inward (0.375: dark too),
+// but the column's darker one moved first and two voxels of a column never swap. Then the upper
+// bone's sections keep the slab it gave away; at share 0 nothing moves.
+TEST(ThickSlices, JointSlabGoesToTheBoneItHolds) {
+  core::CtImage g;
+  g.dimensions = {9, 9, 8};
+  g.pixelSpacingMm = {1.0, 1.0};
+  for (int k = 0; k < 8; ++k)
+    g.slicePositionsMm.push_back(5.0 * k);
+  g.groups = {{0, 8, 5.0}};
+  const int hu[8] = {800, 800, 800, 300, 200, 1000, 1000, 1000};
+  g.hu.resize(g.voxelCount());
+  segmentation::VoxelMask upper = segmentation::emptyMask(g), lower = upper;
+  for (int k = 0; k < 8; ++k) {
+    for (int j = 0; j < 9; ++j) {
+      for (int i = 0; i < 9; ++i) {
+        g.hu[g.index(i, j, k)] = static_cast<std::int16_t>(hu[k]);
+        (k >= 4 ? upper : lower).voxels[g.index(i, j, k)] = 1;
+      }
+    }
+  }
+  EXPECT_TRUE(segmentation::readsAsJointSlab(g, 4, 4, 4, 5, 0.0, 0.6));
+  EXPECT_FALSE(segmentation::readsAsJointSlab(g, 4, 4, 4, 5, 0.0, 0.15));
+  EXPECT_DOUBLE_EQ(segmentation::slabMeanHu(g, 0, 0, 3), 300.0);
+  segmentation::VoxelMask a = upper, b = lower;
+  EXPECT_EQ(segmentation::giveJointSlabs(g, {&a, &b}, 0.0, 0.0), 0u);
+  EXPECT_EQ(a.count(), upper.count());
+  EXPECT_EQ(segmentation::giveJointSlabs(g, {&a, &b}, 0.0, 0.6), 81u);
+  for (int j = 0; j < 9; ++j) {
+    for (int i = 0; i < 9; ++i) {
+      EXPECT_FALSE(a.at(i, j, 4)) << i << " " << j;
+      EXPECT_TRUE(b.at(i, j, 4)) << i << " " << j;
+      EXPECT_TRUE(b.at(i, j, 3)) << i << " " << j;  // no swap
+    }
+  }
+  EXPECT_EQ(a.count() + b.count(), upper.count() + lower.count());
+  // The upper bone's sections: its region and the slab it gave away (dark against its voxel
+  // inward), not the lower bone's slab 3 (not next to it).
+  const segmentation::VoxelMask sections = segmentation::jointSlabSections(g, a, &b, 0.0, 0.6);
+  EXPECT_EQ(sections.count(), a.count() + 81u);
+  EXPECT_TRUE(sections.at(4, 4, 4));
+  EXPECT_FALSE(sections.at(4, 4, 3));
+  EXPECT_EQ(segmentation::jointSlabSections(g, a, &b, 0.0, 0.0).count(), a.count());
+  EXPECT_EQ(segmentation::jointSlabSections(g, a, nullptr, 0.0, 0.6).count(), a.count());
+  segmentation::VoxelMask small = segmentation::emptyMask(g);
+  small.voxels.resize(10);
+  EXPECT_THROW(segmentation::giveJointSlabs(g, {&a, &small}, 0.0, 0.6), std::invalid_argument);
+  EXPECT_THROW(segmentation::jointSlabSections(g, a, &small, 0.0, 0.6), std::invalid_argument);
+}
+
+// The joint's slab on simulated knees at 5 mm that had no say in the rule's share (chosen on
+// seeds 3, 5 and 7): issue 13's targets (MSD <= 0.3 mm, Dice >= 0.97) for every bone. Without the
+// rule the femur's MSD was 0.291 / 0.298 / 0.299 mm and the tibia's 0.302 / 0.292 / 0.295 (seeds 9
+// / 11 / 13); with it 0.262 / 0.280 / 0.273 and 0.298 / 0.285 / 0.286 (docs/segmentation.md).
+TEST(ThickSlices, JointSlabsOnKneesNotUsedToChooseThem) {
+  for (int seed : {9, 11, 13}) {
+    test::KneeVariant v;
+    v.sliceMm = 5.0;
+    v.halfRangeMm = 45.0;
+    v.seed = seed;
+    const auto& sim = test::simulatedKnee(v);
+    const auto result = segmentation::segmentCompetingBones(sim.ct, seedsOf(sim));
+    segmentation::CompetingOptions off;
+    off.jointSlabMinSliceMm = 0.0;
+    const auto before = segmentation::segmentCompetingBones(sim.ct, seedsOf(sim), off);
+    ASSERT_EQ(result.bones.size(), 4u);
+    ASSERT_EQ(before.bones.size(), 4u);
+    EXPECT_GT(result.jointSlabVoxels, 100u) << "seed " << seed;
+    EXPECT_EQ(before.jointSlabVoxels, 0u) << "seed " << seed;
+    const segmentation::SurfaceComparisonOptions co = slabOf(sim);
+    for (std::size_t b = 0; b < result.bones.size(); ++b) {
+      const std::string& bone = result.bones[b].bone;
+      const segmentation::VoxelMask others = othersOf(result, b);
+      const auto after = segmentation::compareSurfaces(
+          segmentation::boneSurface(sim.ct, result.bones[b].mask, &others).mesh,
+          sim.knee.bone(kAll[b]).mesh, co);
+      segmentation::BoneSurfaceOptions noSections;
+      noSections.jointSlabShare = 0.0;
+      const segmentation::VoxelMask othersBefore = othersOf(before, b);
+      const auto without = segmentation::compareSurfaces(
+          segmentation::boneSurface(sim.ct, before.bones[b].mask, &othersBefore, noSections).mesh,
+          sim.knee.bone(kAll[b]).mesh, co);
+      std::cout << "[ measured ] seed " << seed << ", 5 mm, " << bone << ": without the joint "
+                << "slabs MSD " << without.meanMm << " mm, Dice " << without.dice << "; with them "
+                << after.meanMm << " mm, Dice " << after.dice << "\n";
+      EXPECT_LE(after.meanMm, 0.3) << "seed " << seed << " " << bone;
+      EXPECT_GE(after.dice, 0.97) << "seed " << seed << " " << bone;
+      if (bone == "femur") {
+        EXPECT_LT(after.meanMm, without.meanMm - 0.01) << "seed " << seed;
+      }
+    }
+  }
 }
 
 }  // namespace

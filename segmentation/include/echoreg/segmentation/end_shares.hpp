@@ -50,10 +50,13 @@ struct VoxelShare {
 /// inside distance, c = (o + closingReachSlices) h). The share is
 /// the part of the voxel's slab (z_k +- h / 2) where d < 0 (40 samples). Ends on the scan's first
 /// or last slice (the scan cuts the bone there) and at a gap of one slice in the region (the
-/// bone goes on beyond it) are not ends. `region` and `exclude` must lie on
-/// one uniform grid; throws std::invalid_argument otherwise.
+/// bone goes on beyond it) are not ends. `sectionRegion` (optional, a superset of `region`): the
+/// region whose slices give the sections, where they should reach further than the ends
+/// (jointSlabSections). `region`, `exclude` and `sectionRegion` must lie on one uniform grid;
+/// throws std::invalid_argument otherwise.
 std::vector<VoxelShare> zEndShares(const VoxelMask& region, const VoxelMask* exclude,
-                                   const EndShareOptions& options = {});
+                                   const EndShareOptions& options = {},
+                                   const VoxelMask* sectionRegion = nullptr);
 
 /// The field value (0-1, contoured at 0.5) to give a z end's voxel whose slab the bone fills by
 /// `share` (0-1, from the slab's face on the bone's side), so that the field interpolated
