@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <limits>
 #include <map>
+#include <optional>
 #include <stdexcept>
 
 namespace echoreg::segmentation {
@@ -641,6 +642,46 @@ void findStreaks(const core::CtImage& image, const std::vector<std::size_t>& pie
 }
 
 // The work, on a grid that holds every bone voxel (see segmentCompetingBones).
+namespace {
+
+// A bone's waist along k (CompetingOptions::waistMinSliceMm): a slice whose area is at most
+// kWaistShare of the largest within kWaistReachMm on each side, both at least kWaistMinAreaMm2.
+constexpr double kWaistShare = 0.5;
+constexpr double kWaistReachMm = 15.0;
+constexpr double kWaistMinAreaMm2 = 300.0;
+
+struct Waist {
+  int slice = 0;
+  double areaMm2 = 0.0, belowMm2 = 0.0, aboveMm2 = 0.0;
+};
+
+std::optional<Waist> waistOf(const VoxelMask& mask, const Eigen::Vector3d& spacing) {
+  const auto& d = mask.geometry.dimensions;
+  const double pixelMm2 = spacing.x() * spacing.y();
+  std::vector<double> area(sz(d[2]), 0.0);
+  for (int k = 0; k < d[2]; ++k) {
+    std::size_t n = 0;
+    const std::uint8_t* slice = mask.voxels.data() + mask.geometry.index(0, 0, k);
+    for (std::size_t p = 0; p < sz(d[0]) * sz(d[1]); ++p)
+      n += slice[p] != 0 ? 1u : 0u;
+    area[sz(k)] = static_cast<double>(n) * pixelMm2;
+  }
+  const int reach = std::max(1, static_cast<int>(std::ceil(kWaistReachMm / spacing.z() - 1e-9)));
+  for (int k = 1; k + 1 < d[2]; ++k) {
+    double below = 0.0, above = 0.0;
+    for (int j = std::max(0, k - reach); j < k; ++j)
+      below = std::max(below, area[sz(j)]);
+    for (int j = k + 1; j <= std::min(d[2] - 1, k + reach); ++j)
+      above = std::max(above, area[sz(j)]);
+    const double side = std::min(below, above);
+    if (side >= kWaistMinAreaMm2 && area[sz(k)] <= kWaistShare * side)
+      return Waist{k, area[sz(k)], below, above};
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
 static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vector<BoneSeed>& seeds,
                                      const CompetingOptions& options) {
   if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount())
@@ -1167,6 +1208,18 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
           "the {} grown from the seed {} has only {:.0f} mm^3 (at least {:.0f} expected): a speck "
           "of bone or calcification, or the seed lies on the joint between two bones",
           b.bone, lpsText(b.seedsLps.front()), b.volumeMm3, options.minVolumeMm3));
+    }
+    if (options.waistMinSliceMm > 0.0 && spacing.z() >= options.waistMinSliceMm) {
+      if (const std::optional<Waist> w = waistOf(b.mask, spacing)) {
+        throw std::invalid_argument(fmt::format(
+            "the {} grown from the seed {} narrows along the slices to {:.0f} mm^2 at z = {:.1f} "
+            "mm between {:.0f} and {:.0f} mm^2 within {:.0f} mm on either side: at {:.1f} mm "
+            "slices it ran across a joint the slices do not show, into the bone beyond; outline "
+            "the bones with --anchors (Live-Wire) or segment a thinner series",
+            b.bone, lpsText(b.seedsLps.front()), w->areaMm2,
+            image.voxelToLps(Eigen::Vector3d(0.0, 0.0, w->slice)).z(), w->belowMm2, w->aboveMm2,
+            kWaistReachMm, spacing.z()));
+      }
     }
     if (!options.checkPlausible)
       continue;
