@@ -61,6 +61,25 @@ segmentation::SurfaceComparisonOptions slabOf(const test::SimulatedKnee& sim) {
   return co;
 }
 
+// The simulated knee of `seed` scanned at the hip's 5 mm over +-45 mm.
+const test::SimulatedKnee& kneeAtFiveMillimetres(int seed) {
+  test::KneeVariant v;
+  v.sliceMm = 5.0;
+  v.halfRangeMm = 45.0;
+  v.seed = seed;
+  return test::simulatedKnee(v);
+}
+
+// An empty grid of 1 mm pixels and 5 mm slices (HU not allocated).
+core::CtImage fiveMillimetreGrid(int columns, int rows, int slices) {
+  core::CtImage g;
+  g.dimensions = {columns, rows, slices};
+  g.pixelSpacingMm = {1.0, 1.0};
+  for (int k = 0; k < slices; ++k)
+    g.slicePositionsMm.push_back(5.0 * k);
+  g.groups = {{0, slices, 5.0}};
+  return g;
+}
 struct Row {
   double msd = 0.0, p95 = 0.0, dice = 0.0;
 };
@@ -282,11 +301,7 @@ TEST(ThickSlices, RefinementWorksAtTheHipsFiveMillimetreSlices) {
 // 0.213 / 0.186 and 0.288 / 0.290 / 0.212 / 0.204: issue 13's 0.3 mm for every bone.
 TEST(ThickSlices, EndSharesOnKneesNotUsedToChooseThem) {
   for (int seed : {5, 7}) {
-    test::KneeVariant v;
-    v.sliceMm = 5.0;
-    v.halfRangeMm = 45.0;
-    v.seed = seed;
-    const auto& sim = test::simulatedKnee(v);
+    const auto& sim = kneeAtFiveMillimetres(seed);
     const auto result = segmentation::segmentCompetingBones(sim.ct, seedsOf(sim));
     ASSERT_EQ(result.bones.size(), 4u);
     const segmentation::SurfaceComparisonOptions co = slabOf(sim);
@@ -419,12 +434,7 @@ TEST(ThickSlices, EndFieldPutsTheCrossingWhereTheShareEndsTheBone) {
 // fills 0.4 of it; nothing lies in the slab beyond. Ends on the scan's last slice or at a gap of
 // one slice are not ends, and a voxel beyond marked as another bone's gets no share.
 TEST(ThickSlices, EndSharesOfABlock) {
-  core::CtImage g;
-  g.dimensions = {19, 19, 9};
-  g.pixelSpacingMm = {1.0, 1.0};
-  for (int k = 0; k < 9; ++k)
-    g.slicePositionsMm.push_back(5.0 * k);
-  g.groups = {{0, 9, 5.0}};
+  const core::CtImage g = fiveMillimetreGrid(19, 19, 9);
   segmentation::VoxelMask block = segmentation::emptyMask(g);
   for (int k = 2; k <= 6; ++k) {
     for (int j = 5; j <= 13; ++j) {
@@ -491,12 +501,7 @@ TEST(ThickSlices, EndSharesOfABlock) {
 // but the column's darker one moved first and two voxels of a column never swap. Then the upper
 // bone's sections keep the slab it gave away; at share 0 nothing moves.
 TEST(ThickSlices, JointSlabGoesToTheBoneItHolds) {
-  core::CtImage g;
-  g.dimensions = {9, 9, 8};
-  g.pixelSpacingMm = {1.0, 1.0};
-  for (int k = 0; k < 8; ++k)
-    g.slicePositionsMm.push_back(5.0 * k);
-  g.groups = {{0, 8, 5.0}};
+  core::CtImage g = fiveMillimetreGrid(9, 9, 8);
   const int hu[8] = {800, 800, 800, 300, 200, 1000, 1000, 1000};
   g.hu.resize(g.voxelCount());
   segmentation::VoxelMask upper = segmentation::emptyMask(g), lower = upper;
@@ -543,11 +548,7 @@ TEST(ThickSlices, JointSlabGoesToTheBoneItHolds) {
 // / 11 / 13); with it 0.262 / 0.280 / 0.273 and 0.298 / 0.285 / 0.286 (docs/segmentation.md).
 TEST(ThickSlices, JointSlabsOnKneesNotUsedToChooseThem) {
   for (int seed : {9, 11, 13}) {
-    test::KneeVariant v;
-    v.sliceMm = 5.0;
-    v.halfRangeMm = 45.0;
-    v.seed = seed;
-    const auto& sim = test::simulatedKnee(v);
+    const auto& sim = kneeAtFiveMillimetres(seed);
     const auto result = segmentation::segmentCompetingBones(sim.ct, seedsOf(sim));
     segmentation::CompetingOptions off;
     off.jointSlabMinSliceMm = 0.0;
