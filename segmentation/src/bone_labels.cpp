@@ -641,7 +641,6 @@ void findStreaks(const core::CtImage& image, const std::vector<std::size_t>& pie
   }
 }
 
-// The work, on a grid that holds every bone voxel (see segmentCompetingBones).
 namespace {
 
 // A bone's waist along k (CompetingOptions::waistMinSliceMm): a slice whose area is at most
@@ -682,6 +681,7 @@ std::optional<Waist> waistOf(const VoxelMask& mask, const Eigen::Vector3d& spaci
 
 }  // namespace
 
+// The work, on a grid that holds every bone voxel (see segmentCompetingBones).
 static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vector<BoneSeed>& seeds,
                                      const CompetingOptions& options) {
   if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount())
