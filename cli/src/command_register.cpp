@@ -128,10 +128,12 @@ std::vector<core::SurfacePoint> readPointsCsv(const std::string& path, double si
 }
 
 // Points (with their beams, in the bone frame) of a capture's detection: each accepted frame's
-// beam, from the same poses the pipeline placed its point with.
+// beam, from the same poses the pipeline placed its point with. The capture's row goes to
+// `report`; an assumed sampling frequency, to `warnings` as well.
 std::vector<core::SurfacePoint> capturePoints(const CaptureDetection& capture,
                                               const CaptureDetectionRequest& request,
-                                              double ultrasoundSigma, nlohmann::json& report) {
+                                              double ultrasoundSigma, nlohmann::json& report,
+                                              std::vector<std::string>& warnings) {
   const core::SequenceDetection& detection = capture.detection;
   const core::Sequence& sequence = capture.sequence();
   std::vector<core::SurfacePoint> points;
@@ -149,14 +151,17 @@ std::vector<core::SurfacePoint> capturePoints(const CaptureDetection& capture,
   nlohmann::json rejected = nlohmann::json::object();
   for (const auto& [reason, count] : detection.rejectedByReason)
     rejected[reason] = count;
-  report.push_back(
-      {{"capture", request.capture},
-       {"frames", detection.frames.size()},
-       {"accepted", detection.accepted},
-       {"rejected_by_reason", rejected},
-       {"speed_of_sound_mps", detection.params.depth.speedOfSoundMps},
-       {"sampling_frequency_hz", detection.params.depth.samplingFrequencyHz},
-       {"sampling_frequency_source", samplingFrequencySource(request.settings, sequence)}});
+  const std::string samplingSource = samplingFrequencySource(request.settings, sequence);
+  if (samplingSource == "assumed")
+    warnings.push_back(assumedSamplingFrequencyWarning(request.capture,
+                                                       detection.params.depth.samplingFrequencyHz));
+  report.push_back({{"capture", request.capture},
+                    {"frames", detection.frames.size()},
+                    {"accepted", detection.accepted},
+                    {"rejected_by_reason", rejected},
+                    {"speed_of_sound_mps", detection.params.depth.speedOfSoundMps},
+                    {"sampling_frequency_hz", detection.params.depth.samplingFrequencyHz},
+                    {"sampling_frequency_source", samplingSource}});
   return points;
 }
 
@@ -562,11 +567,8 @@ int runRegister(const RegisterOptions& o, const Streams& io, CaptureDetections* 
       poseNotes.lines.insert(poseNotes.lines.end(), detected.poseNotes.lines.begin(),
                              detected.poseNotes.lines.end());
       speedOfSound = detected.detection.params.depth.speedOfSoundMps;
-      if (samplingFrequencySource(request.settings, detected.sequence()) == "assumed")
-        warnings.push_back(assumedSamplingFrequencyWarning(
-            capture, detected.detection.params.depth.samplingFrequencyHz));
       const std::vector<core::SurfacePoint> found =
-          capturePoints(detected, request, o.ultrasoundSigma, sources);
+          capturePoints(detected, request, o.ultrasoundSigma, sources, warnings);
       points.insert(points.end(), found.begin(), found.end());
     }
   }
