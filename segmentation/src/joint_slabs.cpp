@@ -19,10 +19,19 @@ double slabMeanHu(const core::CtImage& ct, int i, int j, int k) {
   return n > 0 ? sum / n : 0.0;
 }
 
+namespace {
+
+// The rule on the two slabs' means (readsAsJointSlab).
+bool jointSlabByMeans(double slabHu, double inwardHu, double softTissueHu, double share) {
+  return slabHu - softTissueHu <= share * (inwardHu - softTissueHu);
+}
+
+}  // namespace
+
 bool readsAsJointSlab(const core::CtImage& ct, int i, int j, int k, int inward, double softTissueHu,
                       double share) {
-  return slabMeanHu(ct, i, j, k) - softTissueHu <=
-         share * (slabMeanHu(ct, i, j, inward) - softTissueHu);
+  return jointSlabByMeans(slabMeanHu(ct, i, j, k), slabMeanHu(ct, i, j, inward), softTissueHu,
+                          share);
 }
 
 std::size_t giveJointSlabs(const core::CtImage& ct, const std::vector<VoxelMask*>& bones,
@@ -59,9 +68,10 @@ std::size_t giveJointSlabs(const core::CtImage& ct, const std::vector<VoxelMask*
           const int other = label[ct.index(i, j, k + step)];
           if (other < 0 || other == own || label[ct.index(i, j, k - step)] != own)
             continue;
-          if (readsAsJointSlab(ct, i, j, k, k - step, softTissueHu, share))
-            moves.push_back(
-                {slabMeanHu(ct, i, j, k - step) - slabMeanHu(ct, i, j, k), v, own, other});
+          const double slabHu = slabMeanHu(ct, i, j, k);
+          const double inwardHu = slabMeanHu(ct, i, j, k - step);
+          if (jointSlabByMeans(slabHu, inwardHu, softTissueHu, share))
+            moves.push_back({inwardHu - slabHu, v, own, other});
         }
       }
     }
