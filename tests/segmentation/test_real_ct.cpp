@@ -11,9 +11,12 @@
 
 #include "test_support.hpp"
 
+#include <fmt/format.h>
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <chrono>
+#include <cmath>
 #include <iostream>
 
 namespace {
@@ -33,6 +36,54 @@ core::CtImage crop(const core::CtImage& ct, int i0, int j0, int ni, int nj, int 
       for (int i = 0; i < ni; ++i)
         out.hu[out.index(i, j, k)] = ct.at(i0 + i, j0 + j, k);
     }
+  }
+  return out;
+}
+
+// `thin` (one slice group) averaged into slabs `widthMm` thick, the first starting `phaseMm` above
+// the first slice's lower face, each the overlap-weighted mean of the slices it covers (a
+// scanner's thick reconstruction, without its own blur along z); only whole slabs.
+struct Slabs {
+  core::CtImage image;
+  std::vector<std::vector<std::pair<int, double>>> weights;  // per slab: (thin slice, weight)
+};
+
+Slabs slabAverage(const core::CtImage& thin, double widthMm, double phaseMm) {
+  const double h = thin.spacingMm().z();
+  const int nz = thin.dimensions[2];
+  const double lo = thin.slicePositionsMm.front() - 0.5 * h + phaseMm;
+  const double top = thin.slicePositionsMm.back() + 0.5 * h;
+  const int count = static_cast<int>(std::floor((top - lo) / widthMm + 1e-9));
+  Slabs out;
+  core::CtImage& g = out.image;
+  g = thin;
+  g.dimensions[2] = count;
+  g.originMm = thin.originMm + thin.direction.col(2) * (lo + 0.5 * widthMm);
+  g.slicePositionsMm.resize(static_cast<std::size_t>(count));
+  for (int k = 0; k < count; ++k)
+    g.slicePositionsMm[static_cast<std::size_t>(k)] = widthMm * k;
+  g.groups = {{0, count, widthMm}};
+  g.sliceLocationsMm.clear();
+  g.sliceThicknessMm.clear();
+  g.hu.assign(g.voxelCount(), 0);
+  for (int k = 0; k < count; ++k) {
+    const double a = lo + widthMm * k, b = a + widthMm;
+    std::vector<std::pair<int, double>> w;
+    for (int s = 0; s < nz; ++s) {
+      const double sa = thin.slicePositionsMm[static_cast<std::size_t>(s)] - 0.5 * h;
+      const double overlap = std::min(b, sa + h) - std::max(a, sa);
+      if (overlap > 1e-9)
+        w.push_back({s, overlap / widthMm});
+    }
+    for (int j = 0; j < g.dimensions[1]; ++j) {
+      for (int i = 0; i < g.dimensions[0]; ++i) {
+        double v = 0.0;
+        for (const auto& [s, f] : w)
+          v += f * thin.at(i, j, s);
+        g.hu[g.index(i, j, k)] = static_cast<std::int16_t>(std::lround(v));
+      }
+    }
+    out.weights.push_back(std::move(w));
   }
   return out;
 }
@@ -187,6 +238,68 @@ TEST(RealCt, HipBonesAndSacrumFromOneSeedEach) {
     }
     EXPECT_EQ(medial, 0u) << b->bone;
   }
+}
+
+// The same pelvis averaged into 4, 5 and 6 mm slabs at every 1 mm phase (15 scans; the
+// dissertation scans the hip at 5 mm): each run either gives the three bones as the 3 mm series
+// gives them (the reference: its models, checked above) or refuses with its reason; never a bone
+// that took a piece of its neighbour. Before the thick-slice rules (the marker's dynamic at one
+// voxel, each piece of a seeded boundary a joint) 2 of the 15 runs wrote such bones without a
+// word: the sacrum with L5 (4 mm, 266 cm^3) and the right hip with the back of the sacrum (5 mm,
+// 204 cm^3); 6 gave the bones, 7 refused. Now 9 give them and 6 refuse.
+TEST(RealCt, PelvisOnThickSlicesIsRightOrRefused) {
+  ECHOREG_REQUIRE_SHARED_FILE(first, "ct-abdomen/1-001.dcm");
+  const core::CtImage ct = crop(
+      segmentation::readDicomSeries(test::sharedDataDir() + "/ct-abdomen"), 100, 150, 314, 252, 40);
+  const std::vector<segmentation::BoneSeed> seeds = {{"right hip", {-65.5, 133.4, 91.91}},
+                                                     {"left hip", {66.6, 144.2, 91.91}},
+                                                     {"sacrum", kSacrumSeed}};
+  const auto thin = segmentation::segmentCompetingBones(ct, seeds);
+  ASSERT_EQ(thin.bones.size(), 3u);
+  int models = 0;
+  for (const double width : {4.0, 5.0, 6.0}) {
+    for (int phase = 0; phase < static_cast<int>(width); ++phase) {
+      const Slabs slabs = slabAverage(ct, width, phase);
+      const core::CtImage& g = slabs.image;
+      const std::string run = fmt::format("{:.0f} mm slices, phase {} mm", width, phase);
+      segmentation::CompetingResult r;
+      try {
+        r = segmentation::segmentCompetingBones(g, seeds);
+      } catch (const std::invalid_argument& e) {
+        std::cout << "[ measured ] " << run << ": refused: " << e.what() << "\n";
+        EXPECT_GT(std::string(e.what()).size(), 40u) << run;
+        continue;
+      }
+      ++models;
+      ASSERT_EQ(r.bones.size(), 3u) << run;
+      std::string line;
+      for (std::size_t b = 0; b < 3; ++b) {
+        // The 3 mm model on the slabs: a voxel is the bone's when half its slab is.
+        std::size_t both = 0, mine = 0, theirs = 0;
+        for (int k = 0; k < g.dimensions[2]; ++k) {
+          for (int j = 0; j < g.dimensions[1]; ++j) {
+            for (int i = 0; i < g.dimensions[0]; ++i) {
+              double share = 0.0;
+              for (const auto& [s, f] : slabs.weights[static_cast<std::size_t>(k)])
+                share += thin.bones[b].mask.at(i, j, s) ? f : 0.0;
+              const bool ref = share >= 0.5, got = r.bones[b].mask.at(i, j, k) != 0;
+              both += ref && got ? 1u : 0u;
+              mine += got ? 1u : 0u;
+              theirs += ref ? 1u : 0u;
+            }
+          }
+        }
+        const double dice = 2.0 * static_cast<double>(both) / static_cast<double>(mine + theirs);
+        const double volume = r.bones[b].volumeMm3 / thin.bones[b].volumeMm3;
+        line += fmt::format(" {} {:.1f} cm^3 ({:.2f} of 3 mm), Dice {:.3f};", r.bones[b].bone,
+                            r.bones[b].volumeMm3 / 1000.0, volume, dice);
+        EXPECT_NEAR(volume, 1.0, 0.12) << run << ", " << r.bones[b].bone;
+        EXPECT_GE(dice, 0.85) << run << ", " << r.bones[b].bone;
+      }
+      std::cout << "[ measured ] " << run << ":" << line << "\n";
+    }
+  }
+  EXPECT_GE(models, 9);
 }
 
 }  // namespace

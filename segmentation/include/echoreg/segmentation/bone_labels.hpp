@@ -63,7 +63,8 @@ struct CompetingOptions {
   /// slices counted as closed: a canal cut by the scan's end is filled too.
   double maxSliceHoleMm2 = 2000.0;
   /// A hill of the distance map holding no seed becomes a neighbour's marker when it stands out by
-  /// this over the saddle toward a higher hill, mm; 0: max(4 mm, 2 voxels).
+  /// this over the saddle toward a higher hill, mm; 0: max(4 mm, 2 voxels) up to 3 mm slices, on
+  /// thicker ones max(6 mm, 1 voxel) (the largest spacing).
   double markerDynamicMm = 0.0;
   /// Two seeds of different bones whose hills are joined by a saddle less than this below the
   /// lower hill's top lie in one bone (refused), mm; 0: max(1 mm, half a voxel).
@@ -88,6 +89,13 @@ struct CompetingOptions {
   /// joint lost in thick slices: a real femur's knee at 5 mm, 25-27 %, where the labels were
   /// wrong without a word; bones it separates: 50-53 % at 5 mm, 88-100 % at 1-3 mm). 0: off.
   double seededJointShare = 0.4;
+  /// The same for each 26-connected piece of that boundary holding at least seededPatchMinShare
+  /// of it: a piece less than seededPatchJointShare joint-like is refused (a cut through a bone
+  /// beside a real joint, which the whole boundary's share hides). The real pelvis averaged to
+  /// 5 mm slices: two such pieces of 31 % each at 23-24 % beside the sacroiliac joint's 80 %; the
+  /// simulated knees' femur and tibia at 5 mm: every piece 45-73 %. 0: off.
+  double seededPatchJointShare = 0.35;
+  double seededPatchMinShare = 0.1;
   /// The joint's slab on thick slices (joint_slabs.hpp): on slices at least jointSlabMinSliceMm
   /// thick (0: never), a voxel of a named bone at a contact along z with another named bone that
   /// stands at most jointSlabShare as high above the soft tissue as its bone's next voxel inward
