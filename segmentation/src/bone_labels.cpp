@@ -687,11 +687,11 @@ std::optional<Waist> waistOf(const VoxelMask& mask, const Eigen::Vector3d& spaci
 // the sacroiliac joint into the back of the sacrum, 43 % of the whole boundary joint-like (the
 // joint itself, 80 %) but two pieces of 31 % each at 23-24 %.
 template <typename Inside, typename Cortex>
-void checkSeededPatches(const core::CtImage& image, const std::vector<std::int16_t>& label,
-                        int firstAuto, const std::vector<std::string>& names, Inside inside,
-                        Cortex cortex, const std::vector<std::uint8_t>& joints,
-                        const CompetingOptions& options, double maxSpacing) {
-  if (!(options.seededPatchJointShare > 0.0) || firstAuto < 2)
+void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::int16_t>& label,
+                           int firstAuto, const std::vector<std::string>& names, Inside inside,
+                           Cortex cortex, const std::vector<std::uint8_t>& joints,
+                           const CompetingOptions& options, double maxSpacing) {
+  if (firstAuto < 2)
     return;
   const auto& dims = image.dimensions;
   const Eigen::Vector3d spacing = image.spacingMm();
@@ -721,7 +721,48 @@ void checkSeededPatches(const core::CtImage& image, const std::vector<std::int16
       }
     }
   }
-  for (const auto& [pair, list] : faces) {
+  // Largest boundaries first.
+  std::vector<std::pair<std::pair<int, int>, const std::vector<Face>*>> pairs;
+  for (const auto& [pair, list] : faces)
+    pairs.push_back({pair, &list});
+  std::stable_sort(pairs.begin(), pairs.end(), [](const auto& a, const auto& b) {
+    return a.second->size() > b.second->size();
+  });
+  for (const auto& [pair, listPointer] : pairs) {
+    const std::vector<Face>& list = *listPointer;
+    const double pairFaces = static_cast<double>(list.size());
+    std::size_t insideFaces = 0, jointFaces = 0;
+    for (const Face& f : list) {
+      insideFaces += inside(f.v) && inside(f.n) ? 1u : 0u;
+      jointFaces += joints[f.v] || joints[f.n] || (cortex(f.v) && cortex(f.n)) ? 1u : 0u;
+    }
+    const double share = static_cast<double>(insideFaces) / pairFaces;
+    const double jointShare = static_cast<double>(jointFaces) / pairFaces;
+    if (share >= options.insideShare) {
+      throw std::invalid_argument(fmt::format(
+          "the {} and the {} seeds lie in one bone: their parts meet through the inside of a "
+          "bone ({:.0f} % of the boundary between them is cancellous bone or marrow), not at "
+          "a joint; give one seed per bone{}",
+          names[sz(pair.first)], names[sz(pair.second)], 100.0 * share,
+          maxSpacing >= 3.0 ? fmt::format(" (at {:.1f} mm slices a joint may not show: if the "
+                                          "seeds are in two bones, outline them with "
+                                          "--anchors)",
+                                          maxSpacing)
+                            : std::string()));
+    }
+    if (jointShare < options.seededJointShare) {
+      throw std::invalid_argument(fmt::format(
+          "the {} and the {} cannot be told apart: the boundary found between them is not a "
+          "joint (only {:.0f} % of it a joint line or cortex against cortex, {:.0f} % "
+          "cancellous bone or marrow){}; outline them with --anchors (Live-Wire) or segment "
+          "a thinner series",
+          names[sz(pair.first)], names[sz(pair.second)], 100.0 * jointShare, 100.0 * share,
+          maxSpacing >= 3.0
+              ? fmt::format(": at {:.1f} mm slices the joint does not show", maxSpacing)
+              : std::string()));
+    }
+    if (!(options.seededPatchJointShare > 0.0))
+      continue;
     // The faces' voxels, joined when 26-neighbours (union-find over the voxels).
     std::map<std::size_t, std::uint32_t> node;
     std::vector<std::uint32_t> parent;
@@ -769,13 +810,12 @@ void checkSeededPatches(const core::CtImage& image, const std::vector<std::int16
       ijkOf(image, f.v, i, j, k);
       p.sum += image.voxelToLps(Eigen::Vector3d(i, j, k));
     }
-    const double pairFaces = static_cast<double>(list.size());
     for (const auto& [id, p] : patches) {
       const double total = static_cast<double>(p.total);
       if (total < options.seededPatchMinShare * pairFaces)
         continue;
-      const double jointShare = static_cast<double>(p.joint) / total;
-      if (jointShare >= options.seededPatchJointShare)
+      const double patchJointShare = static_cast<double>(p.joint) / total;
+      if (patchJointShare >= options.seededPatchJointShare)
         continue;
       throw std::invalid_argument(fmt::format(
           "the {} and the {} cannot be told apart: part of the boundary found between them "
@@ -784,7 +824,7 @@ void checkSeededPatches(const core::CtImage& image, const std::vector<std::int16
           "growth cut through a bone there{}; outline them with --anchors (Live-Wire) or segment "
           "a thinner series",
           names[sz(pair.first)], names[sz(pair.second)], p.areaMm2, lpsText(p.sum / total),
-          100.0 * total / pairFaces, 100.0 * jointShare,
+          100.0 * total / pairFaces, 100.0 * patchJointShare,
           100.0 * static_cast<double>(p.inside) / total,
           maxSpacing >= 3.0 ? fmt::format(" (at {:.1f} mm slices a joint may not show)", maxSpacing)
                             : std::string()));
@@ -1198,29 +1238,8 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       if (a == b)
         continue;
       if (a < firstAuto && b < firstAuto) {
-        if (share >= options.insideShare) {
-          throw std::invalid_argument(fmt::format(
-              "the {} and the {} seeds lie in one bone: their parts meet through the inside of a "
-              "bone ({:.0f} % of the boundary between them is cancellous bone or marrow), not at "
-              "a joint; give one seed per bone{}",
-              names[sz(a)], names[sz(b)], 100.0 * share,
-              maxSpacing >= 3.0 ? fmt::format(" (at {:.1f} mm slices a joint may not show: if the "
-                                              "seeds are in two bones, outline them with "
-                                              "--anchors)",
-                                              maxSpacing)
-                                : std::string()));
-        }
-        if (jointShare < options.seededJointShare) {
-          throw std::invalid_argument(fmt::format(
-              "the {} and the {} cannot be told apart: the boundary found between them is not a "
-              "joint (only {:.0f} % of it a joint line or cortex against cortex, {:.0f} % "
-              "cancellous bone or marrow){}; outline them with --anchors (Live-Wire) or segment "
-              "a thinner series",
-              names[sz(a)], names[sz(b)], 100.0 * jointShare, 100.0 * share,
-              maxSpacing >= 3.0
-                  ? fmt::format(": at {:.1f} mm slices the joint does not show", maxSpacing)
-                  : std::string()));
-        }
+        // Two seeded bones: judged on their whole boundary once every neighbour has joined
+        // (checkSeededBoundaries).
         continue;
       }
       if (share < options.insideShare && jointShare >= options.jointShare)
@@ -1232,8 +1251,8 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       if (label[i] >= 0)
         label[i] = static_cast<std::int16_t>(rootOf(label[i]));
     }
-    checkSeededPatches(image, label, static_cast<int>(firstAuto), names, inside, cortex, joints,
-                       options, maxSpacing);
+    checkSeededBoundaries(image, label, static_cast<int>(firstAuto), names, inside, cortex, joints,
+                          options, maxSpacing);
     int kept = 0;
     for (int l = firstAuto; l < labels && l < static_cast<int>(root.size()); ++l)
       kept += rootOf(l) == l ? 1 : 0;
