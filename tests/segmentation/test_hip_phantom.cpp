@@ -1,0 +1,147 @@
+// The hip: the femoral head in its acetabulum, the joint issue 13's real CT failed at (a femur of
+// 722 cm^3 that ran into both hips). No CT here holds a hip joint, so hip_phantom.hpp makes one:
+// a real femur's surface (../shared/data/meshes/femur.stl) seated in an implicit hip bone,
+// scanned with partial volume, blur and noise; written by a helper who read neither the
+// segmentation nor its tests, from anatomy and CT physics only. The femur and the hip bone grow
+// from one seed each with the defaults.
+//
+// Not every scan of it segments right yet (docs/segmentation.md, "An independent hip"): with the
+// joint space at 1 or 3 mm, at 1 and 3 mm slices, a piece of the cup's wall stays a neighbour of
+// its own and the hip bone is written without it; at 5 mm slices with the acetabular roof along
+// the slices, the femur takes most of the hip bone. The tests below hold what works, so that it
+// keeps working; those cases are open.
+#include "hip_phantom.hpp"
+
+#include "echoreg/core/mesh.hpp"
+#include "echoreg/core/mesh_locator.hpp"
+#include "echoreg/segmentation/bone_labels.hpp"
+#include "echoreg/segmentation/bone_surface.hpp"
+#include "echoreg/segmentation/surface_metrics.hpp"
+
+#include "test_support.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <iostream>
+#include <limits>
+#include <stdexcept>
+#include <string>
+
+namespace {
+
+using namespace echoreg;
+
+// The triangles of `mesh` whose centre lies inside the CT's columns and rows, `marginMm` in
+// from the edge: the field of view cuts the hip bone's wing, which no segmentation can see.
+core::TriangleMesh insideFieldOfView(const core::TriangleMesh& mesh, const core::CtImage& ct,
+                                     double marginMm) {
+  const Eigen::Vector3d lo = ct.voxelToLps(Eigen::Vector3d(0, 0, 0));
+  const Eigen::Vector3d hi = ct.voxelToLps(
+      Eigen::Vector3d(ct.dimensions[0] - 1, ct.dimensions[1] - 1, ct.dimensions[2] - 1));
+  core::TriangleMesh out;
+  out.vertices = mesh.vertices;
+  for (const auto& t : mesh.triangles) {
+    const Eigen::Vector3d c = (mesh.vertices[static_cast<std::size_t>(t[0])] +
+                               mesh.vertices[static_cast<std::size_t>(t[1])] +
+                               mesh.vertices[static_cast<std::size_t>(t[2])]) /
+                              3.0;
+    if (c.x() > lo.x() + marginMm && c.x() < hi.x() - marginMm && c.y() > lo.y() + marginMm &&
+        c.y() < hi.y() - marginMm)
+      out.triangles.push_back(t);
+  }
+  return out;
+}
+
+test::HipPhantomOptions optionsFor(const std::string& femur, double sliceMm, double gapMm,
+                                   double phaseMm = 0.0) {
+  test::HipPhantomOptions o;
+  o.femurMesh = femur;
+  o.sliceMm = sliceMm;
+  o.jointGapMm = gapMm;
+  o.zPhaseMm = phaseMm;
+  return o;
+}
+
+TEST(HipPhantom, BadOptionsAreRefusedByName) {
+  test::HipPhantomOptions o;
+  o.femurMesh = "/nonexistent/femur.stl";
+  o.sliceMm = 7.0;
+  try {
+    test::makeHipPhantom(o);
+    ADD_FAILURE() << "a 7 mm slice was accepted";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_NE(std::string(e.what()).find("sliceMm"), std::string::npos) << e.what();
+  }
+  o.sliceMm = 3.0;
+  try {
+    test::makeHipPhantom(o);
+    ADD_FAILURE() << "a missing femur mesh was accepted";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("/nonexistent/femur.stl"), std::string::npos) << e.what();
+  }
+}
+
+// The truth is what the options say: both surfaces closed, the narrowest space between the head
+// and the cup the joint gap asked for, the bones apart, the seeds inside; the same bytes twice.
+TEST(HipPhantom, TheTruthIsWhatTheOptionsSay) {
+  ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
+  for (double gap : {0.0, 2.0}) {
+    const test::HipPhantom p = test::makeHipPhantom(optionsFor(femur, 3.0, gap));
+    for (const auto* mesh : {&p.femur, &p.hip}) {
+      const core::MeshCheck check = core::checkMesh(*mesh);
+      EXPECT_TRUE(check.closed()) << check.describe();
+      EXPECT_GT(check.volumeMm3, 0.0);
+    }
+    const core::MeshLocator hip(p.hip);
+    double narrowest = std::numeric_limits<double>::infinity();
+    for (const Eigen::Vector3d& v : p.femur.vertices) {
+      if ((v - p.headCentreLps).norm() < p.headRadiusMm + 10.0)
+        narrowest = std::min(narrowest, hip.closest(v).distance);
+    }
+    EXPECT_NEAR(narrowest, gap, 0.1) << "gap " << gap;
+    EXPECT_TRUE(core::MeshLocator(p.femur).inside(p.femurSeedLps));
+    EXPECT_TRUE(hip.inside(p.hipSeedLps));
+    EXPECT_EQ(p.ct.hu.size(), p.ct.voxelCount());
+    if (gap == 2.0) {
+      const test::HipPhantom again = test::makeHipPhantom(optionsFor(femur, 3.0, gap));
+      EXPECT_TRUE(again.ct.hu == p.ct.hu);
+    }
+  }
+}
+
+// Where the method separates them: the joint space at 0, 2 and 3 mm (1 mm slices at 2 mm; 3 mm
+// slices at two phases). Each surface within the field of view against the truth.
+TEST(HipPhantom, FemurAndHipBoneFromOneSeedEach) {
+  ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
+  struct Case {
+    double slice, gap, phase, bound;
+  };
+  for (const Case& c :
+       {Case{1.0, 2.0, 0.0, 0.12}, Case{3.0, 0.0, 0.0, 0.3}, Case{3.0, 2.0, 0.0, 0.3},
+        Case{3.0, 3.0, 0.0, 0.3}, Case{3.0, 0.0, 1.5, 0.3}}) {
+    const test::HipPhantom p = test::makeHipPhantom(optionsFor(femur, c.slice, c.gap, c.phase));
+    const std::vector<segmentation::BoneSeed> seeds = {{"femur", p.femurSeedLps},
+                                                       {"left hip", p.hipSeedLps}};
+    const auto result = segmentation::segmentCompetingBones(p.ct, seeds);
+    ASSERT_EQ(result.bones.size(), 2u);
+    segmentation::SurfaceComparisonOptions co;
+    co.zMinMm = p.ct.voxelToLps(Eigen::Vector3d(0, 0, 0)).z() + c.slice;
+    co.zMaxMm = p.ct.voxelToLps(Eigen::Vector3d(0, 0, p.ct.dimensions[2] - 1)).z() - c.slice;
+    for (std::size_t b = 0; b < 2; ++b) {
+      const segmentation::VoxelMask others = segmentation::unite(
+          segmentation::unite(result.unnamed, result.metalMask), result.bones[1 - b].mask);
+      const auto model = segmentation::boneSurface(p.ct, result.bones[b].mask, &others).mesh;
+      const auto cmp =
+          segmentation::compareSurfaces(insideFieldOfView(model, p.ct, 3.0),
+                                        insideFieldOfView(b == 0 ? p.femur : p.hip, p.ct, 3.0), co);
+      std::cout << "[ measured ] hip phantom, " << c.slice << " mm slices (phase " << c.phase
+                << " mm), joint space " << c.gap << " mm, " << result.bones[b].bone << ": MSD "
+                << cmp.meanMm << " mm, p95 " << cmp.p95Mm << " mm\n";
+      EXPECT_LE(cmp.meanMm, c.bound) << result.bones[b].bone << ", gap " << c.gap;
+      EXPECT_LE(cmp.p95Mm, 4.0 * c.bound) << result.bones[b].bone << ", gap " << c.gap;
+    }
+  }
+}
+
+}  // namespace
