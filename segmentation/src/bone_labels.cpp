@@ -679,6 +679,31 @@ std::optional<Waist> waistOf(const VoxelMask& mask, const Eigen::Vector3d& spaci
   return std::nullopt;
 }
 
+// Calls f(v, n, axis) for each face between two labelled voxels of different labels (n = v + one
+// step along axis), in index order.
+template <typename F>
+void forEachLabelFace(const core::CtImage& image, const std::vector<std::int16_t>& label, F f) {
+  const auto& dims = image.dimensions;
+  const std::size_t steps[3] = {1, sz(dims[0]), sz(dims[0]) * sz(dims[1])};
+  for (int k = 0; k < dims[2]; ++k) {
+    for (int j = 0; j < dims[1]; ++j) {
+      for (int i = 0; i < dims[0]; ++i) {
+        const std::size_t v = image.index(i, j, k);
+        if (label[v] < 0)
+          continue;
+        const bool more[3] = {i + 1 < dims[0], j + 1 < dims[1], k + 1 < dims[2]};
+        for (int a = 0; a < 3; ++a) {
+          if (!more[a])
+            continue;
+          const std::size_t n = v + steps[a];
+          if (label[n] >= 0 && label[n] != label[v])
+            f(v, n, a);
+        }
+      }
+    }
+  }
+}
+
 // Each patch of the boundary between two seeded bones (CompetingOptions::seededPatchJointShare):
 // the faces between their voxels, in 26-connected pieces; a piece of at least seededPatchMinShare
 // of the pair's boundary whose faces are less than seededPatchJointShare joint-like (a joint
@@ -693,34 +718,18 @@ void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::in
                            const CompetingOptions& options, double maxSpacing) {
   if (firstAuto < 2)
     return;
-  const auto& dims = image.dimensions;
   const Eigen::Vector3d spacing = image.spacingMm();
   const double faceMm2[3] = {spacing.y() * spacing.z(), spacing.x() * spacing.z(),
                              spacing.x() * spacing.y()};
-  const std::size_t steps[3] = {1, sz(dims[0]), sz(dims[0]) * sz(dims[1])};
   struct Face {
     std::size_t v, n;
     int axis;
   };
   std::map<std::pair<int, int>, std::vector<Face>> faces;
-  for (int k = 0; k < dims[2]; ++k) {
-    for (int j = 0; j < dims[1]; ++j) {
-      for (int i = 0; i < dims[0]; ++i) {
-        const std::size_t v = image.index(i, j, k);
-        if (label[v] < 0 || label[v] >= firstAuto)
-          continue;
-        const bool more[3] = {i + 1 < dims[0], j + 1 < dims[1], k + 1 < dims[2]};
-        for (int a = 0; a < 3; ++a) {
-          if (!more[a])
-            continue;
-          const std::size_t n = v + steps[a];
-          if (label[n] < 0 || label[n] >= firstAuto || label[n] == label[v])
-            continue;
-          faces[{std::min(label[v], label[n]), std::max(label[v], label[n])}].push_back({v, n, a});
-        }
-      }
-    }
-  }
+  forEachLabelFace(image, label, [&](std::size_t v, std::size_t n, int a) {
+    if (label[v] < firstAuto && label[n] < firstAuto)
+      faces[{std::min(label[v], label[n]), std::max(label[v], label[n])}].push_back({v, n, a});
+  });
   // Largest boundaries first.
   std::vector<std::pair<std::pair<int, int>, const std::vector<Face>*>> pairs;
   for (const auto& [pair, list] : faces)
@@ -1194,29 +1203,13 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       std::size_t total = 0, inside = 0, joint = 0;
     };
     std::map<std::pair<int, int>, Boundary> boundary;
-    const std::size_t steps[3] = {1, sz(dims[0]), sz(dims[0]) * sz(dims[1])};
-    for (int k = 0; k < dims[2]; ++k) {
-      for (int j = 0; j < dims[1]; ++j) {
-        for (int i = 0; i < dims[0]; ++i) {
-          const std::size_t v = image.index(i, j, k);
-          if (label[v] < 0)
-            continue;
-          const bool more[3] = {i + 1 < dims[0], j + 1 < dims[1], k + 1 < dims[2]};
-          for (int a = 0; a < 3; ++a) {
-            if (!more[a])
-              continue;
-            const std::size_t n = v + steps[a];
-            if (label[n] < 0 || label[n] == label[v])
-              continue;
-            auto& e = boundary[{std::min(label[v], label[n]), std::max(label[v], label[n])}];
-            ++e.total;
-            e.inside += inside(v) && inside(n) ? 1u : 0u;
-            // A joint: its line, or cortex against cortex (bones pressed together).
-            e.joint += joints[v] || joints[n] || (cortex(v) && cortex(n)) ? 1u : 0u;
-          }
-        }
-      }
-    }
+    forEachLabelFace(image, label, [&](std::size_t v, std::size_t n, int) {
+      auto& e = boundary[{std::min(label[v], label[n]), std::max(label[v], label[n])}];
+      ++e.total;
+      e.inside += inside(v) && inside(n) ? 1u : 0u;
+      // A joint: its line, or cortex against cortex (bones pressed together).
+      e.joint += joints[v] || joints[n] || (cortex(v) && cortex(n)) ? 1u : 0u;
+    });
     // Largest boundaries first: an automatic basin joins the bone it shares most with.
     std::vector<std::pair<std::pair<int, int>, Boundary>> pairs(boundary.begin(), boundary.end());
     std::stable_sort(pairs.begin(), pairs.end(),
