@@ -1237,8 +1237,9 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       }
       if (share < options.insideShare && jointShare >= options.jointShare)
         continue;
-      // The automatic one joins (a < b: a seeded bone keeps its index).
-      root[sz(b)] = a;
+      // The automatic one joins: the smaller index is the root, so a seeded bone keeps its own
+      // (a and b are roots: a pair's first label can have a larger root than its second).
+      root[sz(std::max(a, b))] = std::min(a, b);
     }
     for (std::size_t i = 0; i < label.size(); ++i) {
       if (label[i] >= 0)
