@@ -192,16 +192,19 @@ std::string notInBone(const core::CtImage& image, const VoxelMask& threshold,
 }
 
 // Joint lines: solid voxels darker by `dip` than bone >= strong on both sides along one of the 13
-// directions, within `reachMm`.
+// directions, within `reachMm`, with bone (solid) for `beyondMm` beyond each side's first bright
+// voxel: a joint's plates have bone behind them, a thin wall's cortices soft tissue
+// (CompetingOptions::jointBeyondMm). Directions whose step is longer than `beyondMm` are not
+// checked beyond; outside the scan counts as bone.
 std::vector<std::uint8_t> jointLines(const core::CtImage& image, const VoxelMask& solid,
-                                     double strong, double dip, double reachMm) {
+                                     double strong, double dip, double reachMm, double beyondMm) {
   std::vector<std::uint8_t> out(solid.voxels.size(), 0);
   if (!(dip > 0.0))
     return out;
   const Eigen::Vector3d s = image.spacingMm();
   const int nx = image.dimensions[0], ny = image.dimensions[1], nz = image.dimensions[2];
   struct Dir {
-    int di, dj, dk, reach;
+    int di, dj, dk, reach, beyond;
   };
   std::vector<Dir> dirs;
   const std::ptrdiff_t plane = static_cast<std::ptrdiff_t>(nx) * ny;
@@ -215,7 +218,10 @@ std::vector<std::uint8_t> jointLines(const core::CtImage& image, const VoxelMask
         if (code <= 0)
           continue;
         const double len = Eigen::Vector3d(i * s.x(), j * s.y(), k * s.z()).norm();
-        dirs.push_back({i, j, k, std::clamp(static_cast<int>(std::lround(reachMm / len)), 1, 3)});
+        const int beyond =
+            beyondMm > 0.0 && len <= beyondMm ? static_cast<int>(std::lround(beyondMm / len)) : 0;
+        dirs.push_back(
+            {i, j, k, std::clamp(static_cast<int>(std::lround(reachMm / len)), 1, 3), beyond});
         steps.push_back(k * plane + static_cast<std::ptrdiff_t>(j) * nx + i);
         maxReach = std::max(maxReach, dirs.back().reach);
       }
@@ -237,26 +243,39 @@ std::vector<std::uint8_t> jointLines(const core::CtImage& image, const VoxelMask
         const bool inner = innerJK && i >= maxReach && i < nx - maxReach;
         for (std::size_t t = 0; t < dirs.size(); ++t) {
           const Dir& d = dirs[t];
+          // The first bright voxel's distance along the side m, 0: none.
           auto bright = [&](int m) {
             if (inner) {
               const std::ptrdiff_t step = m * steps[t];
               const std::int16_t* p = hu + v;
               for (int r = 1; r <= d.reach; ++r) {
                 if (p[r * step] >= needHu)
-                  return true;
+                  return r;
               }
-              return false;
+              return 0;
             }
             for (int r = 1; r <= d.reach; ++r) {
               const int a = i + m * r * d.di, b = j + m * r * d.dj, c = k + m * r * d.dk;
               if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz)
-                return false;
+                return 0;
               if (image.at(a, b, c) >= needHu)
-                return true;
+                return r;
             }
-            return false;
+            return 0;
           };
-          if (bright(-1) && bright(1)) {
+          auto boneBeyond = [&](int m, int r) {
+            for (int q = r + 1; q <= r + d.beyond; ++q) {
+              const int a = i + m * q * d.di, b = j + m * q * d.dj, c = k + m * q * d.dk;
+              if (a < 0 || b < 0 || c < 0 || a >= nx || b >= ny || c >= nz)
+                return true;
+              if (!solid.voxels[image.index(a, b, c)])
+                return false;
+            }
+            return true;
+          };
+          const int before = bright(-1);
+          const int after = before ? bright(1) : 0;
+          if (after && boneBeyond(-1, before) && boneBeyond(1, after)) {
             out[v] = 1;
             break;
           }
@@ -1000,7 +1019,8 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
                            : middleHu + blur * (options.threshold.weakHu + 20.0 - middleHu);
   result.jointDipHu = options.jointDipHu != 0.0 ? options.jointDipHu : 250.0 - blur * 130.0;
   const std::vector<std::uint8_t> joints =
-      jointLines(image, solid, result.jointSideHu, result.jointDipHu, options.jointReachMm);
+      jointLines(image, solid, result.jointSideHu, result.jointDipHu, options.jointReachMm,
+                 options.jointBeyondMm);
   report(options, 0.35, "distance map");
   std::vector<std::uint16_t> level(solid.voxels.size(), 0);  // 0: not solid; else 1 + level
   int maxLevel = 0;

@@ -5,11 +5,9 @@
 // segmentation nor its tests, from anatomy and CT physics only. The femur and the hip bone grow
 // from one seed each with the defaults.
 //
-// Not every scan of it segments right yet (docs/segmentation.md, "An independent hip"): with the
-// joint space at 1 or 3 mm, at 1 and 3 mm slices, a piece of the cup's wall stays a neighbour of
-// its own and the hip bone is written without it; at 5 mm slices with the acetabular roof along
-// the slices, the femur takes most of the hip bone. The tests below hold what works, so that it
-// keeps working; those cases are open.
+// Not every scan of it segments right yet (docs/segmentation.md, "An independent hip"): at 5 mm
+// slices with the acetabular roof along the slices, the femur takes most of the hip bone. The
+// tests below hold what works, so that it keeps working; that case is open.
 #include "hip_phantom.hpp"
 
 #include "echoreg/core/mesh.hpp"
@@ -111,8 +109,39 @@ TEST(HipPhantom, TheTruthIsWhatTheOptionsSay) {
   }
 }
 
+// The femur and the hip bone from one seed each with the defaults; each surface within the
+// field of view against the truth, within `bound` (mean) and 4 x `bound` (95th percentile).
+void expectBothBones(const std::string& femur, double slice, double gap, double phase,
+                     double bound) {
+  const test::HipPhantom p = test::makeHipPhantom(optionsFor(femur, slice, gap, phase));
+  const std::vector<segmentation::BoneSeed> seeds = {{"femur", p.femurSeedLps},
+                                                     {"left hip", p.hipSeedLps}};
+  const auto result = segmentation::segmentCompetingBones(p.ct, seeds);
+  ASSERT_EQ(result.bones.size(), 2u);
+  segmentation::SurfaceComparisonOptions co;
+  co.zMinMm = p.ct.voxelToLps(Eigen::Vector3d(0, 0, 0)).z() + slice;
+  co.zMaxMm = p.ct.voxelToLps(Eigen::Vector3d(0, 0, p.ct.dimensions[2] - 1)).z() - slice;
+  for (std::size_t b = 0; b < 2; ++b) {
+    const segmentation::VoxelMask others = segmentation::unite(
+        segmentation::unite(result.unnamed, result.metalMask), result.bones[1 - b].mask);
+    const auto model = segmentation::boneSurface(p.ct, result.bones[b].mask, &others).mesh;
+    const auto cmp =
+        segmentation::compareSurfaces(insideFieldOfView(model, p.ct, 3.0),
+                                      insideFieldOfView(b == 0 ? p.femur : p.hip, p.ct, 3.0), co);
+    std::cout << "[ measured ] hip phantom, " << slice << " mm slices (phase " << phase
+              << " mm), joint space " << gap << " mm, " << result.bones[b].bone << ": MSD "
+              << cmp.meanMm << " mm, p95 " << cmp.p95Mm << " mm, "
+              << result.bones[b].volumeMm3 / 1000.0 << " cm^3; " << result.automaticNeighbours
+              << " neighbours found automatically\n";
+    EXPECT_LE(cmp.meanMm, bound) << result.bones[b].bone << ", " << slice << " mm slices, gap "
+                                 << gap;
+    EXPECT_LE(cmp.p95Mm, 4.0 * bound)
+        << result.bones[b].bone << ", " << slice << " mm slices, gap " << gap;
+  }
+}
+
 // Where the method separates them: the joint space at 0, 2 and 3 mm (1 mm slices at 2 mm; 3 mm
-// slices at two phases). Each surface within the field of view against the truth.
+// slices at two phases).
 TEST(HipPhantom, FemurAndHipBoneFromOneSeedEach) {
   ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
   struct Case {
@@ -120,36 +149,26 @@ TEST(HipPhantom, FemurAndHipBoneFromOneSeedEach) {
   };
   for (const Case& c :
        {Case{1.0, 2.0, 0.0, 0.12}, Case{3.0, 0.0, 0.0, 0.3}, Case{3.0, 2.0, 0.0, 0.3},
-        Case{3.0, 3.0, 0.0, 0.3}, Case{3.0, 0.0, 1.5, 0.3}}) {
-    const test::HipPhantom p = test::makeHipPhantom(optionsFor(femur, c.slice, c.gap, c.phase));
-    const std::vector<segmentation::BoneSeed> seeds = {{"femur", p.femurSeedLps},
-                                                       {"left hip", p.hipSeedLps}};
-    const auto result = segmentation::segmentCompetingBones(p.ct, seeds);
-    ASSERT_EQ(result.bones.size(), 2u);
-    segmentation::SurfaceComparisonOptions co;
-    co.zMinMm = p.ct.voxelToLps(Eigen::Vector3d(0, 0, 0)).z() + c.slice;
-    co.zMaxMm = p.ct.voxelToLps(Eigen::Vector3d(0, 0, p.ct.dimensions[2] - 1)).z() - c.slice;
-    for (std::size_t b = 0; b < 2; ++b) {
-      const segmentation::VoxelMask others = segmentation::unite(
-          segmentation::unite(result.unnamed, result.metalMask), result.bones[1 - b].mask);
-      const auto model = segmentation::boneSurface(p.ct, result.bones[b].mask, &others).mesh;
-      const auto cmp =
-          segmentation::compareSurfaces(insideFieldOfView(model, p.ct, 3.0),
-                                        insideFieldOfView(b == 0 ? p.femur : p.hip, p.ct, 3.0), co);
-      std::cout << "[ measured ] hip phantom, " << c.slice << " mm slices (phase " << c.phase
-                << " mm), joint space " << c.gap << " mm, " << result.bones[b].bone << ": MSD "
-                << cmp.meanMm << " mm, p95 " << cmp.p95Mm << " mm\n";
-      EXPECT_LE(cmp.meanMm, c.bound) << result.bones[b].bone << ", gap " << c.gap;
-      EXPECT_LE(cmp.p95Mm, 4.0 * c.bound) << result.bones[b].bone << ", gap " << c.gap;
-    }
-  }
+        Case{3.0, 3.0, 0.0, 0.3}, Case{3.0, 0.0, 1.5, 0.3}})
+    expectBothBones(femur, c.slice, c.gap, c.phase, c.bound);
+}
+
+// The cup's wall: its cancellous core between the outer cortex and the plate lining the cup is
+// darker than both, as a joint line is, but has soft tissue behind the outer cortex
+// (CompetingOptions::jointBeyondMm). Counted as a joint line it made a piece of the wall a
+// neighbour of its own, kept apart from the hip bone (1 mm slices with the joint space at 1 and
+// 3 mm, 3 mm slices at 1 mm: the hip bone 158-164 cm^3 of 169-172, MSD 1.3-1.5 mm, p95 10-13 mm).
+TEST(HipPhantom, TheCupWallsCoreIsNoJointLine) {
+  ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
+  expectBothBones(femur, 1.0, 1.0, 0.0, 0.12);
+  expectBothBones(femur, 1.0, 3.0, 0.0, 0.12);
+  expectBothBones(femur, 3.0, 1.0, 0.0, 0.3);
 }
 
 // A seed in the cup's roof (7 mm into it, above the head): the hip bone's neighbours found
 // automatically join it one after another, and a pair of basins' labels can have their roots
 // the other way round; the join made the hip bone (a seeded bone) the automatic neighbour's, and
-// the hip bone was refused with "only 0 mm^3". The hip bone now keeps its label. (Its model on
-// this scan still lacks a piece of the cup wall: the open failure at a 1 mm joint space.)
+// the hip bone was refused with "only 0 mm^3". The hip bone now keeps its label.
 TEST(HipPhantom, ASeededBoneKeepsItsLabelWhenItsNeighboursJoinIt) {
   ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
   const test::HipPhantom p = test::makeHipPhantom(optionsFor(femur, 1.0, 1.0));
