@@ -730,11 +730,11 @@ void forEachLabelFace(const core::CtImage& image, const std::vector<std::int16_t
 // boundary hides one: the real pelvis averaged to 5 mm slices, the right hip's basin ran round
 // the sacroiliac joint into the back of the sacrum, 43 % of the whole boundary joint-like (the
 // joint itself, 80 %) but two pieces of 31 % each at 23-24 %.
-template <typename Inside, typename Cortex>
+template <typename Inside, typename JointFace>
 void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::int16_t>& label,
                            int firstAuto, const std::vector<std::string>& names, Inside inside,
-                           Cortex cortex, const std::vector<std::uint8_t>& joints,
-                           const CompetingOptions& options, double maxSpacing) {
+                           JointFace jointFace, const CompetingOptions& options,
+                           double maxSpacing) {
   if (firstAuto < 2)
     return;
   const Eigen::Vector3d spacing = image.spacingMm();
@@ -762,7 +762,7 @@ void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::in
     std::size_t insideFaces = 0, jointFaces = 0;
     for (const Face& f : list) {
       insideFaces += inside(f.v) && inside(f.n) ? 1u : 0u;
-      jointFaces += joints[f.v] || joints[f.n] || (cortex(f.v) && cortex(f.n)) ? 1u : 0u;
+      jointFaces += jointFace(f.v, f.n) ? 1u : 0u;
     }
     const double share = static_cast<double>(insideFaces) / pairFaces;
     const double jointShare = static_cast<double>(jointFaces) / pairFaces;
@@ -832,7 +832,7 @@ void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::in
       Patch& p = patches[root(node.at(f.v))];
       ++p.total;
       p.inside += inside(f.v) && inside(f.n) ? 1u : 0u;
-      p.joint += joints[f.v] || joints[f.n] || (cortex(f.v) && cortex(f.n)) ? 1u : 0u;
+      p.joint += jointFace(f.v, f.n) ? 1u : 0u;
       p.areaMm2 += faceMm2[f.axis];
       int i, j, k;
       ijkOf(image, f.v, i, j, k);
@@ -1219,6 +1219,10 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
     const double insideHu = 0.5 * (options.threshold.weakHu + options.threshold.strongHu);
     auto inside = [&](std::size_t v) { return image.hu[v] < insideHu && !joints[v]; };
     auto cortex = [&](std::size_t v) { return image.hu[v] >= options.threshold.strongHu; };
+    // A joint: its line, or cortex against cortex (bones pressed together).
+    auto jointFace = [&](std::size_t v, std::size_t n) {
+      return joints[v] || joints[n] || (cortex(v) && cortex(n));
+    };
     struct Boundary {
       std::size_t total = 0, inside = 0, joint = 0;
     };
@@ -1227,8 +1231,7 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       auto& e = boundary[{std::min(label[v], label[n]), std::max(label[v], label[n])}];
       ++e.total;
       e.inside += inside(v) && inside(n) ? 1u : 0u;
-      // A joint: its line, or cortex against cortex (bones pressed together).
-      e.joint += joints[v] || joints[n] || (cortex(v) && cortex(n)) ? 1u : 0u;
+      e.joint += jointFace(v, n) ? 1u : 0u;
     });
     // Largest boundaries first: an automatic basin joins the bone it shares most with.
     std::vector<std::pair<std::pair<int, int>, Boundary>> pairs(boundary.begin(), boundary.end());
@@ -1265,7 +1268,7 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       if (label[i] >= 0)
         label[i] = static_cast<std::int16_t>(rootOf(label[i]));
     }
-    checkSeededBoundaries(image, label, static_cast<int>(firstAuto), names, inside, cortex, joints,
+    checkSeededBoundaries(image, label, static_cast<int>(firstAuto), names, inside, jointFace,
                           options, maxSpacing);
     int kept = 0;
     for (int l = firstAuto; l < labels && l < static_cast<int>(root.size()); ++l)
