@@ -396,6 +396,27 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
       neighbourMasks.emplace_back("metal", bones.metalMask);
     for (std::size_t i = 0; i < exclude.voxels.size(); ++i)
       exclude.voxels[i] &= static_cast<std::uint8_t>(!region.voxels[i]);
+    // Where two named bones meet along the slices: on thick slices a joint lying along them
+    // shows in no voxel, and the boundary there is a guess (docs/segmentation.md, Limits).
+    nlohmann::json contactsJson = nlohmann::json::array();
+    const double sliceMm = volume.spacingMm().z();
+    for (const seg::SliceContact& c : seg::contactsAlongSlices(volume, bones.bones)) {
+      contactsJson.push_back({{"bones", {c.first, c.second}},
+                              {"area_mm2", c.areaMm2},
+                              {"z_mm", {c.zMinMm, c.zMaxMm}},
+                              {"centre_mm", vec(c.centreLps)}});
+      if (sliceMm >= competing.jointSlabMinSliceMm && competing.jointSlabMinSliceMm > 0.0 &&
+          c.areaMm2 >= 50.0) {
+        warnings.push_back(fmt::format(
+            "at {:.1f} mm slices the {} and the {} meet along the slices over {:.0f} mm^2 (z "
+            "{:.1f} to {:.1f} mm, around ({:.1f}, {:.1f}, {:.1f}) mm): a joint lying along the "
+            "slices shows in no voxel there, so that part of the boundary is a guess; check both "
+            "models there (--anchors-where uncertain proposes the slices to correct), or "
+            "segment a thinner series",
+            sliceMm, c.first, c.second, c.areaMm2, c.zMinMm, c.zMaxMm, c.centreLps.x(),
+            c.centreLps.y(), c.centreLps.z()));
+      }
+    }
     nlohmann::json metalJson = nlohmann::json::array();
     for (const seg::MetalPiece& m : bones.metal) {
       metalJson.push_back({{"centre_mm", vec(m.centreLps)},
@@ -420,6 +441,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                 {"bones", bonesJson},
                 {"automatic_neighbours", bones.automaticNeighbours},
                 {"joint_slab_voxels", bones.jointSlabVoxels},
+                {"contacts_along_slices", contactsJson},
                 {"marker_dynamic_mm", bones.markerDynamicMm},
                 {"threshold",
                  {{"strong_hu", bones.thresholdUsed.strongHu},

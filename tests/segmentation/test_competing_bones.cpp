@@ -591,4 +591,44 @@ TEST(CompetingBones, ImplausibleBonesAreNamed) {
   EXPECT_EQ(segmentation::implausibleBone("my bone", 9e9, {900, 900, 900}), "");  // unknown
 }
 
+// Where two named bones meet along k: each face one pixel (0.5 x 0.8 mm), z between the slices,
+// pairs that do not meet left out, largest first; a mask on another grid is refused.
+TEST(CompetingBones, ContactsAlongTheSlicesAreMeasured) {
+  core::CtImage ct =
+      core::axialCtImage(6, 5, 0.5, {0.0, 0.0}, {{"stack", {0.0, 5.0, 10.0, 15.0}, 5.0}});
+  ct.hu.assign(ct.voxelCount(), 0);
+  std::vector<segmentation::SegmentedBone> bones(3);
+  bones[0].bone = "femur";
+  bones[1].bone = "tibia";
+  bones[2].bone = "patella";
+  for (auto& b : bones)
+    b.mask = segmentation::emptyMask(ct);
+  for (int j = 0; j < 5; ++j) {
+    for (int i = 0; i < 6; ++i) {
+      bones[0].mask.voxels[ct.index(i, j, 2)] = 1;  // the femur over the tibia where i < 4
+      bones[0].mask.voxels[ct.index(i, j, 3)] = 1;
+      if (i < 4)
+        bones[1].mask.voxels[ct.index(i, j, 1)] = 1;
+    }
+  }
+  bones[2].mask.voxels[ct.index(5, 0, 0)] = 1;  // touches nothing along k
+  const auto contacts = segmentation::contactsAlongSlices(ct, bones);
+  ASSERT_EQ(contacts.size(), 1u);
+  EXPECT_EQ(contacts[0].first, "femur");
+  EXPECT_EQ(contacts[0].second, "tibia");
+  const Eigen::Vector3d s = ct.spacingMm();
+  EXPECT_NEAR(contacts[0].areaMm2, 20 * s.x() * s.y(), 1e-9);
+  const double zFace = 0.5 * (ct.voxelToLps(Eigen::Vector3d(0, 0, 1)).z() +
+                              ct.voxelToLps(Eigen::Vector3d(0, 0, 2)).z());
+  EXPECT_NEAR(contacts[0].zMinMm, zFace, 1e-9);
+  EXPECT_NEAR(contacts[0].zMaxMm, zFace, 1e-9);
+  EXPECT_NEAR(contacts[0].centreLps.z(), zFace, 1e-9);
+  EXPECT_NEAR(contacts[0].centreLps.x(),
+              0.5 * (ct.voxelToLps(Eigen::Vector3d(0, 0, 1)).x() +
+                     ct.voxelToLps(Eigen::Vector3d(3, 0, 1)).x()),
+              1e-9);
+  bones[1].mask.voxels.pop_back();
+  EXPECT_THROW(segmentation::contactsAlongSlices(ct, bones), std::invalid_argument);
+}
+
 }  // namespace

@@ -234,6 +234,24 @@ std::vector<SliceUncertainty> sliceUncertainty(
     const std::vector<std::pair<std::string, const VoxelMask*>>& neighbours, SlicePlane plane,
     const std::vector<double>& positionsMm, const UncertaintyOptions& options = {});
 
+/// Where two named bones meet along the slices: the faces between a voxel of one and its
+/// neighbour along k of the other. On slices thicker than a joint space is wide a joint that
+/// lies along the slices (a knee's plateau, a hip's acetabular roof) shows in no voxel, and that
+/// part of the boundary is the segmentation's guess: the independent hip phantom at 5 mm slices
+/// had its femur take the cup and the ilium there without a word.
+struct SliceContact {
+  std::string first, second;          ///< the bones, in the order of `bones`
+  double areaMm2 = 0.0;               ///< the faces' area (one pixel each)
+  double zMinMm = 0.0, zMaxMm = 0.0;  ///< the faces' LPS z range (between the two slices)
+  Eigen::Vector3d centreLps = Eigen::Vector3d::Zero();  ///< the faces' mean
+};
+
+/// The contacts along k between each pair of `bones` (masks on `ct`'s grid; a voxel in two
+/// masks counts for the first), largest first; pairs that do not meet are left out. Throws
+/// std::invalid_argument for a mask on another grid.
+std::vector<SliceContact> contactsAlongSlices(const core::CtImage& ct,
+                                              const std::vector<SegmentedBone>& bones);
+
 /// Why a bone of this name cannot have this volume / extent ("" when it can). Names known:
 /// femur, tibia, fibula, patella, hip / ilium / hip bone, sacrum, pelvis, vertebra, humerus
 /// (the part of them a scan holds: upper bounds, since a scan may cut a bone).
