@@ -790,11 +790,14 @@ void forEachLabelFace(const core::CtImage& image, const std::vector<std::int16_t
 // boundary hides one: the real pelvis averaged to 5 mm slices, the right hip's basin ran round
 // the sacroiliac joint into the back of the sacrum, 43 % of the whole boundary joint-like (the
 // joint itself, 80 %) but two pieces of 31 % each at 23-24 %.
-template <typename Inside, typename JointFace>
+//
+// And the boundary's depth (CompetingOptions::seededCutDepthMm): `depthMm(v)` is the distance map
+// at v, `topMm[b]` the top of bone b's hill.
+template <typename Inside, typename JointFace, typename Depth>
 void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::int16_t>& label,
                            int firstAuto, const std::vector<std::string>& names, Inside inside,
-                           JointFace jointFace, const CompetingOptions& options,
-                           double maxSpacing) {
+                           JointFace jointFace, Depth depthMm, const std::vector<double>& topMm,
+                           const CompetingOptions& options, double maxSpacing) {
   if (firstAuto < 2)
     return;
   const Eigen::Vector3d spacing = image.spacingMm();
@@ -848,6 +851,29 @@ void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::in
           maxSpacing >= 3.0
               ? fmt::format(": at {:.1f} mm slices the joint does not show", maxSpacing)
               : std::string()));
+    }
+    if (options.seededCutDepthMm > 0.0) {
+      std::vector<double> depth;
+      depth.reserve(list.size());
+      for (const Face& f : list)
+        depth.push_back(std::min(depthMm(f.v), depthMm(f.n)));
+      const auto at = depth.begin() + static_cast<std::ptrdiff_t>((depth.size() - 1) * 9 / 10);
+      std::nth_element(depth.begin(), at, depth.end());
+      const double lowerTop = std::min(topMm[sz(pair.first)], topMm[sz(pair.second)]);
+      if (*at >= options.seededCutDepthMm && *at >= options.seededCutDepthShare * lowerTop) {
+        throw std::invalid_argument(fmt::format(
+            "the {} and the {} cannot be told apart: the boundary found between them runs "
+            "through the thick of the bone (a tenth of it {:.1f} mm or more from the bone's "
+            "surface, {:.0f} % as deep as the {}'s deepest point), not through a narrowing where "
+            "two bones meet at a joint{}; outline them with --anchors (Live-Wire) or segment a "
+            "thinner series",
+            names[sz(pair.first)], names[sz(pair.second)], *at, 100.0 * *at / lowerTop,
+            names[sz(topMm[sz(pair.first)] <= topMm[sz(pair.second)] ? pair.first : pair.second)],
+            maxSpacing >= 3.0
+                ? fmt::format(": at {:.1f} mm slices a joint along the slices does not show",
+                              maxSpacing)
+                : std::string()));
+      }
     }
     if (!(options.seededPatchJointShare > 0.0))
       continue;
@@ -1328,8 +1354,14 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       if (label[i] >= 0)
         label[i] = static_cast<std::int16_t>(rootOf(label[i]));
     }
-    checkSeededBoundaries(image, label, static_cast<int>(firstAuto), names, inside, jointFace,
-                          options, maxSpacing);
+    std::vector<double> topMm(names.size(), 0.0);
+    for (std::size_t b = 0; b < names.size(); ++b) {
+      for (std::uint32_t m : markers[b])
+        topMm[b] = std::max(topMm[b], levelOf(m) * kLevelMm);
+    }
+    checkSeededBoundaries(
+        image, label, static_cast<int>(firstAuto), names, inside, jointFace,
+        [&](std::size_t v) { return levelOf(v) * kLevelMm; }, topMm, options, maxSpacing);
     int kept = 0;
     for (int l = firstAuto; l < labels && l < static_cast<int>(root.size()); ++l)
       kept += rootOf(l) == l ? 1 : 0;

@@ -107,6 +107,19 @@ struct CompetingOptions {
   /// simulated knees' femur and tibia at 5 mm: every piece 45-73 %. 0: off.
   double seededPatchJointShare = 0.35;
   double seededPatchMinShare = 0.1;
+  /// Two seeded bones whose boundary runs through the thick of the solid are refused: at a joint
+  /// the bones narrow to it, and their boundary lies near the background or a joint line; a cut
+  /// through a bone lies deep inside it. Refused when the 90th percentile of the boundary's
+  /// depth (the distance map at its faces) is at least seededCutDepthMm and at least
+  /// seededCutDepthShare of the lower of the two bones' tops. The independent hip phantom at
+  /// 5 mm slices, the femur's basin across the acetabular roof into the ilium, the boundary
+  /// through the posterior column: 5.1-6.1 mm, 0.36-0.44 (wrong without a word before); bones
+  /// separated right (222 boundaries: the real pelvis at 3-6 mm slices, the simulated knees at
+  /// 3 and 5 mm with their variants, the phantom's right scans): at most 3.2 mm, and where
+  /// deeper than 1 mm at most 0.28 (0.43 against a thin bone's low top: the fibula's, 1.8 mm,
+  /// at 3 mm slices). 0: off.
+  double seededCutDepthMm = 4.0;
+  double seededCutDepthShare = 0.32;
   /// The joint's slab on thick slices (joint_slabs.hpp): on slices at least jointSlabMinSliceMm
   /// thick (0: never), a voxel of a named bone at a contact along z with another named bone that
   /// stands at most jointSlabShare as high above the soft tissue as its bone's next voxel inward
