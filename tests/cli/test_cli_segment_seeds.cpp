@@ -34,11 +34,11 @@ double phantomHu(double x, double y, double z, bool metal) {
   return 40.0;
 }
 
-std::string writePhantom(const std::string& folder, bool metal = false) {
-  std::vector<double> knee;
-  for (int k = 0; k < 30; ++k)
-    knee.push_back(-15.0 + k);
-  core::CtImage v = core::axialCtImage(56, 40, 0.8, {-16.0, -16.0}, {{"knee", knee, 1.0}});
+// Fills `v` with the mean of `hu(x, y, z)` over 4 x 4 points of each pixel (0.2 mm apart) and
+// `zSamples` points through its slab of `slabMm`, and writes it as a DICOM series.
+template <typename Hu>
+std::string writeSampled(const std::string& folder, core::CtImage v, Hu hu, int zSamples,
+                         double slabMm, int uidSeed) {
   v.hu.resize(v.voxelCount());
   for (int k = 0; k < v.dimensions[2]; ++k) {
     for (int j = 0; j < v.dimensions[1]; ++j) {
@@ -46,18 +46,30 @@ std::string writePhantom(const std::string& folder, bool metal = false) {
         const Eigen::Vector3d c = v.voxelCentreMm(i, j, k);
         double sum = 0.0;
         for (int a = 0; a < 4; ++a) {
-          for (int b = 0; b < 4; ++b)
-            sum += phantomHu(c.x() + (a - 1.5) * 0.2, c.y() + (b - 1.5) * 0.2, c.z(), metal);
+          for (int b = 0; b < 4; ++b) {
+            for (int d = 0; d < zSamples; ++d)
+              sum += hu(c.x() + (a - 1.5) * 0.2, c.y() + (b - 1.5) * 0.2,
+                        c.z() + ((d + 0.5) / zSamples - 0.5) * slabMm);
+          }
         }
-        v.hu[v.index(i, j, k)] = static_cast<std::int16_t>(std::lround(sum / 16.0));
+        v.hu[v.index(i, j, k)] = static_cast<std::int16_t>(std::lround(sum / (16.0 * zSamples)));
       }
     }
   }
   simulation::DicomSeriesInfo info;
   info.patientId = "PHANTOM";
-  info.uidSeed = 13;
+  info.uidSeed = static_cast<std::uint64_t>(uidSeed);
   simulation::writeDicomSeries(folder, v, info);
   return folder;
+}
+
+std::string writePhantom(const std::string& folder, bool metal = false) {
+  std::vector<double> knee;
+  for (int k = 0; k < 30; ++k)
+    knee.push_back(-15.0 + k);
+  return writeSampled(
+      folder, core::axialCtImage(56, 40, 0.8, {-16.0, -16.0}, {{"knee", knee, 1.0}}),
+      [metal](double x, double y, double z) { return phantomHu(x, y, z, metal); }, 1, 0.0, 13);
 }
 
 TEST(CliSegmentSeeds, HelpShowsWhatASeedTakes) {
@@ -275,30 +287,9 @@ std::string writeStackedPhantom(const std::string& folder, double sliceMm) {
   const int half = static_cast<int>(std::floor(30.0 / sliceMm));
   for (int k = -half; k <= half; ++k)
     z.push_back(k * sliceMm);
-  core::CtImage v = core::axialCtImage(56, 56, 0.8, {-22.0, -22.0}, {{"stack", z, sliceMm}});
-  v.hu.resize(v.voxelCount());
-  for (int k = 0; k < v.dimensions[2]; ++k) {
-    for (int j = 0; j < v.dimensions[1]; ++j) {
-      for (int i = 0; i < v.dimensions[0]; ++i) {
-        const Eigen::Vector3d c = v.voxelCentreMm(i, j, k);
-        double sum = 0.0;
-        int n = 0;
-        for (int a = 0; a < 4; ++a) {
-          for (int b = 0; b < 4; ++b) {
-            for (int d = 0; d < 10; ++d, ++n)
-              sum += hu(c.x() + (a - 1.5) * 0.2, c.y() + (b - 1.5) * 0.2,
-                        c.z() + ((d + 0.5) / 10.0 - 0.5) * sliceMm);
-          }
-        }
-        v.hu[v.index(i, j, k)] = static_cast<std::int16_t>(std::lround(sum / n));
-      }
-    }
-  }
-  simulation::DicomSeriesInfo info;
-  info.patientId = "PHANTOM";
-  info.uidSeed = 14;
-  simulation::writeDicomSeries(folder, v, info);
-  return folder;
+  return writeSampled(folder,
+                      core::axialCtImage(56, 56, 0.8, {-22.0, -22.0}, {{"stack", z, sliceMm}}), hu,
+                      10, sliceMm, 14);
 }
 
 // On thick slices a joint lying along them shows in no voxel, and where two named bones meet
