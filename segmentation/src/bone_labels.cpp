@@ -337,66 +337,6 @@ struct Component {
 
 }  // namespace
 
-std::vector<SliceContact> contactsAlongSlices(const core::CtImage& ct,
-                                              const std::vector<SegmentedBone>& bones) {
-  const std::size_t count = ct.voxelCount();
-  if (bones.size() > 127)
-    throw std::invalid_argument("contactsAlongSlices: at most 127 bones");
-  std::vector<std::int8_t> label(count, -1);
-  for (std::size_t b = bones.size(); b-- > 0;) {
-    if (bones[b].mask.voxels.size() != count)
-      throw std::invalid_argument(
-          fmt::format("contactsAlongSlices: the {} mask has {} voxels, the CT {}", bones[b].bone,
-                      bones[b].mask.voxels.size(), count));
-    for (std::size_t v = 0; v < count; ++v) {
-      if (bones[b].mask.voxels[v])
-        label[v] = static_cast<std::int8_t>(b);
-    }
-  }
-  const Eigen::Vector3d spacing = ct.spacingMm();
-  const double pixelMm2 = spacing.x() * spacing.y();
-  struct Sum {
-    std::size_t faces = 0;
-    double zMin = std::numeric_limits<double>::infinity();
-    double zMax = -std::numeric_limits<double>::infinity();
-    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
-  };
-  std::map<std::pair<int, int>, Sum> sums;
-  const std::size_t plane = static_cast<std::size_t>(ct.dimensions[0]) * sz(ct.dimensions[1]);
-  for (int k = 0; k + 1 < ct.dimensions[2]; ++k) {
-    for (int j = 0; j < ct.dimensions[1]; ++j) {
-      for (int i = 0; i < ct.dimensions[0]; ++i) {
-        const std::size_t v = ct.index(i, j, k);
-        const int a = label[v], b = label[v + plane];
-        if (a < 0 || b < 0 || a == b)
-          continue;
-        Sum& e = sums[{std::min(a, b), std::max(a, b)}];
-        ++e.faces;
-        const Eigen::Vector3d p = 0.5 * (ct.voxelToLps(Eigen::Vector3d(i, j, k)) +
-                                         ct.voxelToLps(Eigen::Vector3d(i, j, k + 1)));
-        e.zMin = std::min(e.zMin, p.z());
-        e.zMax = std::max(e.zMax, p.z());
-        e.sum += p;
-      }
-    }
-  }
-  std::vector<SliceContact> out;
-  for (const auto& [pair, e] : sums) {
-    SliceContact c;
-    c.first = bones[sz(pair.first)].bone;
-    c.second = bones[sz(pair.second)].bone;
-    c.areaMm2 = static_cast<double>(e.faces) * pixelMm2;
-    c.zMinMm = e.zMin;
-    c.zMaxMm = e.zMax;
-    c.centreLps = e.sum / static_cast<double>(e.faces);
-    out.push_back(c);
-  }
-  std::stable_sort(out.begin(), out.end(), [](const SliceContact& x, const SliceContact& y) {
-    return x.areaMm2 > y.areaMm2;
-  });
-  return out;
-}
-
 std::string implausibleBone(const std::string& bone, double volumeMm3,
                             const Eigen::Vector3d& extentMm) {
   struct Limit {
@@ -947,6 +887,59 @@ void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::in
 }
 
 }  // namespace
+
+std::vector<SliceContact> contactsAlongSlices(const core::CtImage& ct,
+                                              const std::vector<SegmentedBone>& bones) {
+  const std::size_t count = ct.voxelCount();
+  std::vector<std::int16_t> label(count, -1);
+  for (std::size_t b = bones.size(); b-- > 0;) {
+    if (bones[b].mask.voxels.size() != count)
+      throw std::invalid_argument(
+          fmt::format("contactsAlongSlices: the {} mask has {} voxels, the CT {}", bones[b].bone,
+                      bones[b].mask.voxels.size(), count));
+    for (std::size_t v = 0; v < count; ++v) {
+      if (bones[b].mask.voxels[v])
+        label[v] = static_cast<std::int16_t>(std::min<std::size_t>(b, 32767));
+    }
+  }
+  const Eigen::Vector3d spacing = ct.spacingMm();
+  const double pixelMm2 = spacing.x() * spacing.y();
+  struct Sum {
+    std::size_t faces = 0;
+    double zMin = std::numeric_limits<double>::infinity();
+    double zMax = -std::numeric_limits<double>::infinity();
+    Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+  };
+  std::map<std::pair<int, int>, Sum> sums;
+  forEachLabelFace(ct, label, [&](std::size_t v, std::size_t n, int axis) {
+    if (axis != 2)
+      return;
+    Sum& e = sums[{std::min(label[v], label[n]), std::max(label[v], label[n])}];
+    ++e.faces;
+    int i, j, k;
+    ijkOf(ct, v, i, j, k);
+    const Eigen::Vector3d p = 0.5 * (ct.voxelToLps(Eigen::Vector3d(i, j, k)) +
+                                     ct.voxelToLps(Eigen::Vector3d(i, j, k + 1)));
+    e.zMin = std::min(e.zMin, p.z());
+    e.zMax = std::max(e.zMax, p.z());
+    e.sum += p;
+  });
+  std::vector<SliceContact> out;
+  for (const auto& [pair, e] : sums) {
+    SliceContact c;
+    c.first = bones[sz(pair.first)].bone;
+    c.second = bones[sz(pair.second)].bone;
+    c.areaMm2 = static_cast<double>(e.faces) * pixelMm2;
+    c.zMinMm = e.zMin;
+    c.zMaxMm = e.zMax;
+    c.centreLps = e.sum / static_cast<double>(e.faces);
+    out.push_back(c);
+  }
+  std::stable_sort(out.begin(), out.end(), [](const SliceContact& x, const SliceContact& y) {
+    return x.areaMm2 > y.areaMm2;
+  });
+  return out;
+}
 
 // The work, on a grid that holds every bone voxel (see segmentCompetingBones).
 static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vector<BoneSeed>& seeds,
