@@ -114,9 +114,9 @@ struct CompetingOptions {
   /// seededCutDepthShare of the lower of the two bones' tops. The independent hip phantom at
   /// 5 mm slices, the femur's basin across the acetabular roof into the ilium, the boundary
   /// through the posterior column: 5.1-6.1 mm, 0.36-0.44 (wrong without a word before); bones
-  /// separated right (222 boundaries: the real pelvis at 3-6 mm slices, the simulated knees at
+  /// separated right (154 boundaries: the real pelvis at 3-6 mm slices, the simulated knees at
   /// 3 and 5 mm with their variants, the phantom's right scans): at most 3.2 mm, and where
-  /// deeper than 1 mm at most 0.28 (0.43 against a thin bone's low top: the fibula's, 1.8 mm,
+  /// deeper than 1 mm at most 0.27 (0.43 against a thin bone's low top: the fibula's, 1.8 mm,
   /// at 3 mm slices). 0: off.
   double seededCutDepthMm = 4.0;
   double seededCutDepthShare = 0.32;
