@@ -3,6 +3,8 @@
 #include "echoreg/segmentation/joint_slabs.hpp"
 
 #include <fmt/format.h>
+#include <Eigen/LU>
+#include <Eigen/QR>
 
 #include <algorithm>
 #include <cmath>
@@ -10,6 +12,7 @@
 #include <limits>
 #include <map>
 #include <optional>
+#include <random>
 #include <stdexcept>
 
 namespace echoreg::segmentation {
@@ -723,6 +726,277 @@ void forEachLabelFace(const core::CtImage& image, const std::vector<std::int16_t
   }
 }
 
+// Two seeded bones refused by checkSeededBoundaries: the message, and the two labels.
+class SeededPairRefused : public std::invalid_argument {
+ public:
+  SeededPairRefused(const std::string& what, int a, int b)
+      : std::invalid_argument(what), first(a), second(b) {}
+  int first, second;
+};
+
+// A ball-and-socket joint's sphere (jointSphereShell): over its cap, at least kBallFilled of the
+// voxels inside it are bone (the head), and kSocketLined of those within kSocketWallMm outside
+// it (the cup's wall); and its joint-line inliers at least kShellSupport of the shell's voxels
+// (the joint shows over much of the cap). Measured on the hip phantom at 5 mm, the spheres that
+// separated the bones right: the head 0.99-1.00 bone, the wall 0.69-0.98, the support
+// 0.54-0.60; a sphere through a tube's inner dips with seeds on either side of its marrow (two
+// seeds in one bone, CliSegment.RefusalsNameTheFileAndWriteNothing): 0.99, 0.61 and 0.08.
+constexpr double kSocketWallMm = 4.0;
+constexpr double kBallFilled = 0.9;
+constexpr double kSocketLined = 0.6;
+constexpr double kShellSupport = 0.3;
+
+// The sphere through four points, or nothing when they are (nearly) on one plane.
+std::optional<std::pair<Eigen::Vector3d, double>> sphereThrough(const Eigen::Vector3d p[4]) {
+  // |x|^2 + D x + E y + F z + G = 0 through each point.
+  Eigen::Matrix4d a;
+  Eigen::Vector4d b;
+  for (int r = 0; r < 4; ++r) {
+    a.row(r) << p[r].x(), p[r].y(), p[r].z(), 1.0;
+    b(r) = -p[r].squaredNorm();
+  }
+  const Eigen::FullPivLU<Eigen::Matrix4d> lu(a);
+  if (!lu.isInvertible())
+    return std::nullopt;
+  const Eigen::Vector4d x = lu.solve(b);
+  const Eigen::Vector3d centre = -0.5 * x.head<3>();
+  const double r2 = centre.squaredNorm() - x(3);
+  if (!(r2 > 0.0) || !std::isfinite(r2))
+    return std::nullopt;
+  return std::make_pair(centre, std::sqrt(r2));
+}
+
+// A ball-and-socket joint whose line shows only where it crosses the slices
+// (CompetingOptions::jointFromSphere): a sphere through the joint-line voxels labelled `a` or `b`
+// (RANSAC with a fixed seed, then least squares on the inliers), and its shell over the cap the
+// inliers span, the voxels whose box the sphere passes through (a surface no 26-path crosses).
+// Fills `shell` and `sphere` and returns true where a sphere fits: at least jointSphereMinInliers
+// joint-line voxels, one bone's seeds inside and the other's outside, a cap of at least
+// jointSphereMinCapDegrees, the centre in the ball where the labels are known.
+bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
+                      const std::vector<std::uint8_t>& joints,
+                      const std::vector<std::int16_t>* label, int a, int b,
+                      const std::vector<std::string>& names,
+                      const std::vector<std::vector<Eigen::Vector3d>>& seedsOf,
+                      const CompetingOptions& options, std::vector<std::uint8_t>& shell,
+                      JointSphere& sphere) {
+  // The joint-line voxels the two bones hold; before the flood (two seeds on one hill), those
+  // within two of the largest radii of their seeds.
+  std::vector<Eigen::Vector3d> points;
+  const double reach = 2.0 * options.jointSphereMaxRadiusMm;
+  for (std::size_t v = 0; v < joints.size(); ++v) {
+    if (!joints[v] || (label && (*label)[v] != a && (*label)[v] != b))
+      continue;
+    int i, j, k;
+    ijkOf(image, v, i, j, k);
+    const Eigen::Vector3d p = image.voxelToLps(Eigen::Vector3d(i, j, k));
+    if (!label) {
+      bool near = false;
+      for (const int bone : {a, b}) {
+        for (const Eigen::Vector3d& q : seedsOf[sz(bone)])
+          near = near || (p - q).norm() <= reach;
+      }
+      if (!near)
+        continue;
+    }
+    points.push_back(p);
+  }
+  const int n = static_cast<int>(points.size());
+  if (n < options.jointSphereMinInliers)
+    return false;
+  Eigen::Vector3d mean = Eigen::Vector3d::Zero();
+  for (const Eigen::Vector3d& p : points)
+    mean += p;
+  mean /= n;
+  for (Eigen::Vector3d& p : points)
+    p -= mean;  // centred, for the conditioning of the fits
+  const double tolerance = options.jointSphereToleranceMm;
+  const auto isInlier = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& c, double r) {
+    return std::fabs((p - c).norm() - r) <= tolerance;
+  };
+  const auto inliersOf = [&](const Eigen::Vector3d& c, double r) {
+    int count = 0;
+    for (const Eigen::Vector3d& p : points)
+      count += isInlier(p, c, r) ? 1 : 0;
+    return count;
+  };
+  // The ball: the bone whose seeds all lie inside the sphere, the other's all outside; -1 when
+  // neither.
+  const auto ballOf = [&](const Eigen::Vector3d& c, double r) {
+    const auto all = [&](int bone, bool in) {
+      for (const Eigen::Vector3d& q : seedsOf[sz(bone)]) {
+        if (((q - mean - c).norm() < r) != in)
+          return false;
+      }
+      return true;
+    };
+    return all(a, true) && all(b, false) ? a : all(b, true) && all(a, false) ? b : -1;
+  };
+  std::mt19937 random(2008);
+  Eigen::Vector3d bestCentre = Eigen::Vector3d::Zero();
+  double bestRadius = 0.0;
+  int best = 0;
+  double bestDensity = 0.0;
+  for (int trial = 0; trial < 4000; ++trial) {
+    Eigen::Vector3d four[4];
+    for (auto& q : four)
+      q = points[random() % static_cast<std::uint32_t>(n)];
+    const auto s = sphereThrough(four);
+    if (!s || s->second < options.jointSphereMinRadiusMm ||
+        s->second > options.jointSphereMaxRadiusMm)
+      continue;
+    if (ballOf(s->first, s->second) < 0)
+      continue;
+    const int count = inliersOf(s->first, s->second);
+    // Inliers per area: any sphere through a cloud of joint-line voxels holds more of them the
+    // larger it is; the joint's own sphere holds them densest.
+    const double density = count / (s->second * s->second);
+    if (count >= options.jointSphereMinInliers && density > bestDensity) {
+      bestDensity = density;
+      best = count;
+      bestCentre = s->first;
+      bestRadius = s->second;
+    }
+  }
+  if (best < options.jointSphereMinInliers)
+    return false;
+  // Least squares on the inliers (a few rounds, while the fit gets denser). (Voxels taken as
+  // their boxes, the joint anywhere within a thick slice, fitted spheres a slice off the joint on
+  // the hip phantom at 5 mm.)
+  for (int round = 0; round < 5; ++round) {
+    std::vector<Eigen::Vector3d> on;
+    for (const Eigen::Vector3d& p : points) {
+      if (isInlier(p, bestCentre, bestRadius))
+        on.push_back(p);
+    }
+    Eigen::MatrixXd m(static_cast<Eigen::Index>(on.size()), 4);
+    Eigen::VectorXd rhs(static_cast<Eigen::Index>(on.size()));
+    for (std::size_t r = 0; r < on.size(); ++r) {
+      m.row(static_cast<Eigen::Index>(r)) << on[r].x(), on[r].y(), on[r].z(), 1.0;
+      rhs(static_cast<Eigen::Index>(r)) = -on[r].squaredNorm();
+    }
+    const Eigen::Vector4d x = m.colPivHouseholderQr().solve(rhs);
+    const Eigen::Vector3d centre = -0.5 * x.head<3>();
+    const double r2 = centre.squaredNorm() - x(3);
+    if (!(r2 > 0.0))
+      break;
+    const double radius = std::sqrt(r2);
+    const int count = inliersOf(centre, radius);
+    if (radius < options.jointSphereMinRadiusMm || radius > options.jointSphereMaxRadiusMm ||
+        count / (radius * radius) < bestDensity || ballOf(centre, radius) < 0)
+      break;
+    bestDensity = count / (radius * radius);
+    bestCentre = centre;
+    bestRadius = radius;
+    best = count;
+  }
+  // The cap the inliers span: about their mean direction, out to the angle that holds 95 % of
+  // them and 10 degrees more, at most a hemisphere (an acetabulum covers the head up to about 90
+  // degrees from its pole; wider, the shell cut the pubis from the hip bone on the phantom).
+  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+  double squares = 0.0;
+  std::vector<Eigen::Vector3d> directions;
+  for (const Eigen::Vector3d& p : points) {
+    if (!isInlier(p, bestCentre, bestRadius))
+      continue;
+    const double d = (p - bestCentre).norm();
+    directions.push_back((p - bestCentre) / std::max(d, 1e-9));
+    axis += directions.back();
+    squares += (d - bestRadius) * (d - bestRadius);
+  }
+  if (axis.norm() < 1e-9)
+    return false;
+  axis.normalize();
+  std::vector<double> angles;
+  for (const Eigen::Vector3d& u : directions)
+    angles.push_back(std::acos(std::clamp(u.dot(axis), -1.0, 1.0)) * 180.0 / M_PI);
+  const auto at = angles.begin() + static_cast<std::ptrdiff_t>((angles.size() - 1) * 19 / 20);
+  std::nth_element(angles.begin(), at, angles.end());
+  const double capDegrees = std::min(*at + 10.0, 90.0);
+  if (*at < options.jointSphereMinCapDegrees)
+    return false;
+  const Eigen::Vector3d centreLps = bestCentre + mean;
+  const Eigen::Vector3d centreVoxel = image.lpsToVoxel(centreLps);
+  const Eigen::Vector3i c(static_cast<int>(std::lround(centreVoxel.x())),
+                          static_cast<int>(std::lround(centreVoxel.y())),
+                          static_cast<int>(std::lround(centreVoxel.z())));
+  const auto& dims = image.dimensions;
+  const int ball = ballOf(bestCentre, bestRadius);
+  if (label && (c.minCoeff() < 0 || c.x() >= dims[0] || c.y() >= dims[1] || c.z() >= dims[2] ||
+                (*label)[image.index(c.x(), c.y(), c.z())] != ball))
+    return false;
+  // A ball fills its sphere and a socket lines it: over the cap, the voxels inside the sphere
+  // (by more than the tolerance) are bone, and those within a shell outside it (the socket's
+  // wall, kSocketWallMm) mostly bone. Two seeds on either side of a tube's marrow had a sphere
+  // through its inner dips split the tube in two, every check passed.
+  const Eigen::Vector3d spacing = image.spacingMm();
+  const double cosCap = std::cos(capDegrees * M_PI / 180.0);
+  Eigen::Vector3i lo, hi;
+  for (int axisIndex = 0; axisIndex < 3; ++axisIndex) {
+    const double span = (bestRadius + kSocketWallMm) / spacing(axisIndex) + 1.0;
+    lo(axisIndex) = std::max(0, static_cast<int>(std::floor(centreVoxel(axisIndex) - span)));
+    hi(axisIndex) =
+        std::min(dims[axisIndex] - 1, static_cast<int>(std::ceil(centreVoxel(axisIndex) + span)));
+  }
+  std::size_t ballVoxels = 0, ballBone = 0, wallVoxels = 0, wallBone = 0;
+  for (int k = lo.z(); k <= hi.z(); ++k) {
+    for (int j = lo.y(); j <= hi.y(); ++j) {
+      for (int i = lo.x(); i <= hi.x(); ++i) {
+        const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - centreLps;
+        const double d = u.norm();
+        if (d < 1e-9 || u.dot(axis) < cosCap * d)
+          continue;
+        const bool bone = solid.voxels[image.index(i, j, k)] != 0;
+        if (d <= bestRadius - tolerance) {
+          ++ballVoxels;
+          ballBone += bone ? 1u : 0u;
+        } else if (d >= bestRadius + tolerance && d <= bestRadius + kSocketWallMm) {
+          ++wallVoxels;
+          wallBone += bone ? 1u : 0u;
+        }
+      }
+    }
+  }
+  if (static_cast<double>(ballBone) < kBallFilled * static_cast<double>(ballVoxels) ||
+      static_cast<double>(wallBone) < kSocketLined * static_cast<double>(wallVoxels))
+    return false;
+  // The shell: every voxel whose box the sphere passes through, within the cap.
+  shell.assign(joints.size(), 0);
+  std::size_t marked = 0;
+  for (int k = lo.z(); k <= hi.z(); ++k) {
+    for (int j = lo.y(); j <= hi.y(); ++j) {
+      for (int i = lo.x(); i <= hi.x(); ++i) {
+        const Eigen::Vector3d delta =
+            (Eigen::Vector3d(i, j, k) - centreVoxel).cwiseAbs().cwiseProduct(spacing);
+        const Eigen::Vector3d near = (delta - 0.5 * spacing).cwiseMax(0.0);
+        const Eigen::Vector3d far = delta + 0.5 * spacing;
+        if (near.norm() > bestRadius || far.norm() < bestRadius)
+          continue;
+        const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - centreLps;
+        if (u.norm() < 1e-9 || u.dot(axis) < cosCap * u.norm())
+          continue;
+        shell[image.index(i, j, k)] = 1;
+        ++marked;
+      }
+    }
+  }
+  if (static_cast<double>(best) < kShellSupport * static_cast<double>(marked)) {
+    shell.clear();
+    return false;
+  }
+  sphere.ball = names[sz(ball)];
+  sphere.socket = names[sz(ball == a ? b : a)];
+  sphere.centreLps = centreLps;
+  sphere.radiusMm = bestRadius;
+  sphere.rmsMm = std::sqrt(squares / static_cast<double>(directions.size()));
+  sphere.inliers = best;
+  sphere.points = n;
+  sphere.axisLps = axis;
+  sphere.capDegrees = capDegrees;
+  sphere.shellVoxels = marked;
+  return true;
+}
+
 // Each patch of the boundary between two seeded bones (CompetingOptions::seededPatchJointShare):
 // the faces between their voxels, in 26-connected pieces; a piece of at least seededPatchMinShare
 // of the pair's boundary whose faces are less than seededPatchJointShare joint-like (a joint
@@ -770,27 +1044,31 @@ void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::in
     const double share = static_cast<double>(insideFaces) / pairFaces;
     const double jointShare = static_cast<double>(jointFaces) / pairFaces;
     if (share >= options.insideShare) {
-      throw std::invalid_argument(fmt::format(
-          "the {} and the {} seeds lie in one bone: their parts meet through the inside of a "
-          "bone ({:.0f} % of the boundary between them is cancellous bone or marrow), not at "
-          "a joint; give one seed per bone{}",
-          names[sz(pair.first)], names[sz(pair.second)], 100.0 * share,
-          maxSpacing >= 3.0 ? fmt::format(" (at {:.1f} mm slices a joint may not show: if the "
-                                          "seeds are in two bones, outline them with "
-                                          "--anchors)",
-                                          maxSpacing)
-                            : std::string()));
+      throw SeededPairRefused(
+          fmt::format(
+              "the {} and the {} seeds lie in one bone: their parts meet through the inside of a "
+              "bone ({:.0f} % of the boundary between them is cancellous bone or marrow), not at "
+              "a joint; give one seed per bone{}",
+              names[sz(pair.first)], names[sz(pair.second)], 100.0 * share,
+              maxSpacing >= 3.0 ? fmt::format(" (at {:.1f} mm slices a joint may not show: if the "
+                                              "seeds are in two bones, outline them with "
+                                              "--anchors)",
+                                              maxSpacing)
+                                : std::string()),
+          pair.first, pair.second);
     }
     if (jointShare < options.seededJointShare) {
-      throw std::invalid_argument(fmt::format(
-          "the {} and the {} cannot be told apart: the boundary found between them is not a "
-          "joint (only {:.0f} % of it a joint line or cortex against cortex, {:.0f} % "
-          "cancellous bone or marrow){}; outline them with --anchors (Live-Wire) or segment "
-          "a thinner series",
-          names[sz(pair.first)], names[sz(pair.second)], 100.0 * jointShare, 100.0 * share,
-          maxSpacing >= 3.0
-              ? fmt::format(": at {:.1f} mm slices the joint does not show", maxSpacing)
-              : std::string()));
+      throw SeededPairRefused(
+          fmt::format(
+              "the {} and the {} cannot be told apart: the boundary found between them is not a "
+              "joint (only {:.0f} % of it a joint line or cortex against cortex, {:.0f} % "
+              "cancellous bone or marrow){}; outline them with --anchors (Live-Wire) or segment "
+              "a thinner series",
+              names[sz(pair.first)], names[sz(pair.second)], 100.0 * jointShare, 100.0 * share,
+              maxSpacing >= 3.0
+                  ? fmt::format(": at {:.1f} mm slices the joint does not show", maxSpacing)
+                  : std::string()),
+          pair.first, pair.second);
     }
     if (options.seededCutDepthMm > 0.0) {
       std::vector<double> depth;
@@ -801,18 +1079,22 @@ void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::in
       std::nth_element(depth.begin(), at, depth.end());
       const double lowerTop = std::min(topMm[sz(pair.first)], topMm[sz(pair.second)]);
       if (*at >= options.seededCutDepthMm && *at >= options.seededCutDepthShare * lowerTop) {
-        throw std::invalid_argument(fmt::format(
-            "the {} and the {} cannot be told apart: the boundary found between them runs "
-            "through the thick of the bone (a tenth of it {:.1f} mm or more from the bone's "
-            "surface, {:.0f} % as deep as the {}'s deepest point), not through a narrowing where "
-            "two bones meet at a joint{}; outline them with --anchors (Live-Wire) or segment a "
-            "thinner series",
-            names[sz(pair.first)], names[sz(pair.second)], *at, 100.0 * *at / lowerTop,
-            names[sz(topMm[sz(pair.first)] <= topMm[sz(pair.second)] ? pair.first : pair.second)],
-            maxSpacing >= 3.0
-                ? fmt::format(": at {:.1f} mm slices a joint along the slices does not show",
-                              maxSpacing)
-                : std::string()));
+        throw SeededPairRefused(
+            fmt::format(
+                "the {} and the {} cannot be told apart: the boundary found between them runs "
+                "through the thick of the bone (a tenth of it {:.1f} mm or more from the bone's "
+                "surface, {:.0f} % as deep as the {}'s deepest point), not through a narrowing "
+                "where "
+                "two bones meet at a joint{}; outline them with --anchors (Live-Wire) or segment a "
+                "thinner series",
+                names[sz(pair.first)], names[sz(pair.second)], *at, 100.0 * *at / lowerTop,
+                names[sz(topMm[sz(pair.first)] <= topMm[sz(pair.second)] ? pair.first
+                                                                         : pair.second)],
+                maxSpacing >= 3.0
+                    ? fmt::format(": at {:.1f} mm slices a joint along the slices does not show",
+                                  maxSpacing)
+                    : std::string()),
+            pair.first, pair.second);
       }
     }
     if (!(options.seededPatchJointShare > 0.0))
@@ -871,17 +1153,22 @@ void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::in
       const double patchJointShare = static_cast<double>(p.joint) / total;
       if (patchJointShare >= options.seededPatchJointShare)
         continue;
-      throw std::invalid_argument(fmt::format(
-          "the {} and the {} cannot be told apart: part of the boundary found between them "
-          "({:.0f} mm^2 around {}, {:.0f} % of it) is not a joint (only {:.0f} % of that part a "
-          "joint line or cortex against cortex, {:.0f} % cancellous bone or marrow): the "
-          "growth cut through a bone there{}; outline them with --anchors (Live-Wire) or segment "
-          "a thinner series",
-          names[sz(pair.first)], names[sz(pair.second)], p.areaMm2, lpsText(p.sum / total),
-          100.0 * total / pairFaces, 100.0 * patchJointShare,
-          100.0 * static_cast<double>(p.inside) / total,
-          maxSpacing >= 3.0 ? fmt::format(" (at {:.1f} mm slices a joint may not show)", maxSpacing)
-                            : std::string()));
+      throw SeededPairRefused(
+          fmt::format(
+              "the {} and the {} cannot be told apart: part of the boundary found between them "
+              "({:.0f} mm^2 around {}, {:.0f} % of it) is not a joint (only {:.0f} % of that part "
+              "a "
+              "joint line or cortex against cortex, {:.0f} % cancellous bone or marrow): the "
+              "growth cut through a bone there{}; outline them with --anchors (Live-Wire) or "
+              "segment "
+              "a thinner series",
+              names[sz(pair.first)], names[sz(pair.second)], p.areaMm2, lpsText(p.sum / total),
+              100.0 * total / pairFaces, 100.0 * patchJointShare,
+              100.0 * static_cast<double>(p.inside) / total,
+              maxSpacing >= 3.0
+                  ? fmt::format(" (at {:.1f} mm slices a joint may not show)", maxSpacing)
+                  : std::string()),
+          pair.first, pair.second);
     }
   }
 }
@@ -942,8 +1229,74 @@ std::vector<SliceContact> contactsAlongSlices(const core::CtImage& ct,
 }
 
 // The work, on a grid that holds every bone voxel (see segmentCompetingBones).
+// After a growth with a sphere's shell as joint line: the ball bone lies inside the sphere and
+// the socket outside, over the cap (the voxels within 6 mm of the sphere, their boxes wholly on
+// one side by the tolerance): at most 5 % of either bone's voxels there on the wrong side, else
+// the sphere was not the joint (a fit through the head's inner structure or the cup's wall, off
+// the joint by a slice), refused.
+void checkSphereSides(const core::CtImage& image, const std::vector<std::int16_t>& label,
+                      const std::vector<std::string>& names, const JointSphere& sphere,
+                      const CompetingOptions& options) {
+  const auto indexOf = [&](const std::string& name) {
+    return static_cast<int>(std::find(names.begin(), names.end(), name) - names.begin());
+  };
+  const int ball = indexOf(sphere.ball), socket = indexOf(sphere.socket);
+  const Eigen::Matrix3d toVoxelAxes = image.direction.transpose();
+  const Eigen::Vector3d halfBox = 0.5 * image.spacingMm();
+  const double cosCap = std::cos(sphere.capDegrees * M_PI / 180.0);
+  const double tolerance = options.jointSphereToleranceMm;
+  std::size_t ballIn = 0, ballOut = 0, socketIn = 0, socketOut = 0;
+  const auto& dims = image.dimensions;
+  for (int k = 0; k < dims[2]; ++k) {
+    for (int j = 0; j < dims[1]; ++j) {
+      for (int i = 0; i < dims[0]; ++i) {
+        const std::int16_t l = label[image.index(i, j, k)];
+        if (l != ball && l != socket)
+          continue;
+        const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - sphere.centreLps;
+        const double d = u.norm();
+        if (std::fabs(d - sphere.radiusMm) > 6.0 || u.dot(sphere.axisLps) < cosCap * d)
+          continue;
+        const Eigen::Vector3d delta = (toVoxelAxes * u).cwiseAbs();
+        const double near = (delta - halfBox).cwiseMax(0.0).norm();
+        const double far = (delta + halfBox).norm();
+        const bool out = near > sphere.radiusMm + tolerance;
+        const bool in = far < sphere.radiusMm - tolerance;
+        if (l == ball) {
+          ballIn += in ? 1u : 0u;
+          ballOut += out ? 1u : 0u;
+        } else {
+          socketIn += in ? 1u : 0u;
+          socketOut += out ? 1u : 0u;
+        }
+      }
+    }
+  }
+  const auto wrong = [](std::size_t bad, std::size_t good) {
+    return static_cast<double>(bad) > 0.05 * static_cast<double>(bad + good);
+  };
+  if (wrong(ballOut, ballIn) || wrong(socketIn, socketOut) || ballIn == 0 || socketOut == 0) {
+    throw std::invalid_argument(fmt::format(
+        "the {} grown with the sphere's shell as its joint does not lie inside the sphere ({} "
+        "voxels inside, {} outside over the cup) or the {} not outside it ({} outside, {} "
+        "inside): the sphere is not the joint",
+        sphere.ball, ballIn, ballOut, sphere.socket, socketOut, socketIn));
+  }
+}
+
+// What a refused growth leaves for a second one (CompetingOptions::jointFromSphere).
+struct SphereAttempt {
+  std::vector<std::uint8_t> shell;  // empty: no sphere fitted
+  JointSphere sphere;
+};
+
+// `second`: the sphere whose shell is made joint line (a second growth); `attempt`: where a
+// first growth refused by checkSeededBoundaries leaves the sphere.
 static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vector<BoneSeed>& seeds,
-                                     const CompetingOptions& options) {
+                                     const CompetingOptions& options,
+                                     const SphereAttempt* second = nullptr,
+                                     SphereAttempt* attempt = nullptr) {
+  const std::vector<std::uint8_t>* shell = second ? &second->shell : nullptr;
   if (image.voxelCount() == 0 || image.hu.size() != image.voxelCount())
     throw std::invalid_argument("the CT image is empty");
   if (!image.uniform())
@@ -1097,9 +1450,8 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
                            ? options.jointSideHu
                            : middleHu + blur * (options.threshold.weakHu + 20.0 - middleHu);
   result.jointDipHu = options.jointDipHu != 0.0 ? options.jointDipHu : 250.0 - blur * 130.0;
-  const std::vector<std::uint8_t> joints =
-      jointLines(image, solid, result.jointSideHu, result.jointDipHu, options.jointReachMm,
-                 options.jointBeyondMm);
+  std::vector<std::uint8_t> joints = jointLines(image, solid, result.jointSideHu, result.jointDipHu,
+                                                options.jointReachMm, options.jointBeyondMm);
   report(options, 0.35, "distance map");
   std::vector<std::uint16_t> level(solid.voxels.size(), 0);  // 0: not solid; else 1 + level
   int maxLevel = 0;
@@ -1117,7 +1469,30 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       maxLevel = std::max(maxLevel, l);
     }
   }
+  // A sphere's shell (a second growth): a valley of its own voxels, the distance map around it
+  // as the first growth had it (made joint line before the map, the shell lowered the cup's
+  // wall and the pubis became a hill of its own).
+  if (shell) {
+    for (std::size_t v = 0; v < joints.size(); ++v) {
+      if ((*shell)[v] && solid.voxels[v]) {
+        joints[v] = 1;
+        level[v] = 1;
+      }
+    }
+  }
   auto levelOf = [&](std::size_t v) { return static_cast<int>(level[v]) - 1; };
+
+  // Where two seeded bones are refused, the sphere for a second growth (jointFromSphere).
+  const auto sphereFor = [&](int a, int b, const std::vector<std::int16_t>* labels) {
+    if (!attempt || !options.jointFromSphere)
+      return;
+    report(options, 0.8, "joint sphere");
+    std::vector<std::vector<Eigen::Vector3d>> seedsOf(names.size());
+    for (std::size_t q = 0; q < seeds.size(); ++q)
+      seedsOf[sz(boneOfSeed[q])].push_back(seeds[q].pointLps);
+    jointSphereShell(image, solid, joints, labels, a, b, names, seedsOf, options, attempt->shell,
+                     attempt->sphere);
+  };
 
   // 3. Seeds climb to the top of their hills (steepest ascent); the path is their marker.
   std::vector<std::vector<std::uint32_t>> markers(names.size());
@@ -1140,10 +1515,13 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
     const auto top = static_cast<std::uint32_t>(v);
     const auto found = peakSeed.find(top);
     if (found != peakSeed.end() && found->second != boneOfSeed[s]) {
-      throw std::invalid_argument(fmt::format(
-          "the {} seed {} and the {} seed lie in one bone (both climb to the same top of its "
-          "distance map): give one seed per bone",
-          seeds[s].bone, lpsText(seeds[s].pointLps), names[sz(found->second)]));
+      sphereFor(boneOfSeed[s], found->second, nullptr);
+      throw SeededPairRefused(
+          fmt::format(
+              "the {} seed {} and the {} seed lie in one bone (both climb to the same top of its "
+              "distance map): give one seed per bone",
+              seeds[s].bone, lpsText(seeds[s].pointLps), names[sz(found->second)]),
+          boneOfSeed[s], found->second);
     }
     peakSeed[top] = boneOfSeed[s];
   }
@@ -1190,12 +1568,15 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
     const int dyn = comps[lo].peakLevel - at;
     const int boneLo = comps[lo].bone, boneHi = comps[hi].bone;
     if (boneLo >= 0 && boneHi >= 0 && boneLo != boneHi && dyn < sameDyn) {
-      throw std::invalid_argument(fmt::format(
-          "the {} and the {} seeds lie in one bone: nothing narrows between them (the bone is "
-          "{:.1f} mm thick at its narrowest between them, {:.1f} mm at the seeds' hill); give one "
-          "seed per bone",
-          names[sz(boneLo)], names[sz(boneHi)], 2.0 * at * kLevelMm,
-          2.0 * comps[lo].peakLevel * kLevelMm));
+      sphereFor(boneLo, boneHi, nullptr);
+      throw SeededPairRefused(
+          fmt::format(
+              "the {} and the {} seeds lie in one bone: nothing narrows between them (the bone "
+              "is {:.1f} mm thick at its narrowest between them, {:.1f} mm at the seeds' hill); "
+              "give one seed per bone",
+              names[sz(boneLo)], names[sz(boneHi)], 2.0 * at * kLevelMm,
+              2.0 * comps[lo].peakLevel * kLevelMm),
+          boneLo, boneHi);
     }
     int carried = boneHi;
     if (boneLo < 0) {
@@ -1228,9 +1609,11 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
     } else if (bone >= 0) {
       Component& c = comps[mine];
       if (c.bone >= 0 && c.bone != bone && c.peakLevel - l < sameDyn) {
-        throw std::invalid_argument(
+        sphereFor(bone, c.bone, nullptr);
+        throw SeededPairRefused(
             fmt::format("the {} and the {} seeds lie in one bone: give one seed per bone",
-                        names[sz(bone)], names[sz(c.bone)]));
+                        names[sz(bone)], names[sz(c.bone)]),
+            bone, c.bone);
       }
       if (c.bone < 0)
         c.bone = bone;
@@ -1352,9 +1735,16 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       for (std::uint32_t m : markers[b])
         topMm[b] = std::max(topMm[b], levelOf(m) * kLevelMm);
     }
-    checkSeededBoundaries(
-        image, label, static_cast<int>(firstAuto), names, inside, jointFace,
-        [&](std::size_t v) { return levelOf(v) * kLevelMm; }, topMm, options, maxSpacing);
+    try {
+      checkSeededBoundaries(
+          image, label, static_cast<int>(firstAuto), names, inside, jointFace,
+          [&](std::size_t v) { return levelOf(v) * kLevelMm; }, topMm, options, maxSpacing);
+    } catch (const SeededPairRefused& refused) {
+      sphereFor(refused.first, refused.second, &label);
+      throw;
+    }
+    if (second)
+      checkSphereSides(image, label, names, second->sphere, options);
     int kept = 0;
     for (int l = firstAuto; l < labels && l < static_cast<int>(root.size()); ++l)
       kept += rootOf(l) == l ? 1 : 0;
@@ -1675,6 +2065,29 @@ static void boneBox(const core::CtImage& image, const BoneThreshold& threshold, 
   }
 }
 
+// One growth; where it refuses two seeded bones and a sphere fits the joint line they hold, a
+// second with the sphere's shell as joint line (CompetingOptions::jointFromSphere).
+static CompetingResult growBones(const core::CtImage& grid, const std::vector<BoneSeed>& seeds,
+                                 const CompetingOptions& options) {
+  SphereAttempt attempt;
+  try {
+    return segmentOnGrid(grid, seeds, options, nullptr, &attempt);
+  } catch (const SeededPairRefused& refused) {
+    if (attempt.shell.empty())
+      throw;
+    // The second growth refused too (any check): the first refusal stands, as it says what is
+    // wrong with the bones as the CT shows them.
+    CompetingResult result;
+    try {
+      result = segmentOnGrid(grid, seeds, options, &attempt, nullptr);
+    } catch (const std::invalid_argument&) {
+      throw refused;
+    }
+    result.jointSphere = attempt.sphere;
+    return result;
+  }
+}
+
 CompetingResult segmentCompetingBones(const core::CtImage& image,
                                       const std::vector<BoneSeed>& seeds,
                                       const CompetingOptions& given) {
@@ -1715,7 +2128,7 @@ CompetingResult segmentCompetingBones(const core::CtImage& image,
   boneBox(image, options.threshold, lo, hi);
   const Eigen::Vector3i last(d[0] - 1, d[1] - 1, d[2] - 1);
   if (hi.x() < 0 || ((lo.array() <= 2).all() && (hi.array() >= last.array() - 2).all()))
-    return finish(segmentOnGrid(image, seeds, options));
+    return finish(growBones(image, seeds, options));
   lo = (lo.array() - 2).max(0).matrix();
   hi = (hi.array() + 2).min(last.array()).matrix();
   // A seed inside the image but outside the box is in no bone: say why on the whole image.
@@ -1727,7 +2140,7 @@ CompetingResult segmentCompetingBones(const core::CtImage& image,
     const bool inImage =
         s.pointLps.allFinite() && q.minCoeff() >= 0 && q.x() < d[0] && q.y() < d[1] && q.z() < d[2];
     if (!inImage)
-      return finish(segmentOnGrid(image, seeds, options));  // the outside-the-volume message
+      return finish(growBones(image, seeds, options));  // the outside-the-volume message
     if ((q.array() < lo.array()).any() || (q.array() > hi.array()).any()) {
       const VoxelMask bone = thresholdBone(image, options.threshold);
       throw std::invalid_argument(
@@ -1752,7 +2165,7 @@ CompetingResult segmentCompetingBones(const core::CtImage& image,
       std::copy_n(image.hu.data() + image.index(lo.x(), lo.y() + j, lo.z() + k), b[0],
                   box.hu.data() + box.index(0, j, k));
   }
-  CompetingResult result = segmentOnGrid(box, seeds, options);
+  CompetingResult result = growBones(box, seeds, options);
   // Back on the whole grid.
   core::CtImage geometry;  // the image without its HU (emptyMask would copy them)
   geometry.dimensions = image.dimensions;

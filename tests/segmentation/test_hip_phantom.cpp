@@ -6,7 +6,9 @@
 // from one seed each with the defaults.
 //
 // At 5 mm slices with the acetabular roof along the slices the joint there shows in no voxel:
-// those scans are refused, not segmented (docs/segmentation.md, "An independent hip").
+// the head's sphere, fitted to the joint where it shows, separates them there, and where it
+// cannot (the joint space closed) the scan is refused (docs/segmentation.md, "An independent
+// hip").
 #include "hip_phantom.hpp"
 
 #include "echoreg/core/mesh.hpp"
@@ -23,6 +25,7 @@
 #include <cmath>
 #include <iostream>
 #include <limits>
+#include <optional>
 #include <stdexcept>
 #include <string>
 
@@ -110,12 +113,19 @@ TEST(HipPhantom, TheTruthIsWhatTheOptionsSay) {
 
 // The femur and the hip bone from one seed each with the defaults; each surface within the
 // field of view against the truth, within `bound` (mean) and 4 x `bound` (95th percentile).
-void expectBothBones(const std::string& femur, double slice, double gap, double phase,
-                     double bound) {
+// `sphere`: where given, the sphere that separated them (CompetingResult::jointSphere) and the
+// phantom's head centre.
+void expectBothBones(const std::string& femur, double slice, double gap, double phase, double bound,
+                     std::optional<segmentation::JointSphere>* sphere = nullptr,
+                     Eigen::Vector3d* headCentre = nullptr) {
   const test::HipPhantom p = test::makeHipPhantom(optionsFor(femur, slice, gap, phase));
   const std::vector<segmentation::BoneSeed> seeds = {{"femur", p.femurSeedLps},
                                                      {"left hip", p.hipSeedLps}};
   const auto result = segmentation::segmentCompetingBones(p.ct, seeds);
+  if (sphere)
+    *sphere = result.jointSphere;
+  if (headCentre)
+    *headCentre = p.headCentreLps;
   ASSERT_EQ(result.bones.size(), 2u);
   segmentation::SurfaceComparisonOptions co;
   co.zMinMm = p.ct.voxelToLps(Eigen::Vector3d(0, 0, 0)).z() + slice;
@@ -166,13 +176,14 @@ TEST(HipPhantom, TheCupWallsCoreIsNoJointLine) {
 
 // At 5 mm slices where the acetabular roof lies along them no voxel shows the joint there, and
 // the femur's basin ran across it into the ilium, the boundary left through the posterior
-// column: the femur 240-272 cm^3 of 107-110, written without a word. Refused now (the boundary
-// runs through the thick of the bone: CompetingOptions::seededCutDepthMm); where the roof's
-// joint falls on a slice, right.
+// column: the femur 240-272 cm^3 of 107-110, written without a word. Refused (the boundary runs
+// through the thick of the bone: CompetingOptions::seededCutDepthMm) where the head's sphere
+// does not separate them either (the joint space closed: the head and the cup touch); where the
+// roof's joint falls on a slice, right.
 TEST(HipPhantom, AtFiveMillimetresRightOrRefused) {
   ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
   expectBothBones(femur, 5.0, 3.0, 0.0, 0.3);
-  for (const auto& [gap, phase] : {std::pair{0.0, 0.0}, std::pair{1.0, 2.5}}) {
+  for (const auto& [gap, phase] : {std::pair{0.0, 0.0}, std::pair{0.0, 2.5}}) {
     const test::HipPhantom p = test::makeHipPhantom(optionsFor(femur, 5.0, gap, phase));
     try {
       const auto result = segmentation::segmentCompetingBones(
@@ -190,6 +201,35 @@ TEST(HipPhantom, AtFiveMillimetresRightOrRefused) {
       EXPECT_NE(why.find("--anchors"), std::string::npos) << why;
     }
   }
+}
+
+// Where the roof's joint falls between two slices the watershed is refused (the test above);
+// the joint shows where it crosses the slices, on the head's sides, and a sphere fitted to it
+// there (CompetingOptions::jointFromSphere) separates the head from the cup over the roof. The
+// joint space at 1, 2 and 3 mm with the slices half a slice off: refused before, right now; off,
+// refused as before.
+TEST(HipPhantom, AtFiveMillimetresTheHeadsSphereSeparatesThem) {
+  ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
+  for (const double gap : {1.0, 2.0, 3.0}) {
+    std::optional<segmentation::JointSphere> sphere;
+    Eigen::Vector3d head;
+    expectBothBones(femur, 5.0, gap, 2.5, gap < 1.5 ? 0.5 : 0.35, &sphere, &head);
+    ASSERT_TRUE(sphere.has_value()) << "joint space " << gap << " mm";
+    std::cout << "[ measured ] hip phantom, 5 mm slices (phase 2.5 mm), joint space " << gap
+              << " mm: sphere of " << sphere->radiusMm << " mm, its centre "
+              << (sphere->centreLps - head).norm() << " mm from the head's, " << sphere->inliers
+              << " of " << sphere->points << " joint-line voxels, cap " << sphere->capDegrees
+              << " degrees\n";
+    EXPECT_EQ(sphere->ball, "femur");
+    EXPECT_EQ(sphere->socket, "left hip");
+    EXPECT_LE((sphere->centreLps - head).norm(), 6.0);
+  }
+  const test::HipPhantom p = test::makeHipPhantom(optionsFor(femur, 5.0, 2.0, 2.5));
+  segmentation::CompetingOptions off;
+  off.jointFromSphere = false;
+  EXPECT_THROW(segmentation::segmentCompetingBones(
+                   p.ct, {{"femur", p.femurSeedLps}, {"left hip", p.hipSeedLps}}, off),
+               std::invalid_argument);
 }
 
 // A seed in the cup's roof (7 mm into it, above the head): the hip bone's neighbours found
