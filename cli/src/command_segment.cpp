@@ -53,6 +53,7 @@ struct SegmentOptions {
   std::string accessibleOut, keepRegions, corrections;
   bool automatic = false, withFibula = false, noRefine = false, json = false;
   bool refuseMetal = false;
+  bool noJointSphere = false;
   std::vector<std::vector<std::string>> seedTokens;  // [BONE] X Y Z, one list per --seed
   std::string method = "watershed";
   std::string anchorsWhere = "all";
@@ -360,6 +361,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     competing.threshold = grow.threshold;
     competing.thresholdFromHistogram = o.thresholdHu.empty();
     competing.refuseMetal = o.refuseMetal;
+    competing.jointFromSphere = !o.noJointSphere;
     competing.progress = [&](double f, const std::string& stage) { progress(stage, f); };
     seg::CompetingResult bones;
     try {
@@ -417,6 +419,30 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
             c.centreLps.y(), c.centreLps.z()));
       }
     }
+    // A ball-and-socket joint separated by the head's sphere, after the watershed was refused.
+    nlohmann::json sphereJson = nullptr;
+    if (bones.jointSphere) {
+      const seg::JointSphere& js = *bones.jointSphere;
+      sphereJson = {{"ball", js.ball},
+                    {"socket", js.socket},
+                    {"centre_mm", vec(js.centreLps)},
+                    {"radius_mm", js.radiusMm},
+                    {"rms_mm", js.rmsMm},
+                    {"inliers", js.inliers},
+                    {"joint_line_voxels", js.points},
+                    {"axis", vec(js.axisLps)},
+                    {"cap_degrees", js.capDegrees},
+                    {"shell_voxels", js.shellVoxels}};
+      warnings.push_back(fmt::format(
+          "the {} and the {} did not separate on their own (the joint does not show where it "
+          "lies along the slices): they were separated by a sphere fitted to the joint line that "
+          "shows ({} of {} joint-line voxels within {:.1f} mm, radius {:.1f} mm about ({:.1f}, "
+          "{:.1f}, {:.1f}) mm, over {:.0f} degrees of the {}); check both models at the joint "
+          "(--anchors-where uncertain proposes the slices to correct; --no-joint-sphere refuses "
+          "instead)",
+          js.ball, js.socket, js.inliers, js.points, competing.jointSphereToleranceMm, js.radiusMm,
+          js.centreLps.x(), js.centreLps.y(), js.centreLps.z(), js.capDegrees, js.socket));
+    }
     nlohmann::json metalJson = nlohmann::json::array();
     for (const seg::MetalPiece& m : bones.metal) {
       metalJson.push_back({{"centre_mm", vec(m.centreLps)},
@@ -442,6 +468,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                 {"automatic_neighbours", bones.automaticNeighbours},
                 {"joint_slab_voxels", bones.jointSlabVoxels},
                 {"contacts_along_slices", contactsJson},
+                {"joint_sphere", sphereJson},
                 {"marker_dynamic_mm", bones.markerDynamicMm},
                 {"threshold",
                  {{"strong_hu", bones.thresholdUsed.strongHu},
@@ -815,6 +842,10 @@ CommandAction addSegmentCommand(CLI::App& app) {
   cmd->add_flag("--refuse-metal", o->refuseMetal,
                 "--auto watershed: refuse a CT with metal (>= 2500 HU: an implant), naming where "
                 "it is, instead of segmenting the bone around it");
+  cmd->add_flag("--no-joint-sphere", o->noJointSphere,
+                "--auto watershed: where two seeded bones cannot be told apart (a hip on thick "
+                "slices, its acetabular roof along them), refuse instead of fitting a sphere to "
+                "the joint line the head shows and separating them at it");
   cmd->add_option("--threshold-hu", o->thresholdHu,
                   "Bone threshold STRONG WEAK, HU: voxels >= STRONG, and >= WEAK connected to them "
                   "(default with --method watershed: from this CT's histogram around the seeds, "

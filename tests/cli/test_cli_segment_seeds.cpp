@@ -2,6 +2,7 @@
 // --anchors-where uncertain on a phantom of two bones that touch over part of the scan only: the
 // proposed axial slices are those where they touch.
 #include "cli_test_support.hpp"
+#include "hip_phantom.hpp"
 #include "test_support.hpp"
 
 #include "echoreg/core/markups.hpp"
@@ -332,6 +333,71 @@ TEST(CliSegmentSeeds, BonesMeetingAlongThickSlicesAreAWarning) {
       EXPECT_FALSE(warned) << json["warnings"].dump();
     }
   }
+}
+
+// The hip at 5 mm slices, the roof's joint between two slices (the independent hip phantom,
+// joint space 2 mm): the watershed alone is refused; segment separates the femur from the hip
+// bone at the head's sphere and says so (--json joint_sphere, a warning); --no-joint-sphere
+// refuses, writing nothing.
+TEST(CliSegmentSeeds, AHipSeparatedAtItsHeadsSphereIsAWarning) {
+  ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
+  test::HipPhantomOptions o;
+  o.femurMesh = femur;
+  o.sliceMm = 5.0;
+  o.jointGapMm = 2.0;
+  o.zPhaseMm = 2.5;
+  const test::HipPhantom p = test::makeHipPhantom(o);
+  const test::TempDir dir;
+  simulation::DicomSeriesInfo info;
+  info.patientId = "HIP";
+  info.uidSeed = 15;
+  core::CtImage ct = p.ct;  // the writer prints each slice's location and thickness
+  for (const double z : ct.slicePositionsMm)
+    ct.sliceLocationsMm.push_back(ct.originMm.z() + z);
+  ct.sliceThicknessMm.assign(ct.slicePositionsMm.size(), o.sliceMm);
+  simulation::writeDicomSeries(dir.file("ct"), ct, info);
+  const auto text = [](double v) { return std::to_string(v); };
+  const std::vector<std::string> seeds = {"--seed",
+                                          "femur",
+                                          text(p.femurSeedLps.x()),
+                                          text(p.femurSeedLps.y()),
+                                          text(p.femurSeedLps.z()),
+                                          "--seed",
+                                          "left hip",
+                                          text(p.hipSeedLps.x()),
+                                          text(p.hipSeedLps.y()),
+                                          text(p.hipSeedLps.z())};
+  std::vector<std::string> args = {"segment", "--dicom", dir.file("ct"),
+                                   "--bone",  "femur",   "--auto"};
+  args.insert(args.end(), seeds.begin(), seeds.end());
+  std::vector<std::string> withSphere = args;
+  withSphere.insert(withSphere.end(), {"--out", dir.file("femur.vtp"), "--json"});
+  const auto r = runEchoreg(withSphere);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto json = nlohmann::json::parse(r.out);
+  const auto& sphere = json["joint_sphere"];
+  ASSERT_TRUE(sphere.is_object()) << json.dump();
+  EXPECT_EQ(sphere["ball"], "femur");
+  EXPECT_EQ(sphere["socket"], "left hip");
+  const Eigen::Vector3d centre(sphere["centre_mm"][0].get<double>(),
+                               sphere["centre_mm"][1].get<double>(),
+                               sphere["centre_mm"][2].get<double>());
+  EXPECT_LE((centre - p.headCentreLps).norm(), 6.0) << sphere.dump();
+  bool warned = false;
+  for (const auto& w : json["warnings"])
+    warned = warned || w.get<std::string>().find(
+                           "separated by a sphere fitted to the joint "
+                           "line") != std::string::npos;
+  EXPECT_TRUE(warned) << json["warnings"].dump();
+  EXPECT_TRUE(fs::exists(dir.file("femur.vtp")));
+
+  std::vector<std::string> without = args;
+  without.insert(without.end(), {"--no-joint-sphere", "--out", dir.file("refused.vtp")});
+  const auto off = runEchoreg(without);
+  EXPECT_NE(off.exitCode, 0);
+  EXPECT_NE(off.err.find("the femur and the left hip cannot be told apart"), std::string::npos)
+      << off.err;
+  EXPECT_FALSE(fs::exists(dir.file("refused.vtp")));
 }
 
 }  // namespace
