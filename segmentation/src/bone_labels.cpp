@@ -726,7 +726,8 @@ void forEachLabelFace(const core::CtImage& image, const std::vector<std::int16_t
   }
 }
 
-// Two seeded bones refused by checkSeededBoundaries: the message, and the two labels.
+// Two seeded bones refused (checkSeededBoundaries, or their seeds on one hill): the message, and
+// the two bones' indices.
 class SeededPairRefused : public std::invalid_argument {
  public:
   SeededPairRefused(const std::string& what, int a, int b)
@@ -860,9 +861,9 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
   }
   if (best < options.jointSphereMinInliers)
     return false;
-  // Least squares on the inliers (a few rounds, while the fit gets denser). (Voxels taken as
-  // their boxes, the joint anywhere within a thick slice, fitted spheres a slice off the joint on
-  // the hip phantom at 5 mm.)
+  // Least squares on the inliers (a few rounds, while the fit gets denser). Each voxel is taken
+  // at its centre: taken as its box (the joint anywhere within a thick slice), the fits on the
+  // hip phantom at 5 mm came out a slice off the joint, through the head's inner dips.
   for (int round = 0; round < 5; ++round) {
     std::vector<Eigen::Vector3d> on;
     for (const Eigen::Vector3d& p : points) {
