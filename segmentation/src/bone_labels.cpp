@@ -746,6 +746,9 @@ constexpr double kSocketWallMm = 4.0;
 constexpr double kBallFilled = 0.9;
 constexpr double kSocketLined = 0.6;
 constexpr double kShellSupport = 0.3;
+// After the second growth the ball and the socket are checked within this of the sphere
+// (checkSphereSides).
+constexpr double kSidesBandMm = 6.0;
 
 // The sphere through four points, or nothing when they are (nearly) on one plane.
 std::optional<std::pair<Eigen::Vector3d, double>> sphereThrough(const Eigen::Vector3d p[4]) {
@@ -765,6 +768,27 @@ std::optional<std::pair<Eigen::Vector3d, double>> sphereThrough(const Eigen::Vec
   if (!(r2 > 0.0) || !std::isfinite(r2))
     return std::nullopt;
   return std::make_pair(centre, std::sqrt(r2));
+}
+
+// The index box of the voxels within `reachMm` of the continuous index `centreVoxel` along each
+// axis, clipped to the image.
+void sphereBox(const core::CtImage& image, const Eigen::Vector3d& centreVoxel, double reachMm,
+               Eigen::Vector3i& lo, Eigen::Vector3i& hi) {
+  const Eigen::Vector3d spacing = image.spacingMm();
+  for (int a = 0; a < 3; ++a) {
+    const double span = reachMm / spacing(a) + 1.0;
+    lo(a) = std::max(0, static_cast<int>(std::floor(centreVoxel(a) - span)));
+    hi(a) = std::min(image.dimensions[a] - 1, static_cast<int>(std::ceil(centreVoxel(a) + span)));
+  }
+}
+
+// The nearest and the farthest point of voxel `v`'s box from a sphere's centre at the continuous
+// index `centreVoxel`: their distances, mm.
+std::pair<double, double> boxDistancesMm(const Eigen::Vector3i& v,
+                                         const Eigen::Vector3d& centreVoxel,
+                                         const Eigen::Vector3d& spacing) {
+  const Eigen::Vector3d delta = (v.cast<double>() - centreVoxel).cwiseAbs().cwiseProduct(spacing);
+  return {(delta - 0.5 * spacing).cwiseMax(0.0).norm(), (delta + 0.5 * spacing).norm()};
 }
 
 // A ball-and-socket joint whose line shows only where it crosses the slices
@@ -933,12 +957,7 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
   const Eigen::Vector3d spacing = image.spacingMm();
   const double cosCap = std::cos(capDegrees * M_PI / 180.0);
   Eigen::Vector3i lo, hi;
-  for (int axisIndex = 0; axisIndex < 3; ++axisIndex) {
-    const double span = (bestRadius + kSocketWallMm) / spacing(axisIndex) + 1.0;
-    lo(axisIndex) = std::max(0, static_cast<int>(std::floor(centreVoxel(axisIndex) - span)));
-    hi(axisIndex) =
-        std::min(dims[axisIndex] - 1, static_cast<int>(std::ceil(centreVoxel(axisIndex) + span)));
-  }
+  sphereBox(image, centreVoxel, bestRadius + kSocketWallMm, lo, hi);
   std::size_t ballVoxels = 0, ballBone = 0, wallVoxels = 0, wallBone = 0;
   for (int k = lo.z(); k <= hi.z(); ++k) {
     for (int j = lo.y(); j <= hi.y(); ++j) {
@@ -967,11 +986,8 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
   for (int k = lo.z(); k <= hi.z(); ++k) {
     for (int j = lo.y(); j <= hi.y(); ++j) {
       for (int i = lo.x(); i <= hi.x(); ++i) {
-        const Eigen::Vector3d delta =
-            (Eigen::Vector3d(i, j, k) - centreVoxel).cwiseAbs().cwiseProduct(spacing);
-        const Eigen::Vector3d near = (delta - 0.5 * spacing).cwiseMax(0.0);
-        const Eigen::Vector3d far = delta + 0.5 * spacing;
-        if (near.norm() > bestRadius || far.norm() < bestRadius)
+        const auto [near, far] = boxDistancesMm(Eigen::Vector3i(i, j, k), centreVoxel, spacing);
+        if (near > bestRadius || far < bestRadius)
           continue;
         const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - centreLps;
         if (u.norm() < 1e-9 || u.dot(axis) < cosCap * u.norm())
@@ -1037,10 +1053,16 @@ void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::in
   for (const auto& [pair, listPointer] : pairs) {
     const std::vector<Face>& list = *listPointer;
     const double pairFaces = static_cast<double>(list.size());
+    // One pass over the faces: the cancellous and joint-like counts, and the depths.
     std::size_t insideFaces = 0, jointFaces = 0;
+    std::vector<double> depth;
+    if (options.seededCutDepthMm > 0.0)
+      depth.reserve(list.size());
     for (const Face& f : list) {
       insideFaces += inside(f.v) && inside(f.n) ? 1u : 0u;
       jointFaces += jointFace(f.v, f.n) ? 1u : 0u;
+      if (options.seededCutDepthMm > 0.0)
+        depth.push_back(std::min(depthMm(f.v), depthMm(f.n)));
     }
     const double share = static_cast<double>(insideFaces) / pairFaces;
     const double jointShare = static_cast<double>(jointFaces) / pairFaces;
@@ -1072,10 +1094,6 @@ void checkSeededBoundaries(const core::CtImage& image, const std::vector<std::in
           pair.first, pair.second);
     }
     if (options.seededCutDepthMm > 0.0) {
-      std::vector<double> depth;
-      depth.reserve(list.size());
-      for (const Face& f : list)
-        depth.push_back(std::min(depthMm(f.v), depthMm(f.n)));
       const auto at = depth.begin() + static_cast<std::ptrdiff_t>((depth.size() - 1) * 9 / 10);
       std::nth_element(depth.begin(), at, depth.end());
       const double lowerTop = std::min(topMm[sz(pair.first)], topMm[sz(pair.second)]);
@@ -1242,25 +1260,24 @@ void checkSphereSides(const core::CtImage& image, const std::vector<std::int16_t
     return static_cast<int>(std::find(names.begin(), names.end(), name) - names.begin());
   };
   const int ball = indexOf(sphere.ball), socket = indexOf(sphere.socket);
-  const Eigen::Matrix3d toVoxelAxes = image.direction.transpose();
-  const Eigen::Vector3d halfBox = 0.5 * image.spacingMm();
+  const Eigen::Vector3d spacing = image.spacingMm();
+  const Eigen::Vector3d centreVoxel = image.lpsToVoxel(sphere.centreLps);
   const double cosCap = std::cos(sphere.capDegrees * M_PI / 180.0);
   const double tolerance = options.jointSphereToleranceMm;
   std::size_t ballIn = 0, ballOut = 0, socketIn = 0, socketOut = 0;
-  const auto& dims = image.dimensions;
-  for (int k = 0; k < dims[2]; ++k) {
-    for (int j = 0; j < dims[1]; ++j) {
-      for (int i = 0; i < dims[0]; ++i) {
+  Eigen::Vector3i lo, hi;
+  sphereBox(image, centreVoxel, sphere.radiusMm + kSidesBandMm, lo, hi);
+  for (int k = lo.z(); k <= hi.z(); ++k) {
+    for (int j = lo.y(); j <= hi.y(); ++j) {
+      for (int i = lo.x(); i <= hi.x(); ++i) {
         const std::int16_t l = label[image.index(i, j, k)];
         if (l != ball && l != socket)
           continue;
         const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - sphere.centreLps;
         const double d = u.norm();
-        if (std::fabs(d - sphere.radiusMm) > 6.0 || u.dot(sphere.axisLps) < cosCap * d)
+        if (std::fabs(d - sphere.radiusMm) > kSidesBandMm || u.dot(sphere.axisLps) < cosCap * d)
           continue;
-        const Eigen::Vector3d delta = (toVoxelAxes * u).cwiseAbs();
-        const double near = (delta - halfBox).cwiseMax(0.0).norm();
-        const double far = (delta + halfBox).norm();
+        const auto [near, far] = boxDistancesMm(Eigen::Vector3i(i, j, k), centreVoxel, spacing);
         const bool out = near > sphere.radiusMm + tolerance;
         const bool in = far < sphere.radiusMm - tolerance;
         if (l == ball) {
