@@ -845,8 +845,9 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
       count += isInlier(p, c, r) ? 1 : 0;
     return count;
   };
-  // The ball: the bone whose seeds all lie inside the sphere, the other's all outside; -1 when
-  // neither.
+  // The ball: the bone whose seeds all lie inside the sphere, the other's all outside. Where the
+  // labels are known and no seed lies inside (the femur seeded in its neck or shaft), the bone
+  // that holds the sphere's centre. -1 when neither.
   const auto ballOf = [&](const Eigen::Vector3d& c, double r) {
     const auto all = [&](int bone, bool in) {
       for (const Eigen::Vector3d& q : seedsOf[sz(bone)]) {
@@ -855,7 +856,21 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
       }
       return true;
     };
-    return all(a, true) && all(b, false) ? a : all(b, true) && all(a, false) ? b : -1;
+    if (all(a, true) && all(b, false))
+      return a;
+    if (all(b, true) && all(a, false))
+      return b;
+    if (!label || !all(a, false) || !all(b, false))
+      return -1;
+    const Eigen::Vector3d v = image.lpsToVoxel(c + mean);
+    const Eigen::Vector3i at(static_cast<int>(std::lround(v.x())),
+                             static_cast<int>(std::lround(v.y())),
+                             static_cast<int>(std::lround(v.z())));
+    if (at.minCoeff() < 0 || at.x() >= image.dimensions[0] || at.y() >= image.dimensions[1] ||
+        at.z() >= image.dimensions[2])
+      return -1;
+    const int holder = (*label)[image.index(at.x(), at.y(), at.z())];
+    return holder == a || holder == b ? holder : -1;
   };
   std::mt19937 random(2008);
   Eigen::Vector3d bestCentre = Eigen::Vector3d::Zero();

@@ -114,12 +114,15 @@ TEST(HipPhantom, TheTruthIsWhatTheOptionsSay) {
 // The femur and the hip bone from one seed each with the defaults; each surface within the
 // field of view against the truth, within `bound` (mean) and 4 x `bound` (95th percentile).
 // `sphere`: where given, the sphere that separated them (CompetingResult::jointSphere) and the
-// phantom's head centre.
+// phantom's head centre. `neckSeedMm`: 0 seeds the femur at the head's centre (the phantom's
+// seed); more, this far from it along the neck.
 void expectBothBones(const std::string& femur, double slice, double gap, double phase, double bound,
                      std::optional<segmentation::JointSphere>* sphere = nullptr,
-                     Eigen::Vector3d* headCentre = nullptr) {
+                     Eigen::Vector3d* headCentre = nullptr, double neckSeedMm = 0.0) {
   const test::HipPhantom p = test::makeHipPhantom(optionsFor(femur, slice, gap, phase));
-  const std::vector<segmentation::BoneSeed> seeds = {{"femur", p.femurSeedLps},
+  const Eigen::Vector3d femurSeed = p.headCentreLps + neckSeedMm * p.neckAxisLps;
+  ASSERT_TRUE(core::MeshLocator(p.femur).inside(femurSeed)) << neckSeedMm << " mm along the neck";
+  const std::vector<segmentation::BoneSeed> seeds = {{"femur", femurSeed},
                                                      {"left hip", p.hipSeedLps}};
   const auto result = segmentation::segmentCompetingBones(p.ct, seeds);
   if (sphere)
@@ -230,6 +233,22 @@ TEST(HipPhantom, AtFiveMillimetresTheHeadsSphereSeparatesThem) {
   EXPECT_THROW(segmentation::segmentCompetingBones(
                    p.ct, {{"femur", p.femurSeedLps}, {"left hip", p.hipSeedLps}}, off),
                std::invalid_argument);
+}
+
+// The femur seeded in its neck, 35 mm from the head's centre (outside the head's sphere, 21 mm):
+// the sphere was fitted with one bone's seeds inside it and the other's outside, and none fitted,
+// so the refusal stood (the joint space at 1-3 mm, slices half a slice off: 3 of the 8 scans at
+// 5 mm right, 5 refused, against 6 and 2 from a seed in the head). Where no seed lies inside, the
+// bone holding the sphere's centre is the ball: 6 right, the 2 with no joint space refused.
+TEST(HipPhantom, AFemurSeededInItsNeckIsSeparatedAtTheHeadsSphereToo) {
+  ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
+  std::optional<segmentation::JointSphere> sphere;
+  Eigen::Vector3d head;
+  expectBothBones(femur, 5.0, 2.0, 2.5, 0.35, &sphere, &head, 35.0);
+  ASSERT_TRUE(sphere.has_value());
+  EXPECT_EQ(sphere->ball, "femur");
+  EXPECT_LE((sphere->centreLps - head).norm(), 6.0);
+  EXPECT_LT(sphere->radiusMm, 29.0);  // so the seed, 35 mm from the head's centre, outside it
 }
 
 // A seed in the cup's roof (7 mm into it, above the head): the hip bone's neighbours found
