@@ -2109,12 +2109,17 @@ static CompetingResult growBones(const core::CtImage& grid, const std::vector<Bo
     if (attempt.shell.empty())
       throw;
     // The second growth refused too (any check): the first refusal stands, as it says what is
-    // wrong with the bones as the CT shows them.
+    // wrong with the bones as the CT shows them, and says the sphere was tried.
     CompetingResult result;
     try {
       result = segmentOnGrid(grid, seeds, options, &attempt, nullptr);
     } catch (const std::invalid_argument&) {
-      throw refused;
+      throw SeededPairRefused(
+          fmt::format("{}; a sphere of {:.1f} mm fitted to the joint line as the {}'s head in the "
+                      "{}'s socket did not separate them either",
+                      refused.what(), attempt.sphere.radiusMm, attempt.sphere.ball,
+                      attempt.sphere.socket),
+          refused.first, refused.second);
     }
     result.jointSphere = attempt.sphere;
     return result;

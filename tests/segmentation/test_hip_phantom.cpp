@@ -181,8 +181,8 @@ TEST(HipPhantom, TheCupWallsCoreIsNoJointLine) {
 // the femur's basin ran across it into the ilium, the boundary left through the posterior
 // column: the femur 240-272 cm^3 of 107-110, written without a word. Refused (the boundary runs
 // through the thick of the bone: CompetingOptions::seededCutDepthMm) where the head's sphere
-// does not separate them either (the joint space closed: the head and the cup touch); where the
-// roof's joint falls on a slice, right.
+// does not separate them either (the joint space closed: the head and the cup touch; the
+// refusal says the sphere was tried); where the roof's joint falls on a slice, right.
 TEST(HipPhantom, AtFiveMillimetresRightOrRefused) {
   ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
   expectBothBones(femur, 5.0, 3.0, 0.0, 0.3);
@@ -202,6 +202,11 @@ TEST(HipPhantom, AtFiveMillimetresRightOrRefused) {
           << why;
       EXPECT_NE(why.find("through the thick of the bone"), std::string::npos) << why;
       EXPECT_NE(why.find("--anchors"), std::string::npos) << why;
+      // The head's sphere was tried (it fits a slice above the head's centre) and said to be.
+      EXPECT_NE(why.find("a sphere of "), std::string::npos) << why;
+      EXPECT_NE(why.find("as the femur's head in the left hip's socket did not separate them"),
+                std::string::npos)
+          << why;
     }
   }
 }
