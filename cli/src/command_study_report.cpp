@@ -362,17 +362,29 @@ void reportSteps(Report& report, nlohmann::json& numbers,
       "did not change since the last run is up to date and shows its last time.");
   std::vector<std::vector<std::string>> rows;
   nlohmann::json stepsJson = nlohmann::json::array();
+  std::vector<std::vector<std::string>> notes;
   for (const StepOutcome& s : outcomes) {
     std::string note = s.message;
     for (char& c : note)
       c = c == '\n' ? ' ' : c;
+    if (note.empty() && !s.notes.empty())
+      note = fmt::format("{} note{} (below)", s.notes.size(), s.notes.size() == 1 ? "" : "s");
     rows.push_back({s.title, statusName(s.status), core::number(s.seconds, 2), note});
     stepsJson.push_back({{"id", s.id},
                          {"title", s.title},
                          {"status", statusName(s.status)},
-                         {"seconds", s.seconds}});
+                         {"seconds", s.seconds},
+                         {"notes", s.notes}});
+    for (const std::string& n : s.notes)
+      notes.push_back({s.title, n});
   }
   report.table({"step", "status", "time (s)", "message"}, rows);
+  if (!notes.empty()) {
+    // What the commands said of their results (a bone separated at a joint's sphere, boundaries
+    // along thick slices, an assumed sampling frequency...): lost when only the results are read.
+    report.paragraph("What the steps' commands noted about their results:");
+    report.table({"step", "note"}, notes);
+  }
   numbers["steps"] = stepsJson;
 }
 

@@ -116,7 +116,8 @@ StudyRunner::StudyRunner(std::string stateFile, bool force, std::string shownFol
     for (const auto& [id, entry] : doc.at("steps").items()) {
       state_.push_back(
           {id, Entry{entry.at("hash").get<std::string>(), entry.at("seconds").get<double>(),
-                     entry.value("outputs", std::vector<std::string>())}});
+                     entry.value("outputs", std::vector<std::string>()),
+                     entry.value("notes", std::vector<std::string>())}});
     }
   } catch (const std::exception&) {
     state_.clear();  // an unreadable state only means every step runs again
@@ -149,6 +150,18 @@ std::vector<std::string> outputHashes(const StudyStep& step) {
     hashes.push_back(hash);
   }
   return hashes;
+}
+
+// What a command that succeeded told its user on its error output: its lines in its own words
+// ("echoreg segment: note: ...", "echoreg register: warning: ..."), not progress.
+std::vector<std::string> notesIn(const std::string& errorOutput) {
+  std::vector<std::string> notes;
+  std::istringstream lines(errorOutput);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("echoreg ", 0) == 0)
+      notes.push_back(line);
+  }
+  return notes;
 }
 
 // A typed step's work, its failures reported in the words `echoreg COMMAND` would use.
@@ -202,6 +215,7 @@ StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int 
   if (!force_ && outputsIntact && previous != nullptr && previous->hash == hash) {
     outcome.status = StepOutcome::Status::UpToDate;
     outcome.seconds = previous->seconds;
+    outcome.notes = previous->notes;
     if (streams.errIsTerminal)
       streams.err << fmt::format("{} {}: up to date\n", counter, step.title);
     return outcome;
@@ -226,12 +240,16 @@ StepOutcome StudyRunner::run(const StudyStep& step, const Streams& streams, int 
     return outcome;
   }
   outcome.status = StepOutcome::Status::Ran;
-  if (streams.errIsTerminal)
+  outcome.notes = notesIn(err.str());
+  if (streams.errIsTerminal) {
     streams.err << fmt::format(" {:.2f} s\n", outcome.seconds);
+    for (const std::string& note : outcome.notes)
+      streams.err << "    " << note << "\n";
+  }
   if (previous != nullptr) {
-    *previous = Entry{hash, outcome.seconds, outputHashes(step)};
+    *previous = Entry{hash, outcome.seconds, outputHashes(step), outcome.notes};
   } else {
-    state_.push_back({step.id, Entry{hash, outcome.seconds, outputHashes(step)}});
+    state_.push_back({step.id, Entry{hash, outcome.seconds, outputHashes(step), outcome.notes}});
   }
   return outcome;
 }
@@ -240,8 +258,10 @@ void StudyRunner::save() const {
   nlohmann::json steps = nlohmann::json::object();
   for (const auto& [id, entry] : state_) {
     if (!entry.hash.empty())
-      steps[id] = {
-          {"hash", entry.hash}, {"seconds", entry.seconds}, {"outputs", entry.outputHashes}};
+      steps[id] = {{"hash", entry.hash},
+                   {"seconds", entry.seconds},
+                   {"outputs", entry.outputHashes},
+                   {"notes", entry.notes}};
   }
   core::AtomicFile file(stateFile_);
   file.stream() << nlohmann::json{{"steps", steps}}.dump(2) << "\n";

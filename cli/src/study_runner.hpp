@@ -49,6 +49,10 @@ struct StepOutcome {
   double seconds = 0.0;  ///< of the last actual run (kept from the state when up to date)
   std::string message;   ///< the command's error output when it failed
   std::string output;    ///< the command's standard output of this run
+  /// The command's notes and warnings (its error output's "echoreg CMD: note: ..." and
+  /// "...: warning: ..." lines) when it succeeded; kept with the state, so an up-to-date step
+  /// still has them.
+  std::vector<std::string> notes;
 };
 
 const char* statusName(StepOutcome::Status status);
@@ -90,6 +94,7 @@ class StudyRunner {
     /// The hash of each output as the step wrote it (in the step's order): a damaged, truncated
     /// or emptied output no longer matches, and the step runs again.
     std::vector<std::string> outputHashes;
+    std::vector<std::string> notes;  ///< StepOutcome::notes of the run that wrote the outputs
   };
   std::vector<std::pair<std::string, Entry>> state_;
   Entry* find(const std::string& id);

@@ -84,5 +84,55 @@ TEST(StudyRunnerHash, AStepsMissingInputIsNamedUnderTheStudyFolderAsTheUserNamed
   EXPECT_FALSE(fs::exists(dir.file("state.json")));
 }
 
+// What a step's command said of its result on its error output (a segment's note, a register's
+// warning) was dropped when the step succeeded: a study's report never showed that a bone was
+// separated at a joint's sphere or that most frames were rejected. It is the step's notes, kept
+// in the state, so a step that is up to date on the next run still has them; progress is not.
+TEST(StudyRunner, ASucceedingStepsNotesAreKeptAndSurviveARunThatIsUpToDate) {
+  const test::TempDir dir;
+  writeText(dir.file("in.txt"), "input");
+  int runs = 0;
+  StudyStep step;
+  step.id = "segment-femur";
+  step.title = "femur model";
+  step.command = "segment";
+  step.request = "{}";
+  step.inputs = {dir.file("in.txt")};
+  step.outputs = {dir.file("out.txt")};
+  step.action = [&](const Streams& io) {
+    ++runs;
+    writeText(dir.file("out.txt"), "model");
+    io.err << "\rsegment: 50%\n";
+    io.err << "echoreg segment: note: the femur was separated at its head's sphere\n";
+    return 0;
+  };
+  std::ostringstream out, err;
+  const Streams streams{out, err, false};
+  const std::vector<std::string> expected = {
+      "echoreg segment: note: the femur was separated at its head's sphere"};
+  {
+    StudyRunner runner(dir.file("state.json"), false);
+    const StepOutcome first = runner.run(step, streams, 1, 1);
+    EXPECT_EQ(first.status, StepOutcome::Status::Ran);
+    EXPECT_EQ(first.notes, expected);
+    runner.save();
+  }
+  StudyRunner again(dir.file("state.json"), false);
+  const StepOutcome second = again.run(step, streams, 1, 1);
+  EXPECT_EQ(second.status, StepOutcome::Status::UpToDate);
+  EXPECT_EQ(runs, 1);
+  EXPECT_EQ(second.notes, expected);
+  // A failing step's output is its message, not notes.
+  step.id = "segment-tibia";
+  step.action = [&](const Streams& io) {
+    io.err << "echoreg segment: the seed is not in bone\n";
+    return 1;
+  };
+  const StepOutcome failed = again.run(step, streams, 2, 2);
+  EXPECT_EQ(failed.status, StepOutcome::Status::Failed);
+  EXPECT_TRUE(failed.notes.empty());
+  EXPECT_NE(failed.message.find("not in bone"), std::string::npos);
+}
+
 }  // namespace
 }  // namespace echoreg::cli

@@ -31,6 +31,18 @@ std::map<std::string, std::string> stepStatuses(const nlohmann::json& results) {
   return statuses;
 }
 
+// A step's notes in results.json, one per line.
+std::string notesOf(const nlohmann::json& results, const std::string& id) {
+  std::string notes;
+  for (const auto& step : results.at("steps")) {
+    if (step.at("id") == id) {
+      for (const auto& n : step.at("notes"))
+        notes += n.get<std::string>() + "\n";
+    }
+  }
+  return notes;
+}
+
 double errorAt(const nlohmann::json& rows, const std::string& estimate, const std::string& column) {
   for (const auto& row : rows) {
     if (row.at("estimate") == estimate)
@@ -84,6 +96,13 @@ TEST(StudyRun, RunsTheWholeStudyThenOnlyWhatAChangeAffects) {
   EXPECT_NE(report.find("## Registration of the femur"), std::string::npos);
   EXPECT_NE(report.find("(Table 6.1)"), std::string::npos);
   EXPECT_NE(report.find("figures/femur_registration.png"), std::string::npos);
+  // What the segmentation said of its model (the CT's slice groups: closed at the group's ends)
+  // reaches the results and the report; it was dropped when the step succeeded.
+  const std::string segmentNotes = notesOf(first, "segment-femur");
+  EXPECT_NE(segmentNotes.find("echoreg segment: note: the CT has"), std::string::npos)
+      << segmentNotes;
+  EXPECT_NE(report.find("What the steps' commands noted about their results"), std::string::npos);
+  EXPECT_NE(report.find(segmentNotes.substr(0, segmentNotes.find('\n'))), std::string::npos);
 
   // 2. Nothing changed: every step is up to date, the outputs untouched.
   const auto modelTime = fs::last_write_time(study + "/results/models/femur.vtp");
@@ -93,6 +112,7 @@ TEST(StudyRun, RunsTheWholeStudyThenOnlyWhatAChangeAffects) {
     EXPECT_EQ(status, "up to date") << id;
   }
   EXPECT_EQ(fs::last_write_time(study + "/results/models/femur.vtp"), modelTime);
+  EXPECT_EQ(notesOf(readJson(study + "/results/results.json"), "segment-femur"), segmentNotes);
 
   // 3. A different calibration window: the calibration and what depends on it run again; the
   // stylus pivot, the hip centre and the segmentations do not.
