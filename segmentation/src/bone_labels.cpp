@@ -845,6 +845,17 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
       count += isInlier(p, c, r) ? 1 : 0;
     return count;
   };
+  // The label of the voxel holding the (centred) point `c`; -1 outside the image.
+  const auto labelAt = [&](const Eigen::Vector3d& c) {
+    const Eigen::Vector3d v = image.lpsToVoxel(c + mean);
+    const Eigen::Vector3i at(static_cast<int>(std::lround(v.x())),
+                             static_cast<int>(std::lround(v.y())),
+                             static_cast<int>(std::lround(v.z())));
+    if (at.minCoeff() < 0 || at.x() >= image.dimensions[0] || at.y() >= image.dimensions[1] ||
+        at.z() >= image.dimensions[2])
+      return -1;
+    return static_cast<int>((*label)[image.index(at.x(), at.y(), at.z())]);
+  };
   // The ball: the bone whose seeds all lie inside the sphere, the other's all outside. Where the
   // labels are known and no seed lies inside (the femur seeded in its neck or shaft), the bone
   // that holds the sphere's centre. -1 when neither.
@@ -862,14 +873,7 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
       return b;
     if (!label || !all(a, false) || !all(b, false))
       return -1;
-    const Eigen::Vector3d v = image.lpsToVoxel(c + mean);
-    const Eigen::Vector3i at(static_cast<int>(std::lround(v.x())),
-                             static_cast<int>(std::lround(v.y())),
-                             static_cast<int>(std::lround(v.z())));
-    if (at.minCoeff() < 0 || at.x() >= image.dimensions[0] || at.y() >= image.dimensions[1] ||
-        at.z() >= image.dimensions[2])
-      return -1;
-    const int holder = (*label)[image.index(at.x(), at.y(), at.z())];
+    const int holder = labelAt(c);
     return holder == a || holder == b ? holder : -1;
   };
   std::mt19937 random(2008);
@@ -957,13 +961,8 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
     return false;
   const Eigen::Vector3d centreLps = bestCentre + mean;
   const Eigen::Vector3d centreVoxel = image.lpsToVoxel(centreLps);
-  const Eigen::Vector3i c(static_cast<int>(std::lround(centreVoxel.x())),
-                          static_cast<int>(std::lround(centreVoxel.y())),
-                          static_cast<int>(std::lround(centreVoxel.z())));
-  const auto& dims = image.dimensions;
   const int ball = ballOf(bestCentre, bestRadius);
-  if (label && (c.minCoeff() < 0 || c.x() >= dims[0] || c.y() >= dims[1] || c.z() >= dims[2] ||
-                (*label)[image.index(c.x(), c.y(), c.z())] != ball))
+  if (label && labelAt(bestCentre) != ball)
     return false;
   // A ball fills its sphere and a socket lines it: over the cap, the voxels inside the sphere
   // (by more than the tolerance) are bone, and those within a shell outside it (the socket's
