@@ -434,14 +434,16 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                     {"cap_degrees", js.capDegrees},
                     {"shell_voxels", js.shellVoxels}};
       warnings.push_back(fmt::format(
-          "the {} and the {} did not separate on their own (the joint does not show where it "
-          "lies along the slices): they were separated by a sphere fitted to the joint line that "
+          "the {} and the {} were not told apart by the CT where their joint lies along the "
+          "slices (refused, or the {} ran across the joint): they were separated by a sphere "
+          "fitted to the joint line that "
           "shows ({} of {} joint-line voxels within {:.1f} mm, radius {:.1f} mm about ({:.1f}, "
           "{:.1f}, {:.1f}) mm, over {:.0f} degrees of the {}); check both models at the joint "
           "(--anchors-where uncertain proposes the slices to correct; --no-joint-sphere refuses "
           "instead)",
-          js.ball, js.socket, js.inliers, js.points, competing.jointSphereToleranceMm, js.radiusMm,
-          js.centreLps.x(), js.centreLps.y(), js.centreLps.z(), js.capDegrees, js.socket));
+          js.ball, js.socket, js.ball, js.inliers, js.points, competing.jointSphereToleranceMm,
+          js.radiusMm, js.centreLps.x(), js.centreLps.y(), js.centreLps.z(), js.capDegrees,
+          js.socket));
     }
     nlohmann::json metalJson = nlohmann::json::array();
     for (const seg::MetalPiece& m : bones.metal) {
@@ -843,9 +845,10 @@ CommandAction addSegmentCommand(CLI::App& app) {
                 "--auto watershed: refuse a CT with metal (>= 2500 HU: an implant), naming where "
                 "it is, instead of segmenting the bone around it");
   cmd->add_flag("--no-joint-sphere", o->noJointSphere,
-                "--auto watershed: where two seeded bones cannot be told apart (a hip on thick "
-                "slices, its acetabular roof along them), refuse instead of fitting a sphere to "
-                "the joint line the head shows and separating them at it");
+                "--auto watershed: never fit a sphere to the joint line a ball-and-socket joint "
+                "shows (a hip on thick slices, its acetabular roof along them): where two seeded "
+                "bones cannot be told apart, refuse; where they can but the ball runs across the "
+                "sphere (slices of 4 mm or more), keep that growth");
   cmd->add_option("--threshold-hu", o->thresholdHu,
                   "Bone threshold STRONG WEAK, HU: voxels >= STRONG, and >= WEAK connected to them "
                   "(default with --method watershed: from this CT's histogram around the seeds, "

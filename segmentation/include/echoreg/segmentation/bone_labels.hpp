@@ -126,13 +126,17 @@ struct CompetingOptions {
   /// checks above, a sphere is fitted to the joint-line voxels the two hold (where the joint
   /// crosses the slices it shows; RANSAC, then least squares on its inliers). Where one fits
   /// (radius within jointSphereMinRadiusMm..jointSphereMaxRadiusMm, one bone's seeds inside it
-  /// and the other's outside, at least jointSphereMinInliers voxels within
+  /// and the other's outside, or after the flood none inside and one of the two holding its
+  /// centre, at least jointSphereMinInliers voxels within
   /// jointSphereToleranceMm spread over a cap of at least jointSphereMinCapDegrees, bone filling
   /// it and lining it over the cap, the joint line over much of it), its shell over that cap
   /// becomes joint line and the bones are grown again, every check run again and the ball found
   /// inside the sphere, the socket outside; else, or when the second growth is refused too, the
-  /// first refusal stands. false: off. Measured on the independent hip phantom at 5 mm: right
-  /// 12 of 16 scans (before 6), the 4 with no joint space refused (docs/segmentation.md).
+  /// first refusal stands. On slices of 4 mm or more the sphere is fitted after a growth that
+  /// passed too, and where the ball crosses it the second growth is kept if it passes. false:
+  /// off. Measured on the independent hip phantom at 5 mm: right 12 of 16 scans (before 6), the
+  /// 4 with no joint space refused; the femur off the cup's roof where the first growth passed
+  /// (docs/segmentation.md).
   bool jointFromSphere = true;
   double jointSphereMinRadiusMm = 12.0;
   double jointSphereMaxRadiusMm = 35.0;
