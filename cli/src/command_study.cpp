@@ -154,6 +154,22 @@ int runStudy(const StudyOptions& o, const Streams& streams) {
                                : !incomplete.empty() ? "incomplete"
                                                      : "done",
                                fs::absolute(results + "/report.html").lexically_normal().string());
+    // What the steps' commands said of their results (printed under each step on a terminal).
+    std::vector<std::string> noted;
+    for (const StepOutcome& outcome : progress.outcomes) {
+      if (!outcome.notes.empty())
+        noted.push_back(outcome.title);
+    }
+    if (!noted.empty() && !streams.errIsTerminal) {
+      std::string list;
+      for (std::size_t i = 0; i < noted.size() && i < 3; ++i)
+        list += (i ? "; " : "") + noted[i];
+      streams.err << fmt::format(
+          "echoreg study: {} step{} noted something about {} results ({}{}): see the report's "
+          "steps\n",
+          noted.size(), noted.size() == 1 ? "" : "s", noted.size() == 1 ? "its" : "their", list,
+          noted.size() > 3 ? "; ..." : "");
+    }
   }
   if (!failure.empty()) {
     streams.err << "echoreg study: " << studyDir << ": " << failure

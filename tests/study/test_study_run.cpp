@@ -103,6 +103,7 @@ TEST(StudyRun, RunsTheWholeStudyThenOnlyWhatAChangeAffects) {
       << segmentNotes;
   EXPECT_NE(report.find("What the steps' commands noted about their results"), std::string::npos);
   EXPECT_NE(report.find(segmentNotes.substr(0, segmentNotes.find('\n'))), std::string::npos);
+  EXPECT_NE(r.err.find("noted something about"), std::string::npos) << r.err;
 
   // 2. Nothing changed: every step is up to date, the outputs untouched.
   const auto modelTime = fs::last_write_time(study + "/results/models/femur.vtp");
