@@ -429,21 +429,26 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                     {"radius_mm", js.radiusMm},
                     {"rms_mm", js.rmsMm},
                     {"inliers", js.inliers},
-                    {"joint_line_voxels", js.points},
+                    {"fitted_to", js.fromSurface ? "surface" : "joint line"},
+                    {js.fromSurface ? "surface_voxels" : "joint_line_voxels", js.points},
                     {"axis", vec(js.axisLps)},
                     {"cap_degrees", js.capDegrees},
                     {"shell_voxels", js.shellVoxels}};
       warnings.push_back(fmt::format(
           "the {} and the {} were not told apart by the CT where their joint lies along the "
           "slices (refused, or the {} ran across the joint): they were separated by a sphere "
-          "fitted to the joint line that "
-          "shows ({} of {} joint-line voxels within {:.1f} mm, radius {:.1f} mm about ({:.1f}, "
+          "fitted to {} ({} of {} {} voxels within {:.1f} mm, radius {:.1f} mm about ({:.1f}, "
           "{:.1f}, {:.1f}) mm, over {:.0f} degrees of the {}); check both models at the joint "
           "(--anchors-where uncertain proposes the slices to correct; --no-joint-sphere refuses "
           "instead)",
-          js.ball, js.socket, js.ball, js.inliers, js.points, competing.jointSphereToleranceMm,
-          js.radiusMm, js.centreLps.x(), js.centreLps.y(), js.centreLps.z(), js.capDegrees,
-          js.socket));
+          js.ball, js.socket, js.ball,
+          js.fromSurface ? fmt::format("the {}'s head's surface where the {} does not cover it "
+                                       "(no joint line showed)",
+                                       js.ball, js.socket)
+                         : std::string("the joint line that shows"),
+          js.inliers, js.points, js.fromSurface ? "surface" : "joint-line",
+          competing.jointSphereToleranceMm, js.radiusMm, js.centreLps.x(), js.centreLps.y(),
+          js.centreLps.z(), js.capDegrees, js.socket));
     }
     nlohmann::json metalJson = nlohmann::json::array();
     for (const seg::MetalPiece& m : bones.metal) {
@@ -845,10 +850,11 @@ CommandAction addSegmentCommand(CLI::App& app) {
                 "--auto watershed: refuse a CT with metal (>= 2500 HU: an implant), naming where "
                 "it is, instead of segmenting the bone around it");
   cmd->add_flag("--no-joint-sphere", o->noJointSphere,
-                "--auto watershed: never fit a sphere to the joint line a ball-and-socket joint "
-                "shows (a hip on thick slices, its acetabular roof along them): where two seeded "
-                "bones cannot be told apart, refuse; where they can but the ball runs across the "
-                "sphere (slices of 4 mm or more), keep that growth");
+                "--auto watershed: never fit a sphere to a ball-and-socket joint (a hip on "
+                "thick slices, its acetabular roof along them), neither to the joint line it "
+                "shows nor, where none shows (the head pressed into its socket), to the head's "
+                "surface: where two seeded bones cannot be told apart, refuse; where they can but "
+                "the ball runs across the sphere (slices of 4 mm or more), keep that growth");
   cmd->add_option("--threshold-hu", o->thresholdHu,
                   "Bone threshold STRONG WEAK, HU: voxels >= STRONG, and >= WEAK connected to them "
                   "(default with --method watershed: from this CT's histogram around the seeds, "

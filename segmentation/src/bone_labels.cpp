@@ -7,6 +7,7 @@
 #include <Eigen/QR>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -746,6 +747,25 @@ constexpr double kSocketWallMm = 4.0;
 constexpr double kBallFilled = 0.9;
 constexpr double kSocketLined = 0.6;
 constexpr double kShellSupport = 0.3;
+// A ball fitted to its surface (jointSphereShell's fromSurface, where no joint line shows: the
+// head pressed into its socket): the surface voxels count as inliers where the direction into
+// the bone is within acos(kFacing) of the centre's, and they make at least kSurfaceSupport of the
+// sphere's voxels outside the cap (the head shows where the socket does not cover it). The Hough
+// transform's cells, candidates and least vote.
+constexpr double kFacing = 0.7;
+constexpr double kSurfaceSupport = 0.25;
+constexpr double kSurfaceLined = 0.8;
+constexpr double kSurfaceOpen = 0.55;
+constexpr double kCapBinDegrees = 5.0;
+constexpr double kCapMarginDegrees = 10.0;
+constexpr double kSameCandidateMm = 1.0;
+constexpr double kRingDegrees = 45.0;
+constexpr double kRingLined = 0.35;
+constexpr double kSurfaceMaxCapDegrees = 135.0;
+constexpr double kHoughCellMm = 3.0;
+constexpr std::size_t kHoughMaxCells = 32u << 20;
+constexpr std::size_t kHoughCandidates = 200;
+constexpr int kHoughMinVotes = 5;
 // After the second growth the ball and the socket are checked within this of the sphere
 // (checkSphereSides).
 constexpr double kSidesBandMm = 6.0;
@@ -806,17 +826,37 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
                       const std::vector<std::int16_t>* label, int a, int b,
                       const std::vector<std::string>& names,
                       const std::vector<std::vector<Eigen::Vector3d>>& seedsOf,
-                      const CompetingOptions& options, std::vector<std::uint8_t>& shell,
-                      JointSphere& sphere) {
+                      const CompetingOptions& options, bool fromSurface,
+                      std::vector<std::uint8_t>& shell, JointSphere& sphere) {
   // The joint-line voxels the two bones hold; before the flood (two seeds on one hill), those
-  // within two of the largest radii of their seeds.
-  std::vector<Eigen::Vector3d> points;
+  // within two of the largest radii of their seeds. From the surface: the bone's voxels next to
+  // soft tissue, with the direction into the bone (the CT's gradient).
+  std::vector<Eigen::Vector3d> points, inward;
   const double reach = 2.0 * options.jointSphereMaxRadiusMm;
+  const Eigen::Vector3d spacing = image.spacingMm();
+  const auto& dims = image.dimensions;
   for (std::size_t v = 0; v < joints.size(); ++v) {
-    if (!joints[v] || (label && (*label)[v] != a && (*label)[v] != b))
+    if (label && (*label)[v] != a && (*label)[v] != b)
+      continue;
+    if (!fromSurface && !joints[v])
       continue;
     int i, j, k;
     ijkOf(image, v, i, j, k);
+    Eigen::Vector3d gradient = Eigen::Vector3d::Zero();
+    if (fromSurface) {
+      if (!solid.voxels[v] || i == 0 || j == 0 || k == 0 || i + 1 == dims[0] || j + 1 == dims[1] ||
+          k + 1 == dims[2])
+        continue;
+      if (solid.at(i - 1, j, k) && solid.at(i + 1, j, k) && solid.at(i, j - 1, k) &&
+          solid.at(i, j + 1, k) && solid.at(i, j, k - 1) && solid.at(i, j, k + 1))
+        continue;
+      gradient =
+          Eigen::Vector3d((image.at(i + 1, j, k) - image.at(i - 1, j, k)) / (2.0 * spacing.x()),
+                          (image.at(i, j + 1, k) - image.at(i, j - 1, k)) / (2.0 * spacing.y()),
+                          (image.at(i, j, k + 1) - image.at(i, j, k - 1)) / (2.0 * spacing.z()));
+      if (!(gradient.norm() > 0.0))
+        continue;
+    }
     const Eigen::Vector3d p = image.voxelToLps(Eigen::Vector3d(i, j, k));
     if (!label) {
       bool near = false;
@@ -827,7 +867,14 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
       if (!near)
         continue;
     }
-    points.push_back(p);
+    if (fromSurface) {
+      // The surface lies between the voxel and its soft-tissue neighbour: half a voxel out.
+      const Eigen::Vector3d g = gradient.normalized();
+      points.push_back(p - 0.5 * spacing.minCoeff() * g);
+      inward.push_back(g);
+    } else {
+      points.push_back(p);
+    }
   }
   const int n = static_cast<int>(points.size());
   if (n < options.jointSphereMinInliers)
@@ -839,13 +886,16 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
   for (Eigen::Vector3d& p : points)
     p -= mean;  // centred, for the conditioning of the fits
   const double tolerance = options.jointSphereToleranceMm;
-  const auto isInlier = [&](const Eigen::Vector3d& p, const Eigen::Vector3d& c, double r) {
-    return std::fabs((p - c).norm() - r) <= tolerance;
+  // From the surface, an inlier's bone lies towards the centre (a ball, not a socket's lining).
+  const auto isInlier = [&](std::size_t q, const Eigen::Vector3d& c, double r) {
+    const Eigen::Vector3d u = points[q] - c;
+    const double d = u.norm();
+    return std::fabs(d - r) <= tolerance && (!fromSurface || -inward[q].dot(u) >= kFacing * d);
   };
   const auto inliersOf = [&](const Eigen::Vector3d& c, double r) {
     int count = 0;
-    for (const Eigen::Vector3d& p : points)
-      count += isInlier(p, c, r) ? 1 : 0;
+    for (std::size_t q = 0; q < points.size(); ++q)
+      count += isInlier(q, c, r) ? 1 : 0;
     return count;
   };
   // The label of the voxel holding the (centred) point `c`; -1 outside the image.
@@ -879,155 +929,346 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
     const int holder = labelAt(c);
     return holder == a || holder == b ? holder : -1;
   };
-  std::mt19937 random(2008);
-  Eigen::Vector3d bestCentre = Eigen::Vector3d::Zero();
-  double bestRadius = 0.0;
-  int best = 0;
-  double bestDensity = 0.0;
-  for (int trial = 0; trial < 4000; ++trial) {
-    Eigen::Vector3d four[4];
-    for (auto& q : four)
-      q = points[random() % static_cast<std::uint32_t>(n)];
-    const auto s = sphereThrough(four);
-    if (!s || s->second < options.jointSphereMinRadiusMm ||
-        s->second > options.jointSphereMaxRadiusMm)
-      continue;
-    if (ballOf(s->first, s->second) < 0)
-      continue;
-    const int count = inliersOf(s->first, s->second);
-    // Inliers per area: any sphere through a cloud of joint-line voxels holds more of them the
-    // larger it is; the joint's own sphere holds them densest.
-    const double density = count / (s->second * s->second);
-    if (count >= options.jointSphereMinInliers && density > bestDensity) {
-      bestDensity = density;
-      best = count;
-      bestCentre = s->first;
-      bestRadius = s->second;
-    }
-  }
-  if (best < options.jointSphereMinInliers)
-    return false;
   // Least squares on the inliers (a few rounds, while the fit gets denser). Each voxel is taken
   // at its centre: taken as its box (the joint anywhere within a thick slice), the fits on the
   // hip phantom at 5 mm came out a slice off the joint, through the head's inner dips.
-  for (int round = 0; round < 5; ++round) {
-    std::vector<Eigen::Vector3d> on;
+  // `anyway`: every round taken while the radius stays in range (a Hough cell's centre and
+  // radius are coarse: their first fit can be sparser than the cell).
+  const auto refine = [&](Eigen::Vector3d& centre, double& radius, int& count, double& density,
+                          bool anyway) {
+    for (int round = 0; round < 5; ++round) {
+      std::vector<Eigen::Vector3d> on;
+      for (std::size_t q = 0; q < points.size(); ++q) {
+        if (isInlier(q, centre, radius))
+          on.push_back(points[q]);
+      }
+      if (on.size() < 4)
+        break;
+      Eigen::MatrixXd m(static_cast<Eigen::Index>(on.size()), 4);
+      Eigen::VectorXd rhs(static_cast<Eigen::Index>(on.size()));
+      for (std::size_t r = 0; r < on.size(); ++r) {
+        m.row(static_cast<Eigen::Index>(r)) << on[r].x(), on[r].y(), on[r].z(), 1.0;
+        rhs(static_cast<Eigen::Index>(r)) = -on[r].squaredNorm();
+      }
+      const Eigen::Vector4d x = m.colPivHouseholderQr().solve(rhs);
+      const Eigen::Vector3d c = -0.5 * x.head<3>();
+      const double r2 = c.squaredNorm() - x(3);
+      if (!(r2 > 0.0))
+        break;
+      const double r = std::sqrt(r2);
+      const int n2 = inliersOf(c, r);
+      if (r < options.jointSphereMinRadiusMm || r > options.jointSphereMaxRadiusMm ||
+          (!anyway && n2 / (r * r) < density) || ballOf(c, r) < 0)
+        break;
+      density = n2 / (r * r);
+      centre = c;
+      radius = r;
+      count = n2;
+    }
+  };
+  struct Candidate {
+    double density;
+    int count;
+    Eigen::Vector3d centre;
+    double radius;
+  };
+  std::vector<Candidate> candidates;
+  if (!fromSurface) {
+    Eigen::Vector3d bestCentre = Eigen::Vector3d::Zero();
+    double bestRadius = 0.0;
+    int best = 0;
+    double bestDensity = 0.0;
+    std::mt19937 random(2008);
+    for (int trial = 0; trial < 4000; ++trial) {
+      Eigen::Vector3d four[4];
+      for (auto& q : four)
+        q = points[random() % static_cast<std::uint32_t>(n)];
+      const auto s = sphereThrough(four);
+      if (!s || s->second < options.jointSphereMinRadiusMm ||
+          s->second > options.jointSphereMaxRadiusMm)
+        continue;
+      if (ballOf(s->first, s->second) < 0)
+        continue;
+      const int count = inliersOf(s->first, s->second);
+      // Inliers per area: any sphere through a cloud of joint-line voxels holds more of them
+      // the larger it is; the joint's own sphere holds them densest.
+      const double density = count / (s->second * s->second);
+      if (count >= options.jointSphereMinInliers && density > bestDensity) {
+        bestDensity = density;
+        best = count;
+        bestCentre = s->first;
+        bestRadius = s->second;
+      }
+    }
+    if (best < options.jointSphereMinInliers)
+      return false;
+    refine(bestCentre, bestRadius, best, bestDensity, false);
+    candidates.push_back({bestDensity, best, bestCentre, bestRadius});
+  } else {
+    // Each surface voxel votes for the centres one radius into the bone along its gradient
+    // (a Hough transform over centre and radius); the cells with the most votes, refined by
+    // least squares, are the candidates. Four points drawn at random (as above) hardly ever
+    // all lie on the head: on the hip phantom at 5 mm, 4 % of the surface voxels do.
+    const int r0 = static_cast<int>(std::ceil(options.jointSphereMinRadiusMm));
+    const int r1 = static_cast<int>(std::floor(options.jointSphereMaxRadiusMm));
+    if (r1 < r0)
+      return false;
+    const std::size_t radii = sz(r1 - r0 + 1);
+    Eigen::Vector3d low = points[0], high = points[0];
     for (const Eigen::Vector3d& p : points) {
-      if (isInlier(p, bestCentre, bestRadius))
-        on.push_back(p);
+      low = low.cwiseMin(p);
+      high = high.cwiseMax(p);
     }
-    Eigen::MatrixXd m(static_cast<Eigen::Index>(on.size()), 4);
-    Eigen::VectorXd rhs(static_cast<Eigen::Index>(on.size()));
-    for (std::size_t r = 0; r < on.size(); ++r) {
-      m.row(static_cast<Eigen::Index>(r)) << on[r].x(), on[r].y(), on[r].z(), 1.0;
-      rhs(static_cast<Eigen::Index>(r)) = -on[r].squaredNorm();
+    double cell = kHoughCellMm;
+    Eigen::Vector3i cells;
+    for (;;) {
+      for (int ax = 0; ax < 3; ++ax)
+        cells(ax) = static_cast<int>((high(ax) - low(ax)) / cell) + 1;
+      if (sz(cells.x()) * sz(cells.y()) * sz(cells.z()) * radii <= kHoughMaxCells)
+        break;
+      cell *= 1.25;
     }
-    const Eigen::Vector4d x = m.colPivHouseholderQr().solve(rhs);
-    const Eigen::Vector3d centre = -0.5 * x.head<3>();
-    const double r2 = centre.squaredNorm() - x(3);
-    if (!(r2 > 0.0))
-      break;
-    const double radius = std::sqrt(r2);
-    const int count = inliersOf(centre, radius);
-    if (radius < options.jointSphereMinRadiusMm || radius > options.jointSphereMaxRadiusMm ||
-        count / (radius * radius) < bestDensity || ballOf(centre, radius) < 0)
-      break;
-    bestDensity = count / (radius * radius);
-    bestCentre = centre;
-    bestRadius = radius;
-    best = count;
-  }
-  // The cap the inliers span: about their mean direction, out to the angle that holds 95 % of
-  // them and 10 degrees more, at most a hemisphere (an acetabulum covers the head up to about 90
-  // degrees from its pole; wider, the shell cut the pubis from the hip bone on the phantom).
-  Eigen::Vector3d axis = Eigen::Vector3d::Zero();
-  double squares = 0.0;
-  std::vector<Eigen::Vector3d> directions;
-  for (const Eigen::Vector3d& p : points) {
-    if (!isInlier(p, bestCentre, bestRadius))
-      continue;
-    const double d = (p - bestCentre).norm();
-    directions.push_back((p - bestCentre) / std::max(d, 1e-9));
-    axis += directions.back();
-    squares += (d - bestRadius) * (d - bestRadius);
-  }
-  if (axis.norm() < 1e-9)
-    return false;
-  axis.normalize();
-  std::vector<double> angles;
-  for (const Eigen::Vector3d& u : directions)
-    angles.push_back(std::acos(std::clamp(u.dot(axis), -1.0, 1.0)) * 180.0 / M_PI);
-  const auto at = angles.begin() + static_cast<std::ptrdiff_t>((angles.size() - 1) * 19 / 20);
-  std::nth_element(angles.begin(), at, angles.end());
-  const double capDegrees = std::min(*at + 10.0, 90.0);
-  if (*at < options.jointSphereMinCapDegrees)
-    return false;
-  const Eigen::Vector3d centreLps = bestCentre + mean;
-  const Eigen::Vector3d centreVoxel = image.lpsToVoxel(centreLps);
-  const int ball = ballOf(bestCentre, bestRadius);
-  if (label && labelAt(bestCentre) != ball)
-    return false;
-  // A ball fills its sphere and a socket lines it: over the cap, the voxels inside the sphere
-  // (by more than the tolerance) are bone, and those within a shell outside it (the socket's
-  // wall, kSocketWallMm) mostly bone. Two seeds on either side of a tube's marrow had a sphere
-  // through its inner dips split the tube in two, every check passed.
-  const Eigen::Vector3d spacing = image.spacingMm();
-  const double cosCap = std::cos(capDegrees * M_PI / 180.0);
-  Eigen::Vector3i lo, hi;
-  sphereBox(image, centreVoxel, bestRadius + kSocketWallMm, lo, hi);
-  std::size_t ballVoxels = 0, ballBone = 0, wallVoxels = 0, wallBone = 0;
-  for (int k = lo.z(); k <= hi.z(); ++k) {
-    for (int j = lo.y(); j <= hi.y(); ++j) {
-      for (int i = lo.x(); i <= hi.x(); ++i) {
-        const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - centreLps;
-        const double d = u.norm();
-        if (d < 1e-9 || u.dot(axis) < cosCap * d)
+    std::vector<std::uint16_t> votes(sz(cells.x()) * sz(cells.y()) * sz(cells.z()) * radii, 0);
+    for (std::size_t q = 0; q < points.size(); ++q) {
+      for (int r = r0; r <= r1; ++r) {
+        const Eigen::Vector3d c = (points[q] + r * inward[q] - low) / cell;
+        if (c.minCoeff() < 0.0)
           continue;
-        const bool bone = solid.voxels[image.index(i, j, k)] != 0;
-        if (d <= bestRadius - tolerance) {
-          ++ballVoxels;
-          ballBone += bone ? 1u : 0u;
-        } else if (d >= bestRadius + tolerance && d <= bestRadius + kSocketWallMm) {
-          ++wallVoxels;
-          wallBone += bone ? 1u : 0u;
+        const int x = static_cast<int>(c.x()), y = static_cast<int>(c.y()),
+                  z = static_cast<int>(c.z());
+        if (x >= cells.x() || y >= cells.y() || z >= cells.z())
+          continue;
+        std::uint16_t& vote =
+            votes[((sz(z) * sz(cells.y()) + sz(y)) * sz(cells.x()) + sz(x)) * radii + sz(r - r0)];
+        vote = static_cast<std::uint16_t>(std::min(65535, vote + 1));
+      }
+    }
+    std::vector<std::pair<std::uint16_t, std::size_t>> top;
+    for (std::size_t v = 0; v < votes.size(); ++v) {
+      if (votes[v] >= kHoughMinVotes)
+        top.emplace_back(votes[v], v);
+    }
+    const std::size_t keep = std::min(top.size(), kHoughCandidates);
+    std::partial_sort(top.begin(), top.begin() + static_cast<std::ptrdiff_t>(keep), top.end(),
+                      [](const auto& x, const auto& y) {
+                        return x.first > y.first || (x.first == y.first && x.second < y.second);
+                      });
+    for (std::size_t t = 0; t < keep; ++t) {
+      const std::size_t v = top[t].second;
+      double radius = r0 + static_cast<int>(v % radii);
+      const std::size_t c = v / radii;
+      Eigen::Vector3d centre =
+          low +
+          cell * Eigen::Vector3d(static_cast<double>(c % sz(cells.x())) + 0.5,
+                                 static_cast<double>((c / sz(cells.x())) % sz(cells.y())) + 0.5,
+                                 static_cast<double>(c / sz(cells.x()) / sz(cells.y())) + 0.5);
+      int count = inliersOf(centre, radius);
+      double density = count / (radius * radius);
+      refine(centre, radius, count, density, true);
+      if (radius < options.jointSphereMinRadiusMm || radius > options.jointSphereMaxRadiusMm ||
+          ballOf(centre, radius) < 0 || count < options.jointSphereMinInliers)
+        continue;
+      candidates.push_back({density, count, centre, radius});
+    }
+    // Densest first; the first that passes the checks below is the ball.
+    std::stable_sort(candidates.begin(), candidates.end(),
+                     [](const Candidate& x, const Candidate& y) { return x.density > y.density; });
+  }
+  // The candidate's cap, its checks and its shell; false where a check fails.
+  const auto finish = [&](const Candidate& candidate) -> bool {
+    const Eigen::Vector3d& bestCentre = candidate.centre;
+    const double bestRadius = candidate.radius;
+    const int best = candidate.count;
+    // The cap the inliers span: about their mean direction, out to the angle that holds 95 % of
+    // them and 10 degrees more, at most a hemisphere (an acetabulum covers the head up to about 90
+    // degrees from its pole; wider, the shell cut the pubis from the hip bone on the phantom).
+    Eigen::Vector3d axis = Eigen::Vector3d::Zero();
+    double squares = 0.0;
+    std::vector<Eigen::Vector3d> directions;
+    for (std::size_t q = 0; q < points.size(); ++q) {
+      if (!isInlier(q, bestCentre, bestRadius))
+        continue;
+      const Eigen::Vector3d& p = points[q];
+      const double d = (p - bestCentre).norm();
+      directions.push_back((p - bestCentre) / std::max(d, 1e-9));
+      axis += directions.back();
+      squares += (d - bestRadius) * (d - bestRadius);
+    }
+    if (axis.norm() < 1e-9)
+      return false;
+    axis.normalize();
+    const auto percentile95 = [](std::vector<double>& values) {
+      const auto at = values.begin() + static_cast<std::ptrdiff_t>((values.size() - 1) * 19 / 20);
+      std::nth_element(values.begin(), at, values.end());
+      return *at;
+    };
+    std::vector<double> angles;
+    for (const Eigen::Vector3d& u : directions)
+      angles.push_back(std::acos(std::clamp(u.dot(axis), -1.0, 1.0)) * 180.0 / M_PI);
+    const double spread = percentile95(angles);
+    if (spread < options.jointSphereMinCapDegrees)
+      return false;
+    double capDegrees = std::min(spread + 10.0, 90.0);
+    const Eigen::Vector3d centreLps = bestCentre + mean;
+    const Eigen::Vector3d centreVoxel = image.lpsToVoxel(centreLps);
+    const int ball = ballOf(bestCentre, bestRadius);
+    if (label && labelAt(bestCentre) != ball)
+      return false;
+    if (fromSurface) {
+      // The ball's surface shows where no socket covers it: the cap lies the other way, out to
+      // the angle within which 95 % of the bone outside the sphere lies (the lining), and 10
+      // degrees more, at most a hemisphere.
+      // The axis: from the side the surface shows on, the mean direction of the lining in the
+      // hemisphere about it, a few times (the neck's bone, beside the surface, drops out).
+      std::vector<std::pair<Eigen::Vector3d, bool>> band;  // direction, bone
+      Eigen::Vector3i lo, hi;
+      sphereBox(image, centreVoxel, bestRadius + kSocketWallMm, lo, hi);
+      for (int k = lo.z(); k <= hi.z(); ++k) {
+        for (int j = lo.y(); j <= hi.y(); ++j) {
+          for (int i = lo.x(); i <= hi.x(); ++i) {
+            const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - centreLps;
+            const double d = u.norm();
+            if (d < bestRadius + tolerance || d > bestRadius + kSocketWallMm)
+              continue;
+            band.emplace_back(u / d, solid.voxels[image.index(i, j, k)] != 0);
+          }
+        }
+      }
+      axis = -axis;
+      for (int round = 0; round < 3; ++round) {
+        Eigen::Vector3d sum = Eigen::Vector3d::Zero();
+        for (const auto& [u, bone] : band)
+          sum += bone && u.dot(axis) >= 0.0 ? u : Eigen::Vector3d::Zero();
+        if (sum.norm() < 1e-9)
+          return false;
+        axis = sum.normalized();
+      }
+      // The cap: out from the axis while the band is mostly bone (kCapBinDegrees wide rings).
+      constexpr int bins = static_cast<int>(180.0 / kCapBinDegrees) + 1;
+      std::array<std::size_t, bins> all{}, lined{};
+      for (const auto& [u, bone] : band) {
+        const double angle = std::acos(std::clamp(u.dot(axis), -1.0, 1.0)) * 180.0 / M_PI;
+        const auto bin = static_cast<std::size_t>(angle / kCapBinDegrees);
+        ++all[bin];
+        lined[bin] += bone ? 1u : 0u;
+      }
+      int edge = 0;
+      while (edge < bins && all[sz(edge)] > 0 && 2 * lined[sz(edge)] >= all[sz(edge)])
+        ++edge;
+      capDegrees = std::min(edge * kCapBinDegrees + kCapMarginDegrees, kSurfaceMaxCapDegrees);
+      // Beyond the socket's edge the ball shows: the ring kRingDegrees wide past the cap is
+      // mostly soft tissue (a sphere through a bone's inside, or enclosing the head with the
+      // cup's wall, is lined on and on).
+      std::size_t ringAll = 0, ringLined = 0;
+      for (int q = edge; q < std::min(bins, edge + static_cast<int>(kRingDegrees / kCapBinDegrees));
+           ++q) {
+        ringAll += all[sz(q)];
+        ringLined += lined[sz(q)];
+      }
+      if (ringAll == 0 ||
+          static_cast<double>(ringLined) > kRingLined * static_cast<double>(ringAll))
+        return false;
+    }
+    // A ball fills its sphere and a socket lines it: over the cap, the voxels inside the sphere
+    // (by more than the tolerance) are bone, and those within a shell outside it (the socket's
+    // wall, kSocketWallMm) mostly bone. Two seeds on either side of a tube's marrow had a sphere
+    // through its inner dips split the tube in two, every check passed.
+    const double cosCap = std::cos(capDegrees * M_PI / 180.0);
+    Eigen::Vector3i lo, hi;
+    sphereBox(image, centreVoxel, bestRadius + kSocketWallMm, lo, hi);
+    std::size_t ballVoxels = 0, ballBone = 0, wallVoxels = 0, wallBone = 0, openVoxels = 0,
+                open = 0;
+    for (int k = lo.z(); k <= hi.z(); ++k) {
+      for (int j = lo.y(); j <= hi.y(); ++j) {
+        for (int i = lo.x(); i <= hi.x(); ++i) {
+          const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - centreLps;
+          const double d = u.norm();
+          if (d < 1e-9)
+            continue;
+          const bool bone = solid.voxels[image.index(i, j, k)] != 0;
+          if (u.dot(axis) < cosCap * d) {
+            // Outside the cap, next to the sphere: where the ball shows, soft tissue.
+            if (d >= bestRadius + tolerance && d <= bestRadius + kSocketWallMm) {
+              ++openVoxels;
+              open += bone ? 0u : 1u;
+            }
+            continue;
+          }
+          if (d <= bestRadius - tolerance) {
+            ++ballVoxels;
+            ballBone += bone ? 1u : 0u;
+          } else if (d >= bestRadius + tolerance && d <= bestRadius + kSocketWallMm) {
+            ++wallVoxels;
+            wallBone += bone ? 1u : 0u;
+          }
         }
       }
     }
-  }
-  if (static_cast<double>(ballBone) < kBallFilled * static_cast<double>(ballVoxels) ||
-      static_cast<double>(wallBone) < kSocketLined * static_cast<double>(wallVoxels))
-    return false;
-  // The shell: every voxel whose box the sphere passes through, within the cap.
-  shell.assign(joints.size(), 0);
-  std::size_t marked = 0;
-  for (int k = lo.z(); k <= hi.z(); ++k) {
-    for (int j = lo.y(); j <= hi.y(); ++j) {
-      for (int i = lo.x(); i <= hi.x(); ++i) {
-        const auto [near, far] = boxDistancesMm(Eigen::Vector3i(i, j, k), centreVoxel, spacing);
-        if (near > bestRadius || far < bestRadius)
-          continue;
-        const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - centreLps;
-        if (u.norm() < 1e-9 || u.dot(axis) < cosCap * u.norm())
-          continue;
-        shell[image.index(i, j, k)] = 1;
-        ++marked;
+    if (static_cast<double>(ballBone) < kBallFilled * static_cast<double>(ballVoxels) ||
+        static_cast<double>(wallBone) <
+            (fromSurface ? kSurfaceLined : kSocketLined) * static_cast<double>(wallVoxels) ||
+        (fromSurface && static_cast<double>(open) < kSurfaceOpen * static_cast<double>(openVoxels)))
+      return false;
+    // The shell: every voxel whose box the sphere passes through, within the cap.
+    shell.assign(joints.size(), 0);
+    std::size_t marked = 0, uncovered = 0;
+    for (int k = lo.z(); k <= hi.z(); ++k) {
+      for (int j = lo.y(); j <= hi.y(); ++j) {
+        for (int i = lo.x(); i <= hi.x(); ++i) {
+          const auto [near, far] = boxDistancesMm(Eigen::Vector3i(i, j, k), centreVoxel, spacing);
+          if (near > bestRadius || far < bestRadius)
+            continue;
+          const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - centreLps;
+          if (u.norm() < 1e-9 || u.dot(axis) < cosCap * u.norm()) {
+            ++uncovered;
+            continue;
+          }
+          shell[image.index(i, j, k)] = 1;
+          ++marked;
+        }
       }
     }
+    if (fromSurface ? static_cast<double>(best) < kSurfaceSupport * static_cast<double>(uncovered)
+                    : static_cast<double>(best) < kShellSupport * static_cast<double>(marked)) {
+      shell.clear();
+      return false;
+    }
+    sphere.ball = names[sz(ball)];
+    sphere.socket = names[sz(ball == a ? b : a)];
+    sphere.centreLps = centreLps;
+    sphere.radiusMm = bestRadius;
+    sphere.rmsMm = std::sqrt(squares / static_cast<double>(directions.size()));
+    sphere.inliers = best;
+    sphere.points = n;
+    sphere.axisLps = axis;
+    sphere.capDegrees = capDegrees;
+    sphere.shellVoxels = marked;
+    sphere.fromSurface = fromSurface;
+    return true;
+  };
+  // The joint line's sphere: the densest. From the surface: of those that pass, the one the
+  // most surface voxels lie on (a ball shows much of itself; the hip bone's own curves, fitted
+  // denser on the phantom, are small).
+  const Candidate* chosen = nullptr;
+  std::vector<const Candidate*> tried;
+  for (const Candidate& candidate : candidates) {
+    bool seen = false;
+    for (const Candidate* t : tried)
+      seen = seen || ((t->centre - candidate.centre).norm() < kSameCandidateMm &&
+                      std::fabs(t->radius - candidate.radius) < kSameCandidateMm);
+    if (seen)
+      continue;
+    tried.push_back(&candidate);
+    if ((!chosen || candidate.count > chosen->count) && finish(candidate)) {
+      chosen = &candidate;
+      if (!fromSurface)
+        break;
+    }
   }
-  if (static_cast<double>(best) < kShellSupport * static_cast<double>(marked)) {
+  if (!chosen || !finish(*chosen)) {
     shell.clear();
     return false;
   }
-  sphere.ball = names[sz(ball)];
-  sphere.socket = names[sz(ball == a ? b : a)];
-  sphere.centreLps = centreLps;
-  sphere.radiusMm = bestRadius;
-  sphere.rmsMm = std::sqrt(squares / static_cast<double>(directions.size()));
-  sphere.inliers = best;
-  sphere.points = n;
-  sphere.axisLps = axis;
-  sphere.capDegrees = capDegrees;
-  sphere.shellVoxels = marked;
   return true;
 }
 
@@ -1324,6 +1565,9 @@ struct SphereAttempt {
   std::vector<std::uint8_t> shell;  // empty: no sphere fitted
   JointSphere sphere;
   bool afterPass = false;  // fitted after a growth that passed, whose ball crosses the sphere
+  // Where a refused growth leaves it: the ball's sphere fitted to its surface (empty: none).
+  std::vector<std::uint8_t> surfaceShell;
+  JointSphere surfaceSphere;
 };
 
 // `second`: the sphere whose shell is made joint line (a second growth); `attempt`: where a
@@ -1519,15 +1763,20 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
   auto levelOf = [&](std::size_t v) { return static_cast<int>(level[v]) - 1; };
 
   // Where two seeded bones are refused, the sphere for a second growth (jointFromSphere).
-  const auto sphereFor = [&](int a, int b, const std::vector<std::int16_t>* labels) {
+  const auto sphereFor = [&](int a, int b, const std::vector<std::int16_t>* labels,
+                             bool refused = true) {
     if (!attempt || !options.jointFromSphere)
       return;
     report(options, 0.8, "joint sphere");
     std::vector<std::vector<Eigen::Vector3d>> seedsOf(names.size());
     for (std::size_t q = 0; q < seeds.size(); ++q)
       seedsOf[sz(boneOfSeed[q])].push_back(seeds[q].pointLps);
-    jointSphereShell(image, solid, joints, labels, a, b, names, seedsOf, options, attempt->shell,
-                     attempt->sphere);
+    jointSphereShell(image, solid, joints, labels, a, b, names, seedsOf, options, false,
+                     attempt->shell, attempt->sphere);
+    // Where the joint shows nowhere (a head pressed into its socket): the head's own surface.
+    if (refused)
+      jointSphereShell(image, solid, joints, labels, a, b, names, seedsOf, options, true,
+                       attempt->surfaceShell, attempt->surfaceSphere);
   };
 
   // 3. Seeds climb to the top of their hills (steepest ascent); the path is their marker.
@@ -1664,6 +1913,39 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
   compOf.shrink_to_fit();
   result.automaticNeighbours = static_cast<int>(autoMarkers.size());
 
+  // A sphere fitted to the ball's surface (no joint line showed) is a joint with a side for each
+  // bone: the bone voxels next to the shell over its cap are markers, inside it the ball's,
+  // outside it the socket's. Else the flood reached the socket's wall from the ball round the
+  // cap's rim before the socket's own flood did (the hip phantom at 5 mm with no joint space:
+  // the femur took the cup's wall). Not for a sphere fitted to the joint line: with the markers
+  // a sphere through the head's inside, 11 mm off, passed every check on the same scans.
+  if (shell && second->sphere.fromSurface) {
+    const JointSphere& js = second->sphere;
+    const auto indexOf = [&](const std::string& name) {
+      return static_cast<int>(std::find(names.begin(), names.end(), name) - names.begin());
+    };
+    const int ballIndex = indexOf(js.ball), socketIndex = indexOf(js.socket);
+    const double cosCap = std::cos(js.capDegrees * M_PI / 180.0);
+    for (std::size_t v = 0; v < shell->size(); ++v) {
+      if (!(*shell)[v] || !solid.voxels[v])
+        continue;
+      int i, j, k;
+      ijkOf(image, v, i, j, k);
+      forNeighbours(image, i, j, k, [&](std::size_t n) {
+        if ((*shell)[n] || !level[n])
+          return;
+        int a, b, c;
+        ijkOf(image, n, a, b, c);
+        const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(a, b, c)) - js.centreLps;
+        const double d = u.norm();
+        if (u.dot(js.axisLps) < cosCap * d)
+          return;
+        markers[sz(d < js.radiusMm ? ballIndex : socketIndex)].push_back(
+            static_cast<std::uint32_t>(n));
+      });
+    }
+  }
+
   // 5. The flood from the markers (Meyer): highest level first, first come first served.
   report(options, 0.65, "flood");
   std::vector<std::int16_t> label(level.size(), -1);
@@ -1762,6 +2044,31 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       // (a and b are roots: a pair's first label can have a larger root than its second).
       root[sz(std::max(a, b))] = std::min(a, b);
     }
+    if (second) {
+      // A growth with a sphere's shell: outside the sphere over its cap lies the socket
+      // (checkSphereSides), so a basin of its own there is the socket's (the hip phantom at 5 mm
+      // with no joint space: the cup's medial wall, split from the hip bone by its cortex).
+      const JointSphere& js = second->sphere;
+      const auto socket =
+          static_cast<int>(std::find(names.begin(), names.end(), js.socket) - names.begin());
+      const double cosCap = std::cos(js.capDegrees * M_PI / 180.0);
+      std::vector<std::size_t> beyond(root.size(), 0);
+      for (std::size_t v = 0; v < label.size(); ++v) {
+        if (label[v] < firstAuto)
+          continue;
+        int i, j, k;
+        ijkOf(image, v, i, j, k);
+        const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - js.centreLps;
+        const double d = u.norm();
+        if (d > js.radiusMm + options.jointSphereToleranceMm && d <= js.radiusMm + kSidesBandMm &&
+            u.dot(js.axisLps) >= cosCap * d)
+          ++beyond[sz(rootOf(label[v]))];
+      }
+      for (std::size_t r = sz(firstAuto); r < beyond.size(); ++r) {
+        if (beyond[r] > 0 && rootOf(static_cast<int>(r)) == static_cast<int>(r))
+          root[r] = socket;
+      }
+    }
     for (std::size_t i = 0; i < label.size(); ++i) {
       if (label[i] >= 0)
         label[i] = static_cast<std::int16_t>(rootOf(label[i]));
@@ -1789,7 +2096,7 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       // growth with its shell is tried (growBones) and kept where it passes.
       for (std::size_t a = 0; a < names.size() && attempt->shell.empty(); ++a) {
         for (std::size_t b = a + 1; b < names.size() && attempt->shell.empty(); ++b) {
-          sphereFor(static_cast<int>(a), static_cast<int>(b), &label);
+          sphereFor(static_cast<int>(a), static_cast<int>(b), &label, false);
           if (attempt->shell.empty())
             continue;
           try {
@@ -2139,23 +2446,42 @@ static CompetingResult growBones(const core::CtImage& grid, const std::vector<Bo
       return first;
     }
   } catch (const SeededPairRefused& refused) {
-    if (attempt.shell.empty())
+    if (attempt.shell.empty() && attempt.surfaceShell.empty())
       throw;
-    // The second growth refused too (any check): the first refusal stands, as it says what is
-    // wrong with the bones as the CT shows them, and says the sphere was tried.
-    CompetingResult result;
-    try {
-      result = segmentOnGrid(grid, seeds, options, &attempt, nullptr);
-    } catch (const std::invalid_argument&) {
-      throw SeededPairRefused(
-          fmt::format("{}; a sphere of {:.1f} mm fitted to the joint line as the {}'s head in the "
-                      "{}'s socket did not separate them either",
-                      refused.what(), attempt.sphere.radiusMm, attempt.sphere.ball,
-                      attempt.sphere.socket),
-          refused.first, refused.second);
+    // A second growth with the sphere fitted to the joint line, else one with the sphere fitted
+    // to the ball's surface; where both are refused (any check), the first refusal stands, as it
+    // says what is wrong with the bones as the CT shows them, and says the spheres were tried.
+    std::vector<const JointSphere*> tried;
+    for (const bool surface : {false, true}) {
+      SphereAttempt second;
+      second.shell = surface ? attempt.surfaceShell : attempt.shell;
+      second.sphere = surface ? attempt.surfaceSphere : attempt.sphere;
+      if (second.shell.empty())
+        continue;
+      try {
+        CompetingResult result = segmentOnGrid(grid, seeds, options, &second, nullptr);
+        result.jointSphere = second.sphere;
+        return result;
+      } catch (const std::invalid_argument&) {
+        tried.push_back(surface ? &attempt.surfaceSphere : &attempt.sphere);
+      }
     }
-    result.jointSphere = attempt.sphere;
-    return result;
+    const auto fitted = [](const JointSphere& s) {
+      return fmt::format("{:.1f} mm fitted to {}", s.radiusMm,
+                         s.fromSurface ? fmt::format("the {}'s head's surface", s.ball)
+                                       : std::string("the joint line"));
+    };
+    const JointSphere& first = *tried.front();
+    throw SeededPairRefused(
+        tried.size() == 1
+            ? fmt::format("{}; a sphere of {} as the {}'s head in the {}'s socket did not separate "
+                          "them either",
+                          refused.what(), fitted(first), first.ball, first.socket)
+            : fmt::format("{}; neither a sphere of {} as the {}'s head in the {}'s socket nor one "
+                          "of {} separated them",
+                          refused.what(), fitted(first), first.ball, first.socket,
+                          fitted(*tried.back())),
+        refused.first, refused.second);
   }
 }
 

@@ -132,11 +132,15 @@ struct CompetingOptions {
   /// it and lining it over the cap, the joint line over much of it), its shell over that cap
   /// becomes joint line and the bones are grown again, every check run again and the ball found
   /// inside the sphere, the socket outside; else, or when the second growth is refused too, the
-  /// first refusal stands. On slices of 4 mm or more the sphere is fitted after a growth that
-  /// passed too, and where the ball crosses it the second growth is kept if it passes. false:
-  /// off. Measured on the independent hip phantom at 5 mm: right 12 of 16 scans (before 6), the
-  /// 4 with no joint space refused; the femur off the cup's roof where the first growth passed
-  /// (docs/segmentation.md).
+  /// first refusal stands. Where that sphere does not separate them (no joint line shows: the
+  /// head pressed into its socket), a sphere is fitted to the ball's surface where the socket
+  /// does not cover it (a Hough transform over the surface voxels' gradients, then least
+  /// squares), its cap where bone lines it, and the bones are grown again with the shell's two
+  /// sides as markers. On slices of 4 mm or more the joint line's sphere is fitted after a
+  /// growth that passed too, and where the ball crosses it the second growth is kept if it
+  /// passes. false: off. Measured on the independent hip phantom at 5 mm: right 16 of 16 scans
+  /// (before 6; the 4 with no joint space by the surface's sphere); the femur off the cup's roof
+  /// where the first growth passed (docs/segmentation.md).
   bool jointFromSphere = true;
   double jointSphereMinRadiusMm = 12.0;
   double jointSphereMaxRadiusMm = 35.0;
@@ -206,6 +210,9 @@ struct JointSphere {
   Eigen::Vector3d axisLps = Eigen::Vector3d::Zero();  ///< the cap's centre direction
   double capDegrees = 0.0;                            ///< the shell's half angle about the axis
   std::size_t shellVoxels = 0;                        ///< voxels made joint line
+  /// Fitted to the ball's surface where it is not covered (no joint line showed), not to the
+  /// joint line: `inliers` and `points` count surface voxels.
+  bool fromSurface = false;
 };
 
 struct SegmentedBone {
