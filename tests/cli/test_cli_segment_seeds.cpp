@@ -335,19 +335,16 @@ TEST(CliSegmentSeeds, BonesMeetingAlongThickSlicesAreAWarning) {
   }
 }
 
-// The hip at 5 mm slices, the roof's joint between two slices (the independent hip phantom,
-// joint space 2 mm): the watershed alone is refused; segment separates the femur from the hip
-// bone at the head's sphere and says so (--json joint_sphere, a warning); --no-joint-sphere
-// refuses, writing nothing.
-TEST(CliSegmentSeeds, AHipSeparatedAtItsHeadsSphereIsAWarning) {
-  ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
+// The independent hip phantom at 5 mm slices written as a DICOM series into `dir`, and the
+// arguments of `segment` for the femur from a seed in each bone.
+std::vector<std::string> hipSegmentArgs(const std::string& femur, double gapMm, double phaseMm,
+                                        const test::TempDir& dir, test::HipPhantom& p) {
   test::HipPhantomOptions o;
   o.femurMesh = femur;
   o.sliceMm = 5.0;
-  o.jointGapMm = 2.0;
-  o.zPhaseMm = 2.5;
-  const test::HipPhantom p = test::makeHipPhantom(o);
-  const test::TempDir dir;
+  o.jointGapMm = gapMm;
+  o.zPhaseMm = phaseMm;
+  p = test::makeHipPhantom(o);
   simulation::DicomSeriesInfo info;
   info.patientId = "HIP";
   info.uidSeed = 15;
@@ -357,19 +354,30 @@ TEST(CliSegmentSeeds, AHipSeparatedAtItsHeadsSphereIsAWarning) {
   ct.sliceThicknessMm.assign(ct.slicePositionsMm.size(), o.sliceMm);
   simulation::writeDicomSeries(dir.file("ct"), ct, info);
   const auto text = [](double v) { return std::to_string(v); };
-  const std::vector<std::string> seeds = {"--seed",
-                                          "femur",
-                                          text(p.femurSeedLps.x()),
-                                          text(p.femurSeedLps.y()),
-                                          text(p.femurSeedLps.z()),
-                                          "--seed",
-                                          "left hip",
-                                          text(p.hipSeedLps.x()),
-                                          text(p.hipSeedLps.y()),
-                                          text(p.hipSeedLps.z())};
-  std::vector<std::string> args = {"segment", "--dicom", dir.file("ct"),
-                                   "--bone",  "femur",   "--auto"};
-  args.insert(args.end(), seeds.begin(), seeds.end());
+  return {"segment",
+          "--dicom",
+          dir.file("ct"),
+          "--bone",
+          "femur",
+          "--auto",
+          "--seed",
+          "femur",
+          text(p.femurSeedLps.x()),
+          text(p.femurSeedLps.y()),
+          text(p.femurSeedLps.z()),
+          "--seed",
+          "left hip",
+          text(p.hipSeedLps.x()),
+          text(p.hipSeedLps.y()),
+          text(p.hipSeedLps.z())};
+}
+
+// `segment --json` on the hip: the femur separated at a sphere about the head's centre, said in
+// `joint_sphere` (fitted to `fittedTo`) and in a warning holding `warning`; with
+// --no-joint-sphere refused, nothing written.
+void expectHipSeparatedAtASphere(const std::vector<std::string>& args, const test::TempDir& dir,
+                                 const test::HipPhantom& p, const std::string& fittedTo,
+                                 const std::string& warning) {
   std::vector<std::string> withSphere = args;
   withSphere.insert(withSphere.end(), {"--out", dir.file("femur.vtp"), "--json"});
   const auto r = runEchoreg(withSphere);
@@ -379,15 +387,14 @@ TEST(CliSegmentSeeds, AHipSeparatedAtItsHeadsSphereIsAWarning) {
   ASSERT_TRUE(sphere.is_object()) << json.dump();
   EXPECT_EQ(sphere["ball"], "femur");
   EXPECT_EQ(sphere["socket"], "left hip");
+  EXPECT_EQ(sphere["fitted_to"], fittedTo);
   const Eigen::Vector3d centre(sphere["centre_mm"][0].get<double>(),
                                sphere["centre_mm"][1].get<double>(),
                                sphere["centre_mm"][2].get<double>());
   EXPECT_LE((centre - p.headCentreLps).norm(), 6.0) << sphere.dump();
   bool warned = false;
   for (const auto& w : json["warnings"])
-    warned = warned || w.get<std::string>().find(
-                           "separated by a sphere fitted to the joint "
-                           "line") != std::string::npos;
+    warned = warned || w.get<std::string>().find(warning) != std::string::npos;
   EXPECT_TRUE(warned) << json["warnings"].dump();
   EXPECT_TRUE(fs::exists(dir.file("femur.vtp")));
 
@@ -398,6 +405,32 @@ TEST(CliSegmentSeeds, AHipSeparatedAtItsHeadsSphereIsAWarning) {
   EXPECT_NE(off.err.find("the femur and the left hip cannot be told apart"), std::string::npos)
       << off.err;
   EXPECT_FALSE(fs::exists(dir.file("refused.vtp")));
+}
+
+// The hip at 5 mm slices, the roof's joint between two slices (the independent hip phantom,
+// joint space 2 mm): the watershed alone is refused; segment separates the femur from the hip
+// bone at the head's sphere and says so (--json joint_sphere, a warning); --no-joint-sphere
+// refuses, writing nothing.
+TEST(CliSegmentSeeds, AHipSeparatedAtItsHeadsSphereIsAWarning) {
+  ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
+  const test::TempDir dir;
+  test::HipPhantom p;
+  const auto args = hipSegmentArgs(femur, 2.0, 2.5, dir, p);
+  expectHipSeparatedAtASphere(args, dir, p, "joint line",
+                              "separated by a sphere fitted to the joint line");
+}
+
+// The head pressed into its cup (no joint space): no joint line shows, and the sphere is fitted
+// to the head's surface; the warning says so.
+TEST(CliSegmentSeeds, AHeadPressedIntoItsCupIsSeparatedAtItsSurfacesSphereAndSaysSo) {
+  ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
+  const test::TempDir dir;
+  test::HipPhantom p;
+  const auto args = hipSegmentArgs(femur, 0.0, 2.5, dir, p);
+  expectHipSeparatedAtASphere(
+      args, dir, p, "surface",
+      "separated by a sphere fitted to the femur's head's surface where the left hip does not "
+      "cover it (no joint line showed)");
 }
 
 }  // namespace
