@@ -15,6 +15,7 @@
 #include <optional>
 #include <random>
 #include <stdexcept>
+#include <utility>
 
 namespace echoreg::segmentation {
 
@@ -773,6 +774,11 @@ constexpr double kSidesBandMm = 6.0;
 // dissertation's 5 mm; at 3 mm the joint shows along the slices).
 constexpr double kSphereAfterPassSpacingMm = 4.0;
 
+// The index of the bone named `name` in `names` (a JointSphere names its ball and socket).
+int boneIndex(const std::vector<std::string>& names, const std::string& name) {
+  return static_cast<int>(std::find(names.begin(), names.end(), name) - names.begin());
+}
+
 // The sphere through four points, or nothing when they are (nearly) on one plane.
 std::optional<std::pair<Eigen::Vector3d, double>> sphereThrough(const Eigen::Vector3d p[4]) {
   // |x|^2 + D x + E y + F z + G = 0 through each point.
@@ -1070,7 +1076,7 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
         continue;
       candidates.push_back({density, count, centre, radius});
     }
-    // Densest first; the first that passes the checks below is the ball.
+    // Densest first: of near-copies (kSameCandidateMm) the densest is the one checked.
     std::stable_sort(candidates.begin(), candidates.end(),
                      [](const Candidate& x, const Candidate& y) { return x.density > y.density; });
   }
@@ -1097,15 +1103,12 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
     if (axis.norm() < 1e-9)
       return false;
     axis.normalize();
-    const auto percentile95 = [](std::vector<double>& values) {
-      const auto at = values.begin() + static_cast<std::ptrdiff_t>((values.size() - 1) * 19 / 20);
-      std::nth_element(values.begin(), at, values.end());
-      return *at;
-    };
     std::vector<double> angles;
     for (const Eigen::Vector3d& u : directions)
       angles.push_back(std::acos(std::clamp(u.dot(axis), -1.0, 1.0)) * 180.0 / M_PI);
-    const double spread = percentile95(angles);
+    const auto at = angles.begin() + static_cast<std::ptrdiff_t>((angles.size() - 1) * 19 / 20);
+    std::nth_element(angles.begin(), at, angles.end());
+    const double spread = *at;
     if (spread < options.jointSphereMinCapDegrees)
       return false;
     double capDegrees = std::min(spread + 10.0, 90.0);
@@ -1115,11 +1118,10 @@ bool jointSphereShell(const core::CtImage& image, const VoxelMask& solid,
     if (label && labelAt(bestCentre) != ball)
       return false;
     if (fromSurface) {
-      // The ball's surface shows where no socket covers it: the cap lies the other way, out to
-      // the angle within which 95 % of the bone outside the sphere lies (the lining), and 10
-      // degrees more, at most a hemisphere.
-      // The axis: from the side the surface shows on, the mean direction of the lining in the
-      // hemisphere about it, a few times (the neck's bone, beside the surface, drops out).
+      // The ball's surface shows where no socket covers it: the cap lies the other way. Its
+      // axis: from the side opposite the surface, the mean direction of the bone lining the
+      // sphere (the band kSocketWallMm outside it) in the hemisphere about it, a few times (the
+      // neck's bone, beside the surface, drops out).
       std::vector<std::pair<Eigen::Vector3d, bool>> band;  // direction, bone
       Eigen::Vector3i lo, hi;
       sphereBox(image, centreVoxel, bestRadius + kSocketWallMm, lo, hi);
@@ -1514,10 +1516,7 @@ std::vector<SliceContact> contactsAlongSlices(const core::CtImage& ct,
 void checkSphereSides(const core::CtImage& image, const std::vector<std::int16_t>& label,
                       const std::vector<std::string>& names, const JointSphere& sphere,
                       const CompetingOptions& options) {
-  const auto indexOf = [&](const std::string& name) {
-    return static_cast<int>(std::find(names.begin(), names.end(), name) - names.begin());
-  };
-  const int ball = indexOf(sphere.ball), socket = indexOf(sphere.socket);
+  const int ball = boneIndex(names, sphere.ball), socket = boneIndex(names, sphere.socket);
   const Eigen::Vector3d spacing = image.spacingMm();
   const Eigen::Vector3d centreVoxel = image.lpsToVoxel(sphere.centreLps);
   const double cosCap = std::cos(sphere.capDegrees * M_PI / 180.0);
@@ -1921,10 +1920,7 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
   // a sphere through the head's inside, 11 mm off, passed every check on the same scans.
   if (shell && second->sphere.fromSurface) {
     const JointSphere& js = second->sphere;
-    const auto indexOf = [&](const std::string& name) {
-      return static_cast<int>(std::find(names.begin(), names.end(), name) - names.begin());
-    };
-    const int ballIndex = indexOf(js.ball), socketIndex = indexOf(js.socket);
+    const int ballIndex = boneIndex(names, js.ball), socketIndex = boneIndex(names, js.socket);
     const double cosCap = std::cos(js.capDegrees * M_PI / 180.0);
     for (std::size_t v = 0; v < shell->size(); ++v) {
       if (!(*shell)[v] || !solid.voxels[v])
@@ -2049,8 +2045,7 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       // (checkSphereSides), so a basin of its own there is the socket's (the hip phantom at 5 mm
       // with no joint space: the cup's medial wall, split from the hip bone by its cortex).
       const JointSphere& js = second->sphere;
-      const auto socket =
-          static_cast<int>(std::find(names.begin(), names.end(), js.socket) - names.begin());
+      const int socket = boneIndex(names, js.socket);
       const double cosCap = std::cos(js.capDegrees * M_PI / 180.0);
       std::vector<std::size_t> beyond(root.size(), 0);
       for (std::size_t v = 0; v < label.size(); ++v) {
@@ -2454,7 +2449,7 @@ static CompetingResult growBones(const core::CtImage& grid, const std::vector<Bo
     std::vector<const JointSphere*> tried;
     for (const bool surface : {false, true}) {
       SphereAttempt second;
-      second.shell = surface ? attempt.surfaceShell : attempt.shell;
+      second.shell = std::move(surface ? attempt.surfaceShell : attempt.shell);
       second.sphere = surface ? attempt.surfaceSphere : attempt.sphere;
       if (second.shell.empty())
         continue;
