@@ -2586,4 +2586,19 @@ CompetingResult segmentCompetingBones(const core::CtImage& image,
   return finish(std::move(result));
 }
 
+std::optional<SphereCut> sphereCutFor(const CompetingResult& result, const std::string& bone) {
+  if (!result.jointSphere || !result.jointSphere->fromSurface)
+    return std::nullopt;
+  const JointSphere& js = *result.jointSphere;
+  if (bone != js.ball && bone != js.socket)
+    return std::nullopt;
+  SphereCut cut;
+  cut.centreLps = js.centreLps;
+  cut.radiusMm = js.radiusMm;
+  cut.axisLps = js.axisLps;
+  cut.capDegrees = js.capDegrees;
+  cut.keepInside = bone == js.ball;
+  return cut;
+}
+
 }  // namespace echoreg::segmentation

@@ -198,6 +198,38 @@ void maskBounds(const VoxelMask& mask, int pad, Eigen::Vector3i& lo, Eigen::Vect
   hi.array() += pad;
 }
 
+// SphereCut: over the cap, the band's voxels within a voxel of the sphere take at most the value
+// that falls linearly from `high` a voxel inside the kept side to `low` a voxel beyond it
+// (crossing half way on the sphere), from what the CT says there (`ctValue`, the other bone's
+// voxels included: on the kept side they are this bone's up to the sphere).
+template <typename F>
+void cutBySphere(const core::CtImage& ct, const VoxelMask& band, const Eigen::Vector3i& lo,
+                 const Eigen::Vector3i& hi, const SphereCut& cut, std::vector<float>& field,
+                 float low, float high, F ctValue) {
+  const auto& d = ct.dimensions;
+  const std::array<int, 3> dims{hi.x() - lo.x() + 1, hi.y() - lo.y() + 1, hi.z() - lo.z() + 1};
+  const double reach = ct.spacingMm().maxCoeff();
+  const double cosCap = std::cos(cut.capDegrees * M_PI / 180.0);
+  for (int k = std::max(lo.z(), 0); k <= std::min(hi.z(), d[2] - 1); ++k) {
+    for (int j = std::max(lo.y(), 0); j <= std::min(hi.y(), d[1] - 1); ++j) {
+      for (int i = std::max(lo.x(), 0); i <= std::min(hi.x(), d[0] - 1); ++i) {
+        if (!band.voxels[ct.index(i, j, k)])
+          continue;
+        const Eigen::Vector3d u = ct.voxelToLps(Eigen::Vector3d(i, j, k)) - cut.centreLps;
+        const double r = u.norm();
+        const double kept = cut.keepInside ? cut.radiusMm - r : r - cut.radiusMm;
+        if (std::fabs(kept) > reach || u.dot(cut.axisLps) < cosCap * r)
+          continue;
+        const double share = std::clamp(0.5 + 0.5 * kept / reach, 0.0, 1.0);
+        const float bound = static_cast<float>(low + share * (high - low));
+        float& value =
+            field[(sz(k - lo.z()) * sz(dims[1]) + sz(j - lo.y())) * sz(dims[0]) + sz(i - lo.x())];
+        value = std::min(ctValue(i, j, k), bound);
+      }
+    }
+  }
+}
+
 }  // namespace
 
 Eigen::Vector3d morphologyRadiiMm(const Eigen::Vector3d& spacingMm, double mm, double voxels) {
@@ -291,28 +323,31 @@ BoneSurfaceResult boneSurface(const core::CtImage& ct, const VoxelMask& region,
           disc.push_back({a, b});
       }
     }
+    // The brightest of this slice's region and band within the radius, at least the bone's one
+    // level: thin cortices and slabs of cancellous bone keep the one level.
+    const auto bandValue = [&](int i, int j, int k) {
+      double top = std::max(soft + options.localMinContrastHu, levels.cortexHu);
+      for (const auto& [da, db] : disc) {
+        const int a = i + da, b = j + db;
+        if (a < 0 || a >= d[0] || b < 0 || b >= d[1])
+          continue;
+        const std::size_t n = ct.index(a, b, k);
+        if (counts(n))
+          top = std::max(top, static_cast<double>(ct.hu[n]));
+      }
+      return static_cast<float>(
+          std::clamp((ct.hu[ct.index(i, j, k)] - soft) / (top - soft), 0.0, 1.0));
+    };
     std::vector<float> field(sz(dims[0]) * sz(dims[1]) * sz(dims[2]), 0.0f);
     for (int k = std::max(lo.z(), 0); k <= std::min(hi.z(), d[2] - 1); ++k) {
       for (int j = std::max(lo.y(), 0); j <= std::min(hi.y(), d[1] - 1); ++j) {
         for (int i = std::max(lo.x(), 0); i <= std::min(hi.x(), d[0] - 1); ++i) {
           const std::size_t v = ct.index(i, j, k);
           float value = 0.0f;
-          if (interior.voxels[v]) {
+          if (interior.voxels[v])
             value = 1.0f;
-          } else if (counts(v)) {
-            // The brightest of this slice's region and band within the radius, at least the
-            // bone's one level: thin cortices and slabs of cancellous bone keep the one level.
-            double top = std::max(soft + options.localMinContrastHu, levels.cortexHu);
-            for (const auto& [da, db] : disc) {
-              const int a = i + da, b = j + db;
-              if (a < 0 || a >= d[0] || b < 0 || b >= d[1])
-                continue;
-              const std::size_t n = ct.index(a, b, k);
-              if (counts(n))
-                top = std::max(top, static_cast<double>(ct.hu[n]));
-            }
-            value = static_cast<float>(std::clamp((ct.hu[v] - soft) / (top - soft), 0.0, 1.0));
-          }
+          else if (counts(v))
+            value = bandValue(i, j, k);
           field[(sz(k - lo.z()) * sz(dims[1]) + sz(j - lo.y())) * sz(dims[0]) + sz(i - lo.x())] =
               value;
         }
@@ -340,6 +375,12 @@ BoneSurfaceResult boneSurface(const core::CtImage& ct, const VoxelMask& region,
             zEndFieldValue(end.flatEnd && region.voxels[end.voxel] ? 1.0 : end.share));
       }
     }
+    if (options.sphereCut) {
+      cutBySphere(ct, band, lo, hi, *options.sphereCut, field, 0.0f, 1.0f,
+                  [&](int i, int j, int k) {
+                    return interior.voxels[ct.index(i, j, k)] ? 1.0f : bandValue(i, j, k);
+                  });
+    }
     BoneSurfaceResult result = contourField(field, dims, lo, ct, 0.5, options, iso);
     result.isoHu = iso;
     result.cortexHu = levels.cortexHu;
@@ -361,6 +402,12 @@ BoneSurfaceResult boneSurface(const core::CtImage& ct, const VoxelMask& region,
             value;
       }
     }
+  }
+  if (options.sphereCut) {
+    cutBySphere(ct, band, lo, hi, *options.sphereCut, field, low, high, [&](int i, int j, int k) {
+      const std::size_t v = ct.index(i, j, k);
+      return interior.voxels[v] ? high : std::clamp(static_cast<float>(ct.hu[v]), low, high);
+    });
   }
   BoneSurfaceResult result = contourField(field, dims, lo, ct, iso, options, iso);
   result.cortexHu = levels.cortexHu;

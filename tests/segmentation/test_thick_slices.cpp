@@ -494,6 +494,92 @@ TEST(ThickSlices, EndSharesOfABlock) {
   EXPECT_THROW(segmentation::zEndShares(twoGroups, nullptr), std::invalid_argument);
 }
 
+// A ball pressed into its socket on 5 mm slices (1 mm pixels): bone on both sides of the joint,
+// so each bone's voxels end where the other's begin and the surface over the joint followed
+// that boundary, a staircase of slabs. With the sphere as a bound over the cap (SphereCut) each
+// bone's surface there is the sphere; nothing changes beyond the cap.
+TEST(ThickSlices, ASphereBoundsABallPressedIntoItsSocket) {
+  const core::CtImage grid = fiveMillimetreGrid(60, 60, 16);
+  core::CtImage ct = grid;
+  const Eigen::Vector3d centre(29.5, 29.5, 37.0);
+  const double radius = 15.0;
+  const auto bone = [&](const Eigen::Vector3d& q) {
+    const bool inBox =
+        q.x() > 8 && q.x() < 51 && q.y() > 8 && q.y() < 51 && q.z() > 5 && q.z() < 70;
+    return (q - centre).norm() < radius || (inBox && q.z() >= centre.z());
+  };
+  ct.hu.assign(ct.voxelCount(), 0);
+  segmentation::VoxelMask ball = segmentation::emptyMask(ct), socket = ball;
+  for (int k = 0; k < 16; ++k) {
+    for (int j = 0; j < 60; ++j) {
+      for (int i = 0; i < 60; ++i) {
+        int inside = 0;
+        for (int c = 0; c < 3 * 3 * 9; ++c) {
+          const Eigen::Vector3d q((i - 1.0 / 3.0) + (c % 3) / 3.0,
+                                  (j - 1.0 / 3.0) + (c / 3 % 3) / 3.0,
+                                  5.0 * k - 20.0 / 9.0 + (c / 9) * 5.0 / 9.0);
+          inside += bone(q) ? 1 : 0;
+        }
+        const std::size_t v = ct.index(i, j, k);
+        ct.hu[v] = static_cast<std::int16_t>(std::lround(1000.0 * inside / 81.0));
+        if (ct.hu[v] < 500)
+          continue;
+        const bool inBall = (ct.voxelToLps(Eigen::Vector3d(i, j, k)) - centre).norm() < radius;
+        (inBall ? ball : socket).voxels[v] = 1;
+      }
+    }
+  }
+  segmentation::SphereCut cut;
+  cut.centreLps = centre;
+  cut.radiusMm = radius;
+  cut.axisLps = Eigen::Vector3d::UnitZ();
+  cut.capDegrees = 90.0;
+  // The mean distance from the sphere of the surface's vertices over the cap (10 degrees in from
+  // its rim), within 4 mm of it.
+  const auto offSphere = [&](const core::TriangleMesh& mesh) {
+    double sum = 0.0;
+    int count = 0;
+    for (const Eigen::Vector3d& v : mesh.vertices) {
+      const Eigen::Vector3d u = v - centre;
+      if (std::fabs(u.norm() - radius) > 4.0 || u.z() < std::sin(10.0 * M_PI / 180.0) * u.norm())
+        continue;
+      sum += std::fabs(u.norm() - radius);
+      ++count;
+    }
+    EXPECT_GT(count, 100);
+    return sum / std::max(count, 1);
+  };
+  for (const bool keepInside : {true, false}) {
+    const segmentation::VoxelMask& region = keepInside ? ball : socket;
+    const segmentation::VoxelMask& other = keepInside ? socket : ball;
+    segmentation::BoneSurfaceOptions options;
+    const double before = offSphere(segmentation::boneSurface(ct, region, &other, options).mesh);
+    cut.keepInside = keepInside;
+    options.sphereCut = cut;
+    const auto bounded = segmentation::boneSurface(ct, region, &other, options);
+    const double after = offSphere(bounded.mesh);
+    std::cout << "[ measured ] a " << (keepInside ? "ball" : "socket")
+              << " on 5 mm slices, its surface over the joint from the sphere: " << before
+              << " mm from the voxels, " << after << " mm bounded by the sphere\n";
+    EXPECT_LE(after, 0.2) << (keepInside ? "ball" : "socket");
+    EXPECT_GE(before, 2.0 * after) << (keepInside ? "ball" : "socket");
+    EXPECT_TRUE(core::checkMesh(bounded.mesh).closed());
+  }
+  // The ball's lower half (outside the cap) is the CT's: the same with and without the bound.
+  segmentation::BoneSurfaceOptions options;
+  const auto free = segmentation::boneSurface(ct, ball, &socket, options).mesh;
+  cut.keepInside = true;
+  options.sphereCut = cut;
+  const auto bounded = segmentation::boneSurface(ct, ball, &socket, options).mesh;
+  const core::MeshLocator freeSurface(free);
+  double worst = 0.0;
+  for (const Eigen::Vector3d& v : bounded.vertices) {
+    if (v.z() < centre.z() - 8.0)
+      worst = std::max(worst, freeSurface.closest(v).distance);
+  }
+  EXPECT_LE(worst, 0.05);
+}
+
 // The joint's slab (joint_slabs.hpp) on a hand-made pair of bones along z (1 mm pixels, 5 mm
 // slices): the upper bone (1000 HU) was given its slab next to the lower one though it reads 200
 // HU (0.2 of its inward voxel above the soft tissue at 0 HU: the joint space); it goes to the

@@ -11,6 +11,7 @@
 
 #include "echoreg/core/ct_image.hpp"
 #include "echoreg/segmentation/bone_mask.hpp"
+#include "echoreg/segmentation/bone_surface.hpp"
 #include "echoreg/segmentation/livewire_contours.hpp"
 
 #include <Eigen/Core>
@@ -257,6 +258,13 @@ struct CompetingResult {
 CompetingResult segmentCompetingBones(const core::CtImage& image,
                                       const std::vector<BoneSeed>& seeds,
                                       const CompetingOptions& options = {});
+
+/// The sphere that bounds `bone`'s model over its joint (BoneSurfaceOptions::sphereCut): where
+/// `result`'s joint sphere was fitted to the ball's surface (no joint showed: the CT leaves the
+/// bones' boundary there to the voxels each was given) and `bone` is its ball or its socket.
+/// Empty otherwise (a sphere fitted to the joint line lies in the joint space the CT shows, and
+/// can lie a slice off at the head's pole: the CT places the surfaces there).
+std::optional<SphereCut> sphereCutFor(const CompetingResult& result, const std::string& bone);
 
 /// Where the automatic boundary of a bone is uncertain, per slice of a plane family: the part of
 /// the region's boundary (its voxels with a 6-neighbour outside it) that touches another bone

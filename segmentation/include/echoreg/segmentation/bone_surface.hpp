@@ -14,9 +14,27 @@
 #include "echoreg/segmentation/end_shares.hpp"
 #include "echoreg/segmentation/joint_slabs.hpp"
 
+#include <Eigen/Core>
+
 #include <cstddef>
+#include <optional>
 
 namespace echoreg::segmentation {
+
+/// A sphere that bounds the bone over a cap about an axis: the joint of a ball and its socket
+/// where the CT shows none (a head pressed into its cup on thick slices; the sphere fitted to the
+/// head's surface, CompetingResult::jointSphere, sphereCutFor in bone_labels.hpp). Over the cap,
+/// within one voxel of the sphere, the field is at most what puts its crossing on the sphere
+/// (linear in the distance to it, so trilinear interpolation keeps it there), and the other
+/// bone's voxels there are read from the CT instead of as soft tissue: the model's surface over
+/// the joint is the sphere, not the boundary of the voxels each bone was given.
+struct SphereCut {
+  Eigen::Vector3d centreLps = Eigen::Vector3d::Zero();
+  double radiusMm = 0.0;
+  Eigen::Vector3d axisLps = Eigen::Vector3d::UnitZ();  ///< unit, the cap's centre direction
+  double capDegrees = 0.0;                             ///< the cap's half angle about the axis
+  bool keepInside = true;  ///< the ball keeps what lies inside, the socket what lies outside
+};
 
 struct BoneSurfaceOptions {
   /// Iso level, HU; 0 chooses half way between the cortex (median of the region's voxels above
@@ -66,6 +84,8 @@ struct BoneSurfaceOptions {
   /// as before (on the simulated knee at 5 mm the tibia's MSD 0.300 -> 0.298 mm on seed 9, 0.299
   /// -> 0.285 on seed 11). 0: the region's own sections.
   double jointSlabShare = 0.6;
+  /// Where given, the bone is bounded by this sphere over its cap (SphereCut).
+  std::optional<SphereCut> sphereCut;
   /// Windowed-sinc smoothing (Taubin): iterations (0: none) and pass band (0-2, lower smooths
   /// more).
   int smoothingIterations = 10;
