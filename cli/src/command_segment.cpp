@@ -30,6 +30,7 @@
 #include <filesystem>
 #include <map>
 #include <memory>
+#include <optional>
 #include <ostream>
 #include <stdexcept>
 
@@ -327,6 +328,9 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   // for the uncertain slices of --anchors-where uncertain.
   std::vector<std::pair<std::string, seg::VoxelMask>> neighbourMasks;
   nlohmann::json modeJson;
+  // Where a head pressed into its socket was separated at its surface's sphere, the model is
+  // bounded by it over the joint (BoneSurfaceOptions::sphereCut).
+  std::optional<seg::SphereCut> sphereCut;
   if (o.automatic && o.method == "erosion") {
     nlohmann::json seedsJson = nlohmann::json::array();
     seg::VoxelMask others;
@@ -423,6 +427,10 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
     nlohmann::json sphereJson = nullptr;
     if (bones.jointSphere) {
       const seg::JointSphere& js = *bones.jointSphere;
+      // The model is one of the two (not both, as one model): corrections by the user's
+      // contours decide the region there themselves.
+      if (isTarget(o, js.ball) != isTarget(o, js.socket) && o.corrections.empty())
+        sphereCut = seg::sphereCutFor(bones, isTarget(o, js.ball) ? js.ball : js.socket);
       sphereJson = {{"ball", js.ball},
                     {"socket", js.socket},
                     {"centre_mm", vec(js.centreLps)},
@@ -433,7 +441,8 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                     {js.fromSurface ? "surface_voxels" : "joint_line_voxels", js.points},
                     {"axis", vec(js.axisLps)},
                     {"cap_degrees", js.capDegrees},
-                    {"shell_voxels", js.shellVoxels}};
+                    {"shell_voxels", js.shellVoxels},
+                    {"bounds_model", sphereCut.has_value()}};
       warnings.push_back(fmt::format(
           "the {} and the {} were not told apart by the CT where their joint lies along the "
           "slices (refused, or the {} ran across the joint): they were separated by a sphere "
@@ -449,6 +458,13 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
           js.inliers, js.points, js.fromSurface ? "surface" : "joint-line",
           competing.jointSphereToleranceMm, js.radiusMm, js.centreLps.x(), js.centreLps.y(),
           js.centreLps.z(), js.capDegrees, js.socket));
+      if (sphereCut) {
+        warnings.back() =
+            warnings.back().get<std::string>() +
+            fmt::format(
+                "; the {}'s surface over the joint is that sphere (the CT shows no joint there)",
+                isTarget(o, js.ball) ? js.ball : js.socket);
+      }
     }
     nlohmann::json metalJson = nlohmann::json::array();
     for (const seg::MetalPiece& m : bones.metal) {
@@ -586,6 +602,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
   surfaceOptions.bandMm = o.bandMm;
   surfaceOptions.smoothingIterations = o.smoothing;
   surfaceOptions.targetTriangles = static_cast<std::size_t>(std::max(0, o.targetTriangles));
+  surfaceOptions.sphereCut = sphereCut;
   seg::BoneSurfaceResult surface;
   try {
     surface = o.noRefine ? seg::maskSurface(region, 0.6, surfaceOptions)
