@@ -1559,11 +1559,40 @@ void checkSphereSides(const core::CtImage& image, const std::vector<std::int16_t
   }
 }
 
+// The labels from `firstAuto` on (neighbours found automatically) with voxels in the band
+// outside `sphere` over its cap (beyond its tolerance, within kSidesBandMm): where the socket
+// lies (checkSphereSides).
+std::vector<int> basinsBeyond(const core::CtImage& image, const std::vector<std::int16_t>& label,
+                              int firstAuto, const JointSphere& sphere, double toleranceMm) {
+  const double cosCap = std::cos(sphere.capDegrees * M_PI / 180.0);
+  std::vector<int> found;
+  Eigen::Vector3i lo, hi;
+  sphereBox(image, image.lpsToVoxel(sphere.centreLps), sphere.radiusMm + kSidesBandMm, lo, hi);
+  for (int k = lo.z(); k <= hi.z(); ++k) {
+    for (int j = lo.y(); j <= hi.y(); ++j) {
+      for (int i = lo.x(); i <= hi.x(); ++i) {
+        const std::int16_t l = label[image.index(i, j, k)];
+        if (l < firstAuto || std::find(found.begin(), found.end(), l) != found.end())
+          continue;
+        const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - sphere.centreLps;
+        const double d = u.norm();
+        if (d > sphere.radiusMm + toleranceMm && d <= sphere.radiusMm + kSidesBandMm &&
+            u.dot(sphere.axisLps) >= cosCap * d)
+          found.push_back(l);
+      }
+    }
+  }
+  return found;
+}
+
 // What a refused growth leaves for a second one (CompetingOptions::jointFromSphere).
 struct SphereAttempt {
   std::vector<std::uint8_t> shell;  // empty: no sphere fitted
   JointSphere sphere;
   bool afterPass = false;  // fitted after a growth that passed, whose ball crosses the sphere
+  // After a growth that passed: the ball's surface sphere, beyond which over its cap an
+  // automatic neighbour was found (now the socket's), and which the ball crosses.
+  bool afterPassSurface = false;
   // Where a refused growth leaves it: the ball's sphere fitted to its surface (empty: none).
   std::vector<std::uint8_t> surfaceShell;
   JointSphere surfaceSphere;
@@ -2044,25 +2073,13 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       // A growth with a sphere's shell: outside the sphere over its cap lies the socket
       // (checkSphereSides), so a basin of its own there is the socket's (the hip phantom at 5 mm
       // with no joint space: the cup's medial wall, split from the hip bone by its cortex).
-      const JointSphere& js = second->sphere;
-      const int socket = boneIndex(names, js.socket);
-      const double cosCap = std::cos(js.capDegrees * M_PI / 180.0);
-      std::vector<std::size_t> beyond(root.size(), 0);
-      for (std::size_t v = 0; v < label.size(); ++v) {
-        if (label[v] < firstAuto)
-          continue;
-        int i, j, k;
-        ijkOf(image, v, i, j, k);
-        const Eigen::Vector3d u = image.voxelToLps(Eigen::Vector3d(i, j, k)) - js.centreLps;
-        const double d = u.norm();
-        if (d > js.radiusMm + options.jointSphereToleranceMm && d <= js.radiusMm + kSidesBandMm &&
-            u.dot(js.axisLps) >= cosCap * d)
-          ++beyond[sz(rootOf(label[v]))];
-      }
-      for (std::size_t r = sz(firstAuto); r < beyond.size(); ++r) {
-        if (beyond[r] > 0 && rootOf(static_cast<int>(r)) == static_cast<int>(r))
-          root[r] = socket;
-      }
+      const int socket = boneIndex(names, second->sphere.socket);
+      std::vector<std::int16_t> roots(label.size());
+      for (std::size_t v = 0; v < label.size(); ++v)
+        roots[v] = label[v] >= 0 ? static_cast<std::int16_t>(rootOf(label[v])) : label[v];
+      for (const int r :
+           basinsBeyond(image, roots, firstAuto, second->sphere, options.jointSphereToleranceMm))
+        root[sz(r)] = socket;
     }
     for (std::size_t i = 0; i < label.size(); ++i) {
       if (label[i] >= 0)
@@ -2073,14 +2090,18 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
       for (std::uint32_t m : markers[b])
         topMm[b] = std::max(topMm[b], levelOf(m) * kLevelMm);
     }
-    try {
-      checkSeededBoundaries(
-          image, label, static_cast<int>(firstAuto), names, inside, jointFace,
-          [&](std::size_t v) { return levelOf(v) * kLevelMm; }, topMm, options, maxSpacing);
-    } catch (const SeededPairRefused& refused) {
-      sphereFor(refused.first, refused.second, &label);
-      throw;
-    }
+    // The seeded bones' boundaries; where refused, the spheres for a second growth first.
+    const auto checkBoundaries = [&] {
+      try {
+        checkSeededBoundaries(
+            image, label, static_cast<int>(firstAuto), names, inside, jointFace,
+            [&](std::size_t v) { return levelOf(v) * kLevelMm; }, topMm, options, maxSpacing);
+      } catch (const SeededPairRefused& refused) {
+        sphereFor(refused.first, refused.second, &label);
+        throw;
+      }
+    };
+    checkBoundaries();
     if (second) {
       checkSphereSides(image, label, names, second->sphere, options);
     } else if (attempt && maxSpacing >= kSphereAfterPassSpacingMm) {
@@ -2099,6 +2120,62 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
             attempt->shell.clear();  // the ball already lies inside it
           } catch (const std::invalid_argument&) {
             attempt->afterPass = true;
+          }
+        }
+      }
+      // A neighbour found automatically beyond the ball's surface sphere, over its cap, is a
+      // piece of the socket the watershed kept apart (the hip phantom at 5 mm, a joint space of
+      // 1 mm, slices a quarter off: 34 cm^3 of the cup's wall and ilium, its boundary with the hip
+      // bone joint-like, written without a word). It joins the socket, and where the ball
+      // crosses that sphere a growth with it is tried as well (growBones).
+      bool kept = false;
+      for (int l = firstAuto; l < labels && l < static_cast<int>(root.size()); ++l)
+        kept = kept || rootOf(l) == l;
+      for (std::size_t a = 0; kept && a < names.size() && !attempt->afterPassSurface; ++a) {
+        for (std::size_t b = a + 1; b < names.size() && !attempt->afterPassSurface; ++b) {
+          std::vector<std::vector<Eigen::Vector3d>> seedsOf(names.size());
+          for (std::size_t q = 0; q < seeds.size(); ++q)
+            seedsOf[sz(boneOfSeed[q])].push_back(seeds[q].pointLps);
+          std::vector<std::uint8_t> surfaceShell;
+          JointSphere surface;
+          if (!jointSphereShell(image, solid, joints, &label, static_cast<int>(a),
+                                static_cast<int>(b), names, seedsOf, options, true, surfaceShell,
+                                surface))
+            continue;
+          std::vector<int> beyond =
+              basinsBeyond(image, label, firstAuto, surface, options.jointSphereToleranceMm);
+          const auto socket = static_cast<std::int16_t>(boneIndex(names, surface.socket));
+          // ... and touching the socket (a piece of it).
+          if (!beyond.empty()) {
+            std::vector<int> touching;
+            forEachLabelFace(image, label, [&](std::size_t v, std::size_t n, int) {
+              const int other = label[v] == socket ? label[n] : label[n] == socket ? label[v] : -1;
+              if (other >= firstAuto &&
+                  std::find(touching.begin(), touching.end(), other) == touching.end())
+                touching.push_back(other);
+            });
+            beyond.erase(std::remove_if(beyond.begin(), beyond.end(),
+                                        [&](int r) {
+                                          return std::find(touching.begin(), touching.end(), r) ==
+                                                 touching.end();
+                                        }),
+                         beyond.end());
+          }
+          if (beyond.empty())
+            continue;
+          for (const int r : beyond)
+            root[sz(r)] = socket;
+          for (std::int16_t& l : label) {
+            if (l >= firstAuto && root[sz(l)] == socket)
+              l = socket;
+          }
+          checkBoundaries();
+          try {
+            checkSphereSides(image, label, names, surface, options);
+          } catch (const std::invalid_argument&) {
+            attempt->surfaceShell = std::move(surfaceShell);
+            attempt->surfaceSphere = surface;
+            attempt->afterPassSurface = true;
           }
         }
       }
@@ -2430,16 +2507,23 @@ static CompetingResult growBones(const core::CtImage& grid, const std::vector<Bo
   SphereAttempt attempt;
   try {
     CompetingResult first = segmentOnGrid(grid, seeds, options, nullptr, &attempt);
-    if (!attempt.afterPass)
-      return first;
-    // The first growth passed; the sphere's is kept only where it passes too.
-    try {
-      CompetingResult result = segmentOnGrid(grid, seeds, options, &attempt, nullptr);
-      result.jointSphere = attempt.sphere;
-      return result;
-    } catch (const std::invalid_argument&) {
-      return first;
+    // The first growth passed; a sphere's is kept only where it passes too: the joint line's,
+    // else the ball's surface's.
+    for (const bool surface : {false, true}) {
+      if (!(surface ? attempt.afterPassSurface : attempt.afterPass))
+        continue;
+      SphereAttempt second;
+      second.shell = std::move(surface ? attempt.surfaceShell : attempt.shell);
+      second.sphere = surface ? attempt.surfaceSphere : attempt.sphere;
+      try {
+        CompetingResult result = segmentOnGrid(grid, seeds, options, &second, nullptr);
+        result.jointSphere = second.sphere;
+        result.jointSphere->afterPass = true;
+        return result;
+      } catch (const std::invalid_argument&) {
+      }
     }
+    return first;
   } catch (const SeededPairRefused& refused) {
     if (attempt.shell.empty() && attempt.surfaceShell.empty())
       throw;

@@ -28,6 +28,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <tuple>
 
 namespace {
 
@@ -286,6 +287,25 @@ TEST(HipPhantom, AtFiveMillimetresAFemurOnTheCupsRoofIsTakenBackToTheHeadsSphere
     ASSERT_TRUE(sphere.has_value()) << "joint space " << gap << " mm";
     EXPECT_EQ(sphere->ball, "femur");
     EXPECT_LE((sphere->centreLps - head).norm(), 6.0);
+  }
+}
+
+// A piece of the hip bone kept apart as a neighbour found automatically, beyond the head (5 mm
+// slices a quarter slice off the anatomy with a joint space of 1 mm; 6 mm with 2 mm): its
+// boundary with the hip bone looked like a joint, and the growth passed every check with 34 cm^3
+// of the cup's wall and ilium left out (hip bone MSD 2.09 mm, p95 15; 6 mm: 2.13, p95 14) and the
+// femur across the cup's roof (0.72 mm; 0.94). A neighbour beyond the sphere fitted to the
+// head's surface, over its cap, is the socket's, and the femur is grown again with that sphere.
+TEST(HipPhantom, AHipBonePieceKeptApartBeyondTheHeadsSphereJoinsIt) {
+  ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
+  for (const auto& [slice, gap, phase] : {std::tuple{5.0, 1.0, 1.25}, std::tuple{6.0, 2.0, 3.0}}) {
+    std::optional<segmentation::JointSphere> sphere;
+    Eigen::Vector3d head;
+    expectBothBones(femur, slice, gap, phase, 0.5, &sphere, &head);
+    ASSERT_TRUE(sphere.has_value()) << slice << " mm slices";
+    EXPECT_TRUE(sphere->fromSurface);
+    EXPECT_EQ(sphere->ball, "femur");
+    EXPECT_LE((sphere->centreLps - head).norm(), 2.0);
   }
 }
 

@@ -214,6 +214,9 @@ struct JointSphere {
   /// Fitted to the ball's surface where it is not covered (no joint line showed), not to the
   /// joint line: `inliers` and `points` count surface voxels.
   bool fromSurface = false;
+  /// Tried after a growth that passed every check (on slices of 4 mm or more): its ball had
+  /// crossed the sphere, or a piece of its socket lay apart beyond it.
+  bool afterPass = false;
 };
 
 struct SegmentedBone {
