@@ -438,6 +438,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
                     {"rms_mm", js.rmsMm},
                     {"inliers", js.inliers},
                     {"fitted_to", js.fromSurface ? "surface" : "joint line"},
+                    {"after_pass", js.afterPass},
                     {js.fromSurface ? "surface_voxels" : "joint_line_voxels", js.points},
                     {"axis", vec(js.axisLps)},
                     {"cap_degrees", js.capDegrees},
@@ -452,8 +453,12 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
           "instead)",
           js.ball, js.socket, js.ball,
           js.fromSurface ? fmt::format("the {}'s head's surface where the {} does not cover it "
-                                       "(no joint line showed)",
-                                       js.ball, js.socket)
+                                       "({})",
+                                       js.ball, js.socket,
+                                       js.afterPass ? fmt::format("a piece of the {} had been kept "
+                                                                  "apart beyond it",
+                                                                  js.socket)
+                                                    : std::string("no joint line showed"))
                          : std::string("the joint line that shows"),
           js.inliers, js.points, js.fromSurface ? "surface" : "joint-line",
           competing.jointSphereToleranceMm, js.radiusMm, js.centreLps.x(), js.centreLps.y(),

@@ -473,5 +473,32 @@ TEST(CliSegmentSeeds, AHeadPressedIntoItsCupIsSeparatedAtItsSurfacesSphereAndSay
       true);
 }
 
+// A growth that passed every check with a piece of the hip bone kept apart beyond the head (5 mm
+// slices a quarter slice off, joint space 1 mm): the piece joins the hip bone and the femur is
+// grown again at the head's surface's sphere; --json and the note say the sphere came after a
+// growth that passed, and why.
+TEST(CliSegmentSeeds, AHipBonePieceKeptApartBeyondTheHeadIsSaid) {
+  ECHOREG_REQUIRE_SHARED_FILE(femur, "meshes/femur.stl");
+  const test::TempDir dir;
+  test::HipPhantom p;
+  std::vector<std::string> args = hipSegmentArgs(femur, 1.0, 1.25, dir, p);
+  args.insert(args.end(), {"--out", dir.file("femur.vtp"), "--json"});
+  const auto r = runEchoreg(args);
+  ASSERT_EQ(r.exitCode, 0) << r.err;
+  const auto json = nlohmann::json::parse(r.out);
+  const auto& sphere = json["joint_sphere"];
+  ASSERT_TRUE(sphere.is_object()) << json.dump();
+  EXPECT_EQ(sphere["fitted_to"], "surface");
+  EXPECT_EQ(sphere["after_pass"], true);
+  EXPECT_EQ(sphere["ball"], "femur");
+  EXPECT_EQ(json["automatic_neighbours"], 0) << json.dump();
+  bool said = false;
+  for (const auto& w : json["warnings"])
+    said = said || w.get<std::string>().find(
+                       "a piece of the left hip had been kept apart beyond "
+                       "it") != std::string::npos;
+  EXPECT_TRUE(said) << json["warnings"].dump();
+}
+
 }  // namespace
 }  // namespace echoreg::cli
