@@ -429,8 +429,9 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
       const seg::JointSphere& js = *bones.jointSphere;
       // The model is one of the two (not both, as one model): corrections by the user's
       // contours decide the region there themselves.
+      const std::string& modelled = isTarget(o, js.ball) ? js.ball : js.socket;
       if (isTarget(o, js.ball) != isTarget(o, js.socket) && o.corrections.empty())
-        sphereCut = seg::sphereCutFor(bones, isTarget(o, js.ball) ? js.ball : js.socket);
+        sphereCut = seg::sphereCutFor(bones, modelled);
       sphereJson = {{"ball", js.ball},
                     {"socket", js.socket},
                     {"centre_mm", vec(js.centreLps)},
@@ -468,7 +469,7 @@ int runSegment(const SegmentOptions& o, const Streams& io) {
             warnings.back().get<std::string>() +
             fmt::format(
                 "; the {}'s surface over the joint is that sphere (the CT shows no joint there)",
-                isTarget(o, js.ball) ? js.ball : js.socket);
+                modelled);
       }
     }
     nlohmann::json metalJson = nlohmann::json::array();

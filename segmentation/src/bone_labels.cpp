@@ -1790,15 +1790,16 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
   }
   auto levelOf = [&](std::size_t v) { return static_cast<int>(level[v]) - 1; };
 
+  // Each bone's seeds, for the spheres' balls.
+  std::vector<std::vector<Eigen::Vector3d>> seedsOf(names.size());
+  for (std::size_t q = 0; q < seeds.size(); ++q)
+    seedsOf[sz(boneOfSeed[q])].push_back(seeds[q].pointLps);
   // Where two seeded bones are refused, the sphere for a second growth (jointFromSphere).
   const auto sphereFor = [&](int a, int b, const std::vector<std::int16_t>* labels,
                              bool refused = true) {
     if (!attempt || !options.jointFromSphere)
       return;
     report(options, 0.8, "joint sphere");
-    std::vector<std::vector<Eigen::Vector3d>> seedsOf(names.size());
-    for (std::size_t q = 0; q < seeds.size(); ++q)
-      seedsOf[sz(boneOfSeed[q])].push_back(seeds[q].pointLps);
     jointSphereShell(image, solid, joints, labels, a, b, names, seedsOf, options, false,
                      attempt->shell, attempt->sphere);
     // Where the joint shows nowhere (a head pressed into its socket): the head's own surface.
@@ -2133,9 +2134,6 @@ static CompetingResult segmentOnGrid(const core::CtImage& image, const std::vect
         kept = kept || rootOf(l) == l;
       for (std::size_t a = 0; kept && a < names.size() && !attempt->afterPassSurface; ++a) {
         for (std::size_t b = a + 1; b < names.size() && !attempt->afterPassSurface; ++b) {
-          std::vector<std::vector<Eigen::Vector3d>> seedsOf(names.size());
-          for (std::size_t q = 0; q < seeds.size(); ++q)
-            seedsOf[sz(boneOfSeed[q])].push_back(seeds[q].pointLps);
           std::vector<std::uint8_t> surfaceShell;
           JointSphere surface;
           if (!jointSphereShell(image, solid, joints, &label, static_cast<int>(a),
